@@ -1,0 +1,271 @@
+"""Streaming K̃ calibration of a rate-biased RLG: samples in, windows and pairs out.
+
+:class:`RateBiasCalibrator` is the accumulator a node feeds message by message
+(or a bag reader feeds array by array); :func:`calibrate_k_tilde` is the batch
+form over whole arrays. Both run the same code and agree exactly.
+
+Results depend only on stamps and values: an index event is resolved once both
+the pulse and the table streams have passed its stamp by the fit half-width
+(or one of them is ``stall_timeout_s`` past it), whatever the arrival order.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gyro_calib.config import KTildeConfig
+from gyro_calib.errors import InsufficientDataError, WindowError
+from gyro_calib.estimate import Estimate, Rejection
+from gyro_calib.scale_factor import PairAccumulator, WindowPair
+from gyro_calib.streams import StampedBuffer
+from gyro_calib.units import NS_PER_S
+from gyro_calib.windows import (
+    IndexEvent,
+    RevolutionWindow,
+    WholeRevolutionWindows,
+    count_at_instant,
+    format_stamp,
+)
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+
+@dataclass(frozen=True, slots=True)
+class CalibrationUpdate:
+    """What one :meth:`RateBiasCalibrator.process` call produced.
+
+    Attributes:
+        windows: windows accepted, in time order.
+        pairs: window pairs completed (each gives one K̃).
+        rejections: windows or events rejected, each with its reason.
+        notices: stream events worth a log line (restarts), whole sentences.
+    """
+
+    windows: tuple[RevolutionWindow, ...] = ()
+    pairs: tuple[WindowPair, ...] = ()
+    rejections: tuple[Rejection, ...] = ()
+    notices: tuple[str, ...] = ()
+
+
+@dataclass(slots=True)
+class RateBiasCalibrator:
+    """Accumulates pulse, table and zero-index streams into K̃ (METHODS §A.2)."""
+
+    config: KTildeConfig = field(default_factory=KTildeConfig)
+    pulses: StampedBuffer = field(init=False)
+    table: StampedBuffer = field(init=False)
+    windows: list[RevolutionWindow] = field(default_factory=list)
+    _index: StampedBuffer = field(init=False)
+    _cutter: WholeRevolutionWindows = field(init=False)
+    _pairs: PairAccumulator = field(init=False)
+    _notices: list[str] = field(default_factory=list)
+    _n_rejections_reported: int = 0
+    _n_pair_rejections_reported: int = 0
+    _n_windows_reported: int = 0
+    _n_pairs_reported: int = 0
+
+    def __post_init__(self) -> None:
+        """Create the stream buffers and the window and pair stages."""
+        back = int(self.config.restart_backstep_s * NS_PER_S)
+        self.pulses = StampedBuffer(1, back)
+        self.table = StampedBuffer(2, back)
+        self._index = StampedBuffer(1, back)
+        self._cutter = WholeRevolutionWindows(self.config)
+        self._pairs = PairAccumulator(self.config.max_pair_gap_s)
+
+    # -- input ------------------------------------------------------------------------------
+    def add_pulses(self, t_ns: int, count: float) -> None:
+        """One gyro sample: stamp (ns) and cumulative count (pulses)."""
+        if self.pulses.append(t_ns, count):
+            self._restart('/gyro/pulses')
+
+    def add_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
+        """One joint_states sample: stamp (ns), encoder angle (rad), rate (rad/s)."""
+        if self.table.append(t_ns, angle_rad, rate_rad_s):
+            self._restart('/rate_table/joint_states')
+
+    def add_zero_index(self, t_ns: int) -> None:
+        """One zero-index event stamp (ns)."""
+        if self._index.append(t_ns, 0.0):
+            self._restart('/rate_table/zero_index')
+
+    def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
+        """Many gyro samples at once (bag replay)."""
+        if self.pulses.extend(t_ns, counts):
+            self._restart('/gyro/pulses')
+
+    def extend_table_states(self, t_ns: ArrayLike, angle_rad: ArrayLike,
+                            rate_rad_s: ArrayLike) -> None:
+        """Many joint_states samples at once (bag replay)."""
+        if self.table.extend(t_ns, angle_rad, rate_rad_s):
+            self._restart('/rate_table/joint_states')
+
+    def extend_zero_index(self, t_ns: ArrayLike) -> None:
+        """Many zero-index stamps at once (bag replay)."""
+        t = np.asarray(t_ns, dtype=np.int64)
+        if self._index.extend(t, np.zeros(len(t))):
+            self._restart('/rate_table/zero_index')
+
+    def _restart(self, topic: str) -> None:
+        """A source restarted: drop what is pending, keep every accepted window and pair."""
+        for buf in (self.pulses, self.table, self._index):
+            if buf.newest_ns is not None and len(buf):
+                buf.discard_before(buf.newest_ns + 1)
+        self._cutter.reset()
+        self._pairs.drop_pending()
+        self._notices.append(
+            f'{topic} restarted (stamps jumped back by more than '
+            f'{self.config.restart_backstep_s:g} s): the open window was dropped; '
+            f'{len(self._pairs.pairs)} accepted pair(s) kept.')
+
+    # -- processing --------------------------------------------------------------------------
+    def process(self, *, flush: bool = False) -> CalibrationUpdate:
+        """Resolve every index event the streams have passed; return what came of them.
+
+        Args:
+            flush: resolve all remaining events with the data there is (end of a bag).
+        """
+        cfg = self.config
+        half_ns = int(cfg.fit_half_width_s * NS_PER_S)
+        stall_ns = int(cfg.stall_timeout_s * NS_PER_S)
+        new_windows: list[RevolutionWindow] = []
+        new_pairs: list[WindowPair] = []
+        idx_t, _ = self._index.arrays()
+        newest = [b.newest_ns for b in (self.pulses, self.table)]
+        for t_event in idx_t.tolist():
+            if not flush:
+                if None in newest:
+                    break
+                lead, lag = max(newest), min(newest)  # type: ignore[type-var]
+                if not (lag >= t_event + half_ns or lead >= t_event + half_ns + stall_ns):
+                    break
+            p_t, p_v = self.pulses.arrays()
+            s_t, s_v = self.table.arrays()
+            event = self._resolve(t_event, p_t, p_v[:, 0], s_t, s_v)
+            window = self._cutter.add_event(event, p_t, p_v[:, 0], s_t, s_v[:, 1])
+            self._index.discard_before(t_event + 1)
+            if window is not None:
+                self.windows.append(window)
+                new_windows.append(window)
+                pair = self._pairs.add_window(window)
+                if pair is not None:
+                    new_pairs.append(pair)
+            self._trim(t_event)
+        if not len(idx_t) and None not in newest:
+            self._trim_idle()
+        rejections = self._cutter.rejections[self._n_rejections_reported:]
+        rejections += self._pairs.rejections[self._n_pair_rejections_reported:]
+        self._n_rejections_reported = len(self._cutter.rejections)
+        self._n_pair_rejections_reported = len(self._pairs.rejections)
+        notices, self._notices = tuple(self._notices), []
+        return CalibrationUpdate(tuple(new_windows), tuple(new_pairs), tuple(rejections), notices)
+
+    def _resolve(self, t_event: int, p_t: np.ndarray, counts: np.ndarray,
+                 s_t: np.ndarray, s_v: np.ndarray) -> IndexEvent:
+        cfg = self.config
+        if len(s_t) >= 2 and s_t[0] <= t_event <= s_t[-1]:
+            x = (s_t - t_event).astype(np.float64)
+            angle = float(np.interp(0.0, x, s_v[:, 0]))
+            rate = float(np.interp(0.0, x, s_v[:, 1]))
+        else:
+            angle = rate = math.nan
+        try:
+            count = count_at_instant(
+                p_t, counts, t_event, half_width_s=cfg.fit_half_width_s, order=cfg.fit_order,
+                min_samples_per_side=cfg.min_fit_samples_per_side, max_gap_s=cfg.max_fit_gap_s)
+        except WindowError as exc:
+            return IndexEvent(t_event, angle, rate, None, str(exc))
+        if count.max_residual > cfg.max_fit_residual_pulses:
+            return IndexEvent(t_event, angle, rate, None, (
+                f'pulse counts around the zero-index event at {format_stamp(t_event)} deviate '
+                f'from a smooth fit by up to {count.max_residual:.1f} pulses (limit '
+                f'{cfg.max_fit_residual_pulses:g}): count glitch, or rate ripple too fast for '
+                f'fit_order={cfg.fit_order} over ±{cfg.fit_half_width_s:g} s.'))
+        return IndexEvent(t_event, angle, rate, count)
+
+    def _trim(self, t_event: int) -> None:
+        """Keep only what an open window (or the next event's fit) can still need."""
+        cfg = self.config
+        half_ns = int(cfg.fit_half_width_s * NS_PER_S)
+        opened = self._cutter.open_event
+        keep_from = (opened.stamp_ns if opened is not None else t_event) - half_ns
+        limit = int(cfg.max_window_s * NS_PER_S)
+        if opened is not None and t_event - opened.stamp_ns > limit:
+            self._cutter.rejections.append(Rejection(opened.stamp_ns, (
+                f'window opened at {format_stamp(opened.stamp_ns)} did not close within '
+                f'max_window_s = {cfg.max_window_s:g} s; abandoned.')))
+            self._cutter.reset()
+            keep_from = t_event - half_ns
+        for buf in (self.pulses, self.table):
+            buf.discard_before(keep_from)
+
+    def _trim_idle(self) -> None:
+        """With no index events at all, keep memory bounded to max_window_s of data."""
+        limit = int(self.config.max_window_s * NS_PER_S)
+        opened = self._cutter.open_event
+        for buf in (self.pulses, self.table):
+            newest = buf.newest_ns
+            if newest is not None and len(buf) and opened is None:
+                buf.discard_before(newest - limit)
+
+    # -- results -----------------------------------------------------------------------------
+    @property
+    def pairs(self) -> list[WindowPair]:
+        """Every accepted window pair, in time order."""
+        return self._pairs.pairs
+
+    @property
+    def rejections(self) -> list[Rejection]:
+        """Every rejection so far (windows, events, unpaired windows)."""
+        return self._cutter.rejections + self._pairs.rejections
+
+    def k_tilde(self) -> Estimate:
+        """Running K̃, ″/pulse: mean over pairs with s/√n (METHODS §A.2 eq. 3).
+
+        Raises:
+            InsufficientDataError: with fewer than ``config.min_pairs`` pairs.
+        """
+        n = len(self._pairs.pairs)
+        if n < self.config.min_pairs:
+            raise InsufficientDataError(
+                f'{n} window pair(s) accepted; K̃ needs at least min_pairs = '
+                f'{self.config.min_pairs}.')
+        est = self._pairs.k_tilde()
+        return Estimate(est.value, est.std_uncertainty, est.n_used, est.dof,
+                        tuple(self.rejections))
+
+    def earth_plus_bias_deg_h(self) -> Estimate:
+        """Running ω'_e + ω_B along og, °/h, from N⁺ + N⁻ (METHODS §A.2 eqs. 1–2).
+
+        Raises:
+            InsufficientDataError: with fewer than ``config.min_pairs`` pairs.
+        """
+        if len(self._pairs.pairs) < self.config.min_pairs:
+            raise InsufficientDataError('not enough window pairs for the Earth-rate + bias term.')
+        return self._pairs.earth_plus_bias()
+
+
+def calibrate_k_tilde(
+    pulse_t_ns: ArrayLike,
+    pulse_counts: ArrayLike,
+    table_t_ns: ArrayLike,
+    table_angle_rad: ArrayLike,
+    table_rate_rad_s: ArrayLike,
+    zero_index_ns: ArrayLike,
+    config: KTildeConfig | None = None,
+) -> RateBiasCalibrator:
+    """Batch K̃ calibration over whole recordings; returns the finished calibrator.
+
+    Read ``.k_tilde()``, ``.pairs``, ``.windows`` and ``.rejections`` from the result.
+    """
+    cal = RateBiasCalibrator(config or KTildeConfig())
+    cal.extend_pulses(pulse_t_ns, pulse_counts)
+    cal.extend_table_states(table_t_ns, table_angle_rad, table_rate_rad_s)
+    cal.extend_zero_index(zero_index_ns)
+    cal.process(flush=True)
+    return cal

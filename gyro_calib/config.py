@@ -1,0 +1,157 @@
+"""Calibration settings: one frozen dataclass, validated once, loadable from YAML.
+
+The same :class:`KTildeConfig` serves the calibration node (ROS parameters), the
+offline functions and tests. YAML files may be plain mappings of these fields or
+ROS 2 parameter files (``<node>: {ros__parameters: {...}}``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TypedDict
+
+import yaml
+
+from gyro_calib.errors import ConfigError
+
+
+class KTildeConfigFile(TypedDict, total=False):
+    """On-disk shape of the K̃ settings (all optional; defaults in :class:`KTildeConfig`)."""
+
+    revolutions_per_window: int
+    fit_half_width_s: float
+    fit_order: int
+    min_fit_samples_per_side: int
+    max_fit_gap_s: float
+    max_fit_residual_pulses: float
+    rate_tolerance: float
+    min_rate_deg_s: float
+    window_angle_tolerance_deg: float
+    index_angle_tolerance_arcsec: float
+    max_table_gap_s: float
+    max_pulse_gap_s: float
+    pulse_jump_tolerance_pulses: float
+    max_pair_gap_s: float
+    max_window_s: float
+    min_pairs: int
+    restart_backstep_s: float
+    stall_timeout_s: float
+
+
+@dataclass(frozen=True, slots=True)
+class KTildeConfig:
+    """Settings of whole-revolution windowing and the K̃ estimate (METHODS §A.2)."""
+
+    revolutions_per_window: int = 5
+    """m: whole revolutions in one window."""
+    fit_half_width_s: float = 0.1
+    """Half-width of the local least-squares fit of counts around an index instant, s."""
+    fit_order: int = 1
+    """Polynomial order of that fit (1 = line; 2 absorbs slow rate ripple)."""
+    min_fit_samples_per_side: int = 20
+    """Pulse samples needed on each side of an index instant."""
+    max_fit_gap_s: float = 0.01
+    """Largest gap between pulse samples allowed inside a fit span, s."""
+    max_fit_residual_pulses: float = 5.0
+    """Largest residual of the local fit before the index event is rejected, pulses."""
+    rate_tolerance: float = 0.005
+    """Allowed relative deviation of the table rate from its window median."""
+    min_rate_deg_s: float = 1.0
+    """Slowest table rate a window may be cut at, °/s."""
+    window_angle_tolerance_deg: float = 1.0
+    """Allowed |encoder angle of a window − m·360°|, °."""
+    index_angle_tolerance_arcsec: float = 30.0
+    """Allowed distance of an index event's encoder angle from the reference mark, ″."""
+    max_table_gap_s: float = 0.1
+    """Largest gap in joint_states inside a window, s."""
+    max_pulse_gap_s: float = 0.5
+    """Largest gap in the pulse stream inside a window, s."""
+    pulse_jump_tolerance_pulses: float = 10.0
+    """Allowed step of a pulse increment from the window's median rate (plus rate_tolerance), pulses."""
+    max_pair_gap_s: float = 60.0
+    """Largest time between a window and the opposite-direction window it is paired with, s."""
+    max_window_s: float = 600.0
+    """Longest span the calibrator waits for a window to close before it gives up, s."""
+    min_pairs: int = 2
+    """Window pairs needed before K̃ is reported."""
+    restart_backstep_s: float = 1.0
+    """A stamp this far before the newest one means the source restarted, s."""
+    stall_timeout_s: float = 2.0
+    """An index event is resolved with what is there once one stream is this far past it, s."""
+
+    def __post_init__(self) -> None:
+        """Validate every field once; raise ConfigError naming the field."""
+        checks: list[tuple[str, bool, str]] = [
+            ('revolutions_per_window', self.revolutions_per_window >= 1, 'at least 1'),
+            ('fit_half_width_s', self.fit_half_width_s > 0, 'positive'),
+            ('fit_order', self.fit_order in (1, 2), '1 or 2'),
+            ('min_fit_samples_per_side', self.min_fit_samples_per_side >= 2, 'at least 2'),
+            ('max_fit_gap_s', self.max_fit_gap_s > 0, 'positive'),
+            ('max_fit_residual_pulses', self.max_fit_residual_pulses > 0, 'positive'),
+            ('rate_tolerance', 0 < self.rate_tolerance < 1, 'between 0 and 1'),
+            ('min_rate_deg_s', self.min_rate_deg_s > 0, 'positive'),
+            ('window_angle_tolerance_deg', 0 < self.window_angle_tolerance_deg < 180,
+             'between 0 and 180'),
+            ('index_angle_tolerance_arcsec', self.index_angle_tolerance_arcsec > 0, 'positive'),
+            ('max_table_gap_s', self.max_table_gap_s > 0, 'positive'),
+            ('max_pulse_gap_s', self.max_pulse_gap_s > 0, 'positive'),
+            ('pulse_jump_tolerance_pulses', self.pulse_jump_tolerance_pulses > 0, 'positive'),
+            ('max_pair_gap_s', self.max_pair_gap_s > 0, 'positive'),
+            ('max_window_s', self.max_window_s > 0, 'positive'),
+            ('min_pairs', self.min_pairs >= 2, 'at least 2 (a standard uncertainty needs two)'),
+            ('restart_backstep_s', self.restart_backstep_s > 0, 'positive'),
+            ('stall_timeout_s', self.stall_timeout_s > 0, 'positive'),
+        ]
+        for name, ok, expected in checks:
+            if not ok:
+                raise ConfigError(f'{name} = {getattr(self, name)!r} is invalid: it must be {expected}.')
+
+
+def k_tilde_config_from_mapping(values: dict[str, Any], *, source: str = 'mapping') -> KTildeConfig:
+    """Build a KTildeConfig from a mapping, rejecting unknown keys and wrong types."""
+    fields = {f.name: f for f in dataclasses.fields(KTildeConfig)}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; '
+                          f'known fields: {", ".join(fields)}.')
+    kwargs: dict[str, Any] = {}
+    for name, value in values.items():
+        default = getattr(KTildeConfig(), name)
+        if isinstance(default, int) and not isinstance(default, bool):
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise ConfigError(f'field {name} in {source} must be an integer, got {value!r}.')
+        elif isinstance(default, float):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ConfigError(f'field {name} in {source} must be a number, got {value!r}.')
+            value = float(value)
+        kwargs[name] = value
+    try:
+        return KTildeConfig(**kwargs)
+    except ConfigError as exc:
+        raise ConfigError(f'{exc} (in {source})') from None
+
+
+def load_k_tilde_config(path: str | Path, *, node_name: str = 'calibration_node') -> KTildeConfig:
+    """Load settings from a YAML file (plain mapping or ROS 2 parameter file).
+
+    Raises:
+        ConfigError: if the file cannot be read or parsed, or a field is wrong.
+    """
+    path = Path(path)
+    try:
+        data = yaml.safe_load(path.read_text(encoding='utf-8'))
+    except OSError as exc:
+        raise ConfigError(f'cannot read config file {path}: {exc.strerror}.') from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f'config file {path} is not valid YAML: {exc}.') from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f'config file {path} must hold a mapping of fields.')
+    for key in (node_name, '/**'):
+        if isinstance(data.get(key), dict) and 'ros__parameters' in data[key]:
+            data = data[key]['ros__parameters']
+            break
+    return k_tilde_config_from_mapping(data, source=str(path))

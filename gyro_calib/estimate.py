@@ -1,0 +1,42 @@
+"""The one result shape every estimator returns: value beside uncertainty and count."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True, slots=True)
+class Rejection:
+    """A window (or event) an estimator did not use, and why.
+
+    Attributes:
+        stamp_ns: header stamp the rejection refers to (window start or event), int ns.
+        reason: a whole sentence a bench engineer can act on.
+    """
+
+    stamp_ns: int
+    reason: str
+
+
+@dataclass(frozen=True, slots=True)
+class Estimate:
+    """A measured quantity with its standard (k = 1) uncertainty.
+
+    Attributes:
+        value: the estimate, in the unit the producing function documents.
+        std_uncertainty: standard uncertainty (k = 1) of ``value``, same unit.
+        n_used: number of independent measurements (windows, pairs, stations) it rests on.
+        dof: degrees of freedom of the uncertainty (n_used - 1 for a Type A mean).
+        rejected: windows or events left out, each with its reason.
+    """
+
+    value: float
+    std_uncertainty: float
+    n_used: int
+    dof: int
+    rejected: tuple[Rejection, ...] = field(default=())
+
+    @property
+    def relative_uncertainty(self) -> float:
+        """Standard uncertainty divided by |value| (dimensionless)."""
+        return self.std_uncertainty / abs(self.value)

@@ -1,0 +1,32 @@
+"""ament_python / pip package definition of gyro_calib."""
+
+from setuptools import find_packages, setup
+
+PACKAGE = 'gyro_calib'
+
+setup(
+    name=PACKAGE,
+    version='0.1.0',
+    packages=find_packages(include=['gyro_calib', 'gyro_calib.*', 'sim_nodes', 'sim_nodes.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
+        ('share/' + PACKAGE, ['package.xml']),
+        ('share/' + PACKAGE + '/config', ['config/calibration.yaml']),
+    ],
+    package_data={PACKAGE: ['py.typed']},
+    python_requires='>=3.10',
+    install_requires=['numpy', 'scipy', 'PyYAML'],
+    zip_safe=True,
+    maintainer='gyro_calib developers',
+    maintainer_email='gyro-calib@example.com',
+    description='Online calibration of optical gyroscopes (RBRLG scale factor, fix-error angle).',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'calibration_node = gyro_calib.nodes.calibration_node:main',
+            'rate_table_sim = sim_nodes.rate_table_node:main',
+            'rlg_sim = sim_nodes.rlg_node:main',
+            'bench_demo = gyro_calib.bench_demo:main',
+        ],
+    },
+)
