@@ -26,7 +26,7 @@ setup(
             'calibration_node = gyro_calib.nodes.calibration_node:main',
             'rate_table_sim = sim_nodes.rate_table_node:main',
             'rlg_sim = sim_nodes.rlg_node:main',
-            'bench_demo = gyro_calib.bench_demo:main',
+            'bench_demo = gyro_calib.nodes.bench_demo:main',
         ],
     },
 )

@@ -155,3 +155,23 @@ def load_k_tilde_config(path: str | Path, *, node_name: str = 'calibration_node'
             data = data[key]['ros__parameters']
             break
     return k_tilde_config_from_mapping(data, source=str(path))
+
+
+def field_descriptions(cls: type) -> dict[str, str]:
+    """Attribute docstrings of a dataclass (the string right after each field), by field name.
+
+    They are the single source of the parameter descriptions the nodes declare.
+    """
+    import ast
+    import inspect
+    import textwrap
+
+    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
+    body = tree.body[0].body  # type: ignore[attr-defined]
+    out: dict[str, str] = {}
+    for node, after in zip(body, body[1:]):
+        if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
+                and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
+                and isinstance(after.value.value, str)):
+            out[node.target.id] = ' '.join(after.value.value.split())
+    return out

@@ -1,0 +1,59 @@
+"""Start gyro_calib nodes as child processes on a loopback-only, private DDS domain.
+
+Used by the bench demo and the DDS tests. Children get a full copy of the
+environment (the ROS wheels re-execute Python once to set LD_LIBRARY_PATH and
+need the rest of it), with ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST forced.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from typing import Any
+
+NODE_MODULES = {
+    'calibration_node': 'gyro_calib.nodes.calibration_node',
+    'rate_table_sim': 'sim_nodes.rate_table_node',
+    'rlg_sim': 'sim_nodes.rlg_node',
+}
+
+
+def pick_domain_id() -> int:
+    """A DDS domain for this run: ROS_DOMAIN_ID if set, else one derived from the PID (1–100)."""
+    if os.environ.get('ROS_DOMAIN_ID'):
+        return int(os.environ['ROS_DOMAIN_ID'])
+    return 1 + os.getpid() % 100
+
+
+def ros_environment(domain_id: int) -> dict[str, str]:
+    """A copy of this process's environment with DDS kept on loopback in ``domain_id``."""
+    env = dict(os.environ)
+    env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+    env['ROS_DOMAIN_ID'] = str(domain_id)
+    env.setdefault('PYTHONUNBUFFERED', '1')
+    return env
+
+
+def ros_args(params: dict[str, Any]) -> list[str]:
+    """``--ros-args -p name:=value ...`` for a parameter mapping (floats keep their dot)."""
+    args = ['--ros-args']
+    for name, value in params.items():
+        if isinstance(value, bool):
+            text = 'true' if value else 'false'
+        elif isinstance(value, float):
+            text = repr(value)  # YAML 1.1 wants a dot in the mantissa: 1e-05 -> 1.0e-05
+            mantissa, _, exponent = text.partition('e')
+            if exponent and '.' not in mantissa:
+                text = f'{mantissa}.0e{exponent}'
+        else:
+            text = str(value)
+        args += ['-p', f'{name}:={text}']
+    return args
+
+
+def start_node(name: str, params: dict[str, Any], env: dict[str, str],
+               **popen: Any) -> subprocess.Popen[bytes]:
+    """Start node ``name`` (a key of NODE_MODULES) with ``params`` in a child process."""
+    cmd = [sys.executable, '-m', NODE_MODULES[name], *ros_args(params)]
+    return subprocess.Popen(cmd, env=env, **popen)
