@@ -84,7 +84,7 @@ class RingLaserGyroSimulator:
         """Create the gyro in its initial state (random initial fractional phase)."""
         self.config = config
         self._rng = np.random.default_rng(np.random.SeedSequence(config.seed).spawn(2)[1])
-        self._phase_pulses = float(self._rng.uniform()) if config.quantise else 0.0
+        self._phase_pulses = float(self._rng.uniform())  # initial fractional phase
         self._last_t_ns: int | None = None
         self._last_angle_rad = 0.0
         self._first_t_ns: int | None = None

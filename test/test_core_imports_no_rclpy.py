@@ -1,0 +1,36 @@
+"""The core (estimators, physics) imports no ROS package: it runs on bag files offline."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+CORE_MODULES = [
+    'gyro_calib.calibrator',
+    'gyro_calib.config',
+    'gyro_calib.errors',
+    'gyro_calib.estimate',
+    'gyro_calib.scale_factor',
+    'gyro_calib.streams',
+    'gyro_calib.topics',
+    'gyro_calib.units',
+    'gyro_calib.windows',
+    'sim_nodes.bench',
+    'sim_nodes.motion',
+    'sim_nodes.rate_table',
+    'sim_nodes.ring_laser_gyro',
+]
+
+
+@pytest.mark.parametrize('module', CORE_MODULES)
+def test_core_module_imports_without_rclpy(module: str) -> None:
+    code = (
+        'import sys\n'
+        "for name in ('rclpy', 'std_msgs', 'sensor_msgs', 'diagnostic_msgs'):\n"
+        '    sys.modules[name] = None\n'
+        f'import {module}\n'
+    )
+    result = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
