@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from gyro_calib import topics
 from gyro_calib.config import KTildeConfig
 from gyro_calib.errors import InsufficientDataError, WindowError
 from gyro_calib.estimate import Estimate, Rejection
@@ -82,40 +83,49 @@ class RateBiasCalibrator:
     def add_pulses(self, t_ns: int, count: float) -> None:
         """One gyro sample: stamp (ns) and cumulative count (pulses)."""
         if self.pulses.append(t_ns, count):
-            self._restart('/gyro/pulses')
+            self._restart(topics.GYRO_PULSES)
 
     def add_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
         """One joint_states sample: stamp (ns), encoder angle (rad), rate (rad/s)."""
         if self.table.append(t_ns, angle_rad, rate_rad_s):
-            self._restart('/rate_table/joint_states')
+            self._restart(topics.RATE_TABLE_JOINT_STATES)
 
     def add_zero_index(self, t_ns: int) -> None:
         """One zero-index event stamp (ns)."""
         if self._index.append(t_ns, 0.0):
-            self._restart('/rate_table/zero_index')
+            self._restart(topics.RATE_TABLE_ZERO_INDEX)
 
     def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
         """Many gyro samples at once (bag replay)."""
         if self.pulses.extend(t_ns, counts):
-            self._restart('/gyro/pulses')
+            self._restart(topics.GYRO_PULSES)
 
     def extend_table_states(self, t_ns: ArrayLike, angle_rad: ArrayLike,
                             rate_rad_s: ArrayLike) -> None:
         """Many joint_states samples at once (bag replay)."""
         if self.table.extend(t_ns, angle_rad, rate_rad_s):
-            self._restart('/rate_table/joint_states')
+            self._restart(topics.RATE_TABLE_JOINT_STATES)
 
     def extend_zero_index(self, t_ns: ArrayLike) -> None:
         """Many zero-index stamps at once (bag replay)."""
         t = np.asarray(t_ns, dtype=np.int64)
         if self._index.extend(t, np.zeros(len(t))):
-            self._restart('/rate_table/zero_index')
+            self._restart(topics.RATE_TABLE_ZERO_INDEX)
 
     def _restart(self, topic: str) -> None:
-        """A source restarted: drop what is pending, keep every accepted window and pair."""
+        """A source restarted: drop what is pending, keep every accepted window and pair.
+
+        Streams still holding stamps of the old timeline are cleared; those that already
+        restarted (stamps near the new timeline) keep their samples.
+        """
+        restarted = {topics.GYRO_PULSES: self.pulses, topics.RATE_TABLE_JOINT_STATES: self.table,
+                     topics.RATE_TABLE_ZERO_INDEX: self._index}[topic]
+        new_timeline_ns = restarted.newest_ns
+        back = int(self.config.restart_backstep_s * NS_PER_S)
         for buf in (self.pulses, self.table, self._index):
-            if buf.newest_ns is not None and len(buf):
-                buf.discard_before(buf.newest_ns + 1)
+            if buf is not restarted and buf.newest_ns is not None and (
+                    new_timeline_ns is None or buf.newest_ns >= new_timeline_ns + back):
+                buf.clear()
         self._cutter.reset()
         self._pairs.drop_pending()
         self._notices.append(

@@ -23,7 +23,6 @@ if TYPE_CHECKING:
 class StreamStats:
     """Counts of samples a stream dropped, by cause."""
 
-    accepted: int = 0
     non_finite: int = 0
     duplicate: int = 0
     late: int = 0
@@ -80,7 +79,8 @@ class StampedBuffer:
     def append(self, t_ns: int, *values: float) -> bool:
         """Add one sample; return True if it marks a restart of the source (buffer cleared)."""
         if self._newest_ns is not None and t_ns <= self._newest_ns - self.restart_backstep_ns:
-            self._restart()
+            self.clear()
+            self.stats.restarts += 1
             restarted = True
         else:
             restarted = False
@@ -116,8 +116,8 @@ class StampedBuffer:
         restarted = len(backsteps) > 0
         if restarted:
             last = int(backsteps[-1])
-            self._restart()
-            self.stats.restarts += len(backsteps) - 1
+            self.clear()
+            self.stats.restarts += len(backsteps)
             t, v = t[last:], v[last:]
         finite = np.all(np.isfinite(v), axis=1)
         self.stats.non_finite += int(np.count_nonzero(~finite))
@@ -135,8 +135,8 @@ class StampedBuffer:
             self._sort_and_dedupe()
         return restarted
 
-    def _restart(self) -> None:
-        self.stats.restarts += 1
+    def clear(self) -> None:
+        """Forget every sample and the stamp history (after a restart of the source)."""
         self._t = np.zeros(0, np.int64)
         self._v = np.zeros((0, self.n_values))
         self._pending_t.clear()

@@ -25,6 +25,7 @@ from gyro_calib.nodes.ros_io import (
     declare_dataclass_parameters,
     make_executor,
     ns_to_stamp,
+    publish_paced,
 )
 from sim_nodes.bench import CHUNK_SAMPLES
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator, TableChunk
@@ -89,7 +90,7 @@ class RateTableNode(Node):
         truth.position = chunk.true_angle_rad.tolist()
         truth.velocity = chunk.true_rate_rad_s.tolist()
         truth.effort = (chunk.t_ns - chunk.t_ns[0]).astype(float).tolist()
-        self.truth_pub.publish(truth)
+        publish_paced(self.truth_pub, truth)
         dec = self.config.joint_state_decimation
         first = (-self._n_published) % dec
         for i in range(first, len(chunk.t_ns), dec):
@@ -98,11 +99,11 @@ class RateTableNode(Node):
                              velocity=[float(chunk.encoder_rate_rad_s[i])])
             ns_to_stamp(int(chunk.t_ns[i]), msg.header.stamp)
             msg.header.frame_id = topics.RATE_TABLE_JOINT
-            self.js_pub.publish(msg)
+            publish_paced(self.js_pub, msg)
         for t_ns in chunk.zero_index_ns.tolist():
             header = Header(frame_id=topics.RATE_TABLE_JOINT)
             ns_to_stamp(t_ns, header.stamp)
-            self.index_pub.publish(header)
+            publish_paced(self.index_pub, header)
         self._n_published += len(chunk.t_ns)
 
 

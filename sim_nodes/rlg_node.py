@@ -20,6 +20,7 @@ from gyro_calib.nodes.ros_io import (
     declare_dataclass_parameters,
     spin,
     ns_to_stamp,
+    publish_paced,
     stamp_to_ns,
 )
 from sim_nodes.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
@@ -50,7 +51,7 @@ class RingLaserGyroNode(Node):
             out = JointState(name=[topics.GYRO_JOINT], position=[n])
             ns_to_stamp(t, out.header.stamp)
             out.header.frame_id = topics.GYRO_JOINT
-            self.pub.publish(out)
+            publish_paced(self.pub, out)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import time
 from typing import TYPE_CHECKING, Any
 
 from rcl_interfaces.msg import ParameterDescriptor
@@ -12,15 +13,19 @@ from gyro_calib.config import field_descriptions
 
 if TYPE_CHECKING:
     from builtin_interfaces.msg import Time
+    from rclpy.context import Context
     from rclpy.executors import Executor
     from rclpy.node import Node
+    from rclpy.publisher import Publisher
 
 SENSOR_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=20000, reliability=ReliabilityPolicy.RELIABLE)
-"""Live sensor streams: reliable, 20 s of 1 kHz samples of slack for a lagging reader."""
+    history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
+"""Live sensor streams: reliable, keep all. A KEEP_LAST reader drops silently when its
+callbacks lag (measured here); with KEEP_ALL the backlog waits in the reader's queue and a
+full writer history makes the publisher wait (see :func:`publish_paced`)."""
 
 EVENT_QOS = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+    history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
 """Sparse events (zero-index): reliable."""
 
 RESULT_QOS = QoSProfile(
@@ -67,7 +72,7 @@ def spin(node: Node) -> None:
         executor.spin_once(timeout_sec=0.1)
 
 
-def make_executor() -> Executor:
+def make_executor(context: Context | None = None) -> Executor:
     """The executor every gyro_calib node spins in.
 
     rclpy's EventsExecutor takes > 10 000 JointState messages/s on this class of
@@ -76,4 +81,29 @@ def make_executor() -> Executor:
     """
     from rclpy.experimental import EventsExecutor
 
-    return EventsExecutor()
+    return EventsExecutor(context=context)
+
+
+def publish_paced(publisher: Publisher, msg: object, *, patience_s: float = 30.0) -> None:
+    """Publish on a reliable topic; if the reader lags so far that DDS refuses, wait and retry.
+
+    A reliable writer whose history is full of unacknowledged samples fails with
+    "cannot publish data" (measured here). A simulator must not crash nor drop then:
+    it waits for the readers' acknowledgements and tries again, which slows the
+    whole simulated bench to the pace of its slowest reader.
+
+    Raises:
+        RCLError: if the readers acknowledge nothing for ``patience_s``.
+    """
+    from rclpy.duration import Duration
+    from rclpy._rclpy_pybind11 import RCLError  # the error rclpy's publish() raises
+
+    deadline = time.monotonic() + patience_s
+    while True:
+        try:
+            publisher.publish(msg)
+            return
+        except RCLError:
+            if time.monotonic() > deadline:
+                raise
+            publisher.wait_for_all_acked(Duration(seconds=1.0))

@@ -1,0 +1,92 @@
+"""Start bench nodes as processes and listen to their results, for DDS tests.
+
+Every process inherits the loopback-only, private ROS_DOMAIN_ID that conftest.py set.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from gyro_calib.nodes.processes import ros_environment, start_node
+
+
+@dataclass
+class NodeProcess:
+    """A started node with its stderr (where ROS logs go) collected line by line."""
+
+    name: str
+    proc: subprocess.Popen[bytes]
+    lines: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        assert self.proc.stderr is not None
+        for raw in self.proc.stderr:
+            self.lines.append(raw.decode(errors='replace').rstrip())
+
+    def log(self) -> str:
+        return '\n'.join(self.lines)
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+
+def launch(name: str, params: dict[str, Any]) -> NodeProcess:
+    env = ros_environment(int(os.environ['ROS_DOMAIN_ID']))
+    proc = start_node(name, params, env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    return NodeProcess(name, proc)
+
+
+class ResultListener:
+    """Subscribes to /gyro_calib/k_tilde and /diagnostics in this test process."""
+
+    def __init__(self) -> None:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from std_msgs.msg import Float64
+
+        from gyro_calib import topics
+        from gyro_calib.nodes.ros_io import RESULT_QOS, make_executor
+
+        self._rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node('test_listener', context=self.context)
+        self.k_tilde: list[float] = []
+        self.diagnostics: dict[str, str] = {}
+        self.node.create_subscription(Float64, topics.K_TILDE,
+                                      lambda m: self.k_tilde.append(m.data), RESULT_QOS)
+        self.node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, self._on_diag, 10)
+        self.executor = make_executor(self.context)
+        self.executor.add_node(self.node)
+
+    def _on_diag(self, msg: Any) -> None:
+        for status in msg.status:
+            if status.name == 'gyro_calib: k_tilde':
+                self.diagnostics = {kv.key: kv.value for kv in status.values}
+
+    def spin_until(self, done: Any, timeout_s: float) -> bool:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.1)
+            if done():
+                return True
+        return False
+
+    def close(self) -> None:
+        self.node.destroy_node()
+        self._rclpy.shutdown(context=self.context)
