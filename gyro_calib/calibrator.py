@@ -22,7 +22,7 @@ from gyro_calib.config import KTildeConfig
 from gyro_calib.errors import InsufficientDataError, WindowError
 from gyro_calib.estimate import Estimate, Rejection
 from gyro_calib.scale_factor import PairAccumulator, WindowPair
-from gyro_calib.streams import StampedBuffer
+from gyro_calib.streams import StampedBuffer, timeline_starts
 from gyro_calib.units import NS_PER_S
 from gyro_calib.windows import (
     IndexEvent,
@@ -234,17 +234,20 @@ class RateBiasCalibrator:
         """Every rejection so far (windows, events, unpaired windows)."""
         return self._cutter.rejections + self._pairs.rejections
 
+    def _require_pairs(self, what: str) -> None:
+        n = len(self._pairs.pairs)
+        if n < self.config.min_pairs:
+            raise InsufficientDataError(
+                f'{n} window pair(s) accepted; {what} needs at least min_pairs = '
+                f'{self.config.min_pairs}.')
+
     def k_tilde(self) -> Estimate:
         """Running K̃, ″/pulse: mean over pairs with s/√n (METHODS §A.2 eq. 3).
 
         Raises:
             InsufficientDataError: with fewer than ``config.min_pairs`` pairs.
         """
-        n = len(self._pairs.pairs)
-        if n < self.config.min_pairs:
-            raise InsufficientDataError(
-                f'{n} window pair(s) accepted; K̃ needs at least min_pairs = '
-                f'{self.config.min_pairs}.')
+        self._require_pairs('K̃')
         est = self._pairs.k_tilde()
         return Estimate(est.value, est.std_uncertainty, est.n_used, est.dof,
                         tuple(self.rejections))
@@ -255,8 +258,7 @@ class RateBiasCalibrator:
         Raises:
             InsufficientDataError: with fewer than ``config.min_pairs`` pairs.
         """
-        if len(self._pairs.pairs) < self.config.min_pairs:
-            raise InsufficientDataError('not enough window pairs for the Earth-rate + bias term.')
+        self._require_pairs('the Earth-rate + bias term')
         return self._pairs.earth_plus_bias()
 
 
@@ -272,10 +274,22 @@ def calibrate_k_tilde(
     """Batch K̃ calibration over whole recordings; returns the finished calibrator.
 
     Read ``.k_tilde()``, ``.pairs``, ``.windows`` and ``.rejections`` from the result.
+    If the source restarted (stamps jump back by ``restart_backstep_s``), each timeline
+    is calibrated in turn, as the live node would, and the pairs of all are kept.
     """
     cal = RateBiasCalibrator(config or KTildeConfig())
-    cal.extend_pulses(pulse_t_ns, pulse_counts)
-    cal.extend_table_states(table_t_ns, table_angle_rad, table_rate_rad_s)
-    cal.extend_zero_index(zero_index_ns)
-    cal.process(flush=True)
+    back = int(cal.config.restart_backstep_s * NS_PER_S)
+    streams = [
+        (cal.extend_pulses, np.asarray(pulse_t_ns, np.int64), (pulse_counts,)),
+        (cal.extend_table_states, np.asarray(table_t_ns, np.int64),
+         (table_angle_rad, table_rate_rad_s)),
+        (cal.extend_zero_index, np.asarray(zero_index_ns, np.int64), ()),
+    ]
+    cuts = [[0, *timeline_starts(t, back), len(t)] for _, t, _ in streams]
+    for k in range(max(len(c) - 1 for c in cuts)):
+        for (extend, t, values), c in zip(streams, cuts):
+            if k + 1 < len(c):
+                part = slice(c[k], c[k + 1])
+                extend(t[part], *(np.asarray(v)[part] for v in values))
+        cal.process(flush=True)
     return cal

@@ -28,7 +28,7 @@ class KTildeConfigFile(TypedDict, total=False):
     max_fit_residual_pulses: float
     rate_tolerance: float
     min_rate_deg_s: float
-    window_angle_tolerance_deg: float
+    window_angle_tolerance_arcsec: float
     index_angle_tolerance_arcsec: float
     max_table_gap_s: float
     max_pulse_gap_s: float
@@ -60,8 +60,8 @@ class KTildeConfig:
     """Allowed relative deviation of the table rate from its window median."""
     min_rate_deg_s: float = 1.0
     """Slowest table rate a window may be cut at, °/s."""
-    window_angle_tolerance_deg: float = 1.0
-    """Allowed |encoder angle of a window − m·360°|, °."""
+    window_angle_tolerance_arcsec: float = 60.0
+    """Allowed |encoder angle of a window − m·360°|, ″ (encoder resolution + index jitter)."""
     index_angle_tolerance_arcsec: float = 30.0
     """Allowed distance of an index event's encoder angle from the reference mark, ″."""
     max_table_gap_s: float = 0.1
@@ -86,6 +86,12 @@ class KTildeConfig:
 
     def __post_init__(self) -> None:
         """Validate every field once; raise ConfigError naming the field."""
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            want_int = f.type in ('int', int)
+            if isinstance(value, bool) or not isinstance(value, int if want_int else (int, float)):
+                kind = 'an integer' if want_int else 'a number'
+                raise ConfigError(f'{f.name} = {value!r} is invalid: it must be {kind}.')
         checks: list[tuple[str, bool, str]] = [
             ('revolutions_per_window', self.revolutions_per_window >= 1, 'at least 1'),
             ('fit_half_width_s', self.fit_half_width_s > 0, 'positive'),
@@ -95,8 +101,8 @@ class KTildeConfig:
             ('max_fit_residual_pulses', self.max_fit_residual_pulses > 0, 'positive'),
             ('rate_tolerance', 0 < self.rate_tolerance < 1, 'between 0 and 1'),
             ('min_rate_deg_s', self.min_rate_deg_s > 0, 'positive'),
-            ('window_angle_tolerance_deg', 0 < self.window_angle_tolerance_deg < 180,
-             'between 0 and 180'),
+            ('window_angle_tolerance_arcsec', 0 < self.window_angle_tolerance_arcsec < 648000,
+             'between 0 and 648000 (half a revolution)'),
             ('index_angle_tolerance_arcsec', self.index_angle_tolerance_arcsec > 0, 'positive'),
             ('max_table_gap_s', self.max_table_gap_s > 0, 'positive'),
             ('max_pulse_gap_s', self.max_pulse_gap_s > 0, 'positive'),

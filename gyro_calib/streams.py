@@ -99,26 +99,18 @@ class StampedBuffer:
     def extend(self, t_ns: ArrayLike, *values: ArrayLike) -> bool:
         """Add many samples at once (bag replay); return True if the source restarted.
 
-        A restart inside the batch keeps only the samples after the last restart.
+        A restart inside the batch keeps only the samples from the last restart on.
         """
         t = np.asarray(t_ns, dtype=np.int64)
-        v = np.column_stack([np.asarray(x, dtype=np.float64) for x in values]) if len(t) else (
-            np.zeros((0, self.n_values))
-        )
         if len(t) == 0:
             return False
-        running = np.maximum.accumulate(t)
-        if self._newest_ns is not None:
-            running = np.maximum(running, self._newest_ns)
-        prev_max = np.concatenate(([self._newest_ns if self._newest_ns is not None else t[0]],
-                                   running[:-1]))
-        backsteps = np.nonzero(t <= prev_max - self.restart_backstep_ns)[0]
-        restarted = len(backsteps) > 0
+        v = np.column_stack([np.asarray(x, dtype=np.float64) for x in values])
+        starts = timeline_starts(t, self.restart_backstep_ns, self._newest_ns)
+        restarted = bool(starts)
         if restarted:
-            last = int(backsteps[-1])
             self.clear()
-            self.stats.restarts += len(backsteps)
-            t, v = t[last:], v[last:]
+            self.stats.restarts += len(starts)
+            t, v = t[starts[-1]:], v[starts[-1]:]
         finite = np.all(np.isfinite(v), axis=1)
         self.stats.non_finite += int(np.count_nonzero(~finite))
         t, v = t[finite], v[finite]
@@ -184,3 +176,26 @@ class StampedBuffer:
     def __len__(self) -> int:
         """Number of samples held."""
         return len(self._t) + len(self._pending_t)
+
+
+def timeline_starts(t_ns: npt.NDArray[np.int64], backstep_ns: int,
+                    newest_before_ns: int | None = None) -> list[int]:
+    """Indices where a stamp falls ``backstep_ns`` or more behind the newest stamp before it.
+
+    Each marks a restart of the source: a new timeline begins there. ``newest_before_ns``
+    is the newest stamp seen before ``t_ns[0]`` (None if none).
+    """
+    out: list[int] = []
+    start, newest = 0, newest_before_ns
+    while start < len(t_ns):
+        running = np.maximum.accumulate(t_ns[start:])
+        if newest is not None:
+            running = np.maximum(running, newest)
+        before = np.concatenate(([newest if newest is not None else t_ns[start]], running[:-1]))
+        back = np.nonzero(t_ns[start:] <= before - backstep_ns)[0]
+        if len(back) == 0:
+            break
+        start += int(back[0])
+        out.append(start)
+        newest = None
+    return out

@@ -175,20 +175,20 @@ class WholeRevolutionWindows:
     """
 
     def __init__(self, config: KTildeConfig) -> None:
-        """Start with no open window and no reference mark yet."""
+        """Start with no open segment and no reference mark yet."""
         self.config = config
         self.rejections: list[Rejection] = []
-        self._open: IndexEvent | None = None
+        self._segment: list[IndexEvent] = []
         self._mark_angles: list[float] = []
 
     @property
     def open_event(self) -> IndexEvent | None:
-        """The event the current (unfinished) window starts at."""
-        return self._open
+        """The oldest event a window may still start at (None when no segment is open)."""
+        return self._segment[0] if self._segment else None
 
     def reset(self) -> None:
-        """Forget the open window (stream restart); the reference mark is re-learned too."""
-        self._open = None
+        """Forget the open segment (stream restart); the reference mark is re-learned too."""
+        self._segment.clear()
         self._mark_angles.clear()
 
     def _reject(self, stamp_ns: int, reason: str) -> None:
@@ -213,6 +213,20 @@ class WholeRevolutionWindows:
         del marks[:-9]
         return ''
 
+    def _off_learnt_mark(self, event: IndexEvent) -> str:
+        """Reason if ``event`` (taken before the mark was learnt) is off the mark learnt since."""
+        tol_rad = self.config.index_angle_tolerance_arcsec / ARCSEC_PER_RAD
+        if len(self._mark_angles) < 3:
+            return ''
+        ref = _circular_mode(self._mark_angles, tol_rad)
+        off = abs((event.encoder_angle_rad % TWO_PI - ref + math.pi) % TWO_PI - math.pi)
+        if off < tol_rad:
+            return ''
+        return (f'zero-index event at {format_stamp(event.stamp_ns)} is '
+                f'{off * ARCSEC_PER_RAD:.1f}″ away from the reference mark learnt since '
+                f'(tolerance {self.config.index_angle_tolerance_arcsec:g}″): spurious event; '
+                f'no window starts there.')
+
     def add_event(
         self,
         event: IndexEvent,
@@ -221,49 +235,72 @@ class WholeRevolutionWindows:
         table_t_ns: npt.NDArray[np.int64],
         table_rate_rad_s: npt.NDArray[np.float64],
     ) -> RevolutionWindow | None:
-        """Take the next event; return the window it closes, if any."""
+        """Take the next event; return the window it closes, if any.
+
+        The usable events of the current constant-rate segment are kept; a window closes
+        on the first earlier one exactly m revolutions back (by the encoder), so a missing
+        or spurious event costs no window it does not belong to.
+        """
         cfg = self.config
         if not math.isfinite(event.encoder_angle_rad) or not math.isfinite(event.rate_rad_s):
-            if self._open is not None:
-                self._reject(self._open.stamp_ns, f'no joint_states around the zero-index event '
-                             f'at {format_stamp(event.stamp_ns)}; open window abandoned.')
-            self._open = None
+            self._end_segment(event, 'no joint_states around it')
             return None
-        constant_rate = abs(event.rate_rad_s) >= math.radians(cfg.min_rate_deg_s)
-        if constant_rate and event.count is not None:
+        if abs(event.rate_rad_s) < math.radians(cfg.min_rate_deg_s):
+            self._end_segment(event, 'the table left constant rate')
+            return None
+        if event.count is not None:
             problem = self._is_off_mark(event)
             if problem:
                 self._reject(event.stamp_ns, problem)
                 return None
-        opened = self._open
-        if opened is None:
-            self._open = event if constant_rate else None
-            return None
+        if self._segment and (math.copysign(1.0, event.rate_rad_s)
+                              != math.copysign(1.0, self._segment[0].rate_rad_s)):
+            self._end_segment(event, 'the table reversed')
         target = TWO_PI * cfg.revolutions_per_window
-        swept = event.encoder_angle_rad - opened.encoder_angle_rad
-        tol = math.radians(cfg.window_angle_tolerance_deg)
-        reversed_ = math.copysign(1.0, event.rate_rad_s) != math.copysign(1.0, opened.rate_rad_s)
-        if reversed_ or not constant_rate:
-            revs = abs(swept) / TWO_PI
-            if revs > 0.99:
-                self._reject(opened.stamp_ns, (
-                    f'no window closed between {format_stamp(opened.stamp_ns)} and the end of '
-                    f'its constant-rate segment at {format_stamp(event.stamp_ns)} ({revs:.3f} '
-                    f'revolutions swept; a window needs {cfg.revolutions_per_window} between two '
-                    f'zero-index events): direction change inside the window, or a missing '
-                    f'zero-index event.'))
-            self._open = event if constant_rate else None
-            return None
-        if abs(swept) < target - tol:
-            return None  # window still open
-        self._open = event
-        if abs(swept) > target + tol:
-            self._reject(opened.stamp_ns, (
-                f'no zero-index event {cfg.revolutions_per_window} revolutions after '
-                f'{format_stamp(opened.stamp_ns)} (next usable one is {abs(swept) / TWO_PI:.3f} '
-                f'revolutions later): missing zero-index event?'))
-            return None
-        return self._close(opened, event, pulse_t_ns, pulse_counts, table_t_ns, table_rate_rad_s)
+        tol = cfg.window_angle_tolerance_arcsec / ARCSEC_PER_RAD
+        while self._segment:
+            swept = abs(event.encoder_angle_rad - self._segment[0].encoder_angle_rad)
+            if swept <= target + tol:
+                break
+            self._give_up(self._segment.pop(0), event)
+        for i, start in enumerate(self._segment):
+            swept = abs(event.encoder_angle_rad - start.encoder_angle_rad)
+            if abs(swept - target) <= tol:
+                for skipped in self._segment[:i]:
+                    self._give_up(skipped, event)
+                self._segment = [event]
+                return self._close(start, event, pulse_t_ns, pulse_counts, table_t_ns,
+                                   table_rate_rad_s)
+        self._segment.append(event)
+        return None
+
+    def _give_up(self, start: IndexEvent, now: IndexEvent) -> None:
+        """``start`` can no longer begin a window: say why if it was a real candidate."""
+        if start.count is None:
+            return  # its own problem is reported when a window would have used it
+        spurious = self._off_learnt_mark(start)
+        if spurious:
+            self._reject(start.stamp_ns, spurious)
+            return
+        self._reject(start.stamp_ns, (
+            f'no zero-index event {self.config.revolutions_per_window} revolutions after '
+            f'{format_stamp(start.stamp_ns)} (the next ones are at {format_stamp(now.stamp_ns)} '
+            f'and beyond): missing zero-index event.'))
+
+    def _end_segment(self, event: IndexEvent, why: str) -> None:
+        """The constant-rate segment ended at ``event``: report a window it could not close."""
+        if self._segment:
+            first = self._segment[0]
+            revs = abs(self._segment[-1].encoder_angle_rad - first.encoder_angle_rad) / TWO_PI
+            if revs > 0.99 and first.count is not None and not self._off_learnt_mark(first):
+                m = self.config.revolutions_per_window
+                self._reject(first.stamp_ns, (
+                    f'no window closed in the constant-rate segment from '
+                    f'{format_stamp(first.stamp_ns)}: {why} at {format_stamp(event.stamp_ns)} '
+                    f'after {revs:.3f} revolutions between zero-index events, fewer than the '
+                    f'{m} a window needs (direction change inside the window, or a missing '
+                    f'zero-index event at its end).'))
+        self._segment = []
 
     def _close(
         self,
@@ -275,6 +312,10 @@ class WholeRevolutionWindows:
         table_rate_rad_s: npt.NDArray[np.float64],
     ) -> RevolutionWindow | None:
         cfg = self.config
+        off_mark = self._off_learnt_mark(start)
+        if off_mark:
+            self._reject(start.stamp_ns, off_mark)
+            return None
         for ev in (start, end):
             if ev.count is None:
                 self._reject(start.stamp_ns, f'window {format_stamp(start.stamp_ns)} → '

@@ -641,7 +641,7 @@ def test_calibrator_without_enough_pairs_raises_naming_counts(
     ('fit_half_width_s', -0.1),
     ('fit_half_width_s', math.nan),
     ('max_pulse_gap_s', math.nan),
-    ('window_angle_tolerance_deg', 180.0),
+    ('window_angle_tolerance_arcsec', 648000.0),
     ('min_fit_samples_per_side', 1),
     ('min_pairs', 1),
     ('stall_timeout_s', 0.0),
