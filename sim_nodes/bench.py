@@ -12,7 +12,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
+from sim_nodes.procedure import ThetaProcedureConfig, theta_procedure_profiles
 from sim_nodes.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
+from sim_nodes.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -79,4 +81,69 @@ def simulate_rate_bias_bench(
         table_angle_rad=np.concatenate(js_a),
         table_rate_rad_s=np.concatenate(js_r),
         zero_index_ns=np.concatenate(idx),
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class ThetaRecording:
+    """What the calibration node receives during the θ procedure.
+
+    Attributes:
+        pulse_t_ns, pulse_counts: gyro samples (stamps int64 ns, cumulative pulses).
+        rate_table: joint_states of the rate table (t_ns, angle rad, rate rad/s).
+        position_table: joint_states of the position table (t_ns, angle rad, rate rad/s).
+        position_zero_index_ns: the position table's zero-index stamps, int64 ns.
+        stations_s: (start, end) of each station, s from the start (truth, for tests).
+    """
+
+    pulse_t_ns: npt.NDArray[np.int64]
+    pulse_counts: npt.NDArray[np.float64]
+    rate_table: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]
+    position_table: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
+                          npt.NDArray[np.float64]]
+    position_zero_index_ns: npt.NDArray[np.int64]
+    stations_s: list[tuple[float, float]]
+
+
+def simulate_theta_procedure(
+    procedure: ThetaProcedureConfig,
+    table: RateTableConfig,
+    gyro: RingLaserGyroConfig,
+    mount: TiltedMountConfig,
+    *,
+    chunk_samples: int = CHUNK_SAMPLES,
+) -> ThetaRecording:
+    """Run the θ procedure on the two-axis bench; both tables use ``table``'s encoder,
+    index and sample settings (the position table's index jitter is its Δφ_ON)."""
+    import dataclasses
+
+    rate_profile, position_profile, stations = theta_procedure_profiles(procedure)
+    cfg = dataclasses.replace(table, duration_s=position_profile.duration_s)
+    rate_sim = RateTableSimulator(cfg, profile=rate_profile)
+    position_sim = RateTableSimulator(dataclasses.replace(cfg, seed=cfg.seed + 1000),
+                                      profile=position_profile)
+    gyro_sim = TwoAxisGyroSimulator(gyro, mount)
+    out: dict[str, list[npt.NDArray[np.float64]]] = {k: [] for k in (
+        'pt', 'pn', 'rt', 'ra', 'rr', 'qt', 'qa', 'qr', 'qi')}
+    dec, n_done = cfg.joint_state_decimation, 0
+    while not rate_sim.finished:
+        r = rate_sim.step(chunk_samples)
+        q = position_sim.step(chunk_samples)
+        still = np.abs(r.true_rate_rad_s) < 1e-9
+        out['pt'].append(r.t_ns)
+        out['pn'].append(gyro_sim.step(r.t_ns, q.true_angle_rad, r.true_angle_rad, still))
+        keep = (np.arange(n_done, n_done + len(r.t_ns)) % dec) == 0
+        n_done += len(r.t_ns)
+        for prefix, chunk in (('r', r), ('q', q)):
+            out[prefix + 't'].append(chunk.t_ns[keep])
+            out[prefix + 'a'].append(chunk.encoder_angle_rad[keep])
+            out[prefix + 'r'].append(chunk.encoder_rate_rad_s[keep])
+        out['qi'].append(q.zero_index_ns)
+    cat = {k: np.concatenate(v) for k, v in out.items()}
+    return ThetaRecording(
+        pulse_t_ns=cat['pt'].astype(np.int64), pulse_counts=cat['pn'],
+        rate_table=(cat['rt'].astype(np.int64), cat['ra'], cat['rr']),
+        position_table=(cat['qt'].astype(np.int64), cat['qa'], cat['qr']),
+        position_zero_index_ns=cat['qi'].astype(np.int64),
+        stations_s=stations,
     )

@@ -15,14 +15,17 @@ CORE_MODULES = [
     'gyro_calib.estimate',
     'gyro_calib.fix_error_angle',
     'gyro_calib.scale_factor',
+    'gyro_calib.stations',
     'gyro_calib.streams',
     'gyro_calib.topics',
     'gyro_calib.units',
     'gyro_calib.windows',
     'sim_nodes.bench',
     'sim_nodes.motion',
+    'sim_nodes.procedure',
     'sim_nodes.rate_table',
     'sim_nodes.ring_laser_gyro',
+    'sim_nodes.two_axis_gyro',
 ]
 
 

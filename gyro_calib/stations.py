@@ -1,0 +1,186 @@
+"""Position-table stations of the θ procedure, cut from the streams (METHODS §A.3).
+
+While the rate table holds still at a station ψ, the position table turns n whole
+revolutions forward and n back. The same whole-revolution machinery that measures K̃
+cuts the position table's windows (m = n) from its own zero-index events; each
+forward/reverse pair gives N_og = (N⁺ − N⁻)/2 at the station angle read from the
+rate-table encoder. The stations then give θ, β₀, α by least squares.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gyro_calib.calibrator import RateBiasCalibrator
+from gyro_calib.config import KTildeConfig
+from gyro_calib.errors import InsufficientDataError
+from gyro_calib.estimate import Rejection
+from gyro_calib.fix_error_angle import FixErrorAngleResult, fix_error_angle_multi_station
+from gyro_calib.streams import StampedBuffer
+from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S
+from gyro_calib.windows import format_stamp
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from gyro_calib.scale_factor import WindowPair
+
+
+@dataclass(frozen=True, slots=True)
+class Station:
+    """One position-table station.
+
+    Attributes:
+        start_ns, end_ns: span of its forward and reverse windows, int ns.
+        rate_table_angle_rad: ψ, mean rate-table encoder angle over the span, rad.
+        half_difference_pulses: N_og = (N⁺ − N⁻)/2, pulses.
+        half_difference_std_pulses: its standard uncertainty from the window end fits, pulses.
+    """
+
+    start_ns: int
+    end_ns: int
+    rate_table_angle_rad: float
+    half_difference_pulses: float
+    half_difference_std_pulses: float
+
+
+@dataclass(slots=True)
+class StationCalibrator:
+    """Accumulates position-table stations and estimates θ from them.
+
+    Attributes:
+        config: window settings for the position table (m = n, its revolutions each way).
+        station_drift_tolerance_arcsec: largest rate-table angle change allowed during a
+            station, ″.
+    """
+
+    config: KTildeConfig = field(default_factory=lambda: KTildeConfig(revolutions_per_window=1))
+    station_drift_tolerance_arcsec: float = 5.0
+    stations: list[Station] = field(default_factory=list)
+    rejections: list[Rejection] = field(default_factory=list)
+    _windows: RateBiasCalibrator = field(init=False)
+    _rate_table: StampedBuffer = field(init=False)
+
+    def __post_init__(self) -> None:
+        """Create the position-table window stage and the rate-table buffer."""
+        self._windows = RateBiasCalibrator(self.config)
+        self._rate_table = StampedBuffer(2, int(self.config.restart_backstep_s * NS_PER_S))
+
+    @property
+    def position_table_revolutions(self) -> int:
+        """n: whole position-table revolutions each way."""
+        return self.config.revolutions_per_window
+
+    def add_pulses(self, t_ns: int, count: float) -> None:
+        """One gyro sample: stamp (ns), cumulative count (pulses)."""
+        self._windows.add_pulses(t_ns, count)
+
+    def add_position_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
+        """One position-table joint_states sample."""
+        self._windows.add_table_state(t_ns, angle_rad, rate_rad_s)
+
+    def add_position_zero_index(self, t_ns: int) -> None:
+        """One position-table zero-index stamp."""
+        self._windows.add_zero_index(t_ns)
+
+    def add_rate_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
+        """One rate-table joint_states sample (gives the station angle)."""
+        self._rate_table.append(t_ns, angle_rad, rate_rad_s)
+
+    def extend(self, pulses: tuple[ArrayLike, ArrayLike],
+               position_table: tuple[ArrayLike, ArrayLike, ArrayLike],
+               position_zero_index_ns: ArrayLike,
+               rate_table: tuple[ArrayLike, ArrayLike, ArrayLike]) -> None:
+        """Many samples of every stream at once (bag replay)."""
+        self._windows.extend_pulses(*pulses)
+        self._windows.extend_table_states(*position_table)
+        self._windows.extend_zero_index(position_zero_index_ns)
+        self._rate_table.extend(*rate_table)
+
+    def process(self, *, flush: bool = False) -> list[Station]:
+        """Turn every completed forward/reverse pair into a station; return the new ones."""
+        update = self._windows.process(flush=flush)
+        self.rejections.extend(update.rejections)
+        new = []
+        for pair in update.pairs:
+            station = self._station(pair)
+            if station is not None:
+                new.append(station)
+                self.stations.append(station)
+        return new
+
+    def _station(self, pair: WindowPair) -> Station | None:
+        start = min(pair.forward.start_ns, pair.reverse.start_ns)
+        end = max(pair.forward.end_ns, pair.reverse.end_ns)
+        t, v = self._rate_table.arrays()
+        inside = (t >= start) & (t <= end)
+        if not np.any(inside):
+            self.rejections.append(Rejection(start, (
+                f'station {format_stamp(start)} → {format_stamp(end)} skipped: no rate-table '
+                'joint_states during it, so its angle β is unknown.')))
+            return None
+        angles = v[inside, 0]
+        drift = float(np.ptp(angles)) * ARCSEC_PER_RAD
+        if drift > self.station_drift_tolerance_arcsec:
+            self.rejections.append(Rejection(start, (
+                f'station {format_stamp(start)} → {format_stamp(end)} skipped: the rate table '
+                f'moved {drift:.1f}″ during it (tolerance '
+                f'{self.station_drift_tolerance_arcsec:g}″): β drifts.')))
+            return None
+        self._rate_table.discard_before(end)
+        return Station(
+            start_ns=start, end_ns=end,
+            rate_table_angle_rad=float(np.mean(angles)),
+            half_difference_pulses=(pair.forward.pulses - pair.reverse.pulses) / 2,
+            half_difference_std_pulses=math.hypot(pair.forward.pulses_std,
+                                                  pair.reverse.pulses_std) / 2,
+        )
+
+    def fix_error_angle(self, scale_factor_arcsec_per_pulse: float) -> FixErrorAngleResult:
+        """θ, β₀, α from the stations so far (least squares with covariance).
+
+        Uses the window-fit uncertainties of N_og with at most 3 stations, the scatter
+        otherwise (it also holds what the fits do not see: index jitter, ARW, Δθ).
+
+        Raises:
+            InsufficientDataError: fewer than 3 stations, or stations not spread in β.
+        """
+        st = self.stations
+        std = None
+        if len(st) <= 3:
+            std = [s.half_difference_std_pulses for s in st]
+        return fix_error_angle_multi_station(
+            [s.rate_table_angle_rad for s in st], [s.half_difference_pulses for s in st],
+            scale_factor_arcsec_per_pulse=scale_factor_arcsec_per_pulse,
+            position_table_revolutions=self.position_table_revolutions,
+            half_difference_std_pulses=std)
+
+
+def calibrate_fix_error_angle(
+    pulses: tuple[ArrayLike, ArrayLike],
+    position_table: tuple[ArrayLike, ArrayLike, ArrayLike],
+    position_zero_index_ns: ArrayLike,
+    rate_table: tuple[ArrayLike, ArrayLike, ArrayLike],
+    *,
+    scale_factor_arcsec_per_pulse: float,
+    position_table_revolutions: int = 1,
+    config: KTildeConfig | None = None,
+) -> tuple[FixErrorAngleResult, StationCalibrator]:
+    """Batch θ calibration over whole recordings of the θ procedure.
+
+    Raises:
+        InsufficientDataError: if too few usable stations were found.
+    """
+    cfg = dataclasses.replace(config or KTildeConfig(),
+                              revolutions_per_window=position_table_revolutions)
+    cal = StationCalibrator(cfg)
+    cal.extend(pulses, position_table, position_zero_index_ns, rate_table)
+    cal.process(flush=True)
+    if not cal.stations:
+        raise InsufficientDataError('no usable position-table station in the recording.')
+    return cal.fix_error_angle(scale_factor_arcsec_per_pulse), cal
