@@ -12,7 +12,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
-from sim_nodes.procedure import ThetaProcedureConfig, theta_procedure_profiles
+from sim_nodes.motion import MotionProfile
+from sim_nodes.procedure import (
+    ThetaProcedureConfig,
+    full_procedure_profiles,
+    theta_procedure_profiles,
+)
 from sim_nodes.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 from sim_nodes.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 
@@ -85,47 +90,54 @@ def simulate_rate_bias_bench(
 
 
 @dataclass(frozen=True, slots=True)
-class ThetaRecording:
-    """What the calibration node receives during the θ procedure.
+class TwoAxisRecording:
+    """What the calibration node receives from the two-axis bench.
 
     Attributes:
         pulse_t_ns, pulse_counts: gyro samples (stamps int64 ns, cumulative pulses).
         rate_table: joint_states of the rate table (t_ns, angle rad, rate rad/s).
+        rate_zero_index_ns: the rate table's zero-index stamps, int64 ns.
         position_table: joint_states of the position table (t_ns, angle rad, rate rad/s).
         position_zero_index_ns: the position table's zero-index stamps, int64 ns.
-        stations_s: (start, end) of each station, s from the start (truth, for tests).
+        stations_s: (start, end) of each θ station, s from the start (truth, for tests).
     """
 
     pulse_t_ns: npt.NDArray[np.int64]
     pulse_counts: npt.NDArray[np.float64]
     rate_table: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64], npt.NDArray[np.float64]]
+    rate_zero_index_ns: npt.NDArray[np.int64]
     position_table: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                           npt.NDArray[np.float64]]
     position_zero_index_ns: npt.NDArray[np.int64]
     stations_s: list[tuple[float, float]]
 
 
-def simulate_theta_procedure(
-    procedure: ThetaProcedureConfig,
-    table: RateTableConfig,
-    gyro: RingLaserGyroConfig,
-    mount: TiltedMountConfig,
-    *,
-    chunk_samples: int = CHUNK_SAMPLES,
-) -> ThetaRecording:
-    """Run the θ procedure on the two-axis bench; both tables use ``table``'s encoder,
-    index and sample settings (the position table's index jitter is its Δφ_ON)."""
+ThetaRecording = TwoAxisRecording
+
+
+def two_axis_simulators(rate_profile: MotionProfile, position_profile: MotionProfile,
+                        table: RateTableConfig) -> tuple[RateTableSimulator, RateTableSimulator]:
+    """Both tables of the two-axis bench on one clock; they share ``table``'s encoder, index
+    and sample settings (the position table's index jitter is its Δφ_ON)."""
     import dataclasses
 
-    rate_profile, position_profile, stations = theta_procedure_profiles(procedure)
     cfg = dataclasses.replace(table, duration_s=position_profile.duration_s)
-    rate_sim = RateTableSimulator(cfg, profile=rate_profile)
-    position_sim = RateTableSimulator(dataclasses.replace(cfg, seed=cfg.seed + 1000),
-                                      profile=position_profile)
+    return (RateTableSimulator(cfg, profile=rate_profile),
+            RateTableSimulator(dataclasses.replace(cfg, seed=cfg.seed + 1000),
+                               profile=position_profile))
+
+
+def simulate_two_axis_bench(
+    rate_profile: MotionProfile, position_profile: MotionProfile,
+    stations_s: list[tuple[float, float]], table: RateTableConfig,
+    gyro: RingLaserGyroConfig, mount: TiltedMountConfig, *, chunk_samples: int = CHUNK_SAMPLES,
+) -> TwoAxisRecording:
+    """Run both tables along their profiles and the gyro on the composed motion."""
+    rate_sim, position_sim = two_axis_simulators(rate_profile, position_profile, table)
     gyro_sim = TwoAxisGyroSimulator(gyro, mount)
     out: dict[str, list[npt.NDArray[np.float64]]] = {k: [] for k in (
-        'pt', 'pn', 'rt', 'ra', 'rr', 'qt', 'qa', 'qr', 'qi')}
-    dec, n_done = cfg.joint_state_decimation, 0
+        'pt', 'pn', 'rt', 'ra', 'rr', 'ri', 'qt', 'qa', 'qr', 'qi')}
+    dec, n_done = table.joint_state_decimation, 0
     while not rate_sim.finished:
         r = rate_sim.step(chunk_samples)
         q = position_sim.step(chunk_samples)
@@ -138,12 +150,36 @@ def simulate_theta_procedure(
             out[prefix + 't'].append(chunk.t_ns[keep])
             out[prefix + 'a'].append(chunk.encoder_angle_rad[keep])
             out[prefix + 'r'].append(chunk.encoder_rate_rad_s[keep])
-        out['qi'].append(q.zero_index_ns)
+            out[prefix + 'i'].append(chunk.zero_index_ns)
     cat = {k: np.concatenate(v) for k, v in out.items()}
-    return ThetaRecording(
+    return TwoAxisRecording(
         pulse_t_ns=cat['pt'].astype(np.int64), pulse_counts=cat['pn'],
         rate_table=(cat['rt'].astype(np.int64), cat['ra'], cat['rr']),
+        rate_zero_index_ns=cat['ri'].astype(np.int64),
         position_table=(cat['qt'].astype(np.int64), cat['qa'], cat['qr']),
         position_zero_index_ns=cat['qi'].astype(np.int64),
-        stations_s=stations,
+        stations_s=stations_s,
     )
+
+
+def simulate_theta_procedure(
+    procedure: ThetaProcedureConfig, table: RateTableConfig, gyro: RingLaserGyroConfig,
+    mount: TiltedMountConfig, *, chunk_samples: int = CHUNK_SAMPLES,
+) -> TwoAxisRecording:
+    """The θ procedure alone on the two-axis bench (METHODS §A.3)."""
+    rate, position, stations = theta_procedure_profiles(procedure)
+    return simulate_two_axis_bench(rate, position, stations, table, gyro, mount,
+                                   chunk_samples=chunk_samples)
+
+
+def simulate_full_procedure(
+    procedure: ThetaProcedureConfig, table: RateTableConfig, gyro: RingLaserGyroConfig,
+    mount: TiltedMountConfig, *, k_tilde_pairs: int = 4, chunk_samples: int = CHUNK_SAMPLES,
+) -> TwoAxisRecording:
+    """The whole calibration: K̃ phase on the tilted mount, then the θ procedure."""
+    rate, position, stations = full_procedure_profiles(
+        procedure, k_tilde_pairs=k_tilde_pairs, rate_deg_s=table.rate_deg_s,
+        acceleration_deg_s2=table.acceleration_deg_s2,
+        revolutions_per_segment=table.revolutions_per_segment)
+    return simulate_two_axis_bench(rate, position, stations, table, gyro, mount,
+                                   chunk_samples=chunk_samples)

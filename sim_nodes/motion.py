@@ -70,6 +70,8 @@ class MotionProfile:
         self._rate0, self._angle0 = rate0, angle0
         self._end_angle, self._end_rate = angle, rate
         self.duration_s = float(np.sum(self._dur))
+        self.pieces = (self._dur.tolist(), self._acc.tolist())
+        """(durations_s, accelerations_rad_s2) the profile was built from."""
         self.ripple = ripple or RateRipple()
 
     def _piece(self, t_s: FloatArray) -> tuple[npt.NDArray[np.intp], FloatArray]:

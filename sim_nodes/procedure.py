@@ -89,3 +89,37 @@ def theta_procedure_profiles(cfg: ThetaProcedureConfig) -> tuple[MotionProfile, 
     rate = MotionProfile(rate_d, rate_a)
     position = MotionProfile(pos_d, pos_a)
     return rate, position, stations
+
+
+def _rate_bias_pieces(rate: float, accel: float, revolutions: float,
+                      pairs: int) -> tuple[list[float], list[float]]:
+    """From rest: ``pairs`` forward+reverse constant-rate segments, then back to rest."""
+    t_const = revolutions * 2 * math.pi / rate
+    durations, accels = [rate / accel], [accel]
+    for k in range(2 * pairs):
+        direction = 1.0 if k % 2 == 0 else -1.0
+        durations.append(t_const)
+        accels.append(0.0)
+        last = k == 2 * pairs - 1
+        durations.append(rate / accel if last else 2 * rate / accel)
+        accels.append(-direction * accel)
+    return durations, accels
+
+
+def full_procedure_profiles(
+    procedure: ThetaProcedureConfig, *, k_tilde_pairs: int, rate_deg_s: float = 150.0,
+    acceleration_deg_s2: float = 1000.0, revolutions_per_segment: float = 6.0,
+) -> tuple[MotionProfile, MotionProfile, list[tuple[float, float]]]:
+    """The whole calibration: K̃ phase (rate table spinning ``k_tilde_pairs`` times each
+    way, position table still), then the θ phase of ``procedure``. Returns the rate-table
+    and position-table profiles and the θ stations' (start, end) times, s."""
+    rate_k = _rate_bias_pieces(math.radians(rate_deg_s), math.radians(acceleration_deg_s2),
+                               revolutions_per_segment, k_tilde_pairs)
+    k_phase_s = sum(rate_k[0])
+    rate_t, position_t, stations = theta_procedure_profiles(procedure)
+    rate = MotionProfile(rate_k[0] + [1.0] + rate_t.pieces[0],
+                         rate_k[1] + [0.0] + rate_t.pieces[1])
+    position = MotionProfile([k_phase_s + 1.0] + position_t.pieces[0],
+                             [0.0] + position_t.pieces[1])
+    offset = k_phase_s + 1.0
+    return rate, position, [(a + offset, b + offset) for a, b in stations]

@@ -14,6 +14,7 @@ CORE_MODULES = [
     'gyro_calib.error_budget',
     'gyro_calib.estimate',
     'gyro_calib.fix_error_angle',
+    'gyro_calib.rbrlg_calibration',
     'gyro_calib.scale_factor',
     'gyro_calib.stations',
     'gyro_calib.streams',

@@ -1,0 +1,167 @@
+"""The complete RBRLG calibration: K̃, θ, K = K̃·cos θ and bias (METHODS §A.2–A.3).
+
+:class:`RbrlgCalibrator` routes the streams of the two-axis bench: rate-table windows
+(the rate table spinning, the position table still) give K̃ and ω′ₑ + ω_B; position-
+table stations (the rate table held still, the position table turning) give θ, β₀,
+α. Which phase the bench is in is read from the streams alone: a table only yields
+windows while it turns at constant rate, and a station only counts while the rate
+table holds still.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gyro_calib.calibrator import CalibrationUpdate, RateBiasCalibrator
+from gyro_calib.config import KTildeConfig
+from gyro_calib.errors import InsufficientDataError
+from gyro_calib.estimate import Estimate
+from gyro_calib.scale_factor import scale_factor
+from gyro_calib.stations import Station, StationCalibrator
+from gyro_calib.units import EARTH_RATE_DEG_H
+
+if TYPE_CHECKING:
+    from gyro_calib.fix_error_angle import FixErrorAngleResult
+
+
+def earth_rate_along_table_axis_deg_h(*, latitude_deg: float, heading_deg: float,
+                                      tilt_rad: float, position_table_angle_rad: float) -> float:
+    """Earth rate along the rate-table axis oZ, °/h.
+
+    oZ = (sin α·cos χ, sin α·sin χ, cos α) in the position-table base, which is
+    East-North-Up turned by ``heading_deg`` about Up (χ: position-table angle).
+    """
+    lat, h = math.radians(latitude_deg), math.radians(heading_deg)
+    east, north, up = 0.0, EARTH_RATE_DEG_H * math.cos(lat), EARTH_RATE_DEG_H * math.sin(lat)
+    x = math.cos(h) * east + math.sin(h) * north
+    y = -math.sin(h) * east + math.cos(h) * north
+    s, c = math.sin(tilt_rad), math.cos(tilt_rad)
+    chi = position_table_angle_rad
+    return x * s * math.cos(chi) + y * s * math.sin(chi) + up * c
+
+
+@dataclass(frozen=True, slots=True)
+class RbrlgResults:
+    """Everything measured so far; None where a quantity is not measured yet.
+
+    Attributes:
+        k_tilde_arcsec_per_pulse: K̃ (eq. 3), ″/pulse.
+        fix_error: θ, β₀, α with uncertainties (eqs. 10, 15–17), rad.
+        scale_factor_arcsec_per_pulse: K = K̃·cos θ (eq. 4), ″/pulse.
+        earth_plus_bias_deg_h: ω′ₑ + ω_B along og from the K̃ windows, °/h.
+        bias_deg_h: ω_B, with the Earth rate along oZ removed (needs the site), °/h.
+    """
+
+    k_tilde_arcsec_per_pulse: Estimate | None
+    fix_error: FixErrorAngleResult | None
+    scale_factor_arcsec_per_pulse: Estimate | None
+    earth_plus_bias_deg_h: Estimate | None
+    bias_deg_h: Estimate | None
+
+
+@dataclass(slots=True)
+class RbrlgCalibrator:
+    """K̃ and θ from the two-axis bench streams, and K from both.
+
+    Attributes:
+        k_config: rate-table window settings (m).
+        position_table_revolutions: n, position-table revolutions each way per station.
+        latitude_deg, heading_deg: site, for the bias (NaN: bias not separated from Earth rate).
+    """
+
+    k_config: KTildeConfig = field(default_factory=KTildeConfig)
+    position_table_revolutions: int = 1
+    latitude_deg: float = math.nan
+    heading_deg: float = 0.0
+    k_tilde: RateBiasCalibrator = field(init=False)
+    stations: StationCalibrator = field(init=False)
+    _position_angle_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Create the K̃ and the station stages."""
+        self.k_tilde = RateBiasCalibrator(self.k_config)
+        self.stations = StationCalibrator(dataclasses.replace(
+            self.k_config, revolutions_per_window=self.position_table_revolutions))
+
+    def add_pulses(self, t_ns: int, count: float) -> None:
+        """One gyro sample (stamp ns, cumulative pulses)."""
+        self.k_tilde.add_pulses(t_ns, count)
+        self.stations.add_pulses(t_ns, count)
+
+    def add_rate_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
+        """One rate-table joint_states sample."""
+        self.k_tilde.add_table_state(t_ns, angle_rad, rate_rad_s)
+        self.stations.add_rate_table_state(t_ns, angle_rad, rate_rad_s)
+
+    def add_rate_zero_index(self, t_ns: int) -> None:
+        """One rate-table zero-index stamp."""
+        self.k_tilde.add_zero_index(t_ns)
+
+    def add_position_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
+        """One position-table joint_states sample."""
+        self.stations.add_position_table_state(t_ns, angle_rad, rate_rad_s)
+        if abs(rate_rad_s) < 1e-6:
+            self._position_angle_rad = angle_rad
+
+    def add_position_zero_index(self, t_ns: int) -> None:
+        """One position-table zero-index stamp."""
+        self.stations.add_position_zero_index(t_ns)
+
+    def process(self, *, flush: bool = False) -> tuple[CalibrationUpdate, list[Station]]:
+        """Resolve what the streams allow: new K̃ windows/pairs and new stations."""
+        return self.k_tilde.process(flush=flush), self.stations.process(flush=flush)
+
+    def results(self) -> RbrlgResults:
+        """K̃, θ, K, ω′ₑ + ω_B and ω_B as far as measured."""
+        try:
+            k_tilde = self.k_tilde.k_tilde()
+            earth_bias = self.k_tilde.earth_plus_bias_deg_h()
+        except InsufficientDataError:
+            k_tilde = earth_bias = None
+        fix_error = None
+        if len(self.stations.stations) >= 3:
+            k_for_theta = k_tilde.value if k_tilde else math.nan
+            if k_tilde is not None:
+                try:
+                    fix_error = self.stations.fix_error_angle(k_for_theta)
+                except InsufficientDataError:
+                    fix_error = None
+        k = None
+        if k_tilde is not None and fix_error is not None:
+            k = scale_factor(k_tilde, fix_error.fix_error_angle_rad)
+        bias = None
+        if earth_bias is not None and fix_error is not None and math.isfinite(self.latitude_deg):
+            earth = earth_rate_along_table_axis_deg_h(
+                latitude_deg=self.latitude_deg, heading_deg=self.heading_deg,
+                tilt_rad=fix_error.tilt_rad.value,
+                position_table_angle_rad=self._position_angle_rad)
+            bias = Estimate(earth_bias.value - earth, earth_bias.std_uncertainty,
+                            earth_bias.n_used, earth_bias.dof)
+        return RbrlgResults(k_tilde, fix_error, k, earth_bias, bias)
+
+
+def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
+                    heading_deg: float = 0.0, position_table_revolutions: int = 1,
+                    k_config: KTildeConfig | None = None) -> tuple[RbrlgResults, RbrlgCalibrator]:
+    """Batch calibration of a two-axis recording (``sim_nodes.bench.TwoAxisRecording``
+    or anything with the same array attributes)."""
+    cal = RbrlgCalibrator(k_config or KTildeConfig(), position_table_revolutions,
+                          latitude_deg, heading_deg)
+    rec = recording
+    cal.k_tilde.extend_pulses(rec.pulse_t_ns, rec.pulse_counts)  # type: ignore[attr-defined]
+    cal.k_tilde.extend_table_states(*rec.rate_table)  # type: ignore[attr-defined]
+    cal.k_tilde.extend_zero_index(rec.rate_zero_index_ns)  # type: ignore[attr-defined]
+    cal.stations.extend((rec.pulse_t_ns, rec.pulse_counts),  # type: ignore[attr-defined]
+                        rec.position_table, rec.position_zero_index_ns,  # type: ignore[attr-defined]
+                        rec.rate_table)  # type: ignore[attr-defined]
+    still = np.abs(rec.position_table[2]) < 1e-6  # type: ignore[attr-defined]
+    if np.any(still):
+        cal._position_angle_rad = float(rec.position_table[1][still][0])  # type: ignore[attr-defined]
+    cal.process(flush=True)
+    return cal.results(), cal
+
