@@ -78,7 +78,7 @@ class KTildeConfig:
     """Window pairs needed before K̃ is reported."""
     restart_backstep_s: float = 1.0
     """A stamp this far before the newest one means the source restarted, s."""
-    stall_timeout_s: float = 60.0
+    stall_timeout_s: float = 600.0
     """An index event is resolved with what is there once one stream is this far past it, s.
 
     Only for a stream that died: while both streams flow, an event waits for both, so a

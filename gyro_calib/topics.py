@@ -21,3 +21,17 @@ true rate (rad/s), effort[i] stamp of sample i minus header.stamp (ns)."""
 
 RATE_TABLE_JOINT = 'rate_table'
 GYRO_JOINT = 'gyro'
+
+POSITION_TABLE_JOINT_STATES = '/position_table/joint_states'
+"""sensor_msgs/JointState, name ['position_table']: unwrapped encoder angle (rad), rate (rad/s)."""
+POSITION_TABLE_ZERO_INDEX = '/position_table/zero_index'
+"""std_msgs/Header: stamp = instant the position table's reference mark passed."""
+FIX_ERROR_ANGLE = '/gyro_calib/fix_error_angle'
+"""std_msgs/Float64, transient-local: θ, rad."""
+SCALE_FACTOR = '/gyro_calib/scale_factor'
+"""std_msgs/Float64, transient-local: K = K̃·cos θ, rad/pulse."""
+BENCH_TRUE_MOTION = '/sim/bench/true_motion'
+"""Simulation only. sensor_msgs/JointState batch for the two-axis bench: name
+['rate_table', 'position_table']; position[j·n + i], velocity[j·n + i] = true angle (rad)
+and rate (rad/s) of joint j at sample i; effort[i] = stamp of sample i minus header.stamp (ns)."""
+POSITION_TABLE_JOINT = 'position_table'

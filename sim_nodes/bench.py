@@ -24,7 +24,7 @@ from sim_nodes.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-CHUNK_SAMPLES = 50
+CHUNK_SAMPLES = 200
 """Samples per simulation chunk (one true-motion message), shared by nodes and offline runs."""
 
 

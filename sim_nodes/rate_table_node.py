@@ -1,10 +1,16 @@
-"""rate_table_sim: the simulated rate-bias turntable, time master of the bench.
+"""rate_table_sim: the simulated bench's time master (rate table, and position table).
 
-Publishes /rate_table/joint_states, /rate_table/zero_index and, for the gyro
-simulator only, /sim/rate_table/true_motion (true angle batches). Parameters:
-every field of :class:`~sim_nodes.rate_table.RateTableConfig`, plus
-``real_time_factor`` (simulated seconds per wall second; 0 = as fast as the
-process can go) and ``exit_when_done``.
+``scenario`` = ``rate_bias`` (default): the rate-bias turntable alone, publishing
+/rate_table/joint_states, /rate_table/zero_index and, for the gyro simulator only,
+/sim/rate_table/true_motion. ``theta`` or ``full``: the two-axis bench of the fix-error
+procedure (the RBRLG tilted on a position table); ``full`` runs the K̃ phase first. It
+also publishes /position_table/joint_states and /position_table/zero_index, and the
+true motion of both tables on /sim/bench/true_motion.
+
+Parameters: every field of :class:`~sim_nodes.rate_table.RateTableConfig`, the
+``procedure.*`` fields of :class:`~sim_nodes.procedure.ThetaProcedureConfig`,
+``k_tilde_pairs``, ``real_time_factor`` (simulated seconds per wall second; 0 = as
+fast as the readers acknowledge), ``exit_when_done`` and ``wait_for_subscribers``.
 """
 
 from __future__ import annotations
@@ -27,84 +33,125 @@ from gyro_calib.nodes.ros_io import (
     ns_to_stamp,
     publish_paced,
 )
-from sim_nodes.bench import CHUNK_SAMPLES
+from sim_nodes.bench import CHUNK_SAMPLES, two_axis_simulators
+from sim_nodes.procedure import (
+    ThetaProcedureConfig,
+    full_procedure_profiles,
+    theta_procedure_profiles,
+)
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator, TableChunk
+
+SCENARIOS = ('rate_bias', 'theta', 'full')
 
 
 class RateTableNode(Node):
-    """Streams the table simulator's chunks at a paced rate."""
+    """Streams the table simulators' chunks at a paced rate."""
 
     def __init__(self) -> None:
-        """Declare parameters and start the pacing timer."""
+        """Declare parameters, build the scenario and start the pacing timer."""
         super().__init__('rate_table_sim')
         self.config = RateTableConfig(**declare_dataclass_parameters(self, RateTableConfig))
-        self.real_time_factor = self.declare_parameter('real_time_factor', 1.0, ParameterDescriptor(
-            description='Simulated seconds per wall-clock second (0 = unpaced).')).value
-        self.exit_when_done = self.declare_parameter('exit_when_done', True, ParameterDescriptor(
-            description='Shut the node down once duration_s has been simulated.')).value
-        self.wait_for_subscribers = self.declare_parameter(
-            'wait_for_subscribers', True, ParameterDescriptor(
-                description='Start only once the gyro (true motion) and a reader of joint_states '
-                            'and zero_index are connected, so nothing is lost at the start.')).value
-        self.sim = RateTableSimulator(self.config)
-        self.js_pub = self.create_publisher(JointState, topics.RATE_TABLE_JOINT_STATES, SENSOR_QOS)
-        self.index_pub = self.create_publisher(Header, topics.RATE_TABLE_ZERO_INDEX, EVENT_QOS)
-        self.truth_pub = self.create_publisher(
-            JointState, topics.RATE_TABLE_TRUE_MOTION, SENSOR_QOS)
+        procedure = ThetaProcedureConfig(**declare_dataclass_parameters(
+            self, ThetaProcedureConfig, prefix='procedure.'))
+
+        def param(name: str, default: object, text: str) -> object:
+            return self.declare_parameter(name, default, ParameterDescriptor(
+                description=text)).value
+
+        scenario = param('scenario', 'rate_bias', f'One of {", ".join(SCENARIOS)}.')
+        k_pairs = param('k_tilde_pairs', 4, 'Forward/reverse rate-table pairs of the K̃ phase '
+                        '(scenario full).')
+        self.real_time_factor = param('real_time_factor', 1.0,
+                                      'Simulated seconds per wall-clock second (0 = unpaced).')
+        self.exit_when_done = param('exit_when_done', True,
+                                    'Shut the node down once the run has been simulated.')
+        self.wait_for_subscribers = param(
+            'wait_for_subscribers', True, 'Start only once the gyro and a reader of every '
+            'table topic are connected, so nothing is lost at the start.')
+        if scenario not in SCENARIOS:
+            raise SystemExit(f'rate_table_sim: scenario {scenario!r} is not one of {SCENARIOS}')
+        self.tables: list[tuple[RateTableSimulator, object, object, str]] = []
+        if scenario == 'rate_bias':
+            sims = [RateTableSimulator(self.config)]
+            truth_topic = topics.RATE_TABLE_TRUE_MOTION
+        else:
+            if scenario == 'full':
+                profiles = full_procedure_profiles(
+                    procedure, k_tilde_pairs=int(k_pairs), rate_deg_s=self.config.rate_deg_s,
+                    acceleration_deg_s2=self.config.acceleration_deg_s2,
+                    revolutions_per_segment=self.config.revolutions_per_segment)
+            else:
+                profiles = theta_procedure_profiles(procedure)
+            sims = list(two_axis_simulators(profiles[0], profiles[1], self.config))
+            truth_topic = topics.BENCH_TRUE_MOTION
+        names = [(topics.RATE_TABLE_JOINT, topics.RATE_TABLE_JOINT_STATES,
+                  topics.RATE_TABLE_ZERO_INDEX),
+                 (topics.POSITION_TABLE_JOINT, topics.POSITION_TABLE_JOINT_STATES,
+                  topics.POSITION_TABLE_ZERO_INDEX)]
+        for sim, (joint, js_topic, index_topic) in zip(sims, names):
+            self.tables.append((sim, self.create_publisher(JointState, js_topic, SENSOR_QOS),
+                                self.create_publisher(Header, index_topic, EVENT_QOS), joint))
+        self.truth_pub = self.create_publisher(JointState, truth_topic, SENSOR_QOS)
         self._n_published = 0
         self._wall_start: float | None = None
         self._ready_since: float | None = None
         self.done = False
         self.create_timer(0.005, self._tick)
 
+    @property
+    def all_publishers(self) -> list:  # noqa: D401
+        """Every publisher of the node (for the final acknowledgement wait)."""
+        return [self.truth_pub] + [p for _, js, ix, _ in self.tables for p in (js, ix)]
+
     def _tick(self) -> None:
+        master = self.tables[0][0]
         if self._wall_start is None:
-            pubs = (self.truth_pub, self.js_pub, self.index_pub)
-            if self.wait_for_subscribers and not all(p.get_subscription_count() for p in pubs):
+            if self.wait_for_subscribers and not all(
+                    p.get_subscription_count() for p in self.all_publishers):
                 return  # the gyro must integrate from our first sample, the calibrator see it
             if self._ready_since is None:
                 self._ready_since = time.monotonic()
             if self.wait_for_subscribers and time.monotonic() - self._ready_since < 1.0:
                 return  # let the gyro's pulse publisher finish discovery too
             self._wall_start = time.monotonic()
-            self.get_logger().info(f'simulating {self.config.duration_s:g} s at '
-                                   f'{self.real_time_factor:g}× real time')
+            self.get_logger().info(f'simulating {master.n_samples_total / self.config.sample_rate_hz:g} '
+                                   f's at {self.real_time_factor:g}× real time')
         rate = self.config.sample_rate_hz
         budget = 20 if self.real_time_factor <= 0 else None
-        while not self.sim.finished and (budget is None or budget > 0):
+        while not master.finished and (budget is None or budget > 0):
             if budget is None:
                 sim_due = (time.monotonic() - self._wall_start) * self.real_time_factor
                 if self._n_published / rate > sim_due:
                     break
             else:
                 budget -= 1
-            self._publish(self.sim.step(CHUNK_SAMPLES))
-        if self.sim.finished and not self.done:
+            self._publish([sim.step(CHUNK_SAMPLES) for sim, *_ in self.tables])
+        if master.finished and not self.done:
             self.done = True
             self.get_logger().info('run finished')
 
-    def _publish(self, chunk: TableChunk) -> None:
-        truth = JointState(name=[topics.RATE_TABLE_JOINT])
-        ns_to_stamp(int(chunk.t_ns[0]), truth.header.stamp)
-        truth.header.frame_id = topics.RATE_TABLE_JOINT
-        truth.position = chunk.true_angle_rad.tolist()
-        truth.velocity = chunk.true_rate_rad_s.tolist()
-        truth.effort = (chunk.t_ns - chunk.t_ns[0]).astype(float).tolist()
+    def _publish(self, chunks: list[TableChunk]) -> None:
+        first = chunks[0]
+        truth = JointState(name=[joint for *_, joint in self.tables])
+        ns_to_stamp(int(first.t_ns[0]), truth.header.stamp)
+        truth.position = [a for c in chunks for a in c.true_angle_rad.tolist()]
+        truth.velocity = [r for c in chunks for r in c.true_rate_rad_s.tolist()]
+        truth.effort = (first.t_ns - first.t_ns[0]).astype(float).tolist()
         publish_paced(self.truth_pub, truth)
         dec = self.config.joint_state_decimation
-        first = (-self._n_published) % dec
-        for i in range(first, len(chunk.t_ns), dec):
-            msg = JointState(name=[topics.RATE_TABLE_JOINT],
-                             position=[float(chunk.encoder_angle_rad[i])],
-                             velocity=[float(chunk.encoder_rate_rad_s[i])])
-            ns_to_stamp(int(chunk.t_ns[i]), msg.header.stamp)
-            msg.header.frame_id = topics.RATE_TABLE_JOINT
-            publish_paced(self.js_pub, msg)
-        for t_ns in chunk.zero_index_ns.tolist():
-            header = Header(frame_id=topics.RATE_TABLE_JOINT)
-            ns_to_stamp(t_ns, header.stamp)
-            publish_paced(self.index_pub, header)
-        self._n_published += len(chunk.t_ns)
+        start = (-self._n_published) % dec
+        for chunk, (_, js_pub, index_pub, joint) in zip(chunks, self.tables):
+            for i in range(start, len(chunk.t_ns), dec):
+                msg = JointState(name=[joint], position=[float(chunk.encoder_angle_rad[i])],
+                                 velocity=[float(chunk.encoder_rate_rad_s[i])])
+                ns_to_stamp(int(chunk.t_ns[i]), msg.header.stamp)
+                msg.header.frame_id = joint
+                publish_paced(js_pub, msg)
+            for t_ns in chunk.zero_index_ns.tolist():
+                header = Header(frame_id=joint)
+                ns_to_stamp(t_ns, header.stamp)
+                publish_paced(index_pub, header)
+        self._n_published += len(first.t_ns)
 
 
 def main(args: list[str] | None = None) -> None:
@@ -117,7 +164,7 @@ def main(args: list[str] | None = None) -> None:
             while rclpy.ok() and not (node.done and node.exit_when_done):
                 executor.spin_once(timeout_sec=0.05)
             if node.done:
-                for pub in (node.js_pub, node.index_pub, node.truth_pub):
+                for pub in node.all_publishers:
                     pub.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -1,9 +1,11 @@
-"""rlg_sim: the simulated ring laser gyro, integrating the table's true motion.
+"""rlg_sim: the simulated ring laser gyro, integrating the bench's true motion.
 
-Subscribes /sim/rate_table/true_motion, publishes /gyro/pulses (one message per
-sample, cumulative count in position[0]). Parameters: every field of
-:class:`~sim_nodes.ring_laser_gyro.RingLaserGyroConfig`. If the table's stamps
-jump back (the table restarted) the gyro restarts too.
+Subscribes /sim/rate_table/true_motion (rate-bias table alone: exact closed-form
+model) and /sim/bench/true_motion (two-axis bench: composed rotations), publishes
+/gyro/pulses (one message per sample, cumulative count in position[0]).
+Parameters: every field of :class:`~sim_nodes.ring_laser_gyro.RingLaserGyroConfig`
+and, as ``mount.*``, of :class:`~sim_nodes.two_axis_gyro.TiltedMountConfig`. If the
+table's stamps jump back (the bench restarted) the gyro restarts too.
 """
 
 from __future__ import annotations
@@ -18,12 +20,13 @@ from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     declare_dataclass_parameters,
-    spin,
     ns_to_stamp,
     publish_paced,
+    spin,
     stamp_to_ns,
 )
 from sim_nodes.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
+from sim_nodes.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 
 
 class RingLaserGyroNode(Node):
@@ -34,19 +37,32 @@ class RingLaserGyroNode(Node):
         super().__init__('rlg_sim')
         self.config = RingLaserGyroConfig(
             **declare_dataclass_parameters(self, RingLaserGyroConfig))
-        self.sim = RingLaserGyroSimulator(self.config)
+        self.mount = TiltedMountConfig(
+            **declare_dataclass_parameters(self, TiltedMountConfig, prefix='mount.'))
+        self.sim: RingLaserGyroSimulator | TwoAxisGyroSimulator | None = None
+        self._last_ns: int | None = None
         self.pub = self.create_publisher(JointState, topics.GYRO_PULSES, SENSOR_QOS)
         self.create_subscription(
             JointState, topics.RATE_TABLE_TRUE_MOTION, self._on_truth, SENSOR_QOS)
+        self.create_subscription(JointState, topics.BENCH_TRUE_MOTION, self._on_truth, SENSOR_QOS)
 
     def _on_truth(self, msg: JointState) -> None:
         t_ns = stamp_to_ns(msg.header.stamp) + np.asarray(msg.effort, dtype=np.int64)
-        last = self.sim.last_stamp_ns
-        if last is not None and t_ns[0] <= last:
-            self.get_logger().warning('table stamps jumped back: the table restarted; '
+        if self._last_ns is not None and t_ns[0] <= self._last_ns:
+            self.get_logger().warning('table stamps jumped back: the bench restarted; '
                                       'the gyro restarts with it.')
-            self.sim = RingLaserGyroSimulator(self.config)
-        counts = self.sim.step(t_ns, np.asarray(msg.position, dtype=np.float64))
+            self.sim = None
+        angles = np.asarray(msg.position, dtype=np.float64).reshape(len(msg.name), len(t_ns))
+        if len(msg.name) == 1:
+            if not isinstance(self.sim, RingLaserGyroSimulator):
+                self.sim = RingLaserGyroSimulator(self.config)
+            counts = self.sim.step(t_ns, angles[0])
+        else:
+            if not isinstance(self.sim, TwoAxisGyroSimulator):
+                self.sim = TwoAxisGyroSimulator(self.config, self.mount)
+            rates = np.asarray(msg.velocity, dtype=np.float64).reshape(angles.shape)
+            counts = self.sim.step(t_ns, angles[1], angles[0], np.abs(rates[0]) < 1e-9)
+        self._last_ns = int(t_ns[-1])
         for t, n in zip(t_ns.tolist(), counts.tolist()):
             out = JointState(name=[topics.GYRO_JOINT], position=[n])
             ns_to_stamp(t, out.header.stamp)

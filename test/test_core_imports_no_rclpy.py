@@ -14,6 +14,8 @@ CORE_MODULES = [
     'gyro_calib.error_budget',
     'gyro_calib.estimate',
     'gyro_calib.fix_error_angle',
+    'gyro_calib.handoff',
+    'gyro_calib.imu_conversion',
     'gyro_calib.rbrlg_calibration',
     'gyro_calib.scale_factor',
     'gyro_calib.stations',

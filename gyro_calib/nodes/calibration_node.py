@@ -1,11 +1,13 @@
-"""calibration_node: K̃ of a rate-biased RLG, live from the topic contract.
+"""calibration_node: K̃, θ and K of a rate-biased RLG, live from the topic contract.
 
-Subscribes /rate_table/joint_states, /rate_table/zero_index and /gyro/pulses,
-feeds the core :class:`~gyro_calib.calibrator.RateBiasCalibrator` by stamp, and
-publishes /gyro_calib/k_tilde (rad/pulse, transient-local) and /diagnostics.
-Parameters: every field of :class:`~gyro_calib.config.KTildeConfig`, plus
-``config_file`` (YAML; plain mapping or ROS 2 parameter file) whose values win
-over the defaults.
+Subscribes /gyro/pulses and the joint_states and zero_index of the rate table and
+(for θ) the position table, feeds the core
+:class:`~gyro_calib.rbrlg_calibration.RbrlgCalibrator` by stamp, and publishes
+/gyro_calib/k_tilde, /gyro_calib/fix_error_angle, /gyro_calib/scale_factor
+(transient-local) and /diagnostics. Parameters: every field of
+:class:`~gyro_calib.config.KTildeConfig`, ``config_file`` (YAML; plain mapping or
+ROS 2 parameter file) whose values win, ``position_table_revolutions`` (n),
+``latitude_deg`` and ``heading_deg`` (site, for the bias; NaN = not given).
 """
 
 from __future__ import annotations
@@ -21,7 +23,9 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Header
 
 from gyro_calib import topics
-from gyro_calib.calibrator import CalibrationUpdate, RateBiasCalibrator
+from gyro_calib.calibrator import CalibrationUpdate
+from gyro_calib.rbrlg_calibration import RbrlgCalibrator
+from gyro_calib.stations import Station
 from gyro_calib.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.nodes.ros_io import (
@@ -32,7 +36,7 @@ from gyro_calib.nodes.ros_io import (
     spin,
     stamp_to_ns,
 )
-from gyro_calib.units import RAD_PER_ARCSEC
+from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
 
 class CalibrationNode(Node):
@@ -47,15 +51,31 @@ class CalibrationNode(Node):
         path = self.get_parameter('config_file').value
         self.config = (load_k_tilde_config(path) if path
                        else k_tilde_config_from_mapping(values, source='ROS parameters'))
+        site = {name: self.declare_parameter(name, default, ParameterDescriptor(
+            description=text)).value for name, default, text in (
+            ('position_table_revolutions', 1, 'n: position-table revolutions each way per '
+             'station.'),
+            ('latitude_deg', float('nan'), 'Site latitude, °, to separate the bias from the '
+             'Earth rate (NaN: bias not reported).'),
+            ('heading_deg', 0.0, 'Angle from East to the position-table base x axis, °.'))}
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
-        self.calibrator = RateBiasCalibrator(self.config)
+        self.bench = RbrlgCalibrator(self.config, int(site['position_table_revolutions']),
+                                     float(site['latitude_deg']), float(site['heading_deg']))
+        self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
         self._bad_messages = 0
+        self._station_rejections_seen = 0
         self.create_subscription(JointState, topics.GYRO_PULSES, self._on_pulses, SENSOR_QOS)
         self.create_subscription(
             JointState, topics.RATE_TABLE_JOINT_STATES, self._on_table, SENSOR_QOS)
         self.create_subscription(Header, topics.RATE_TABLE_ZERO_INDEX, self._on_index, EVENT_QOS)
+        self.create_subscription(JointState, topics.POSITION_TABLE_JOINT_STATES,
+                                 self._on_position_table, SENSOR_QOS)
+        self.create_subscription(Header, topics.POSITION_TABLE_ZERO_INDEX,
+                                 self._on_position_index, EVENT_QOS)
         self.k_tilde_pub = self.create_publisher(Float64, topics.K_TILDE, RESULT_QOS)
+        self.theta_pub = self.create_publisher(Float64, topics.FIX_ERROR_ANGLE, RESULT_QOS)
+        self.k_pub = self.create_publisher(Float64, topics.SCALE_FACTOR, RESULT_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
         self.create_timer(0.2, self._process)
         self.create_timer(1.0, self._publish_diagnostics)
@@ -84,18 +104,41 @@ class CalibrationNode(Node):
     def _on_pulses(self, msg: JointState) -> None:
         sample = self._joint_sample(msg, topics.GYRO_JOINT)
         if sample is not None:
-            self.calibrator.add_pulses(sample[0], sample[1])
+            self.bench.add_pulses(sample[0], sample[1])
 
     def _on_table(self, msg: JointState) -> None:
         sample = self._joint_sample(msg, topics.RATE_TABLE_JOINT)
         if sample is not None:
-            self.calibrator.add_table_state(*sample)
+            self.bench.add_rate_table_state(*sample)
 
     def _on_index(self, msg: Header) -> None:
-        self.calibrator.add_zero_index(stamp_to_ns(msg.stamp))
+        self.bench.add_rate_zero_index(stamp_to_ns(msg.stamp))
+
+    def _on_position_table(self, msg: JointState) -> None:
+        sample = self._joint_sample(msg, topics.POSITION_TABLE_JOINT)
+        if sample is not None:
+            self.bench.add_position_table_state(*sample)
+
+    def _on_position_index(self, msg: Header) -> None:
+        self.bench.add_position_zero_index(stamp_to_ns(msg.stamp))
 
     def _process(self) -> None:
-        self._report(self.calibrator.process())
+        update, stations = self.bench.process()
+        self._report(update)
+        if stations:
+            self._report_stations(stations)
+
+    def _report_stations(self, stations: list[Station]) -> None:
+        log = self.get_logger()
+        for rejection in self.bench.stations.rejections[self._station_rejections_seen:]:
+            self._last_rejection = rejection.reason
+            log.warning(f'skipped: {rejection.reason}')
+        self._station_rejections_seen = len(self.bench.stations.rejections)
+        for st in stations:
+            log.info(f'station accepted: β = {math.degrees(st.rate_table_angle_rad):.4f}°, '
+                     f'N_og = {st.half_difference_pulses:.3f} ± '
+                     f'{st.half_difference_std_pulses:.3f} pulses')
+        self._publish_results()
 
     def _report(self, update: CalibrationUpdate) -> None:
         log = self.get_logger()
@@ -116,6 +159,19 @@ class CalibrationNode(Node):
         self.k_tilde_pub.publish(Float64(data=k.value * RAD_PER_ARCSEC))
         log.info(f'K̃ = {k.value:.10f} ″/pulse ± {k.relative_uncertainty * 1e6:.4f} ppm '
                  f'({k.n_used} pairs)')
+        self._publish_results()
+
+    def _publish_results(self) -> None:
+        """θ and K once both phases gave them; then the diagnostics."""
+        res = self.bench.results()
+        if res.fix_error is not None and res.scale_factor_arcsec_per_pulse is not None:
+            theta, k = res.fix_error.fix_error_angle_rad, res.scale_factor_arcsec_per_pulse
+            self.theta_pub.publish(Float64(data=theta.value))
+            self.k_pub.publish(Float64(data=k.value * RAD_PER_ARCSEC))
+            self.get_logger().info(
+                f'θ = {theta.value * ARCSEC_PER_RAD:.3f}″ ± '
+                f'{theta.std_uncertainty * ARCSEC_PER_RAD:.3f}″ ({theta.n_used} stations); '
+                f'K = {k.value:.10f} ″/pulse ± {k.relative_uncertainty * 1e6:.4f} ppm')
         self._publish_diagnostics()
 
     def _publish_diagnostics(self) -> None:
@@ -146,6 +202,21 @@ class CalibrationNode(Node):
                 'earth_plus_bias_deg_h': repr(eb.value),
                 'earth_plus_bias_std_uncertainty_deg_h': repr(eb.std_uncertainty),
             })
+        res = self.bench.results()
+        values['stations'] = str(len(self.bench.stations.stations))
+        if res.fix_error is not None:
+            theta = res.fix_error.fix_error_angle_rad
+            values['fix_error_angle_rad'] = repr(theta.value)
+            values['fix_error_angle_std_uncertainty_rad'] = repr(theta.std_uncertainty)
+            values['tilt_rad'] = repr(res.fix_error.tilt_rad.value)
+        if res.scale_factor_arcsec_per_pulse is not None:
+            k_ = res.scale_factor_arcsec_per_pulse
+            values['scale_factor_rad_per_pulse'] = repr(k_.value * RAD_PER_ARCSEC)
+            values['scale_factor_std_uncertainty_rad_per_pulse'] = repr(
+                k_.std_uncertainty * RAD_PER_ARCSEC)
+        if res.bias_deg_h is not None:
+            values['bias_deg_h'] = repr(res.bias_deg_h.value)
+            values['bias_std_uncertainty_deg_h'] = repr(res.bias_deg_h.std_uncertainty)
         status.values = [KeyValue(key=k_, value=v) for k_, v in values.items()]
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()

@@ -14,6 +14,7 @@ from typing import Any
 
 NODE_MODULES = {
     'calibration_node': 'gyro_calib.nodes.calibration_node',
+    'imu_corrector': 'gyro_calib.nodes.imu_corrector_node',
     'rate_table_sim': 'sim_nodes.rate_table_node',
     'rlg_sim': 'sim_nodes.rlg_node',
 }

@@ -56,8 +56,11 @@ def declare_dataclass_parameters(node: Node, cls: type, prefix: str = '') -> dic
     for f in dataclasses.fields(cls):
         default = getattr(defaults, f.name)
         desc = ParameterDescriptor(description=descriptions.get(f.name, ''))
+        if isinstance(default, tuple):  # ROS arrays are lists
+            default = list(default)
         node.declare_parameter(prefix + f.name, default, desc)
-        values[f.name] = node.get_parameter(prefix + f.name).value
+        value = node.get_parameter(prefix + f.name).value
+        values[f.name] = tuple(value) if isinstance(default, list) else value
     return values
 
 

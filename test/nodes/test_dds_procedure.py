@@ -1,0 +1,60 @@
+"""The full procedure over DDS (K̃ phase, then θ stations) matches the offline core."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from gyro_calib.rbrlg_calibration import calibrate_rbrlg
+from gyro_calib.units import RAD_PER_ARCSEC
+from sim_nodes.bench import simulate_full_procedure
+from sim_nodes.procedure import ThetaProcedureConfig
+from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.two_axis_gyro import TiltedMountConfig
+
+from .dds_harness import NodeProcess, ResultListener, launch
+
+SPEED = 5.0
+
+
+@pytest.fixture
+def listener() -> Iterator[ResultListener]:
+    lst = ResultListener()
+    yield lst
+    lst.close()
+
+
+@pytest.fixture
+def nodes() -> Iterator[list[NodeProcess]]:
+    started: list[NodeProcess] = []
+    yield started
+    for node in started:
+        node.stop()
+
+
+def test_live_procedure_publishes_theta_and_k_equal_to_offline(
+        listener: ResultListener, nodes: list[NodeProcess]) -> None:
+    seed, pairs = 6, 2
+    gyro = RingLaserGyroConfig(seed=seed, sense_axis_azimuth_deg=23.0)
+    rec = simulate_full_procedure(ThetaProcedureConfig(), RateTableConfig(seed=seed), gyro,
+                                  TiltedMountConfig(), k_tilde_pairs=pairs)
+    expected, _ = calibrate_rbrlg(rec, latitude_deg=gyro.latitude_deg)
+    assert expected.fix_error is not None and expected.scale_factor_arcsec_per_pulse is not None
+    nodes.append(launch('calibration_node', {'latitude_deg': gyro.latitude_deg}))
+    nodes.append(launch('rlg_sim', {'seed': seed, 'sense_axis_azimuth_deg': 23.0}))
+    nodes.append(launch('rate_table_sim', {'scenario': 'full', 'k_tilde_pairs': pairs,
+                                           'seed': seed, 'real_time_factor': SPEED}))
+    duration = rec.pulse_t_ns[-1] / 1e9
+    done = listener.spin_until(lambda: listener.diagnostics.get('stations') == '4'
+                               and 'scale_factor_rad_per_pulse' in listener.diagnostics,
+                               duration / SPEED + 300)
+    logs = '\n'.join(n.log() for n in nodes)
+    assert done, logs
+    diag = listener.diagnostics
+    assert float(diag['fix_error_angle_rad']) == expected.fix_error.fix_error_angle_rad.value
+    k = expected.scale_factor_arcsec_per_pulse.value * RAD_PER_ARCSEC
+    assert float(diag['scale_factor_rad_per_pulse']) == k
+    assert diag['windows_rejected'] == '0', logs
+    assert 'station accepted' in nodes[0].log()

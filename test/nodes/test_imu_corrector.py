@@ -1,0 +1,235 @@
+"""imu_corrector: pulse counts become K·Δn/Δt − bias with the documented variance, and a new
+hand-off file is picked up while running."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from gyro_calib.estimate import Rejection
+from gyro_calib.handoff import GyroCalibration, HandoffError, write_calibration
+from gyro_calib.imu_conversion import (
+    UNKNOWN_AXIS_VARIANCE_RAD2_S2,
+    ImuAngularVelocity,
+    PulseRateConverter,
+    angular_velocity_from_pulses,
+)
+from gyro_calib.units import RAD_PER_ARCSEC
+
+from .dds_harness import NodeProcess, launch
+
+K_RAD = 0.84279066 * RAD_PER_ARCSEC
+T0_NS = 1_795_426_200_000_000_000
+
+
+def _calibration(k_rad: float = K_RAD, bias_rad_s: float = 7.3e-6,
+                 arw: float | None = 2.9e-7) -> GyroCalibration:
+    return GyroCalibration(
+        k_tilde_rad_per_pulse=k_rad / math.cos(646.75 * RAD_PER_ARCSEC),
+        k_tilde_rad_per_pulse_std=5e-14, scale_factor_rad_per_pulse=k_rad,
+        scale_factor_rad_per_pulse_std=6e-14, fix_error_angle_rad=646.75 * RAD_PER_ARCSEC,
+        fix_error_angle_rad_std=2e-6, bias_rad_s=bias_rad_s, bias_rad_s_std=3e-9,
+        angle_random_walk_rad_per_sqrt_s=arw,
+        angle_random_walk_rad_per_sqrt_s_std=None if arw is None else 1e-8,
+        window_pairs=3, stations=4, data_start_stamp_ns=T0_NS - 600 * 10**9,
+        data_end_stamp_ns=T0_NS - 10**9, source='test')
+
+
+def _expected_variance(cal: GyroCalibration, pulses: float, dt_s: float) -> float:
+    k, u_k = cal.scale_factor_rad_per_pulse, cal.scale_factor_rad_per_pulse_std
+    assert k is not None and u_k is not None
+    arw = cal.angle_random_walk_rad_per_sqrt_s or 0.0
+    return (arw**2 / dt_s + k**2 / (6 * dt_s**2) + (pulses / dt_s * u_k) ** 2
+            + cal.bias_rad_s_std**2)
+
+
+@pytest.mark.parametrize('arw', [2.9e-7, None])
+@pytest.mark.parametrize('pulses, dt_ns', [(412.0, 1_000_000), (-3201.0, 8_000_000),
+                                           (0.0, 250_000)])
+def test_rate_is_k_times_count_rate_minus_bias_with_documented_variance(
+        pulses: float, dt_ns: int, arw: float | None) -> None:
+    cal = _calibration(arw=arw)
+    out = angular_velocity_from_pulses(T0_NS, 1e8, T0_NS + dt_ns, 1e8 + pulses, cal)
+    dt_s = dt_ns / 1e9
+    assert out.stamp_ns == T0_NS + dt_ns
+    assert out.angular_velocity_rad_s[:2] == (0.0, 0.0)
+    assert out.angular_velocity_rad_s[2] == pytest.approx(
+        K_RAD * pulses / dt_s - cal.bias_rad_s, rel=1e-12, abs=1e-18)
+    cov = np.array(out.covariance_rad2_s2).reshape(3, 3)
+    assert cov[2, 2] == pytest.approx(_expected_variance(cal, pulses, dt_s), rel=1e-12)
+    assert cov[0, 0] == cov[1, 1] == UNKNOWN_AXIS_VARIANCE_RAD2_S2
+    assert np.count_nonzero(cov - np.diag(np.diag(cov))) == 0
+
+
+def test_quantisation_variance_matches_uniform_rounding_at_both_ends() -> None:
+    rng = np.random.default_rng(145)
+    true_angle_pulses = rng.uniform(0, 1e6, size=(2, 200_000))
+    rounded = np.round(true_angle_pulses)
+    error = (rounded[1] - rounded[0]) - (true_angle_pulses[1] - true_angle_pulses[0])
+    assert np.var(error) == pytest.approx(1 / 6, rel=0.02)
+
+
+def test_conversion_without_scale_factor_is_refused() -> None:
+    cal = _calibration()
+    k_tilde_only = GyroCalibration(**{**{n: getattr(cal, n) for n in cal.__dataclass_fields__},
+                                      'scale_factor_rad_per_pulse': None,
+                                      'scale_factor_rad_per_pulse_std': None,
+                                      'fix_error_angle_rad': None,
+                                      'fix_error_angle_rad_std': None, 'stations': 0})
+    with pytest.raises(HandoffError, match='no scale_factor_rad_per_pulse'):
+        PulseRateConverter(k_tilde_only)
+    converter = PulseRateConverter(cal)
+    with pytest.raises(HandoffError):
+        converter.calibration = k_tilde_only
+    assert converter.calibration is cal
+
+
+def test_streaming_converter_equals_pairwise_function_and_skips_bad_samples() -> None:
+    cal = _calibration()
+    stream: list[tuple[int, float]] = [
+        (T0_NS, 10.0), (T0_NS + 1_000_000, 422.0), (T0_NS + 2_000_000, math.nan),
+        (T0_NS + 3_000_000, 1246.0), (T0_NS + 3_000_000, 1246.0),  # duplicate stamp
+        (T0_NS + 4_000_000, 1658.0)]
+    converter = PulseRateConverter(cal)
+    outs = [converter.add(t, n) for t, n in stream]
+    assert outs[0] is None
+    assert isinstance(outs[2], Rejection) and 'not finite' in outs[2].reason
+    assert isinstance(outs[4], Rejection) and 'not after the previous' in outs[4].reason
+    assert outs[1] == angular_velocity_from_pulses(*stream[0], *stream[1], cal)
+    assert outs[3] == angular_velocity_from_pulses(*stream[1], *stream[3], cal)  # across NaN
+    assert outs[5] == angular_velocity_from_pulses(*stream[4], *stream[5], cal)
+
+
+def test_streaming_converter_follows_a_source_whose_stamps_jumped_back() -> None:
+    converter = PulseRateConverter(_calibration())
+    converter.add(T0_NS + 10**9, 5e5)
+    assert isinstance(converter.add(T0_NS, 0.0), Rejection)  # restarted source
+    out = converter.add(T0_NS + 1_000_000, 412.0)
+    assert isinstance(out, ImuAngularVelocity)
+    assert out.angular_velocity_rad_s[2] == pytest.approx(K_RAD * 412e3 - 7.3e-6, rel=1e-12)
+
+
+# ---------------------------------------------------------------------------- over DDS
+
+
+class PulseBench:
+    """Publishes /gyro/pulses and collects /gyro/imu in this test process."""
+
+    def __init__(self, pulses_per_sample: float, dt_ns: int) -> None:
+        import rclpy
+        from sensor_msgs.msg import Imu, JointState
+
+        from gyro_calib import topics
+        from gyro_calib.nodes.imu_corrector_node import GYRO_IMU
+        from gyro_calib.nodes.ros_io import SENSOR_QOS, make_executor
+
+        self._rclpy, self._joint_state = rclpy, JointState
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node('test_pulse_bench', context=self.context)
+        self.pub = self.node.create_publisher(JointState, topics.GYRO_PULSES, SENSOR_QOS)
+        self.imu: list[Any] = []
+        self.node.create_subscription(Imu, GYRO_IMU, self.imu.append, SENSOR_QOS)
+        self.executor = make_executor(self.context)
+        self.executor.add_node(self.node)
+        self.pulses_per_sample, self.dt_ns = pulses_per_sample, dt_ns
+        self.i = 0
+
+    def publish(self, n: int) -> None:
+        from gyro_calib.nodes.ros_io import ns_to_stamp, publish_paced
+
+        for _ in range(n):
+            msg = self._joint_state(name=['gyro'], position=[1e8 + self.i * self.pulses_per_sample])
+            ns_to_stamp(T0_NS + self.i * self.dt_ns, msg.header.stamp)
+            publish_paced(self.pub, msg)
+            self.i += 1
+            self.executor.spin_once(timeout_sec=0.002)  # ~ 300 samples/s of wall time
+
+    def spin_until(self, done: Any, timeout_s: float, *, publishing: bool = False) -> bool:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if publishing:
+                self.publish(10)
+            self.executor.spin_once(timeout_sec=0.05)
+            if done():
+                return True
+        return False
+
+    def close(self) -> None:
+        self.node.destroy_node()
+        self._rclpy.shutdown(context=self.context)
+
+
+@pytest.fixture
+def bench() -> Iterator[PulseBench]:
+    b = PulseBench(pulses_per_sample=412.0, dt_ns=1_000_000)  # 412 000 pulses/s at 1 kHz
+    yield b
+    b.close()
+
+
+@pytest.fixture
+def corrector(tmp_path: Path) -> Iterator[tuple[NodeProcess, Path]]:
+    path = tmp_path / 'gyro.yaml'  # written by the test once the node runs
+    node = launch('imu_corrector', {'calibration_file': str(path), 'frame_id': 'rlg_z'})
+    yield node, path
+    node.stop()
+
+
+def _check(msgs: list[Any], cal: GyroCalibration) -> None:
+    k, rate_pulses_s, dt_s = cal.scale_factor_rad_per_pulse, 412_000.0, 1e-3
+    assert k is not None
+    expected = k * rate_pulses_s - cal.bias_rad_s
+    variance = _expected_variance(cal, 412.0, dt_s)
+    for m in msgs:
+        assert abs(m.angular_velocity.z / expected - 1) < 1e-9
+        assert (m.angular_velocity.x, m.angular_velocity.y) == (0.0, 0.0)
+        assert m.header.frame_id == 'rlg_z'
+        cov = list(m.angular_velocity_covariance)
+        assert cov[8] == pytest.approx(variance, rel=1e-9)
+        assert cov[0] == cov[4] == UNKNOWN_AXIS_VARIANCE_RAD2_S2
+        assert cov[1:4] + cov[5:8] == [0.0] * 6
+        assert m.orientation_covariance[0] == -1.0
+        assert m.linear_acceleration_covariance[0] == -1.0
+
+
+def test_node_publishes_calibrated_imu_and_follows_a_rewritten_file(
+        bench: PulseBench, corrector: tuple[NodeProcess, Path]) -> None:
+    node, path = corrector
+    assert bench.spin_until(lambda: bench.pub.get_subscription_count() > 0
+                            and 'cannot read calibration file' in node.log(), 60), node.log()
+    bench.publish(50)  # no file yet: nothing may come out
+    bench.spin_until(lambda: False, 1.0)
+    assert bench.imu == [], node.log()
+
+    first = _calibration()
+    write_calibration(path, first)
+    assert bench.spin_until(lambda: len(bench.imu) > 0, 10, publishing=True), node.log()
+    n0 = len(bench.imu)
+    bench.publish(300)
+    assert bench.spin_until(lambda: len(bench.imu) == n0 + 300, 30), (len(bench.imu), n0)
+    _check(bench.imu, first)
+    # every header stamp is the later sample's stamp, in order
+    stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in bench.imu]
+    assert all((s - T0_NS) % 1_000_000 == 0 for s in stamps)
+    assert stamps == sorted(stamps) and stamps[-1] == T0_NS + (bench.i - 1) * 1_000_000
+
+    second = _calibration(k_rad=K_RAD * (1 + 2e-4), bias_rad_s=-4.1e-6, arw=None)
+    n_before = len(bench.imu)
+    write_calibration(path, second)
+    changed = time.monotonic()
+    assert bench.spin_until(lambda: abs(bench.imu[-1].angular_velocity.z / (
+        K_RAD * (1 + 2e-4) * 412e3 + 4.1e-6) - 1) < 1e-9, 10, publishing=True), node.log()
+    assert time.monotonic() - changed < 5.0
+    switch = next(i for i in range(n_before, len(bench.imu))
+                  if bench.imu[i].angular_velocity.z != bench.imu[n_before - 1].angular_velocity.z)
+    _check(bench.imu[:switch], first)
+    _check(bench.imu[switch:], second)
+    assert f'K = {K_RAD * (1 + 2e-4)!r}' in node.log()
+    assert 'no angle_random_walk_rad_per_sqrt_s' in node.log()
+    print(node.log())
