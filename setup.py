@@ -27,6 +27,7 @@ setup(
             'rate_table_sim = sim_nodes.rate_table_node:main',
             'rlg_sim = sim_nodes.rlg_node:main',
             'bench_demo = gyro_calib.nodes.bench_demo:main',
+            'imu_corrector = gyro_calib.nodes.imu_corrector_node:main',
         ],
     },
 )

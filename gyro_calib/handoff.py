@@ -200,7 +200,7 @@ _GYRO_KEYS = ('k_tilde_rad_per_pulse', 'k_tilde_rad_per_pulse_std',
               'fix_error_angle_rad', 'fix_error_angle_rad_std', 'bias_rad_s', 'bias_rad_s_std',
               'angle_random_walk_rad_per_sqrt_s', 'angle_random_walk_rad_per_sqrt_s_std',
               'window_pairs', 'stations')
-_GYRO_REQUIRED = tuple(_GyroSectionRequired.__annotations__)
+_GYRO_REQUIRED = tuple(k for k in _GYRO_KEYS if k in GyroSectionYaml.__required_keys__)
 
 
 def calibration_to_yaml_dict(calibration: GyroCalibration) -> CalibrationYaml:

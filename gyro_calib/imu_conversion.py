@@ -32,6 +32,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from gyro_calib.errors import StreamError
 from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import GyroCalibration, HandoffError
 
@@ -66,13 +67,16 @@ def angular_velocity_from_pulses(t0_ns: int, count0: float, t1_ns: int, count1: 
         count1: cumulative pulse count at ``t1_ns``, pulses.
         calibration: hand-off values; K (``scale_factor_rad_per_pulse``) must be known.
 
+    Returns:
+        The rate about x, y, z (z = sense axis) at ``t1_ns`` and its covariance.
+
     Raises:
         HandoffError: if the calibration has no K (θ not measured).
-        ValueError: if ``t1_ns <= t0_ns``.
+        StreamError: if ``t1_ns <= t0_ns``.
     """
     k, k_std = require_scale_factor(calibration)
     if t1_ns <= t0_ns:
-        raise ValueError(f'stamps must increase: t1_ns = {t1_ns} <= t0_ns = {t0_ns}.')
+        raise StreamError(f'stamps must increase: t1_ns = {t1_ns} <= t0_ns = {t0_ns}.')
     dt_s = (t1_ns - t0_ns) / 1e9
     measured_rad_s = k * (count1 - count0) / dt_s
     arw = calibration.angle_random_walk_rad_per_sqrt_s or 0.0
