@@ -215,13 +215,16 @@ class RateBiasCalibrator:
             buf.discard_before(keep_from)
 
     def _trim_idle(self) -> None:
-        """With no index events at all, keep memory bounded to max_window_s of data."""
+        """With no index events at all, keep memory bounded to about max_window_s of data.
+
+        Trims only once a buffer holds 1.25 × max_window_s, so the cost is amortised.
+        """
         limit = int(self.config.max_window_s * NS_PER_S)
-        opened = self._cutter.open_event
+        if self._cutter.open_event is not None:
+            return
         for buf in (self.pulses, self.table):
-            newest = buf.newest_ns
-            if newest is not None and len(buf) and opened is None:
-                buf.discard_before(newest - limit)
+            if buf.span_ns() > limit * 5 // 4:
+                buf.discard_before(buf.newest_ns - limit)  # type: ignore[operator]
 
     # -- results -----------------------------------------------------------------------------
     @property

@@ -173,6 +173,13 @@ class StampedBuffer:
             self._t, self._v = self._t[cut:], self._v[cut:]
         self._floor_ns = t_ns if self._floor_ns is None else max(self._floor_ns, t_ns)
 
+    def span_ns(self) -> int:
+        """Newest minus oldest stamp held (0 when empty), without consolidating."""
+        if self._newest_ns is None:
+            return 0
+        oldest = int(self._t[0]) if len(self._t) else min(self._pending_t, default=self._newest_ns)
+        return self._newest_ns - oldest
+
     def __len__(self) -> int:
         """Number of samples held."""
         return len(self._t) + len(self._pending_t)

@@ -49,7 +49,7 @@ def test_live_procedure_publishes_theta_and_k_equal_to_offline(
     duration = rec.pulse_t_ns[-1] / 1e9
     done = listener.spin_until(lambda: listener.diagnostics.get('stations') == '4'
                                and 'scale_factor_rad_per_pulse' in listener.diagnostics,
-                               duration / SPEED + 300)
+                               duration / SPEED + 900)
     logs = '\n'.join(n.log() for n in nodes)
     assert done, logs
     diag = listener.diagnostics
