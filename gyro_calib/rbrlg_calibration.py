@@ -23,7 +23,8 @@ from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Estimate
 from gyro_calib.scale_factor import scale_factor
 from gyro_calib.stations import Station, StationCalibrator
-from gyro_calib.units import EARTH_RATE_DEG_H
+from gyro_calib.handoff import GyroCalibration
+from gyro_calib.units import EARTH_RATE_DEG_H, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     from gyro_calib.fix_error_angle import FixErrorAngleResult
@@ -165,3 +166,30 @@ def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
     cal.process(flush=True)
     return cal.results(), cal
 
+
+
+def handoff_calibration(results: RbrlgResults, calibrator: RbrlgCalibrator, *,
+                        source: str) -> GyroCalibration | None:
+    """The INS hand-off record of a complete calibration (K̃, θ, K, bias), else None.
+
+    Values are converted to SI (rad/pulse, rad, rad/s); the data span runs from the
+    first accepted K̃ window to the last station.
+    """
+    if (results.k_tilde_arcsec_per_pulse is None or results.fix_error is None
+            or results.scale_factor_arcsec_per_pulse is None or results.bias_deg_h is None):
+        return None
+    k_t, k = results.k_tilde_arcsec_per_pulse, results.scale_factor_arcsec_per_pulse
+    theta = results.fix_error.fix_error_angle_rad
+    stamps = [w.start_ns for w in calibrator.k_tilde.windows]
+    stamps += [s.end_ns for s in calibrator.stations.stations]
+    deg_h = math.radians(1.0) / 3600.0  # rad/s per °/h
+    return GyroCalibration(
+        k_tilde_rad_per_pulse=k_t.value * RAD_PER_ARCSEC,
+        k_tilde_rad_per_pulse_std=k_t.std_uncertainty * RAD_PER_ARCSEC,
+        bias_rad_s=results.bias_deg_h.value * deg_h,
+        bias_rad_s_std=results.bias_deg_h.std_uncertainty * deg_h,
+        window_pairs=k_t.n_used, stations=theta.n_used,
+        data_start_stamp_ns=min(stamps), data_end_stamp_ns=max(stamps), source=source,
+        scale_factor_rad_per_pulse=k.value * RAD_PER_ARCSEC,
+        scale_factor_rad_per_pulse_std=k.std_uncertainty * RAD_PER_ARCSEC,
+        fix_error_angle_rad=theta.value, fix_error_angle_rad_std=theta.std_uncertainty)

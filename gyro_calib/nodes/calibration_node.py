@@ -24,7 +24,8 @@ from std_msgs.msg import Float64, Header
 
 from gyro_calib import topics
 from gyro_calib.calibrator import CalibrationUpdate
-from gyro_calib.rbrlg_calibration import RbrlgCalibrator
+from gyro_calib.handoff import write_calibration
+from gyro_calib.rbrlg_calibration import RbrlgCalibrator, handoff_calibration
 from gyro_calib.stations import Station
 from gyro_calib.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
@@ -57,7 +58,10 @@ class CalibrationNode(Node):
              'station.'),
             ('latitude_deg', float('nan'), 'Site latitude, °, to separate the bias from the '
              'Earth rate (NaN: bias not reported).'),
-            ('heading_deg', 0.0, 'Angle from East to the position-table base x axis, °.'))}
+            ('heading_deg', 0.0, 'Angle from East to the position-table base x axis, °.'),
+            ('output_file', 'gyro_calibration.yaml', 'INS hand-off YAML, rewritten atomically '
+             'whenever K̃, θ, K and bias are all measured ("" = do not write).'))}
+        self.output_file = str(site.pop('output_file'))
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self.bench = RbrlgCalibrator(self.config, int(site['position_table_revolutions']),
                                      float(site['latitude_deg']), float(site['heading_deg']))
@@ -172,7 +176,24 @@ class CalibrationNode(Node):
                 f'θ = {theta.value * ARCSEC_PER_RAD:.3f}″ ± '
                 f'{theta.std_uncertainty * ARCSEC_PER_RAD:.3f}″ ({theta.n_used} stations); '
                 f'K = {k.value:.10f} ″/pulse ± {k.relative_uncertainty * 1e6:.4f} ppm')
+            self._write_handoff(res)
         self._publish_diagnostics()
+
+    def _write_handoff(self, results: object) -> None:
+        record = handoff_calibration(results, self.bench, source='live')  # type: ignore[arg-type]
+        if not self.output_file:
+            return
+        if record is None:
+            self.get_logger().warning('hand-off file not written: the bias needs latitude_deg '
+                                      '(Earth rate along the table axis).', once=True)
+            return
+        try:
+            path = write_calibration(self.output_file, record)
+        except GyroCalibError as exc:
+            self._last_rejection = str(exc)
+            self.get_logger().error(f'hand-off file not written: {exc}')
+        else:
+            self.get_logger().info(f'calibration written to {path}')
 
     def _publish_diagnostics(self) -> None:
         cal = self.calibrator
