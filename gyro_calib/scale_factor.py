@@ -86,7 +86,7 @@ def mean_estimate(values: list[float], rejected: tuple[Rejection, ...] = ()) -> 
         raise InsufficientDataError(f'{n} value(s) cannot give a mean with an uncertainty; '
                                     'need at least 2.')
     arr = np.asarray(values, dtype=np.float64)
-    ref = arr[0]
+    ref = float(arr[0])
     dev = arr - ref
     mean = ref + float(np.mean(dev))
     std = float(np.std(dev, ddof=1)) / math.sqrt(n)
