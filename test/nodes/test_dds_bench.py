@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
-import pytest
-
 from gyro_calib.calibrator import calibrate_k_tilde
 from gyro_calib.units import RAD_PER_ARCSEC
 from sim_nodes.bench import simulate_rate_bias_bench
@@ -15,21 +11,6 @@ from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
 from .dds_harness import NodeProcess, ResultListener, launch
 
 SPEED = 5.0
-
-
-@pytest.fixture
-def listener() -> Iterator[ResultListener]:
-    lst = ResultListener()
-    yield lst
-    lst.close()
-
-
-@pytest.fixture
-def nodes() -> Iterator[list[NodeProcess]]:
-    started: list[NodeProcess] = []
-    yield started
-    for node in started:
-        node.stop()
 
 
 def _offline_k_tilde_rad(duration_s: float, seed: int) -> tuple[float, int]:

@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
-import pytest
-
 from gyro_calib.rbrlg_calibration import calibrate_rbrlg
 from gyro_calib.units import RAD_PER_ARCSEC
 from sim_nodes.bench import simulate_full_procedure
@@ -17,21 +13,6 @@ from sim_nodes.two_axis_gyro import TiltedMountConfig
 from .dds_harness import NodeProcess, ResultListener, launch
 
 SPEED = 5.0
-
-
-@pytest.fixture
-def listener() -> Iterator[ResultListener]:
-    lst = ResultListener()
-    yield lst
-    lst.close()
-
-
-@pytest.fixture
-def nodes() -> Iterator[list[NodeProcess]]:
-    started: list[NodeProcess] = []
-    yield started
-    for node in started:
-        node.stop()
 
 
 def test_live_procedure_publishes_theta_and_k_equal_to_offline(
