@@ -11,6 +11,7 @@ CORE_MODULES = [
     'gyro_calib.calibrator',
     'gyro_calib.config',
     'gyro_calib.errors',
+    'gyro_calib.diagnostics',
     'gyro_calib.error_budget',
     'gyro_calib.estimate',
     'gyro_calib.fix_error_angle',

@@ -24,6 +24,7 @@ from std_msgs.msg import Float64, Header
 
 from gyro_calib import topics
 from gyro_calib.calibrator import CalibrationUpdate
+from gyro_calib.diagnostics import calibration_status
 from gyro_calib.handoff import write_calibration
 from gyro_calib.rbrlg_calibration import RbrlgCalibrator, handoff_calibration
 from gyro_calib.stations import Station
@@ -196,53 +197,14 @@ class CalibrationNode(Node):
             self.get_logger().info(f'calibration written to {path}')
 
     def _publish_diagnostics(self) -> None:
-        cal = self.calibrator
-        status = DiagnosticStatus(name='gyro_calib: k_tilde', hardware_id='gyro')
-        values = {
-            'window_pairs': str(len(cal.pairs)),
-            'windows_accepted': str(len(cal.windows)),
-            'windows_rejected': str(len(cal.rejections)),
-            'pulse_samples_missing': str(sum(w.pulse_samples_missing for w in cal.windows)),
-            'last_rejection': self._last_rejection,
-            'pulse_stream_dropped': cal.pulses.stats.summary(),
-            'table_stream_dropped': cal.table.stats.summary(),
-        }
-        try:
-            k = cal.k_tilde()
-            eb = cal.earth_plus_bias_deg_h()
-        except InsufficientDataError as exc:
-            status.level, status.message = DiagnosticStatus.WARN, str(exc)
-        else:
-            status.level = DiagnosticStatus.OK
-            status.message = f'K̃ from {k.n_used} window pairs'
-            values.update({
-                'k_tilde_rad_per_pulse': repr(k.value * RAD_PER_ARCSEC),
-                'k_tilde_std_uncertainty_rad_per_pulse': repr(k.std_uncertainty * RAD_PER_ARCSEC),
-                'k_tilde_arcsec_per_pulse': repr(k.value),
-                'k_tilde_std_uncertainty_arcsec_per_pulse': repr(k.std_uncertainty),
-                'earth_plus_bias_deg_h': repr(eb.value),
-                'earth_plus_bias_std_uncertainty_deg_h': repr(eb.std_uncertainty),
-            })
-        res = self.bench.results()
-        values['stations'] = str(len(self.bench.stations.stations))
-        if res.fix_error is not None:
-            theta = res.fix_error.fix_error_angle_rad
-            values['fix_error_angle_rad'] = repr(theta.value)
-            values['fix_error_angle_std_uncertainty_rad'] = repr(theta.std_uncertainty)
-            values['tilt_rad'] = repr(res.fix_error.tilt_rad.value)
-        if res.scale_factor_arcsec_per_pulse is not None:
-            k_ = res.scale_factor_arcsec_per_pulse
-            values['scale_factor_rad_per_pulse'] = repr(k_.value * RAD_PER_ARCSEC)
-            values['scale_factor_std_uncertainty_rad_per_pulse'] = repr(
-                k_.std_uncertainty * RAD_PER_ARCSEC)
-        if res.bias_deg_h is not None:
-            values['bias_deg_h'] = repr(res.bias_deg_h.value)
-            values['bias_std_uncertainty_deg_h'] = repr(res.bias_deg_h.std_uncertainty)
-        status.values = [KeyValue(key=k_, value=v) for k_, v in values.items()]
+        ok, message, values = calibration_status(self.bench, self._last_rejection)
+        status = DiagnosticStatus(
+            name='gyro_calib: k_tilde', hardware_id='gyro', message=message,
+            level=DiagnosticStatus.OK if ok else DiagnosticStatus.WARN,
+            values=[KeyValue(key=k, value=v) for k, v in values.items()])
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()
         self.diag_pub.publish(array)
-
 
 def main(args: list[str] | None = None) -> None:
     """Run the calibration node until shut down."""
