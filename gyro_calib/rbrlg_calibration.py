@@ -56,6 +56,7 @@ class RbrlgResults:
         scale_factor_arcsec_per_pulse: K = K̃·cos θ (eq. 4), ″/pulse.
         earth_plus_bias_deg_h: ω′ₑ + ω_B along og from the K̃ windows, °/h.
         bias_deg_h: ω_B, with the Earth rate along oZ removed (needs the site), °/h.
+        fix_error_problem: why θ (and so K) is not reported although stations exist, or ''.
     """
 
     k_tilde_arcsec_per_pulse: Estimate | None
@@ -63,6 +64,7 @@ class RbrlgResults:
     scale_factor_arcsec_per_pulse: Estimate | None
     earth_plus_bias_deg_h: Estimate | None
     bias_deg_h: Estimate | None
+    fix_error_problem: str = ''
 
 
 @dataclass(slots=True)
@@ -73,12 +75,16 @@ class RbrlgCalibrator:
         k_config: rate-table window settings (m).
         position_table_revolutions: n, position-table revolutions each way per station.
         latitude_deg, heading_deg: site, for the bias (NaN: bias not separated from Earth rate).
+        nominal_tilt_deg, tilt_tolerance_deg: the mount's α and how far the fitted α may be
+            from it before θ is refused as coming from a wrong set-up, °.
     """
 
     k_config: KTildeConfig = field(default_factory=KTildeConfig)
     position_table_revolutions: int = 1
     latitude_deg: float = math.nan
     heading_deg: float = 0.0
+    nominal_tilt_deg: float = 45.0
+    tilt_tolerance_deg: float = 5.0
     k_tilde: RateBiasCalibrator = field(init=False)
     stations: StationCalibrator = field(init=False)
     _position_angle_rad: float = 0.0
@@ -124,13 +130,21 @@ class RbrlgCalibrator:
             earth_bias = self.k_tilde.earth_plus_bias_deg_h()
         except InsufficientDataError:
             k_tilde = earth_bias = None
-        fix_error = None
-        if len(self.stations.stations) >= 3:
-            k_for_theta = k_tilde.value if k_tilde else math.nan
-            if k_tilde is not None:
-                try:
-                    fix_error = self.stations.fix_error_angle(k_for_theta)
-                except InsufficientDataError:
+        fix_error, problem = None, ''
+        if self.stations.stations and k_tilde is None:
+            problem = 'θ waits for K̃ (the K̃ phase has not given enough window pairs yet).'
+        elif self.stations.stations:
+            try:
+                fix_error = self.stations.fix_error_angle(k_tilde.value)  # type: ignore[union-attr]
+            except InsufficientDataError as exc:
+                problem = f'θ not reported: {exc}'
+            else:
+                alpha = math.degrees(fix_error.tilt_rad.value)
+                if abs(alpha - self.nominal_tilt_deg) > self.tilt_tolerance_deg:
+                    problem = (f'θ not reported: the fitted tilt α = {alpha:.3f}° is far from the '
+                               f'nominal {self.nominal_tilt_deg:g}° (tolerance '
+                               f'{self.tilt_tolerance_deg:g}°): wrong mounting, wrong K or '
+                               'stations from another set-up.')
                     fix_error = None
         k = None
         if k_tilde is not None and fix_error is not None:
@@ -143,7 +157,7 @@ class RbrlgCalibrator:
                 position_table_angle_rad=self._position_angle_rad)
             bias = Estimate(earth_bias.value - earth, earth_bias.std_uncertainty,
                             earth_bias.n_used, earth_bias.dof)
-        return RbrlgResults(k_tilde, fix_error, k, earth_bias, bias)
+        return RbrlgResults(k_tilde, fix_error, k, earth_bias, bias, problem)
 
 
 def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,

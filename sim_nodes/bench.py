@@ -116,14 +116,19 @@ ThetaRecording = TwoAxisRecording
 
 
 def two_axis_simulators(rate_profile: MotionProfile, position_profile: MotionProfile,
-                        table: RateTableConfig) -> tuple[RateTableSimulator, RateTableSimulator]:
-    """Both tables of the two-axis bench on one clock; they share ``table``'s encoder, index
-    and sample settings (the position table's index jitter is its Δφ_ON)."""
+                        table: RateTableConfig, position_index_jitter_arcsec: float = -1.0,
+                        ) -> tuple[RateTableSimulator, RateTableSimulator]:
+    """Both tables of the two-axis bench on one clock; they share ``table``'s encoder and
+    sample settings. The position table's index jitter (its Δφ_ON) is
+    ``position_index_jitter_arcsec``, or the rate table's when negative."""
     import dataclasses
 
     cfg = dataclasses.replace(table, duration_s=position_profile.duration_s)
+    jitter = (position_index_jitter_arcsec if position_index_jitter_arcsec >= 0
+              else cfg.zero_index_jitter_arcsec)
     return (RateTableSimulator(cfg, profile=rate_profile),
-            RateTableSimulator(dataclasses.replace(cfg, seed=cfg.seed + 1000),
+            RateTableSimulator(dataclasses.replace(cfg, seed=cfg.seed + 1000,
+                                                   zero_index_jitter_arcsec=jitter),
                                profile=position_profile))
 
 
@@ -131,9 +136,11 @@ def simulate_two_axis_bench(
     rate_profile: MotionProfile, position_profile: MotionProfile,
     stations_s: list[tuple[float, float]], table: RateTableConfig,
     gyro: RingLaserGyroConfig, mount: TiltedMountConfig, *, chunk_samples: int = CHUNK_SAMPLES,
+    position_index_jitter_arcsec: float = -1.0,
 ) -> TwoAxisRecording:
     """Run both tables along their profiles and the gyro on the composed motion."""
-    rate_sim, position_sim = two_axis_simulators(rate_profile, position_profile, table)
+    rate_sim, position_sim = two_axis_simulators(rate_profile, position_profile, table,
+                                                 position_index_jitter_arcsec)
     gyro_sim = TwoAxisGyroSimulator(gyro, mount)
     out: dict[str, list[npt.NDArray[np.float64]]] = {k: [] for k in (
         'pt', 'pn', 'rt', 'ra', 'rr', 'ri', 'qt', 'qa', 'qr', 'qi')}
@@ -168,8 +175,9 @@ def simulate_theta_procedure(
 ) -> TwoAxisRecording:
     """The θ procedure alone on the two-axis bench (METHODS §A.3)."""
     rate, position, stations = theta_procedure_profiles(procedure)
-    return simulate_two_axis_bench(rate, position, stations, table, gyro, mount,
-                                   chunk_samples=chunk_samples)
+    return simulate_two_axis_bench(
+        rate, position, stations, table, gyro, mount, chunk_samples=chunk_samples,
+        position_index_jitter_arcsec=procedure.position_table_index_jitter_arcsec)
 
 
 def simulate_full_procedure(
@@ -181,5 +189,6 @@ def simulate_full_procedure(
         procedure, k_tilde_pairs=k_tilde_pairs, rate_deg_s=table.rate_deg_s,
         acceleration_deg_s2=table.acceleration_deg_s2,
         revolutions_per_segment=table.revolutions_per_segment)
-    return simulate_two_axis_bench(rate, position, stations, table, gyro, mount,
-                                   chunk_samples=chunk_samples)
+    return simulate_two_axis_bench(
+        rate, position, stations, table, gyro, mount, chunk_samples=chunk_samples,
+        position_index_jitter_arcsec=procedure.position_table_index_jitter_arcsec)

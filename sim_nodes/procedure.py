@@ -32,6 +32,8 @@ class ThetaProcedureConfig:
     """Acceleration of both tables when they start, stop or reverse, °/s²."""
     settle_s: float = 1.0
     """Hold before and after each position-table run, s."""
+    position_table_index_jitter_arcsec: float = -1.0
+    """Δφ_ON: std of the position table's zero-index sync error, ″ (−1: as the rate table)."""
     station_error_arcsec: float = 0.0
     """Δβ: std of the rate-table positioning error at each station, ″."""
     seed: int = 1

@@ -82,7 +82,8 @@ class RateTableNode(Node):
                     revolutions_per_segment=self.config.revolutions_per_segment)
             else:
                 profiles = theta_procedure_profiles(procedure)
-            sims = list(two_axis_simulators(profiles[0], profiles[1], self.config))
+            sims = list(two_axis_simulators(profiles[0], profiles[1], self.config,
+                                            procedure.position_table_index_jitter_arcsec))
             truth_topic = topics.BENCH_TRUE_MOTION
         names = [(topics.RATE_TABLE_JOINT, topics.RATE_TABLE_JOINT_STATES,
                   topics.RATE_TABLE_ZERO_INDEX),

@@ -60,12 +60,17 @@ class CalibrationNode(Node):
             ('latitude_deg', float('nan'), 'Site latitude, °, to separate the bias from the '
              'Earth rate (NaN: bias not reported).'),
             ('heading_deg', 0.0, 'Angle from East to the position-table base x axis, °.'),
+            ('nominal_tilt_deg', 45.0, 'Nominal tilt α of the rate table on the position '
+             'table, °.'),
+            ('tilt_tolerance_deg', 5.0, 'Largest |fitted α − nominal| before θ is refused, °.'),
             ('output_file', 'gyro_calibration.yaml', 'INS hand-off YAML, rewritten atomically '
              'whenever K̃, θ, K and bias are all measured ("" = do not write).'))}
         self.output_file = str(site.pop('output_file'))
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
-        self.bench = RbrlgCalibrator(self.config, int(site['position_table_revolutions']),
-                                     float(site['latitude_deg']), float(site['heading_deg']))
+        self.bench = RbrlgCalibrator(
+            self.config, int(site['position_table_revolutions']), float(site['latitude_deg']),
+            float(site['heading_deg']), float(site['nominal_tilt_deg']),
+            float(site['tilt_tolerance_deg']))
         self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
         self._bad_messages = 0
@@ -167,8 +172,11 @@ class CalibrationNode(Node):
         self._publish_results()
 
     def _publish_results(self) -> None:
-        """θ and K once both phases gave them; then the diagnostics."""
+        """θ and K once both phases gave them (or why not); then the diagnostics."""
         res = self.bench.results()
+        if res.fix_error_problem and res.fix_error_problem != self._last_rejection:
+            self._last_rejection = res.fix_error_problem
+            self.get_logger().warning(res.fix_error_problem)
         if res.fix_error is not None and res.scale_factor_arcsec_per_pulse is not None:
             theta, k = res.fix_error.fix_error_angle_rad, res.scale_factor_arcsec_per_pulse
             self.theta_pub.publish(Float64(data=theta.value))
