@@ -6,7 +6,8 @@ form over whole arrays. Both run the same code and agree exactly.
 
 Results depend only on stamps and values: an index event is resolved once both
 the pulse and the table streams have passed its stamp by the fit half-width
-(or one of them is ``stall_timeout_s`` past it), whatever the arrival order.
+(or one stream stopped while the other ran on by ``stall_timeout_s``), whatever the
+arrival order and however far one stream lags.
 """
 
 from __future__ import annotations
@@ -65,6 +66,7 @@ class RateBiasCalibrator:
     _cutter: WholeRevolutionWindows = field(init=False)
     _pairs: PairAccumulator = field(init=False)
     _notices: list[str] = field(default_factory=list)
+    _lag_mark: tuple[int, int] | None = None
     _n_rejections_reported: int = 0
     _n_pair_rejections_reported: int = 0
     _n_windows_reported: int = 0
@@ -147,12 +149,13 @@ class RateBiasCalibrator:
         new_pairs: list[WindowPair] = []
         idx_t, _ = self._index.arrays()
         newest = [b.newest_ns for b in (self.pulses, self.table)]
+        dead = self._stalled_stream(newest, stall_ns)
         for t_event in idx_t.tolist():
             if not flush:
                 if None in newest:
                     break
                 lead, lag = max(newest), min(newest)  # type: ignore[type-var]
-                if not (lag >= t_event + half_ns or lead >= t_event + half_ns + stall_ns):
+                if not (lag >= t_event + half_ns or (dead and lead >= t_event + half_ns)):
                     break
             p_t, p_v = self.pulses.arrays()
             s_t, s_v = self.table.arrays()
@@ -174,6 +177,20 @@ class RateBiasCalibrator:
         self._n_pair_rejections_reported = len(self._pairs.rejections)
         notices, self._notices = tuple(self._notices), []
         return CalibrationUpdate(tuple(new_windows), tuple(new_pairs), tuple(rejections), notices)
+
+    def _stalled_stream(self, newest: list[int | None], stall_ns: int) -> bool:
+        """True if the lagging stream stopped while the other ran on by ``stall_ns``.
+
+        A lagging stream whose stamps still advance is waited for however far behind it
+        is (CPU load, replay speed), so a live result equals the offline one.
+        """
+        if None in newest:
+            return False
+        lag, lead = min(newest), max(newest)  # type: ignore[type-var]
+        if self._lag_mark is None or self._lag_mark[0] != lag:
+            self._lag_mark = (lag, lead)  # the lagging stream moved: restart the clock
+            return False
+        return lead - self._lag_mark[1] >= stall_ns
 
     def _resolve(self, t_event: int, p_t: np.ndarray, counts: np.ndarray,
                  s_t: np.ndarray, s_v: np.ndarray) -> IndexEvent:

@@ -78,11 +78,10 @@ class KTildeConfig:
     """Window pairs needed before K̃ is reported."""
     restart_backstep_s: float = 1.0
     """A stamp this far before the newest one means the source restarted, s."""
-    stall_timeout_s: float = 600.0
-    """An index event is resolved with what is there once one stream is this far past it, s.
-
-    Only for a stream that died: while both streams flow, an event waits for both, so a
-    lagging subscriber (CPU load, replay speed) never changes a result."""
+    stall_timeout_s: float = 60.0
+    """A stream whose stamps stop while the other's advance this far is dead: pending index
+    events are then resolved with what is there, s. A lagging stream that still advances is
+    always waited for, so CPU load or replay speed never changes a result."""
 
     def __post_init__(self) -> None:
         """Validate every field once; raise ConfigError naming the field."""

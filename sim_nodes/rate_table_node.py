@@ -164,9 +164,12 @@ def main(args: list[str] | None = None) -> None:
             executor.add_node(node)
             while rclpy.ok() and not (node.done and node.exit_when_done):
                 executor.spin_once(timeout_sec=0.05)
-            if node.done:
+            if node.done:  # readers may lag: let them acknowledge the tail before exiting
                 for pub in node.all_publishers:
-                    pub.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
+                    if not pub.wait_for_all_acked(rclpy.duration.Duration(seconds=60.0)):
+                        node.get_logger().warning(
+                            f'{pub.topic_name}: readers did not acknowledge the last samples '
+                            'within 60 s; exiting anyway.')
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
 
