@@ -10,6 +10,7 @@ Forward minus reverse cancels Earth rate and bias; their sum measures them.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -100,9 +101,12 @@ class PairAccumulator:
     Attributes:
         max_pair_gap_s: longest time from the end of one window to the start of the next
             for the two to be paired, s.
+        run_of: optional map from a stamp (ns) to the table run it belongs to; windows of
+            different runs are never paired (position-table stations).
     """
 
     max_pair_gap_s: float
+    run_of: Callable[[int], int] | None = None
     pairs: list[WindowPair] = field(default_factory=list)
     rejections: list[Rejection] = field(default_factory=list)
     _pending: RevolutionWindow | None = None
@@ -114,10 +118,15 @@ class PairAccumulator:
             self._pending = window
             return None
         gap_s = (window.start_ns - pending.end_ns) / 1e9
-        if pending.direction == window.direction or gap_s > self.max_pair_gap_s:
-            why = ('followed by another window in the same direction'
-                   if pending.direction == window.direction
-                   else f'next window starts {gap_s:.1f} s later (limit {self.max_pair_gap_s:g} s)')
+        other_run = (self.run_of is not None
+                     and self.run_of(pending.start_ns) != self.run_of(window.start_ns))
+        if pending.direction == window.direction or gap_s > self.max_pair_gap_s or other_run:
+            if pending.direction == window.direction:
+                why = 'followed by another window in the same direction'
+            elif other_run:
+                why = 'the table run it belongs to ended before an opposite window'
+            else:
+                why = f'next window starts {gap_s:.1f} s later (limit {self.max_pair_gap_s:g} s)'
             self.rejections.append(Rejection(
                 pending.start_ns, f'window at {format_stamp(pending.start_ns)} left unpaired: {why}.'))
             self._pending = window

@@ -9,6 +9,7 @@ rate-table encoder. The stations then give θ, β₀, α by least squares.
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import math
 from dataclasses import dataclass, field
@@ -24,6 +25,9 @@ from gyro_calib.fix_error_angle import FixErrorAngleResult, fix_error_angle_mult
 from gyro_calib.streams import StampedBuffer
 from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S
 from gyro_calib.windows import format_stamp
+
+RUN_END_STILL_S = 0.5
+"""A position-table run ends once the table has rested this long, s."""
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -65,10 +69,16 @@ class StationCalibrator:
     rejections: list[Rejection] = field(default_factory=list)
     _windows: RateBiasCalibrator = field(init=False)
     _rate_table: StampedBuffer = field(init=False)
+    _run_starts: list[int] = field(default_factory=list)
+    _runs: list[tuple[int, int, float]] = field(default_factory=list)
+    _current_run: list[float] | None = None
+    _last_position_ns: int | None = None
+    _still_since: int | None = None
 
     def __post_init__(self) -> None:
         """Create the position-table window stage and the rate-table buffer."""
         self._windows = RateBiasCalibrator(self.config)
+        self._windows._pairs.run_of = lambda t_ns: bisect.bisect_right(self._run_starts, t_ns)
         self._rate_table = StampedBuffer(2, int(self.config.restart_backstep_s * NS_PER_S))
 
     @property
@@ -83,6 +93,7 @@ class StationCalibrator:
     def add_position_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
         """One position-table joint_states sample."""
         self._windows.add_table_state(t_ns, angle_rad, rate_rad_s)
+        self._track_runs(np.array([t_ns]), np.array([angle_rad]), np.array([rate_rad_s]))
 
     def add_position_zero_index(self, t_ns: int) -> None:
         """One position-table zero-index stamp."""
@@ -99,11 +110,47 @@ class StationCalibrator:
         """Many samples of every stream at once (bag replay)."""
         self._windows.extend_pulses(*pulses)
         self._windows.extend_table_states(*position_table)
+        self._track_runs(*(np.asarray(a) for a in position_table))
         self._windows.extend_zero_index(position_zero_index_ns)
         self._rate_table.extend(*rate_table)
 
+    def _track_runs(self, t_ns: np.ndarray, angle: np.ndarray, rate: np.ndarray) -> None:
+        """Runs of the position table (turning at ≥ min_rate_deg_s), in stamp order."""
+        if self._last_position_ns is not None:
+            keep = t_ns > self._last_position_ns
+            t_ns, angle, rate = t_ns[keep], angle[keep], rate[keep]
+        ok = np.isfinite(angle) & np.isfinite(rate)
+        t_ns, angle, rate = t_ns[ok], angle[ok], rate[ok]
+        if not len(t_ns):
+            return
+        self._last_position_ns = int(t_ns[-1])
+        moving = np.abs(rate) >= math.radians(self.config.min_rate_deg_s)
+        edges = np.nonzero(np.diff(moving))[0] + 1
+        bounds = np.concatenate(([0], edges, [len(t_ns)]))
+        hold_ns = int(RUN_END_STILL_S * NS_PER_S)
+        for lo, hi in zip(bounds[:-1], bounds[1:]):
+            run = self._current_run
+            if moving[lo]:
+                if run is None:
+                    self._run_starts.append(int(t_ns[lo]))
+                    run = self._current_run = [float(t_ns[lo]), math.inf, -math.inf]
+                self._still_since = None
+                run[1] = min(run[1], float(angle[lo:hi].min()))
+                run[2] = max(run[2], float(angle[lo:hi].max()))
+            elif run is not None:  # a reversal passes through rest briefly: not an end
+                if self._still_since is None:
+                    self._still_since = int(t_ns[lo])
+                if int(t_ns[hi - 1]) - self._still_since >= hold_ns:
+                    start, low, high = run
+                    self._runs.append((int(start), self._still_since,
+                                       (high - low) / (2 * math.pi)))
+                    self._current_run = self._still_since = None
+
     def process(self, *, flush: bool = False) -> list[Station]:
-        """Turn every completed forward/reverse pair into a station; return the new ones."""
+        """Turn every completed forward/reverse pair into a station; return the new ones.
+
+        A position-table run that ends without giving a station is reported with its reason.
+        """
         update = self._windows.process(flush=flush)
         self.rejections.extend(update.rejections)
         new = []
@@ -112,7 +159,25 @@ class StationCalibrator:
             if station is not None:
                 new.append(station)
                 self.stations.append(station)
+        self._judge_runs(flush)
         return new
+
+    def _judge_runs(self, flush: bool) -> None:
+        newest = [self._windows.pulses.newest_ns, self._windows.table.newest_ns]
+        margin = int(2 * self.config.fit_half_width_s * NS_PER_S)
+        while self._runs:
+            start, end, revs = self._runs[0]
+            if not flush and (None in newest or min(newest) < end + margin):  # type: ignore
+                return
+            self._runs.pop(0)
+            if any(start <= s.start_ns and s.end_ns <= end for s in self.stations):
+                continue
+            n = self.position_table_revolutions
+            self.rejections.append(Rejection(start, (
+                f'position-table run {format_stamp(start)} → {format_stamp(end)} gave no '
+                f'station: it spanned {revs:.3f} revolutions and a station needs a forward '
+                f'and a reverse window of {n} whole revolution(s) between zero-index marks '
+                f'(too few revolutions, a reversal inside a window, or missing marks).')))
 
     def _station(self, pair: WindowPair) -> Station | None:
         start = min(pair.forward.start_ns, pair.reverse.start_ns)
