@@ -200,11 +200,10 @@ class WholeRevolutionWindows:
         angle = event.encoder_angle_rad % TWO_PI
         marks = self._mark_angles
         if len(marks) >= 3:
-            diffs = np.abs((np.asarray(marks) - angle + math.pi) % TWO_PI - math.pi)
-            agree = int(np.count_nonzero(diffs < tol_rad))
+            agree = int(np.count_nonzero(_angle_apart(np.asarray(marks), angle) < tol_rad))
             if agree < (len(marks) + 1) // 2:
                 ref = _circular_mode(marks, tol_rad)
-                off = abs((angle - ref + math.pi) % TWO_PI - math.pi) * ARCSEC_PER_RAD
+                off = float(_angle_apart(angle, ref)) * ARCSEC_PER_RAD
                 return (f'zero-index event at {format_stamp(event.stamp_ns)} is {off:.1f}″ away '
                         f'from the reference mark (tolerance '
                         f'{self.config.index_angle_tolerance_arcsec:g}″): spurious event or '
@@ -219,7 +218,7 @@ class WholeRevolutionWindows:
         if len(self._mark_angles) < 3:
             return ''
         ref = _circular_mode(self._mark_angles, tol_rad)
-        off = abs((event.encoder_angle_rad % TWO_PI - ref + math.pi) % TWO_PI - math.pi)
+        off = float(_angle_apart(event.encoder_angle_rad, ref))
         if off < tol_rad:
             return ''
         return (f'zero-index event at {format_stamp(event.stamp_ns)} is '
@@ -350,10 +349,14 @@ class WholeRevolutionWindows:
         )
 
 
+def _angle_apart(a: npt.ArrayLike, b: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """|a − b| wrapped into [0, π], rad (angles on a circle)."""
+    return np.abs((np.asarray(a) - np.asarray(b) + math.pi) % TWO_PI - math.pi)
+
+
 def _circular_mode(angles: list[float], tol_rad: float) -> float:
     arr = np.asarray(angles)
-    counts = [np.count_nonzero(np.abs((arr - a + math.pi) % TWO_PI - math.pi) < tol_rad)
-              for a in arr]
+    counts = [np.count_nonzero(_angle_apart(arr, a) < tol_rad) for a in arr]
     return float(arr[int(np.argmax(counts))])
 
 
