@@ -10,8 +10,11 @@ table's stamps jump back (the bench restarted) the gyro restarts too.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -39,8 +42,13 @@ class RingLaserGyroNode(Node):
             **declare_dataclass_parameters(self, RingLaserGyroConfig))
         self.mount = TiltedMountConfig(
             **declare_dataclass_parameters(self, TiltedMountConfig, prefix='mount.'))
+        self.subscriber_wait_s = float(self.declare_parameter(
+            'subscriber_wait_s', 60.0, ParameterDescriptor(
+                description='Before the first pulse, wait up to this long (s) for a reader of '
+                '/gyro/pulses, so no pulse is published into the void; 0 = do not wait.')).value)
         self.sim: RingLaserGyroSimulator | TwoAxisGyroSimulator | None = None
         self._last_ns: int | None = None
+        self._waited_for_reader = False
         self.pub = self.create_publisher(JointState, topics.GYRO_PULSES, SENSOR_QOS)
         self.create_subscription(
             JointState, topics.RATE_TABLE_TRUE_MOTION, self._on_truth, SENSOR_QOS)
@@ -63,11 +71,31 @@ class RingLaserGyroNode(Node):
             rates = np.asarray(msg.velocity, dtype=np.float64).reshape(angles.shape)
             counts = self.sim.step(t_ns, angles[1], angles[0], np.abs(rates[0]) < 1e-9)
         self._last_ns = int(t_ns[-1])
+        self._wait_for_a_reader()
         for t, n in zip(t_ns.tolist(), counts.tolist()):
             out = JointState(name=[topics.GYRO_JOINT], position=[n])
             ns_to_stamp(t, out.header.stamp)
             out.header.frame_id = topics.GYRO_JOINT
             publish_paced(self.pub, out)
+
+    def _wait_for_a_reader(self) -> None:
+        """Block until /gyro/pulses is matched (discovery may lag the table's start).
+
+        The table waits for our truth subscription, not for our pulse publisher's match;
+        on a slow machine the first pulses could otherwise go to no reader. Blocking here
+        holds the table back through its reliable writer, so nothing is lost.
+        """
+        if self._waited_for_reader:
+            return
+        self._waited_for_reader = True
+        deadline = time.monotonic() + self.subscriber_wait_s
+        if self.pub.get_subscription_count() == 0 and self.subscriber_wait_s > 0:
+            self.get_logger().info(f'waiting for a reader of {topics.GYRO_PULSES}')
+        while self.pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        if self.pub.get_subscription_count() == 0 and self.subscriber_wait_s > 0:
+            self.get_logger().warning(f'no reader of {topics.GYRO_PULSES} after '
+                                      f'{self.subscriber_wait_s:g} s; publishing anyway.')
 
 
 def main(args: list[str] | None = None) -> None:

@@ -79,12 +79,18 @@ class ResultListener:
             if status.name == 'gyro_calib: k_tilde':
                 self.diagnostics = {kv.key: kv.value for kv in status.values}
 
-    def spin_until(self, done: Any, timeout_s: float) -> bool:
+    def spin_until(self, done: Any, timeout_s: float, *, source: NodeProcess | None = None,
+                   grace_s: float = 90.0) -> bool:
+        """Spin until ``done()``; give up after ``timeout_s``, or ``grace_s`` after the
+        ``source`` process (the simulator feeding the bench) has exited."""
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             self.executor.spin_once(timeout_sec=0.1)
             if done():
                 return True
+            if source is not None and source.proc.poll() is not None:
+                deadline = min(deadline, time.monotonic() + grace_s)
+                source = None
         return False
 
     def close(self) -> None:

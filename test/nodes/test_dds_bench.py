@@ -32,7 +32,7 @@ def test_live_k_tilde_equals_offline_core_result(listener: ResultListener,
     expected, n_pairs = _offline_k_tilde_rad(duration, seed)
     assert n_pairs == 3
     got = listener.spin_until(
-        lambda: listener.diagnostics.get('window_pairs') == str(n_pairs), duration / SPEED + 240)
+        lambda: listener.diagnostics.get('window_pairs') == str(n_pairs), duration / SPEED + 600, source=table)
     logs = '\n'.join(n.log() for n in nodes)
     assert got, f'no result with {n_pairs} pairs; node logs:\n{logs}'
     assert listener.k_tilde[-1] == expected  # bit-identical: stamps and contents only
@@ -51,7 +51,7 @@ def test_node_keeps_its_pairs_when_the_simulator_restarts(listener: ResultListen
         nodes.append(table)
         assert listener.spin_until(
             lambda run=run: listener.diagnostics.get('window_pairs') == str(2 * run),
-            duration / SPEED + 240), '\n'.join(n.log() for n in nodes)
+            duration / SPEED + 600, source=table), '\n'.join(n.log() for n in nodes)
         table.proc.wait(timeout=30)
     calibration_log = nodes[0].log()
     assert 'restarted (stamps jumped back' in calibration_log

@@ -25,12 +25,13 @@ def test_live_procedure_publishes_theta_and_k_equal_to_offline(
     assert expected.fix_error is not None and expected.scale_factor_arcsec_per_pulse is not None
     nodes.append(launch('calibration_node', {'latitude_deg': gyro.latitude_deg}))
     nodes.append(launch('rlg_sim', {'seed': seed, 'sense_axis_azimuth_deg': 23.0}))
-    nodes.append(launch('rate_table_sim', {'scenario': 'full', 'k_tilde_pairs': pairs,
-                                           'seed': seed, 'real_time_factor': SPEED}))
+    table = launch('rate_table_sim', {'scenario': 'full', 'k_tilde_pairs': pairs,
+                                      'seed': seed, 'real_time_factor': SPEED})
+    nodes.append(table)
     duration = rec.pulse_t_ns[-1] / 1e9
     done = listener.spin_until(lambda: listener.diagnostics.get('stations') == '4'
                                and 'scale_factor_rad_per_pulse' in listener.diagnostics,
-                               duration / SPEED + 900)
+                               duration / SPEED + 900, source=table)
     logs = '\n'.join(n.log() for n in nodes)
     assert done, logs
     diag = listener.diagnostics
