@@ -15,7 +15,7 @@ setup(
     ],
     package_data={PACKAGE: ['py.typed']},
     python_requires='>=3.10',
-    install_requires=['numpy', 'scipy', 'PyYAML'],
+    install_requires=['numpy', 'scipy', 'PyYAML', 'rosbags', 'tqdm'],
     zip_safe=True,
     maintainer='gyro_calib developers',
     maintainer_email='gyro-calib@example.com',
@@ -28,6 +28,7 @@ setup(
             'rlg_sim = sim_nodes.rlg_node:main',
             'bench_demo = gyro_calib.nodes.bench_demo:main',
             'imu_corrector = gyro_calib.nodes.imu_corrector_node:main',
+            'gyro-calib = gyro_calib.cli:console_main',
         ],
     },
 )

@@ -27,6 +27,10 @@ from gyro_calib.handoff import GyroCalibration
 from gyro_calib.units import EARTH_RATE_DEG_H, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
+    from typing import Any
+
+    from numpy.typing import ArrayLike
+
     from gyro_calib.fix_error_angle import FixErrorAngleResult
 
 
@@ -87,7 +91,8 @@ class RbrlgCalibrator:
     tilt_tolerance_deg: float = 5.0
     k_tilde: RateBiasCalibrator = field(init=False)
     stations: StationCalibrator = field(init=False)
-    _position_angle_rad: float = 0.0
+    _position_angle_rad: float | None = None
+    """χ of the position table at rest (first still sample): where the K̃ phase ran."""
 
     def __post_init__(self) -> None:
         """Create the K̃ and the station stages."""
@@ -112,12 +117,35 @@ class RbrlgCalibrator:
     def add_position_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
         """One position-table joint_states sample."""
         self.stations.add_position_table_state(t_ns, angle_rad, rate_rad_s)
-        if abs(rate_rad_s) < 1e-6:
+        if self._position_angle_rad is None and abs(rate_rad_s) < 1e-6:
             self._position_angle_rad = angle_rad
 
     def add_position_zero_index(self, t_ns: int) -> None:
         """One position-table zero-index stamp."""
         self.stations.add_position_zero_index(t_ns)
+
+    def extend(self, *, pulses: tuple[ArrayLike, ArrayLike] | None = None,
+               rate_table: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+               rate_zero_index_ns: ArrayLike | None = None,
+               position_table: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+               position_zero_index_ns: ArrayLike | None = None) -> None:
+        """Many samples of any streams at once (batch or bag replay); same as adding them
+        one by one. Joint states are (t_ns, angle rad, rate rad/s); pulses (t_ns, count)."""
+        empty3 = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
+        pulses = pulses if pulses is not None else empty3[:2]
+        rate_table = rate_table if rate_table is not None else empty3
+        position_table = position_table if position_table is not None else empty3
+        no_events = np.zeros(0, np.int64)
+        self.k_tilde.extend_pulses(*pulses)
+        self.k_tilde.extend_table_states(*rate_table)
+        self.k_tilde.extend_zero_index(
+            rate_zero_index_ns if rate_zero_index_ns is not None else no_events)
+        self.stations.extend(pulses, position_table, position_zero_index_ns
+                             if position_zero_index_ns is not None else no_events, rate_table)
+        if self._position_angle_rad is None and len(position_table[0]):
+            still = np.abs(np.asarray(position_table[2])) < 1e-6
+            if np.any(still):
+                self._position_angle_rad = float(np.asarray(position_table[1])[still][0])
 
     def process(self, *, flush: bool = False) -> tuple[CalibrationUpdate, list[Station]]:
         """Resolve what the streams allow: new K̃ windows/pairs and new stations."""
@@ -154,7 +182,7 @@ class RbrlgCalibrator:
             earth = earth_rate_along_table_axis_deg_h(
                 latitude_deg=self.latitude_deg, heading_deg=self.heading_deg,
                 tilt_rad=fix_error.tilt_rad.value,
-                position_table_angle_rad=self._position_angle_rad)
+                position_table_angle_rad=self._position_angle_rad or 0.0)
             bias = Estimate(earth_bias.value - earth, earth_bias.std_uncertainty,
                             earth_bias.n_used, earth_bias.dof)
         return RbrlgResults(k_tilde, fix_error, k, earth_bias, bias, problem)
@@ -167,16 +195,10 @@ def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
     or anything with the same array attributes)."""
     cal = RbrlgCalibrator(k_config or KTildeConfig(), position_table_revolutions,
                           latitude_deg, heading_deg)
-    rec = recording
-    cal.k_tilde.extend_pulses(rec.pulse_t_ns, rec.pulse_counts)  # type: ignore[attr-defined]
-    cal.k_tilde.extend_table_states(*rec.rate_table)  # type: ignore[attr-defined]
-    cal.k_tilde.extend_zero_index(rec.rate_zero_index_ns)  # type: ignore[attr-defined]
-    cal.stations.extend((rec.pulse_t_ns, rec.pulse_counts),  # type: ignore[attr-defined]
-                        rec.position_table, rec.position_zero_index_ns,  # type: ignore[attr-defined]
-                        rec.rate_table)  # type: ignore[attr-defined]
-    still = np.abs(rec.position_table[2]) < 1e-6  # type: ignore[attr-defined]
-    if np.any(still):
-        cal._position_angle_rad = float(rec.position_table[1][still][0])  # type: ignore[attr-defined]
+    rec: Any = recording
+    cal.extend(pulses=(rec.pulse_t_ns, rec.pulse_counts), rate_table=rec.rate_table,
+               rate_zero_index_ns=rec.rate_zero_index_ns, position_table=rec.position_table,
+               position_zero_index_ns=rec.position_zero_index_ns)
     cal.process(flush=True)
     return cal.results(), cal
 
