@@ -29,6 +29,8 @@ setup(
             'bench_demo = gyro_calib.nodes.bench_demo:main',
             'imu_corrector = gyro_calib.nodes.imu_corrector_node:main',
             'gyro-calib = gyro_calib.cli:console_main',
+            'bag_recorder = gyro_calib.nodes.bag_recorder:main',
+            'bag_player = gyro_calib.nodes.bag_player:main',
         ],
     },
 )

@@ -35,3 +35,6 @@ BENCH_TRUE_MOTION = '/sim/bench/true_motion'
 ['rate_table', 'position_table']; position[j·n + i], velocity[j·n + i] = true angle (rad)
 and rate (rad/s) of joint j at sample i; effort[i] = stamp of sample i minus header.stamp (ns)."""
 POSITION_TABLE_JOINT = 'position_table'
+SIM_SCENARIO = '/sim/scenario'
+"""Simulation only. std_msgs/String, transient-local: YAML description of a simulator's
+parameters, seed and truth (each simulator publishes its part; recorders merge them)."""

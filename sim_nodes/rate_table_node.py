@@ -22,10 +22,11 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Header
+from std_msgs.msg import Header, String
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
+    SCENARIO_QOS,
     EVENT_QOS,
     SENSOR_QOS,
     declare_dataclass_parameters,
@@ -42,6 +43,19 @@ from sim_nodes.procedure import (
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator, TableChunk
 
 SCENARIOS = ('rate_bias', 'theta', 'full')
+
+
+def scenario_yaml(kind: str, table: RateTableConfig, procedure: ThetaProcedureConfig,
+                  k_tilde_pairs: int) -> str:
+    """The table's part of /sim/scenario: scenario kind and the tables' parameters."""
+    import dataclasses
+
+    import yaml
+
+    return yaml.safe_dump({
+        'kind': kind, 'k_tilde_pairs': k_tilde_pairs, 'table': dataclasses.asdict(table),
+        'procedure': {k: list(v) if isinstance(v, tuple) else v
+                      for k, v in dataclasses.asdict(procedure).items()}}, sort_keys=True)
 
 
 class RateTableNode(Node):
@@ -93,6 +107,8 @@ class RateTableNode(Node):
             self.tables.append((sim, self.create_publisher(JointState, js_topic, SENSOR_QOS),
                                 self.create_publisher(Header, index_topic, EVENT_QOS), joint))
         self.truth_pub = self.create_publisher(JointState, truth_topic, SENSOR_QOS)
+        self.create_publisher(String, topics.SIM_SCENARIO, SCENARIO_QOS).publish(String(
+            data=scenario_yaml(scenario, self.config, procedure, int(k_pairs))))
         self._n_published = 0
         self._wall_start: float | None = None
         self._ready_since: float | None = None

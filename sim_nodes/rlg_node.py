@@ -18,9 +18,11 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
+    SCENARIO_QOS,
     SENSOR_QOS,
     declare_dataclass_parameters,
     ns_to_stamp,
@@ -30,6 +32,21 @@ from gyro_calib.nodes.ros_io import (
 )
 from sim_nodes.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 from sim_nodes.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
+
+
+def scenario_yaml(gyro: RingLaserGyroConfig, mount: TiltedMountConfig) -> str:
+    """The gyro's part of /sim/scenario: its parameters and the truth they imply."""
+    import dataclasses
+
+    import yaml
+
+    from sim_nodes.bench import true_k_tilde_arcsec_per_pulse
+
+    return yaml.safe_dump({
+        'gyro': dataclasses.asdict(gyro), 'mount': dataclasses.asdict(mount),
+        'truth': {'k_tilde_arcsec_per_pulse': true_k_tilde_arcsec_per_pulse(gyro),
+                  'scale_factor_arcsec_per_pulse': gyro.scale_factor_arcsec_per_pulse,
+                  'fix_error_angle_arcsec': gyro.fix_error_angle_arcsec}}, sort_keys=True)
 
 
 class RingLaserGyroNode(Node):
@@ -53,6 +70,8 @@ class RingLaserGyroNode(Node):
         self.create_subscription(
             JointState, topics.RATE_TABLE_TRUE_MOTION, self._on_truth, SENSOR_QOS)
         self.create_subscription(JointState, topics.BENCH_TRUE_MOTION, self._on_truth, SENSOR_QOS)
+        self.create_publisher(String, topics.SIM_SCENARIO, SCENARIO_QOS).publish(
+            String(data=scenario_yaml(self.config, self.mount)))
 
     def _on_truth(self, msg: JointState) -> None:
         t_ns = stamp_to_ns(msg.header.stamp) + np.asarray(msg.effort, dtype=np.int64)

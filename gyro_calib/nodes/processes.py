@@ -17,6 +17,8 @@ NODE_MODULES = {
     'imu_corrector': 'gyro_calib.nodes.imu_corrector_node',
     'rate_table_sim': 'sim_nodes.rate_table_node',
     'rlg_sim': 'sim_nodes.rlg_node',
+    'bag_recorder': 'gyro_calib.nodes.bag_recorder',
+    'bag_player': 'gyro_calib.nodes.bag_player',
 }
 
 

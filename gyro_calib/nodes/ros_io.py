@@ -33,6 +33,11 @@ RESULT_QOS = QoSProfile(
     durability=DurabilityPolicy.TRANSIENT_LOCAL)
 """Results: the latest value reaches late subscribers."""
 
+SCENARIO_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""/sim/scenario: each simulator's description reaches late recorders."""
+
 
 def stamp_to_ns(stamp: Time) -> int:
     """builtin_interfaces/Time → int nanoseconds."""

@@ -1,0 +1,146 @@
+"""bag_player: play a rosbag2 MCAP bag back over DDS, like ``ros2 bag play``.
+
+Messages go out unchanged (the recorded CDR bytes, so header stamps are the original
+ones), in log-time order, paced at ``rate`` × the recorded timing, or as fast as the
+readers acknowledge (``rate`` 0). With ``clock`` true it also publishes /clock
+(rosgraph_msgs/Clock) from the log times, as ``ros2 bag play --clock`` does.
+
+Parameters: ``bag`` (path, required), ``rate`` (1.0), ``clock`` (false),
+``clock_period_s`` (0.01), ``topics`` (default: every topic in the bag),
+``wait_for_subscribers`` (true: start once every topic has a reader, so nothing is
+lost at the start).
+
+    bag_player --ros-args -p bag:=bags/k_tilde_bench -p rate:=5.0
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+
+from gyro_calib.bag import bag_info, iter_raw_messages
+from gyro_calib.errors import GyroCalibError
+from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, publish_paced
+
+
+def message_class(msgtype: str) -> type:
+    """'sensor_msgs/msg/JointState' → the rclpy message class."""
+    package, _, name = msgtype.split('/')
+    return getattr(importlib.import_module(f'{package}.msg'), name)
+
+
+class BagPlayer(Node):
+    """Publishes one bag's messages with their recorded timing."""
+
+    def __init__(self) -> None:
+        """Declare parameters, open the bag, create one publisher per topic."""
+        super().__init__('bag_player')
+
+        def param(name: str, default: Any, text: str) -> Any:
+            return self.declare_parameter(name, default, ParameterDescriptor(
+                description=text)).value
+
+        self.path = Path(param('bag', '', 'Bag directory to play (required).'))
+        self.rate = float(param('rate', 1.0, 'Multiple of the recorded timing '
+                                '(0 = as fast as the readers acknowledge).'))
+        self.clock = bool(param('clock', False, 'Publish /clock from the log times.'))
+        self.clock_period_ns = int(float(param('clock_period_s', 0.01,
+                                               'Log-time period of /clock messages, s.')) * 1e9)
+        wanted = list(param('topics', [''], 'Topics to play (default: all).'))
+        self.wait = bool(param('wait_for_subscribers', True, 'Start once every played topic '
+                               'has a reader.'))
+        if self.rate < 0:
+            raise GyroCalibError(f'rate must be ≥ 0, got {self.rate}.')
+        self.info = bag_info(self.path)
+        names = [t for t in wanted if t] or list(self.info.topics)
+        unknown = sorted(set(names) - set(self.info.topics))
+        if unknown:
+            raise GyroCalibError(f'{self.path}: no topic(s) {", ".join(unknown)} in the bag.')
+        self.publishers_by_topic = {
+            name: self.create_publisher(message_class(self.info.topics[name].msgtype), name,
+                                        SENSOR_QOS)
+            for name in names}
+        self.clock_pub = None
+        if self.clock:
+            from rosgraph_msgs.msg import Clock
+            self.clock_pub = self.create_publisher(Clock, '/clock', SENSOR_QOS)
+        self.published = 0
+
+    def wait_for_readers(self, timeout_s: float = 60.0) -> bool:
+        """Block until every played topic has a reader (or ``timeout_s``)."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if all(p.get_subscription_count() for p in self.publishers_by_topic.values()):
+                time.sleep(1.0)  # let the readers' side of discovery finish too
+                return True
+            time.sleep(0.05)
+        return False
+
+    def play(self) -> None:
+        """Publish every message, paced; return when the bag is done."""
+        from rosgraph_msgs.msg import Clock
+
+        first_log: int | None = None
+        wall_start = time.monotonic()
+        next_clock = None
+        for topic, _, log_ns, raw in iter_raw_messages(self.path):
+            if not rclpy.ok():
+                return
+            pub = self.publishers_by_topic.get(topic)
+            if pub is None:
+                continue
+            if first_log is None:
+                first_log, wall_start = log_ns, time.monotonic()
+            if self.rate > 0:
+                due = wall_start + (log_ns - first_log) / 1e9 / self.rate
+                delay = due - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            if self.clock_pub is not None and (next_clock is None or log_ns >= next_clock):
+                publish_paced(self.clock_pub, Clock(clock=ns_to_stamp(log_ns, Clock().clock)))
+                next_clock = log_ns + self.clock_period_ns
+            publish_paced(pub, raw)
+            self.published += 1
+
+    def wait_for_acknowledgements(self, timeout_s: float = 60.0) -> None:
+        """Let lagging readers take the tail before the process exits."""
+        for pub in self.publishers_by_topic.values():
+            if not pub.wait_for_all_acked(rclpy.duration.Duration(seconds=timeout_s)):
+                self.get_logger().warning(f'{pub.topic_name}: readers did not acknowledge '
+                                          f'the last messages within {timeout_s:g} s.')
+
+
+def main(args: list[str] | None = None) -> None:
+    """Play the bag given by the ``bag`` parameter, then exit."""
+    try:
+        with rclpy.init(args=args):
+            try:
+                player = BagPlayer()
+            except GyroCalibError as exc:
+                raise SystemExit(f'bag_player: error: {exc}') from None
+            log = player.get_logger()
+            if player.wait and not player.wait_for_readers():
+                log.warning('not every topic has a reader after 60 s; playing anyway.')
+            log.info(f'playing {player.path} ({player.info.message_count} messages, '
+                     f'{player.info.duration_s:.3f} s) at '
+                     + (f'{player.rate:g}× the recorded rate' if player.rate
+                        else 'the readers\' pace'))
+            start = time.monotonic()
+            player.play()
+            player.wait_for_acknowledgements()
+            wall = time.monotonic() - start
+            log.info(f'played {player.published} messages in {wall:.3f} s '
+                     f'({player.info.duration_s / max(wall, 1e-9):.2f}× real time)')
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+
+
+if __name__ == '__main__':
+    main()

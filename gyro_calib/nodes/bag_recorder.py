@@ -1,0 +1,156 @@
+"""bag_recorder: record topics from DDS into a rosbag2 MCAP bag, like ``ros2 bag record``.
+
+Subscribes reliable/keep-all (nothing dropped at the bench's rates) and writes each
+message's CDR bytes unchanged, with the receive time as log time (rosbag2's default)
+or, with ``log_time:=header``, the message's header stamp. A scenario description
+published by the simulators on /sim/scenario (std_msgs/String, YAML, transient-local)
+is stored in the bag's metadata under ``custom_data['gyro_calib.scenario']``.
+The bag is closed properly on Ctrl-C / SIGINT, or after ``duration_s``.
+
+Parameters: ``out`` (bag directory to create, required), ``topics`` (default: the
+calibration inputs of the topic contract), ``duration_s`` (0 = until stopped),
+``log_time`` (``receive`` | ``header``).
+
+    bag_recorder --ros-args -p out:=my_run
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import rclpy
+import yaml
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.serialization import deserialize_message
+from std_msgs.msg import String
+
+from gyro_calib import topics
+from gyro_calib.bag import CONTRACT_TYPES, SCENARIO_KEY, BagError
+from gyro_calib.errors import GyroCalibError
+from gyro_calib.nodes.bag_player import message_class
+from gyro_calib.nodes.ros_io import SCENARIO_QOS, SENSOR_QOS, make_executor, stamp_to_ns
+
+class BagRecorder(Node):
+    """Writes every received message of the chosen topics to one bag."""
+
+    def __init__(self) -> None:
+        """Declare parameters, open the bag, subscribe."""
+        super().__init__('bag_recorder')
+
+        def param(name: str, default: Any, text: str) -> Any:
+            return self.declare_parameter(name, default, ParameterDescriptor(
+                description=text)).value
+
+        out = str(param('out', '', 'Bag directory to create (required; must not exist).'))
+        names = [t for t in param('topics', [''], 'Topics to record (default: the '
+                                  'calibration inputs).') if t] or list(CONTRACT_TYPES)
+        self.duration_s = float(param('duration_s', 0.0, 'Stop after this many seconds '
+                                      '(0 = until stopped).'))
+        self.log_time = str(param('log_time', 'receive', 'Log time of each message: '
+                                  'receive (as rosbag2) or header (its header stamp).'))
+        if not out:
+            raise GyroCalibError('parameter out (the bag directory to create) is required.')
+        if self.log_time not in ('receive', 'header'):
+            raise GyroCalibError(f'log_time must be receive or header, got {self.log_time!r}.')
+        self.path = Path(out)
+        if self.path.exists():
+            raise BagError(f'{self.path}: exists already; not overwriting it.')
+        types = {name: self._type_of(name) for name in names}
+        self.counts = dict.fromkeys(names, 0)
+        self.scenario: dict[str, Any] = {}
+        self._writer, self._connections = self._open(types)
+        for name, msgtype in types.items():
+            cls = message_class(msgtype)
+            self.create_subscription(
+                cls, name, lambda raw, n=name, c=cls: self._on_message(n, c, raw),
+                SENSOR_QOS, raw=True)
+        self.create_subscription(String, topics.SIM_SCENARIO, self._on_scenario, SCENARIO_QOS)
+        self.started = time.monotonic()
+
+    def _type_of(self, name: str, timeout_s: float = 10.0) -> str:
+        """Contract topics have fixed types; others are looked up in the ROS graph."""
+        if name in CONTRACT_TYPES:
+            return CONTRACT_TYPES[name]
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            for topic, kinds in self.get_topic_names_and_types():
+                if topic == name and kinds:
+                    return kinds[0]
+            time.sleep(0.1)
+        raise GyroCalibError(f'topic {name}: no publisher found within {timeout_s:g} s, so '
+                             'its message type is unknown.')
+
+    def _open(self, types: dict[str, str]) -> tuple[Any, dict[str, Any]]:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
+        from rosbags.typesys import Stores, get_typestore
+
+        store = get_typestore(Stores.ROS2_KILTED)
+        writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+        writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        writer.open()
+        return writer, {name: writer.add_connection(name, msgtype, typestore=store)
+                        for name, msgtype in types.items()}
+
+    def _on_message(self, name: str, cls: type, raw: bytes) -> None:
+        if self.log_time == 'header':
+            msg = deserialize_message(raw, cls)
+            stamp = msg.stamp if hasattr(msg, 'stamp') else msg.header.stamp
+            log_ns = stamp_to_ns(stamp)
+        else:
+            log_ns = self.get_clock().now().nanoseconds
+        self._writer.write(self._connections[name], log_ns, raw)
+        self.counts[name] += 1
+
+    def _on_scenario(self, msg: String) -> None:
+        try:
+            part = yaml.safe_load(msg.data)
+        except yaml.YAMLError as exc:
+            self.get_logger().warning(f'{topics.SIM_SCENARIO}: not YAML ({exc}); ignored.')
+            return
+        if isinstance(part, dict):
+            self.scenario.update(part)
+
+    @property
+    def done(self) -> bool:
+        """True once ``duration_s`` has passed (if set)."""
+        return self.duration_s > 0 and time.monotonic() - self.started >= self.duration_s
+
+    def close(self) -> None:
+        """Store the scenario and close the bag (writes metadata.yaml)."""
+        if self.scenario:
+            self._writer.set_custom_data(SCENARIO_KEY, yaml.safe_dump(self.scenario,
+                                                                      sort_keys=True))
+        self._writer.close()
+        summary = ', '.join(f'{name}: {n}' for name, n in self.counts.items())
+        self.get_logger().info(f'wrote {self.path} ({summary})')
+
+
+def main(args: list[str] | None = None) -> None:
+    """Record until Ctrl-C / SIGINT (or ``duration_s``), then close the bag."""
+    recorder = None
+    try:
+        with rclpy.init(args=args):
+            try:
+                recorder = BagRecorder()
+            except GyroCalibError as exc:
+                raise SystemExit(f'bag_recorder: error: {exc}') from None
+            recorder.get_logger().info(f'recording {", ".join(recorder.counts)} to '
+                                       f'{recorder.path}')
+            executor = make_executor()
+            executor.add_node(recorder)
+            while rclpy.ok() and not recorder.done:
+                executor.spin_once(timeout_sec=0.1)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if recorder is not None:
+            recorder.close()
+
+
+if __name__ == '__main__':
+    main()

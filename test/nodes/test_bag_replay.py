@@ -1,0 +1,88 @@
+"""Bags over DDS: a replayed bag calibrates exactly as offline; the recorder loses nothing."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gyro_calib import topics
+from gyro_calib.bag import bag_info, iter_sample_batches
+from gyro_calib.bag_calibration import BenchSettings, calibrate_bag
+from gyro_calib.diagnostics import calibration_status
+from sim_nodes.bench import simulate_rate_bias_bench
+from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
+
+from .dds_harness import NodeProcess, ResultListener, launch
+
+BAGS = Path(__file__).resolve().parents[2] / 'bags'
+NUMBERS = ('window_pairs', 'windows_accepted', 'windows_rejected', 'stations',
+           'k_tilde_rad_per_pulse', 'k_tilde_std_uncertainty_rad_per_pulse',
+           'earth_plus_bias_deg_h', 'fix_error_angle_rad',
+           'fix_error_angle_std_uncertainty_rad', 'tilt_rad', 'scale_factor_rad_per_pulse',
+           'scale_factor_std_uncertainty_rad_per_pulse', 'bias_deg_h')
+
+
+@pytest.mark.parametrize('name', ['k_tilde_bench', 'theta_four_position', 'fault_out_of_order'])
+def test_replayed_bag_gives_exactly_the_offline_numbers(
+        name: str, listener: ResultListener, nodes: list[NodeProcess]) -> None:
+    bag = BAGS / name
+    bench = bag_info(bag).scenario['bench']
+    offline = calibrate_bag(bag, BenchSettings(
+        latitude_deg=bench['latitude_deg'],
+        position_table_revolutions=bench['position_table_revolutions']))
+    _, _, expected = calibration_status(offline.calibrator, '')
+    nodes.append(launch('calibration_node', {
+        'latitude_deg': bench['latitude_deg'],
+        'position_table_revolutions': bench['position_table_revolutions']}))
+    player = launch('bag_player', {'bag': str(bag), 'rate': 0.0})
+    nodes.append(player)
+    done = listener.spin_until(
+        lambda: all(listener.diagnostics.get(k) == expected[k] for k in
+                    ('window_pairs', 'stations', 'windows_accepted')), 600, source=player)
+    logs = '\n'.join(n.log() for n in nodes)
+    assert done, logs
+    player.proc.wait(timeout=120)
+    listener.spin_until(lambda: False, 1.0)  # the node publishes diagnostics at 5 Hz
+    assert 'played 120043 messages' in player.log() or name != 'k_tilde_bench', player.log()
+    for key in NUMBERS:
+        assert listener.diagnostics.get(key) == expected.get(key), (key, logs)
+
+
+def test_recorder_keeps_every_message_of_the_live_bench_and_its_scenario(
+        tmp_path: Path, nodes: list[NodeProcess]) -> None:
+    duration, seed = 30.0, 5
+    out = tmp_path / 'live'
+    recorder = launch('bag_recorder', {'out': str(out), 'log_time': 'header'})
+    nodes.append(recorder)
+    nodes.append(launch('rlg_sim', {'seed': seed}))
+    table = launch('rate_table_sim', {'duration_s': duration, 'seed': seed,
+                                      'real_time_factor': 5.0})
+    nodes.append(table)
+    table.proc.wait(timeout=300)  # it exits once the recorder acknowledged everything
+    recorder.stop()
+    logs = '\n'.join(n.log() for n in nodes)
+    assert recorder.proc.returncode == 0, logs
+    assert 'wrote' in recorder.log(), logs
+
+    sim = simulate_rate_bias_bench(RateTableConfig(duration_s=duration, seed=seed),
+                                   RingLaserGyroConfig(seed=seed))
+    info = bag_info(out)
+    assert info.topics[topics.GYRO_PULSES].count == len(sim.pulse_t_ns), logs
+    assert info.topics[topics.RATE_TABLE_JOINT_STATES].count == len(sim.table_t_ns)
+    assert info.topics[topics.RATE_TABLE_ZERO_INDEX].count == len(sim.zero_index_ns)
+    batches = list(iter_sample_batches(out, batch_messages=10**9))
+    assert len(batches) == 1
+    pulses = batches[0].joint_states[topics.GYRO_PULSES]
+    table_js = batches[0].joint_states[topics.RATE_TABLE_JOINT_STATES]
+    np.testing.assert_array_equal(pulses[0], sim.pulse_t_ns)
+    np.testing.assert_array_equal(pulses[1], sim.pulse_counts)
+    np.testing.assert_array_equal(table_js[1], sim.table_angle_rad)
+    np.testing.assert_array_equal(batches[0].events[topics.RATE_TABLE_ZERO_INDEX],
+                                  sim.zero_index_ns)
+    assert info.scenario['table']['seed'] == seed and info.scenario['gyro']['seed'] == seed
+    assert info.scenario['truth']['scale_factor_arcsec_per_pulse'] == 0.84279066
+    assert os.path.isfile(out / 'metadata.yaml')
