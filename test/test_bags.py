@@ -1,0 +1,151 @@
+"""The committed scenario bags: reproducible, readable by rosbags and mcap, and calibrated
+offline to their expected results (truth within tolerance, counts, rejection reasons)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+
+from gyro_calib import topics
+from gyro_calib.bag import CONTRACT_TYPES, bag_info, iter_raw_messages
+from gyro_calib.bag_calibration import BenchSettings, calibrate_bag
+from gyro_calib.cli import main as gyro_calib_main
+from gyro_calib.units import RAD_PER_ARCSEC
+from sim_nodes.scenarios import SCENARIOS, write_scenario_files
+
+BAGS = Path(__file__).resolve().parents[1] / 'bags'
+MAX_BAG_BYTES = 5 * 1024 * 1024
+
+
+def _expected(name: str) -> dict:
+    return yaml.safe_load((BAGS / f'{name}.expected.yaml').read_text(encoding='utf-8'))
+
+
+def _settings(name: str) -> BenchSettings:
+    bench = bag_info(BAGS / name).scenario['bench']
+    return BenchSettings(latitude_deg=bench['latitude_deg'],
+                         position_table_revolutions=bench['position_table_revolutions'])
+
+
+def test_every_scenario_has_a_committed_bag_of_at_most_5_mb() -> None:
+    for name in SCENARIOS:
+        bag = BAGS / name
+        assert (bag / 'metadata.yaml').is_file() and (bag / f'{name}.mcap').is_file(), name
+        assert sum(f.stat().st_size for f in bag.iterdir()) <= MAX_BAG_BYTES, name
+        assert (BAGS / f'{name}.expected.yaml').is_file(), name
+
+
+@pytest.mark.parametrize('name', list(SCENARIOS))
+def test_regenerated_bag_matches_the_committed_one_message_for_message(
+        name: str, tmp_path: Path) -> None:
+    write_scenario_files(name, tmp_path)
+    fresh, committed = iter_raw_messages(tmp_path / name), iter_raw_messages(BAGS / name)
+    n = 0
+    for n, (a, b) in enumerate(zip(fresh, committed, strict=True), start=1):
+        assert a == b, f'{name}: message {n} differs ({a[0]} at {a[2]} ns vs {b[0]} at {b[2]} ns)'
+    assert n == bag_info(BAGS / name).message_count
+    assert bag_info(tmp_path / name).scenario == bag_info(BAGS / name).scenario
+    assert _expected(name) == yaml.safe_load(
+        (tmp_path / f'{name}.expected.yaml').read_text(encoding='utf-8'))
+
+
+@pytest.mark.parametrize('name', list(SCENARIOS))
+def test_committed_bag_calibrates_offline_to_its_expected_results(name: str) -> None:
+    exp = _expected(name)
+    out = calibrate_bag(BAGS / name, _settings(name))
+    res, cal = out.results, out.calibrator
+    assert len(cal.k_tilde.pairs) == exp['window_pairs']
+    assert len(cal.k_tilde.windows) == exp['windows_accepted']
+    assert len(out.rejections) == exp['rejections'], [r.reason for r in out.rejections]
+    for reason in exp.get('rejection_reasons', []):
+        assert any(reason in r.reason for r in out.rejections), (reason, out.rejections)
+    truth, tol = exp['truth'], exp['tolerance']
+    k_tilde = res.k_tilde_arcsec_per_pulse
+    assert k_tilde is not None
+    assert abs(k_tilde.value / truth['k_tilde_arcsec_per_pulse'] - 1) < tol['k_tilde_relative']
+    if 'stations' in exp:
+        assert len(cal.stations.stations) == exp['stations']
+        assert res.fix_error is not None and res.scale_factor_arcsec_per_pulse is not None
+        theta = res.fix_error.fix_error_angle_rad.value / RAD_PER_ARCSEC
+        assert abs(theta - truth['fix_error_angle_arcsec']) < tol['fix_error_angle_arcsec']
+        assert abs(math.degrees(res.fix_error.tilt_rad.value) - truth['tilt_deg']) \
+            < tol['tilt_deg']
+        k = res.scale_factor_arcsec_per_pulse.value
+        assert abs(k / truth['scale_factor_arcsec_per_pulse'] - 1) < tol['scale_factor_relative']
+        assert res.bias_deg_h is not None
+        assert abs(res.bias_deg_h.value - exp['bias_deg_h_truth']) < tol['bias_deg_h']
+    else:
+        assert res.fix_error is None and not cal.stations.stations
+
+
+@pytest.mark.parametrize('name', ['k_tilde_bench', 'theta_four_position'])
+def test_bags_open_in_both_the_rosbags_and_the_mcap_reader(name: str) -> None:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    from rosbags.rosbag2 import Reader
+
+    bag = BAGS / name
+    with Reader(bag) as reader:
+        rosbags_counts = {c.topic: c.msgcount for c in reader.connections}
+        assert reader.message_count == sum(rosbags_counts.values())
+    mcap_counts: dict[str, int] = {}
+    first_stamps: dict[str, int] = {}
+    with open(bag / f'{name}.mcap', 'rb') as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        assert reader.get_header().profile == 'ros2'
+        for _, channel, message, decoded in reader.iter_decoded_messages():
+            mcap_counts[channel.topic] = mcap_counts.get(channel.topic, 0) + 1
+            stamp = decoded.stamp if channel.topic.endswith('zero_index') else \
+                decoded.header.stamp
+            first_stamps.setdefault(channel.topic, stamp.sec * 10**9 + stamp.nanosec)
+        schemas = {s.name for s in reader.get_summary().schemas.values()}
+    assert mcap_counts == rosbags_counts
+    assert schemas <= set(CONTRACT_TYPES.values())
+    assert set(rosbags_counts) >= {topics.GYRO_PULSES, topics.RATE_TABLE_JOINT_STATES,
+                                   topics.RATE_TABLE_ZERO_INDEX}
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['storage_identifier'] == 'mcap' and meta['version'] == 9
+    assert meta['relative_file_paths'] == [f'{name}.mcap']
+
+
+def test_cli_calibrate_prints_summary_and_writes_the_handoff(tmp_path: Path, capsys) -> None:
+    out = tmp_path / 'calib.yaml'
+    assert gyro_calib_main(['calibrate', str(BAGS / 'theta_four_position'), '--out', str(out),
+                            '--no-progress']) == 0
+    text = capsys.readouterr().out
+    for label in ('K̃ (″/pulse)', 'θ (″)', 'K (″/pulse)', 'bias ω_B (°/h)', 'stations: 4'):
+        assert label in text
+    record = yaml.safe_load(out.read_text())
+    assert record['gyro']['stations'] == 4 and record['source'].endswith('theta_four_position')
+    offline = calibrate_bag(BAGS / 'theta_four_position', _settings('theta_four_position'))
+    k = offline.results.scale_factor_arcsec_per_pulse
+    assert record['gyro']['scale_factor_rad_per_pulse'] == k.value * RAD_PER_ARCSEC
+
+
+def test_cli_calibrate_lists_rejections_and_exits_1_when_the_handoff_is_incomplete(
+        tmp_path: Path, capsys) -> None:
+    out = tmp_path / 'calib.yaml'
+    assert gyro_calib_main(['calibrate', str(BAGS / 'fault_pulse_gap'), '--out', str(out),
+                            '--no-progress']) == 1
+    captured = capsys.readouterr()
+    assert 'gap in the pulse stream' in captured.out
+    assert 'not written' in captured.err and not out.exists()
+
+
+def test_cli_info_lists_topics_counts_windows_and_stations(capsys) -> None:
+    assert gyro_calib_main(['info', str(BAGS / 'theta_four_position')]) == 0
+    text = capsys.readouterr().out
+    info = bag_info(BAGS / 'theta_four_position')
+    for t in info.topics.values():
+        assert t.name in text and str(t.count) in text
+    assert 'K̃ windows it would use: 4' in text and 'θ stations it would use: 4' in text
+
+
+def test_cli_simulate_writes_a_scenario_bag(tmp_path: Path) -> None:
+    out = tmp_path / 'bag'
+    assert gyro_calib_main(['simulate', 'fault_lock_in', '--out', str(out)]) == 0
+    assert bag_info(out).scenario['name'] == 'fault_lock_in'
+    assert gyro_calib_main(['simulate', '--list']) == 0
