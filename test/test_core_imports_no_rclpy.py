@@ -8,7 +8,10 @@ import sys
 import pytest
 
 CORE_MODULES = [
+    'gyro_calib.bag',
+    'gyro_calib.bag_calibration',
     'gyro_calib.calibrator',
+    'gyro_calib.cli',
     'gyro_calib.config',
     'gyro_calib.errors',
     'gyro_calib.diagnostics',
@@ -29,6 +32,7 @@ CORE_MODULES = [
     'sim_nodes.procedure',
     'sim_nodes.rate_table',
     'sim_nodes.ring_laser_gyro',
+    'sim_nodes.scenarios',
     'sim_nodes.two_axis_gyro',
 ]
 
