@@ -158,6 +158,7 @@ def write_bag(path: str | Path, messages: Iterable[BagMessage], *,
     connections: dict[str, Any] = {}
     try:
         with writer:
+            checksum_chunks(writer)
             for m in messages:
                 con = connections.get(m.topic)
                 if con is None:
@@ -214,6 +215,30 @@ class BagInfo:
         return (self.end_ns - self.start_ns) / 1e9 if self.message_count else 0.0
 
 
+def _one_line(exc: BaseException) -> str:
+    return ' '.join(str(exc).split())
+
+
+def checksum_chunks(writer: Any) -> None:
+    """Make rosbags' MCAP writer add a zstd content checksum to every chunk.
+
+    rosbags writes the MCAP chunk CRC as 0, so damaged chunk data would otherwise decode
+    into wrong numbers unnoticed; its reader verifies zstd checksums. (rosbags 0.11.9:
+    ``writer.storage.compressor``; other versions keep the default compressor.)
+    """
+    import functools
+    import sys
+
+    if sys.version_info >= (3, 14):
+        from compression import zstd
+    else:
+        from backports import zstd
+    storage = getattr(writer, 'storage', None)
+    if storage is not None and getattr(storage, 'compression', '') == 'zstd':
+        storage.compressor = functools.partial(
+            zstd.compress, options={zstd.CompressionParameter.checksum_flag: 1})
+
+
 def _open_reader(path: Path) -> Any:
     """An opened rosbags Reader, with every failure turned into a named BagError."""
     from rosbags.rosbag2 import Reader
@@ -226,14 +251,23 @@ def _open_reader(path: Path) -> Any:
     if not path.is_dir() or not (path / 'metadata.yaml').is_file():
         raise NotABagError(f'{path}: not a rosbag2 bag (a directory with metadata.yaml and '
                            'the .mcap file).')
+    meta = path / 'metadata.yaml'
+    try:
+        yaml.safe_load(meta.read_text(encoding='utf-8'))
+    except (UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise CorruptBagError(f'{meta}: damaged or truncated, not valid YAML '
+                              f'({_one_line(exc)}).') from exc
+    except OSError as exc:
+        raise CorruptBagError(f'{meta}: cannot be read ({exc.strerror or exc}).') from exc
     try:
         reader = Reader(path)
         reader.open()
     except ReaderError as exc:
-        raise CorruptBagError(f'{path}: cannot be read as a rosbag2 MCAP bag: {exc}') from exc
+        raise CorruptBagError(f'{path}: damaged or truncated, cannot be read as a rosbag2 '
+                              f'MCAP bag ({_one_line(exc)}).') from exc
     except (OSError, ValueError, KeyError, IndexError, EOFError) as exc:
-        raise CorruptBagError(f'{path}: damaged or truncated ({type(exc).__name__}: {exc}).'
-                              ) from exc
+        raise CorruptBagError(f'{path}: damaged or truncated ({type(exc).__name__}: '
+                              f'{_one_line(exc)}).') from exc
     return reader
 
 
@@ -354,7 +388,7 @@ def iter_sample_batches(path: str | Path, *, batch_messages: int = 50_000,
         except Exception as exc:  # rosbags' decoder raises plain errors on damaged data
             if isinstance(exc, GyroCalibError):
                 raise
-            raise CorruptBagError(f'{path}: a message could not be decoded after log time '
+            raise CorruptBagError(f'{path}: damaged, a message could not be decoded after log time '
                                   f'{log_ns / 1e9:.6f} s ({type(exc).__name__}: {exc}).'
                                   ) from exc
         if n:
@@ -386,9 +420,11 @@ def iter_raw_messages(path: str | Path) -> Iterator[tuple[str, str, int, bytes]]
         try:
             for con, log_ns, raw in reader.messages():
                 yield con.topic, con.msgtype, int(log_ns), bytes(raw)
-        except (ReaderError, ValueError, KeyError, IndexError, EOFError, OSError) as exc:
+        except GyroCalibError:
+            raise
+        except Exception as exc:  # rosbags/zstd raise many kinds on damaged data
             raise CorruptBagError(f'{path}: damaged or truncated ({type(exc).__name__}: '
-                                  f'{exc}).') from exc
+                                  f'{_one_line(exc)}).') from exc
     finally:
         reader.close()
 

@@ -169,7 +169,7 @@ class RateBiasCalibrator:
                 if pair is not None:
                     new_pairs.append(pair)
             self._trim(t_event)
-        if not len(idx_t) and None not in newest:
+        if not len(idx_t):
             self._trim_idle()
         rejections = self._cutter.rejections[self._n_rejections_reported:]
         rejections += self._pairs.rejections[self._n_pair_rejections_reported:]
@@ -239,8 +239,8 @@ class RateBiasCalibrator:
         limit = int(self.config.max_window_s * NS_PER_S)
         if self._cutter.open_event is not None:
             return
-        for buf in (self.pulses, self.table):
-            if buf.span_ns() > limit * 5 // 4:
+        for buf in (self.pulses, self.table):  # a stream never seen (no table) holds nothing
+            if buf.newest_ns is not None and buf.span_ns() > limit * 5 // 4:
                 buf.discard_before(buf.newest_ns - limit)  # type: ignore[operator]
 
     # -- results -----------------------------------------------------------------------------

@@ -35,7 +35,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.run(args))
     except GyroCalibError as exc:
-        print(f'gyro-calib: error: {exc}', file=sys.stderr)
+        print(f'gyro-calib: error: {" ".join(str(exc).split())}', file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print('gyro-calib: interrupted; nothing written.', file=sys.stderr)
@@ -225,6 +225,10 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.scenario is None or args.out is None:
         print('gyro-calib: error: simulate needs SCENARIO and --out BAG '
               '(gyro-calib simulate --list shows the scenarios).', file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if args.out.exists():
+        print(f'gyro-calib: error: {args.out}: exists already; not overwriting it.',
+              file=sys.stderr)
         return EXIT_BAD_INPUT
     if args.scenario not in SCENARIOS:
         print(f'gyro-calib: error: unknown scenario {args.scenario!r}; known: '

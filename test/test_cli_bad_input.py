@@ -23,6 +23,7 @@ that exists already. ``main`` is called in-process; output is captured with caps
 
 from __future__ import annotations
 
+import functools
 import random
 import re
 import shutil
@@ -34,7 +35,14 @@ from pathlib import Path
 import pytest
 
 from gyro_calib import topics
-from gyro_calib.bag import HEADER, JOINT_STATE, BagMessage, ContractMessages, write_bag
+from gyro_calib.bag import (
+    CONTRACT_TYPES,
+    HEADER,
+    JOINT_STATE,
+    BagMessage,
+    ContractMessages,
+    write_bag,
+)
 from gyro_calib.cli import main
 
 COMMITTED_BAG = Path(__file__).resolve().parents[1] / 'bags' / 'k_tilde_bench'
@@ -103,20 +111,20 @@ def listing(directory: Path) -> list[str]:
 
 
 # -- bad inputs ------------------------------------------------------------------------------
-_messages: ContractMessages | None = None
+@functools.cache
+def _contract_messages() -> ContractMessages:
+    return ContractMessages()  # one typestore for the module
 
 
 def _cdr(msgtype: str, t_ns: int, label: str) -> bytes:
     """CDR bytes of a message of ``msgtype`` stamped ``t_ns``."""
-    global _messages  # noqa: PLW0603 -- one typestore for the module
-    if _messages is None:
-        _messages = ContractMessages()
+    messages = _contract_messages()
     if msgtype == JOINT_STATE:
-        return _messages.joint_state(t_ns, label, position=t_ns * 1e-6, velocity=1.0)
+        return messages.joint_state(t_ns, label, position=t_ns * 1e-6, velocity=1.0)
     if msgtype == HEADER:
-        return _messages.header(t_ns, label)
+        return messages.header(t_ns, label)
     if msgtype == FLOAT64:
-        store = _messages.store
+        store = messages.store
         return bytes(store.serialize_cdr(store.types[FLOAT64](data=t_ns * 1e-9), FLOAT64))
     raise AssertionError(f'no CDR recipe for {msgtype}')
 
@@ -125,8 +133,6 @@ def synthetic_bag(path: Path, present: Sequence[str],
                   types: dict[str, str] | None = None, samples: int = 50) -> Path:
     """A small bag with ``samples`` messages (1 kHz) on each topic of ``present``;
     ``types`` overrides the contract type of a topic (the bytes follow the type)."""
-    from gyro_calib.bag import CONTRACT_TYPES
-
     types = types or {}
     msgs = [BagMessage(topic, t_ns, _cdr(types.get(topic, CONTRACT_TYPES[topic]), t_ns,
                                          topic.strip('/').split('/')[0]))
@@ -269,6 +275,8 @@ BAD_INPUTS: dict[str, BadInput] = {
     'mcap cut in the middle': BadInput(mcap_cut_in_the_middle, (DAMAGED,)),
     'garbage in the middle of the middle chunk': BadInput(
         _chunk_garbage(lambda n: n // 2), (DAMAGED,)),
+    # a damaged chunk must be reported, never decoded into other numbers (the calibrator
+    # then merely rejects a window or two, or nothing at all, and exits 0)
     'garbage in the middle of the first chunk': BadInput(
         _chunk_garbage(lambda n: 0), (DAMAGED,)),
     'metadata.yaml with non-UTF-8 garbage': BadInput(
@@ -292,7 +300,7 @@ BAD_INPUTS: dict[str, BadInput] = {
 
 
 @pytest.fixture(scope='module')
-def bad_input_dir(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Path]:
+def bad_bag(tmp_path_factory: pytest.TempPathFactory) -> Callable[[str], Path]:
     """``make(case)``: the bad BAG of ``case``, built once per module (the CLI only reads it)."""
     built: dict[str, Path] = {}
 
@@ -314,8 +322,9 @@ def test_an_undamaged_copy_of_the_committed_bag_is_not_reported_as_bad_input(
 
     run = gyro_calib(capsys, 'calibrate', bag, '--out', tmp_path / 'out.yaml')
 
-    assert run.code != EXIT_BAD_INPUT and ERROR_PREFIX not in run.err
-    assert 'K̃ windows accepted: 6' in run.out  # the damage, not the copy, is what is reported
+    # exit 0 or 1 (the bag has no θ phase, so the hand-off may be incomplete), never 2:
+    # in the cases below the damage, not the copying, is what gets reported
+    assert run.code in (0, 1) and ERROR_PREFIX not in run.err, run.err
 
 
 def test_the_chunk_locator_finds_every_chunk_of_the_committed_bag() -> None:
@@ -329,9 +338,9 @@ def test_the_chunk_locator_finds_every_chunk_of_the_committed_bag() -> None:
 # -- calibrate ------------------------------------------------------------------------------
 @cases
 def test_calibrate_on_bad_input_prints_one_error_line_exits_2_and_writes_nothing(
-        case: str, bad_input_dir: Callable[[str], Path], tmp_path: Path,
+        case: str, bad_bag: Callable[[str], Path], tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
-    bag = bad_input_dir(case)
+    bag = bad_bag(case)
     out_dir = tmp_path / 'out'
     out_dir.mkdir()
     out = out_dir / 'calib.yaml'
@@ -347,9 +356,9 @@ def test_calibrate_on_bad_input_prints_one_error_line_exits_2_and_writes_nothing
 
 @cases
 def test_calibrate_on_bad_input_leaves_an_existing_output_file_byte_for_byte_unchanged(
-        case: str, bad_input_dir: Callable[[str], Path], tmp_path: Path,
+        case: str, bad_bag: Callable[[str], Path], tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
-    bag = bad_input_dir(case)
+    bag = bad_bag(case)
     out_dir = tmp_path / 'out'
     out_dir.mkdir()
     out = out_dir / 'calib.yaml'
@@ -368,9 +377,9 @@ def test_calibrate_on_bad_input_leaves_an_existing_output_file_byte_for_byte_unc
 # -- info ------------------------------------------------------------------------------------
 @cases
 def test_info_on_bad_input_prints_one_error_line_and_exits_2(
-        case: str, bad_input_dir: Callable[[str], Path],
+        case: str, bad_bag: Callable[[str], Path],
         capsys: pytest.CaptureFixture[str]) -> None:
-    bag = bad_input_dir(case)
+    bag = bad_bag(case)
 
     run = gyro_calib(capsys, 'info', bag)
 
@@ -408,7 +417,6 @@ def test_simulate_refuses_to_overwrite_an_existing_out_path(
 
     line = the_one_error_line(run)
     assert_names(line, (r'exists',), path=out)
-    assert run.code != 0
     assert run.code == EXIT_BAD_INPUT
     after = {p.relative_to(tmp_path): p.read_bytes()
              for p in tmp_path.rglob('*') if p.is_file()}

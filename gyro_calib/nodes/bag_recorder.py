@@ -29,7 +29,7 @@ from rclpy.serialization import deserialize_message
 from std_msgs.msg import String
 
 from gyro_calib import topics
-from gyro_calib.bag import CONTRACT_TYPES, SCENARIO_KEY, BagError
+from gyro_calib.bag import CONTRACT_TYPES, SCENARIO_KEY, BagError, checksum_chunks
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.bag_player import message_class
 from gyro_calib.nodes.ros_io import SCENARIO_QOS, SENSOR_QOS, make_executor, stamp_to_ns
@@ -93,6 +93,7 @@ class BagRecorder(Node):
         writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
         writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         writer.open()
+        checksum_chunks(writer)
         return writer, {name: writer.add_connection(name, msgtype, typestore=store)
                         for name, msgtype in types.items()}
 
