@@ -80,7 +80,7 @@ class ResultListener:
                 self.diagnostics = {kv.key: kv.value for kv in status.values}
 
     def spin_until(self, done: Any, timeout_s: float, *, source: NodeProcess | None = None,
-                   grace_s: float = 90.0) -> bool:
+                   grace_s: float = 600.0) -> bool:
         """Spin until ``done()``; give up after ``timeout_s``, or ``grace_s`` after the
         ``source`` process (the simulator feeding the bench) has exited."""
         deadline = time.monotonic() + timeout_s
