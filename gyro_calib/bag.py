@@ -412,8 +412,6 @@ def iter_raw_messages(path: str | Path) -> Iterator[tuple[str, str, int, bytes]]
     Raises:
         BagError (subclass): as :func:`bag_info`, or a damaged chunk while reading.
     """
-    from rosbags.rosbag2.errors import ReaderError
-
     path = Path(path)
     reader = _open_reader(path)
     try:

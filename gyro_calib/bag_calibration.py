@@ -8,42 +8,14 @@ when it is replayed into the node.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from gyro_calib import topics
 from gyro_calib.bag import BagInfo, bag_info, check_calibration_topics, iter_sample_batches
-from gyro_calib.config import KTildeConfig
 from gyro_calib.estimate import Rejection
 from gyro_calib.rbrlg_calibration import RbrlgCalibrator, RbrlgResults
-
-
-@dataclass(frozen=True, slots=True)
-class BenchSettings:
-    """What the operator tells the calibration about the bench (the node's parameters).
-
-    Attributes:
-        k_config: window settings (m, tolerances, minimum pairs).
-        position_table_revolutions: n, position-table revolutions each way per station.
-        latitude_deg: site latitude, ° (NaN: the bias is not separated from Earth rate).
-        heading_deg: angle from East to the table-base oX axis, °.
-        nominal_tilt_deg, tilt_tolerance_deg: mount tilt α and its accepted deviation, °.
-    """
-
-    k_config: KTildeConfig = field(default_factory=KTildeConfig)
-    position_table_revolutions: int = 1
-    latitude_deg: float = math.nan
-    heading_deg: float = 0.0
-    nominal_tilt_deg: float = 45.0
-    tilt_tolerance_deg: float = 5.0
-
-    def calibrator(self) -> RbrlgCalibrator:
-        """A fresh calibrator with these settings."""
-        return RbrlgCalibrator(self.k_config, self.position_table_revolutions,
-                               self.latitude_deg, self.heading_deg, self.nominal_tilt_deg,
-                               self.tilt_tolerance_deg)
 
 
 @dataclass(slots=True)
@@ -77,12 +49,14 @@ class BagCalibration:
         return self.results.k_tilde_arcsec_per_pulse is not None
 
 
-def calibrate_bag(path: str | Path, settings: BenchSettings | None = None, *,
+def calibrate_bag(path: str | Path, calibrator: RbrlgCalibrator | None = None, *,
                   progress: Callable[[float], None] | None = None,
                   batch_messages: int = 50_000) -> BagCalibration:
     """Stream the bag at ``path`` through the calibration (METHODS §A: eqs. 3, 4, 15–18).
 
-    ``progress`` is called with the fraction of the bag's log-time span done.
+    ``calibrator`` carries the bench settings (m, n, site, tilt tolerance), as the node's
+    parameters do; a default one is used when None. ``progress`` is called with the
+    fraction of the bag's log-time span done.
 
     Raises:
         BagError (subclass): missing path, not a bag, damaged bag, missing topic, wrong
@@ -90,8 +64,7 @@ def calibrate_bag(path: str | Path, settings: BenchSettings | None = None, *,
     """
     info = bag_info(path)
     check_calibration_topics(info)
-    settings = settings or BenchSettings()
-    cal = settings.calibrator()
+    cal = calibrator if calibrator is not None else RbrlgCalibrator()
     rejections: list[Rejection] = []
     notices: list[str] = []
     span = max(info.end_ns - info.start_ns, 1)

@@ -19,11 +19,11 @@ from pathlib import Path
 from typing import Any
 
 from gyro_calib.bag import BagInfo, bag_info
-from gyro_calib.bag_calibration import BagCalibration, BenchSettings, calibrate_bag
+from gyro_calib.bag_calibration import BagCalibration, calibrate_bag
 from gyro_calib.config import KTildeConfig, load_k_tilde_config
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import write_calibration
-from gyro_calib.rbrlg_calibration import handoff_calibration
+from gyro_calib.rbrlg_calibration import RbrlgCalibrator, handoff_calibration
 from gyro_calib.units import RAD_PER_ARCSEC
 
 EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT = 0, 1, 2
@@ -79,7 +79,7 @@ def _bench_arguments(parser: argparse.ArgumentParser) -> None:
                         help='n, position-table revolutions each way per station')
 
 
-def _settings(args: argparse.Namespace, info: BagInfo) -> BenchSettings:
+def _calibrator(args: argparse.Namespace, info: BagInfo) -> RbrlgCalibrator:
     """Flags first, then the bench settings stored in the bag, then the defaults."""
     stored = info.scenario.get('bench', {}) if isinstance(info.scenario, dict) else {}
     k_config = load_k_tilde_config(args.config) if args.config else KTildeConfig()
@@ -87,7 +87,7 @@ def _settings(args: argparse.Namespace, info: BagInfo) -> BenchSettings:
     def pick(flag: Any, key: str, default: Any) -> Any:
         return flag if flag is not None else stored.get(key, default)
 
-    return BenchSettings(
+    return RbrlgCalibrator(
         k_config=k_config,
         position_table_revolutions=int(pick(args.position_table_revolutions,
                                             'position_table_revolutions', 1)),
@@ -100,9 +100,9 @@ def _calibrate(args: argparse.Namespace) -> int:
         print(f'gyro-calib: error: --out {args.out} is a directory.', file=sys.stderr)
         return EXIT_BAD_INPUT
     info = bag_info(args.bag)
-    settings = _settings(args, info)
+    calibrator = _calibrator(args, info)
     show = sys.stderr.isatty() if args.progress is None else args.progress
-    outcome = _run_with_progress(args.bag, settings, show)
+    outcome = _run_with_progress(args.bag, calibrator, show)
     print(summary_table(outcome))
     if not outcome.calibrated_anything:
         print('gyro-calib: nothing could be calibrated from this bag (no K̃); '
@@ -121,16 +121,16 @@ def _calibrate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _run_with_progress(bag: Path, settings: BenchSettings, show: bool) -> BagCalibration:
+def _run_with_progress(bag: Path, calibrator: RbrlgCalibrator, show: bool) -> BagCalibration:
     if not show:
-        return calibrate_bag(bag, settings)
+        return calibrate_bag(bag, calibrator)
     from tqdm import tqdm
 
     with tqdm(total=1000, desc='calibrating', unit='‰', file=sys.stderr,
               bar_format='{desc} {percentage:3.0f}%|{bar}| {elapsed}<{remaining}') as bar:
         def progress(fraction: float) -> None:
             bar.update(int(fraction * 1000) - bar.n)
-        return calibrate_bag(bag, settings, progress=progress)
+        return calibrate_bag(bag, calibrator, progress=progress)
 
 
 def _missing_for_handoff(outcome: BagCalibration) -> str:
@@ -198,7 +198,7 @@ def _info(args: argparse.Namespace) -> int:
     if info.scenario:
         print(f'scenario: {info.scenario.get("name", "?")} — '
               f'{info.scenario.get("description", "")}')
-    outcome = calibrate_bag(args.bag, _settings(args, info))
+    outcome = calibrate_bag(args.bag, _calibrator(args, info))
     cal = outcome.calibrator
     print(f'K̃ windows it would use: {len(cal.k_tilde.windows)} '
           f'({len(cal.k_tilde.pairs)} forward/reverse pairs)')

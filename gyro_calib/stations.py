@@ -160,7 +160,18 @@ class StationCalibrator:
                 new.append(station)
                 self.stations.append(station)
         self._judge_runs(flush)
+        self._trim_rate_table()
         return new
+
+    def _trim_rate_table(self) -> None:
+        """Bound the rate-table history: a station spans one forward and one reverse window
+        (each ≤ max_window_s) and the pulses deciding it may lag by stall_timeout_s, so
+        older samples can never be asked for. Trims at 1.25 × that span (amortised)."""
+        cfg = self.config
+        keep_ns = int((2 * cfg.max_window_s + cfg.stall_timeout_s + 60.0) * NS_PER_S)
+        newest = self._rate_table.newest_ns
+        if newest is not None and self._rate_table.span_ns() > keep_ns * 5 // 4:
+            self._rate_table.discard_before(newest - keep_ns)
 
     def _judge_runs(self, flush: bool) -> None:
         newest = [self._windows.pulses.newest_ns, self._windows.table.newest_ns]

@@ -15,10 +15,10 @@ fast as the readers acknowledge), ``exit_when_done`` and ``wait_for_subscribers`
 
 from __future__ import annotations
 
+import functools
 import time
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -26,6 +26,7 @@ from std_msgs.msg import Header, String
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
+    described_parameter,
     SCENARIO_QOS,
     EVENT_QOS,
     SENSOR_QOS,
@@ -67,10 +68,7 @@ class RateTableNode(Node):
         self.config = RateTableConfig(**declare_dataclass_parameters(self, RateTableConfig))
         procedure = ThetaProcedureConfig(**declare_dataclass_parameters(
             self, ThetaProcedureConfig, prefix='procedure.'))
-
-        def param(name: str, default: object, text: str) -> object:
-            return self.declare_parameter(name, default, ParameterDescriptor(
-                description=text)).value
+        param = functools.partial(described_parameter, self)
 
         scenario = param('scenario', 'rate_bias', f'One of {", ".join(SCENARIOS)}.')
         k_pairs = param('k_tilde_pairs', 4, 'Forward/reverse rate-table pairs of the K̃ phase '

@@ -14,7 +14,6 @@ import time
 
 import numpy as np
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
@@ -22,6 +21,7 @@ from std_msgs.msg import String
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
+    described_parameter,
     SCENARIO_QOS,
     SENSOR_QOS,
     declare_dataclass_parameters,
@@ -59,10 +59,10 @@ class RingLaserGyroNode(Node):
             **declare_dataclass_parameters(self, RingLaserGyroConfig))
         self.mount = TiltedMountConfig(
             **declare_dataclass_parameters(self, TiltedMountConfig, prefix='mount.'))
-        self.subscriber_wait_s = float(self.declare_parameter(
-            'subscriber_wait_s', 60.0, ParameterDescriptor(
-                description='Before the first pulse, wait up to this long (s) for a reader of '
-                '/gyro/pulses, so no pulse is published into the void; 0 = do not wait.')).value)
+        self.subscriber_wait_s = float(described_parameter(
+            self, 'subscriber_wait_s', 60.0, 'Before the first pulse, wait up to this long (s) '
+            'for a reader of /gyro/pulses, so no pulse is published into the void; 0 = do not '
+            'wait.'))
         self.sim: RingLaserGyroSimulator | TwoAxisGyroSimulator | None = None
         self._last_ns: int | None = None
         self._waited_for_reader = False

@@ -11,7 +11,8 @@ import yaml
 
 from gyro_calib import topics
 from gyro_calib.bag import CONTRACT_TYPES, bag_info, iter_raw_messages
-from gyro_calib.bag_calibration import BenchSettings, calibrate_bag
+from gyro_calib.bag_calibration import calibrate_bag
+from gyro_calib.rbrlg_calibration import RbrlgCalibrator
 from gyro_calib.cli import main as gyro_calib_main
 from gyro_calib.units import RAD_PER_ARCSEC
 from sim_nodes.scenarios import SCENARIOS, write_scenario_files
@@ -24,9 +25,9 @@ def _expected(name: str) -> dict:
     return yaml.safe_load((BAGS / f'{name}.expected.yaml').read_text(encoding='utf-8'))
 
 
-def _settings(name: str) -> BenchSettings:
+def _calibrator(name: str) -> RbrlgCalibrator:
     bench = bag_info(BAGS / name).scenario['bench']
-    return BenchSettings(latitude_deg=bench['latitude_deg'],
+    return RbrlgCalibrator(latitude_deg=bench['latitude_deg'],
                          position_table_revolutions=bench['position_table_revolutions'])
 
 
@@ -55,7 +56,7 @@ def test_regenerated_bag_matches_the_committed_one_message_for_message(
 @pytest.mark.parametrize('name', list(SCENARIOS))
 def test_committed_bag_calibrates_offline_to_its_expected_results(name: str) -> None:
     exp = _expected(name)
-    out = calibrate_bag(BAGS / name, _settings(name))
+    out = calibrate_bag(BAGS / name, _calibrator(name))
     res, cal = out.results, out.calibrator
     assert len(cal.k_tilde.pairs) == exp['window_pairs']
     assert len(cal.k_tilde.windows) == exp['windows_accepted']
@@ -120,7 +121,7 @@ def test_cli_calibrate_prints_summary_and_writes_the_handoff(tmp_path: Path, cap
         assert label in text
     record = yaml.safe_load(out.read_text())
     assert record['gyro']['stations'] == 4 and record['source'].endswith('theta_four_position')
-    offline = calibrate_bag(BAGS / 'theta_four_position', _settings('theta_four_position'))
+    offline = calibrate_bag(BAGS / 'theta_four_position', _calibrator('theta_four_position'))
     k = offline.results.scale_factor_arcsec_per_pulse
     assert record['gyro']['scale_factor_rad_per_pulse'] == k.value * RAD_PER_ARCSEC
 

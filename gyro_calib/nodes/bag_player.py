@@ -15,19 +15,23 @@ lost at the start).
 
 from __future__ import annotations
 
+import functools
 import importlib
 import time
 from pathlib import Path
-from typing import Any
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
 from gyro_calib.bag import bag_info, iter_raw_messages
 from gyro_calib.errors import GyroCalibError
-from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, publish_paced
+from gyro_calib.nodes.ros_io import (
+    SENSOR_QOS,
+    described_parameter,
+    ns_to_stamp,
+    publish_paced,
+)
 
 
 def message_class(msgtype: str) -> type:
@@ -42,10 +46,7 @@ class BagPlayer(Node):
     def __init__(self) -> None:
         """Declare parameters, open the bag, create one publisher per topic."""
         super().__init__('bag_player')
-
-        def param(name: str, default: Any, text: str) -> Any:
-            return self.declare_parameter(name, default, ParameterDescriptor(
-                description=text)).value
+        param = functools.partial(described_parameter, self)
 
         self.path = Path(param('bag', '', 'Bag directory to play (required).'))
         self.rate = float(param('rate', 1.0, 'Multiple of the recorded timing '

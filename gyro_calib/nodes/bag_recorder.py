@@ -16,13 +16,13 @@ calibration inputs of the topic contract), ``duration_s`` (0 = until stopped),
 
 from __future__ import annotations
 
+import functools
 import time
 from pathlib import Path
 from typing import Any
 
 import rclpy
 import yaml
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
@@ -32,7 +32,13 @@ from gyro_calib import topics
 from gyro_calib.bag import CONTRACT_TYPES, SCENARIO_KEY, BagError, checksum_chunks
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.bag_player import message_class
-from gyro_calib.nodes.ros_io import SCENARIO_QOS, SENSOR_QOS, make_executor, stamp_to_ns
+from gyro_calib.nodes.ros_io import (
+    SCENARIO_QOS,
+    SENSOR_QOS,
+    described_parameter,
+    make_executor,
+    stamp_to_ns,
+)
 
 class BagRecorder(Node):
     """Writes every received message of the chosen topics to one bag."""
@@ -40,10 +46,7 @@ class BagRecorder(Node):
     def __init__(self) -> None:
         """Declare parameters, open the bag, subscribe."""
         super().__init__('bag_recorder')
-
-        def param(name: str, default: Any, text: str) -> Any:
-            return self.declare_parameter(name, default, ParameterDescriptor(
-                description=text)).value
+        param = functools.partial(described_parameter, self)
 
         out = str(param('out', '', 'Bag directory to create (required; must not exist).'))
         names = [t for t in param('topics', [''], 'Topics to record (default: the '

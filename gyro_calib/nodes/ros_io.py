@@ -50,6 +50,12 @@ def ns_to_stamp(t_ns: int, stamp: Time) -> Time:
     return stamp
 
 
+def described_parameter(node: Node, name: str, default: Any, description: str) -> Any:
+    """Declare one parameter with its description; return its value."""
+    return node.declare_parameter(name, default, ParameterDescriptor(
+        description=description)).value
+
+
 def declare_dataclass_parameters(node: Node, cls: type, prefix: str = '') -> dict[str, Any]:
     """Declare one described parameter per field of ``cls``; return the values read.
 

@@ -10,7 +10,8 @@ import pytest
 
 from gyro_calib import topics
 from gyro_calib.bag import bag_info, iter_sample_batches
-from gyro_calib.bag_calibration import BenchSettings, calibrate_bag
+from gyro_calib.bag_calibration import calibrate_bag
+from gyro_calib.rbrlg_calibration import RbrlgCalibrator
 from gyro_calib.diagnostics import calibration_status
 from sim_nodes.bench import simulate_rate_bias_bench
 from sim_nodes.rate_table import RateTableConfig
@@ -31,7 +32,7 @@ def test_replayed_bag_gives_exactly_the_offline_numbers(
         name: str, listener: ResultListener, nodes: list[NodeProcess]) -> None:
     bag = BAGS / name
     bench = bag_info(bag).scenario['bench']
-    offline = calibrate_bag(bag, BenchSettings(
+    offline = calibrate_bag(bag, RbrlgCalibrator(
         latitude_deg=bench['latitude_deg'],
         position_table_revolutions=bench['position_table_revolutions']))
     _, _, expected = calibration_status(offline.calibrator, '')
