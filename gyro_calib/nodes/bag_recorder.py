@@ -33,7 +33,7 @@ from gyro_calib.bag import CONTRACT_TYPES, SCENARIO_KEY, BagError, checksum_chun
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.bag_player import message_class
 from gyro_calib.nodes.ros_io import (
-    SCENARIO_QOS,
+    SCENARIO_READER_QOS,
     SENSOR_QOS,
     described_parameter,
     make_executor,
@@ -71,7 +71,8 @@ class BagRecorder(Node):
             self.create_subscription(
                 cls, name, lambda raw, n=name, c=cls: self._on_message(n, c, raw),
                 SENSOR_QOS, raw=True)
-        self.create_subscription(String, topics.SIM_SCENARIO, self._on_scenario, SCENARIO_QOS)
+        self.create_subscription(String, topics.SIM_SCENARIO, self._on_scenario,
+                                 SCENARIO_READER_QOS)
         self.started = time.monotonic()
 
     def _type_of(self, name: str, timeout_s: float = 10.0) -> str:
@@ -135,25 +136,50 @@ class BagRecorder(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Record until Ctrl-C / SIGINT (or ``duration_s``), then close the bag."""
+    """Record until Ctrl-C / SIGINT / SIGTERM (or ``duration_s``), then close the bag.
+
+    On a stop request the recorder first writes what its readers already hold: a
+    reliable writer counts a sample delivered once our DDS reader has it, before our
+    callback ran, so closing at once would lose the acknowledged backlog.
+    """
+    import signal
+    import threading
+
+    from rclpy.signals import SignalHandlerOptions
+
+    stop = threading.Event()
     recorder = None
-    try:
-        with rclpy.init(args=args):
-            try:
-                recorder = BagRecorder()
-            except GyroCalibError as exc:
-                raise SystemExit(f'bag_recorder: error: {exc}') from None
-            recorder.get_logger().info(f'recording {", ".join(recorder.counts)} to '
-                                       f'{recorder.path}')
-            executor = make_executor()
-            executor.add_node(recorder)
-            while rclpy.ok() and not recorder.done:
+    with rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: stop.set())
+        try:
+            recorder = BagRecorder()
+        except GyroCalibError as exc:
+            raise SystemExit(f'bag_recorder: error: {exc}') from None
+        recorder.get_logger().info(f'recording {", ".join(recorder.counts)} to '
+                                   f'{recorder.path}')
+        executor = make_executor()
+        executor.add_node(recorder)
+        try:
+            while not stop.is_set() and not recorder.done:
                 executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if recorder is not None:
+            drain_backlog(executor, recorder)
+        except ExternalShutdownException:
+            pass
+        finally:
             recorder.close()
+
+
+def drain_backlog(executor: Any, recorder: BagRecorder, *, quiet_s: float = 0.5,
+                  limit_s: float = 60.0) -> None:
+    """Spin until no message has arrived for ``quiet_s`` (at most ``limit_s``)."""
+    deadline = time.monotonic() + limit_s
+    seen, quiet_since = sum(recorder.counts.values()), time.monotonic()
+    while time.monotonic() - quiet_since < quiet_s and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+        total = sum(recorder.counts.values())
+        if total != seen:
+            seen, quiet_since = total, time.monotonic()
 
 
 if __name__ == '__main__':

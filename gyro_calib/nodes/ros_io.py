@@ -36,7 +36,13 @@ RESULT_QOS = QoSProfile(
 SCENARIO_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.TRANSIENT_LOCAL)
-"""/sim/scenario: each simulator's description reaches late recorders."""
+"""/sim/scenario writers: each simulator's description reaches late recorders."""
+
+SCENARIO_READER_QOS = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=16, reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL)
+"""/sim/scenario readers: several simulators publish on it and a depth of 1 would keep only
+the last to arrive before the callback ran (seen: the table's part lost)."""
 
 
 def stamp_to_ns(stamp: Time) -> int:

@@ -64,7 +64,7 @@ def test_recorder_keeps_every_message_of_the_live_bench_and_its_scenario(
                                       'real_time_factor': 5.0})
     nodes.append(table)
     table.proc.wait(timeout=300)  # it exits once the recorder acknowledged everything
-    recorder.stop()
+    recorder.stop(timeout_s=90.0)  # it writes the backlog its readers hold, then closes
     logs = '\n'.join(n.log() for n in nodes)
     assert recorder.proc.returncode == 0, logs
     assert 'wrote' in recorder.log(), logs
