@@ -3,7 +3,7 @@
 Run (from the repository root, in the project's venv):
 
     python benchmarks/bag_throughput.py [--hours 1.0] [--cache /tmp/gyro_calib_bench]
-        [--replay-duration 300] [--skip-replay]
+        [--replay-duration 300] [--skip-offline] [--skip-floor] [--skip-replay]
 
 (a) Offline. A rate-bias bench bag of ``--hours`` (paper bench, 1 kHz pulses, 200 Hz
     joint states; generated once into ``--cache``) is calibrated by the ``gyro-calib
@@ -11,7 +11,13 @@ Run (from the repository root, in the project's venv):
     bag duration / wall time (target ≥ 500×), peak RSS of the child (target < 500 MB),
     K̃ pairs found.
 
-(b) DDS replay. A ``--replay-duration`` bag is played by ``bag_player`` as fast as the
+(b) Reader floor. The same bag iterated by the MCAP readers we may use (rosbags'
+    Reader, the mcap library's reader), undecoded and with rosbags' CDR deserialiser, in
+    this process: per-message cost and the throughput each would cap
+    ``gyro-calib calibrate`` at even if calibrating cost nothing. 500× on a 1 kHz bag
+    needs ≤ 1/(500 · messages per second) per message, all in.
+
+(c) DDS replay. A ``--replay-duration`` bag is played by ``bag_player`` as fast as the
     readers acknowledge (rate 0) into ``calibration_node`` and ``bag_recorder`` on a
     private loopback domain. Figures: messages in the bag, recorded by the recorder,
     lost (= difference, target 0), replay speed (bag duration / wall time of the
@@ -25,6 +31,7 @@ import os
 import resource
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -43,7 +50,9 @@ def _bag(cache: Path, name: str, duration_s: float) -> Path:
                 'from sim_nodes.scenarios import SCENARIOS, write_scenario_bag\n'
                 "base = SCENARIOS['k_tilde_bench']\n"
                 'sc = dataclasses.replace(base, name=sys.argv[2], table=dataclasses.replace('
-                'base.table, duration_s=float(sys.argv[3])))\n'
+                'base.table, duration_s=float(sys.argv[3])), description=('
+                '"The paper\'s rate-bias bench (m = 5, 150 °/s, 1 kHz) run for " + sys.argv[3] '
+                '+ " s."), expected={})\n'
                 'write_scenario_bag(sc, sys.argv[1])\n')
         t0 = time.perf_counter()
         subprocess.run([sys.executable, '-c', code, str(path), name, str(duration_s)],
@@ -60,25 +69,69 @@ def offline(cache: Path, hours: float) -> None:
     size = sum(f.stat().st_size for f in bag.iterdir()) / 1e6
     exe = Path(sys.executable).with_name('gyro-calib')
     parent_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    t0 = time.perf_counter()
-    proc = subprocess.run([str(exe), 'calibrate', str(bag), '--no-progress'],
-                          capture_output=True, text=True)
-    wall = time.perf_counter() - t0
-    peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    pairs = [ln for ln in proc.stdout.splitlines() if 'pairs' in ln]
+    with tempfile.TemporaryFile('w+') as out, tempfile.TemporaryFile('w+') as err:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen([str(exe), 'calibrate', str(bag), '--no-progress'],
+                                stdout=out, stderr=err, text=True)
+        # wait4 gives this child's own rusage; RUSAGE_CHILDREN would also count the bag
+        # generator child above (≈ 630 MB for the 1-hour bag).
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t0
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        stdout, stderr = out.read(), err.read()
+    peak_mb = usage.ru_maxrss / 1024
+    pairs = [ln for ln in stdout.splitlines() if 'pairs' in ln]
     print(f'(a) offline: bag {info.duration_s:.0f} s, {info.message_count} messages, '
           f'{size:.1f} MB')
     print(f'    gyro-calib calibrate: exit {proc.returncode}, wall {wall:.1f} s, '
           f'throughput {info.duration_s / wall:.1f}× real time '
           f'({info.message_count / wall / 1e3:.1f} k msg/s), peak RSS {peak_mb:.0f} MB '
-          f'(child ru_maxrss; includes up to {parent_mb:.0f} MB inherited at fork)')
-    print(f'    {pairs[0] if pairs else proc.stderr.strip()[-300:]}')
+          f'(the child\'s own ru_maxrss; may include up to {parent_mb:.0f} MB inherited at '
+          f'fork)')
+    print(f'    {pairs[0] if pairs else stderr.strip()[-300:]}')
+
+
+def reader_floor(cache: Path, hours: float) -> None:
+    from mcap.reader import make_reader
+    from rosbags.rosbag2 import Reader
+
+    from rosbags.typesys import Stores, get_typestore
+
+    from gyro_calib.bag import bag_info
+
+    bag = _bag(cache, f'k_tilde_{hours:g}h', hours * 3600.0)
+    info = bag_info(bag)
+    budget_us = 1e6 / (500.0 * info.message_count / info.duration_s)
+    print(f'(b) reader floor on {info.message_count} messages over {info.duration_s:.0f} s: '
+          f'500× allows {budget_us:.2f} µs per message in total')
+
+    def report(label: str, seconds: float, n: int) -> None:
+        print(f'    {label}: {seconds:.1f} s, {seconds / n * 1e6:.2f} µs/message, caps '
+              f'throughput at {info.duration_s / seconds:.0f}× real time')
+
+    t0, n = time.perf_counter(), 0
+    with Reader(bag) as reader:
+        for _ in reader.messages():
+            n += 1
+    report('rosbags Reader.messages(), undecoded', time.perf_counter() - t0, n)
+    mcap_file = next(bag.glob('*.mcap'))
+    t0, n = time.perf_counter(), 0
+    with mcap_file.open('rb') as f:
+        for _ in make_reader(f).iter_messages():
+            n += 1
+    report('mcap make_reader().iter_messages(), undecoded', time.perf_counter() - t0, n)
+    deserialize = get_typestore(Stores.ROS2_KILTED).deserialize_cdr
+    t0, n = time.perf_counter(), 0
+    with Reader(bag) as reader:
+        for con, _, raw in reader.messages():
+            deserialize(raw, con.msgtype)
+            n += 1
+    report('rosbags Reader.messages() + deserialize_cdr', time.perf_counter() - t0, n)
 
 
 def replay(cache: Path, duration_s: float) -> None:
-    import tempfile
-
-    from gyro_calib import topics
     from gyro_calib.bag import bag_info
     from gyro_calib.bag_calibration import calibrate_bag
     from gyro_calib.nodes.processes import ros_environment, start_node
@@ -105,14 +158,13 @@ def replay(cache: Path, duration_s: float) -> None:
     played = [ln for ln in player_log.splitlines() if 'played' in ln]
     offline_k = calibrate_bag(bag).results.k_tilde_arcsec_per_pulse
     live = [ln for ln in logs[0].splitlines() if 'K̃ =' in ln]
-    print(f'(b) DDS replay of {info.duration_s:.0f} s ({sent} messages): recorded {got}, '
+    print(f'(c) DDS replay of {info.duration_s:.0f} s ({sent} messages): recorded {got}, '
           f'lost {sent - got}; per topic: ' + ', '.join(
               f'{t}: {info.topics[t].count - recorded.topics[t].count}'
               for t in info.topics if t in recorded.topics))
     print(f'    player: {played[-1].split("]: ")[-1] if played else player_log[-300:]}')
     print(f'    node last: {live[-1].split("]: ")[-1] if live else "no K̃"}; offline K̃ '
           f'{offline_k.value:.10f} ″/pulse ({offline_k.n_used} pairs)' if offline_k else '')
-    del topics
 
 
 def main() -> None:
@@ -122,10 +174,13 @@ def main() -> None:
     parser.add_argument('--replay-duration', type=float, default=300.0)
     parser.add_argument('--skip-replay', action='store_true')
     parser.add_argument('--skip-offline', action='store_true')
+    parser.add_argument('--skip-floor', action='store_true')
     args = parser.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
     if not args.skip_offline:
         offline(args.cache, args.hours)
+    if not args.skip_floor:
+        reader_floor(args.cache, args.hours)
     if not args.skip_replay:
         replay(args.cache, args.replay_duration)
 

@@ -1,13 +1,19 @@
 """Start bench nodes as processes and listen to their results, for DDS tests.
 
-Every process inherits the loopback-only, private ROS_DOMAIN_ID that conftest.py set.
+Every process inherits the loopback-only, private ROS_DOMAIN_ID that conftest.py set, and
+runs in a scratch directory, so a default output (the calibration node's hand-off YAML) never
+lands in the work tree.
 """
 
 from __future__ import annotations
 
+import atexit
+import functools
 import os
+import shutil
 import signal
 import subprocess
+import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -45,9 +51,17 @@ class NodeProcess:
                 self.proc.wait()
 
 
+@functools.cache
+def _scratch_dir() -> str:
+    path = tempfile.mkdtemp(prefix='gyro_calib_dds_')
+    atexit.register(shutil.rmtree, path, ignore_errors=True)
+    return path
+
+
 def launch(name: str, params: dict[str, Any]) -> NodeProcess:
     env = ros_environment(int(os.environ['ROS_DOMAIN_ID']))
-    proc = start_node(name, params, env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    proc = start_node(name, params, env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                      cwd=_scratch_dir())
     return NodeProcess(name, proc)
 
 
