@@ -21,7 +21,9 @@ Run (from the repository root, in the project's venv):
     readers acknowledge (rate 0) into ``calibration_node`` and ``bag_recorder`` on a
     private loopback domain. Figures: messages in the bag, recorded by the recorder,
     lost (= difference, target 0), replay speed (bag duration / wall time of the
-    player), and whether the node's K̃ equals the offline one bit for bit.
+    player), end to end (bag duration / time until the node logs the offline pair count:
+    a short bag fits in the DDS queues, so the player can finish long before the node),
+    and whether the node's K̃ equals the offline one bit for bit.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ import resource
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -96,7 +99,6 @@ def offline(cache: Path, hours: float) -> None:
 def reader_floor(cache: Path, hours: float) -> None:
     from mcap.reader import make_reader
     from rosbags.rosbag2 import Reader
-
     from rosbags.typesys import Stores, get_typestore
 
     from gyro_calib.bag import bag_info
@@ -138,33 +140,51 @@ def replay(cache: Path, duration_s: float) -> None:
 
     bag = _bag(cache, f'k_tilde_{duration_s:g}s', duration_s)
     info = bag_info(bag)
+    offline_k = calibrate_bag(bag).results.k_tilde_arcsec_per_pulse
+    final_line = f'({offline_k.n_used} pairs)' if offline_k else '(no result expected)'
     env = ros_environment(101 + os.getpid() % 100)
     out = Path(tempfile.mkdtemp()) / 'replayed'
-    procs = [start_node('calibration_node', {}, env, stderr=subprocess.PIPE, text=True),
-             start_node('bag_recorder', {'out': str(out)}, env, stderr=subprocess.PIPE,
-                        text=True)]
+    node = start_node('calibration_node', {'output_file': ''}, env, stderr=subprocess.PIPE,
+                      text=True)
+    node_lines: list[tuple[float, str]] = []
+    reader = threading.Thread(target=lambda: node_lines.extend(
+        (time.perf_counter(), ln) for ln in node.stderr), daemon=True)
+    reader.start()
+    recorder = start_node('bag_recorder', {'out': str(out)}, env, stderr=subprocess.PIPE,
+                          text=True)
     time.sleep(2.0)
+    t_play = time.perf_counter()
     player = start_node('bag_player', {'bag': str(bag), 'rate': 0.0}, env,
                         stderr=subprocess.PIPE, text=True)
     _, player_log = player.communicate(timeout=3600)
-    time.sleep(3.0)
-    logs = []
-    for p in procs:
-        p.send_signal(2)
-        logs.append(p.communicate(timeout=60)[1])
+    # The player is done once the readers' DDS layers acknowledged; the node may still be
+    # working through its queue. End to end = until it logs the offline pair count.
+    deadline = time.perf_counter() + 600.0
+    while time.perf_counter() < deadline and node.poll() is None and not any(
+            'K̃ =' in ln and final_line in ln for _, ln in list(node_lines)):
+        time.sleep(0.2)
+    done = [t for t, ln in list(node_lines) if 'K̃ =' in ln and final_line in ln]
+    for proc in (node, recorder):
+        proc.send_signal(2)
+    recorder.communicate(timeout=60)
+    node.wait(timeout=60)
+    reader.join(timeout=10)
     recorded = bag_info(out)
     sent = info.message_count
     got = recorded.message_count
     played = [ln for ln in player_log.splitlines() if 'played' in ln]
-    offline_k = calibrate_bag(bag).results.k_tilde_arcsec_per_pulse
-    live = [ln for ln in logs[0].splitlines() if 'K̃ =' in ln]
+    live = [ln for _, ln in node_lines if 'K̃ =' in ln]
     print(f'(c) DDS replay of {info.duration_s:.0f} s ({sent} messages): recorded {got}, '
           f'lost {sent - got}; per topic: ' + ', '.join(
               f'{t}: {info.topics[t].count - recorded.topics[t].count}'
               for t in info.topics if t in recorded.topics))
     print(f'    player: {played[-1].split("]: ")[-1] if played else player_log[-300:]}')
-    print(f'    node last: {live[-1].split("]: ")[-1] if live else "no K̃"}; offline K̃ '
-          f'{offline_k.value:.10f} ″/pulse ({offline_k.n_used} pairs)' if offline_k else '')
+    print('    end to end (player start → node logs the last pair): ' + (
+        f'{done[0] - t_play:.1f} s, {info.duration_s / (done[0] - t_play):.2f}× real time'
+        if done else 'the node never reached the offline pair count'))
+    print(f'    node last: {live[-1].split("]: ")[-1].strip() if live else "no K̃"}; offline K̃ '
+          + (f'{offline_k.value:.10f} ″/pulse ({offline_k.n_used} pairs)' if offline_k
+             else 'none'))
 
 
 def main() -> None:

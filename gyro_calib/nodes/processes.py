@@ -12,6 +12,8 @@ import subprocess
 import sys
 from typing import Any
 
+import yaml
+
 NODE_MODULES = {
     'calibration_node': 'gyro_calib.nodes.calibration_node',
     'imu_corrector': 'gyro_calib.nodes.imu_corrector_node',
@@ -38,8 +40,19 @@ def ros_environment(domain_id: int) -> dict[str, str]:
     return env
 
 
+def _yaml_string(value: str) -> str:
+    """``value`` as rcl reads it back as the same string: rcl parses ``-p`` values as YAML,
+    so '' (rejected outright), 'true', '1.5' or 'a: b' must be quoted."""
+    try:
+        plain = yaml.safe_load(value) == value
+    except yaml.YAMLError:
+        plain = False
+    return value if plain else "'" + value.replace("'", "''") + "'"
+
+
 def ros_args(params: dict[str, Any]) -> list[str]:
-    """``--ros-args -p name:=value ...`` for a parameter mapping (floats keep their dot)."""
+    """``--ros-args -p name:=value ...`` for a parameter mapping (floats keep their dot,
+    strings stay strings)."""
     args = ['--ros-args']
     for name, value in params.items():
         if isinstance(value, bool):
@@ -49,6 +62,8 @@ def ros_args(params: dict[str, Any]) -> list[str]:
             mantissa, _, exponent = text.partition('e')
             if exponent and '.' not in mantissa:
                 text = f'{mantissa}.0e{exponent}'
+        elif isinstance(value, str):
+            text = _yaml_string(value)
         else:
             text = str(value)
         args += ['-p', f'{name}:={text}']
