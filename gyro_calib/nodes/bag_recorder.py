@@ -40,6 +40,7 @@ from gyro_calib.nodes.ros_io import (
     stamp_to_ns,
 )
 
+
 class BagRecorder(Node):
     """Writes every received message of the chosen topics to one bag."""
 

@@ -214,6 +214,7 @@ class CalibrationNode(Node):
         array.header.stamp = self.get_clock().now().to_msg()
         self.diag_pub.publish(array)
 
+
 def main(args: list[str] | None = None) -> None:
     """Run the calibration node until shut down."""
     try:
