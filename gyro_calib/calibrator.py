@@ -24,7 +24,7 @@ from gyro_calib.errors import InsufficientDataError, WindowError
 from gyro_calib.estimate import Estimate, Rejection
 from gyro_calib.scale_factor import PairAccumulator, WindowPair
 from gyro_calib.streams import StampedBuffer, timeline_starts
-from gyro_calib.units import NS_PER_S
+from gyro_calib.units import ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S
 from gyro_calib.windows import (
     IndexEvent,
     RevolutionWindow,
@@ -35,6 +35,20 @@ from gyro_calib.windows import (
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+
+TABLE_HISTORY_S = 60.0
+"""joint_states kept before the oldest open event, s: enough to see whether a cruise held a
+whole revolution before its first zero-index event (a missing event)."""
+
+MAX_FIT_HALF_WIDTH_S = 2.0
+"""Widest fit span half-width around an index event, whatever the pulse stream's rate, s."""
+
+
+def _period_near(t_ns: np.ndarray, t_event: int, half_ns: int) -> float:
+    """Median sample period of the stamps within ±``half_ns`` of ``t_event`` (0 if < 2), ns."""
+    lo = int(np.searchsorted(t_ns, t_event - half_ns, 'left'))
+    hi = int(np.searchsorted(t_ns, t_event + half_ns, 'right'))
+    return float(np.median(np.diff(t_ns[lo:hi]))) if hi - lo >= 2 else 0.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,7 +93,10 @@ class RateBiasCalibrator:
         self.table = StampedBuffer(2, back)
         self._index = StampedBuffer(1, back)
         self._cutter = WholeRevolutionWindows(self.config)
-        self._pairs = PairAccumulator(self.config.max_pair_gap_s)
+        self._pairs = PairAccumulator(
+            self.config.max_pair_gap_s,
+            arw_arcsec_sqrt_s=self.config.angle_random_walk_deg_sqrt_h
+            * ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H)
 
     # -- input ------------------------------------------------------------------------------
     def add_pulses(self, t_ns: int, count: float) -> None:
@@ -151,16 +168,19 @@ class RateBiasCalibrator:
         newest = [b.newest_ns for b in (self.pulses, self.table)]
         dead = self._stalled_stream(newest, stall_ns)
         for t_event in idx_t.tolist():
+            p_t, p_v = self.pulses.arrays()
             if not flush:
                 if None in newest:
                     break
                 lead, lag = max(newest), min(newest)  # type: ignore[type-var]
                 if not (lag >= t_event + half_ns or (dead and lead >= t_event + half_ns)):
                     break
-            p_t, p_v = self.pulses.arrays()
+                reach = t_event + self._fit_half_width_ns(t_event, p_t)
+                if not (lag >= reach or (dead and lead >= reach)):
+                    break
             s_t, s_v = self.table.arrays()
             event = self._resolve(t_event, p_t, p_v[:, 0], s_t, s_v)
-            window = self._cutter.add_event(event, p_t, p_v[:, 0], s_t, s_v[:, 1])
+            window = self._cutter.add_event(event, p_t, p_v[:, 0], s_t, s_v[:, 0], s_v[:, 1])
             self._index.discard_before(t_event + 1)
             if window is not None:
                 self.windows.append(window)
@@ -171,12 +191,28 @@ class RateBiasCalibrator:
             self._trim(t_event)
         if not len(idx_t):
             self._trim_idle()
+        if flush:
+            s_t, s_v = self.table.arrays()
+            self._cutter.finish(s_t, s_v[:, 0], s_v[:, 1])
         rejections = self._cutter.rejections[self._n_rejections_reported:]
         rejections += self._pairs.rejections[self._n_pair_rejections_reported:]
         self._n_rejections_reported = len(self._cutter.rejections)
         self._n_pair_rejections_reported = len(self._pairs.rejections)
         notices, self._notices = tuple(self._notices), []
         return CalibrationUpdate(tuple(new_windows), tuple(new_pairs), tuple(rejections), notices)
+
+    def _fit_half_width_ns(self, t_event: int, p_t: np.ndarray) -> int:
+        """Half-width of the fits around an event: ``fit_half_width_s``, widened so that a
+        slow pulse stream still gives ``min_fit_samples_per_side`` samples each side (its
+        period read from the samples within ±``fit_half_width_s``), at most MAX_FIT_HALF_WIDTH_S.
+        """
+        cfg = self.config
+        half_ns = int(cfg.fit_half_width_s * NS_PER_S)
+        period = _period_near(p_t, t_event, half_ns)
+        if period <= 0:
+            return half_ns
+        need = int((cfg.min_fit_samples_per_side + 1) * period * 1.02)
+        return max(half_ns, min(need, int(MAX_FIT_HALF_WIDTH_S * NS_PER_S)))
 
     def _stalled_stream(self, newest: list[int | None], stall_ns: int) -> bool:
         """True if the lagging stream stopped while the other ran on by ``stall_ns``.
@@ -194,31 +230,53 @@ class RateBiasCalibrator:
 
     def _resolve(self, t_event: int, p_t: np.ndarray, counts: np.ndarray,
                  s_t: np.ndarray, s_v: np.ndarray) -> IndexEvent:
+        """The table and the gyro at an event: encoder angle and pulse count by the same
+        local fit, the table rate and how much it varies over the fit span."""
         cfg = self.config
+        half_ns = self._fit_half_width_ns(t_event, p_t)
+        half_s = half_ns / NS_PER_S
+        angle = rate = math.nan
+        angle_std = spread = 0.0
         if len(s_t) >= 2 and s_t[0] <= t_event <= s_t[-1]:
             x = (s_t - t_event).astype(np.float64)
-            angle = float(np.interp(0.0, x, s_v[:, 0]))
             rate = float(np.interp(0.0, x, s_v[:, 1]))
-        else:
-            angle = rate = math.nan
+            angle = float(np.interp(0.0, x, s_v[:, 0]))
+            sl = slice(int(np.searchsorted(s_t, t_event - half_ns, 'left')),
+                       int(np.searchsorted(s_t, t_event + half_ns, 'right')))
+            near = s_v[sl, 1]
+            if len(near) and rate != 0.0:
+                spread = float(np.max(np.abs(near - rate))) / abs(rate)
+            table_gap_s = max(cfg.max_fit_gap_s, 2.5 * _period_near(s_t, t_event, half_ns)
+                              / NS_PER_S)
+            try:
+                fit = count_at_instant(s_t, s_v[:, 0], t_event, half_width_s=half_s,
+                                       order=cfg.fit_order, min_samples_per_side=cfg.fit_order + 1,
+                                       max_gap_s=table_gap_s, stream='joint_states')
+            except WindowError:
+                pass  # too few encoder samples for a fit: the interpolated angle stands
+            else:
+                angle, angle_std = fit.value, fit.std_uncertainty
+        pulse_gap_s = max(cfg.max_fit_gap_s, 2.5 * _period_near(p_t, t_event, half_ns) / NS_PER_S)
+        state = dict(angle_std_rad=angle_std, rate_spread=spread, half_width_ns=half_ns)
         try:
             count = count_at_instant(
-                p_t, counts, t_event, half_width_s=cfg.fit_half_width_s, order=cfg.fit_order,
-                min_samples_per_side=cfg.min_fit_samples_per_side, max_gap_s=cfg.max_fit_gap_s)
+                p_t, counts, t_event, half_width_s=half_s, order=cfg.fit_order,
+                min_samples_per_side=cfg.min_fit_samples_per_side, max_gap_s=pulse_gap_s)
         except WindowError as exc:
-            return IndexEvent(t_event, angle, rate, None, str(exc))
+            return IndexEvent(t_event, angle, rate, None, str(exc), **state)
         if count.max_residual > cfg.max_fit_residual_pulses:
             return IndexEvent(t_event, angle, rate, None, (
                 f'pulse counts around the zero-index event at {format_stamp(t_event)} deviate '
                 f'from a smooth fit by up to {count.max_residual:.1f} pulses (limit '
-                f'{cfg.max_fit_residual_pulses:g}): count glitch, or rate ripple too fast for '
-                f'fit_order={cfg.fit_order} over ±{cfg.fit_half_width_s:g} s.'))
-        return IndexEvent(t_event, angle, rate, count)
+                f'{cfg.max_fit_residual_pulses:g}) while the table rate held within '
+                f'{spread * 100:.3f} %: a count glitch, or gyro rate ripple too fast for '
+                f'fit_order={cfg.fit_order} over ±{half_s:g} s.'), **state)
+        return IndexEvent(t_event, angle, rate, count, **state)
 
     def _trim(self, t_event: int) -> None:
         """Keep only what an open window (or the next event's fit) can still need."""
         cfg = self.config
-        half_ns = int(cfg.fit_half_width_s * NS_PER_S)
+        half_ns = int(MAX_FIT_HALF_WIDTH_S * NS_PER_S)
         opened = self._cutter.open_event
         keep_from = (opened.stamp_ns if opened is not None else t_event) - half_ns
         limit = int(cfg.max_window_s * NS_PER_S)
@@ -228,8 +286,8 @@ class RateBiasCalibrator:
                 f'max_window_s = {cfg.max_window_s:g} s; abandoned.')))
             self._cutter.reset()
             keep_from = t_event - half_ns
-        for buf in (self.pulses, self.table):
-            buf.discard_before(keep_from)
+        self.pulses.discard_before(keep_from)
+        self.table.discard_before(keep_from - int(TABLE_HISTORY_S * NS_PER_S))
 
     def _trim_idle(self) -> None:
         """With no index events at all, keep memory bounded to about max_window_s of data.

@@ -8,6 +8,7 @@ ROS 2 parameter files (``<node>: {ros__parameters: {...}}``).
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypedDict
@@ -38,6 +39,8 @@ class KTildeConfigFile(TypedDict, total=False):
     min_pairs: int
     restart_backstep_s: float
     stall_timeout_s: float
+    window_angle_source: str
+    angle_random_walk_deg_sqrt_h: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,11 +85,23 @@ class KTildeConfig:
     """A stream whose stamps stop while the other's advance this far is dead: pending index
     events are then resolved with what is there, s. A lagging stream that still advances is
     always waited for, so CPU load or replay speed never changes a result."""
+    window_angle_source: str = 'encoder'
+    """Angle of a window: 'encoder' (the encoder angle swept between the two index
+    instants, which measures the index synchronisation error) or 'nominal' (exactly m·360°,
+    the paper's eq. (3))."""
+    angle_random_walk_deg_sqrt_h: float = math.nan
+    """The gyro's angle random walk, °/√h, if known (spec sheet or a noise
+    characterisation); it completes the predicted uncertainty. NaN: unknown, the scatter of
+    few pairs is then widened by its Student-t factor."""
 
     def __post_init__(self) -> None:
         """Validate every field once; raise ConfigError naming the field."""
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if f.type in ('str', str):
+                if not isinstance(value, str):
+                    raise ConfigError(f'{f.name} = {value!r} is invalid: it must be a string.')
+                continue
             want_int = f.type in ('int', int)
             if isinstance(value, bool) or not isinstance(value, int if want_int else (int, float)):
                 kind = 'an integer' if want_int else 'a number'
@@ -111,6 +126,10 @@ class KTildeConfig:
             ('min_pairs', self.min_pairs >= 2, 'at least 2 (a standard uncertainty needs two)'),
             ('restart_backstep_s', self.restart_backstep_s > 0, 'positive'),
             ('stall_timeout_s', self.stall_timeout_s > 0, 'positive'),
+            ('window_angle_source', self.window_angle_source in ('encoder', 'nominal'),
+             "'encoder' or 'nominal'"),
+            ('angle_random_walk_deg_sqrt_h', not self.angle_random_walk_deg_sqrt_h < 0,
+             'non-negative (or NaN: unknown)'),
         ]
         for name, ok, expected in checks:
             if not ok:
@@ -127,7 +146,10 @@ def k_tilde_config_from_mapping(values: dict[str, Any], *, source: str = 'mappin
     kwargs: dict[str, Any] = {}
     for name, value in values.items():
         default = getattr(KTildeConfig(), name)
-        if isinstance(default, int) and not isinstance(default, bool):
+        if isinstance(default, str):
+            if not isinstance(value, str):
+                raise ConfigError(f'field {name} in {source} must be a string, got {value!r}.')
+        elif isinstance(default, int) and not isinstance(default, bool):
             if isinstance(value, bool) or not isinstance(value, int):
                 raise ConfigError(f'field {name} in {source} must be an integer, got {value!r}.')
         elif isinstance(default, float):

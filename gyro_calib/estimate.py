@@ -28,6 +28,8 @@ class Estimate:
         n_used: number of independent measurements (windows, pairs, stations) it rests on.
         dof: degrees of freedom of the uncertainty (n_used - 1 for a Type A mean).
         rejected: windows or events left out, each with its reason.
+        basis: what the uncertainty rests on (e.g. 'scatter of 3 × Student t 1.321 (2 dof)',
+            'predicted from the fits of 3'), '' when not stated.
     """
 
     value: float
@@ -35,6 +37,7 @@ class Estimate:
     n_used: int
     dof: int
     rejected: tuple[Rejection, ...] = field(default=())
+    basis: str = ''
 
     @property
     def relative_uncertainty(self) -> float:

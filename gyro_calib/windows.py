@@ -14,7 +14,7 @@ Two steps:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -64,6 +64,7 @@ def count_at_instant(
     order: int = 1,
     min_samples_per_side: int = 20,
     max_gap_s: float = 0.01,
+    stream: str = 'pulse',
 ) -> CountAtInstant:
     """Least-squares estimate of the cumulative count at ``instant_ns``.
 
@@ -78,6 +79,10 @@ def count_at_instant(
         order: 1 (line) or 2 (parabola).
         min_samples_per_side: samples required before and after the instant.
         max_gap_s: largest gap between consecutive samples inside the span, s.
+        stream: what the samples are, for messages ('pulse', 'joint_states').
+
+    The same fit gives the encoder angle at the instant (``counts`` = angles): both ends of
+    a window are then measured alike, so a fit error common to both streams cancels.
 
     Raises:
         WindowError: too few samples on a side, or a gap in the span.
@@ -89,15 +94,15 @@ def count_at_instant(
     n_before, n_after = mid - lo, hi - mid
     if min(n_before, n_after) < min_samples_per_side:
         raise WindowError(
-            f'only {n_before} pulse samples before and {n_after} after the zero-index event at '
-            f'{format_stamp(instant_ns)} (need {min_samples_per_side} each side within '
-            f'±{half_width_s:g} s): gap in the pulse stream?'
+            f'only {n_before} {stream} samples before and {n_after} after the zero-index event '
+            f'at {format_stamp(instant_ns)} (need {min_samples_per_side} each side within '
+            f'±{half_width_s:g} s): gap in the {stream} stream?'
         )
     t_span = t_ns[lo:hi]
     gaps = np.diff(t_span)
     if len(gaps) and gaps.max() > max_gap_s * NS_PER_S:
         raise WindowError(
-            f'gap of {gaps.max() / 1e6:.1f} ms in the pulse stream within ±{half_width_s:g} s '
+            f'gap of {gaps.max() / 1e6:.1f} ms in the {stream} stream within ±{half_width_s:g} s '
             f'of the zero-index event at {format_stamp(instant_ns)} (limit {max_gap_s * 1e3:g} ms).'
         )
     x = (t_span - instant_ns).astype(np.float64) / NS_PER_S
@@ -124,10 +129,16 @@ class IndexEvent:
 
     Attributes:
         stamp_ns: event stamp, int ns.
-        encoder_angle_rad: encoder angle at the stamp (interpolated), rad; NaN if unknown.
+        encoder_angle_rad: encoder angle at the stamp (local fit, as the count), rad; NaN if
+            unknown.
         rate_rad_s: table rate at the stamp, rad/s; NaN if unknown.
         count: pulse count at the stamp, or None when it could not be measured.
         problem: why ``count`` is None (or the event is unusable), else ''.
+        angle_std_rad: standard uncertainty of ``encoder_angle_rad`` from its fit, rad.
+        rate_spread: largest relative deviation of the table rate from ``rate_rad_s`` within
+            the fit span (0 at constant rate); above ``rate_tolerance`` the table was
+            accelerating at the event.
+        half_width_ns: half-width of the fit span actually used around the event, ns.
     """
 
     stamp_ns: int
@@ -135,6 +146,9 @@ class IndexEvent:
     rate_rad_s: float
     count: CountAtInstant | None
     problem: str = ''
+    angle_std_rad: float = 0.0
+    rate_spread: float = 0.0
+    half_width_ns: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -149,6 +163,11 @@ class RevolutionWindow:
         pulses_std: standard uncertainty of N from the two end fits, pulses.
         duration_s: end − start, s.
         pulse_samples_missing: samples missing inside the window, judged from the stamps.
+        angle_rad: swept angle between the two events by the encoder (signed), rad; m·2π
+            exactly when the window angle source is 'nominal'.
+        angle_std_rad: standard uncertainty of ``angle_rad`` from the two encoder fits, or
+            |encoder − m·2π| (the index synchronisation error the encoder shows) when the
+            source is 'nominal', rad.
     """
 
     start_ns: int
@@ -159,11 +178,44 @@ class RevolutionWindow:
     pulses_std: float
     duration_s: float
     pulse_samples_missing: int = 0
+    angle_rad: float = math.nan
+    angle_std_rad: float = 0.0
+
+    @property
+    def swept_angle_rad(self) -> float:
+        """|angle| swept, rad (m·2π when no encoder angle was recorded)."""
+        if math.isfinite(self.angle_rad):
+            return abs(self.angle_rad)
+        return TWO_PI * self.revolutions
 
 
 def _median_period_ns(t_ns: npt.NDArray[np.int64]) -> float:
     d = np.diff(t_ns)
     return float(np.median(d)) if len(d) else 0.0
+
+
+@dataclass(slots=True)
+class _Run:
+    """The zero-index events of one direction run of the table (between reversals)."""
+
+    sign: float
+    usable_rates: list[float] = field(default_factory=list)
+    accelerating: list[IndexEvent] = field(default_factory=list)
+    windows: int = 0
+    tried: int = 0
+    first_event_ns: int = 0
+    last_event_ns: int = 0
+    first_event_angle_rad: float = math.nan
+    last_event_angle_rad: float = math.nan
+    first_usable_ns: int | None = None
+    last_usable_ns: int | None = None
+    first_usable_angle_rad: float = math.nan
+    last_usable_angle_rad: float = math.nan
+
+    @property
+    def cruise_rad_s(self) -> float | None:
+        """Median rate at the usable events (the cruise), once two were seen."""
+        return float(np.median(self.usable_rates)) if len(self.usable_rates) >= 2 else None
 
 
 class WholeRevolutionWindows:
@@ -172,6 +224,12 @@ class WholeRevolutionWindows:
     Feed events with :meth:`add_event`; it returns the window that event closes
     (or None) and appends to :attr:`rejections` whatever it had to throw away.
     The pulse and table arrays passed alongside must cover the open window.
+
+    Rules (METHODS §A.2; issue 9): an event where the table accelerates (rate outside
+    ``rate_tolerance`` of the run's cruise within the fit span) never starts or ends a
+    window; a rejected window gives back the events inside it, so the next candidate
+    start is the next event; the first window to close is taken, which for windows of
+    equal length is the largest set of non-overlapping windows (earliest-end greedy).
     """
 
     def __init__(self, config: KTildeConfig) -> None:
@@ -180,6 +238,11 @@ class WholeRevolutionWindows:
         self.rejections: list[Rejection] = []
         self._segment: list[IndexEvent] = []
         self._mark_angles: list[float] = []
+        self._run: _Run | None = None
+        self._excluded: list[IndexEvent] = []
+        empty = np.zeros(0)
+        self._table: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
+                           npt.NDArray[np.float64]] = (empty.astype(np.int64), empty, empty)
 
     @property
     def open_event(self) -> IndexEvent | None:
@@ -190,6 +253,19 @@ class WholeRevolutionWindows:
         """Forget the open segment (stream restart); the reference mark is re-learned too."""
         self._segment.clear()
         self._mark_angles.clear()
+        self._excluded.clear()
+        self._run = None
+
+    def finish(self, table_t_ns: npt.NDArray[np.int64], table_angle_rad: npt.NDArray[np.float64],
+               table_rate_rad_s: npt.NDArray[np.float64]) -> None:
+        """End of the recording: report what the open run could not use."""
+        self._table = (table_t_ns, table_angle_rad, table_rate_rad_s)
+        run = self._run
+        if (run is not None and run.cruise_rad_s is not None and len(table_rate_rad_s)
+                and abs(table_rate_rad_s[-1] - run.cruise_rad_s)
+                <= self.config.rate_tolerance * abs(run.cruise_rad_s)):
+            run.windows += 1  # the recording ended inside this cruise: nothing to blame on it
+        self._end_run()
 
     def _reject(self, stamp_ns: int, reason: str) -> None:
         self.rejections.append(Rejection(stamp_ns, reason))
@@ -226,35 +302,133 @@ class WholeRevolutionWindows:
                 f'(tolerance {self.config.index_angle_tolerance_arcsec:g}″): spurious event; '
                 f'no window starts there.')
 
+    # -- direction runs and accelerating events ---------------------------------------------
+    def _enter_run(self, sign: float) -> _Run:
+        """The run of direction ``sign``; a change of direction ends the current one."""
+        if self._run is not None and self._run.sign != sign:
+            self._end_run()
+        if self._run is None:
+            self._run = _Run(sign)
+        return self._run
+
+    def _accelerating(self, event: IndexEvent) -> None:
+        """``event`` lies in an acceleration: never a window end; reported against the cruise."""
+        run = self._enter_run(math.copysign(1.0, event.rate_rad_s))
+        if run.cruise_rad_s is not None:
+            self._report_accelerating(event, run.cruise_rad_s)
+        else:
+            run.accelerating.append(event)  # the cruise of this run is not known yet
+        self._excluded.append(event)
+        del self._excluded[:-8]
+
+    def _report_accelerating(self, event: IndexEvent, cruise_rad_s: float) -> None:
+        self._reject(event.stamp_ns, (
+            f'table accelerating at the zero-index event at {format_stamp(event.stamp_ns)}: '
+            f'{math.degrees(event.rate_rad_s):.1f} °/s there, varying by '
+            f'{event.rate_spread * 100:.2f} % within ±{event.half_width_ns / NS_PER_S:.3g} s, '
+            f'against a cruise of {math.degrees(cruise_rad_s):.1f} °/s (rate_tolerance '
+            f'{self.config.rate_tolerance * 100:g} %); no window starts or ends there.'))
+
+    def _end_run(self) -> None:
+        """The table reversed or stopped: report what this direction run could not use."""
+        run, self._run = self._run, None
+        if run is None:
+            return
+        if run.cruise_rad_s is not None:  # a rate-bias run, not a positioning move
+            for ev in run.accelerating:
+                self._report_accelerating(ev, run.cruise_rad_s)
+        self._end_segment()
+        if run.windows or run.tried or len(run.usable_rates) < 2:
+            return  # a window was cut, or tried and rejected with its reason
+        assert run.first_usable_ns is not None and run.last_usable_ns is not None
+        m = self.config.revolutions_per_window
+        revs = round(abs(run.last_usable_angle_rad - run.first_usable_angle_rad) / TWO_PI)
+        if revs >= m:
+            return  # windows were tried and rejected, each with its reason
+        missing = self._missing_at_cruise_ends(run)
+        if missing:
+            self._reject(run.first_usable_ns, missing)
+            return
+        self._reject(run.first_usable_ns, (
+            f'no window in the constant-rate cruise {format_stamp(run.first_usable_ns)} → '
+            f'{format_stamp(run.last_usable_ns)}: its usable zero-index events span {revs} '
+            f'revolution(s), fewer than the m = {m} a window needs (give the table at least '
+            f'm + 1 revolutions of cruise between reversals, or lower revolutions_per_window).'))
+
+    def _missing_at_cruise_ends(self, run: _Run) -> str:
+        """Why a cruise gave too few events, if the encoder shows it held its rate for a whole
+        revolution beyond its first or last usable event: a zero-index event is missing."""
+        t, angle, rate = self._table
+        cruise = run.cruise_rad_s
+        if cruise is None or len(t) < 2:
+            return ''
+        tol = self.config.rate_tolerance * abs(cruise)
+        one_rev = TWO_PI + self.config.window_angle_tolerance_arcsec / ARCSEC_PER_RAD
+        for stamp, ref, after in ((run.last_event_ns, run.last_event_angle_rad, True),
+                                  (run.first_event_ns, run.first_event_angle_rad, False)):
+            i = int(np.searchsorted(t, stamp, 'right' if after else 'left'))
+            side = rate[i:] if after else rate[:i][::-1]
+            off = np.nonzero(np.abs(side - cruise) > tol)[0]
+            k = int(off[0]) if len(off) else len(side)
+            if k == 0:
+                continue
+            far = angle[i + k - 1] if after else angle[i - k]
+            held = abs(float(far) - ref)
+            if held >= one_rev:
+                where = 'after' if after else 'before'
+                return (f'no window in the constant-rate cruise around '
+                        f'{format_stamp(stamp)}: the encoder shows the table held its cruise '
+                        f'for {held / TWO_PI:.2f} revolutions {where} that zero-index event '
+                        f'without another one: missing zero-index event.')
+        return ''
+
+    # -- events ------------------------------------------------------------------------------
     def add_event(
         self,
         event: IndexEvent,
         pulse_t_ns: npt.NDArray[np.int64],
         pulse_counts: npt.NDArray[np.float64],
         table_t_ns: npt.NDArray[np.int64],
+        table_angle_rad: npt.NDArray[np.float64],
         table_rate_rad_s: npt.NDArray[np.float64],
     ) -> RevolutionWindow | None:
         """Take the next event; return the window it closes, if any.
 
         The usable events of the current constant-rate segment are kept; a window closes
         on the first earlier one exactly m revolutions back (by the encoder), so a missing
-        or spurious event costs no window it does not belong to.
+        or spurious event costs no window it does not belong to. A rejected window gives
+        back the events inside it.
         """
         cfg = self.config
+        self._table = (table_t_ns, table_angle_rad, table_rate_rad_s)
         if not math.isfinite(event.encoder_angle_rad) or not math.isfinite(event.rate_rad_s):
-            self._end_segment(event, 'no joint_states around it')
+            self._end_run()
             return None
-        if abs(event.rate_rad_s) < math.radians(cfg.min_rate_deg_s):
-            self._end_segment(event, 'the table left constant rate')
+        if (abs(event.rate_rad_s) < math.radians(cfg.min_rate_deg_s)
+                or event.rate_spread > cfg.rate_tolerance):
+            self._accelerating(event)
             return None
         if event.count is not None:
             problem = self._is_off_mark(event)
             if problem:
                 self._reject(event.stamp_ns, problem)
+                self._excluded.append(event)
                 return None
-        if self._segment and (math.copysign(1.0, event.rate_rad_s)
-                              != math.copysign(1.0, self._segment[0].rate_rad_s)):
-            self._end_segment(event, 'the table reversed')
+        run = self._enter_run(math.copysign(1.0, event.rate_rad_s))
+        if math.isnan(run.first_event_angle_rad):
+            run.first_event_ns, run.first_event_angle_rad = event.stamp_ns, event.encoder_angle_rad
+        run.last_event_ns, run.last_event_angle_rad = event.stamp_ns, event.encoder_angle_rad
+        if event.count is not None:
+            run.usable_rates.append(event.rate_rad_s)
+            if run.first_usable_ns is None:
+                run.first_usable_ns = event.stamp_ns
+                run.first_usable_angle_rad = event.encoder_angle_rad
+            run.last_usable_ns = event.stamp_ns
+            run.last_usable_angle_rad = event.encoder_angle_rad
+            if run.accelerating and run.cruise_rad_s is not None:
+                for ev in run.accelerating:
+                    self._report_accelerating(ev, run.cruise_rad_s)
+                run.accelerating.clear()
         target = TWO_PI * cfg.revolutions_per_window
         tol = cfg.window_angle_tolerance_arcsec / ARCSEC_PER_RAD
         while self._segment:
@@ -267,9 +441,15 @@ class WholeRevolutionWindows:
             if abs(swept - target) <= tol:
                 for skipped in self._segment[:i]:
                     self._give_up(skipped, event)
-                self._segment = [event]
-                return self._close(start, event, pulse_t_ns, pulse_counts, table_t_ns,
-                                   table_rate_rad_s)
+                window = self._close(start, event, pulse_t_ns, pulse_counts, table_t_ns,
+                                     table_rate_rad_s)
+                run.tried += 1
+                if window is None:  # give back the events inside the rejected window
+                    self._segment = self._segment[i + 1:] + [event]
+                else:
+                    self._segment = [event]
+                    run.windows += 1
+                return window
         self._segment.append(event)
         return None
 
@@ -281,24 +461,18 @@ class WholeRevolutionWindows:
         if spurious:
             self._reject(start.stamp_ns, spurious)
             return
+        m = self.config.revolutions_per_window
+        target = start.encoder_angle_rad + math.copysign(TWO_PI * m, now.rate_rad_s)
+        tol = self.config.window_angle_tolerance_arcsec / ARCSEC_PER_RAD
+        if any(abs(ev.encoder_angle_rad - target) <= tol for ev in self._excluded):
+            return  # the event m revolutions on was excluded, and said why
         self._reject(start.stamp_ns, (
-            f'no zero-index event {self.config.revolutions_per_window} revolutions after '
-            f'{format_stamp(start.stamp_ns)} (the next ones are at {format_stamp(now.stamp_ns)} '
-            f'and beyond): missing zero-index event.'))
+            f'no zero-index event {m} revolutions after {format_stamp(start.stamp_ns)} (the '
+            f'next ones are at {format_stamp(now.stamp_ns)} and beyond): missing zero-index '
+            'event.'))
 
-    def _end_segment(self, event: IndexEvent, why: str) -> None:
-        """The constant-rate segment ended at ``event``: report a window it could not close."""
-        if self._segment:
-            first = self._segment[0]
-            revs = abs(self._segment[-1].encoder_angle_rad - first.encoder_angle_rad) / TWO_PI
-            if revs > 0.99 and first.count is not None and not self._off_learnt_mark(first):
-                m = self.config.revolutions_per_window
-                self._reject(first.stamp_ns, (
-                    f'no window closed in the constant-rate segment from '
-                    f'{format_stamp(first.stamp_ns)}: {why} at {format_stamp(event.stamp_ns)} '
-                    f'after {revs:.3f} revolutions between zero-index events, fewer than the '
-                    f'{m} a window needs (direction change inside the window, or a missing '
-                    f'zero-index event at its end).'))
+    def _end_segment(self) -> None:
+        """The constant-rate segment ended: its open events can start no window."""
         self._segment = []
 
     def _close(
@@ -320,7 +494,9 @@ class WholeRevolutionWindows:
                 self._reject(start.stamp_ns, f'window {format_stamp(start.stamp_ns)} → '
                              f'{format_stamp(end.stamp_ns)} rejected: {ev.problem}')
                 return None
-        problem = _rate_problem(table_t_ns, table_rate_rad_s, start.stamp_ns, end.stamp_ns, cfg)
+        margins = (start.half_width_ns, end.half_width_ns)
+        problem = _rate_problem(table_t_ns, table_rate_rad_s, start.stamp_ns, end.stamp_ns,
+                                margins, cfg)
         if not problem:
             problem = _pulse_stream_problem(pulse_t_ns, pulse_counts, start.stamp_ns,
                                             end.stamp_ns, cfg)
@@ -337,6 +513,12 @@ class WholeRevolutionWindows:
         if period > 0:
             missing = int(np.sum(np.round(np.diff(inside) / period) - 1))
         direction = 1 if end.encoder_angle_rad > start.encoder_angle_rad else -1
+        measured = end.encoder_angle_rad - start.encoder_angle_rad
+        nominal = direction * TWO_PI * cfg.revolutions_per_window
+        if cfg.window_angle_source == 'encoder':
+            angle, angle_std = measured, math.hypot(start.angle_std_rad, end.angle_std_rad)
+        else:  # the paper's eq. (3); the encoder shows the synchronisation error it ignores
+            angle, angle_std = nominal, abs(measured - nominal)
         return RevolutionWindow(
             start_ns=start.stamp_ns,
             end_ns=end.stamp_ns,
@@ -346,6 +528,8 @@ class WholeRevolutionWindows:
             pulses_std=math.hypot(end.count.std_uncertainty, start.count.std_uncertainty),
             duration_s=(end.stamp_ns - start.stamp_ns) / NS_PER_S,
             pulse_samples_missing=missing,
+            angle_rad=angle,
+            angle_std_rad=angle_std,
         )
 
 
@@ -369,26 +553,33 @@ def _rate_problem(
     rate: npt.NDArray[np.float64],
     start_ns: int,
     end_ns: int,
+    margins_ns: tuple[int, int],
     cfg: KTildeConfig,
 ) -> str:
     """Why the table was not at constant rate over the window and its fit margins ('' if it was)."""
-    margin = int(cfg.fit_half_width_s * NS_PER_S)
-    sl = _span(table_t_ns, start_ns - margin, end_ns + margin)
+    lo_ns, hi_ns = start_ns - margins_ns[0], end_ns + margins_ns[1]
+    sl = _span(table_t_ns, lo_ns, hi_ns)
     t, r = table_t_ns[sl], rate[sl]
     if len(t) < 2:
         return 'no joint_states inside the window.'
-    edges = np.concatenate(([start_ns - margin], t, [end_ns + margin]))
-    gap = float(np.max(np.diff(edges))) / NS_PER_S
+    edges = np.concatenate(([lo_ns], t, [hi_ns]))
+    steps = np.diff(edges)
+    worst = int(np.argmax(steps))
+    gap = float(steps[worst]) / NS_PER_S
     if gap > cfg.max_table_gap_s:
-        return (f'gap of {gap:.3f} s in joint_states inside the window '
-                f'(limit {cfg.max_table_gap_s:g} s): constant rate cannot be checked.')
-    if np.any(np.sign(r) != np.sign(r[0])):
-        return 'the table changed direction inside the window.'
+        return (f'gap of {gap:.3f} s in joint_states inside the window, from '
+                f'{format_stamp(int(edges[worst]))} (limit {cfg.max_table_gap_s:g} s): constant '
+                'rate cannot be checked.')
+    flips = np.nonzero(np.sign(r) != np.sign(r[0]))[0]
+    if len(flips):
+        return f'the table changed direction inside the window, at {format_stamp(int(t[flips[0]]))}.'
     med = float(np.median(r))
-    dev = float(np.max(np.abs(r - med))) / abs(med)
-    if dev > cfg.rate_tolerance:
-        return (f'table rate deviated by {dev * 100:.3f} % from its median '
-                f'{math.degrees(med):.3f} °/s (tolerance {cfg.rate_tolerance * 100:g} %).')
+    rel = np.abs(r - med) / abs(med)
+    worst = int(np.argmax(rel))
+    if rel[worst] > cfg.rate_tolerance:
+        return (f'rate excursion: the table rate was {math.degrees(float(r[worst])):.3f} °/s at '
+                f'{format_stamp(int(t[worst]))}, {rel[worst] * 100:.3f} % from its window median '
+                f'{math.degrees(med):.3f} °/s (rate_tolerance {cfg.rate_tolerance * 100:g} %).')
     return ''
 
 
@@ -405,10 +596,11 @@ def _pulse_stream_problem(
     if len(t) < 2:
         return 'no pulse samples inside the window.'
     dt = np.diff(t).astype(np.float64) / NS_PER_S
-    gap = float(dt.max())
+    worst_gap = int(np.argmax(dt))
+    gap = float(dt[worst_gap])
     if gap > cfg.max_pulse_gap_s:
-        return (f'gap of {gap:.3f} s in the pulse stream inside the window '
-                f'(limit {cfg.max_pulse_gap_s:g} s).')
+        return (f'gap of {gap:.3f} s in the pulse stream inside the window, from '
+                f'{format_stamp(int(t[worst_gap]))} (limit {cfg.max_pulse_gap_s:g} s).')
     dn = np.diff(n)
     rate = float(np.median(dn / dt))
     expected = rate * dt
