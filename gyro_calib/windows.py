@@ -203,6 +203,7 @@ class _Run:
     accelerating: list[IndexEvent] = field(default_factory=list)
     windows: int = 0
     tried: int = 0
+    spurious: int = 0
     first_event_ns: int = 0
     last_event_ns: int = 0
     first_event_angle_rad: float = math.nan
@@ -214,7 +215,8 @@ class _Run:
 
     @property
     def cruise_rad_s(self) -> float | None:
-        """Median rate at the usable events (the cruise), once two were seen."""
+        """Median rate at the usable events (the cruise), once two were seen (two usable
+        events are a whole revolution apart: this is a rate-bias run, not a positioning move)."""
         return float(np.median(self.usable_rates)) if len(self.usable_rates) >= 2 else None
 
 
@@ -330,37 +332,68 @@ class WholeRevolutionWindows:
             f'{self.config.rate_tolerance * 100:g} %); no window starts or ends there.'))
 
     def _end_run(self) -> None:
-        """The table reversed or stopped: report what this direction run could not use."""
+        """The table reversed or stopped: report what this direction run could not use.
+
+        Only a rate-bias run is judged: one whose constant-rate cruise held at least a whole
+        revolution by the encoder. A positioning move (a station change of the θ procedure)
+        that passes the mark is not a failed window.
+        """
         run, self._run = self._run, None
         if run is None:
             return
-        if run.cruise_rad_s is not None:  # a rate-bias run, not a positioning move
-            for ev in run.accelerating:
-                self._report_accelerating(ev, run.cruise_rad_s)
         self._end_segment()
-        if run.windows or run.tried or len(run.usable_rates) < 2:
-            return  # a window was cut, or tried and rejected with its reason
+        if not run.usable_rates:
+            return
+        cruise = float(np.median(run.usable_rates))
+        held, t_from, t_to = self._cruise_extent(run, cruise)
+        if held < 1.0:
+            return  # a move, not a rate-bias run: nothing to report
+        for ev in run.accelerating:
+            self._report_accelerating(ev, cruise)
+        if run.windows or run.tried or run.spurious:
+            return  # a window was cut, or tried and rejected, or events ignored, with reasons
         assert run.first_usable_ns is not None and run.last_usable_ns is not None
         m = self.config.revolutions_per_window
         revs = round(abs(run.last_usable_angle_rad - run.first_usable_angle_rad) / TWO_PI)
         if revs >= m:
-            return  # windows were tried and rejected, each with its reason
-        missing = self._missing_at_cruise_ends(run)
+            return
+        missing = self._missing_at_cruise_ends(run, cruise)
         if missing:
             self._reject(run.first_usable_ns, missing)
             return
+        lost = len(run.accelerating)
         self._reject(run.first_usable_ns, (
-            f'no window in the constant-rate cruise {format_stamp(run.first_usable_ns)} → '
-            f'{format_stamp(run.last_usable_ns)}: its usable zero-index events span {revs} '
-            f'revolution(s), fewer than the m = {m} a window needs (give the table at least '
-            f'm + 1 revolutions of cruise between reversals, or lower revolutions_per_window).'))
+            f'no window in the constant-rate cruise {format_stamp(t_from)} → '
+            f'{format_stamp(t_to)} ({held:.2f} revolutions at '
+            f'{math.degrees(cruise):.1f} °/s): its {len(run.usable_rates)} usable zero-index '
+            f'event(s) span {revs} revolution(s), fewer than the m = {m} a window needs'
+            + (f'; {lost} more fell in the acceleration or deceleration' if lost else '')
+            + ' (give the table at least m + 1 revolutions of cruise between reversals, or '
+            'lower revolutions_per_window).'))
 
-    def _missing_at_cruise_ends(self, run: _Run) -> str:
-        """Why a cruise gave too few events, if the encoder shows it held its rate for a whole
-        revolution beyond its first or last usable event: a zero-index event is missing."""
+    def _cruise_extent(self, run: _Run, cruise: float) -> tuple[float, int, int]:
+        """Revolutions the table held ``cruise`` (within rate_tolerance) around the run's
+        usable events, by the encoder, and the first and last stamp of that stretch."""
         t, angle, rate = self._table
-        cruise = run.cruise_rad_s
-        if cruise is None or len(t) < 2:
+        assert run.first_usable_ns is not None and run.last_usable_ns is not None
+        lo = int(np.searchsorted(t, run.first_usable_ns, 'left'))
+        hi = int(np.searchsorted(t, run.last_usable_ns, 'right'))
+        if len(t) < 2 or lo >= len(t):
+            return 0.0, run.first_usable_ns, run.last_usable_ns
+        off = np.nonzero(np.abs(rate - cruise) > self.config.rate_tolerance * abs(cruise))[0]
+        before = off[off < lo]
+        after = off[off >= hi]
+        first = int(before[-1]) + 1 if len(before) else 0
+        last = int(after[0]) - 1 if len(after) else len(t) - 1
+        first, last = min(first, lo), max(last, min(hi, len(t)) - 1)
+        held = abs(float(angle[last] - angle[first])) / TWO_PI
+        return held, int(t[first]), int(t[last])
+
+    def _missing_at_cruise_ends(self, run: _Run, cruise: float) -> str:
+        """Why a cruise gave too few events, if the encoder shows it held its rate for a whole
+        revolution beyond its first or last event: a zero-index event is missing."""
+        t, angle, rate = self._table
+        if len(t) < 2:
             return ''
         tol = self.config.rate_tolerance * abs(cruise)
         one_rev = TWO_PI + self.config.window_angle_tolerance_arcsec / ARCSEC_PER_RAD
@@ -408,13 +441,14 @@ class WholeRevolutionWindows:
                 or event.rate_spread > cfg.rate_tolerance):
             self._accelerating(event)
             return None
+        run = self._enter_run(math.copysign(1.0, event.rate_rad_s))
         if event.count is not None:
             problem = self._is_off_mark(event)
             if problem:
                 self._reject(event.stamp_ns, problem)
                 self._excluded.append(event)
+                run.spurious += 1
                 return None
-        run = self._enter_run(math.copysign(1.0, event.rate_rad_s))
         if math.isnan(run.first_event_angle_rad):
             run.first_event_ns, run.first_event_angle_rad = event.stamp_ns, event.encoder_angle_rad
         run.last_event_ns, run.last_event_angle_rad = event.stamp_ns, event.encoder_angle_rad
