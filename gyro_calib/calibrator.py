@@ -12,6 +12,7 @@ arrival order and however far one stream lags.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -326,9 +327,7 @@ class RateBiasCalibrator:
             InsufficientDataError: with fewer than ``config.min_pairs`` pairs.
         """
         self._require_pairs('K̃')
-        est = self._pairs.k_tilde()
-        return Estimate(est.value, est.std_uncertainty, est.n_used, est.dof,
-                        tuple(self.rejections))
+        return dataclasses.replace(self._pairs.k_tilde(), rejected=tuple(self.rejections))
 
     def earth_plus_bias_deg_h(self) -> Estimate:
         """Running ω'_e + ω_B along og, °/h, from N⁺ + N⁻ (METHODS §A.2 eqs. 1–2).

@@ -30,6 +30,10 @@ if TYPE_CHECKING:
 
 TWO_PI = 2.0 * math.pi
 
+RATE_BIAS_RUN_REVOLUTIONS = 0.9
+"""A direction run whose cruise held at least this many revolutions is a rate-bias run whose
+unused zero-index events are reported; a shorter one is a positioning move."""
+
 
 def format_stamp(t_ns: int) -> str:
     """A stamp in seconds for log lines, e.g. ``t=123.456789 s``."""
@@ -199,6 +203,8 @@ class _Run:
     """The zero-index events of one direction run of the table (between reversals)."""
 
     sign: float
+    first_seen_ns: int = 0
+    last_seen_ns: int = 0
     usable_rates: list[float] = field(default_factory=list)
     accelerating: list[IndexEvent] = field(default_factory=list)
     windows: int = 0
@@ -313,9 +319,14 @@ class WholeRevolutionWindows:
             self._run = _Run(sign)
         return self._run
 
+    def _seen(self, run: _Run, event: IndexEvent) -> None:
+        run.first_seen_ns = run.first_seen_ns or event.stamp_ns
+        run.last_seen_ns = event.stamp_ns
+
     def _accelerating(self, event: IndexEvent) -> None:
         """``event`` lies in an acceleration: never a window end; reported against the cruise."""
         run = self._enter_run(math.copysign(1.0, event.rate_rad_s))
+        self._seen(run, event)
         if run.cruise_rad_s is not None:
             self._report_accelerating(event, run.cruise_rad_s)
         else:
@@ -334,35 +345,34 @@ class WholeRevolutionWindows:
     def _end_run(self) -> None:
         """The table reversed or stopped: report what this direction run could not use.
 
-        Only a rate-bias run is judged: one whose constant-rate cruise held at least a whole
-        revolution by the encoder. A positioning move (a station change of the θ procedure)
+        Only a rate-bias run is judged: one whose constant-rate cruise held at least
+        RATE_BIAS_RUN_REVOLUTIONS by the encoder. A positioning move (a station change of the θ procedure)
         that passes the mark is not a failed window.
         """
         run, self._run = self._run, None
         if run is None:
             return
         self._end_segment()
-        if not run.usable_rates:
-            return
-        cruise = float(np.median(run.usable_rates))
-        held, t_from, t_to = self._cruise_extent(run, cruise)
-        if held < 1.0:
+        extent = self._cruise_extent(run)
+        if extent is None or extent[0] < RATE_BIAS_RUN_REVOLUTIONS:
             return  # a move, not a rate-bias run: nothing to report
+        held, cruise, t_from, t_to = extent
         for ev in run.accelerating:
             self._report_accelerating(ev, cruise)
         if run.windows or run.tried or run.spurious:
             return  # a window was cut, or tried and rejected, or events ignored, with reasons
-        assert run.first_usable_ns is not None and run.last_usable_ns is not None
         m = self.config.revolutions_per_window
-        revs = round(abs(run.last_usable_angle_rad - run.first_usable_angle_rad) / TWO_PI)
-        if revs >= m:
-            return
-        missing = self._missing_at_cruise_ends(run, cruise)
-        if missing:
-            self._reject(run.first_usable_ns, missing)
-            return
+        revs = 0
+        if run.first_usable_ns is not None:
+            revs = round(abs(run.last_usable_angle_rad - run.first_usable_angle_rad) / TWO_PI)
+            if revs >= m:
+                return
+            missing = self._missing_at_cruise_ends(run, cruise)
+            if missing:
+                self._reject(run.first_usable_ns, missing)
+                return
         lost = len(run.accelerating)
-        self._reject(run.first_usable_ns, (
+        self._reject(run.first_usable_ns if run.first_usable_ns is not None else t_from, (
             f'no window in the constant-rate cruise {format_stamp(t_from)} → '
             f'{format_stamp(t_to)} ({held:.2f} revolutions at '
             f'{math.degrees(cruise):.1f} °/s): its {len(run.usable_rates)} usable zero-index '
@@ -371,23 +381,40 @@ class WholeRevolutionWindows:
             + ' (give the table at least m + 1 revolutions of cruise between reversals, or '
             'lower revolutions_per_window).'))
 
-    def _cruise_extent(self, run: _Run, cruise: float) -> tuple[float, int, int]:
-        """Revolutions the table held ``cruise`` (within rate_tolerance) around the run's
-        usable events, by the encoder, and the first and last stamp of that stretch."""
+    def _cruise_extent(self, run: _Run) -> tuple[float, float, int, int] | None:
+        """(revolutions held, cruise rate rad/s, first stamp, last stamp) of the run's
+        constant-rate stretch by the encoder, or None when the table data cannot say.
+
+        The cruise is the median rate at the usable events; with none (every event fell in
+        an acceleration) it is the run's fastest rate between its events.
+        """
         t, angle, rate = self._table
-        assert run.first_usable_ns is not None and run.last_usable_ns is not None
-        lo = int(np.searchsorted(t, run.first_usable_ns, 'left'))
-        hi = int(np.searchsorted(t, run.last_usable_ns, 'right'))
-        if len(t) < 2 or lo >= len(t):
-            return 0.0, run.first_usable_ns, run.last_usable_ns
+        if len(t) < 2:
+            return None
+        if run.usable_rates:
+            cruise = float(np.median(run.usable_rates))
+            assert run.first_usable_ns is not None and run.last_usable_ns is not None
+            lo = int(np.searchsorted(t, run.first_usable_ns, 'left'))
+            hi = int(np.searchsorted(t, run.last_usable_ns, 'right'))
+        else:  # the block of samples turning this way around the run's events
+            at = min(int(np.searchsorted(t, run.first_seen_ns, 'left')), len(t) - 1)
+            other = np.nonzero(run.sign * rate <= 0)[0]
+            before, after = other[other < at], other[other > at]
+            lo = int(before[-1]) + 1 if len(before) else 0
+            hi = int(after[0]) if len(after) else len(t)
+            if hi - lo < 1:
+                return None
+            peak = lo + int(np.argmax(run.sign * rate[lo:hi]))
+            cruise, lo, hi = float(rate[peak]), peak, peak + 1
+        if lo >= len(t):
+            return None
         off = np.nonzero(np.abs(rate - cruise) > self.config.rate_tolerance * abs(cruise))[0]
-        before = off[off < lo]
-        after = off[off >= hi]
+        before, after = off[off < lo], off[off >= hi]
         first = int(before[-1]) + 1 if len(before) else 0
         last = int(after[0]) - 1 if len(after) else len(t) - 1
         first, last = min(first, lo), max(last, min(hi, len(t)) - 1)
         held = abs(float(angle[last] - angle[first])) / TWO_PI
-        return held, int(t[first]), int(t[last])
+        return held, cruise, int(t[first]), int(t[last])
 
     def _missing_at_cruise_ends(self, run: _Run, cruise: float) -> str:
         """Why a cruise gave too few events, if the encoder shows it held its rate for a whole
@@ -442,6 +469,7 @@ class WholeRevolutionWindows:
             self._accelerating(event)
             return None
         run = self._enter_run(math.copysign(1.0, event.rate_rad_s))
+        self._seen(run, event)
         if event.count is not None:
             problem = self._is_off_mark(event)
             if problem:

@@ -1,0 +1,127 @@
+"""Property: on any rate-bias bench, every window the geometry allows is found (issue 9).
+
+The benches come from ``rate_bias_bench_physics`` (written for the tests from the physics,
+sharing nothing with sim_nodes): reference mark anywhere, 20–400 °/s, 50–5000 °/s², m 1–10,
+cruise m to m + 3 revolutions, settle 0–2 s, index jitter 0–1″, each stream 100 Hz–2 kHz,
+either direction first, the recording starting anywhere in the cycle.
+
+What "the geometry allows" means is computed here from the bench itself: a zero-index event
+can end a window when the fit span around it (±h, the calibrator's documented span) lies in
+the constant-rate cruise; the greedy count of m-revolution chains of such events per cruise
+is the number of windows that must be found. Events whose span reaches into the acceleration
+by less than the rate tolerance allows may or may not be used (an upper bound).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from rate_bias_bench_physics import Bench, Recording, record
+
+from gyro_calib.calibrator import calibrate_k_tilde
+from gyro_calib.config import KTildeConfig
+
+MAX_SAMPLES = 1_200_000
+"""Pulse + table samples per bench (bounds the test's time)."""
+
+
+@st.composite
+def benches(draw: st.DrawFn) -> tuple[Bench, int]:
+    m = draw(st.integers(1, 10), label='m')
+    rate = draw(st.floats(20.0, 400.0), label='rate_deg_s')
+    accel = draw(st.floats(50.0, 5000.0), label='accel_deg_s2')
+    cruise = draw(st.floats(float(m), m + 3.0), label='cruise_revolutions')
+    settle = draw(st.floats(0.0, 2.0), label='settle_s')
+    pulse_hz = draw(st.floats(100.0, 2000.0), label='pulse_rate_hz')
+    table_hz = draw(st.floats(100.0, 2000.0), label='table_rate_hz')
+    w, a = math.radians(rate), math.radians(accel)
+    cycle_s = 2 * (settle + 2 * w / a + cruise * 2 * math.pi / w)
+    duration = min(3.2 * cycle_s, MAX_SAMPLES / (pulse_hz + table_hz))
+    bench = Bench(
+        rate_deg_s=rate, accel_deg_s2=accel, cruise_revolutions=cruise, settle_s=settle,
+        mark_deg=draw(st.floats(0.0, 360.0, exclude_max=True), label='mark_deg'),
+        index_jitter_arcsec=draw(st.floats(0.0, 1.0), label='jitter_arcsec'),
+        pulse_rate_hz=pulse_hz, table_rate_hz=table_hz,
+        first_direction=draw(st.sampled_from([1, -1]), label='first_direction'),
+        start_phase=draw(st.floats(0.0, 1.0, exclude_max=True), label='start_phase'),
+        duration_s=duration,
+        k_arcsec_per_pulse=draw(st.floats(0.5, 3.0), label='K'),
+        theta_arcsec=draw(st.floats(0.0, 1000.0), label='theta_arcsec'),
+        earth_bias_arcsec_s=draw(st.floats(-15.0, 15.0), label='earth_bias'),
+        arw_arcsec_sqrt_s=draw(st.floats(0.0, 0.06), label='arw'),
+        seed=draw(st.integers(0, 2**31 - 1), label='seed'))
+    return bench, m
+
+
+def _fit_half_width_s(pulse_rate_hz: float, config: KTildeConfig) -> float:
+    """The fit span the calibrator documents: fit_half_width_s, widened to hold
+    min_fit_samples_per_side samples of a slow pulse stream."""
+    period = round(1e9 / pulse_rate_hz) / 1e9
+    return max(config.fit_half_width_s, (config.min_fit_samples_per_side + 1) * period * 1.02)
+
+
+def _expected_windows(rec: Recording, bench: Bench, config: KTildeConfig,
+                      m: int) -> list[tuple[int, int, int, int]]:
+    """(cruise start ns, cruise end ns, least, most) windows per cruise inside the recording."""
+    h = _fit_half_width_s(bench.pulse_rate_hz, config)
+    table_period = 1.0 / bench.table_rate_hz
+    w, a = math.radians(bench.rate_deg_s), math.radians(bench.accel_deg_s2)
+    slack = config.rate_tolerance * w / a + table_period  # acceleration the checks cannot see
+    t_first, t_last = rec.pulse_t_ns[0] / 1e9, rec.pulse_t_ns[-1] / 1e9
+    out = []
+    events = rec.zero_index_ns / 1e9
+    for cs_ns, ce_ns, _ in rec.cruises:
+        cs, ce = cs_ns / 1e9, ce_ns / 1e9
+        if cs - h - 1.0 < t_first or ce + h + 1.0 > t_last:
+            continue  # the recording cuts this cruise
+        margin = h + 2 * table_period + 2e-3
+        clean = np.count_nonzero((events - margin >= cs) & (events + margin <= ce))
+        possible = np.count_nonzero((events - h >= cs - slack) & (events + h <= ce + slack))
+        out.append((cs_ns, ce_ns, max(0, (clean - 1) // m), max(0, (possible - 1) // m)))
+    return out
+
+
+@settings(max_examples=50, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(benches())
+def test_every_window_the_geometry_allows_is_found_and_k_tilde_is_exact(
+        case: tuple[Bench, int]) -> None:
+    bench, m = case
+    config = KTildeConfig(revolutions_per_window=m)
+    rec = record(bench)
+    cal = calibrate_k_tilde(rec.pulse_t_ns, rec.pulse_counts, rec.table_t_ns,
+                            rec.table_angle_rad, rec.table_rate_rad_s, rec.zero_index_ns, config)
+    reasons = [f'{r.stamp_ns / 1e9:.3f}: {r.reason}' for r in cal.rejections]
+    mids = np.array([(w.start_ns + w.end_ns) // 2 for w in cal.windows], dtype=np.int64)
+    for cs, ce, least, most in _expected_windows(rec, bench, config, m):
+        found = int(np.count_nonzero((mids >= cs) & (mids <= ce)))
+        assert least <= found <= most, (
+            f'cruise {cs / 1e9:.3f}–{ce / 1e9:.3f} s: {found} windows, geometry allows '
+            f'{least}..{most}; rejections: {reasons}')
+        if most == 0:  # no window fits: the reason says so
+            near = [r.reason for r in cal.rejections if cs - 3e9 <= r.stamp_ns <= ce + 3e9]
+            assert any('no window in the constant-rate cruise' in r or 'accelerating' in r
+                       for r in near), f'cruise {cs / 1e9:.3f} s: no reason; {reasons}'
+    for w in cal.windows:  # never across a reversal or into an acceleration
+        mid = (w.start_ns + w.end_ns) // 2
+        assert any(cs <= mid <= ce and d == w.direction for cs, ce, d in rec.cruises)
+    if len(cal.pairs) >= 2:
+        error = cal.k_tilde().value / bench.true_k_tilde - 1
+        floor = _k_tilde_floor(bench, config, m, len(cal.pairs))
+        assert abs(error) < max(5e-8, 4 * floor), (error, floor)
+
+
+def _k_tilde_floor(bench: Bench, config: KTildeConfig, m: int, pairs: int) -> float:
+    """Relative standard deviation of K̃ from ``pairs`` pairs that this bench's physics allows:
+    angle random walk over a window, whole pulses and encoder steps at the window-end fits."""
+    angle = 1_296_000.0 * m
+    window_s = angle / (bench.rate_deg_s * 3600)
+    h = _fit_half_width_s(bench.pulse_rate_hz, config)
+    pulse_fit = bench.k_arcsec_per_pulse / math.sqrt(12 * 2 * h * bench.pulse_rate_hz)
+    lsb = 1_296_000.0 / bench.encoder_counts_per_rev
+    encoder_fit = lsb / math.sqrt(12 * 2 * h * bench.table_rate_hz)
+    window_var = bench.arw_arcsec_sqrt_s**2 * window_s + 2 * pulse_fit**2 + 2 * encoder_fit**2
+    return math.sqrt(window_var / (2 * pairs)) / angle
