@@ -183,7 +183,7 @@ def run_theta(job: ThetaJob) -> ThetaRun:
     k = gyro.scale_factor_arcsec_per_pulse
     res, cal = calibrate_fix_error_angle(
         (rec.pulse_t_ns, rec.pulse_counts), rec.position_table, rec.position_zero_index_ns,
-        rec.rate_table, scale_factor_arcsec_per_pulse=k)
+        rec.rate_table, k_tilde_arcsec_per_pulse=true_k_tilde_arcsec_per_pulse(gyro))
     draws = made[0].station_theta if made else []
     psi = np.array([s.rate_table_angle_rad for s in cal.stations])
     theta_i, unmatched = np.full(len(psi), THETA_NOMINAL), 0

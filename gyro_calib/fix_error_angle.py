@@ -10,7 +10,17 @@ With β = β₀ + ψ (ψ the rate-table encoder angle, β₀ unknown) this is li
     c₀ = φ·cos α·cos θ / K,  c₁ = −A·cos β₀,  c₂ = A·sin β₀,  A = φ·sin α·sin θ / K.
 P = sin α·sin θ and Q = cos α·cos θ then give α and θ exactly:
     cos(α − θ) = Q + P,  cos(α + θ) = Q − P.
+The calibration knows K̃ = K/cos θ rather than K (eq. 4); with K = K̃·cos θ eq. (10) becomes
+K̃·N_og = φ·(cos α − sin α·tan θ·cos β), which gives them in closed form:
+    cos α = K̃·c₀/φ,  tan θ = K̃·√(c₁² + c₂²) / (φ·sin α).
+(Putting K̃ where eq. (10) needs K biases α by (1 − cos θ)·cot α: 1.0″ at θ = 647″.)
 Four stations at β₀ + k·90° reduce to eqs. (15)–(17); (18) is the paper's small-angle form.
+
+Uncertainty (issue 9 part 4): the fit is weighted by each station's predicted standard
+uncertainty when given; the covariance is the larger of that prediction and the scatter of
+the residuals (Birge ratio over n − 3 degrees of freedom), the scatter widened by its
+Student-t factor when the prediction misses sources the fits cannot see (a changing θ,
+wobble of the position table, ARW when not given).
 """
 
 from __future__ import annotations
@@ -49,9 +59,22 @@ class FixErrorAngleResult:
     covariance: npt.NDArray[np.float64]
 
 
-def _angles_from_coefficients(c: npt.NDArray[np.float64], k: float,
-                              phi: float) -> npt.NDArray[np.float64]:
-    """(θ, β₀, α) in rad from (c₀, c₁, c₂) (see module docstring)."""
+def _angles_from_coefficients(c: npt.NDArray[np.float64], k: float, phi: float, *,
+                              k_is_k_tilde: bool = False) -> npt.NDArray[np.float64]:
+    """(θ, β₀, α) in rad from (c₀, c₁, c₂) (see module docstring).
+
+    ``k`` is K (eq. 10) or, with ``k_is_k_tilde``, K̃ = K/cos θ (the closed form).
+    """
+    beta0 = math.atan2(c[2], -c[1])
+    if k_is_k_tilde:
+        cos_alpha = k * c[0] / phi
+        if not abs(cos_alpha) < 1.0:
+            raise InsufficientDataError(
+                f'station counts are inconsistent with eq. (10): cos α = K̃·c₀/φ = '
+                f'{cos_alpha:.6f} lies outside (−1, 1) (wrong K̃ or φ_ON?).')
+        alpha = math.acos(cos_alpha)
+        theta = math.atan(k * math.hypot(c[1], c[2]) / (phi * math.sin(alpha)))
+        return np.array([theta, beta0, alpha])
     p = k * math.hypot(c[1], c[2]) / phi
     q = k * c[0] / phi
     if not (abs(q + p) <= 1.0 and abs(q - p) <= 1.0):
@@ -59,32 +82,43 @@ def _angles_from_coefficients(c: npt.NDArray[np.float64], k: float,
             f'station counts are inconsistent with eq. (10): cos α·cos θ ± sin α·sin θ = '
             f'{q + p:.6f}, {q - p:.6f} lie outside [−1, 1] (wrong K or φ_ON?).')
     plus, minus = math.acos(q - p), math.acos(q + p)  # α + θ, α − θ
-    return np.array([(plus - minus) / 2, math.atan2(c[2], -c[1]), (plus + minus) / 2])
+    return np.array([(plus - minus) / 2, beta0, (plus + minus) / 2])
 
 
 def fix_error_angle_multi_station(
     station_angle_rad: ArrayLike,
     half_difference_pulses: ArrayLike,
     *,
-    scale_factor_arcsec_per_pulse: float,
     position_table_revolutions: int,
+    scale_factor_arcsec_per_pulse: float | None = None,
+    k_tilde_arcsec_per_pulse: float | None = None,
     half_difference_std_pulses: ArrayLike | None = None,
+    prediction_complete: bool = False,
 ) -> FixErrorAngleResult:
     """θ, β₀, α from any number of stations by linear least squares (METHODS §A.3).
 
     Args:
         station_angle_rad: rate-table encoder angle ψ at each station, rad.
         half_difference_pulses: N_og = (N⁺ − N⁻)/2 at each station, pulses.
-        scale_factor_arcsec_per_pulse: K (K̃ is good to ~1e-6 here), ″/pulse.
         position_table_revolutions: n, whole position-table turns each way.
-        half_difference_std_pulses: standard uncertainty of each N_og, pulses. If given,
-            the fit is weighted and the covariance comes from them; otherwise it comes
-            from the residual scatter (needs at least 4 stations).
+        scale_factor_arcsec_per_pulse: K (eq. 10), ″/pulse; or instead
+        k_tilde_arcsec_per_pulse: K̃ = K/cos θ (what the K̃ phase measures), ″/pulse.
+        half_difference_std_pulses: predicted standard uncertainty of each N_og, pulses.
+            If given, the fit is weighted by them; the covariance is the larger of theirs
+            and the residual scatter (from 4 stations on). Otherwise it comes from the
+            scatter (needs at least 4 stations).
+        prediction_complete: True when ``half_difference_std_pulses`` holds every error
+            source; otherwise a scatter-based covariance is widened by its Student-t factor.
 
     Raises:
         InsufficientDataError: fewer than 3 stations, stations not spread in β (θ and β₀
             unobservable), or counts inconsistent with eq. (10).
     """
+    from gyro_calib.scale_factor import student_t_factor
+
+    if (scale_factor_arcsec_per_pulse is None) == (k_tilde_arcsec_per_pulse is None):
+        raise ValueError('give exactly one of scale_factor_arcsec_per_pulse (K) and '
+                         'k_tilde_arcsec_per_pulse (K̃)')
     psi = np.asarray(station_angle_rad, dtype=np.float64)
     n_og = np.asarray(half_difference_pulses, dtype=np.float64)
     if psi.shape != n_og.shape or psi.ndim != 1:
@@ -100,36 +134,54 @@ def fix_error_angle_multi_station(
         raise InsufficientDataError(
             f'the {n} stations span only {spread:.1f}° of rate-table angle β: θ and β₀ are '
             'unobservable; spread the stations over the circle (e.g. β₀ + k·90°).')
+    dof = n - 3
     if half_difference_std_pulses is not None:
         w = 1.0 / np.asarray(half_difference_std_pulses, dtype=np.float64)
-        coef, *_ = np.linalg.lstsq(design * w[:, None], n_og * w, rcond=None)
-        cov = np.linalg.inv((design * w[:, None]).T @ (design * w[:, None]))
-        dof = n - 3
     else:
-        coef, *_ = np.linalg.lstsq(design, n_og, rcond=None)
-        dof = n - 3
         if dof < 1:
             raise InsufficientDataError('3 stations fit exactly: give half_difference_std_pulses '
                                         'or use at least 4 stations for an uncertainty.')
-        resid = n_og - design @ coef
-        cov = float(resid @ resid) / dof * np.linalg.inv(design.T @ design)
-    k = scale_factor_arcsec_per_pulse
+        w = np.ones(n)
+    coef, *_ = np.linalg.lstsq(design * w[:, None], n_og * w, rcond=None)
+    cov_pred = np.linalg.inv((design * w[:, None]).T @ (design * w[:, None]))
+    if dof >= 1:
+        resid = (n_og - design @ coef) * w
+        birge2 = float(resid @ resid) / dof
+        widen = 1.0 if (prediction_complete and half_difference_std_pulses is not None) \
+            else student_t_factor(dof)
+        scale2 = widen * widen * birge2
+    else:
+        scale2, widen = 0.0, 1.0
+    if half_difference_std_pulses is None:
+        cov, basis = scale2 * cov_pred, f'scatter of {n} stations'
+    elif scale2 > 1.0:
+        cov, basis = scale2 * cov_pred, f'scatter of {n} stations (Birge ratio ' \
+            f'{math.sqrt(birge2):.2f})'
+    else:
+        cov, basis = cov_pred, f'predicted from the fits of {n} stations'
+    if widen != 1.0 and cov is not cov_pred:
+        basis += f' × Student t {widen:.3f} ({dof} dof)'
+    if k_tilde_arcsec_per_pulse is not None:
+        k, k_is_k_tilde = k_tilde_arcsec_per_pulse, True
+    else:
+        k, k_is_k_tilde = float(scale_factor_arcsec_per_pulse), False  # type: ignore[arg-type]
     phi = ARCSEC_PER_REV * position_table_revolutions
-    angles = _angles_from_coefficients(coef, k, phi)
+    angles = _angles_from_coefficients(coef, k, phi, k_is_k_tilde=k_is_k_tilde)
     jac = np.empty((3, 3))
     for j in range(3):
         step = 1e-6 * max(1.0, abs(coef[j]))
         dc = np.zeros(3)
         dc[j] = step
-        jac[:, j] = (_angles_from_coefficients(coef + dc, k, phi)
-                     - _angles_from_coefficients(coef - dc, k, phi)) / (2 * step)
+        jac[:, j] = (_angles_from_coefficients(coef + dc, k, phi, k_is_k_tilde=k_is_k_tilde)
+                     - _angles_from_coefficients(coef - dc, k, phi, k_is_k_tilde=k_is_k_tilde)
+                     ) / (2 * step)
     jac[1] = np.where(np.abs(jac[1]) > math.pi, 0.0, jac[1])
     angle_cov = jac @ cov @ jac.T
     std = np.sqrt(np.diag(angle_cov))
     return FixErrorAngleResult(
-        fix_error_angle_rad=Estimate(float(angles[0]), float(std[0]), n, dof),
-        beta0_rad=Estimate(float(angles[1]), float(std[1]), n, dof),
-        tilt_rad=Estimate(float(angles[2]), float(std[2]), n, dof),
+        fix_error_angle_rad=Estimate(float(angles[0]), float(std[0]), n, dof, (), basis),
+        beta0_rad=Estimate(float(angles[1]), float(std[1]), n, dof, (), basis),
+        tilt_rad=Estimate(float(angles[2]), float(std[2]), n, dof, (), basis),
         coefficients=(float(coef[0]), float(coef[1]), float(coef[2])),
         covariance=cov,
     )

@@ -23,7 +23,7 @@ from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Rejection
 from gyro_calib.fix_error_angle import FixErrorAngleResult, fix_error_angle_multi_station
 from gyro_calib.streams import StampedBuffer
-from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S
+from gyro_calib.units import ARCSEC_PER_RAD, ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S
 from gyro_calib.windows import format_stamp
 
 RUN_END_STILL_S = 0.5
@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from gyro_calib.scale_factor import WindowPair
+    from gyro_calib.windows import RevolutionWindow
 
 
 @dataclass(frozen=True, slots=True)
@@ -209,32 +210,49 @@ class StationCalibrator:
                 f'{self.station_drift_tolerance_arcsec:g}″): β drifts.')))
             return None
         self._rate_table.discard_before(end)
+        (n_plus, u_plus), (n_minus, u_minus) = (_whole_turns(w) for w in (pair.forward,
+                                                                          pair.reverse))
+        arw = self.config.angle_random_walk_deg_sqrt_h * ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H
+        arw_pulses2 = 0.0
+        if math.isfinite(arw):
+            arw_pulses2 = arw * arw * (pair.forward.duration_s + pair.reverse.duration_s) / (
+                pair.k_tilde_arcsec_per_pulse**2)
         return Station(
             start_ns=start, end_ns=end,
             rate_table_angle_rad=float(np.mean(angles)),
-            half_difference_pulses=(pair.forward.pulses - pair.reverse.pulses) / 2,
-            half_difference_std_pulses=math.hypot(pair.forward.pulses_std,
-                                                  pair.reverse.pulses_std) / 2,
+            half_difference_pulses=(n_plus - n_minus) / 2,
+            half_difference_std_pulses=math.sqrt(u_plus**2 + u_minus**2 + arw_pulses2) / 2,
         )
 
-    def fix_error_angle(self, scale_factor_arcsec_per_pulse: float) -> FixErrorAngleResult:
+    def fix_error_angle(self, k_tilde_arcsec_per_pulse: float) -> FixErrorAngleResult:
         """θ, β₀, α from the stations so far (least squares with covariance).
 
-        Uses the window-fit uncertainties of N_og with at most 3 stations, the scatter
-        otherwise (it also holds what the fits do not see: index jitter, ARW, Δθ).
+        Takes K̃ (eq. 10 is solved with K = K̃·cos θ). Each station is weighted by its
+        predicted uncertainty (window-end fits, encoder angles, ARW when given); from four
+        stations on, the larger of that and the residual scatter — widened by its Student-t
+        factor, since a changing θ or a wobbling axis are not in the prediction — is reported.
 
         Raises:
             InsufficientDataError: fewer than 3 stations, or stations not spread in β.
         """
         st = self.stations
-        std = None
-        if len(st) <= 3:
-            std = [s.half_difference_std_pulses for s in st]
         return fix_error_angle_multi_station(
             [s.rate_table_angle_rad for s in st], [s.half_difference_pulses for s in st],
-            scale_factor_arcsec_per_pulse=scale_factor_arcsec_per_pulse,
+            k_tilde_arcsec_per_pulse=k_tilde_arcsec_per_pulse,
             position_table_revolutions=self.position_table_revolutions,
-            half_difference_std_pulses=std)
+            half_difference_std_pulses=[s.half_difference_std_pulses for s in st])
+
+
+def _whole_turns(window: RevolutionWindow) -> tuple[float, float]:
+    """The window's count scaled to exactly n whole turns by its encoder angle, and its
+    standard uncertainty (counts and angle), pulses (φ_ON of eq. 10 is then exact)."""
+    nominal = 2 * math.pi * window.revolutions
+    if not math.isfinite(window.angle_rad):
+        return window.pulses, window.pulses_std
+    scale = nominal / abs(window.angle_rad)
+    rel_angle = window.angle_std_rad / abs(window.angle_rad)
+    value = window.pulses * scale
+    return value, math.hypot(window.pulses_std * scale, value * rel_angle)
 
 
 def calibrate_fix_error_angle(
@@ -243,7 +261,7 @@ def calibrate_fix_error_angle(
     position_zero_index_ns: ArrayLike,
     rate_table: tuple[ArrayLike, ArrayLike, ArrayLike],
     *,
-    scale_factor_arcsec_per_pulse: float,
+    k_tilde_arcsec_per_pulse: float,
     position_table_revolutions: int = 1,
     config: KTildeConfig | None = None,
 ) -> tuple[FixErrorAngleResult, StationCalibrator]:
@@ -259,4 +277,4 @@ def calibrate_fix_error_angle(
     cal.process(flush=True)
     if not cal.stations:
         raise InsufficientDataError('no usable position-table station in the recording.')
-    return cal.fix_error_angle(scale_factor_arcsec_per_pulse), cal
+    return cal.fix_error_angle(k_tilde_arcsec_per_pulse), cal

@@ -9,7 +9,7 @@ import pytest
 
 from gyro_calib.stations import calibrate_fix_error_angle
 from gyro_calib.units import ARCSEC_PER_RAD
-from sim_nodes.bench import ThetaRecording, simulate_theta_procedure
+from sim_nodes.bench import ThetaRecording, simulate_theta_procedure, true_k_tilde_arcsec_per_pulse
 from sim_nodes.procedure import ThetaProcedureConfig
 from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
@@ -28,7 +28,7 @@ def _run(gyro: RingLaserGyroConfig, stations: tuple[float, ...] = (0.0, 90.0, 18
 def _theta(rec: ThetaRecording, gyro: RingLaserGyroConfig):  # noqa: ANN202
     return calibrate_fix_error_angle(
         (rec.pulse_t_ns, rec.pulse_counts), rec.position_table, rec.position_zero_index_ns,
-        rec.rate_table, scale_factor_arcsec_per_pulse=gyro.scale_factor_arcsec_per_pulse)
+        rec.rate_table, k_tilde_arcsec_per_pulse=true_k_tilde_arcsec_per_pulse(gyro))
 
 
 def test_noise_free_unquantised_procedure_recovers_theta_beta0_alpha_to_0_01_arcsec() -> None:
