@@ -1,0 +1,466 @@
+"""Per-interval reduction of the pulse and temperature streams, and the model variables.
+
+Hours of 1 kHz pulses are not kept: each stream is reduced on the fly to one row per
+averaging interval [k·T, (k+1)·T) of absolute stamp time (so the grid never depends on
+where a recording or a chunk starts):
+
+- pulses: the count difference between the last sample at or before each boundary and
+  its duration (int ns), so a block of intervals gives the exact mean rate
+  K·ΣΔN/ΣΔt of the raw pulses — quantisation included, nothing smoothed;
+- each temperature sensor: the mean of its readings inside the interval.
+
+Each stream is reduced independently once its own stamps have passed an interval's end
+by ``reorder_window_s`` (samples within that window may arrive out of order), so streams
+may lag each other by any amount and results do not depend on chunking. Memory: the held
+samples span about one interval plus the reorder window; the reduced rows grow by a few
+numbers per interval (about 1 MB per day at T = 1 s).
+
+:func:`thermal_variables` turns the joined table into H, Ḣ, ΔT_ab, ΔT_cs; Ḣ is a
+*causal* least-squares slope over the last ``hdot_window_s`` (so a live corrector can
+compute it the same way, METHODS §D.3).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from gyro_calib.estimate import Rejection
+from gyro_calib.streams import StampedBuffer
+from gyro_calib.thermal.topics import SENSOR_CAVITY_A, SENSOR_CAVITY_B, SENSOR_SHELL, SENSORS
+from gyro_calib.units import NS_PER_S, format_stamp
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+    from numpy.typing import ArrayLike
+
+
+@dataclass(frozen=True, slots=True)
+class IntervalSettings:
+    """How the streams are reduced to intervals and checked.
+
+    Attributes:
+        averaging_interval_s: T, s.
+        hdot_window_s: span of the causal slope giving Ḣ, s.
+        reorder_window_s: samples may arrive this much later than newer ones, s.
+        restart_backstep_s: a stamp this far back means the source restarted, s.
+        max_pulse_gap_s: a larger gap between pulse samples invalidates its interval, s.
+        max_rate_deg_s: a pulse step implying a faster rate is a count glitch, °/s.
+        sensor_stuck_s: a sensor reading exactly constant this long while the others move
+            is stuck, s.
+        sensor_stuck_min_change_c: ... while the other cavity sensor (shell: H) moved at
+            least this much, °C.
+    """
+
+    averaging_interval_s: float = 1.0
+    hdot_window_s: float = 60.0
+    reorder_window_s: float = 1.0
+    restart_backstep_s: float = 5.0
+    max_pulse_gap_s: float = 1.0
+    max_rate_deg_s: float = 100.0
+    sensor_stuck_s: float = 300.0
+    sensor_stuck_min_change_c: float = 0.5
+
+    @property
+    def interval_ns(self) -> int:
+        """T in int ns."""
+        return int(round(self.averaging_interval_s * NS_PER_S))
+
+    @property
+    def hdot_window_n(self) -> int:
+        """Intervals in the Ḣ window (at least 2)."""
+        return max(2, int(round(self.hdot_window_s / self.averaging_interval_s)))
+
+
+@dataclass(slots=True)
+class _Rows:
+    """Append-only columns, concatenated on demand."""
+
+    parts: list[tuple[npt.NDArray, ...]] = field(default_factory=list)
+    _cache: tuple[npt.NDArray, ...] | None = None
+
+    def append(self, *cols: npt.NDArray) -> None:
+        if len(cols[0]):
+            self.parts.append(cols)
+            self._cache = None
+
+    def arrays(self, n_cols: int) -> tuple[npt.NDArray, ...]:
+        if self._cache is None:
+            if not self.parts:
+                self._cache = tuple(np.zeros(0) for _ in range(n_cols))
+            else:
+                self._cache = tuple(np.concatenate([p[i] for p in self.parts])
+                                    for i in range(n_cols))
+                self.parts = [self._cache]
+        return self._cache
+
+
+@dataclass(slots=True)
+class _BadRun:
+    """Consecutive bad intervals of one stream, merged into one rejection."""
+
+    first_ns: int
+    last_ns: int
+    reason: str
+    n: int
+
+
+class PulseIntervals:
+    """Reduces /gyro/pulses (stamp, cumulative count) to per-interval ΔN and Δt."""
+
+    def __init__(self, settings: IntervalSettings, scale_factor_rad_per_pulse: float) -> None:
+        """Create the stream buffer; ``scale_factor_rad_per_pulse`` only sets the glitch check."""
+        self.settings = settings
+        back = int(settings.restart_backstep_s * NS_PER_S)
+        self.buffer = StampedBuffer(1, back)
+        self._k_next: int | None = None
+        self._rows = _Rows()
+        self._bad: _BadRun | None = None
+        self.rejections: list[Rejection] = []
+        self.notices: list[str] = []
+        self._max_pulses_per_s = (settings.max_rate_deg_s * math.pi / 180.0
+                                  / scale_factor_rad_per_pulse)
+
+    def extend(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
+        """Many samples (bag chunk)."""
+        if self.buffer.extend(t_ns, counts):
+            self._restarted()
+
+    def append(self, t_ns: int, count: float) -> None:
+        """One sample (live)."""
+        if self.buffer.append(t_ns, count):
+            self._restarted()
+
+    def _restarted(self) -> None:
+        self.notices.append('/gyro/pulses restarted (stamps jumped back): the counter is '
+                            're-anchored; reduced intervals are kept.')
+
+    def reduce(self, *, flush: bool = False) -> int:
+        """Reduce every interval the stream has passed; return how many rows were added."""
+        t, v = self.buffer.arrays()
+        if len(t) < 1:
+            return 0
+        c = v[:, 0]
+        tint = self.settings.interval_ns
+        first_k = int(t[0] // tint)
+        self._k_next = first_k if self._k_next is None else max(self._k_next, first_k)
+        newest = int(t[-1])
+        if flush:  # the last interval ends at the newest sample (its end anchor)
+            k_end = -(-newest // tint)
+        else:
+            k_end = (newest - int(self.settings.reorder_window_s * NS_PER_S)) // tint
+        if k_end <= self._k_next:
+            return 0
+        ks = np.arange(self._k_next, k_end, dtype=np.int64)
+        ends = np.minimum((ks + 1) * tint, newest)
+        # ΔN and Δt between the last samples at or before consecutive boundaries; the first
+        # start anchor is the oldest held sample (the previous end anchor)
+        j = np.searchsorted(t, ends, side='right') - 1
+        start = np.concatenate(([0], j[:-1]))
+        dcount = c[j] - c[start]
+        dt = t[j] - t[start]
+        n = len(ks)
+        has = j > start
+        max_gap = np.zeros(n, np.int64)
+        max_rate = np.zeros(n)
+        if np.any(has):
+            gaps = np.diff(t[:j[-1] + 1])
+            step_rate = np.abs(np.diff(c[:j[-1] + 1])) / (gaps / NS_PER_S)
+            idx = start[has]
+            max_gap[has] = np.maximum.reduceat(gaps, idx)
+            max_rate[has] = np.maximum.reduceat(step_rate, idx)
+        gap_limit = int(self.settings.max_pulse_gap_s * NS_PER_S)
+        # intervals with no sample at all lie inside a gap: their rate is unknown
+        bad_gap = (~has) | (max_gap > gap_limit)
+        bad_step = has & (max_rate > self._max_pulses_per_s)
+        valid = ~(bad_gap | bad_step)
+        self._rows.append(ks, np.where(valid, dcount, np.nan), np.where(valid, dt, 0))
+        for i in range(n):
+            if valid[i]:
+                self._close_bad()
+                continue
+            reason = ('no pulse sample or a gap longer than max_pulse_gap_s = '
+                      f'{self.settings.max_pulse_gap_s:g} s' if bad_gap[i] else
+                      f'a pulse count step faster than max_rate_deg_s = '
+                      f'{self.settings.max_rate_deg_s:g} °/s (counter glitch)')
+            self._note_bad(int(ks[i] * tint), int((ks[i] + 1) * tint), reason)
+        self._k_next = int(k_end)
+        self.buffer.discard_before(int(t[j[-1]]))
+        if flush:
+            self._close_bad()
+        return n
+
+    def _note_bad(self, a_ns: int, b_ns: int, reason: str) -> None:
+        if self._bad is not None and self._bad.reason == reason and self._bad.last_ns == a_ns:
+            self._bad.last_ns, self._bad.n = b_ns, self._bad.n + 1
+            return
+        self._close_bad()
+        self._bad = _BadRun(a_ns, b_ns, reason, 1)
+
+    def _close_bad(self) -> None:
+        if self._bad is None:
+            return
+        b = self._bad
+        self.rejections.append(Rejection(b.first_ns, (
+            f'/gyro/pulses from {format_stamp(b.first_ns)} to {format_stamp(b.last_ns)} '
+            f'({b.n} interval(s)): {b.reason}; those intervals are not used.')))
+        self._bad = None
+
+    def arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
+                              npt.NDArray[np.int64]]:
+        """Interval index k, ΔN (NaN if invalid) and Δt (int ns, 0 if invalid)."""
+        k, dn, dt = self._rows.arrays(3)
+        return k.astype(np.int64), dn.astype(np.float64), dt.astype(np.int64)
+
+
+class TemperatureIntervals:
+    """Reduces one temperature sensor to per-interval means."""
+
+    def __init__(self, sensor: str, settings: IntervalSettings) -> None:
+        """Create the sensor's stream buffer."""
+        self.sensor = sensor
+        self.settings = settings
+        self.buffer = StampedBuffer(1, int(settings.restart_backstep_s * NS_PER_S))
+        self._k_next: int | None = None
+        self._rows = _Rows()
+        self.n_messages = 0
+        self.notices: list[str] = []
+
+    def extend(self, t_ns: ArrayLike, celsius: ArrayLike) -> None:
+        """Many readings of this sensor."""
+        t = np.asarray(t_ns, np.int64)
+        self.n_messages += len(t)
+        if self.buffer.extend(t, celsius):
+            self.notices.append(f'/gyro/temperature [{self.sensor}] restarted (stamps jumped '
+                                'back); reduced intervals are kept.')
+
+    def append(self, t_ns: int, celsius: float) -> None:
+        """One reading."""
+        self.n_messages += 1
+        if self.buffer.append(t_ns, celsius):
+            self.notices.append(f'/gyro/temperature [{self.sensor}] restarted (stamps jumped '
+                                'back); reduced intervals are kept.')
+
+    def reduce(self, *, flush: bool = False) -> int:
+        """Reduce every interval the sensor has passed; return how many rows were added."""
+        t, v = self.buffer.arrays()
+        if not len(t):
+            return 0
+        tint = self.settings.interval_ns
+        k_first = int(t[0] // tint)
+        if self._k_next is None or k_first > self._k_next:
+            self._k_next = k_first if self._k_next is None else max(self._k_next, k_first)
+        newest = int(t[-1])
+        if flush:
+            k_end = newest // tint + 1
+        else:
+            k_end = (newest - int(self.settings.reorder_window_s * NS_PER_S)) // tint
+        if k_end <= self._k_next:
+            return 0
+        n = int(k_end - self._k_next)
+        cut = int(np.searchsorted(t, k_end * tint, side='left'))
+        kk = t[:cut] // tint - self._k_next
+        inside = kk >= 0
+        sums = np.bincount(kk[inside], weights=v[:cut, 0][inside], minlength=n)
+        counts = np.bincount(kk[inside], minlength=n)
+        with np.errstate(invalid='ignore', divide='ignore'):
+            means = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+        ks = np.arange(self._k_next, k_end, dtype=np.int64)
+        self._rows.append(ks, means, counts.astype(np.float64))
+        self._k_next = int(k_end)
+        self.buffer.discard_before(int(k_end * tint))
+        return n
+
+    def keep_last(self, n: int) -> None:
+        """Forget all but the last ``n`` reduced rows (live use keeps a window only)."""
+        cols = self._rows.arrays(3)
+        if len(cols[0]) > n:
+            self._rows = _Rows([tuple(c[-n:] for c in cols)])
+
+    def arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+        """Interval index k and mean reading (NaN where the sensor was silent), °C."""
+        k, m, _ = self._rows.arrays(3)
+        return k.astype(np.int64), m.astype(np.float64)
+
+
+@dataclass(frozen=True, slots=True)
+class IntervalTable:
+    """The streams joined on the interval grid (contiguous k).
+
+    Attributes:
+        interval_s: T, s.
+        k: interval indices; interval k spans [k·T, (k+1)·T) of stamp time.
+        dcount: pulse count difference (NaN where invalid).
+        dt_ns: its duration (0 where invalid).
+        temperatures_c: per sensor name, the interval means (NaN where missing).
+    """
+
+    interval_s: float
+    k: npt.NDArray[np.int64]
+    dcount: npt.NDArray[np.float64]
+    dt_ns: npt.NDArray[np.int64]
+    temperatures_c: dict[str, npt.NDArray[np.float64]]
+
+    @property
+    def t_mid_ns(self) -> npt.NDArray[np.int64]:
+        """Centre stamp of each interval, ns."""
+        tint = int(round(self.interval_s * NS_PER_S))
+        return self.k * tint + tint // 2
+
+    def rate_rad_s(self, scale_factor_rad_per_pulse: float) -> npt.NDArray[np.float64]:
+        """Raw mean rate of each interval, K·ΔN/Δt, rad/s (NaN where invalid)."""
+        with np.errstate(invalid='ignore', divide='ignore'):
+            return np.where(self.dt_ns > 0, scale_factor_rad_per_pulse * self.dcount
+                            / (self.dt_ns / NS_PER_S), np.nan)
+
+    def __len__(self) -> int:
+        """Number of intervals."""
+        return len(self.k)
+
+
+def join_intervals(pulses: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
+                                 npt.NDArray[np.int64]] | None,
+                   temperatures: dict[str, tuple[npt.NDArray[np.int64],
+                                                 npt.NDArray[np.float64]]],
+                   interval_s: float) -> IntervalTable:
+    """Place every stream's rows on one contiguous interval grid (the union of their spans)."""
+    ks = [p[0] for p in [pulses] if p is not None and len(p[0])]
+    ks += [k for k, _ in temperatures.values() if len(k)]
+    if not ks:
+        return IntervalTable(interval_s, np.zeros(0, np.int64), np.zeros(0),
+                             np.zeros(0, np.int64), {s: np.zeros(0) for s in temperatures})
+    k0 = min(int(k[0]) for k in ks)
+    k1 = max(int(k[-1]) for k in ks)
+    n = k1 - k0 + 1
+    dcount = np.full(n, np.nan)
+    dt = np.zeros(n, np.int64)
+    if pulses is not None and len(pulses[0]):
+        dcount[pulses[0] - k0] = pulses[1]
+        dt[pulses[0] - k0] = pulses[2]
+    temps = {}
+    for name, (k, m) in temperatures.items():
+        col = np.full(n, np.nan)
+        col[k - k0] = m
+        temps[name] = col
+    return IntervalTable(interval_s, np.arange(k0, k1 + 1, dtype=np.int64), dcount, dt, temps)
+
+
+def causal_slope(values: npt.NDArray[np.float64], window_n: int,
+                 spacing_s: float) -> npt.NDArray[np.float64]:
+    """Least-squares slope over the last ``window_n`` samples (this one included), per s.
+
+    NaNs are skipped; a window needs more than half its samples finite, else NaN. Each
+    window's sums are computed by ``np.correlate`` with fixed kernels, so a value depends
+    only on its own window (the live tracker, holding just the last window, gets the
+    same number as the offline pass over the whole recording).
+    """
+    y = np.asarray(values, np.float64)
+    n = len(y)
+    if n == 0:
+        return np.zeros(0)
+    ok = np.isfinite(y)
+    pad = window_n - 1
+    okp = np.concatenate((np.zeros(pad), ok.astype(np.float64)))
+    yp = np.concatenate((np.zeros(pad), np.where(ok, y, 0.0)))
+    x = np.arange(window_n, dtype=np.float64)
+    m = np.correlate(okp, np.ones(window_n), 'valid')
+    sx = np.correlate(okp, x, 'valid')
+    sxx = np.correlate(okp, x * x, 'valid')
+    sy = np.correlate(yp, np.ones(window_n), 'valid')
+    sxy = np.correlate(yp, x, 'valid')
+    den = m * sxx - sx * sx
+    with np.errstate(invalid='ignore', divide='ignore'):
+        slope = (m * sxy - sx * sy) / den / spacing_s
+    return np.where((m > window_n / 2) & (den > 0), slope, np.nan)
+
+
+@dataclass(frozen=True, slots=True)
+class SensorCheck:
+    """Temperatures after the sensor checks, and what the checks found.
+
+    Attributes:
+        temperatures_c: per sensor, interval means with stuck spans set to NaN.
+        rejections: stuck and silent spans, one whole sentence each.
+    """
+
+    temperatures_c: dict[str, npt.NDArray[np.float64]]
+    rejections: tuple[Rejection, ...]
+
+
+def true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """[start, end) index pairs of the True runs of ``mask``."""
+    if not len(mask):
+        return []
+    d = np.diff(np.concatenate(([0], mask.astype(np.int8), [0])))
+    return list(zip(np.nonzero(d == 1)[0].tolist(), np.nonzero(d == -1)[0].tolist()))
+
+
+def check_sensors(table: IntervalTable, settings: IntervalSettings) -> SensorCheck:
+    """Find stuck and silent spans of each sensor; blank the stuck ones.
+
+    A sensor is stuck over a run of intervals in which its mean reading is exactly the
+    same for at least ``sensor_stuck_s`` while the other cavity sensor (for the shell:
+    the other two) moved by at least ``sensor_stuck_min_change_c``. A sensor is silent
+    over a run of intervals with no finite reading (dropped out, or NaN messages).
+    """
+    temps = {s: c.copy() for s, c in table.temperatures_c.items()}
+    out: list[Rejection] = []
+    tint = int(round(table.interval_s * NS_PER_S))
+    min_n = max(2, int(round(settings.sensor_stuck_s / table.interval_s)))
+    pulses_span = np.isfinite(table.dcount)
+    for sensor, col in table.temperatures_c.items():
+        others = [temps[o] for o in SENSORS if o in temps and o != sensor
+                  and (sensor == SENSOR_SHELL or o != SENSOR_SHELL)]
+        fin = np.isfinite(col)
+        same = np.zeros(len(col), bool)
+        same[1:] = fin[1:] & fin[:-1] & (col[1:] == col[:-1])
+        for a, b in true_runs(same):
+            a0 = a - 1  # the run of equal values starts one interval earlier
+            if b - a0 < min_n or not others:
+                continue
+            moved = max((float(np.nanmax(o[a0:b]) - np.nanmin(o[a0:b]))
+                         if np.any(np.isfinite(o[a0:b])) else 0.0) for o in others)
+            if moved >= settings.sensor_stuck_min_change_c:
+                temps[sensor][a0:b] = np.nan
+                t0 = int(table.k[a0]) * tint
+                t1 = int(table.k[b - 1] + 1) * tint
+                out.append(Rejection(t0, (
+                    f'temperature sensor {sensor} reads exactly {col[a0]:.4g} °C from '
+                    f'{format_stamp(t0)} to {format_stamp(t1)} ({(t1 - t0) / NS_PER_S:.0f} s) '
+                    f'while the other sensors moved by {moved:.2f} °C: it is stuck; those '
+                    'intervals are not used. Check the sensor and its wiring.')))
+        silent = ~fin & pulses_span
+        for a, b in true_runs(silent):
+            t0 = int(table.k[a]) * tint
+            t1 = int(table.k[b - 1] + 1) * tint
+            out.append(Rejection(t0, (
+                f'temperature sensor {sensor} gave no finite reading from {format_stamp(t0)} '
+                f'to {format_stamp(t1)} ({b - a} interval(s); dropped out or NaN): those '
+                'intervals are not used.')))
+    out.sort(key=lambda r: r.stamp_ns)
+    return SensorCheck(temps, tuple(out))
+
+
+def thermal_variables(temperatures_c: dict[str, npt.NDArray[np.float64]],
+                      settings: IntervalSettings) -> dict[str, npt.NDArray[np.float64]]:
+    """Per interval: H, Ḣ (°C/s, causal slope), ΔT_ab, ΔT_cs (NaN without a shell sensor)."""
+    a = temperatures_c[SENSOR_CAVITY_A]
+    b = temperatures_c[SENSOR_CAVITY_B]
+    h = 0.5 * (a + b)
+    hdot = causal_slope(h, settings.hdot_window_n, settings.averaging_interval_s)
+    shell = temperatures_c.get(SENSOR_SHELL)
+    dtcs = h - shell if shell is not None else np.full(len(h), np.nan)
+    return {'H': h, 'Hdot': hdot, 'dTab': a - b, 'dTcs': dtcs}
+
+
+def split_frame_ids(frame_id: ArrayLike | str, n: int) -> npt.NDArray[np.str_]:
+    """Per-message sensor names from one name or an array of them."""
+    if isinstance(frame_id, str):
+        return np.full(n, frame_id)
+    ids = np.asarray(frame_id).astype(str)
+    if len(ids) != n:
+        raise ValueError(f'{len(ids)} frame ids for {n} temperature messages')
+    return ids

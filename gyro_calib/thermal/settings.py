@@ -1,0 +1,198 @@
+"""Settings of the thermal calibration: one frozen dataclass, validated once.
+
+Field docstrings become ROS parameter descriptions; every unit is in the name or the
+docstring. ``scale_factor_rad_per_pulse`` and ``latitude_deg`` have no usable default
+(NaN): the calibration refuses to start without them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from gyro_calib.errors import ConfigError
+from gyro_calib.thermal.intervals import IntervalSettings
+from gyro_calib.thermal.terms import NAMED_SETS, candidate_terms
+from gyro_calib.thermal.wavelet import THRESHOLD_MODES, THRESHOLD_RULES, WAVELETS
+
+STYLES = ('continuous', 'soak')
+"""Calibration styles: regression on block means of the whole run, or on soak points."""
+
+
+@dataclass(frozen=True, slots=True)
+class ThermalSettings:
+    """Settings of the thermal bias calibration (METHODS §D)."""
+
+    scale_factor_rad_per_pulse: float = math.nan
+    """K, rad/pulse, turning pulses into rate (from the RBRLG calibration or the data sheet)."""
+    latitude_deg: float = math.nan
+    """Site latitude, °, for the Earth rate along the sense axis."""
+    gyro_id: str = ''
+    """Identity (serial) of the gyro under test, stored in the model for the identity check."""
+    sense_axis_elevation_deg: float = 90.0
+    """Sense axis elevation above the horizon, ° (90 = vertical)."""
+    sense_axis_azimuth_deg: float = 0.0
+    """Azimuth of the sense axis' horizontal part, from North towards East, °."""
+    earth_rate_deg_h: float = 15.041
+    """Earth rotation rate, °/h."""
+    averaging_interval_s: float = 1.0
+    """T: pulses and temperatures are reduced to means over intervals of this length, s."""
+    hdot_window_s: float = 60.0
+    """Span of the causal least-squares slope that gives Ḣ, s."""
+    fit_block_s: float = 10.0
+    """Continuous style: the regression runs on means over blocks of this length, s."""
+    calibration_style: str = 'continuous'
+    """'continuous' (block means of the whole run) or 'soak' (one point per settled soak)."""
+    candidate_terms: str = 'dynamic'
+    """'static', 'dynamic', 'second_order' or a comma-separated list such as 'H,H^2,Hdot'."""
+    max_h_power: int = 3
+    """m: highest power of H in the named sets (eq. 14)."""
+    stepwise_start: str = 'full'
+    """Stepwise starts from 'full' (all candidates) or 'constant'."""
+    p_enter: float = 0.05
+    """A candidate term enters when its F-test p-value is below this."""
+    p_remove: float = 0.10
+    """A term leaves when its p-value is above this (≥ p_enter)."""
+    noise_max_span_s: float = 1800.0
+    """Continuous style: longest averaging time at which the residuals' long-run variance is
+    read from their Allan variance (covariance of autocorrelated residuals), s."""
+    denoise: bool = True
+    """Denoise the rate by the lifting wavelet transform before fitting."""
+    wavelet: str = 'bior4.4'
+    """'bior4.4' (CDF 9/7 lifting) or 'bior2.2' (CDF 5/3)."""
+    wavelet_levels: int = 6
+    """Decomposition levels (details below 2^levels intervals are thresholded)."""
+    threshold_rule: str = 'universal'
+    """'universal', 'minimax' or 'bayes'."""
+    threshold_mode: str = 'soft'
+    """'soft' or 'hard' thresholding."""
+    validation_fraction: float = 0.25
+    """Continuous style: share of the run held out from the fit to check the chosen terms
+    (0 = no check)."""
+    validation_block_s: float = 1800.0
+    """Length of each held-out segment, s."""
+    stability_block_s: float = 100.0
+    """Block length of the bias stability (METHODS §E), s."""
+    extrapolation_margin_c: float = 2.0
+    """How far beyond the calibrated H range the model may be used, °C."""
+    hdot_margin_fraction: float = 0.5
+    """How far beyond the calibrated Ḣ range, as a fraction of that range."""
+    soak_max_rate_c_per_min: float = 0.02
+    """Soak style: |Ḣ| at most this counts as settled, °C/min."""
+    soak_min_s: float = 600.0
+    """Soak style: a plateau must last this long, s."""
+    soak_settle_fraction: float = 0.5
+    """Soak style: the first part of each plateau skipped as still settling (0…1)."""
+    distinct_temperature_step_c: float = 2.0
+    """Temperatures closer than this count as one level in the check of distinct points, °C."""
+    min_valid_fraction: float = 0.5
+    """A fit block needs this share of valid intervals."""
+    reorder_window_s: float = 1.0
+    """Samples of one stream may arrive this much after newer ones, s."""
+    restart_backstep_s: float = 5.0
+    """A stamp this far back means the source restarted, s."""
+    max_pulse_gap_s: float = 1.0
+    """A larger gap between pulse samples invalidates its interval, s."""
+    max_rate_deg_s: float = 100.0
+    """A pulse step implying a faster rate is a counter glitch, °/s."""
+    sensor_stuck_s: float = 300.0
+    """A sensor reading exactly constant this long while the others move is stuck, s."""
+    sensor_stuck_min_change_c: float = 0.5
+    """... while another sensor moved at least this much, °C."""
+    refit_every_s: float = 0.0
+    """Live use: refit after this much new data (0 = fit only at the end of the recording), s."""
+
+    def __post_init__(self) -> None:
+        """Validate every field; raise ConfigError naming the field."""
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            kind = f.type if isinstance(f.type, str) else f.type.__name__
+            if kind == 'bool':
+                ok = isinstance(value, bool)
+            elif kind == 'int':
+                ok = isinstance(value, int) and not isinstance(value, bool)
+            elif kind == 'str':
+                ok = isinstance(value, str)
+            else:
+                ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if not ok:
+                raise ConfigError(f'{f.name} = {value!r} is invalid: it must be a {kind}.')
+        t = self.averaging_interval_s
+        checks: list[tuple[str, bool, str]] = [
+            ('scale_factor_rad_per_pulse',
+             math.isfinite(self.scale_factor_rad_per_pulse) and self.scale_factor_rad_per_pulse > 0,
+             'a positive number: give K from the RBRLG calibration or the data sheet '
+             '(--scale-factor-rad-per-pulse)'),
+            ('latitude_deg', math.isfinite(self.latitude_deg) and abs(self.latitude_deg) <= 90,
+             'set to the site latitude in degrees (−90…90) so the Earth rate along the sense '
+             'axis can be removed (--latitude-deg)'),
+            ('sense_axis_elevation_deg', -90 <= self.sense_axis_elevation_deg <= 90,
+             'between −90 and 90'),
+            ('sense_axis_azimuth_deg', math.isfinite(self.sense_axis_azimuth_deg), 'finite'),
+            ('earth_rate_deg_h', self.earth_rate_deg_h >= 0, 'non-negative'),
+            ('averaging_interval_s', 0 < t <= 60, 'between 0 and 60'),
+            ('hdot_window_s', self.hdot_window_s >= 2 * t, 'at least 2 averaging intervals'),
+            ('fit_block_s', self.fit_block_s >= t and _multiple(self.fit_block_s, t),
+             'a whole number of averaging intervals'),
+            ('calibration_style', self.calibration_style in STYLES, ' or '.join(STYLES)),
+            ('max_h_power', 1 <= self.max_h_power <= 6, 'between 1 and 6'),
+            ('stepwise_start', self.stepwise_start in ('full', 'constant'), "'full' or 'constant'"),
+            ('p_enter', 0 < self.p_enter < 1, 'between 0 and 1'),
+            ('p_remove', self.p_enter <= self.p_remove < 1,
+             'at least p_enter and below 1 (else terms cycle in and out)'),
+            ('noise_max_span_s', self.noise_max_span_s >= self.fit_block_s,
+             'at least fit_block_s'),
+            ('wavelet', self.wavelet in WAVELETS, ' or '.join(WAVELETS)),
+            ('wavelet_levels', 1 <= self.wavelet_levels <= 16, 'between 1 and 16'),
+            ('threshold_rule', self.threshold_rule in THRESHOLD_RULES,
+             ', '.join(THRESHOLD_RULES)),
+            ('threshold_mode', self.threshold_mode in THRESHOLD_MODES, 'soft or hard'),
+            ('validation_fraction', 0 <= self.validation_fraction <= 0.5, 'between 0 and 0.5'),
+            ('validation_block_s', self.validation_block_s >= self.stability_block_s,
+             'at least stability_block_s'),
+            ('stability_block_s', self.stability_block_s >= t
+             and _multiple(self.stability_block_s, t), 'a whole number of averaging intervals'),
+            ('extrapolation_margin_c', self.extrapolation_margin_c >= 0, 'non-negative'),
+            ('hdot_margin_fraction', self.hdot_margin_fraction >= 0, 'non-negative'),
+            ('soak_max_rate_c_per_min', self.soak_max_rate_c_per_min > 0, 'positive'),
+            ('soak_min_s', self.soak_min_s >= 2 * self.stability_block_s,
+             'at least two stability blocks'),
+            ('soak_settle_fraction', 0 <= self.soak_settle_fraction < 1, 'in [0, 1)'),
+            ('distinct_temperature_step_c', self.distinct_temperature_step_c > 0, 'positive'),
+            ('min_valid_fraction', 0 < self.min_valid_fraction <= 1, 'in (0, 1]'),
+            ('reorder_window_s', self.reorder_window_s >= 0, 'non-negative'),
+            ('restart_backstep_s', self.restart_backstep_s > self.reorder_window_s,
+             'larger than reorder_window_s'),
+            ('max_pulse_gap_s', self.max_pulse_gap_s > 0, 'positive'),
+            ('max_rate_deg_s', self.max_rate_deg_s > 0, 'positive'),
+            ('sensor_stuck_s', self.sensor_stuck_s > 0, 'positive'),
+            ('sensor_stuck_min_change_c', self.sensor_stuck_min_change_c > 0, 'positive'),
+            ('refit_every_s', self.refit_every_s >= 0, 'non-negative'),
+        ]
+        for name, ok, expected in checks:
+            if not ok:
+                raise ConfigError(f'{name} = {getattr(self, name)!r} is invalid: it must be '
+                                  f'{expected}.')
+        if self.candidate_terms.strip() not in NAMED_SETS:
+            candidate_terms(self.candidate_terms)  # raises ConfigError naming a bad term
+        terms = candidate_terms(self.candidate_terms, max_h_power=self.max_h_power)
+        if self.calibration_style == 'soak' and any(t.variables != ('H',) for t in terms):
+            raise ConfigError(
+                f'candidate_terms = {self.candidate_terms!r} is invalid with calibration_style '
+                "'soak': settled soak points carry no Ḣ or gradient information, so only "
+                "powers of H (the static model, eq. 14) can be fitted; use 'static'.")
+
+    def interval_settings(self) -> IntervalSettings:
+        """The stream-reduction part of these settings."""
+        return IntervalSettings(
+            averaging_interval_s=self.averaging_interval_s, hdot_window_s=self.hdot_window_s,
+            reorder_window_s=self.reorder_window_s, restart_backstep_s=self.restart_backstep_s,
+            max_pulse_gap_s=self.max_pulse_gap_s, max_rate_deg_s=self.max_rate_deg_s,
+            sensor_stuck_s=self.sensor_stuck_s,
+            sensor_stuck_min_change_c=self.sensor_stuck_min_change_c)
+
+
+def _multiple(x: float, t: float) -> bool:
+    r = x / t
+    return abs(r - round(r)) < 1e-9 * max(r, 1.0)

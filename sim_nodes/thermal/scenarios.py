@@ -1,0 +1,277 @@
+"""Thermal scenarios: named gyros (hidden bias laws), chamber runs, faults, whole recordings.
+
+A recording is what a bench would publish — ``/gyro/pulses`` (stamp, cumulative count)
+and ``/gyro/temperature`` (stamp, °C, variance, header.frame_id naming the sensor) — as
+arrays, with the truth and a plain-dict scenario description (gyro id, seeds, configs)
+for a bag's metadata. Rates are settable; the defaults (10 Hz pulses, 1 Hz temperatures)
+keep an 8-hour chamber run small.
+
+Gyros (:data:`GYRO_LAWS`): the terms that matter differ gyro to gyro (METHODS §D.3).
+``A-1`` and ``A-2`` follow the paper's two type-009 gyros (§D.4): A-1's law is the
+least-squares quartic through its seven published points (strongly non-monotonic), A-2's
+the cubic through its points (near-linear), each with a small dynamic part and a small
+periodic term no candidate model holds. ``B-1`` is rate-sensitive (Ḣ, Ḣ², H·Ḣ), ``B-2``
+gradient-sensitive (arm-to-arm and cavity-to-shell), ``C-1`` follows the second-order
+cross-term model (2). :func:`random_gyro` draws further hidden laws for benchmarks.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from gyro_calib.units import NS_PER_S
+from sim_nodes.thermal.chamber import (
+    ChamberProfile,
+    paper_soak_programme,
+    ramp_programme,
+    soak_programme,
+)
+from sim_nodes.thermal.gyro import (
+    ThermalBiasLaw,
+    ThermalChunk,
+    ThermalGyroConfig,
+    ThermalGyroSimulator,
+    ThermalTruth,
+)
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+GYRO_LAWS: dict[str, ThermalBiasLaw] = {
+    'A-1': ThermalBiasLaw(
+        bias_deg_h=0.452033,
+        h_deg_h=(0.0156786, 0.000184531, -1.21708e-05, -3.70965e-07),
+        hdot_deg_h=(0.04,), periodic_deg_h=0.002),
+    'A-2': ThermalBiasLaw(
+        bias_deg_h=0.405602, h_deg_h=(-0.002272, -6.27264e-05, -2.08e-06),
+        dtab_deg_h_per_c=0.03, periodic_deg_h=0.002),
+    'B-1': ThermalBiasLaw(
+        bias_deg_h=-0.2, h_deg_h=(0.004, 8e-05), hdot_deg_h=(0.12, 0.05),
+        h_hdot_deg_h=0.002, periodic_deg_h=0.002),
+    'B-2': ThermalBiasLaw(
+        bias_deg_h=0.1, h_deg_h=(-0.006,), dtab_deg_h_per_c=0.15, dtcs_deg_h_per_c=-0.08,
+        periodic_deg_h=0.002),
+    'C-1': ThermalBiasLaw(
+        bias_deg_h=0.3, h_deg_h=(0.005, 6e-05), hdot_deg_h=(0.06, 0.03),
+        dtab_deg_h_per_c=0.05, h_hdot_deg_h=0.0015, h_dtab_deg_h=0.001,
+        hdot_dtab_deg_h=0.02, dtab2_deg_h=0.01, periodic_deg_h=0.002),
+}
+"""Hidden bias laws of the named gyros (°/h; see :class:`ThermalBiasLaw`)."""
+
+
+def gyro_config(gyro_id: str = 'A-1', **overrides: Any) -> ThermalGyroConfig:
+    """The named gyro (law from :data:`GYRO_LAWS`, paper defaults otherwise) with overrides."""
+    if gyro_id not in GYRO_LAWS:
+        raise KeyError(f'unknown gyro {gyro_id!r}; known: {", ".join(GYRO_LAWS)}')
+    return ThermalGyroConfig(gyro_id=gyro_id, law=GYRO_LAWS[gyro_id], **overrides)
+
+
+def random_law(rng: np.random.Generator) -> ThermalBiasLaw:
+    """A random hidden law: a polynomial in H of random order and random dynamic terms.
+
+    Sizes are typical of the paper's gyros: a few tenths of °/h across −35…35 °C.
+    """
+    order = int(rng.integers(1, 4))
+    h = tuple(float(rng.normal(0, 0.2) / 35.0**j) for j in range(1, order + 1))
+    hdot = (float(rng.normal(0, 0.08)),) if rng.uniform() < 0.6 else ()
+    if hdot and rng.uniform() < 0.4:
+        hdot = hdot + (float(rng.normal(0, 0.04)),)
+    return ThermalBiasLaw(
+        bias_deg_h=float(rng.normal(0.3, 0.2)), h_deg_h=h, hdot_deg_h=hdot,
+        dtab_deg_h_per_c=float(rng.normal(0, 0.08)) if rng.uniform() < 0.4 else 0.0,
+        dtcs_deg_h_per_c=float(rng.normal(0, 0.05)) if rng.uniform() < 0.3 else 0.0,
+        h_hdot_deg_h=float(rng.normal(0, 0.002)) if rng.uniform() < 0.3 else 0.0,
+        periodic_deg_h=float(abs(rng.normal(0, 0.002))))
+
+
+def random_gyro(seed: int, **overrides: Any) -> ThermalGyroConfig:
+    """A gyro with a random hidden law and random thermal time constants (seeded)."""
+    rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
+    params: dict[str, Any] = dict(
+        gyro_id=f'R-{seed}', law=random_law(rng),
+        shell_time_constant_s=float(rng.uniform(400, 900)),
+        cavity_a_time_constant_s=float(rng.uniform(150, 400)),
+        cavity_b_time_constant_s=float(rng.uniform(250, 600)),
+        cavity_a_self_heating_c=float(rng.uniform(0.5, 2.0)),
+        cavity_b_self_heating_c=float(rng.uniform(0.5, 2.0)), seed=seed)
+    params.update(overrides)
+    return ThermalGyroConfig(**params)
+
+
+@dataclass(frozen=True, slots=True)
+class ThermalFaults:
+    """Data faults applied to the published temperatures, never to the truth (all off).
+
+    Attributes:
+        stuck_sensor: sensor whose reading freezes at its value at ``stuck_from_s``.
+        stuck_from_s: s from the start.
+        nan_sensor: sensor that publishes NaN during ``nan_s`` (start, end), s.
+        nan_s: the span.
+        dropout_sensor: sensor that publishes nothing during ``dropout_s`` (start, end), s.
+        dropout_s: the span.
+        drop_temperature_topic: publish no /gyro/temperature at all.
+        drop_sensor: a sensor that never publishes.
+    """
+
+    stuck_sensor: str | None = None
+    stuck_from_s: float = 0.0
+    nan_sensor: str | None = None
+    nan_s: tuple[float, float] = (0.0, 0.0)
+    dropout_sensor: str | None = None
+    dropout_s: tuple[float, float] = (0.0, 0.0)
+    drop_temperature_topic: bool = False
+    drop_sensor: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ThermalRecording:
+    """A whole run as arrays (the two contract topics), its truth and its description.
+
+    Attributes:
+        pulse_t_ns, pulse_counts: /gyro/pulses (int64 ns; cumulative count).
+        temperature_t_ns, temperature_c, temperature_variance_c2, temperature_frame_id:
+            /gyro/temperature, one entry per message.
+        truth: truth at each temperature instant.
+        scenario: plain-dict description (name, gyro id, seeds, configs) for bag metadata.
+    """
+
+    pulse_t_ns: npt.NDArray[np.int64]
+    pulse_counts: npt.NDArray[np.float64]
+    temperature_t_ns: npt.NDArray[np.int64]
+    temperature_c: npt.NDArray[np.float64]
+    temperature_variance_c2: npt.NDArray[np.float64]
+    temperature_frame_id: npt.NDArray[np.str_]
+    truth: ThermalTruth
+    scenario: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def gyro_id(self) -> str:
+        """The simulated gyro's identity."""
+        return str(self.scenario.get('gyro_id', ''))
+
+    @property
+    def duration_s(self) -> float:
+        """Span of the pulse stamps, s."""
+        return float(self.pulse_t_ns[-1] - self.pulse_t_ns[0]) / NS_PER_S
+
+
+def _describe(name: str, gyro: ThermalGyroConfig, chamber: ChamberProfile,
+              start_time_ns: int, duration_s: float, faults: ThermalFaults) -> dict[str, Any]:
+    cfg = dataclasses.asdict(gyro)
+    return {
+        'name': name, 'kind': 'thermal', 'gyro_id': gyro.gyro_id, 'seed': gyro.seed,
+        'start_time_ns': int(start_time_ns), 'duration_s': float(duration_s),
+        'gyro': cfg,
+        'chamber': {'start_c': chamber.start_c, 'segments': [list(s) for s in chamber.segments]},
+        'faults': dataclasses.asdict(faults),
+        'truth': {
+            'scale_factor_rad_per_pulse': gyro.scale_factor_rad_per_pulse,
+            'earth_rate_along_axis_rad_s': gyro.earth_rate_along_axis_rad_s(),
+            'latitude_deg': gyro.latitude_deg,
+            'sense_axis_elevation_deg': gyro.sense_axis_elevation_deg,
+            'sense_axis_azimuth_deg': gyro.sense_axis_azimuth_deg,
+        },
+    }
+
+
+def apply_faults(chunk_t: npt.NDArray[np.int64], values: npt.NDArray[np.float64],
+                 frame_id: npt.NDArray[np.str_], faults: ThermalFaults,
+                 start_time_ns: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
+                                              npt.NDArray[np.bool_]]:
+    """Apply ``faults`` to temperature messages; return stamps, values and a keep mask."""
+    values = values.copy()
+    keep = np.ones(len(chunk_t), bool)
+    rel_s = (chunk_t - start_time_ns) / NS_PER_S
+    if faults.drop_temperature_topic:
+        keep[:] = False
+    if faults.drop_sensor is not None:
+        keep &= frame_id != faults.drop_sensor
+    if faults.stuck_sensor is not None:
+        mine = np.nonzero(frame_id == faults.stuck_sensor)[0]
+        stuck = mine[rel_s[mine] >= faults.stuck_from_s]
+        before = mine[rel_s[mine] < faults.stuck_from_s]
+        if len(stuck):
+            frozen = values[before[-1]] if len(before) else values[stuck[0]]
+            values[stuck] = frozen
+    if faults.nan_sensor is not None:
+        sel = (frame_id == faults.nan_sensor) & (rel_s >= faults.nan_s[0]) & (
+            rel_s < faults.nan_s[1])
+        values[sel] = np.nan
+    if faults.dropout_sensor is not None:
+        keep &= ~((frame_id == faults.dropout_sensor) & (rel_s >= faults.dropout_s[0])
+                  & (rel_s < faults.dropout_s[1]))
+    return chunk_t, values, keep
+
+
+def simulate_thermal_run(gyro: ThermalGyroConfig, chamber: ChamberProfile, *,
+                         name: str = 'thermal_run', start_time_ns: int = 1_700_000_000 * NS_PER_S,
+                         duration_s: float | None = None,
+                         faults: ThermalFaults | None = None,
+                         chunk_s: float = 3600.0) -> ThermalRecording:
+    """Run the gyro through the chamber programme offline; return the whole recording.
+
+    Faults act on the whole recording (a stuck sensor freezes at its last good value).
+    """
+    faults = faults or ThermalFaults()
+    sim = ThermalGyroSimulator(gyro, chamber, start_time_ns=start_time_ns,
+                               duration_s=duration_s)
+    parts: list[ThermalChunk] = list(sim.chunks(chunk_s))
+    cat = np.concatenate
+    temp_t = cat([p.temperature_t_ns for p in parts])
+    temp_c = cat([p.temperature_c for p in parts])
+    frame = cat([p.temperature_frame_id for p in parts])
+    temp_t, temp_c, keep = apply_faults(temp_t, temp_c, frame, faults, start_time_ns)
+    dur = (sim.end_time_ns - sim.start_time_ns) / NS_PER_S
+    return ThermalRecording(
+        pulse_t_ns=cat([p.pulse_t_ns for p in parts]),
+        pulse_counts=cat([p.pulse_counts for p in parts]),
+        temperature_t_ns=temp_t[keep], temperature_c=temp_c[keep],
+        temperature_variance_c2=cat([p.temperature_variance_c2 for p in parts])[keep],
+        temperature_frame_id=frame[keep],
+        truth=ThermalTruth.concatenate([p.truth for p in parts]),
+        scenario=_describe(name, gyro, chamber, start_time_ns, dur, faults))
+
+
+def paper_soak_scenario(gyro_id: str = 'A-1', seed: int = 1, *, soak_s: float = 3600.0,
+                        gyro: ThermalGyroConfig | None = None,
+                        faults: ThermalFaults | None = None, **overrides: Any
+                        ) -> ThermalRecording:
+    """The paper's calibration run: −35…35 °C, 7 points, 1 h soaks, 1 °C/min ramps (§D.4)."""
+    cfg = gyro or gyro_config(gyro_id, seed=seed, **overrides)
+    return simulate_thermal_run(cfg, paper_soak_programme(soak_s=soak_s),
+                                name=f'thermal_paper_soak_{cfg.gyro_id}_{seed}', faults=faults)
+
+
+def continuous_ramp_scenario(gyro_id: str = 'A-1', seed: int = 1, *, low_c: float = -35.0,
+                             high_c: float = 35.0, rate_c_per_min: float = 0.5,
+                             cycles: int = 1, dwell_s: float = 1800.0,
+                             gyro: ThermalGyroConfig | None = None,
+                             faults: ThermalFaults | None = None,
+                             **overrides: Any) -> ThermalRecording:
+    """Continuous slow ramps low → high → low with dwells (the second calibration style)."""
+    cfg = gyro or gyro_config(gyro_id, seed=seed, **overrides)
+    chamber = ramp_programme(low_c, high_c, rate_c_per_min=rate_c_per_min, cycles=cycles,
+                             dwell_s=dwell_s)
+    return simulate_thermal_run(cfg, chamber, name=f'thermal_ramp_{cfg.gyro_id}_{seed}',
+                                faults=faults)
+
+
+VALIDATION_SET_POINTS_C = (-30.0, -20.0, -5.0, 10.0, 20.0, 30.0)
+"""Set points of the validation run: between the calibration points, rising like them."""
+
+
+def validation_scenario(gyro_id: str = 'A-1', seed: int = 101, *, soak_s: float = 2400.0,
+                        ramp_rate_c_per_min: float = 1.0,
+                        gyro: ThermalGyroConfig | None = None,
+                        faults: ThermalFaults | None = None,
+                        **overrides: Any) -> ThermalRecording:
+    """A run the model never saw: other set points, shorter soaks, another seed."""
+    cfg = gyro or gyro_config(gyro_id, seed=seed, **overrides)
+    chamber = soak_programme(VALIDATION_SET_POINTS_C, soak_s=soak_s,
+                             ramp_rate_c_per_min=ramp_rate_c_per_min)
+    return simulate_thermal_run(cfg, chamber, name=f'thermal_validation_{cfg.gyro_id}_{seed}',
+                                faults=faults)
