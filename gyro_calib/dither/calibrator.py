@@ -1,0 +1,911 @@
+"""Streaming dither-axis misalignment calibration: pulses and table states in, a out.
+
+:class:`DitherCalibrator` takes ``/gyro/pulses`` (stamp, cumulative count) and
+``/vibration_table/joint_states`` (stamp, angle, rate, frame_id ``'z'``/``'y'``) as arrays or
+sample by sample, cuts the record into blocks of ``block_s`` on a grid anchored at the
+first pulse stamp, and reduces each block as soon as both streams have passed its end:
+
+1. fit the table motion (frequency and harmonics) from joint_states,
+2. fit the output's own dither line (frequency, amplitude, phase) by nonlinear least
+   squares, with the table lines and a straight line as nuisance terms,
+3. build the sideband regressors G_in = ∫ω_T·φ and G_quad in closed form, project every
+   nuisance term out and add the block's 2×2 reduced normal equations to its orientation.
+
+Only the reduced sums and a few numbers per block are kept (memory bounded for hours of
+2 kHz data). The orientation is the table's frame_id: the table along Z measures
+a·|sin ψ₀|, along Y a·|cos ψ₀| (METHODS §C); a = √(both²) needs both. Blocks are judged
+one at a time: a block without table data, without a dither line, sampled too slowly,
+with the vibration frequency on a dither line or harmonic, or with glitching counts is
+rejected with its reason and nothing else is lost. Results depend only on stamps and
+values, never on how the data was chunked (blocks are reduced in stamp order once
+complete). Call :meth:`DitherCalibrator.end_recording` between two recordings (two bags).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Protocol
+
+import numpy as np
+
+from gyro_calib.dither import topics
+from gyro_calib.dither.coning import ConingDrift, coning_drift
+from gyro_calib.dither.floor import (
+    detection_floor,
+    required_record_s,
+    required_table_rate_amplitude_rad_s,
+)
+from gyro_calib.dither.lines import (
+    fit_dither_line,
+    fit_table_motion,
+    nuisance_columns,
+    sinusoid_columns,
+)
+from gyro_calib.dither.misalignment import (
+    RAD_PER_ARCMIN,
+    Component,
+    Misalignment,
+    Verdict,
+    acceptance_verdict,
+    combine_components,
+)
+from gyro_calib.dither.regression import (
+    ReducedNormalEquations,
+    choose_null_multiples,
+    null_sideband_regressors,
+    reduce_block,
+    sideband_regressors,
+)
+from gyro_calib.dither.settings import DitherSettings
+from gyro_calib.estimate import Estimate, Rejection
+from gyro_calib.streams import StampedBuffer
+from gyro_calib.units import NS_PER_S, RAD_PER_ARCSEC
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+    from numpy.typing import ArrayLike
+
+    from gyro_calib.dither.regression import SidebandSolution
+
+    FloatArray = npt.NDArray[np.float64]
+
+AXES = ('z', 'y')
+FRAME_CODES = {'z': 0.0, 'y': 1.0}
+
+KEY_A = 'dither_axis_misalignment_rad'
+KEY_Z = 'dither_misalignment_z_rad'
+KEY_Y = 'dither_misalignment_y_rad'
+KEY_FREQUENCY = 'dither_frequency_hz'
+KEY_AMPLITUDE = 'dither_amplitude_rad'
+KEY_AMPLITUDE_PULSES = 'dither_amplitude_pulses'
+KEY_CONING = 'coning_drift_rad_s'
+KEY_CONING_TOTAL = 'coning_drift_total_rad_s'
+RESULT_KEYS = (KEY_A, KEY_Z, KEY_Y, KEY_FREQUENCY, KEY_AMPLITUDE, KEY_AMPLITUDE_PULSES,
+               KEY_CONING, KEY_CONING_TOTAL)
+"""Every key :meth:`DitherCalibrator.results` may return (issue 12 part 2, the total coning,
+and ``dither_amplitude_pulses``, given instead of ``dither_amplitude_rad`` without K)."""
+COMPONENT_KEYS = {'z': KEY_Z, 'y': KEY_Y}
+
+
+def _arcmin(value_rad: float) -> str:
+    return f'{value_rad / RAD_PER_ARCMIN:.2f}′'
+
+
+def _stamp(t_ns: int) -> str:
+    return f'{t_ns / NS_PER_S:.3f} s'
+
+
+@dataclass(frozen=True, slots=True)
+class BlockSummary:
+    """What one accepted block found (kept for plots and checks; a few numbers).
+
+    Attributes:
+        start_ns: block start stamp, ns.
+        span_s: time covered by its pulse samples, s.
+        beta: the block's own (β_in, β_quad), rad.
+        beta_std: their standard uncertainties from the block alone, rad.
+        dither_frequency_hz: fitted Ω_d/2π, Hz.
+        dither_amplitude_pulses: fitted |P|, pulses.
+        table_frequency_hz: fitted Ω_z/2π, Hz.
+        table_rate_amplitude_rad_s: fitted A, rad/s.
+        residual_rms_pulses: rms residual of the block's model, pulses.
+        sample_rate_hz: pulse sample rate in the block, Hz.
+        drift_pulses_s: straight-line drift of the count (Earth rate + bias), pulses/s.
+    """
+
+    start_ns: int
+    span_s: float
+    beta: tuple[float, float]
+    beta_std: tuple[float, float]
+    dither_frequency_hz: float
+    dither_amplitude_pulses: float
+    table_frequency_hz: float
+    table_rate_amplitude_rad_s: float
+    residual_rms_pulses: float
+    sample_rate_hz: float
+    drift_pulses_s: float
+
+
+@dataclass(slots=True)
+class OrientationRecord:
+    """Everything kept about one orientation: reduced sums, block summaries, spectra."""
+
+    axis: str
+    equations: ReducedNormalEquations = field(default_factory=ReducedNormalEquations)
+    blocks: list[BlockSummary] = field(default_factory=list)
+    spectrum_sum: FloatArray | None = None
+    residual_spectrum_sum: FloatArray | None = None
+    spectrum_rate_hz: float = math.nan
+    n_spectra: int = 0
+    last_residual: tuple[FloatArray, FloatArray] | None = None
+    null_multiples: tuple[int, ...] | None = None
+
+    @property
+    def record_s(self) -> float:
+        """Time covered by accepted blocks, s."""
+        return float(sum(b.span_s for b in self.blocks))
+
+    def mean(self, name: str) -> float:
+        """Mean of a block attribute over accepted blocks."""
+        return float(np.mean([getattr(b, name) for b in self.blocks]))
+
+
+class _RecordingLike(Protocol):
+    pulse_t_ns: ArrayLike
+    pulse_counts: ArrayLike
+    table_t_ns: ArrayLike
+    table_angle_rad: ArrayLike
+    table_rate_rad_s: ArrayLike
+    frame_id: str
+
+
+@dataclass(frozen=True, slots=True)
+class DitherRecordingArrays:
+    """One recording as arrays (the shape :func:`calibrate_dither` takes).
+
+    Attributes:
+        pulse_t_ns: /gyro/pulses stamps, int ns.
+        pulse_counts: cumulative counts.
+        table_t_ns: /vibration_table/joint_states stamps, int ns.
+        table_angle_rad: position, rad.
+        table_rate_rad_s: velocity, rad/s.
+        frame_id: header.frame_id, ``'z'`` or ``'y'``.
+    """
+
+    pulse_t_ns: ArrayLike
+    pulse_counts: ArrayLike
+    table_t_ns: ArrayLike
+    table_angle_rad: ArrayLike
+    table_rate_rad_s: ArrayLike
+    frame_id: str
+
+
+def line_conflicts(dither_hz: float, table_hz: float, *, separation_hz: float,
+                   harmonics: int) -> list[str]:
+    """Why the sidebands f_d ± f_z cannot be told from another modelled line (empty if fine).
+
+    Lines modelled: zero frequency (the straight line), the dither line f_d and its
+    harmonic 2·f_d, the table lines h·f_z (h = 1 … H). A sideband within ``separation_hz``
+    of any of them — the vibration frequency near the dither frequency, a harmonic or a
+    sub-harmonic of it, or too low — is collinear with that line over a block.
+    """
+    lines = {'zero frequency': 0.0, 'the dither line f_d': dither_hz,
+             'the dither harmonic 2·f_d': 2 * dither_hz}
+    lines.update({('the table line f_z' if h == 1 else f'the table harmonic {h}·f_z'):
+                  h * table_hz for h in range(1, harmonics + 1)})
+    out = []
+    for name, sb in (('f_d − f_z', abs(dither_hz - table_hz)), ('f_d + f_z', dither_hz + table_hz)):
+        for line_name, f in lines.items():
+            if abs(sb - f) < separation_hz:
+                out.append(f'the sideband {name} = {sb:.2f} Hz lies within {separation_hz:g} Hz '
+                           f'of {line_name} ({f:.2f} Hz)')
+    for h in range(1, harmonics + 1):
+        if abs(dither_hz - h * table_hz) < separation_hz:
+            out.append(f'the dither line ({dither_hz:.2f} Hz) lies on the table line '
+                       f'{h}·f_z = {h * table_hz:.2f} Hz')
+    return out
+
+
+@dataclass(frozen=True, slots=True)
+class DitherSummary:
+    """Everything measured so far, for reports and plots.
+
+    Attributes:
+        components: per measured orientation, its :class:`Component`.
+        withheld: per orientation whose component is not reported, the reason.
+        notes: per orientation, conditions worth a line (e.g. a vibration frequency that
+            divides the sample rate).
+        misalignment: a from both (None until both are reported).
+        verdict: acceptance against ``max_misalignment_arcmin`` (None without a).
+        coning: eq. (24) and the dither × rocking term (None without a).
+        dither_frequency_hz: mean Ω_d/2π over accepted blocks (NaN if none).
+        dither_amplitude_pulses: mean fitted dither line amplitude (NaN if none).
+        dither_amplitude_rad: θ_d with K (NaN without K).
+    """
+
+    components: dict[str, Component]
+    withheld: dict[str, str]
+    misalignment: Misalignment | None
+    verdict: Verdict | None
+    coning: ConingDrift | None
+    dither_frequency_hz: float
+    dither_amplitude_pulses: float
+    dither_amplitude_rad: float
+    notes: dict[str, str] = field(default_factory=dict)
+
+    def lines(self) -> list[str]:
+        """Human summary: each component and a with the floor beside it, verdict, coning."""
+        out = []
+        for axis in AXES:
+            c = self.components.get(axis)
+            if c is not None:
+                ab = 'a·|sin ψ₀|' if axis == 'z' else 'a·|cos ψ₀|'
+                bound = (f', rocking bound ±{_arcmin(c.rocking_bound_rad)}'
+                         if math.isfinite(c.rocking_bound_rad) and c.rocking_bound_rad > 0
+                         else '')
+                out.append(f'table along {axis.upper()}: {ab} = {_arcmin(c.magnitude_rad)} ± '
+                           f'{_arcmin(c.std_rad)} (statistical {_arcmin(c.statistical_std_rad)}'
+                           f'{bound}; floor for this {c.record_s:.0f} s record '
+                           f'{_arcmin(c.floor.component_std_rad)}; {c.n_blocks} blocks)')
+            elif axis in self.withheld:
+                out.append(f'table along {axis.upper()}: {self.withheld[axis]}')
+        out.extend(self.notes.values())
+        for axis, c in self.components.items():
+            if c.null_ratio_squared > 1.5:
+                out.append(
+                    f'table along {axis.upper()}: the noise at the sidebands is not white '
+                    f'(null-sideband χ²/dof = {c.null_ratio_squared:.2f}; the count drifts '
+                    f'{c.count_drift_pulses_s:.2g} pulses/s): pulse quantisation is locked to '
+                    'the dither, table and sample clocks, and σ was widened by '
+                    f'{math.sqrt(c.null_ratio_squared):.2f}×. A vibration frequency that does '
+                    'not divide the sample rate (e.g. 19.87 Hz rather than 20 Hz at 2 kHz) '
+                    'avoids it.')
+        if any(math.isinf(c.rocking_bound_rad) for c in self.components.values()):
+            out.append('rocking bound: unbounded — with k/θ_d ≥ 0.71 the in-phase rocking may be '
+                       'as large as the misalignment signal; set rocking_arcsec_per_arcmin for '
+                       'this gyro, or measure the rocking (rocking_treatment = model).')
+        m = self.misalignment
+        if m is not None:
+            floor = max(c.floor.component_std_rad for c in self.components.values())
+            state = '' if m.resolved else ' (not resolved from zero)'
+            out.append(f'a = {_arcmin(m.value_rad)} ± {_arcmin(m.std_rad)}{state}; floor '
+                       f'{_arcmin(floor)}; ψ₀ = {math.degrees(m.azimuth_rad):.0f}° '
+                       f'(kinematics sign convention)')
+        if self.verdict is not None:
+            out.append(self.verdict.sentence)
+        if self.coning is not None:
+            c = self.coning
+            total = (f'{c.total_rad_s:.3g} rad/s' if math.isfinite(c.total_rad_s)
+                     else 'needs K (θ_d in rad)')
+            out.append(f'coning drift eq. (24): {c.eq24_rad_s:.3g} rad/s '
+                       f'({math.degrees(c.eq24_rad_s) * 3600:.2g} °/h); with dither × rocking '
+                       f'(worst case): {total}')
+        if math.isfinite(self.dither_frequency_hz):
+            amp = (f'{self.dither_amplitude_rad / RAD_PER_ARCSEC:.1f}″'
+                   if math.isfinite(self.dither_amplitude_rad)
+                   else f'{self.dither_amplitude_pulses:.2f} pulses (no K given)')
+            out.append(f'dither: {self.dither_frequency_hz:.3f} Hz, amplitude {amp}')
+        return out
+
+
+@dataclass(slots=True)
+class DitherCalibrator:
+    """Accumulates pulses and vibration-table states into the dither misalignment (§C)."""
+
+    settings: DitherSettings = field(default_factory=DitherSettings)
+    pulses: StampedBuffer = field(init=False)
+    table: StampedBuffer = field(init=False)
+    orientations: dict[str, OrientationRecord] = field(init=False)
+    rejections: list[Rejection] = field(default_factory=list)
+    _anchor_ns: int | None = None
+    _next_block: int = 0
+    _notices: list[str] = field(default_factory=list)
+    _bad_frames: Counter[str] = field(default_factory=Counter)
+    _lag_mark: tuple[int, int] | None = None
+    _n_rejections_logged: int = 0
+
+    def __post_init__(self) -> None:
+        """Create the stream buffers and the two orientation records."""
+        back = int(self.settings.restart_backstep_s * NS_PER_S)
+        self.pulses = StampedBuffer(1, back)
+        self.table = StampedBuffer(3, back)
+        self.orientations = {axis: OrientationRecord(axis) for axis in AXES}
+
+    # -- input ------------------------------------------------------------------------------
+    def add_pulses(self, t_ns: int, count: float) -> None:
+        """One /gyro/pulses sample: stamp (ns), cumulative count (pulses)."""
+        if self.pulses.append(t_ns, count):
+            self._restart(topics.GYRO_PULSES)
+
+    def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
+        """Many /gyro/pulses samples at once (bag replay)."""
+        if self.pulses.extend(t_ns, counts):
+            self._restart(topics.GYRO_PULSES)
+
+    def add_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float,
+                        frame_id: str) -> None:
+        """One /vibration_table/joint_states sample: stamp (ns), angle (rad), rate (rad/s),
+        header.frame_id (``'z'`` or ``'y'``)."""
+        code = self._frame_code(frame_id, 1)
+        if code is not None and self.table.append(t_ns, angle_rad, rate_rad_s, code):
+            self._restart(topics.VIBRATION_TABLE_JOINT_STATES)
+
+    def extend_table_states(self, t_ns: ArrayLike, angle_rad: ArrayLike, rate_rad_s: ArrayLike,
+                            frame_id: str | Sequence[str]) -> None:
+        """Many joint_states samples at once; ``frame_id`` one for all or one per sample."""
+        t = np.asarray(t_ns, dtype=np.int64)
+        if isinstance(frame_id, str):
+            code = self._frame_code(frame_id, len(t))
+            if code is None:
+                return
+            codes = np.full(len(t), code)
+        else:
+            if len(frame_id) != len(t):
+                raise ValueError('frame_id must be one string or one per sample')
+            lookup = {f: self._frame_code(f, 0) for f in set(frame_id)}
+            for f in lookup:
+                if lookup[f] is None:
+                    self._bad_frames[f] += sum(1 for x in frame_id if x == f)
+            codes = np.array([np.nan if lookup[f] is None else lookup[f] for f in frame_id])
+            keep = np.isfinite(codes)
+            t, codes = t[keep], codes[keep]
+            angle_rad = np.asarray(angle_rad, np.float64)[keep]
+            rate_rad_s = np.asarray(rate_rad_s, np.float64)[keep]
+        if self.table.extend(t, angle_rad, rate_rad_s, codes):
+            self._restart(topics.VIBRATION_TABLE_JOINT_STATES)
+
+    def _frame_code(self, frame_id: str, count: int) -> float | None:
+        code = FRAME_CODES.get(str(frame_id).strip().lower())
+        if code is None and count:
+            self._bad_frames[str(frame_id)] += count
+        return code
+
+    def _restart(self, topic: str) -> None:
+        """A source restarted (stamps jumped back): drop the open block, keep the sums."""
+        restarted = self.pulses if topic == topics.GYRO_PULSES else self.table
+        other = self.table if restarted is self.pulses else self.pulses
+        back = int(self.settings.restart_backstep_s * NS_PER_S)
+        new_ns = restarted.newest_ns
+        if other.newest_ns is not None and (new_ns is None or other.newest_ns >= new_ns + back):
+            other.clear()
+        self._anchor_ns, self._next_block, self._lag_mark = None, 0, None
+        self._notices.append(
+            f'{topic} restarted (stamps jumped back by more than '
+            f'{self.settings.restart_backstep_s:g} s): the open block was dropped, '
+            f'{sum(r.equations.n_blocks for r in self.orientations.values())} accepted blocks '
+            f'kept. Call end_recording() between recordings to keep their last block.')
+
+    def end_recording(self) -> list[str]:
+        """Judge what is left of this recording and start afresh for the next one.
+
+        Use between two recordings (the Z bag, then the Y bag): their stamps may overlap or
+        go back, and the last partial block of the first is kept.
+        """
+        lines = self.process(flush=True)
+        self.pulses.clear()
+        self.table.clear()
+        self._anchor_ns, self._next_block, self._lag_mark = None, 0, None
+        return lines
+
+    # -- processing --------------------------------------------------------------------------
+    def process(self, *, flush: bool = False) -> list[str]:
+        """Reduce every block both streams have passed; return new log lines.
+
+        Args:
+            flush: end of the data: also judge the last, partial block (used if it spans at
+                least half a block) and blocks a missing stream left open.
+        """
+        s = self.settings
+        block_ns = int(round(s.block_s * NS_PER_S))
+        accepted: Counter[str] = Counter()
+        if self._anchor_ns is None and self.pulses.newest_ns is not None:
+            p_t, _ = self.pulses.arrays()
+            if len(p_t):
+                self._anchor_ns = int(p_t[0])
+        while self._anchor_ns is not None:
+            start = self._anchor_ns + self._next_block * block_ns
+            end = start + block_ns
+            newest = [self.pulses.newest_ns, self.table.newest_ns]
+            lead = max((n for n in newest if n is not None), default=None)
+            if lead is None:
+                break
+            complete = all(n is not None and n >= end for n in newest)
+            stalled = self._stalled(newest) and lead >= end
+            if not (complete or stalled or flush):
+                break
+            p_t, p_v = self.pulses.arrays()
+            if flush and not complete and not stalled:
+                if not len(p_t) or p_t[-1] < start:
+                    break
+                if p_t[-1] - start < block_ns // 2:
+                    if p_t[-1] > start:
+                        self._notices.append(
+                            f'the last {(p_t[-1] - start) / NS_PER_S:.2f} s of pulses (from '
+                            f'{_stamp(start)}) are shorter than half a block: not used.')
+                    self.pulses.discard_before(end)
+                    self.table.discard_before(end)
+                    self._next_block += 1
+                    break
+            t_t, t_v = self.table.arrays()
+            pi = slice(*np.searchsorted(p_t, [start, end]))
+            ti = slice(*np.searchsorted(t_t, [start, end]))
+            axis = self._reduce(start, end, p_t[pi], p_v[pi, 0], t_t[ti], t_v[ti])
+            if axis is not None:
+                accepted[axis] += 1
+            self.pulses.discard_before(end)
+            self.table.discard_before(end)
+            self._next_block += 1
+        return self._log_lines(accepted)
+
+    def _stalled(self, newest: list[int | None]) -> bool:
+        """True if one stream stopped while the other ran on by ``stall_timeout_s``."""
+        if None in newest:
+            known = [n for n in newest if n is not None]
+            if not known or self._anchor_ns is None:
+                return False
+            return known[0] - self._anchor_ns >= self.settings.stall_timeout_s * NS_PER_S
+        lag, lead = min(newest), max(newest)  # type: ignore[type-var]
+        if self._lag_mark is None or self._lag_mark[0] != lag:
+            self._lag_mark = (lag, lead)
+            return False
+        return lead - self._lag_mark[1] >= self.settings.stall_timeout_s * NS_PER_S
+
+    def _reject(self, start_ns: int, reason: str) -> None:
+        self.rejections.append(Rejection(start_ns, reason))
+
+    def _reduce(self, start: int, end: int, p_t: npt.NDArray[np.int64], counts: FloatArray,
+                t_t: npt.NDArray[np.int64], t_v: FloatArray) -> str | None:
+        """Judge and reduce one block; return its axis if accepted."""
+        s = self.settings
+        where = f'block {_stamp(start)}–{_stamp(end)}'
+        if len(p_t) < 64:
+            self._reject(start, f'{where}: {len(p_t)} pulse samples; a block needs at least 64 '
+                                '(is /gyro/pulses recorded?).')
+            return None
+        if len(t_t) < 16:
+            self._reject(start, (
+                f'{where}: {len(t_t)} /vibration_table/joint_states samples: the table stream '
+                'is missing or stopped; each orientation needs the table joint_states beside '
+                'the pulses.'))
+            return None
+        codes = np.unique(t_v[:, 2])
+        if len(codes) > 1:
+            self._reject(start, f'{where}: the joint_states frame_id changes inside the block '
+                                '(orientation changed); the block is not used.')
+            return None
+        axis = AXES[int(codes[0])]
+        max_gap = int(s.max_gap_s * NS_PER_S)
+        for name, t in (('pulse', p_t), ('joint_states', t_t)):
+            gaps = np.diff(t)
+            if len(gaps) and gaps.max() > max_gap:
+                i = int(np.argmax(gaps))
+                self._reject(start, f'{where}: {name} samples missing for '
+                                    f'{gaps[i] / NS_PER_S:.3f} s from {_stamp(int(t[i]))} '
+                                    f'(max_gap_s = {s.max_gap_s:g}).')
+                return None
+        if t_t[0] - p_t[0] > max_gap or p_t[-1] - t_t[-1] > max_gap:
+            self._reject(start, (
+                f'{where}: joint_states cover only {_stamp(int(t_t[0]))}–{_stamp(int(t_t[-1]))} '
+                f'of the pulses\' {_stamp(int(p_t[0]))}–{_stamp(int(p_t[-1]))}: the table stream '
+                'started late or stopped early.'))
+            return None
+        mid = (int(p_t[0]) + int(p_t[-1])) // 2
+        tau = (p_t - mid).astype(np.float64) / NS_PER_S
+        tau_t = (t_t - mid).astype(np.float64) / NS_PER_S
+        span = float(tau[-1] - tau[0])
+        fs = (len(p_t) - 1) / span
+        fs_table = (len(t_t) - 1) / float(tau_t[-1] - tau_t[0])
+        table = fit_table_motion(tau_t, t_v[:, 0], harmonics=s.table_harmonics,
+                                 sample_rate_hz=fs_table,
+                                 band_hz=(2.0 / span, min(s.table_band_max_hz, 0.45 * fs_table)))
+        amp = table.rate_amplitude_rad_s
+        if not amp >= s.min_table_rate_amplitude_rad_s:
+            self._reject(start, f'{where}: the table along {axis.upper()} is not vibrating '
+                                f'(rate amplitude {amp:.2g} rad/s < '
+                                f'{s.min_table_rate_amplitude_rad_s:g}).')
+            return None
+        fz = table.frequency_hz
+        if fs / 2 <= s.dither_band_max_hz:
+            self._reject(start, (
+                f'{where}: pulses sampled at {fs:.0f} Hz cannot resolve a dither up to '
+                f'{s.dither_band_max_hz:g} Hz (it would alias): sample faster than '
+                f'{2 * (s.dither_band_max_hz + fz):.0f} Hz (dither and sidebands at ±{fz:.1f} Hz), '
+                'or set dither_band_max_hz to just above your gyro\'s dither frequency.'))
+            return None
+        y = counts - counts[0]
+        dither = fit_dither_line(tau, y, table, harmonics=s.table_harmonics, sample_rate_hz=fs,
+                                 band_hz=(s.dither_band_min_hz, s.dither_band_max_hz))
+        fd = dither.frequency_hz
+        edge = 2.0 / span
+        if (dither.amplitude_pulses < s.min_dither_amplitude_pulses
+                or not s.dither_band_min_hz + edge <= fd <= s.dither_band_max_hz - edge):
+            self._reject(start, (
+                f'{where}: no dither line in the output (strongest line '
+                f'{dither.amplitude_pulses:.2f} pulses at {fd:.1f} Hz; needs '
+                f'≥ {s.min_dither_amplitude_pulses:g} pulses inside {s.dither_band_min_hz:g}–'
+                f'{s.dither_band_max_hz:g} Hz): the output looks dither-stripped. The method '
+                'needs the raw (unstripped) pulse output, whose dither line gives φ(t).'))
+            return None
+        if fd + fz >= fs / 2:
+            self._reject(start, (
+                f'{where}: the upper sideband f_d + f_z = {fd + fz:.1f} Hz is above the Nyquist '
+                f'frequency {fs / 2:.0f} Hz of the {fs:.0f} Hz pulses (it aliases): sample faster '
+                f'than {2 * (fd + fz):.0f} Hz or vibrate slower.'))
+            return None
+        if dither.residual_rms_pulses > s.max_residual_rms_pulses:
+            self._reject(start, (
+                f'{where}: counts deviate from the fitted dither and table lines by '
+                f'{dither.residual_rms_pulses:.2f} pulses rms (limit '
+                f'{s.max_residual_rms_pulses:g}): count glitches or an unsteady dither.'))
+            return None
+        conflicts = line_conflicts(fd, fz, separation_hz=s.line_separation_hz,
+                                   harmonics=s.table_harmonics)
+        if conflicts:
+            self._reject(start, (
+                f'{where}: vibration frequency {fz:.2f} Hz is too close to the dither frequency '
+                f'{fd:.2f} Hz, a harmonic or sub-harmonic of it: {"; ".join(conflicts)}. Choose '
+                f'a vibration frequency clear of them (e.g. {0.05 * fd:.0f}–{0.12 * fd:.0f} Hz).'))
+            return None
+        rec = self.orientations[axis]
+        if rec.null_multiples is None:  # fixed at the orientation's first block
+            rec.null_multiples = choose_null_multiples(
+                fd, fz, fs, harmonics=s.table_harmonics, separation_hz=s.line_separation_hz)
+        g_in, g_quad = sideband_regressors(tau, dither, table)
+        nulls = null_sideband_regressors(tau, dither, table, rec.null_multiples)
+        nuisance = np.hstack((nuisance_columns(tau, table, s.table_harmonics),
+                              sinusoid_columns(tau, np.array([dither.angular_frequency_rad_s]))))
+        reduction, residual = reduce_block(dither.residual_pulses, nuisance,
+                                           np.column_stack((g_in, g_quad, nulls)))
+        rec.equations.add(reduction)
+        dof = max(reduction.n_samples - reduction.n_nuisance - len(reduction.rhs), 1)
+        sigma2 = float(residual @ residual) / dof
+        beta = reduction.solve()
+        std = np.sqrt(np.diag(np.linalg.inv(reduction.normal)) * sigma2)
+        rec.blocks.append(BlockSummary(start, span, (float(beta[0]), float(beta[1])),
+                                       (float(std[0]), float(std[1])), fd,
+                                       dither.amplitude_pulses, fz, amp,
+                                       float(np.sqrt(np.mean(residual ** 2))), fs,
+                                       dither.drift_pulses_s))
+        self._add_spectra(rec, y - y.mean(), residual, fs)
+        rec.last_residual = (tau, residual)
+        return axis
+
+    def _add_spectra(self, rec: OrientationRecord, counts: FloatArray, residual: FloatArray,
+                     fs: float) -> None:
+        n = self.settings.spectrum_samples
+        if len(counts) < n // 2:
+            return
+        window = np.hanning(n)
+        norm = 2.0 / window.sum()
+        spectra = []
+        for series in (counts, residual):
+            part = series[:n] - np.mean(series[:n])
+            if len(part) < n:
+                part = np.concatenate((part, np.zeros(n - len(part))))
+            spectra.append((np.abs(np.fft.rfft(part * window)) * norm) ** 2)
+        if rec.spectrum_sum is None:
+            rec.spectrum_sum, rec.residual_spectrum_sum = spectra
+            rec.spectrum_rate_hz = fs
+        else:
+            rec.spectrum_sum = rec.spectrum_sum + spectra[0]
+            rec.residual_spectrum_sum = rec.residual_spectrum_sum + spectra[1]
+        rec.n_spectra += 1
+
+    def _log_lines(self, accepted: Counter[str]) -> list[str]:
+        lines: list[str] = []
+        notices, self._notices = self._notices, []
+        lines.extend(notices)
+        new = self.rejections[self._n_rejections_logged:]
+        self._n_rejections_logged = len(self.rejections)
+        reasons = Counter(r.reason.split(': ', 1)[1] if ': ' in r.reason else r.reason
+                          for r in new)
+        for reason, n in reasons.items():
+            lines.append(f'{n} block(s) rejected: {reason}')
+        if self._bad_frames:
+            for frame, n in self._bad_frames.items():
+                lines.append(f'{n} /vibration_table/joint_states sample(s) with frame_id '
+                             f'{frame!r} ignored: frame_id must be "z" or "y", the case axis the '
+                             'table axis is aligned with.')
+                self.rejections.append(Rejection(0, lines[-1]))
+            self._n_rejections_logged = len(self.rejections)
+            self._bad_frames.clear()
+        comps = self.components()[0] if accepted else {}
+        for axis, n in accepted.items():
+            rec = self.orientations[axis]
+            last = rec.blocks[-1]
+            head = (f'table along {axis.upper()}: {n} block(s) accepted ({rec.equations.n_blocks} '
+                    f'in all, {rec.record_s:.0f} s); dither {last.dither_frequency_hz:.2f} Hz, '
+                    f'{last.dither_amplitude_pulses:.1f} pulses; table '
+                    f'{last.table_frequency_hz:.2f} Hz, {last.table_rate_amplitude_rad_s:.3g} '
+                    'rad/s')
+            c = comps.get(axis)
+            if c is not None:
+                head += (f'; running component {_arcmin(c.signed_rad)} ± {_arcmin(c.std_rad)}'
+                         f' (floor {_arcmin(c.floor.component_std_rad)})')
+            lines.append(head + '.')
+        return lines
+
+    # -- results -----------------------------------------------------------------------------
+    def _raw_solution(self, axis: str) -> SidebandSolution | None:
+        rec = self.orientations[axis]
+        if rec.equations.n_blocks < 1:
+            return None
+        return rec.equations.solve()
+
+    def _dither_amplitude_pulses(self) -> float:
+        amps = [b.dither_amplitude_pulses for r in self.orientations.values() for b in r.blocks]
+        return float(np.mean(amps)) if amps else math.nan
+
+    def components(self) -> tuple[dict[str, Component], dict[str, str]]:
+        """Each measured orientation's component before the reporting rules, and why the
+        others have none (the reported ones are in :meth:`summary`)."""
+        s = self.settings
+        sols = {axis: self._raw_solution(axis) for axis in AXES}
+        raw = {axis: float(sol.beta[0]) for axis, sol in sols.items() if sol is not None}
+        a_raw = math.hypot(*raw.values()) if raw else 0.0
+        cos_a = math.cos(a_raw)  # the output's dither line is θ_d·cos a/K
+        amp_pulses = self._dither_amplitude_pulses()
+        theta_d = (s.scale_factor_rad_per_pulse * amp_pulses / cos_a if s.has_scale_factor
+                   else math.nan)
+        arw_pulses = (math.radians(s.angle_random_walk_deg_sqrt_h) / 60.0
+                      / s.scale_factor_rad_per_pulse if s.has_scale_factor else 0.0)
+        comps: dict[str, Component] = {}
+        missing: dict[str, str] = {}
+        signed: dict[str, float] = {}
+        for axis in AXES:
+            sol, rec = sols[axis], self.orientations[axis]
+            if sol is None or not math.isfinite(sol.residual_variance_pulses2):
+                missing[axis] = (f'no accepted block with the table along {axis.upper()} '
+                                 '(joint_states frame_id "' + axis + '").')
+                continue
+            sign = 1.0 if axis == 'z' else -1.0
+            value = sign * sol.beta[0] * cos_a
+            if s.rocking_treatment == 'model':
+                in_phase = (s.rocking_in_phase_xz_arcsec if axis == 'z'
+                            else s.rocking_in_phase_xy_arcsec) * RAD_PER_ARCSEC
+                value += in_phase / theta_d
+            signed[axis] = float(value)
+        for axis in signed:
+            sol, rec = sols[axis], self.orientations[axis]
+            sigma = math.sqrt(sol.covariance[0, 0]) * cos_a
+            other = signed.get('y' if axis == 'z' else 'z')
+            if s.rocking_treatment == 'bound':
+                bound = self._rocking_bound(axis, signed, sigma, theta_d)
+            else:
+                bound = 0.0
+            fs = rec.mean('sample_rate_hz')
+            floor = detection_floor(
+                table_rate_amplitude_rad_s=rec.mean('table_rate_amplitude_rad_s'),
+                dither_amplitude_rad=rec.mean('dither_amplitude_pulses'),
+                record_s=rec.record_s, sample_rate_hz=fs, scale_factor_rad_per_pulse=1.0,
+                angle_random_walk_rad_sqrt_s=arw_pulses,
+                dither_frequency_hz=rec.mean('dither_frequency_hz'),
+                table_frequency_hz=rec.mean('table_frequency_hz'),
+                misalignment_rad=abs(signed[axis]))
+            comps[axis] = Component(
+                axis=axis, signed_rad=signed[axis], statistical_std_rad=sigma,
+                rocking_bound_rad=bound,
+                quadrature_rad=(-1.0 if axis == 'z' else 1.0) * float(sol.beta[1]) * cos_a,
+                quadrature_std_rad=math.sqrt(sol.covariance[1, 1]) * cos_a, floor=floor,
+                n_blocks=sol.n_blocks, dof=sol.dof, record_s=rec.record_s, sample_rate_hz=fs,
+                birge_ratio_squared=sol.birge_ratio_squared,
+                null_ratio_squared=sol.null_ratio_squared,
+                count_drift_pulses_s=rec.mean('drift_pulses_s'))
+        return comps, missing
+
+    def _rocking_bound(self, axis: str, signed: dict[str, float], sigma: float,
+                       theta_d: float) -> float:
+        """δ for one orientation under ``'bound'`` (NaN without K; inf if unboundable).
+
+        The rocking scales with the true a, which the rocking itself may have shrunk: with
+        κ = k/θ_d, |a_true − a_measured| ≤ √2·κ·a_true, so a_true ≤ (â + σ)/(1 − √2·κ). With
+        one orientation only, a ≥ |ŝ| is all that is known: the bound is then a lower estimate.
+        """
+        s = self.settings
+        if not s.has_scale_factor:
+            return math.nan
+        kappa = s.rocking_per_misalignment / theta_d
+        if math.sqrt(2.0) * kappa >= 1.0:
+            return math.inf
+        other = signed.get('y' if axis == 'z' else 'z')
+        measured = math.hypot(signed[axis], other) if other is not None else abs(signed[axis])
+        a_true = (measured + sigma) / (1.0 - math.sqrt(2.0) * kappa)
+        if s.rocking_model == 'proportional':
+            return kappa * a_true
+        # components: the shift along Z comes from the XZ tilt (the Y component) and vice versa
+        return kappa * min(a_true, (abs(other) + sigma) / (1.0 - math.sqrt(2.0) * kappa)
+                           if other is not None else a_true)
+
+    def _withhold_reason(self, c: Component) -> str | None:
+        """Why a measured component is not reported (None if it is)."""
+        s = self.settings
+        rec = self.orientations[c.axis]
+        if c.n_blocks < s.min_blocks:
+            return (f'only {c.n_blocks} block(s) ({c.record_s:.0f} s) accepted with the table '
+                    f'along {c.axis.upper()}; min_blocks = {s.min_blocks} are needed.')
+        limit = s.max_misalignment_arcmin * RAD_PER_ARCMIN
+        k = s.verdict_coverage_factor
+        if c.floor.component_std_rad > limit / k and not c.significant:
+            target = limit / (2 * k)
+            amp = rec.mean('table_rate_amplitude_rad_s')
+            common = dict(dither_amplitude_rad=rec.mean('dither_amplitude_pulses'),
+                          sample_rate_hz=c.sample_rate_hz, scale_factor_rad_per_pulse=1.0,
+                          dither_frequency_hz=rec.mean('dither_frequency_hz'),
+                          table_frequency_hz=rec.mean('table_frequency_hz'))
+            a_needed = required_table_rate_amplitude_rad_s(target, record_s=c.record_s,
+                                                           **common)
+            t_needed = required_record_s(target, table_rate_amplitude_rad_s=amp, **common)
+            return (f'table rate amplitude {amp:.3g} rad/s is too small for this '
+                    f'{c.record_s:.0f} s record: its floor is {_arcmin(c.floor.component_std_rad)} '
+                    f'per component, so a misalignment at the {s.max_misalignment_arcmin:g}′ '
+                    f'limit cannot be told from zero (measured {_arcmin(c.signed_rad)} ± '
+                    f'{_arcmin(c.std_rad)}, not reported). To resolve half the limit at k = '
+                    f'{k:g} (σ ≤ {_arcmin(target)}) use A ≥ {a_needed:.3g} rad/s for the same '
+                    f'record, or record {t_needed / 60:.0f} min at this amplitude.')
+        return None
+
+    def summary(self) -> DitherSummary:
+        """Everything measured so far (components, a, verdict, coning, dither)."""
+        s = self.settings
+        comps, withheld = self.components()
+        reported: dict[str, Component] = {}
+        for axis, c in comps.items():
+            reason = self._withhold_reason(c)
+            if reason is None:
+                reported[axis] = c
+            else:
+                withheld[axis] = reason
+        misalignment = verdict = coning = None
+        freqs = [b.dither_frequency_hz for r in self.orientations.values() for b in r.blocks]
+        amp_pulses = self._dither_amplitude_pulses()
+        a_for_cos = math.hypot(*(c.signed_rad for c in comps.values())) if comps else 0.0
+        theta_d = (s.scale_factor_rad_per_pulse * amp_pulses / math.cos(a_for_cos)
+                   if s.has_scale_factor else math.nan)
+        if len(reported) == 2:
+            z, y = reported['z'], reported['y']
+            misalignment = combine_components(z, y)
+            verdict = acceptance_verdict(
+                misalignment.value_rad, misalignment.std_rad,
+                statistical_std_rad=misalignment.statistical_std_rad,
+                limit_rad=s.max_misalignment_arcmin * RAD_PER_ARCMIN,
+                coverage_factor=s.verdict_coverage_factor,
+                record_s=min(z.record_s, y.record_s),
+                sample_rate_hz=min(z.sample_rate_hz, y.sample_rate_hz))
+            coning = coning_drift(z.magnitude_rad, y.magnitude_rad,
+                                  dither_frequency_hz=float(np.mean(freqs)),
+                                  dither_amplitude_rad=theta_d,
+                                  rocking_per_misalignment=s.rocking_per_misalignment,
+                                  rocking_phase_rad=s.rocking_phase_rad, model=s.rocking_model)
+        notes = {}
+        for axis, c in comps.items():
+            rec = self.orientations[axis]
+            fz = rec.mean('table_frequency_hz')
+            ratio = c.sample_rate_hz / fz
+            if abs(fz - c.sample_rate_hz / round(ratio)) < 2.0 / c.record_s:
+                notes[axis] = (
+                    f'table along {axis.upper()}: the vibration frequency {fz:.3f} Hz divides the '
+                    f'{c.sample_rate_hz:.0f} Hz sample rate ({round(ratio)}×): pulse quantisation '
+                    'can line up with the sidebands on short records (measured up to 2× the '
+                    'floor at 60 s, below it from 4 min on); a non-divisor such as '
+                    f'{fz * 0.9935:.2f} Hz avoids it.')
+        return DitherSummary(reported, withheld, misalignment, verdict, coning,
+                             float(np.mean(freqs)) if freqs else math.nan, amp_pulses, theta_d,
+                             notes)
+
+    def _coning_estimates(self, summary: DitherSummary) -> dict[str, Estimate]:
+        """Eq. (24) and the total, with uncertainty by the unscented transform of (ŝ_z, ŝ_y)."""
+        s = self.settings
+        z, y = summary.components['z'], summary.components['y']
+        sz, sy, vz, vy = z.magnitude_rad, y.magnitude_rad, z.std_rad, y.std_rad
+        spread = math.sqrt(3.0)
+        points = [(sz, sy, 1 / 3)] + [(sz + d * spread * vz, sy, 1 / 6) for d in (-1, 1)] + [
+            (sz, sy + d * spread * vy, 1 / 6) for d in (-1, 1)]
+        vals = [coning_drift(abs(pz), abs(py), dither_frequency_hz=summary.dither_frequency_hz,
+                             dither_amplitude_rad=summary.dither_amplitude_rad,
+                             rocking_per_misalignment=s.rocking_per_misalignment,
+                             rocking_phase_rad=s.rocking_phase_rad, model=s.rocking_model)
+                for pz, py, _ in points]
+        weights = np.array([w for *_, w in points])
+        out = {}
+        n = z.n_blocks + y.n_blocks
+        dof = min(z.dof, y.dof)
+        for key, attr in ((KEY_CONING, 'eq24_rad_s'), (KEY_CONING_TOTAL, 'total_rad_s')):
+            v = np.array([getattr(c, attr) for c in vals])
+            if not np.all(np.isfinite(v)):
+                continue
+            mean = float(weights @ v)
+            std = math.sqrt(max(float(weights @ (v - mean) ** 2), 0.0))
+            out[key] = Estimate(float(v[0]), std, n, dof)
+        return out
+
+    def results(self) -> dict[str, Estimate]:
+        """Measured quantities by hand-off key (SI units), only those measured so far.
+
+        ``dither_misalignment_z_rad`` / ``_y_rad``: bias-corrected a·|sin ψ₀|, a·|cos ψ₀|;
+        ``dither_axis_misalignment_rad``: bias-corrected a (both orientations needed);
+        standard uncertainties include the rocking bound (Type B) under ``'bound'``.
+        ``dither_amplitude_rad`` needs K; without it ``dither_amplitude_pulses`` is given.
+        """
+        summary = self.summary()
+        out: dict[str, Estimate] = {}
+        for axis, c in summary.components.items():
+            out[COMPONENT_KEYS[axis]] = Estimate(c.magnitude_rad, c.std_rad, c.n_blocks, c.dof,
+                                                 tuple(self.rejections))
+        m = summary.misalignment
+        if m is not None:
+            z, y = summary.components['z'], summary.components['y']
+            out[KEY_A] = Estimate(m.value_rad, m.std_rad, z.n_blocks + y.n_blocks,
+                                  min(z.dof, y.dof), tuple(self.rejections))
+            out.update(self._coning_estimates(summary))
+        blocks = [b for r in self.orientations.values() for b in r.blocks]
+        if blocks:
+            n = len(blocks)
+            freqs = np.array([b.dither_frequency_hz for b in blocks])
+            amps = np.array([b.dither_amplitude_pulses for b in blocks])
+            f_std = float(np.std(freqs, ddof=1) / math.sqrt(n)) if n > 1 else math.nan
+            a_std = float(np.std(amps, ddof=1) / math.sqrt(n)) if n > 1 else math.nan
+            out[KEY_FREQUENCY] = Estimate(float(freqs.mean()), f_std, n, n - 1)
+            if self.settings.has_scale_factor:
+                scale = summary.dither_amplitude_rad / float(amps.mean())
+                out[KEY_AMPLITUDE] = Estimate(summary.dither_amplitude_rad, a_std * scale, n,
+                                              n - 1)
+            else:
+                out[KEY_AMPLITUDE_PULSES] = Estimate(float(amps.mean()), a_std, n, n - 1)
+        return out
+
+    def missing(self) -> dict[str, str]:
+        """Hand-off key → why it is not measured (yet), a whole sentence."""
+        s = self.settings
+        summary = self.summary()
+        have = self.results()
+        out: dict[str, str] = {}
+        last = self.rejections[-1].reason if self.rejections else None
+        tail = f' Last rejection: {last}' if last else ''
+        for axis in AXES:
+            key = COMPONENT_KEYS[axis]
+            if key not in have:
+                out[key] = summary.withheld.get(axis, f'no table along {axis.upper()} yet.') + (
+                    tail if axis not in summary.components else '')
+        if KEY_A not in have:
+            absent = [a.upper() for a in AXES if a not in summary.components]
+            if absent:
+                why = f'no reported component with the table along {" and ".join(absent)}'
+            else:
+                why = 'both components are measured'
+            out[KEY_A] = (f'a = √(z² + y²) needs both orientations\' components; {why}. One '
+                          'orientation sees only a·|sin ψ₀| or a·|cos ψ₀|, which depends on '
+                          'the mounting azimuth ψ₀.')
+            for key in (KEY_CONING, KEY_CONING_TOTAL):
+                out[key] = 'the coning drift needs a, which needs both orientations.'
+        elif KEY_CONING_TOTAL not in have:
+            out[KEY_CONING_TOTAL] = ('the dither × rocking coning needs θ_d in rad: give '
+                                     'scale_factor_rad_per_pulse (K).')
+        if KEY_FREQUENCY not in have:
+            out[KEY_FREQUENCY] = 'no accepted block yet (needs the dither line).' + tail
+        if KEY_AMPLITUDE not in have:
+            out[KEY_AMPLITUDE] = (
+                'θ_d in rad needs the scale factor K (scale_factor_rad_per_pulse); it is '
+                'reported in pulses under dither_amplitude_pulses.'
+                if not s.has_scale_factor else 'no accepted block yet.' + tail)
+        return out
+
+
+def calibrate_dither(*recordings: _RecordingLike,
+                     settings: DitherSettings | None = None) -> DitherCalibrator:
+    """Batch calibration over whole recordings (e.g. the Z run and the Y run).
+
+    Each recording has ``pulse_t_ns``, ``pulse_counts``, ``table_t_ns``, ``table_angle_rad``,
+    ``table_rate_rad_s`` and ``frame_id`` (:class:`DitherRecordingArrays`, or the simulator's
+    recordings). Runs the same calibrator a node runs, one recording after the other with
+    :meth:`DitherCalibrator.end_recording` between them; returns the finished calibrator.
+    """
+    cal = DitherCalibrator(settings or DitherSettings())
+    for rec in recordings:
+        cal.extend_pulses(rec.pulse_t_ns, rec.pulse_counts)
+        cal.extend_table_states(rec.table_t_ns, rec.table_angle_rad, rec.table_rate_rad_s,
+                                rec.frame_id)
+        cal.end_recording()
+    return cal

@@ -1,0 +1,39 @@
+"""Hand-off keys of the dither-axis misalignment method (METHODS §C, seed 003)."""
+
+from __future__ import annotations
+
+from gyro_calib.dither.calibrator import (
+    KEY_A,
+    KEY_AMPLITUDE,
+    KEY_AMPLITUDE_PULSES,
+    KEY_CONING,
+    KEY_CONING_TOTAL,
+    KEY_FREQUENCY,
+    KEY_Y,
+    KEY_Z,
+)
+from gyro_calib.handoff import HandoffKey
+
+METHOD = 'dither'
+
+HANDOFF_KEYS = (
+    HandoffKey(KEY_A, METHOD, 'dither-axis misalignment a = √(z² + y²), bias-corrected, from '
+               'the table along Z and along Y (uncertainty includes the rocking bound), rad',
+               'nonnegative'),
+    HandoffKey(KEY_Z, METHOD, 'a·|sin ψ₀|, the component the table along case Z sees, '
+               'bias-corrected, rad', 'nonnegative'),
+    HandoffKey(KEY_Y, METHOD, 'a·|cos ψ₀|, the component the table along case Y sees, '
+               'bias-corrected, rad', 'nonnegative'),
+    HandoffKey(KEY_FREQUENCY, METHOD, 'dither frequency Ω_d/2π fitted from the output, Hz',
+               'positive'),
+    HandoffKey(KEY_AMPLITUDE, METHOD, 'dither amplitude θ_d (needs the scale factor K), rad',
+               'positive'),
+    HandoffKey(KEY_AMPLITUDE_PULSES, METHOD, 'dither amplitude θ_d·cos a/K as the output '
+               'carries it, when K is not given, pulses', 'positive'),
+    HandoffKey(KEY_CONING, METHOD, 'coning drift of eq. (24) ½·Ω_d·θ_xz·θ_xy·sin φ from a and '
+               'the rocking model (worst case sin φ = 1 unless φ is given), rad/s',
+               'nonnegative'),
+    HandoffKey(KEY_CONING_TOTAL, METHOD, 'eq. (24) plus the dither × rocking coning '
+               '½·Ω_d·θ_d·θ_xy·sin φ·a·|sin ψ₀| (worst-case sum; needs K), rad/s',
+               'nonnegative'),
+)
