@@ -25,7 +25,7 @@ setup(
         'console_scripts': [
             'calibration_node = gyro_calib.nodes.calibration_node:main',
             'rate_table_sim = sim_nodes.rate_table_node:main',
-            'rlg_sim = sim_nodes.rlg_node:main',
+            'rlg_sim = sim_nodes.rbrlg.rlg_node:main',
             'bench_demo = gyro_calib.nodes.bench_demo:main',
             'imu_corrector = gyro_calib.nodes.imu_corrector_node:main',
             'gyro-calib = gyro_calib.cli:console_main',

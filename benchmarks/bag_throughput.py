@@ -50,7 +50,7 @@ def _bag(cache: Path, name: str, duration_s: float) -> Path:
     path = cache / name
     if not (path / 'metadata.yaml').exists():
         code = ('import dataclasses, sys\n'
-                'from sim_nodes.scenarios import SCENARIOS, write_scenario_bag\n'
+                'from sim_nodes.rbrlg.scenarios import SCENARIOS, write_scenario_bag\n'
                 "base = SCENARIOS['k_tilde_bench']\n"
                 'sc = dataclasses.replace(base, name=sys.argv[2], table=dataclasses.replace('
                 'base.table, duration_s=float(sys.argv[3])), description=('

@@ -1,7 +1,7 @@
 """Calibrate a recorded bag offline, streaming it through the same core as the live node.
 
 :func:`calibrate_bag` decodes the bag batch by batch (:func:`gyro_calib.bag.iter_sample_batches`)
-and feeds :class:`~gyro_calib.rbrlg_calibration.RbrlgCalibrator` exactly as the
+and feeds :class:`~gyro_calib.rbrlg.calibration.RbrlgCalibrator` exactly as the
 calibration node does from DDS, so a bag gives the same K̃, θ, K and bias offline as
 when it is replayed into the node.
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 from gyro_calib import topics
 from gyro_calib.bag import BagInfo, bag_info, check_calibration_topics, iter_sample_batches
 from gyro_calib.estimate import Rejection
-from gyro_calib.rbrlg_calibration import RbrlgCalibrator, RbrlgResults
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults
 
 
 @dataclass(slots=True)

@@ -20,10 +20,10 @@ from typing import Any
 
 from gyro_calib.bag import BagInfo, bag_info
 from gyro_calib.bag_calibration import BagCalibration, calibrate_bag
-from gyro_calib.config import KTildeConfig, load_k_tilde_config
+from gyro_calib.rbrlg.config import KTildeConfig, load_k_tilde_config
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import write_calibration
-from gyro_calib.rbrlg_calibration import RbrlgCalibrator, handoff_calibration
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_calibration
 from gyro_calib.units import RAD_PER_ARCSEC
 
 EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT = 0, 1, 2
@@ -216,7 +216,7 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from sim_nodes.scenarios import SCENARIOS, write_scenario_bag
+    from sim_nodes.rbrlg.scenarios import SCENARIOS, write_scenario_bag
 
     if args.list:
         for name, sc in SCENARIOS.items():

@@ -8,7 +8,7 @@ also publishes /position_table/joint_states and /position_table/zero_index, and 
 true motion of both tables on /sim/bench/true_motion.
 
 Parameters: every field of :class:`~sim_nodes.rate_table.RateTableConfig`, the
-``procedure.*`` fields of :class:`~sim_nodes.procedure.ThetaProcedureConfig`,
+``procedure.*`` fields of :class:`~sim_nodes.rbrlg.procedure.ThetaProcedureConfig`,
 ``k_tilde_pairs``, ``real_time_factor`` (simulated seconds per wall second; 0 = as
 fast as the readers acknowledge), ``exit_when_done`` and ``wait_for_subscribers``.
 """
@@ -35,8 +35,8 @@ from gyro_calib.nodes.ros_io import (
     ns_to_stamp,
     publish_paced,
 )
-from sim_nodes.bench import CHUNK_SAMPLES, two_axis_simulators
-from sim_nodes.procedure import (
+from sim_nodes.rbrlg.bench import CHUNK_SAMPLES, two_axis_simulators
+from sim_nodes.rbrlg.procedure import (
     ThetaProcedureConfig,
     full_procedure_profiles,
     theta_procedure_profiles,

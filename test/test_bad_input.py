@@ -22,23 +22,23 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pytest
 
-from gyro_calib.calibrator import CalibrationUpdate, RateBiasCalibrator, calibrate_k_tilde
-from gyro_calib.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
+from gyro_calib.rbrlg.calibrator import CalibrationUpdate, RateBiasCalibrator, calibrate_k_tilde
+from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
 from gyro_calib.errors import ConfigError, InsufficientDataError
 from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S
-from sim_nodes.bench import (
+from sim_nodes.rbrlg.bench import (
     BenchRecording,
     simulate_rate_bias_bench,
     true_k_tilde_arcsec_per_pulse,
 )
 from sim_nodes.motion import MotionProfile
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from gyro_calib.windows import RevolutionWindow
+    from gyro_calib.rbrlg.windows import RevolutionWindow
 
 CLEAN_TABLE = RateTableConfig(duration_s=150.0, zero_index_jitter_arcsec=0.0)
 CLEAN_GYRO = RingLaserGyroConfig(angle_random_walk_deg_sqrt_h=0.0)
@@ -338,7 +338,7 @@ def test_streams_resort_out_of_order_stamps_to_identical_k_tilde(
 # -- table motion ---------------------------------------------------------------------------
 def _simulate_with_profile(table: RateTableConfig, gyro: RingLaserGyroConfig,
                            profile: MotionProfile) -> BenchRecording:
-    """The bench of sim_nodes.bench, but with the table driven by ``profile``."""
+    """The bench of sim_nodes.rbrlg.bench, but with the table driven by ``profile``."""
     table_sim = RateTableSimulator(table, profile=profile)
     gyro_sim = RingLaserGyroSimulator(gyro)
     parts: dict[str, list[np.ndarray]] = {k: [] for k in ('pt', 'pc', 'st', 'sa', 'sr', 'z')}

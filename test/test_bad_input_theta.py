@@ -25,24 +25,24 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from gyro_calib.rbrlg_calibration import RbrlgCalibrator, RbrlgResults, calibrate_rbrlg
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults, calibrate_rbrlg
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
-from sim_nodes.bench import (
+from sim_nodes.rbrlg.bench import (
     TwoAxisRecording,
     simulate_full_procedure,
     simulate_theta_procedure,
     simulate_two_axis_bench,
 )
 from sim_nodes.motion import MotionProfile
-from sim_nodes.procedure import (
+from sim_nodes.rbrlg.procedure import (
     ThetaProcedureConfig,
     _move,
     full_procedure_profiles,
     theta_procedure_profiles,
 )
 from sim_nodes.rate_table import RateTableConfig
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
-from sim_nodes.two_axis_gyro import TiltedMountConfig
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 
 TABLE = RateTableConfig(zero_index_jitter_arcsec=0.0)
 GYRO = RingLaserGyroConfig(angle_random_walk_deg_sqrt_h=0.0, sense_axis_azimuth_deg=23.0)

@@ -12,10 +12,10 @@ import yaml
 from gyro_calib import topics
 from gyro_calib.bag import CONTRACT_TYPES, bag_info, iter_raw_messages
 from gyro_calib.bag_calibration import calibrate_bag
-from gyro_calib.rbrlg_calibration import RbrlgCalibrator
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator
 from gyro_calib.cli import main as gyro_calib_main
 from gyro_calib.units import RAD_PER_ARCSEC
-from sim_nodes.scenarios import SCENARIOS, write_scenario_files
+from sim_nodes.rbrlg.scenarios import SCENARIOS, write_scenario_files
 
 BAGS = Path(__file__).resolve().parents[1] / 'bags'
 MAX_BAG_BYTES = 5 * 1024 * 1024

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from gyro_calib.config import (
+from gyro_calib.rbrlg.config import (
     KTildeConfig,
     field_descriptions,
     k_tilde_config_from_mapping,
@@ -15,7 +15,7 @@ from gyro_calib.config import (
 )
 from gyro_calib.errors import ConfigError
 from sim_nodes.rate_table import RateTableConfig
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from gyro_calib.diagnostics import calibration_status
-from gyro_calib.rbrlg_calibration import RbrlgCalibrator, calibrate_rbrlg
-from sim_nodes.bench import simulate_full_procedure
-from sim_nodes.procedure import ThetaProcedureConfig
+from gyro_calib.rbrlg.diagnostics import calibration_status
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator, calibrate_rbrlg
+from sim_nodes.rbrlg.bench import simulate_full_procedure
+from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
 from sim_nodes.rate_table import RateTableConfig
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
-from sim_nodes.two_axis_gyro import TiltedMountConfig
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 
 
 def test_status_before_any_pair_warns_and_names_the_count() -> None:

@@ -34,7 +34,7 @@ def test_dither_core_imports_no_ros_no_matplotlib_and_no_other_method() -> None:
         + ''.join(f'import {m}\n' for m in DITHER_CORE_MODULES)
         + "assert 'matplotlib' not in sys.modules, 'matplotlib must be imported lazily'\n"
         "other = ('gyro_calib.rbrlg', 'gyro_calib.fog', 'gyro_calib.noise', 'gyro_calib.thermal', "
-        "'gyro_calib.calibrator', 'gyro_calib.windows', 'gyro_calib.stations')\n"
+        "'gyro_calib.rbrlg.calibrator', 'gyro_calib.rbrlg.windows', 'gyro_calib.rbrlg.stations')\n"
         "bad = [m for m in sys.modules if m.startswith(other)]\n"
         "assert not bad, f'the dither method imports another method: {bad}'\n"
     )

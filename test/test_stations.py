@@ -7,13 +7,13 @@ import dataclasses
 import numpy as np
 import pytest
 
-from gyro_calib.stations import calibrate_fix_error_angle
+from gyro_calib.rbrlg.stations import calibrate_fix_error_angle
 from gyro_calib.units import ARCSEC_PER_RAD
-from sim_nodes.bench import ThetaRecording, simulate_theta_procedure, true_k_tilde_arcsec_per_pulse
-from sim_nodes.procedure import ThetaProcedureConfig
+from sim_nodes.rbrlg.bench import ThetaRecording, simulate_theta_procedure, true_k_tilde_arcsec_per_pulse
+from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
 from sim_nodes.rate_table import RateTableConfig
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
-from sim_nodes.two_axis_gyro import TiltedMountConfig
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 
 QUIET_TABLE = RateTableConfig(zero_index_jitter_arcsec=0.0, encoder_counts_per_rev=0)
 QUIET_GYRO = RingLaserGyroConfig(angle_random_walk_deg_sqrt_h=0.0, sense_axis_azimuth_deg=23.0)

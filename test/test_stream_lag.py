@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyro_calib.calibrator import RateBiasCalibrator
-from gyro_calib.config import KTildeConfig
-from sim_nodes.bench import simulate_rate_bias_bench
+from gyro_calib.rbrlg.calibrator import RateBiasCalibrator
+from gyro_calib.rbrlg.config import KTildeConfig
+from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rate_table import RateTableConfig
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 
 def _feed(pulse_delay_s: float, stop_pulses_at_s: float | None = None) -> RateBiasCalibrator:

@@ -21,8 +21,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from rate_bias_bench_physics import Bench, Recording, record
 
-from gyro_calib.calibrator import calibrate_k_tilde
-from gyro_calib.config import KTildeConfig
+from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
+from gyro_calib.rbrlg.config import KTildeConfig
 
 MAX_SAMPLES = 1_200_000
 """Pulse + table samples per bench (bounds the test's time)."""

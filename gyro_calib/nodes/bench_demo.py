@@ -19,8 +19,8 @@ import time
 
 from gyro_calib.nodes.processes import pick_domain_id, ros_environment, start_node
 from gyro_calib.units import ARCSEC_PER_RAD
-from sim_nodes.bench import true_k_tilde_arcsec_per_pulse
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.bench import true_k_tilde_arcsec_per_pulse
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:

@@ -2,10 +2,10 @@
 
 Subscribes /gyro/pulses and the joint_states and zero_index of the rate table and
 (for θ) the position table, feeds the core
-:class:`~gyro_calib.rbrlg_calibration.RbrlgCalibrator` by stamp, and publishes
+:class:`~gyro_calib.rbrlg.calibration.RbrlgCalibrator` by stamp, and publishes
 /gyro_calib/k_tilde, /gyro_calib/fix_error_angle, /gyro_calib/scale_factor
 (transient-local) and /diagnostics. Parameters: every field of
-:class:`~gyro_calib.config.KTildeConfig`, ``config_file`` (YAML; plain mapping or
+:class:`~gyro_calib.rbrlg.config.KTildeConfig`, ``config_file`` (YAML; plain mapping or
 ROS 2 parameter file) whose values win, ``position_table_revolutions`` (n),
 ``latitude_deg`` and ``heading_deg`` (site, for the bias; NaN = not given).
 """
@@ -23,12 +23,12 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Header
 
 from gyro_calib import topics
-from gyro_calib.calibrator import CalibrationUpdate
-from gyro_calib.diagnostics import calibration_status
+from gyro_calib.rbrlg.calibrator import CalibrationUpdate
+from gyro_calib.rbrlg.diagnostics import calibration_status
 from gyro_calib.handoff import write_calibration
-from gyro_calib.rbrlg_calibration import RbrlgCalibrator, handoff_calibration
-from gyro_calib.stations import Station
-from gyro_calib.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_calibration
+from gyro_calib.rbrlg.stations import Station
+from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,

@@ -18,7 +18,7 @@ NODE_MODULES = {
     'calibration_node': 'gyro_calib.nodes.calibration_node',
     'imu_corrector': 'gyro_calib.nodes.imu_corrector_node',
     'rate_table_sim': 'sim_nodes.rate_table_node',
-    'rlg_sim': 'sim_nodes.rlg_node',
+    'rlg_sim': 'sim_nodes.rbrlg.rlg_node',
     'bag_recorder': 'gyro_calib.nodes.bag_recorder',
     'bag_player': 'gyro_calib.nodes.bag_player',
 }

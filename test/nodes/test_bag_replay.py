@@ -11,11 +11,11 @@ import pytest
 from gyro_calib import topics
 from gyro_calib.bag import bag_info, iter_sample_batches
 from gyro_calib.bag_calibration import calibrate_bag
-from gyro_calib.rbrlg_calibration import RbrlgCalibrator
-from gyro_calib.diagnostics import calibration_status
-from sim_nodes.bench import simulate_rate_bias_bench
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator
+from gyro_calib.rbrlg.diagnostics import calibration_status
+from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rate_table import RateTableConfig
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 from .dds_harness import NodeProcess, ResultListener, launch
 

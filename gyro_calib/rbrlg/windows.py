@@ -26,7 +26,7 @@ from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S
 if TYPE_CHECKING:
     import numpy.typing as npt
 
-    from gyro_calib.config import KTildeConfig
+    from gyro_calib.rbrlg.config import KTildeConfig
 
 TWO_PI = 2.0 * math.pi
 

@@ -13,13 +13,13 @@ import numpy as np
 
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
 from sim_nodes.motion import MotionProfile
-from sim_nodes.procedure import (
+from sim_nodes.rbrlg.procedure import (
     ThetaProcedureConfig,
     full_procedure_profiles,
     theta_procedure_profiles,
 )
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
-from sim_nodes.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
+from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 
 if TYPE_CHECKING:
     import numpy.typing as npt

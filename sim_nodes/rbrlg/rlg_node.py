@@ -3,8 +3,8 @@
 Subscribes /sim/rate_table/true_motion (rate-bias table alone: exact closed-form
 model) and /sim/bench/true_motion (two-axis bench: composed rotations), publishes
 /gyro/pulses (one message per sample, cumulative count in position[0]).
-Parameters: every field of :class:`~sim_nodes.ring_laser_gyro.RingLaserGyroConfig`
-and, as ``mount.*``, of :class:`~sim_nodes.two_axis_gyro.TiltedMountConfig`. If the
+Parameters: every field of :class:`~sim_nodes.rbrlg.ring_laser_gyro.RingLaserGyroConfig`
+and, as ``mount.*``, of :class:`~sim_nodes.rbrlg.two_axis_gyro.TiltedMountConfig`. If the
 table's stamps jump back (the bench restarted) the gyro restarts too.
 """
 
@@ -30,8 +30,8 @@ from gyro_calib.nodes.ros_io import (
     spin,
     stamp_to_ns,
 )
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
-from sim_nodes.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
+from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 
 
 def scenario_yaml(gyro: RingLaserGyroConfig, mount: TiltedMountConfig) -> str:
@@ -40,7 +40,7 @@ def scenario_yaml(gyro: RingLaserGyroConfig, mount: TiltedMountConfig) -> str:
 
     import yaml
 
-    from sim_nodes.bench import true_k_tilde_arcsec_per_pulse
+    from sim_nodes.rbrlg.bench import true_k_tilde_arcsec_per_pulse
 
     return yaml.safe_dump({
         'gyro': dataclasses.asdict(gyro), 'mount': dataclasses.asdict(mount),

@@ -17,14 +17,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gyro_calib.calibrator import RateBiasCalibrator
-from gyro_calib.config import KTildeConfig
+from gyro_calib.rbrlg.calibrator import RateBiasCalibrator
+from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Rejection
-from gyro_calib.fix_error_angle import FixErrorAngleResult, fix_error_angle_multi_station
+from gyro_calib.rbrlg.fix_error_angle import FixErrorAngleResult, fix_error_angle_multi_station
 from gyro_calib.streams import StampedBuffer
 from gyro_calib.units import ARCSEC_PER_RAD, ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S
-from gyro_calib.windows import format_stamp
+from gyro_calib.rbrlg.windows import format_stamp
 
 RUN_END_STILL_S = 0.5
 """A position-table run ends once the table has rested this long, s."""
@@ -32,8 +32,8 @@ RUN_END_STILL_S = 0.5
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from gyro_calib.scale_factor import WindowPair
-    from gyro_calib.windows import RevolutionWindow
+    from gyro_calib.rbrlg.scale_factor import WindowPair
+    from gyro_calib.rbrlg.windows import RevolutionWindow
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,7 +12,7 @@ from gyro_calib.errors import InsufficientDataError
 from gyro_calib.units import RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
-    from gyro_calib.rbrlg_calibration import RbrlgCalibrator
+    from gyro_calib.rbrlg.calibration import RbrlgCalibrator
 
 
 def calibration_status(bench: RbrlgCalibrator, last_rejection: str) -> tuple[bool, str,

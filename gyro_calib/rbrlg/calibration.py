@@ -17,12 +17,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gyro_calib.calibrator import CalibrationUpdate, RateBiasCalibrator
-from gyro_calib.config import KTildeConfig
+from gyro_calib.rbrlg.calibrator import CalibrationUpdate, RateBiasCalibrator
+from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Estimate
-from gyro_calib.scale_factor import scale_factor
-from gyro_calib.stations import Station, StationCalibrator
+from gyro_calib.rbrlg.scale_factor import scale_factor
+from gyro_calib.rbrlg.stations import Station, StationCalibrator
 from gyro_calib.handoff import GyroCalibration
 from gyro_calib.units import EARTH_RATE_DEG_H, RAD_PER_ARCSEC
 
@@ -31,7 +31,7 @@ if TYPE_CHECKING:
 
     from numpy.typing import ArrayLike
 
-    from gyro_calib.fix_error_angle import FixErrorAngleResult
+    from gyro_calib.rbrlg.fix_error_angle import FixErrorAngleResult
 
 
 def earth_rate_along_table_axis_deg_h(*, latitude_deg: float, heading_deg: float,
@@ -191,7 +191,7 @@ class RbrlgCalibrator:
 def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
                     heading_deg: float = 0.0, position_table_revolutions: int = 1,
                     k_config: KTildeConfig | None = None) -> tuple[RbrlgResults, RbrlgCalibrator]:
-    """Batch calibration of a two-axis recording (``sim_nodes.bench.TwoAxisRecording``
+    """Batch calibration of a two-axis recording (``sim_nodes.rbrlg.bench.TwoAxisRecording``
     or anything with the same array attributes)."""
     cal = RbrlgCalibrator(k_config or KTildeConfig(), position_table_revolutions,
                           latitude_deg, heading_deg)

@@ -28,16 +28,16 @@ import numpy.typing as npt
 from gyro_calib import topics
 from gyro_calib.bag import BagMessage, ContractMessages, topic_sort_key, write_bag
 from gyro_calib.units import RAD_PER_ARCSEC
-from sim_nodes.bench import (
+from sim_nodes.rbrlg.bench import (
     TwoAxisRecording,
     simulate_full_procedure,
     simulate_rate_bias_bench,
     true_k_tilde_arcsec_per_pulse,
 )
-from sim_nodes.procedure import ThetaProcedureConfig
+from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
 from sim_nodes.rate_table import RateTableConfig
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
-from sim_nodes.two_axis_gyro import TiltedMountConfig
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 
 KINDS = ('rate_bias', 'full')
 

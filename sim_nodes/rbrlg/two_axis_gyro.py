@@ -27,7 +27,7 @@ from gyro_calib.units import (
     NS_PER_S,
     RAD_PER_ARCSEC,
 )
-from sim_nodes.ring_laser_gyro import RingLaserGyroConfig
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 if TYPE_CHECKING:
     import numpy.typing as npt
