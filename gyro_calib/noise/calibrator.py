@@ -1,0 +1,513 @@
+"""Streaming noise characterisation: samples in, Allan deviation and IEEE 952 terms out.
+
+:class:`NoiseCalibrator` is the accumulator a node feeds message by message (``add_*``)
+or a bag reader feeds array by array (``extend_*``); :func:`calibrate_noise` is the batch
+form over whole arrays. Both run the same code and agree exactly, however the data was
+chunked (bit-identical: the ordering stage and the Allan sums depend only on the sample
+sequence, see :mod:`gyro_calib.noise.ordering` and :mod:`gyro_calib.noise.tree`).
+
+Input streams (topic contract; the lead wires topics to these calls):
+
+================  ==========================  ===========================================
+stream            message, fields             axis / unit
+================  ==========================  ===========================================
+``/gyro/pulses``  sensor_msgs/JointState,     ``gyro``: angle = K·count, K from
+                  position[0] cumulative      ``scale_factor_rad_per_pulse``
+                  pulse count
+``/fog/output``   cumulative output counts    ``gyro``: angle = count / SF, SF from
+                                              ``fog_scale_factor_counts_per_rad``
+any Imu topic     sensor_msgs/Imu,            ``gyro_x``, ``gyro_y``, ``gyro_z`` (rad/s),
+                  angular_velocity xyz,       ``accel_x``, ``accel_y``, ``accel_z`` (m/s²);
+                  linear_acceleration xyz     rate samples integrated (rate·τ0)
+================  ==========================  ===========================================
+
+Results are keyed by axis, then by term key (SI unit in the key; accelerometer axes use
+velocity/acceleration keys, see :mod:`gyro_calib.noise.terms`)::
+
+    results()  -> {'gyro_x': {'angle_random_walk_rad_per_sqrt_s': Estimate, ...}, ...}
+    missing()  -> {'gyro_x': {'rate_ramp_rad_per_s2': 'why it is not reported'}, ...}
+
+Each Estimate: value, standard uncertainty (k = 1), n_used = samples analysed, dof = τ
+points fitted − terms fitted. Memory is bounded independently of the record length in
+'partial' overlap mode (a few MB per axis).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from gyro_calib.errors import StreamError
+from gyro_calib.estimate import Estimate, Rejection
+from gyro_calib.noise.channel import ChannelAccumulator
+from gyro_calib.noise.edf import adev_std, alpha_from_slope, edf_totdev
+from gyro_calib.noise.fit import NoiseFit, fit_noise_terms
+from gyro_calib.noise.ordering import OrderingStats, ReorderBuffer
+from gyro_calib.noise.settings import NoiseSettings
+from gyro_calib.noise.terms import SYMBOLS, TermUnits, units_for_axis
+from gyro_calib.units import NS_PER_S
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+    from numpy.typing import ArrayLike
+
+    from gyro_calib.noise.curve import AllanCurve
+
+    FloatArray = npt.NDArray[np.float64]
+
+GYRO_PULSES = '/gyro/pulses'
+"""RLG pulse topic (shared contract name, repeated here so the method imports no other)."""
+FOG_OUTPUT = '/fog/output'
+"""FOG output topic (cumulative output counts)."""
+IMU_AXES = ('gyro_x', 'gyro_y', 'gyro_z', 'accel_x', 'accel_y', 'accel_z')
+"""Axis names of an Imu stream, in column order."""
+
+
+@dataclass(frozen=True, slots=True)
+class AxisResult:
+    """Everything measured on one axis.
+
+    Attributes:
+        axis: axis name.
+        units: its keys and units.
+        curve: pooled Allan variance (None when there is none in SI units).
+        fit: the joint term fit (None when no fit ran).
+        adev_std: standard deviation of each ADEV point (from the EDF), rate unit.
+        total_deviation: (tau_s, totdev, totdev_std) at long τ, or None.
+        reason: why the axis has no terms at all ('' when the fit ran).
+    """
+
+    axis: str
+    units: TermUnits
+    curve: AllanCurve | None
+    fit: NoiseFit | None
+    adev_std: FloatArray | None
+    total_deviation: tuple[FloatArray, FloatArray, FloatArray] | None
+    reason: str = ''
+
+
+@dataclass(slots=True)
+class _Stream:
+    topic: str
+    reorder: ReorderBuffer
+    channels: list[ChannelAccumulator]
+    pending_t: list[int]
+    pending_v: list[tuple[float, ...]]
+
+
+class NoiseCalibrator:
+    """Accumulates gyro/IMU streams into Allan deviations and IEEE 952 noise terms."""
+
+    def __init__(self, settings: NoiseSettings | None = None, *, imu_topic: str = 'imu') -> None:
+        """Start empty; streams are created by their first sample.
+
+        Args:
+            settings: analysis settings (defaults if None).
+            imu_topic: name of the Imu topic, for log lines and reasons.
+        """
+        self.settings = settings if settings is not None else NoiseSettings()
+        self.imu_topic = imu_topic
+        self._streams: dict[str, _Stream] = {}
+        self._n_notices: dict[str, int] = {}
+        self._n_rejections_reported = 0
+        self._flushed = False
+        self._cache: dict[str, tuple[tuple[int, int, bool], AxisResult]] = {}
+
+    # -- input ------------------------------------------------------------------------------
+    def _stream(self, name: str) -> _Stream:
+        if name in self._streams:
+            return self._streams[name]
+        s = self.settings
+        if name in ('pulses', 'fog') and ({'pulses', 'fog'} & set(self._streams)):
+            raise StreamError(
+                'one NoiseCalibrator characterises one single-axis gyro: both /gyro/pulses '
+                'and /fog/output arrived; run one calibrator per gyro.')
+        if name == 'pulses':
+            channels = [ChannelAccumulator('gyro', 'phase', s.scale_factor_rad_per_pulse, s)]
+            topic = GYRO_PULSES
+        elif name == 'fog':
+            channels = [ChannelAccumulator('gyro', 'phase',
+                                           1.0 / s.fog_scale_factor_counts_per_rad, s)]
+            topic = FOG_OUTPUT
+        else:
+            channels = [ChannelAccumulator(a, 'rate', 1.0, s) for a in IMU_AXES]
+            topic = self.imu_topic
+        window = int(round(s.reorder_window_s * NS_PER_S))
+        backstep = int(round(s.restart_backstep_s * NS_PER_S))
+        stream = _Stream(topic, ReorderBuffer(len(channels), window, backstep), channels, [], [])
+        self._streams[name] = stream
+        return stream
+
+    @staticmethod
+    def _stamps(t_ns: ArrayLike, what: str) -> npt.NDArray[np.int64]:
+        t = np.asarray(t_ns)
+        if t.ndim != 1:
+            raise StreamError(f'{what}: stamps must be a 1-D array of int ns, got shape {t.shape}.')
+        if len(t) and t.dtype.kind not in 'iu':
+            raise StreamError(f'{what}: stamps must be integer nanoseconds (int64), '
+                              f'got {t.dtype}; convert header stamps with sec·10⁹ + nanosec.')
+        return t.astype(np.int64)
+
+    def _extend(self, name: str, t_ns: ArrayLike, columns: FloatArray) -> None:
+        stream = self._stream(name)
+        self._drain(stream)
+        self._release(stream, stream.reorder.extend(t_ns, columns))
+
+    def _drain(self, stream: _Stream) -> None:
+        if stream.pending_t:
+            t = np.asarray(stream.pending_t, dtype=np.int64)
+            v = np.asarray(stream.pending_v, dtype=np.float64).reshape(len(t), -1)
+            stream.pending_t.clear()
+            stream.pending_v.clear()
+            self._release(stream, stream.reorder.extend(t, v))
+
+    @staticmethod
+    def _release(stream: _Stream, batches: list[Any]) -> None:
+        for batch in batches:
+            if batch is None:
+                for ch in stream.channels:
+                    ch.restart()
+                continue
+            t, v = batch
+            for k, ch in enumerate(stream.channels):
+                ch.feed(t, v[:, k])
+
+    def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
+        """RLG samples (bag replay): stamps (int ns) and cumulative pulse counts."""
+        t = self._stamps(t_ns, GYRO_PULSES)
+        c = np.asarray(counts, dtype=np.float64)
+        if c.shape != t.shape:
+            raise StreamError(f'{GYRO_PULSES}: {len(t)} stamps but counts of shape {c.shape}.')
+        self._extend('pulses', t, c[:, None])
+
+    def add_pulses(self, t_ns: int, count: float) -> None:
+        """One RLG sample (live node)."""
+        s = self._stream('pulses')
+        s.pending_t.append(int(t_ns))
+        s.pending_v.append((float(count),))
+
+    def extend_fog_output(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
+        """FOG samples (bag replay): stamps (int ns) and cumulative output counts."""
+        t = self._stamps(t_ns, FOG_OUTPUT)
+        c = np.asarray(counts, dtype=np.float64)
+        if c.shape != t.shape:
+            raise StreamError(f'{FOG_OUTPUT}: {len(t)} stamps but counts of shape {c.shape}.')
+        self._extend('fog', t, c[:, None])
+
+    def add_fog_output(self, t_ns: int, count: float) -> None:
+        """One FOG sample (live node)."""
+        s = self._stream('fog')
+        s.pending_t.append(int(t_ns))
+        s.pending_v.append((float(count),))
+
+    def extend_imu(self, t_ns: ArrayLike, gyro_xyz: ArrayLike, accel_xyz: ArrayLike) -> None:
+        """Imu samples (bag replay): stamps (int ns), angular velocity (N × 3, rad/s) and
+        linear acceleration (N × 3, m/s²)."""
+        t = self._stamps(t_ns, 'imu')
+        g = np.asarray(gyro_xyz, dtype=np.float64)
+        a = np.asarray(accel_xyz, dtype=np.float64)
+        if g.shape != (len(t), 3) or a.shape != (len(t), 3):
+            raise StreamError(f'imu: {len(t)} stamps need gyro and accel arrays of shape '
+                              f'({len(t)}, 3); got {g.shape} and {a.shape}.')
+        self._extend('imu', t, np.hstack((g, a)))
+
+    def add_imu(self, t_ns: int, gyro_xyz: ArrayLike, accel_xyz: ArrayLike) -> None:
+        """One Imu sample (live node): angular velocity (3, rad/s), acceleration (3, m/s²)."""
+        s = self._stream('imu')
+        s.pending_t.append(int(t_ns))
+        s.pending_v.append(tuple(np.concatenate((np.ravel(gyro_xyz), np.ravel(accel_xyz)))))
+
+    # -- processing -------------------------------------------------------------------------
+    def process(self, *, flush: bool = False) -> list[str]:
+        """Take in everything final so far; at ``flush`` the rest. Return new log lines.
+
+        The lines report learnt sample rates, gaps, restarts, segments left out and, at
+        ``flush``, the ordering and channel summaries. The terms themselves are in
+        :meth:`results`, :meth:`result_lines` and :meth:`summary_table` (they cost a fit).
+        """
+        for stream in self._streams.values():
+            self._drain(stream)
+            if flush:
+                self._release(stream, stream.reorder.flush())
+                for ch in stream.channels:
+                    ch.close()
+        lines: list[str] = []
+        for stream in self._streams.values():
+            for ch in stream.channels:
+                seen = self._n_notices.get(ch.name, 0)
+                lines.extend(ch.notices[seen:])
+                self._n_notices[ch.name] = len(ch.notices)
+        rejections = self.rejections
+        lines.extend(r.reason for r in rejections[self._n_rejections_reported:])
+        self._n_rejections_reported = len(rejections)
+        if flush and not self._flushed:
+            self._flushed = True
+            for stream in self._streams.values():
+                summary = stream.reorder.stats.summary()
+                if summary:
+                    lines.append(f'{stream.topic}: {summary}.')
+                lines.extend(self._channel_summaries(stream))
+        return lines
+
+    def _channel_summaries(self, stream: _Stream) -> list[str]:
+        out = []
+        ch = stream.channels[0]
+        st = ch.stats
+        if st.gaps or st.segments_short or st.segments_other_rate:
+            out.append(f'{stream.topic}: {len(ch.segments)} segment(s), {st.gaps} gap(s); '
+                       f'{st.segments_short + st.segments_other_rate} segment(s) left out '
+                       f'({st.samples_left_out} samples).')
+        if st.intervals and st.bunched_intervals > 0.01 * st.intervals:
+            out.append(f'{stream.topic}: {st.bunched_intervals} of {st.intervals} stamp '
+                       f'intervals are shorter than half the nominal period (bursty host '
+                       f"stamps); samples are treated as evenly spaced at each segment's "
+                       f'mean period.')
+        for c in stream.channels:
+            if c.stats.non_finite:
+                out.append(f'{c.name}: {c.stats.non_finite} non-finite sample(s) dropped.')
+        return out
+
+    def result_lines(self) -> list[str]:
+        """One line per measured term (or per axis without terms): value ± std, SI and quoted."""
+        return [line for axis, res in self.axis_results().items()
+                for line in self._result_lines(axis, res)]
+
+    @staticmethod
+    def _result_lines(axis: str, res: AxisResult) -> list[str]:
+        if res.fit is None:
+            return [f'{axis}: {res.reason}']
+        out = []
+        for k, key in enumerate(res.units.keys):
+            est = res.fit.estimates.get(key)
+            if est is not None:
+                q = res.units.quoted_factors[k]
+                out.append(f'{axis}: {res.units.names[k]} = {est.value:.4g} ± '
+                           f'{est.std_uncertainty:.2g} {res.units.si_units[k]} '
+                           f'({est.value * q:.4g} ± {est.std_uncertainty * q:.2g} '
+                           f'{res.units.quoted_units[k]})')
+        return out
+
+    # -- results ----------------------------------------------------------------------------
+    @property
+    def rejections(self) -> list[Rejection]:
+        """Segments left out, each with its reason."""
+        return [r for s in self._streams.values() for c in s.channels for r in c.rejections]
+
+    def ordering_stats(self) -> dict[str, OrderingStats]:
+        """Per input topic: samples received, re-sorted, duplicate, late (dropped), restarts."""
+        return {s.topic: s.reorder.stats for s in self._streams.values()}
+
+    def sample_storage_bytes(self) -> int:
+        """Bytes of sample storage held now (bounded in 'partial' overlap mode)."""
+        return sum(c.storage_bytes() for s in self._streams.values() for c in s.channels)
+
+    def axes(self) -> list[str]:
+        """Axis names of the streams that arrived."""
+        return [c.name for s in self._streams.values() for c in s.channels]
+
+    def _channel(self, axis: str) -> tuple[_Stream, ChannelAccumulator]:
+        for s in self._streams.values():
+            for c in s.channels:
+                if c.name == axis:
+                    return s, c
+        raise KeyError(f'no axis {axis!r}; axes: {", ".join(self.axes()) or "none"}')
+
+    def curve(self, axis: str) -> AllanCurve | None:
+        """Pooled Allan variance of one axis so far (no fit; cheap), rate unit²."""
+        stream, ch = self._channel(axis)
+        self._drain(stream)
+        return ch.curve()
+
+    def sample_rate_hz(self, axis: str) -> float:
+        """Mean sample rate of an axis over its analysed segments, Hz (NaN if unknown)."""
+        _, ch = self._channel(axis)
+        curve = ch.curve()
+        if curve is not None:
+            return 1.0 / curve.tau0_s
+        return NS_PER_S / ch.nominal_period_ns if ch.nominal_period_ns > 0 else math.nan
+
+    def axis_result(self, axis: str) -> AxisResult:
+        """Curve, fit, error bars and total deviation of one axis (cached until new data)."""
+        stream, ch = self._channel(axis)
+        self._drain(stream)  # samples added one by one count at once
+        key = (ch.stats.samples, ch.n_used_samples, self._flushed)
+        cached = self._cache.get(axis)
+        if cached is not None and cached[0] == key:
+            return cached[1]
+        res = self._compute(stream, ch)
+        self._cache[axis] = (key, res)
+        return res
+
+    def axis_results(self) -> dict[str, AxisResult]:
+        """:meth:`axis_result` of every axis."""
+        return {a: self.axis_result(a) for a in self.axes()}
+
+    def _compute(self, stream: _Stream, ch: ChannelAccumulator) -> AxisResult:
+        units = units_for_axis(ch.name)
+        s = self.settings
+        st = ch.stats
+
+        def none(reason: str) -> AxisResult:
+            return AxisResult(ch.name, units, None, None, None, None, reason)
+
+        if st.samples == 0:
+            return none(f'no samples have arrived on {stream.topic} yet.')
+        if st.non_finite == st.samples:
+            return none(f'all {st.samples} samples of {ch.name} on {stream.topic} were '
+                        f'non-finite (NaN or inf): the channel carries no data.')
+        if ch.is_constant:
+            lock = (' A static RLG inside its lock-in band without dither gives no pulses: '
+                    'dither it or turn it.' if stream.topic == GYRO_PULSES else '')
+            return none(f'{ch.name} on {stream.topic} is constant (every finite sample equals '
+                        f'{ch.first_value!r}): a stuck or disconnected channel shows no noise, '
+                        f'so no term can be measured.{lock}')
+        if ch.kind == 'phase' and not math.isfinite(ch.phase_scale):
+            what = ('scale_factor_rad_per_pulse (CLI --scale-factor-rad-per-pulse, or '
+                    '--calibration with a hand-off file holding scale_factor_rad_per_pulse)'
+                    if stream.topic == GYRO_PULSES else
+                    'fog_scale_factor_counts_per_rad')
+            return none(f'{stream.topic} needs a scale factor to turn counts into rad and '
+                        f'none was given: set {what}. No value in rad is reported.')
+        curve = ch.curve()
+        usable = 0 if curve is None else int(np.count_nonzero(curve.avar > 0))
+        if curve is None or usable < 2:
+            n = ch.n_used_samples
+            need = max(s.min_segment_samples, int(math.ceil(4.0 / s.max_tau_fraction)) + 1)
+            return none(f'the record of {ch.name} is too short for any noise term: {n} usable '
+                        f'sample(s) in segments of at least {s.min_segment_samples}; the Allan '
+                        f'variance needs averaging times up to a fraction '
+                        f'{s.max_tau_fraction:g} of a segment, so at least {need} samples in '
+                        f'one segment.')
+        context = 'pulses' if stream.topic == GYRO_PULSES else ''
+        fit = fit_noise_terms(curve, units, min_significance=s.min_term_significance,
+                              edge_significance=s.edge_term_significance,
+                              ramp_significance=s.ramp_term_significance,
+                              min_tau_s=s.fit_min_tau_s, max_tau_s=s.fit_max_tau_s,
+                              context=context)
+        std = adev_std(curve.adev, fit.edf)
+        return AxisResult(ch.name, units, curve, fit, std, self._totdev(ch, fit))
+
+    @staticmethod
+    def _totdev(ch: ChannelAccumulator,
+                fit: NoiseFit) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+        td = ch.total_deviation()
+        if td is None:
+            return None
+        tau, dev, n_points, m = td
+        parts = fit.term_avar(tau)
+        total = parts.sum(axis=1)
+        with np.errstate(invalid='ignore', divide='ignore'):
+            mu = np.where(total > 0, (parts * np.array([-2, -1, 0, 1, 2])).sum(axis=1) / total,
+                          -1.0)
+        edf = edf_totdev(n_points, m, alpha_from_slope(mu))
+        return tau, dev, adev_std(dev, edf)
+
+    def results(self) -> dict[str, dict[str, Estimate]]:
+        """Measured terms so far: axis → term key → Estimate (only resolved terms)."""
+        out: dict[str, dict[str, Estimate]] = {}
+        for axis, res in self.axis_results().items():
+            if res.fit is not None and res.fit.estimates:
+                out[axis] = dict(res.fit.estimates)
+        return out
+
+    def missing(self) -> dict[str, dict[str, str]]:
+        """Terms not measured (yet): axis → term key → why, a whole sentence."""
+        out: dict[str, dict[str, str]] = {}
+        for axis, res in self.axis_results().items():
+            if res.fit is None:
+                out[axis] = {key: res.reason for key in res.units.keys}
+            elif res.fit.missing:
+                out[axis] = dict(res.fit.missing)
+        return out
+
+    # -- outputs ----------------------------------------------------------------------------
+    def json_section(self) -> dict[str, Any]:
+        """The ``--json`` section of the noise method (issue 11 Part 2 item 4).
+
+        Shape: ``{"axes": {AXIS: {"tau_s": [...], "adev": [...], "adev_std": [...],
+        "results": {KEY: {"value": v, "std": s, "n": k}}}}}`` — AXIS ``gyro`` for a single
+        gyro, ``gyro_x`` … ``accel_z`` for an Imu; adev in rad/s (gyro) or m/s² (accel);
+        only resolved terms under "results". Axes with no Allan deviation in SI units
+        (no samples, no scale factor, constant, too short) are absent; :meth:`missing`
+        says why.
+        """
+        axes: dict[str, Any] = {}
+        for axis, res in self.axis_results().items():
+            if res.curve is None or res.adev_std is None:
+                continue
+            results = {}
+            if res.fit is not None:
+                for key, est in res.fit.estimates.items():
+                    results[key] = {'value': float(est.value), 'std': float(est.std_uncertainty),
+                                    'n': int(est.n_used)}
+            axes[axis] = {'tau_s': [float(v) for v in res.curve.tau_s],
+                          'adev': [float(v) for v in res.curve.adev],
+                          'adev_std': [float(v) for v in res.adev_std],
+                          'results': results}
+        return {'axes': axes}
+
+    def summary_table(self) -> str:
+        """The noise terms as a table, in SI and the units people quote (°/√h, °/h, µg)."""
+        rows = [f'{"axis":8s} {"term":28s} {"value (SI)":>24s} {"quoted":>24s}']
+        notes: list[str] = []
+        for axis, res in self.axis_results().items():
+            if res.fit is None:
+                notes.append(f'{axis}: {res.reason}')
+                continue
+            u = res.units
+            for k, key in enumerate(u.keys):
+                est = res.fit.estimates.get(key)
+                if est is None:
+                    rows.append(f'{axis:8s} {u.names[k]:28s} {"not resolved":>24s}')
+                    notes.append(f'{axis}: {res.fit.missing[key]}')
+                    continue
+                q = u.quoted_factors[k]
+                si = f'{est.value:.4g} ± {est.std_uncertainty:.2g} {u.si_units[k]}'
+                quoted = (f'{est.value * q:.4g} ± {est.std_uncertainty * q:.2g} '
+                          f'{u.quoted_units[k]}')
+                rows.append(f'{axis:8s} {u.names[k]:28s} {si:>24s} {quoted:>24s}')
+            if res.fit.covariance_scale > 1.0:
+                notes.append(f'{axis}: the model fits the Allan variance worse than its '
+                             f'scatter allows (χ² ratio {res.fit.chi2_ratio:.3g}); '
+                             f'uncertainties were scaled up by √{res.fit.covariance_scale:.3g}.')
+        return '\n'.join(rows + [''] + notes if notes else rows)
+
+    def handoff_entries(self, axis: str = 'gyro') -> dict[str, float]:
+        """Measured terms of one axis as hand-off entries: ``key`` and ``key_std`` (SI)."""
+        out: dict[str, float] = {}
+        for key, est in self.results().get(axis, {}).items():
+            out[key] = float(est.value)
+            out[f'{key}_std'] = float(est.std_uncertainty)
+        return out
+
+
+def calibrate_noise(*, pulses: tuple[ArrayLike, ArrayLike] | None = None,
+                    fog_output: tuple[ArrayLike, ArrayLike] | None = None,
+                    imu: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+                    settings: NoiseSettings | None = None) -> NoiseCalibrator:
+    """Batch form: run a :class:`NoiseCalibrator` over whole arrays and flush it.
+
+    Args:
+        pulses: (t_ns, cumulative counts) of ``/gyro/pulses``.
+        fog_output: (t_ns, cumulative counts) of ``/fog/output``.
+        imu: (t_ns, gyro N × 3 rad/s, accel N × 3 m/s²) of an Imu topic.
+        settings: analysis settings (defaults if None).
+
+    Returns:
+        The flushed calibrator (``results()``, ``missing()``, ``json_section()`` …).
+    """
+    cal = NoiseCalibrator(settings)
+    if pulses is not None:
+        cal.extend_pulses(*pulses)
+    if fog_output is not None:
+        cal.extend_fog_output(*fog_output)
+    if imu is not None:
+        cal.extend_imu(*imu)
+    cal.process(flush=True)
+    return cal
+
+
+__all__ = ['AxisResult', 'NoiseCalibrator', 'NoiseSettings', 'SYMBOLS', 'calibrate_noise']

@@ -1,0 +1,103 @@
+"""Equivalent degrees of freedom (EDF) of Allan and total variance estimates, and error bars.
+
+Overlapping ADEV: the simple formulas of NIST SP 1065 §5.3 Table 5 (Howe, Allan & Barnes,
+1981), for N phase points and averaging factor m, by power-law noise type α (rate
+spectrum ∝ f^α)::
+
+    α = +2  white PM (quantisation Q)   (N+1)(N−2m) / (2(N−m))
+    α = +1  flicker PM                  exp(√(ln((N−1)/(2m)) · ln((2m+1)(N−1)/4)))
+    α =  0  white FM (ARW N)            (3(N−1)/(2m) − 2(N−2)/N) · 4m²/(4m²+5)
+    α = −1  flicker FM (bias instab. B) m = 1: 2(N−2)²/(2.3N−4.9);  m ≥ 2: 5N²/(4m(N+3m))
+    α = −2  random-walk FM (RRW K)      (N−2)/m · ((N−1)² − 3m(N−1) + 4m²)/(N−3)²
+
+(allantools 2024.6 ``edf_simple`` drops the square in the flicker-FM m = 1 case; SP 1065
+has it.) A partial-overlap estimate from the decimation tree is the full-overlap estimate
+of the phase subsampled by 2^j, so N and m are those of the subsampled series (exact,
+not an approximation). Estimates pooled from several segments (weights n_i, the number of
+terms) have EDF = (Σ n_i)² / Σ (n_i²/EDF_i).
+
+Total deviation: NIST SP 1065 §5.3 Table 7, EDF = b·(T/τ) − c with (b, c) = (1.50, 0) white
+FM, (1.17, 0.22) flicker FM, (0.93, 0.36) random-walk FM; white PM uses the Table 5 form.
+
+The noise type at each τ is the one whose term dominates the fitted model there (its
+local log-log slope μ = d ln AVAR/d ln τ: μ ≤ −1.5 → α = 2, ≤ −0.5 → 0, ≤ 0.5 → −1,
+else −2; a rate ramp counts as random-walk FM). Before a fit, white FM is assumed.
+
+An AVAR estimate with ν EDF is distributed as AVAR·χ²_ν/ν, so its standard deviation is
+AVAR·√(2/ν) and that of the ADEV is ≈ ADEV/√(2ν) (first order); that is the ``adev_std``
+reported.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    import numpy.typing as npt
+
+    FloatArray = npt.NDArray[np.float64]
+
+MIN_EDF = 1.0
+"""EDF floor: a formula evaluated at its edge (very few terms) never claims less than 1."""
+
+
+def edf_oadev(n_points: npt.ArrayLike, m: npt.ArrayLike, alpha: npt.ArrayLike) -> FloatArray:
+    """EDF of the overlapping Allan variance (NIST SP 1065 Table 5), elementwise.
+
+    Args:
+        n_points: phase points N of the (possibly subsampled) series.
+        m: averaging factor in that series' samples.
+        alpha: noise type α ∈ {2, 1, 0, −1, −2}.
+    """
+    n, mm, a = np.broadcast_arrays(np.asarray(n_points, dtype=np.float64),
+                                   np.asarray(m, dtype=np.float64),
+                                   np.asarray(alpha, dtype=np.int64))
+    out = np.full(n.shape, MIN_EDF)
+    with np.errstate(all='ignore'):
+        wpm = (n + 1) * (n - 2 * mm) / (2 * (n - mm))
+        fpm = np.exp(np.sqrt(np.log(np.maximum((n - 1) / (2 * mm), 1.0))
+                             * np.log(np.maximum((2 * mm + 1) * (n - 1) / 4, 1.0))))
+        wfm = (3 * (n - 1) / (2 * mm) - 2 * (n - 2) / n) * 4 * mm**2 / (4 * mm**2 + 5)
+        ffm = np.where(mm == 1, 2 * (n - 2) ** 2 / (2.3 * n - 4.9),
+                       5 * n**2 / (4 * mm * (n + 3 * mm)))
+        rwfm = (n - 2) / mm * ((n - 1) ** 2 - 3 * mm * (n - 1) + 4 * mm**2) / (n - 3) ** 2
+    for value, formula in ((2, wpm), (1, fpm), (0, wfm), (-1, ffm), (-2, rwfm)):
+        sel = a == value
+        out[sel] = formula[sel]
+    out = np.where(np.isfinite(out), out, MIN_EDF)
+    return np.asarray(np.maximum(out, MIN_EDF), dtype=np.float64)
+
+
+def edf_totdev(n_points: npt.ArrayLike, m: npt.ArrayLike, alpha: npt.ArrayLike) -> FloatArray:
+    """EDF of the total variance (NIST SP 1065 Table 7; white PM from Table 5)."""
+    n, mm, a = np.broadcast_arrays(np.asarray(n_points, dtype=np.float64),
+                                   np.asarray(m, dtype=np.float64),
+                                   np.asarray(alpha, dtype=np.int64))
+    b = np.select([a == 0, a == -1, a <= -2], [1.50, 1.17, 0.93], 1.50)
+    c = np.select([a == 0, a == -1, a <= -2], [0.0, 0.22, 0.36], 0.0)
+    out = b * (n - 1) / mm - c  # T/τ = (N−1)·τ0 / (m·τ0)
+    out = np.where(a >= 1, edf_oadev(n, mm, a), out)
+    return np.maximum(out, MIN_EDF)
+
+
+def pooled_edf(weights: FloatArray, edfs: FloatArray, axis: int = 0) -> FloatArray:
+    """EDF of a weighted mean of independent variance estimates: (Σw)²/Σ(w²/ν)."""
+    w = np.asarray(weights, dtype=np.float64)
+    nu = np.asarray(edfs, dtype=np.float64)
+    num = np.sum(w, axis=axis) ** 2
+    den = np.sum(np.where(w > 0, w * w / nu, 0.0), axis=axis)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        return np.where(den > 0, num / den, MIN_EDF)
+
+
+def alpha_from_slope(slope: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """Power-law noise type α from the local AVAR log-log slope μ (see module docstring)."""
+    mu = np.asarray(slope, dtype=np.float64)
+    return np.select([mu <= -1.5, mu <= -0.5, mu <= 0.5], [2, 0, -1], -2).astype(np.int64)
+
+
+def adev_std(adev: npt.ArrayLike, edf: npt.ArrayLike) -> FloatArray:
+    """Standard deviation of an ADEV estimate with ``edf`` degrees of freedom: σ/√(2ν)."""
+    return np.asarray(adev, dtype=np.float64) / np.sqrt(2.0 * np.asarray(edf, dtype=np.float64))
