@@ -6,7 +6,7 @@ PACKAGE = 'gyro_calib'
 
 setup(
     name=PACKAGE,
-    version='0.1.0',
+    version='0.2.0',
     packages=find_packages(include=['gyro_calib', 'gyro_calib.*', 'sim_nodes', 'sim_nodes.*']),
     data_files=[
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
@@ -15,11 +15,13 @@ setup(
     ],
     package_data={PACKAGE: ['py.typed']},
     python_requires='>=3.10',
-    install_requires=['numpy', 'scipy', 'PyYAML', 'rosbags', 'tqdm'],
+    install_requires=['numpy', 'scipy', 'PyYAML', 'rosbags', 'mcap', 'zstandard', 'tqdm',
+                      'PyWavelets', 'statsmodels', 'matplotlib'],
     zip_safe=True,
     maintainer='gyro_calib developers',
     maintainer_email='gyro-calib@example.com',
-    description='Online calibration of optical gyroscopes (RBRLG scale factor, fix-error angle).',
+    description='Online calibration of optical gyroscopes: rate-biased RLG, FOG scale factor, '
+                'dither-axis misalignment, temperature bias, noise characterisation.',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [
@@ -31,6 +33,13 @@ setup(
             'gyro-calib = gyro_calib.cli:console_main',
             'bag_recorder = gyro_calib.nodes.bag_recorder:main',
             'bag_player = gyro_calib.nodes.bag_player:main',
+            'fog_calibration_node = gyro_calib.nodes.fog_calibration_node:main',
+            'fog_sim = sim_nodes.fog.fog_node:main',
+            'dither_calibration_node = gyro_calib.nodes.dither_calibration_node:main',
+            'vibration_table_sim = sim_nodes.dither.vibration_table_node:main',
+            'thermal_calibration_node = gyro_calib.nodes.thermal_calibration_node:main',
+            'thermal_chamber_sim = sim_nodes.thermal.chamber_node:main',
+            'noise_node = gyro_calib.nodes.noise_node:main',
         ],
     },
 )

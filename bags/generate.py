@@ -18,7 +18,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from sim_nodes.rbrlg.scenarios import SCENARIOS, write_scenario_files  # noqa: E402
+from sim_nodes.scenarios import SCENARIOS, write_scenario_files  # noqa: E402
 
 
 def main() -> None:

@@ -135,12 +135,12 @@ def reader_floor(cache: Path, hours: float) -> None:
 
 def replay(cache: Path, duration_s: float) -> None:
     from gyro_calib.bag import bag_info
-    from gyro_calib.bag_calibration import calibrate_bag
+    from gyro_calib.bag_calibration import calibrate_bags
     from gyro_calib.nodes.processes import ros_environment, start_node
 
     bag = _bag(cache, f'k_tilde_{duration_s:g}s', duration_s)
     info = bag_info(bag)
-    offline_k = calibrate_bag(bag).results.k_tilde_arcsec_per_pulse
+    offline_k = calibrate_bags([bag]).sessions['rbrlg'].rbrlg_results.k_tilde_arcsec_per_pulse
     final_line = f'({offline_k.n_used} pairs)' if offline_k else '(no result expected)'
     env = ros_environment(101 + os.getpid() % 100)
     out = Path(tempfile.mkdtemp()) / 'replayed'

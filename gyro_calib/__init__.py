@@ -5,4 +5,4 @@ The core modules (everything except :mod:`gyro_calib.nodes` and
 NumPy/SciPy and can be used on recorded data offline.
 """
 
-__version__ = '0.1.0'
+__version__ = '0.2.0'

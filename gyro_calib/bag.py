@@ -12,8 +12,10 @@ whatever the bag's length.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Iterable, Iterator
+import functools
+import heapq
+import struct
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,19 +32,18 @@ SCENARIO_KEY = 'gyro_calib.scenario'
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 HEADER = 'std_msgs/msg/Header'
+IMU = 'sensor_msgs/msg/Imu'
+TEMPERATURE = 'sensor_msgs/msg/Temperature'
 
-CONTRACT_TYPES: dict[str, str] = {
-    topics.GYRO_PULSES: JOINT_STATE,
-    topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
-    topics.RATE_TABLE_ZERO_INDEX: HEADER,
-    topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE,
-    topics.POSITION_TABLE_ZERO_INDEX: HEADER,
-}
-"""Message type of every calibration input topic."""
 
-REQUIRED_TOPICS = (topics.GYRO_PULSES, topics.RATE_TABLE_JOINT_STATES,
-                   topics.RATE_TABLE_ZERO_INDEX)
-"""Topics a bag must hold to be calibrated (the position table's are optional: θ)."""
+def _contract_types() -> dict[str, str]:
+    from gyro_calib.registry import METHODS, topic_types
+
+    return topic_types(METHODS.values())
+
+
+CONTRACT_TYPES: dict[str, str] = _contract_types()
+"""Message type of every input topic of every method (the topic contract)."""
 
 _TOPIC_ORDER = {name: i for i, name in enumerate(CONTRACT_TYPES)}
 
@@ -75,6 +76,7 @@ class EmptyBagError(BagError):
     """The bag holds no message (on the topics asked for)."""
 
 
+@functools.cache
 def _typestore() -> Any:
     from rosbags.typesys import Stores, get_typestore
 
@@ -265,7 +267,8 @@ def _open_reader(path: Path) -> Any:
     except ReaderError as exc:
         raise CorruptBagError(f'{path}: damaged or truncated, cannot be read as a rosbag2 '
                               f'MCAP bag ({_one_line(exc)}).') from exc
-    except (OSError, ValueError, KeyError, IndexError, EOFError) as exc:
+    except (OSError, ValueError, KeyError, IndexError, EOFError, MemoryError, OverflowError,
+            struct.error) as exc:
         raise CorruptBagError(f'{path}: damaged or truncated ({type(exc).__name__}: '
                               f'{_one_line(exc)}).') from exc
     return reader
@@ -298,112 +301,129 @@ def bag_info(path: str | Path) -> BagInfo:
         reader.close()
 
 
-def check_calibration_topics(info: BagInfo) -> None:
-    """Raise unless the bag holds the calibration's input topics with the contract types.
+def check_topics(info: BagInfo, wanted: Mapping[str, str], required: Iterable[str], *,
+                 what: str) -> None:
+    """Raise unless the bag holds ``required`` topics, and ``wanted`` ones with their types.
+
+    Args:
+        info: the bag.
+        wanted: topic → message type the calibration reads.
+        required: topics that must be present and non-empty.
+        what: what needs them, for the message (e.g. 'method rbrlg').
 
     Raises:
         EmptyBagError: no message at all.
-        MissingTopicError: a required topic is absent or has no message.
-        WrongMessageTypeError: a contract topic carries another message type.
+        MissingTopicError: a required topic is absent or has no message; the message lists
+            the topics present with their types.
+        WrongMessageTypeError: a wanted topic carries another message type.
     """
     if info.message_count == 0:
         raise EmptyBagError(f'{info.path}: the bag holds no message.')
-    for name, msgtype in CONTRACT_TYPES.items():
+    for name, msgtype in wanted.items():
         got = info.topics.get(name)
         if got is not None and got.msgtype != msgtype:
             raise WrongMessageTypeError(f'{info.path}: topic {name} has type {got.msgtype}, '
-                                        f'expected {msgtype}.')
-    for name in REQUIRED_TOPICS:
+                                        f'expected {msgtype} ({what}).')
+    for name in required:
         if name not in info.topics or info.topics[name].count == 0:
-            raise MissingTopicError(f'{info.path}: required topic {name} '
-                                    f'({CONTRACT_TYPES[name]}) is missing or empty.')
+            raise MissingTopicError(
+                f'{info.path}: {what} needs topic {name} ({wanted.get(name, "?")}), which is '
+                f'missing or empty; the bag holds {topics_present(info)}.')
+
+
+def topics_present(info: BagInfo) -> str:
+    """'topic (type, n messages), …' of a bag, for messages naming what is there."""
+    if not info.topics:
+        return 'no topic'
+    return ', '.join(f'{t.name} ({t.msgtype}, {t.count})'
+                     for t in sorted(info.topics.values(), key=lambda t: t.name))
 
 
 @dataclass(slots=True)
 class SampleBatch:
-    """Decoded contract samples of a stretch of the bag, in log-time order per topic.
+    """Decoded samples of a stretch of the bag(s), per topic, in log-time order per topic.
 
     Attributes:
-        joint_states: topic → (t_ns int64, position float64, velocity float64); a
-            message without a position (or velocity) gives NaN, which the calibrator
-            drops and counts.
-        events: topic → stamps (int64 ns) of zero-index Header messages.
+        columns: topic → its columns (:class:`gyro_calib.mcap_columns.TopicColumns`: header
+            stamps, frame_ids, the message type's values).
         messages: how many messages this batch decoded.
         last_log_time_ns: log time of the batch's last message.
     """
 
-    joint_states: dict[str, tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
-                                  npt.NDArray[np.float64]]]
-    events: dict[str, npt.NDArray[np.int64]]
+    columns: dict[str, Any]
     messages: int
     last_log_time_ns: int
 
+    def joint_state(self, topic: str) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
+                                               npt.NDArray[np.float64]] | None:
+        """(header stamp ns, position, velocity) of a JointState topic; NaN where a message
+        had no position (or velocity), which the calibrators drop and count."""
+        c = self.columns.get(topic)
+        if c is None or c.msgtype != JOINT_STATE:
+            return None
+        return c.stamp_ns, c.values['position'], c.values['velocity']
 
-def iter_sample_batches(path: str | Path, *, batch_messages: int = 50_000,
-                        topics_wanted: Iterable[str] | None = None) -> Iterator[SampleBatch]:
-    """Stream the contract topics of a bag as :class:`SampleBatch` es.
+    def stamps(self, topic: str) -> npt.NDArray[np.int64] | None:
+        """Header stamps (ns) of a topic's messages (zero-index events)."""
+        c = self.columns.get(topic)
+        return None if c is None else c.stamp_ns
 
-    Memory is bounded by ``batch_messages``. Messages are decoded with rosbags' CDR
-    deserialiser; stamps are the header stamps (never the log times).
+
+def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None = None, *,
+                        batch_messages: int = 50_000) -> Iterator[SampleBatch]:
+    """Stream the given topics of a bag as :class:`SampleBatch` es.
+
+    Decoded by :mod:`gyro_calib.mcap_columns`: whole chunks at a time with NumPy,
+    bit-identical to rosbags' CDR deserialiser, which decodes any message of another
+    layout (and whole bags the columnar path does not read itself). Memory is bounded by
+    ``batch_messages`` plus one group of chunks; stamps are the header stamps (never the
+    log times).
 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
     """
-    from rosbags.rosbag2.errors import ReaderError
+    from gyro_calib import mcap_columns
 
-    path = Path(path)
-    wanted = set(topics_wanted or CONTRACT_TYPES)
-    store = _typestore()
-    reader = _open_reader(path)
-    try:
-        cons = [c for c in reader.connections if c.topic in wanted
-                and CONTRACT_TYPES.get(c.topic) == c.msgtype]
-        if not cons:
-            return
-        js: dict[str, tuple[list[int], list[float], list[float]]] = {}
-        ev: dict[str, list[int]] = {}
-        n, log_ns = 0, 0
-        deserialize = store.deserialize_cdr
-        try:
-            for con, log_ns, raw in reader.messages(connections=cons):
-                msg = deserialize(raw, con.msgtype)
-                if con.msgtype == HEADER:
-                    ev.setdefault(con.topic, []).append(
-                        int(msg.stamp.sec) * 1_000_000_000 + int(msg.stamp.nanosec))
-                else:
-                    stamp = msg.header.stamp
-                    t_ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-                    lists = js.setdefault(con.topic, ([], [], []))
-                    lists[0].append(t_ns)
-                    lists[1].append(float(msg.position[0]) if len(msg.position) else math.nan)
-                    lists[2].append(float(msg.velocity[0]) if len(msg.velocity) else math.nan)
-                n += 1
-                if n >= batch_messages:
-                    yield _batch(js, ev, n, log_ns)
-                    js, ev, n = {}, {}, 0
-        except (ReaderError, ValueError, KeyError, IndexError, EOFError, OSError) as exc:
-            raise CorruptBagError(f'{path}: damaged or truncated after log time '
-                                  f'{log_ns / 1e9:.6f} s ({type(exc).__name__}: {exc}).'
-                                  ) from exc
-        except Exception as exc:  # rosbags' decoder raises plain errors on damaged data
-            if isinstance(exc, GyroCalibError):
-                raise
-            raise CorruptBagError(f'{path}: damaged, a message could not be decoded after log time '
-                                  f'{log_ns / 1e9:.6f} s ({type(exc).__name__}: {exc}).'
-                                  ) from exc
-        if n:
-            yield _batch(js, ev, n, log_ns)
-    finally:
-        reader.close()
+    types = dict(topic_types if topic_types is not None else CONTRACT_TYPES)
+    for batch in mcap_columns.iter_column_batches(path, types, batch_messages=batch_messages):
+        yield SampleBatch(batch.topics, batch.messages, batch.last_log_time_ns)
 
 
-def _batch(js: dict[str, tuple[list[int], list[float], list[float]]],
-           ev: dict[str, list[int]], n: int, log_ns: int) -> SampleBatch:
-    return SampleBatch(
-        joint_states={k: (np.asarray(t, dtype=np.int64), np.asarray(p, dtype=np.float64),
-                          np.asarray(v, dtype=np.float64)) for k, (t, p, v) in js.items()},
-        events={k: np.asarray(v, dtype=np.int64) for k, v in ev.items()},
-        messages=n, last_log_time_ns=int(log_ns))
+def iter_bags(paths: Sequence[str | Path], topic_types: Mapping[str, str], *,
+              batch_messages: int = 50_000) -> Iterator[tuple[int, SampleBatch]]:
+    """(bag index, batch) of several bags taken together in stamp order.
+
+    Bags that share a topic are separate recordings (or one recording split in time) and
+    are read one after the other, in order of their start; a source whose stamps jump back
+    from one to the next is then a restart to the calibrators. Bags that share no topic and
+    overlap in time (one recording split by topic) are interleaved batch by batch by log
+    time, so their streams reach the calibrators together.
+    """
+    infos = [bag_info(p) for p in paths]
+    order = sorted(range(len(paths)), key=lambda i: infos[i].start_ns)
+    split_by_topic = all(
+        not (set(infos[a].topics) & set(infos[b].topics) & set(topic_types))
+        for x, a in enumerate(order) for b in order[x + 1:])
+    if not split_by_topic:
+        for i in order:
+            for batch in iter_sample_batches(paths[i], topic_types,
+                                             batch_messages=batch_messages):
+                yield i, batch
+        return
+    iters = {i: iter_sample_batches(paths[i], topic_types, batch_messages=batch_messages)
+             for i in order}
+    heap: list[tuple[int, int, SampleBatch]] = []
+    for i, it in iters.items():
+        first = next(it, None)
+        if first is not None:
+            heap.append((first.last_log_time_ns, i, first))
+    heapq.heapify(heap)
+    while heap:
+        _, i, batch = heapq.heappop(heap)
+        yield i, batch
+        nxt = next(iters[i], None)
+        if nxt is not None:
+            heapq.heappush(heap, (nxt.last_log_time_ns, i, nxt))
 
 
 def iter_raw_messages(path: str | Path) -> Iterator[tuple[str, str, int, bytes]]:

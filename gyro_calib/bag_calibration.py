@@ -1,96 +1,184 @@
-"""Calibrate a recorded bag offline, streaming it through the same core as the live node.
+"""Calibrate recorded bags offline, streaming them through the same cores as the live nodes.
 
-:func:`calibrate_bag` decodes the bag batch by batch (:func:`gyro_calib.bag.iter_sample_batches`)
-and feeds :class:`~gyro_calib.rbrlg.calibration.RbrlgCalibrator` exactly as the
-calibration node does from DDS, so a bag gives the same K̃, θ, K and bias offline as
-when it is replayed into the node.
+:func:`calibrate_bags` opens one or more bags, picks the methods (those asked for, or every
+method whose topics the bags hold; :mod:`gyro_calib.registry`), and feeds each method's
+session batch by batch in stamp order (:func:`gyro_calib.bag.iter_bags`), so a bag gives the
+same numbers offline as when it is replayed into a method's node.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+import dataclasses
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
-from gyro_calib import topics
-from gyro_calib.bag import BagInfo, bag_info, check_calibration_topics, iter_sample_batches
-from gyro_calib.estimate import Rejection
-from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults
+from gyro_calib.bag import (
+    BagInfo,
+    MissingTopicError,
+    WrongMessageTypeError,
+    bag_info,
+    check_topics,
+    iter_bags,
+    iter_sample_batches,
+    topics_present,
+)
+from gyro_calib.errors import ConfigError
+from gyro_calib.registry import METHODS, Method, methods_revealed
+from gyro_calib.session import CalibrationOptions, MethodSession
 
 
 @dataclass(slots=True)
 class BagCalibration:
-    """The outcome of calibrating one bag.
+    """The outcome of calibrating one or more bags.
 
     Attributes:
-        info: the bag's topics, counts, span and scenario.
-        results: K̃, θ, K, bias as far as measured.
-        calibrator: the calibrator (windows, pairs, stations, rejections).
-        rejections: every rejected window, event or station, with its reason.
-        notices: stream events worth reporting (restarts...).
+        infos: each bag's topics, counts, span and scenario.
+        sessions: method name → its session (results, rejections, hand-off...).
         messages: messages decoded.
+        log: lines the sessions logged while the bags streamed (rejections, notices).
     """
 
-    info: BagInfo
-    results: RbrlgResults
-    calibrator: RbrlgCalibrator
-    rejections: list[Rejection]
-    notices: list[str]
+    infos: list[BagInfo]
+    sessions: dict[str, MethodSession]
     messages: int
-
-    @property
-    def windows_accepted(self) -> int:
-        """Rate-table windows accepted for K̃."""
-        return len(self.calibrator.k_tilde.windows)
+    log: list[str] = field(default_factory=list)
 
     @property
     def calibrated_anything(self) -> bool:
-        """True when at least K̃ was measured."""
-        return self.results.k_tilde_arcsec_per_pulse is not None
+        """True when at least one method measured at least one quantity."""
+        return any(s.calibrated_anything() for s in self.sessions.values())
+
+    @property
+    def source(self) -> str:
+        """The bag path(s), for the hand-off provenance."""
+        return ', '.join(str(i.path) for i in self.infos)
 
 
-def calibrate_bag(path: str | Path, calibrator: RbrlgCalibrator | None = None, *,
-                  progress: Callable[[float], None] | None = None,
-                  batch_messages: int = 50_000) -> BagCalibration:
-    """Stream the bag at ``path`` through the calibration (METHODS §A: eqs. 3, 4, 15–18).
+def merged_topics(infos: Sequence[BagInfo]) -> dict[str, str]:
+    """Topic → type over all bags.
 
-    ``calibrator`` carries the bench settings (m, n, site, tilt tolerance), as the node's
-    parameters do; a default one is used when None. ``progress`` is called with the
-    fraction of the bag's log-time span done.
+    Raises:
+        WrongMessageTypeError: one topic recorded with two types in different bags.
+    """
+    out: dict[str, str] = {}
+    for info in infos:
+        for t in info.topics.values():
+            if out.setdefault(t.name, t.msgtype) != t.msgtype:
+                raise WrongMessageTypeError(f'topic {t.name} has type {out[t.name]} in one bag '
+                                            f'and {t.msgtype} in {info.path}.')
+    return out
+
+
+def select_methods(infos: Sequence[BagInfo], names: Sequence[str] | None) -> list[Method]:
+    """The methods asked for (checked against the bags' topics), or every method revealed.
+
+    Raises:
+        ConfigError: an unknown method name.
+        MissingTopicError: a method asked for whose topics are not there, or no method's
+            topics at all; the message lists the topics present with their types.
+        WrongMessageTypeError: a topic a method reads recorded with another type.
+    """
+    present = merged_topics(infos)
+    where = infos[0] if len(infos) == 1 else dataclasses.replace(
+        infos[0], path=Path(' + '.join(str(i.path) for i in infos)),
+        topics={k: v for i in infos for k, v in i.topics.items()},
+        message_count=sum(i.message_count for i in infos))
+    if names:
+        chosen = []
+        for name in names:
+            if name not in METHODS:
+                raise ConfigError(f'unknown method {name!r}; the methods are: '
+                                  f'{", ".join(METHODS)}.')
+            method = METHODS[name]
+            check_topics(where, method.topics, method.reveal, what=f'method {name}')
+            chosen.append(method)
+        return chosen
+    for info in infos:
+        check_topics(info, {}, (), what='calibration')  # empty bags
+    revealed = methods_revealed(present)
+    if not revealed:
+        auto = [m for m in METHODS.values() if m.auto and m.reveal]
+        partly = max(auto, key=lambda m: sum(t in present for t in m.reveal))
+        if any(t in present for t in partly.reveal):  # name what that method misses
+            check_topics(where, partly.topics, partly.reveal, what=f'method {partly.name}')
+        needs = '; '.join(f'{m.name} needs {", ".join(m.reveal)}' for m in auto)
+        raise MissingTopicError(f'{where.path}: no method has its topics in the bag(s) ({needs}; '
+                                f'others run when asked with --method); the bag(s) hold '
+                                f'{topics_present(where)}.')
+    for method in revealed:
+        check_topics(where, method.topics, method.reveal, what=f'method {method.name}')
+    return revealed
+
+
+def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None = None,
+                   options: CalibrationOptions | None = None,
+                   progress: Callable[[float], None] | None = None,
+                   batch_messages: int = 50_000) -> BagCalibration:
+    """Stream the bags at ``paths`` (together, in stamp order) through the methods' sessions.
+
+    ``options`` carry the user's settings; the bench settings a simulated bag stores fill in
+    the rest. ``progress`` is called with the fraction of the bags' messages decoded.
 
     Raises:
         BagError (subclass): missing path, not a bag, damaged bag, missing topic, wrong
             message type, empty bag — before any result exists.
+        ConfigError: an unknown method or a wrong setting.
     """
-    info = bag_info(path)
-    check_calibration_topics(info)
-    cal = calibrator if calibrator is not None else RbrlgCalibrator()
-    rejections: list[Rejection] = []
-    notices: list[str] = []
-    span = max(info.end_ns - info.start_ns, 1)
-    messages = 0
-    for batch in iter_sample_batches(path, batch_messages=batch_messages):
-        js, ev = batch.joint_states, batch.events
-        pulses = js.get(topics.GYRO_PULSES)
-        cal.extend(pulses=pulses[:2] if pulses is not None else None,
-                   rate_table=js.get(topics.RATE_TABLE_JOINT_STATES),
-                   rate_zero_index_ns=ev.get(topics.RATE_TABLE_ZERO_INDEX),
-                   position_table=js.get(topics.POSITION_TABLE_JOINT_STATES),
-                   position_zero_index_ns=ev.get(topics.POSITION_TABLE_ZERO_INDEX))
-        _collect(cal, rejections, notices, flush=False)
-        messages += batch.messages
-        if progress is not None:
-            progress(min(1.0, (batch.last_log_time_ns - info.start_ns) / span))
-    _collect(cal, rejections, notices, flush=True)
+    if not paths:
+        raise ConfigError('no bag given.')
+    infos = [bag_info(p) for p in paths]
+    chosen = select_methods(infos, methods)
+    options = options or CalibrationOptions()
+    if not options.scenario:
+        stored = next((i.scenario for i in infos if i.scenario), {})
+        options = dataclasses.replace(options, scenario=stored)
+    sessions = {m.name: m.make_session(options) for m in chosen}
+    present = merged_topics(infos)
+    log: list[str] = []
+    counts = [0]
+    total = max(sum(t.count for i in infos for t in i.topics.values()
+                    if any(t.name in s.topics() for s in sessions.values())), 1)
+    separate = [m.name for m in chosen if m.separate_bags and len(infos) > 1]
+    together = [m.name for m in chosen if m.name not in separate]
+
+    def run(names: list[str], stream: Any, starts: bool) -> None:
+        types: dict[str, str] = {}
+        for name in names:
+            types.update(sessions[name].topics())
+        types = {t: m for t, m in types.items() if present.get(t) == m}
+        current = -1
+        for index, batch in stream(types):
+            if starts and index != current:
+                current = index
+                for name in names:
+                    sessions[name].start_bag(index, infos[index].path)
+            for name in names:
+                sessions[name].feed(batch)
+                log.extend(f'{name}: {line}' for line in sessions[name].process())
+            counts[0] += batch.messages
+            if progress is not None:
+                progress(min(1.0, counts[0] / total))
+
+    paths_ = [i.path for i in infos]
+    if together:
+        run(together, lambda types: iter_bags(paths_, types, batch_messages=batch_messages),
+            False)
+    if separate:
+        def one_by_one(types: dict[str, str]) -> Any:
+            for index, path in enumerate(paths_):
+                for batch in iter_sample_batches(path, types, batch_messages=batch_messages):
+                    yield index, batch
+        run(separate, one_by_one, True)
+    for name, s in sessions.items():
+        log += [f'{name}: {line}' for line in s.process(flush=True)]
     if progress is not None:
         progress(1.0)
-    return BagCalibration(info, cal.results(), cal, rejections, notices, messages)
+    return BagCalibration(infos, sessions, counts[0], log)
 
 
-def _collect(cal: RbrlgCalibrator, rejections: list[Rejection], notices: list[str], *,
-             flush: bool) -> None:
-    n_station_rejections = len(cal.stations.rejections)
-    update, _ = cal.process(flush=flush)
-    rejections.extend(update.rejections)
-    rejections.extend(cal.stations.rejections[n_station_rejections:])
-    notices.extend(update.notices)
+def json_document(outcome: BagCalibration) -> dict[str, Any]:
+    """The ``--json`` document: ``{"methods": {NAME: {"results": ..., "rejections": ...}}}``."""
+    return {'methods': {name: s.json_section() for name, s in outcome.sessions.items()},
+            'bags': [str(i.path) for i in outcome.infos], 'messages': outcome.messages}

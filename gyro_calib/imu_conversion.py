@@ -6,7 +6,7 @@ gyro's sense axis is
     ω = K·(n₁ − n₀)/(t₁ − t₀) − b                                              (1)
 
 with K the scale factor (rad/pulse) and b the bias (rad/s) of the hand-off file
-(:mod:`gyro_calib.handoff`). Its variance sums independent terms (GUM, first order):
+(:mod:`gyro_calib.handoff`, taken by :func:`pulse_calibration`). Its variance sums independent terms (GUM, first order):
 
     u²(ω) = N²/Δt                angle random walk N (rad/√s) over Δt: white rate noise
           + K²/(6·Δt²)           quantisation: each count is the true angle/K rounded to
@@ -34,11 +34,58 @@ from dataclasses import dataclass
 
 from gyro_calib.errors import StreamError
 from gyro_calib.estimate import Rejection
-from gyro_calib.handoff import GyroCalibration, HandoffError
+from gyro_calib.handoff import Calibration
 
 UNKNOWN_AXIS_VARIANCE_RAD2_S2 = 1.0e6
 """Variance of the unmeasured x and y rates, (rad/s)²: σ = 1000 rad/s, beyond any real
 rotation, so any fusion filter gives those zeros no weight."""
+
+
+@dataclass(frozen=True, slots=True)
+class PulseCalibration:
+    """What the conversion needs from the hand-off file, in SI.
+
+    Attributes:
+        scale_factor_rad_per_pulse: K (or K̃ when told to take θ = 0), rad/pulse.
+        scale_factor_std: its standard uncertainty, rad/pulse.
+        scale_factor_key: the hand-off key it came from.
+        bias_rad_s: b, rad/s (0 when the file has none: ``bias_known`` False).
+        bias_std: its standard uncertainty, rad/s.
+        bias_known: the file holds ``bias_rad_s``.
+        angle_random_walk_rad_per_sqrt_s: N, rad/√s (0 when the file has none).
+    """
+
+    scale_factor_rad_per_pulse: float
+    scale_factor_std: float
+    scale_factor_key: str = 'scale_factor_rad_per_pulse'
+    bias_rad_s: float = 0.0
+    bias_std: float = 0.0
+    bias_known: bool = False
+    angle_random_walk_rad_per_sqrt_s: float = 0.0
+
+
+def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False) -> PulseCalibration:
+    """The scale factor, bias and ARW the conversion uses.
+
+    Args:
+        calibration: the hand-off file's content.
+        use_k_tilde: take K̃ as the scale factor (θ = 0: a gyro whose fix-error angle was not
+            measured); otherwise K = K̃·cos θ is required.
+
+    Raises:
+        HandoffError: naming the missing key (``scale_factor_rad_per_pulse``, or
+            ``k_tilde_rad_per_pulse`` with ``use_k_tilde``).
+    """
+    if use_k_tilde:
+        key, why = 'k_tilde_rad_per_pulse', 'imu_corrector was told to use K̃ with θ = 0'
+    else:
+        key, why = 'scale_factor_rad_per_pulse', (
+            'K = K̃·cos θ needs the fix-error angle θ; set use_k_tilde to take K̃ with θ = 0')
+    k, k_std = calibration.require(key, why=why)
+    bias = calibration.measured('bias_rad_s')
+    arw = calibration.measured('angle_random_walk_rad_per_sqrt_s')
+    return PulseCalibration(k, k_std, key, bias[0] if bias else 0.0, bias[1] if bias else 0.0,
+                            bias is not None, arw[0] if arw else 0.0)
 
 
 @dataclass(frozen=True, slots=True)
@@ -57,7 +104,7 @@ class ImuAngularVelocity:
 
 
 def angular_velocity_from_pulses(t0_ns: int, count0: float, t1_ns: int, count1: float,
-                                 calibration: GyroCalibration) -> ImuAngularVelocity:
+                                 calibration: PulseCalibration) -> ImuAngularVelocity:
     """Calibrated sense-axis rate and covariance from two count samples, eqs. (1) and (2).
 
     Args:
@@ -65,44 +112,30 @@ def angular_velocity_from_pulses(t0_ns: int, count0: float, t1_ns: int, count1: 
         count0: cumulative pulse count at ``t0_ns``, pulses.
         t1_ns: stamp of the later sample, int ns (> ``t0_ns``).
         count1: cumulative pulse count at ``t1_ns``, pulses.
-        calibration: hand-off values; K (``scale_factor_rad_per_pulse``) must be known.
+        calibration: K, bias and ARW (:func:`pulse_calibration`).
 
     Returns:
         The rate about x, y, z (z = sense axis) at ``t1_ns`` and its covariance.
 
     Raises:
-        HandoffError: if the calibration has no K (θ not measured).
         StreamError: if ``t1_ns <= t0_ns``.
     """
-    k, k_std = require_scale_factor(calibration)
+    c = calibration
+    k, k_std = c.scale_factor_rad_per_pulse, c.scale_factor_std
     if t1_ns <= t0_ns:
         raise StreamError(f'stamps must increase: t1_ns = {t1_ns} <= t0_ns = {t0_ns}.')
     dt_s = (t1_ns - t0_ns) / 1e9
     measured_rad_s = k * (count1 - count0) / dt_s
-    arw = calibration.angle_random_walk_rad_per_sqrt_s or 0.0
+    arw = c.angle_random_walk_rad_per_sqrt_s
     variance = (arw * arw / dt_s
                 + k * k / (6.0 * dt_s * dt_s)
                 + (measured_rad_s * k_std / k) ** 2
-                + calibration.bias_rad_s_std ** 2)
+                + c.bias_std ** 2)
     u = UNKNOWN_AXIS_VARIANCE_RAD2_S2
     return ImuAngularVelocity(
         stamp_ns=t1_ns,
-        angular_velocity_rad_s=(0.0, 0.0, measured_rad_s - calibration.bias_rad_s),
+        angular_velocity_rad_s=(0.0, 0.0, measured_rad_s - c.bias_rad_s),
         covariance_rad2_s2=(u, 0.0, 0.0, 0.0, u, 0.0, 0.0, 0.0, variance))
-
-
-def require_scale_factor(calibration: GyroCalibration) -> tuple[float, float]:
-    """(K, u(K)) in rad/pulse.
-
-    Raises:
-        HandoffError: if K is absent: θ was not measured, and K̃ = K/cos θ is not K.
-    """
-    k, k_std = calibration.scale_factor_rad_per_pulse, calibration.scale_factor_rad_per_pulse_std
-    if k is None or k_std is None:
-        raise HandoffError(
-            'the calibration has no scale_factor_rad_per_pulse: the fix-error angle θ was not '
-            'measured, so K is unknown (K̃ = K/cos θ alone is not K); measure θ first.')
-    return k, k_std
 
 
 class PulseRateConverter:
@@ -115,26 +148,13 @@ class PulseRateConverter:
     * a stamp not after the previous one — it becomes the new reference, so a source that
       restarted (stamps jumped back) is followed again from its next sample.
 
-    Raises:
-        HandoffError: on construction, or when :attr:`calibration` is replaced, if the
-            calibration has no K (the one in use is then kept).
+    The calibration may be replaced between samples (the reference sample stays).
     """
 
-    def __init__(self, calibration: GyroCalibration) -> None:
+    def __init__(self, calibration: PulseCalibration) -> None:
         """Start with no reference sample."""
-        require_scale_factor(calibration)
-        self._calibration = calibration
+        self.calibration = calibration
         self._last: tuple[int, float] | None = None
-
-    @property
-    def calibration(self) -> GyroCalibration:
-        """The values in use; may be replaced between samples (the reference sample stays)."""
-        return self._calibration
-
-    @calibration.setter
-    def calibration(self, calibration: GyroCalibration) -> None:
-        require_scale_factor(calibration)
-        self._calibration = calibration
 
     def add(self, t_ns: int, count: float) -> ImuAngularVelocity | Rejection | None:
         """The rate since the previous sample, a Rejection saying why not, or None (first)."""
@@ -146,4 +166,4 @@ class PulseRateConverter:
         if t_ns <= last[0]:
             return Rejection(t_ns, f'stamp {t_ns} ns is not after the previous one, {last[0]} '
                                    'ns; it becomes the new reference.')
-        return angular_velocity_from_pulses(last[0], last[1], t_ns, count, self._calibration)
+        return angular_velocity_from_pulses(last[0], last[1], t_ns, count, self.calibration)

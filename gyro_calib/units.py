@@ -37,3 +37,8 @@ def arcsec_to_rad(value_arcsec: float) -> float:
 def rad_to_arcsec(value_rad: float) -> float:
     """Convert an angle from radians to arcseconds."""
     return value_rad * ARCSEC_PER_RAD
+
+
+def format_stamp(t_ns: int) -> str:
+    """A header stamp (int ns) in seconds for log lines and reasons, e.g. ``t=123.456789 s``."""
+    return f't={t_ns / NS_PER_S:.6f} s'

@@ -7,13 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from gyro_calib.rbrlg.config import (
-    KTildeConfig,
-    field_descriptions,
-    k_tilde_config_from_mapping,
-    load_k_tilde_config,
-)
+from gyro_calib.config import field_descriptions
 from gyro_calib.errors import ConfigError
+from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
 from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 

@@ -25,8 +25,8 @@ from std_msgs.msg import Float64, Header
 from gyro_calib import topics
 from gyro_calib.rbrlg.calibrator import CalibrationUpdate
 from gyro_calib.rbrlg.diagnostics import calibration_status
-from gyro_calib.handoff import write_calibration
-from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_calibration
+from gyro_calib.handoff import Provenance, method_calibration, update_calibration
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_values
 from gyro_calib.rbrlg.stations import Station
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
@@ -64,8 +64,11 @@ class CalibrationNode(Node):
              'table, °.'),
             ('tilt_tolerance_deg', 5.0, 'Largest |fitted α − nominal| before θ is refused, °.'),
             ('output_file', 'gyro_calibration.yaml', 'INS hand-off YAML, rewritten atomically '
-             'whenever K̃, θ, K and bias are all measured ("" = do not write).'))}
+             'with whatever is measured whenever K̃ or θ changes; other methods\' keys in it '
+             'are kept ("" = do not write).'),
+            ('gyro_id', '', "The gyro's serial or name, written to the hand-off file."))}
         self.output_file = str(site.pop('output_file'))
+        self.gyro_id = str(site.pop('gyro_id'))
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self.bench = RbrlgCalibrator(
             self.config, int(site['position_table_revolutions']), float(site['latitude_deg']),
@@ -73,6 +76,7 @@ class CalibrationNode(Node):
             float(site['tilt_tolerance_deg']))
         self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
+        self._handoff_note = ''
         self._bad_messages = 0
         self._station_rejections_seen = 0
         self.create_subscription(JointState, topics.GYRO_PULSES, self._on_pulses, SENSOR_QOS)
@@ -172,7 +176,7 @@ class CalibrationNode(Node):
         self._publish_results()
 
     def _publish_results(self) -> None:
-        """θ and K once both phases gave them (or why not); then the diagnostics."""
+        """θ and K once both phases gave them (or why not); the hand-off; the diagnostics."""
         res = self.bench.results()
         if res.fix_error_problem and res.fix_error_problem != self._last_rejection:
             self._last_rejection = res.fix_error_problem
@@ -185,24 +189,29 @@ class CalibrationNode(Node):
                 f'θ = {theta.value * ARCSEC_PER_RAD:.3f}″ ± '
                 f'{theta.std_uncertainty * ARCSEC_PER_RAD:.3f}″ ({theta.n_used} stations); '
                 f'K = {k.value:.10f} ″/pulse ± {k.relative_uncertainty * 1e6:.4f} ppm')
-            self._write_handoff(res)
+        self._write_handoff(res)
         self._publish_diagnostics()
 
     def _write_handoff(self, results: object) -> None:
-        record = handoff_calibration(results, self.bench, source='live')  # type: ignore[arg-type]
-        if not self.output_file:
+        """Write whatever is measured (from K̃ on), saying once what is still missing."""
+        values = handoff_values(results, self.bench)  # type: ignore[arg-type]
+        span = self.bench.data_span_ns()
+        if not self.output_file or not values or span is None:
             return
-        if record is None:
-            self.get_logger().warning('hand-off file not written: the bias needs latitude_deg '
-                                      '(Earth rate along the table axis).', once=True)
-            return
+        missing = self.bench.missing()
         try:
-            path = write_calibration(self.output_file, record)
+            record = method_calibration('rbrlg', values, Provenance('live', span[0], span[1],
+                                                                    missing),
+                                        gyro_id=self.gyro_id)
+            path = update_calibration(self.output_file, record)
         except GyroCalibError as exc:
             self._last_rejection = str(exc)
             self.get_logger().error(f'hand-off file not written: {exc}')
-        else:
-            self.get_logger().info(f'calibration written to {path}')
+            return
+        note = (f'; still missing: {", ".join(missing)}' if missing else ' (complete)')
+        if note != self._handoff_note:
+            self._handoff_note = note
+            self.get_logger().info(f'calibration written to {path}{note}')
 
     def _publish_diagnostics(self) -> None:
         ok, message, values = calibration_status(self.bench, self._last_rejection)

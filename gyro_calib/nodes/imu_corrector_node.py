@@ -7,7 +7,10 @@ x/y covariance are in :mod:`gyro_calib.imu_conversion`. Orientation and linear
 acceleration are marked unavailable (covariance[0] = −1, sensor_msgs/Imu, REP 145).
 
 Parameters: ``calibration_file`` (hand-off YAML, :mod:`gyro_calib.handoff`; re-read at
-every poll, so it may also be set at run time), ``frame_id`` and ``reload_period_s``.
+every poll, so it may also be set at run time), ``use_k_tilde`` (take K̃ with θ = 0 when the
+file has no K), ``frame_id`` and ``reload_period_s``. A file without the scale factor it
+needs is refused, naming the missing key; one without the bias is used with a warning (the
+rates are then not bias-corrected).
 The file is polled (inode, mtime, size) and reloaded when it changes; a missing or bad
 file is logged and the calibration in use is kept (none: nothing is published).
 """
@@ -27,7 +30,7 @@ from gyro_calib import topics
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import load_calibration
-from gyro_calib.imu_conversion import ImuAngularVelocity, PulseRateConverter
+from gyro_calib.imu_conversion import ImuAngularVelocity, PulseRateConverter, pulse_calibration
 from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, spin, stamp_to_ns
 
 GYRO_IMU = '/gyro/imu'
@@ -48,6 +51,10 @@ class ImuCorrectorNode(Node):
         self.declare_parameter('calibration_file', '', ParameterDescriptor(description=(
             'Hand-off calibration YAML (gyro_calib.handoff); required. Polled and reloaded '
             'when it changes; nothing is published until a valid file is read.')))
+        self.declare_parameter('use_k_tilde', False, ParameterDescriptor(description=(
+            'Take K̃ (k_tilde_rad_per_pulse) as the scale factor, i.e. θ = 0, when θ was not '
+            'measured; by default K (scale_factor_rad_per_pulse) is required.')))
+        self.use_k_tilde = bool(self.get_parameter('use_k_tilde').value)
         self.declare_parameter('frame_id', 'gyro', ParameterDescriptor(
             description='header.frame_id of the Imu messages; its z axis is the sense axis.'))
         self.declare_parameter('reload_period_s', 1.0, ParameterDescriptor(
@@ -85,22 +92,24 @@ class ImuCorrectorNode(Node):
             return
         self._file_key = key
         try:
-            calibration = load_calibration(path)
-            if self.converter is None:
-                self.converter = PulseRateConverter(calibration)
-            else:
-                self.converter.calibration = calibration  # checked like the first one
+            calibration = pulse_calibration(load_calibration(path), use_k_tilde=self.use_k_tilde)
         except GyroCalibError as exc:
             self._problem(str(exc))
             return
+        if self.converter is None:
+            self.converter = PulseRateConverter(calibration)
+        else:
+            self.converter.calibration = calibration
         self._last_problem = ''
         c = calibration
         self.get_logger().info(
-            f'calibration loaded from {path}: K = {c.scale_factor_rad_per_pulse!r} ± '
-            f'{c.scale_factor_rad_per_pulse_std!r} rad/pulse, bias = {c.bias_rad_s!r} ± '
-            f'{c.bias_rad_s_std!r} rad/s ({c.window_pairs} window pairs, {c.stations} stations, '
-            f'source {c.source}); publishing {GYRO_IMU}')
-        if c.angle_random_walk_rad_per_sqrt_s is None:
+            f'calibration loaded from {path}: {c.scale_factor_key} = '
+            f'{c.scale_factor_rad_per_pulse!r} ± {c.scale_factor_std!r} rad/pulse, bias = '
+            f'{c.bias_rad_s!r} ± {c.bias_std!r} rad/s; publishing {GYRO_IMU}')
+        if not c.bias_known:
+            self.get_logger().warning('the calibration has no bias_rad_s: the rates are NOT '
+                                      'bias-corrected (calibrate with the site latitude).')
+        if c.angle_random_walk_rad_per_sqrt_s == 0.0:
             self.get_logger().warning('the calibration has no angle_random_walk_rad_per_sqrt_s: '
                                       'the Imu variance holds quantisation, K and bias only.')
 

@@ -21,6 +21,13 @@ NODE_MODULES = {
     'rlg_sim': 'sim_nodes.rbrlg.rlg_node',
     'bag_recorder': 'gyro_calib.nodes.bag_recorder',
     'bag_player': 'gyro_calib.nodes.bag_player',
+    'fog_calibration_node': 'gyro_calib.nodes.fog_calibration_node',
+    'fog_sim': 'sim_nodes.fog.fog_node',
+    'dither_calibration_node': 'gyro_calib.nodes.dither_calibration_node',
+    'vibration_table_sim': 'sim_nodes.dither.vibration_table_node',
+    'thermal_calibration_node': 'gyro_calib.nodes.thermal_calibration_node',
+    'thermal_chamber_sim': 'sim_nodes.thermal.chamber_node',
+    'noise_node': 'gyro_calib.nodes.noise_node',
 }
 
 

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from gyro_calib.rbrlg.config import field_descriptions
+from gyro_calib.config import field_descriptions
 
 if TYPE_CHECKING:
     from builtin_interfaces.msg import Time

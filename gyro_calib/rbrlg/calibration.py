@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,11 +23,9 @@ from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Estimate
 from gyro_calib.rbrlg.scale_factor import scale_factor
 from gyro_calib.rbrlg.stations import Station, StationCalibrator
-from gyro_calib.handoff import GyroCalibration
 from gyro_calib.units import EARTH_RATE_DEG_H, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
-    from typing import Any
 
     from numpy.typing import ArrayLike
 
@@ -93,6 +91,8 @@ class RbrlgCalibrator:
     stations: StationCalibrator = field(init=False)
     _position_angle_rad: float | None = None
     """χ of the position table at rest (first still sample): where the K̃ phase ran."""
+    _position_table_seen: bool = False
+    """Any position-table sample at all (else the rate table is taken as a plain, vertical one)."""
 
     def __post_init__(self) -> None:
         """Create the K̃ and the station stages."""
@@ -117,6 +117,7 @@ class RbrlgCalibrator:
     def add_position_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float) -> None:
         """One position-table joint_states sample."""
         self.stations.add_position_table_state(t_ns, angle_rad, rate_rad_s)
+        self._position_table_seen = True
         if self._position_angle_rad is None and abs(rate_rad_s) < 1e-6:
             self._position_angle_rad = angle_rad
 
@@ -142,6 +143,8 @@ class RbrlgCalibrator:
             rate_zero_index_ns if rate_zero_index_ns is not None else no_events)
         self.stations.extend(pulses, position_table, position_zero_index_ns
                              if position_zero_index_ns is not None else no_events, rate_table)
+        if len(position_table[0]):
+            self._position_table_seen = True
         if self._position_angle_rad is None and len(position_table[0]):
             still = np.abs(np.asarray(position_table[2])) < 1e-6
             if np.any(still):
@@ -178,14 +181,121 @@ class RbrlgCalibrator:
         if k_tilde is not None and fix_error is not None:
             k = scale_factor(k_tilde, fix_error.fix_error_angle_rad)
         bias = None
-        if earth_bias is not None and fix_error is not None and math.isfinite(self.latitude_deg):
+        tilt = self._table_axis_tilt_rad(fix_error)
+        if earth_bias is not None and tilt is not None and math.isfinite(self.latitude_deg):
             earth = earth_rate_along_table_axis_deg_h(
                 latitude_deg=self.latitude_deg, heading_deg=self.heading_deg,
-                tilt_rad=fix_error.tilt_rad.value,
-                position_table_angle_rad=self._position_angle_rad or 0.0)
-            bias = Estimate(earth_bias.value - earth, earth_bias.std_uncertainty,
-                            earth_bias.n_used, earth_bias.dof)
+                tilt_rad=tilt, position_table_angle_rad=self._position_angle_rad or 0.0)
+            bias = dataclasses.replace(earth_bias, value=earth_bias.value - earth)
         return RbrlgResults(k_tilde, fix_error, k, earth_bias, bias, problem)
+
+    def _table_axis_tilt_rad(self, fix_error: FixErrorAngleResult | None) -> float | None:
+        """Tilt of the rate-table axis from the vertical: α from the stations, 0 for a plain
+        rate table (no position table in the data), None while a two-axis bench has no α."""
+        if fix_error is not None:
+            return fix_error.tilt_rad.value
+        return None if self._position_table_seen else 0.0
+
+    def missing(self) -> dict[str, str]:
+        """Hand-off key → why it is not measured (yet), for every RBRLG quantity."""
+        res = self.results()
+        out: dict[str, str] = {}
+        cal = self.k_tilde
+        if res.k_tilde_arcsec_per_pulse is None:
+            why = (f'K̃ needs {cal.config.min_pairs} forward/reverse window pairs; '
+                   f'{len(cal.pairs)} accepted from {len(cal.windows)} windows '
+                   f'({len(cal.rejections)} rejections): {self.limiting_factor()}')
+            out['k_tilde_rad_per_pulse'] = why
+            out['bias_plus_earth_rate_rad_s'] = why
+        if res.fix_error is None:
+            if res.fix_error_problem:
+                why = res.fix_error_problem
+            elif not self._position_table_seen:
+                why = ('θ needs the position-table stations of the four-position procedure; the '
+                       'data hold no position-table samples (a plain rate table gives K̃ only).')
+            else:
+                why = (f'θ needs at least 3 position-table stations spread in β; '
+                       f'{len(self.stations.stations)} measured.')
+            out['fix_error_angle_rad'] = why
+            out['scale_factor_rad_per_pulse'] = f'K = K̃·cos θ needs θ: {why}'
+        if res.bias_deg_h is None:
+            if not math.isfinite(self.latitude_deg):
+                out['bias_rad_s'] = ('the bias needs the site latitude (--latitude-deg, node '
+                                     'parameter latitude_deg) to remove the Earth rate; '
+                                     'bias_plus_earth_rate_rad_s holds both.')
+            elif res.earth_plus_bias_deg_h is None:
+                out['bias_rad_s'] = 'the bias needs the K̃ windows (see k_tilde_rad_per_pulse).'
+            else:
+                out['bias_rad_s'] = ('the bias needs the tilt α of the rate-table axis, which '
+                                     'the θ stations give (see fix_error_angle_rad).')
+        return out
+
+    def data_span_ns(self) -> tuple[int, int] | None:
+        """First accepted K̃ window start to the last window end or station end, or None."""
+        stamps = [w.start_ns for w in self.k_tilde.windows] + [w.end_ns for w in
+                                                                self.k_tilde.windows]
+        stamps += [s.start_ns for s in self.stations.stations]
+        stamps += [s.end_ns for s in self.stations.stations]
+        return (min(stamps), max(stamps)) if stamps else None
+
+    def limiting_factor(self) -> str:
+        """One line saying what limits the result most, as something the user can change
+        (issue 9 part 5)."""
+        cal = self.k_tilde
+        m = cal.config.revolutions_per_window
+        reasons = [r.reason for r in cal.rejections]
+        accel = sum('table accelerating' in r for r in reasons)
+        short = [r for r in reasons if 'no window in the constant-rate cruise' in r]
+        missing_ev = sum('missing zero-index event' in r for r in reasons)
+        gaps = sum('gap' in r for r in reasons)
+        if len(cal.pairs) < cal.config.min_pairs:
+            if not cal.windows and short:
+                return (f'no cruise held m = {m} revolutions between usable zero-index events: '
+                        f'give the table at least m + 1 revolutions of cruise between reversals '
+                        f'(or lower revolutions_per_window); {accel} event(s) fell in '
+                        'accelerations.')
+            if missing_ev:
+                return (f'{missing_ev} missing zero-index event(s): check the index detector and '
+                        'its cabling.')
+            if gaps:
+                return f'{gaps} window(s) lost to gaps in the streams: check the data link.'
+            if len(cal.windows) < 2 * cal.config.min_pairs:
+                return (f'{len(cal.windows)} window(s) in the data: record at least '
+                        f'{cal.config.min_pairs} forward/reverse cycles.')
+            return ('windows did not pair (same direction, or too far apart in time): alternate '
+                    'the direction each cruise.')
+        runs = _windows_per_run(cal.windows)
+        res = self.results()
+        if runs and max(runs) == 1 and len(cal.pairs) < 10:
+            return (f'one window per cruise ({len(cal.pairs)} pairs): give the table ≥ {2 * m} '
+                    f'revolutions of cruise for two windows per cruise, or record more cycles.')
+        if res.fix_error is None and self._position_table_seen:
+            return res.fix_error_problem or 'θ: fewer than 3 stations spread in β.'
+        k = res.k_tilde_arcsec_per_pulse
+        assert k is not None
+        if k.dof < 4:
+            return (f'K̃ rests on {k.n_used} pairs ({k.dof} degrees of freedom; uncertainty: '
+                    f'{k.basis}): record more reversal cycles, or give '
+                    'angle_random_walk_deg_sqrt_h so the prediction is complete.')
+        if res.fix_error is not None and res.fix_error.fix_error_angle_rad.dof < 4:
+            th = res.fix_error.fix_error_angle_rad
+            return (f'θ rests on {th.n_used} stations ({th.dof} degree(s) of freedom; '
+                    f'uncertainty: {th.basis}): add stations (e.g. 8 at 45° steps).')
+        return (f'K̃ from {k.n_used} pairs, relative uncertainty '
+                f'{k.relative_uncertainty:.2g} ({k.basis}).')
+
+
+def _windows_per_run(windows: list[Any]) -> list[int]:
+    """Windows cut in each direction run (consecutive windows of one direction)."""
+    out: list[int] = []
+    last = 0
+    for w in windows:
+        if out and w.direction == last:
+            out[-1] += 1
+        else:
+            out.append(1)
+        last = w.direction
+    return out
 
 
 def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
@@ -204,28 +314,25 @@ def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
 
 
 
-def handoff_calibration(results: RbrlgResults, calibrator: RbrlgCalibrator, *,
-                        source: str) -> GyroCalibration | None:
-    """The INS hand-off record of a complete calibration (K̃, θ, K, bias), else None.
-
-    Values are converted to SI (rad/pulse, rad, rad/s); the data span runs from the
-    first accepted K̃ window to the last station.
-    """
-    if (results.k_tilde_arcsec_per_pulse is None or results.fix_error is None
-            or results.scale_factor_arcsec_per_pulse is None or results.bias_deg_h is None):
-        return None
-    k_t, k = results.k_tilde_arcsec_per_pulse, results.scale_factor_arcsec_per_pulse
-    theta = results.fix_error.fix_error_angle_rad
-    stamps = [w.start_ns for w in calibrator.k_tilde.windows]
-    stamps += [s.end_ns for s in calibrator.stations.stations]
+def handoff_values(results: RbrlgResults, calibrator: RbrlgCalibrator) -> dict[str, Any]:
+    """The RBRLG hand-off keys of whatever was measured, in SI (rad/pulse, rad, rad/s), each
+    with its ``_std``, plus the window-pair and station counts; {} when K̃ is not measured."""
+    if results.k_tilde_arcsec_per_pulse is None:
+        return {}
     deg_h = math.radians(1.0) / 3600.0  # rad/s per °/h
-    return GyroCalibration(
-        k_tilde_rad_per_pulse=k_t.value * RAD_PER_ARCSEC,
-        k_tilde_rad_per_pulse_std=k_t.std_uncertainty * RAD_PER_ARCSEC,
-        bias_rad_s=results.bias_deg_h.value * deg_h,
-        bias_rad_s_std=results.bias_deg_h.std_uncertainty * deg_h,
-        window_pairs=k_t.n_used, stations=theta.n_used,
-        data_start_stamp_ns=min(stamps), data_end_stamp_ns=max(stamps), source=source,
-        scale_factor_rad_per_pulse=k.value * RAD_PER_ARCSEC,
-        scale_factor_rad_per_pulse_std=k.std_uncertainty * RAD_PER_ARCSEC,
-        fix_error_angle_rad=theta.value, fix_error_angle_rad_std=theta.std_uncertainty)
+    out: dict[str, Any] = {}
+
+    def put(key: str, est: Estimate | None, scale: float) -> None:
+        if est is not None:
+            out[key] = est.value * scale
+            out[key + '_std'] = est.std_uncertainty * scale
+
+    put('k_tilde_rad_per_pulse', results.k_tilde_arcsec_per_pulse, RAD_PER_ARCSEC)
+    put('scale_factor_rad_per_pulse', results.scale_factor_arcsec_per_pulse, RAD_PER_ARCSEC)
+    put('fix_error_angle_rad',
+        results.fix_error.fix_error_angle_rad if results.fix_error else None, 1.0)
+    put('bias_plus_earth_rate_rad_s', results.earth_plus_bias_deg_h, deg_h)
+    put('bias_rad_s', results.bias_deg_h, deg_h)
+    out['window_pairs'] = results.k_tilde_arcsec_per_pulse.n_used
+    out['stations'] = results.fix_error.fix_error_angle_rad.n_used if results.fix_error else 0
+    return out

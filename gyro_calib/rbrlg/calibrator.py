@@ -20,19 +20,18 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gyro_calib import topics
-from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.errors import InsufficientDataError, WindowError
 from gyro_calib.estimate import Estimate, Rejection
+from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.rbrlg.scale_factor import PairAccumulator, WindowPair
-from gyro_calib.streams import StampedBuffer, timeline_starts
-from gyro_calib.units import ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S
 from gyro_calib.rbrlg.windows import (
     IndexEvent,
     RevolutionWindow,
     WholeRevolutionWindows,
     count_at_instant,
-    format_stamp,
 )
+from gyro_calib.streams import StampedBuffer, timeline_starts
+from gyro_calib.units import ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike

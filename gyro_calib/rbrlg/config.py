@@ -1,4 +1,4 @@
-"""Calibration settings: one frozen dataclass, validated once, loadable from YAML.
+"""RBRLG window settings: one frozen dataclass, validated once, loadable from YAML.
 
 The same :class:`KTildeConfig` serves the calibration node (ROS parameters), the
 offline functions and tests. YAML files may be plain mappings of these fields or
@@ -13,8 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypedDict
 
-import yaml
-
+from gyro_calib.config import read_parameter_file
 from gyro_calib.errors import ConfigError
 
 
@@ -169,39 +168,5 @@ def load_k_tilde_config(path: str | Path, *, node_name: str = 'calibration_node'
     Raises:
         ConfigError: if the file cannot be read or parsed, or a field is wrong.
     """
-    path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text(encoding='utf-8'))
-    except OSError as exc:
-        raise ConfigError(f'cannot read config file {path}: {exc.strerror}.') from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f'config file {path} is not valid YAML: {exc}.') from None
-    if data is None:
-        data = {}
-    if not isinstance(data, dict):
-        raise ConfigError(f'config file {path} must hold a mapping of fields.')
-    for key in (node_name, '/**'):
-        if isinstance(data.get(key), dict) and 'ros__parameters' in data[key]:
-            data = data[key]['ros__parameters']
-            break
-    return k_tilde_config_from_mapping(data, source=str(path))
-
-
-def field_descriptions(cls: type) -> dict[str, str]:
-    """Attribute docstrings of a dataclass (the string right after each field), by field name.
-
-    They are the single source of the parameter descriptions the nodes declare.
-    """
-    import ast
-    import inspect
-    import textwrap
-
-    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
-    body = tree.body[0].body  # type: ignore[attr-defined]
-    out: dict[str, str] = {}
-    for node, after in zip(body, body[1:]):
-        if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
-                and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
-                and isinstance(after.value.value, str)):
-            out[node.target.id] = ' '.join(after.value.value.split())
-    return out
+    return k_tilde_config_from_mapping(read_parameter_file(path, node_name=node_name),
+                                       source=str(path))

@@ -23,8 +23,12 @@ from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Rejection
 from gyro_calib.rbrlg.fix_error_angle import FixErrorAngleResult, fix_error_angle_multi_station
 from gyro_calib.streams import StampedBuffer
-from gyro_calib.units import ARCSEC_PER_RAD, ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S
-from gyro_calib.rbrlg.windows import format_stamp
+from gyro_calib.units import (
+    ARCSEC_PER_RAD,
+    ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H,
+    NS_PER_S,
+    format_stamp,
+)
 
 RUN_END_STILL_S = 0.5
 """A position-table run ends once the table has rested this long, s."""

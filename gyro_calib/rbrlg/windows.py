@@ -21,7 +21,7 @@ import numpy as np
 
 from gyro_calib.errors import WindowError
 from gyro_calib.estimate import Rejection
-from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S
+from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -33,11 +33,6 @@ TWO_PI = 2.0 * math.pi
 RATE_BIAS_RUN_REVOLUTIONS = 0.9
 """A direction run whose cruise held at least this many revolutions is a rate-bias run whose
 unused zero-index events are reported; a shorter one is a positioning move."""
-
-
-def format_stamp(t_ns: int) -> str:
-    """A stamp in seconds for log lines, e.g. ``t=123.456789 s``."""
-    return f't={t_ns / NS_PER_S:.6f} s'
 
 
 @dataclass(frozen=True, slots=True)
@@ -269,10 +264,10 @@ class WholeRevolutionWindows:
         """End of the recording: report what the open run could not use."""
         self._table = (table_t_ns, table_angle_rad, table_rate_rad_s)
         run = self._run
-        if (run is not None and run.cruise_rad_s is not None and len(table_rate_rad_s)
-                and abs(table_rate_rad_s[-1] - run.cruise_rad_s)
-                <= self.config.rate_tolerance * abs(run.cruise_rad_s)):
-            run.windows += 1  # the recording ended inside this cruise: nothing to blame on it
+        if run is not None and run.usable_rates and len(table_rate_rad_s):
+            cruise = float(np.median(run.usable_rates))
+            if abs(table_rate_rad_s[-1] - cruise) <= self.config.rate_tolerance * abs(cruise):
+                run.windows += 1  # the recording ended inside this cruise: nothing to blame
         self._end_run()
 
     def _reject(self, stamp_ns: int, reason: str) -> None:

@@ -15,13 +15,22 @@ import pytest
 
 from gyro_calib.errors import StreamError
 from gyro_calib.estimate import Rejection
-from gyro_calib.handoff import GyroCalibration, HandoffError, write_calibration
+from gyro_calib.handoff import (
+    Calibration,
+    HandoffError,
+    Provenance,
+    method_calibration,
+    write_calibration,
+)
 from gyro_calib.imu_conversion import (
     UNKNOWN_AXIS_VARIANCE_RAD2_S2,
     ImuAngularVelocity,
+    PulseCalibration,
     PulseRateConverter,
     angular_velocity_from_pulses,
+    pulse_calibration,
 )
+from gyro_calib.registry import handoff_schema
 from gyro_calib.units import RAD_PER_ARCSEC
 
 from .dds_harness import NodeProcess, launch
@@ -30,25 +39,35 @@ K_RAD = 0.84279066 * RAD_PER_ARCSEC
 T0_NS = 1_795_426_200_000_000_000
 
 
+def _handoff(k_rad: float = K_RAD, bias_rad_s: float | None = 7.3e-6,
+             arw: float | None = 2.9e-7, with_theta: bool = True) -> Calibration:
+    """A hand-off file's content: RBRLG values (and the noise method's ARW)."""
+    prov = Provenance('test', T0_NS - 600 * 10**9, T0_NS - 10**9)
+    values = dict(k_tilde_rad_per_pulse=k_rad / math.cos(646.75 * RAD_PER_ARCSEC),
+                  k_tilde_rad_per_pulse_std=5e-14, window_pairs=3, stations=4)
+    if with_theta:
+        values.update(scale_factor_rad_per_pulse=k_rad, scale_factor_rad_per_pulse_std=6e-14,
+                      fix_error_angle_rad=646.75 * RAD_PER_ARCSEC, fix_error_angle_rad_std=2e-6)
+    if bias_rad_s is not None:
+        values.update(bias_rad_s=bias_rad_s, bias_rad_s_std=3e-9)
+    cal = method_calibration('rbrlg', values, prov)
+    if arw is not None:
+        noise = method_calibration('noise', {'angle_random_walk_rad_per_sqrt_s': arw,
+                                             'angle_random_walk_rad_per_sqrt_s_std': 1e-8}, prov)
+        cal = noise.merged_into(cal, handoff_schema())
+    return cal
+
+
 def _calibration(k_rad: float = K_RAD, bias_rad_s: float = 7.3e-6,
-                 arw: float | None = 2.9e-7) -> GyroCalibration:
-    return GyroCalibration(
-        k_tilde_rad_per_pulse=k_rad / math.cos(646.75 * RAD_PER_ARCSEC),
-        k_tilde_rad_per_pulse_std=5e-14, scale_factor_rad_per_pulse=k_rad,
-        scale_factor_rad_per_pulse_std=6e-14, fix_error_angle_rad=646.75 * RAD_PER_ARCSEC,
-        fix_error_angle_rad_std=2e-6, bias_rad_s=bias_rad_s, bias_rad_s_std=3e-9,
-        angle_random_walk_rad_per_sqrt_s=arw,
-        angle_random_walk_rad_per_sqrt_s_std=None if arw is None else 1e-8,
-        window_pairs=3, stations=4, data_start_stamp_ns=T0_NS - 600 * 10**9,
-        data_end_stamp_ns=T0_NS - 10**9, source='test')
+                 arw: float | None = 2.9e-7) -> PulseCalibration:
+    return pulse_calibration(_handoff(k_rad, bias_rad_s, arw))
 
 
-def _expected_variance(cal: GyroCalibration, pulses: float, dt_s: float) -> float:
-    k, u_k = cal.scale_factor_rad_per_pulse, cal.scale_factor_rad_per_pulse_std
-    assert k is not None and u_k is not None
-    arw = cal.angle_random_walk_rad_per_sqrt_s or 0.0
+def _expected_variance(cal: PulseCalibration, pulses: float, dt_s: float) -> float:
+    k, u_k = cal.scale_factor_rad_per_pulse, cal.scale_factor_std
+    arw = cal.angle_random_walk_rad_per_sqrt_s
     return (arw**2 / dt_s + k**2 / (6 * dt_s**2) + (pulses / dt_s * u_k) ** 2
-            + cal.bias_rad_s_std**2)
+            + cal.bias_std**2)
 
 
 @pytest.mark.parametrize('arw', [2.9e-7, None])
@@ -77,17 +96,24 @@ def test_quantisation_variance_matches_uniform_rounding_at_both_ends() -> None:
     assert np.var(error) == pytest.approx(1 / 6, rel=0.02)
 
 
-def test_conversion_without_scale_factor_is_refused() -> None:
-    cal = _calibration()
-    k_tilde_only = dataclasses.replace(
-        cal, scale_factor_rad_per_pulse=None, scale_factor_rad_per_pulse_std=None,
-        fix_error_angle_rad=None, fix_error_angle_rad_std=None, stations=0)
-    with pytest.raises(HandoffError, match='no scale_factor_rad_per_pulse'):
-        PulseRateConverter(k_tilde_only)
-    converter = PulseRateConverter(cal)
-    with pytest.raises(HandoffError):
-        converter.calibration = k_tilde_only
-    assert converter.calibration is cal
+def test_conversion_without_scale_factor_is_refused_naming_the_key() -> None:
+    k_tilde_only = _handoff(with_theta=False)
+    with pytest.raises(HandoffError, match='no scale_factor_rad_per_pulse .*use_k_tilde'):
+        pulse_calibration(k_tilde_only)
+    with_k_tilde = pulse_calibration(k_tilde_only, use_k_tilde=True)
+    assert with_k_tilde.scale_factor_key == 'k_tilde_rad_per_pulse'
+    assert with_k_tilde.scale_factor_rad_per_pulse == k_tilde_only.get('k_tilde_rad_per_pulse')
+    rbrlg = {k: v for k, v in k_tilde_only.values.items() if not k.startswith('k_tilde')}
+    nothing = dataclasses.replace(k_tilde_only, values=rbrlg)
+    with pytest.raises(HandoffError, match='no k_tilde_rad_per_pulse .*told to use K̃'):
+        pulse_calibration(nothing, use_k_tilde=True)
+
+
+def test_file_without_bias_converts_without_bias_and_says_so() -> None:
+    cal = pulse_calibration(_handoff(bias_rad_s=None))
+    assert not cal.bias_known and cal.bias_rad_s == 0.0
+    out = angular_velocity_from_pulses(T0_NS, 0.0, T0_NS + 1_000_000, 412.0, cal)
+    assert out.angular_velocity_rad_s[2] == pytest.approx(K_RAD * 412e3, rel=1e-12)
 
 
 def test_streaming_converter_equals_pairwise_function_and_skips_bad_samples() -> None:
@@ -187,9 +213,8 @@ def corrector(tmp_path: Path) -> Iterator[tuple[NodeProcess, Path]]:
     node.stop()
 
 
-def _check(msgs: list[Any], cal: GyroCalibration) -> None:
+def _check(msgs: list[Any], cal: PulseCalibration) -> None:
     k, rate_pulses_s, dt_s = cal.scale_factor_rad_per_pulse, 412_000.0, 1e-3
-    assert k is not None
     expected = k * rate_pulses_s - cal.bias_rad_s
     variance = _expected_variance(cal, 412.0, dt_s)
     for m in msgs:
@@ -214,7 +239,7 @@ def test_node_publishes_calibrated_imu_and_follows_a_rewritten_file(
     assert bench.imu == [], node.log()
 
     first = _calibration()
-    write_calibration(path, first)
+    write_calibration(path, _handoff())
     assert bench.spin_until(lambda: len(bench.imu) > 0, 10, publishing=True), node.log()
     bench.publish(300)
     last_ns = T0_NS + (bench.i - 1) * 1_000_000
@@ -226,17 +251,17 @@ def test_node_publishes_calibrated_imu_and_follows_a_rewritten_file(
 
     second = _calibration(k_rad=K_RAD * (1 + 2e-4), bias_rad_s=-4.1e-6, arw=None)
     n_before = len(bench.imu)
-    write_calibration(path, second)  # picked up within reload_period_s (1 s) + delivery
+    write_calibration(path, _handoff(k_rad=K_RAD * (1 + 2e-4), bias_rad_s=-4.1e-6, arw=None))  # picked up within reload_period_s (1 s) + delivery
     assert bench.spin_until(lambda: abs(bench.imu[-1].angular_velocity.z / (
         K_RAD * (1 + 2e-4) * 412e3 + 4.1e-6) - 1) < 1e-9, 10, publishing=True), node.log()
     switch = next(i for i in range(n_before, len(bench.imu))
                   if bench.imu[i].angular_velocity.z != bench.imu[n_before - 1].angular_velocity.z)
     _check(bench.imu[:switch], first)
     _check(bench.imu[switch:], second)
-    assert f'K = {K_RAD * (1 + 2e-4)!r}' in node.log()
+    assert f'scale_factor_rad_per_pulse = {K_RAD * (1 + 2e-4)!r}' in node.log()
     assert 'no angle_random_walk_rad_per_sqrt_s' in node.log()
 
-    path.write_text('format_version: 1\ngyro: {bias_rad_s: [\n')  # a bad file: keep `second`
+    path.write_text('format_version: 2\ngyro: {bias_rad_s: [\n')  # a bad file: keep `second`
     assert bench.spin_until(lambda: 'Keeping the calibration in use' in node.log(), 10,
                             publishing=True), node.log()
     bench.publish(20)

@@ -1,0 +1,262 @@
+"""The live node of any registered method: topic contract in, results, diagnostics and the
+hand-off file out, through the same session the bag calibration uses.
+
+Messages are buffered per topic as they arrive (stamp, values, frame_id) and handed to the
+session as one :class:`~gyro_calib.bag.SampleBatch` every ``process_period_s``; the
+calibrators give the same result however the data are chunked, so a bag replayed into the
+node gives bit for bit the numbers ``gyro-calib calibrate`` gives offline.
+
+A method's node module is a few lines: :func:`run_method_node` with the method name, the
+node name and the results to publish on their own topics (std_msgs/Float64,
+transient-local). Parameters: every field of the method's settings dataclass (as for
+``--config``), plus ``config_file``, ``output_file``, ``gyro_id``, ``latitude_deg``,
+``heading_deg``, ``scale_factor_rad_per_pulse`` and ``process_period_s``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from sensor_msgs.msg import Imu, JointState, Temperature
+from std_msgs.msg import Float64, Header
+
+from gyro_calib import topics
+from gyro_calib.bag import SampleBatch
+from gyro_calib.errors import GyroCalibError
+from gyro_calib.handoff import update_calibration
+from gyro_calib.mcap_columns import FrameIds, TopicColumns
+from gyro_calib.nodes.ros_io import (
+    EVENT_QOS,
+    RESULT_QOS,
+    SENSOR_QOS,
+    described_parameter,
+    spin,
+    stamp_to_ns,
+)
+from gyro_calib.registry import HEADER, IMU, JOINT_STATE, METHODS, TEMPERATURE
+from gyro_calib.session import CalibrationOptions, MethodSession
+from gyro_calib.units import format_stamp
+
+GENERIC_PARAMETERS = ('config_file', 'output_file', 'gyro_id', 'latitude_deg', 'heading_deg',
+                      'scale_factor_rad_per_pulse', 'process_period_s')
+"""Parameters every method node declares (a settings field of the same name is not
+declared twice: the session takes it from the options)."""
+
+_MESSAGE_CLASSES = {JOINT_STATE: JointState, HEADER: Header, IMU: Imu, TEMPERATURE: Temperature}
+
+
+def _values(msgtype: str, msg: Any) -> tuple[float, ...]:
+    """The columns :mod:`gyro_calib.mcap_columns` decodes, from one live message."""
+    if msgtype == JOINT_STATE:
+        return (float(msg.position[0]) if len(msg.position) else math.nan,
+                float(msg.velocity[0]) if len(msg.velocity) else math.nan)
+    if msgtype == IMU:
+        w, a = msg.angular_velocity, msg.linear_acceleration
+        return (w.x, w.y, w.z, a.x, a.y, a.z)
+    if msgtype == TEMPERATURE:
+        return (float(msg.temperature), float(msg.variance))
+    return ()
+
+
+class _TopicBuffer:
+    """Samples of one topic since the last hand-over, as TopicColumns rows."""
+
+    def __init__(self, topic: str, msgtype: str) -> None:
+        self.topic, self.msgtype = topic, msgtype
+        self.stamps: list[int] = []
+        self.rows: list[tuple[float, ...]] = []
+        self.frames: list[int] = []
+        self.names: list[str] = []
+        self._codes: dict[str, int] = {}
+
+    def add(self, msg: Any) -> None:
+        header = msg if self.msgtype == HEADER else msg.header
+        self.stamps.append(stamp_to_ns(header.stamp))
+        self.rows.append(_values(self.msgtype, msg))
+        code = self._codes.get(header.frame_id)
+        if code is None:
+            code = self._codes[header.frame_id] = len(self.names)
+            self.names.append(header.frame_id)
+        self.frames.append(code)
+
+    def take(self) -> TopicColumns | None:
+        if not self.stamps:
+            return None
+        t = np.asarray(self.stamps, dtype=np.int64)
+        rows = np.asarray(self.rows, dtype=np.float64).reshape(len(t), -1)
+        values: dict[str, np.ndarray] = {}
+        if self.msgtype == JOINT_STATE:
+            values = {'position': rows[:, 0], 'velocity': rows[:, 1]}
+        elif self.msgtype == IMU:
+            values = {'angular_velocity_rad_s': rows[:, 0:3],
+                      'linear_acceleration_m_s2': rows[:, 3:6]}
+        elif self.msgtype == TEMPERATURE:
+            values = {'temperature_degc': rows[:, 0], 'variance_degc2': rows[:, 1]}
+        cols = TopicColumns(self.topic, self.msgtype, t.copy(), t,
+                            FrameIds(np.asarray(self.frames, dtype=np.int32), tuple(self.names)),
+                            values)
+        self.stamps, self.rows, self.frames = [], [], []
+        return cols
+
+
+class MethodNode(Node):
+    """Feeds a method's session from the topic contract; publishes what it measures."""
+
+    def __init__(self, method: str, node_name: str, result_topics: Mapping[str, str],
+                 settings_cls: type | None = None) -> None:
+        """Declare parameters, build the session, wire topics and timers.
+
+        Args:
+            method: registry name of the method.
+            node_name: the ROS node name.
+            result_topics: hand-off key → topic its value is published on (Float64).
+            settings_cls: the method's settings dataclass, declared as parameters.
+        """
+        super().__init__(node_name)
+        self.method = METHODS[method]
+        settings: dict[str, Any] = {}
+        if settings_cls is not None:
+            defaults = settings_cls()
+            for f in dataclasses.fields(settings_cls):
+                if f.name in GENERIC_PARAMETERS:
+                    continue  # declared once below, taken by the session from the options
+                default = getattr(defaults, f.name)
+                if isinstance(default, tuple):
+                    default = list(default)
+                value = described_parameter(self, f.name, default,
+                                            _description(settings_cls, f.name))
+                settings[f.name] = tuple(value) if isinstance(default, list) else value
+        p = {name: described_parameter(self, name, default, text) for name, default, text in (
+            ('config_file', '', 'YAML file with the settings; its values win over parameters.'),
+            ('output_file', '', 'INS hand-off YAML, updated atomically whenever the results '
+             "change; other methods' keys in it are kept ('' = do not write)."),
+            ('gyro_id', '', "The gyro's serial or name (hand-off identity)."),
+            ('latitude_deg', math.nan, 'Site latitude, ° (NaN: not given).'),
+            ('heading_deg', 0.0, 'Table-base heading from East, °.'),
+            ('scale_factor_rad_per_pulse', math.nan, "A pulse gyro's scale factor K, rad/pulse "
+             '(NaN: not given).'),
+            ('process_period_s', 0.2, 'How often buffered samples are handed to the '
+             'calibrator, s (results do not depend on it).'))}
+        options = CalibrationOptions(
+            latitude_deg=None if math.isnan(p['latitude_deg']) else p['latitude_deg'],
+            heading_deg=p['heading_deg'],
+            config_file=Path(p['config_file']) if p['config_file'] else None,
+            scale_factor_rad_per_pulse=(None if math.isnan(p['scale_factor_rad_per_pulse'])
+                                        else p['scale_factor_rad_per_pulse']),
+            gyro_id=p['gyro_id'], settings=settings)
+        self.output_file, self.gyro_id = p['output_file'], p['gyro_id']
+        self.session: MethodSession = self.method.make_session(options)
+        self.add_on_set_parameters_callback(self._refuse_runtime_change)
+        self._buffers: dict[str, _TopicBuffer] = {}
+        for topic, msgtype in self.session.topics().items():
+            buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
+            qos = EVENT_QOS if msgtype == HEADER else SENSOR_QOS
+            self.create_subscription(_MESSAGE_CLASSES[msgtype], topic, buf.add, qos)
+        self._result_pubs = {key: self.create_publisher(Float64, topic, RESULT_QOS)
+                             for key, topic in result_topics.items()}
+        self.diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
+        self._published: dict[str, float] = {}
+        self._last_line = ''
+        self._handoff_note = ''
+        self.create_timer(float(p['process_period_s']), self._process)
+        self.create_timer(1.0, self._publish_diagnostics)
+        self.get_logger().info(f'{method}: waiting for {", ".join(self._buffers)}')
+
+    def _refuse_runtime_change(self, params: list[Any]) -> SetParametersResult:
+        return SetParametersResult(successful=False, reason=(
+            'calibration parameters are read at start-up; restart the node to change them.'))
+
+    def _process(self) -> None:
+        columns = {t: c for t, b in self._buffers.items() if (c := b.take()) is not None}
+        if columns:
+            last = max(int(c.stamp_ns.max()) for c in columns.values())
+            self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        lines = self.session.process()
+        for line in lines:
+            self._last_line = line
+            self.get_logger().warning(line) if 'reject' in line else self.get_logger().info(line)
+        results = self.session.results()
+        changed = {k: e.value for k, e in results.items() if self._published.get(k) != e.value}
+        if not changed:
+            return
+        self._published.update(changed)
+        for key, value in changed.items():
+            pub = self._result_pubs.get(key)
+            if pub is not None:
+                pub.publish(Float64(data=float(value)))
+            est = results[key]
+            self.get_logger().info(f'{key} = {est.value!r} ± {est.std_uncertainty:.3g} '
+                                   f'(from {est.n_used})')
+        self._write_handoff()
+        self._publish_diagnostics()
+
+    def _write_handoff(self) -> None:
+        if not self.output_file:
+            return
+        try:
+            record = self.session.handoff('live', gyro_id=self.gyro_id)
+            if record is None:
+                return
+            path = update_calibration(self.output_file, record)
+        except GyroCalibError as exc:
+            self._last_line = str(exc)
+            self.get_logger().error(f'hand-off file not written: {exc}')
+            return
+        missing = record.missing
+        note = f'; still missing: {", ".join(missing)}' if missing else ' (complete)'
+        if note != self._handoff_note:
+            self._handoff_note = note
+            self.get_logger().info(f'calibration written to {path}{note}')
+
+    def _publish_diagnostics(self) -> None:
+        results = self.session.results()
+        values = {'rejected': str(len(self.session.rejections())), 'last_line': self._last_line}
+        for key, est in results.items():
+            values[key] = repr(float(est.value))
+            values[key + '_std'] = repr(float(est.std_uncertainty))
+            values[key + '_n'] = str(est.n_used)
+        for key, why in self.session.missing().items():
+            values[key + '_missing'] = why
+        rejections = self.session.rejections()
+        if rejections:
+            r = rejections[-1]
+            values['last_rejection'] = f'{format_stamp(r.stamp_ns)}: {r.reason}'
+        status = DiagnosticStatus(
+            name=f'gyro_calib: {self.method.name}', hardware_id='gyro',
+            message=f'{len(results)} quantities measured',
+            level=DiagnosticStatus.OK if results else DiagnosticStatus.WARN,
+            values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self.get_clock().now().to_msg()
+        self.diag_pub.publish(array)
+
+
+def _description(cls: type, name: str) -> str:
+    from gyro_calib.config import field_descriptions
+
+    return field_descriptions(cls).get(name, '')
+
+
+def run_method_node(method: str, node_name: str, result_topics: Mapping[str, str],
+                    settings_cls: type | None = None, args: list[str] | None = None) -> None:
+    """Run a method's node until shut down (the ros2/examples ``main`` shape)."""
+    try:
+        with rclpy.init(args=args):
+            try:
+                node = MethodNode(method, node_name, result_topics, settings_cls)
+            except GyroCalibError as exc:
+                rclpy.logging.get_logger(node_name).fatal(str(exc))
+                raise SystemExit(1) from None
+            spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass

@@ -1,0 +1,24 @@
+"""Hand-off keys of the RBRLG method (the names of format 1, kept: INS code reads them)."""
+
+from __future__ import annotations
+
+from gyro_calib.handoff import HandoffKey
+
+METHOD = 'rbrlg'
+
+HANDOFF_KEYS = (
+    HandoffKey('k_tilde_rad_per_pulse', METHOD, 'K̃, scale factor assuming cos θ = 1 '
+               '(METHODS §A.2 eq. 3), rad/pulse', 'positive'),
+    HandoffKey('scale_factor_rad_per_pulse', METHOD, 'K = K̃·cos θ (eq. 4), rad/pulse; needs θ',
+               'positive'),
+    HandoffKey('fix_error_angle_rad', METHOD, 'θ, the sense axis tilt from the rate-table axis '
+               '(§A.3, multi-station fit), rad'),
+    HandoffKey('bias_plus_earth_rate_rad_s', METHOD, 'ω′ₑ + ω_B along the sense axis from the '
+               'K̃ windows (eqs. 1 + 2), rad/s'),
+    HandoffKey('bias_rad_s', METHOD, 'ω_B, the gyro bias along its sense axis (Earth rate along '
+               'the table axis removed: needs the site latitude), rad/s'),
+    HandoffKey('window_pairs', METHOD, 'forward/reverse window pairs K̃ rests on', 'count',
+               has_std=False),
+    HandoffKey('stations', METHOD, 'position-table stations θ rests on', 'count',
+               has_std=False),
+)

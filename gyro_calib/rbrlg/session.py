@@ -1,0 +1,192 @@
+"""The RBRLG method behind the shared front door (registry, CLI, bag calibration, hand-off).
+
+Feeds :class:`~gyro_calib.rbrlg.calibration.RbrlgCalibrator` exactly as the calibration node
+does from DDS, so a bag gives the same K̃, θ, K and bias offline as when it is replayed into
+the node.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from gyro_calib import topics
+from gyro_calib.errors import ConfigError
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults, handoff_values
+from gyro_calib.rbrlg.config import KTildeConfig, load_k_tilde_config
+from gyro_calib.rbrlg.keys import METHOD
+from gyro_calib.session import CalibrationOptions, MethodSession
+from gyro_calib.units import RAD_PER_ARCSEC
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from gyro_calib.bag import SampleBatch
+    from gyro_calib.estimate import Estimate, Rejection
+
+TOPICS = {topics.GYRO_PULSES: 'sensor_msgs/msg/JointState',
+          topics.RATE_TABLE_JOINT_STATES: 'sensor_msgs/msg/JointState',
+          topics.RATE_TABLE_ZERO_INDEX: 'std_msgs/msg/Header',
+          topics.POSITION_TABLE_JOINT_STATES: 'sensor_msgs/msg/JointState',
+          topics.POSITION_TABLE_ZERO_INDEX: 'std_msgs/msg/Header'}
+
+DEG_H = math.radians(1.0) / 3600.0
+"""rad/s per °/h."""
+
+
+def rbrlg_calibrator(options: CalibrationOptions) -> RbrlgCalibrator:
+    """The calibrator with the user's settings: flags first, then the bench settings stored in
+    the bag, then the defaults."""
+    k_config = load_k_tilde_config(options.config_file) if options.config_file else KTildeConfig()
+    revolutions = int(options.pick(options.position_table_revolutions,
+                                   'position_table_revolutions', 1))
+    if revolutions < 1:
+        raise ConfigError(f'position_table_revolutions = {revolutions} is invalid: it must be at '
+                          'least 1.')
+    return RbrlgCalibrator(
+        k_config=k_config, position_table_revolutions=revolutions,
+        latitude_deg=options.latitude,
+        heading_deg=float(options.pick(options.heading_deg, 'heading_deg', 0.0)))
+
+
+class RbrlgSession(MethodSession):
+    """K̃, θ, K = K̃·cos θ and bias of a rate-biased RLG (METHODS §A)."""
+
+    name = METHOD
+
+    def __init__(self, options: CalibrationOptions) -> None:
+        """Build the calibrator from the options."""
+        self.calibrator = rbrlg_calibrator(options)
+        self._rejections: list[Rejection] = []
+        self._notices: list[str] = []
+
+    def topics(self) -> dict[str, str]:
+        """The two-axis bench's streams."""
+        return dict(TOPICS)
+
+    def feed(self, batch: SampleBatch) -> None:
+        """Pulses, both tables' joint_states and zero-index events of the batch."""
+        pulses = batch.joint_state(topics.GYRO_PULSES)
+        self.calibrator.extend(
+            pulses=pulses[:2] if pulses is not None else None,
+            rate_table=batch.joint_state(topics.RATE_TABLE_JOINT_STATES),
+            rate_zero_index_ns=batch.stamps(topics.RATE_TABLE_ZERO_INDEX),
+            position_table=batch.joint_state(topics.POSITION_TABLE_JOINT_STATES),
+            position_zero_index_ns=batch.stamps(topics.POSITION_TABLE_ZERO_INDEX))
+
+    def process(self, *, flush: bool = False) -> list[str]:
+        """Resolve windows and stations; new rejections and notices as lines."""
+        cal = self.calibrator
+        n_station = len(cal.stations.rejections)
+        update, _ = cal.process(flush=flush)
+        new = list(update.rejections) + cal.stations.rejections[n_station:]
+        self._rejections.extend(new)
+        self._notices.extend(update.notices)
+        return [f'rejected: {r.reason}' for r in new] + list(update.notices)
+
+    @property
+    def rbrlg_results(self) -> RbrlgResults:
+        """K̃, θ, K, ω′ₑ + ω_B and bias as far as measured (″/pulse, rad, °/h)."""
+        return self.calibrator.results()
+
+    def results(self) -> dict[str, Estimate]:
+        """By hand-off key, in SI."""
+        r = self.rbrlg_results
+        out: dict[str, Estimate] = {}
+
+        def put(key: str, est: Estimate | None, scale: float) -> None:
+            if est is not None:
+                out[key] = _scaled(est, scale)
+
+        put('k_tilde_rad_per_pulse', r.k_tilde_arcsec_per_pulse, RAD_PER_ARCSEC)
+        put('scale_factor_rad_per_pulse', r.scale_factor_arcsec_per_pulse, RAD_PER_ARCSEC)
+        put('fix_error_angle_rad', r.fix_error.fix_error_angle_rad if r.fix_error else None, 1.0)
+        put('bias_plus_earth_rate_rad_s', r.earth_plus_bias_deg_h, DEG_H)
+        put('bias_rad_s', r.bias_deg_h, DEG_H)
+        return out
+
+    def missing(self) -> dict[str, str]:
+        """Why each RBRLG key is not measured (yet)."""
+        return self.calibrator.missing()
+
+    def rejections(self) -> list[Rejection]:
+        """Windows, events, pairs and stations rejected, with reasons."""
+        return list(self._rejections)
+
+    def notices(self) -> list[str]:
+        """Stream restarts and the like."""
+        return list(self._notices)
+
+    def data_span_ns(self) -> tuple[int, int] | None:
+        """From the first accepted K̃ window to the last station."""
+        return self.calibrator.data_span_ns()
+
+    def handoff_values(self) -> dict[str, Any]:
+        """The RBRLG hand-off keys (SI) with window and station counts."""
+        return handoff_values(self.rbrlg_results, self.calibrator)
+
+    def summary_rows(self) -> list[tuple[str, str, str, str]]:
+        """K̃, θ, α, K, ω′ₑ + ω_B, bias in the units the bench uses (″/pulse, ″, °, °/h)."""
+        r = self.rbrlg_results
+        rows: list[tuple[str, str, str, str]] = []
+
+        def add(name: str, est: Estimate | None, scale: float = 1.0, fmt: str = '.10f') -> None:
+            if est is None:
+                rows.append((name, '—', '', ''))
+            else:
+                rows.append((name, f'{est.value * scale:{fmt}}',
+                             f'{est.std_uncertainty * scale:.3g}', str(est.n_used)))
+
+        add('K̃ (″/pulse)', r.k_tilde_arcsec_per_pulse)
+        add('θ (″)', r.fix_error.fix_error_angle_rad if r.fix_error else None,
+            1.0 / RAD_PER_ARCSEC, '.3f')
+        add('α (°)', r.fix_error.tilt_rad if r.fix_error else None, math.degrees(1.0), '.5f')
+        add('K (″/pulse)', r.scale_factor_arcsec_per_pulse)
+        add('ω′ₑ+ω_B (°/h)', r.earth_plus_bias_deg_h, fmt='.5f')
+        add('bias ω_B (°/h)', r.bias_deg_h, fmt='.5f')
+        return rows
+
+    def summary_lines(self) -> list[str]:
+        """Windows, pairs, stations; the basis of each uncertainty; what is missing."""
+        cal = self.calibrator
+        r = self.rbrlg_results
+        lines = [f'K̃ windows accepted: {len(cal.k_tilde.windows)}, pairs: '
+                 f'{len(cal.k_tilde.pairs)}; stations: {len(cal.stations.stations)}; '
+                 f'rejected: {len(self._rejections)}']
+        for name, est in (('K̃', r.k_tilde_arcsec_per_pulse), ('ω′ₑ+ω_B', r.earth_plus_bias_deg_h),
+                          ('θ', r.fix_error.fix_error_angle_rad if r.fix_error else None)):
+            if est is not None and est.basis:
+                lines.append(f'{name} uncertainty: {est.basis}, {est.dof} degrees of freedom')
+        lines += [f'{key}: not measured — {why}' for key, why in self.missing().items()]
+        return lines
+
+    def info_lines(self) -> list[str]:
+        """The windows and stations the calibration would use."""
+        cal = self.calibrator
+        lines = [f'K̃ windows it would use: {len(cal.k_tilde.windows)} '
+                 f'({len(cal.k_tilde.pairs)} forward/reverse pairs)']
+        for w in cal.k_tilde.windows:
+            lines.append(f'  t={w.start_ns / 1e9:.6f} s → {w.end_ns / 1e9:.6f} s  '
+                         f'{w.direction * w.revolutions:+d} rev  N = {w.pulses:.3f} pulses')
+        lines.append(f'θ stations it would use: {len(cal.stations.stations)}')
+        for s in cal.stations.stations:
+            lines.append(f'  β = {math.degrees(s.rate_table_angle_rad):.4f}°  '
+                         f'N_og = {s.half_difference_pulses:.3f} pulses')
+        return lines
+
+    def limiting(self) -> str:
+        """What limits the result most, as an action (issue 9 part 5)."""
+        return self.calibrator.limiting_factor()
+
+    def plot(self, out_dir: Path) -> list[Path]:
+        """K̃ per pair with the running mean; the station fit N_og(β) with residuals."""
+        from gyro_calib.rbrlg.plots import plot_rbrlg
+
+        return plot_rbrlg(self.calibrator, out_dir)
+
+
+def _scaled(est: Estimate, scale: float) -> Estimate:
+    import dataclasses
+
+    return dataclasses.replace(est, value=est.value * scale,
+                               std_uncertainty=est.std_uncertainty * scale)

@@ -1,0 +1,124 @@
+"""The methods gyro_calib calibrates: one entry each, the one place the front door looks.
+
+``gyro-calib calibrate`` and ``info``, the bag calibration and the hand-off file go through
+:data:`METHODS`: for each method its name, the input topics that reveal it in a bag, its
+session (the streaming calibrator behind the shared interface, imported only when used) and
+its hand-off keys. Adding a method touches its subpackage, its simulator, its node and one
+entry here.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from gyro_calib import topics
+
+if TYPE_CHECKING:
+    from gyro_calib.handoff import HandoffKey
+    from gyro_calib.session import CalibrationOptions, MethodSession
+
+JOINT_STATE = 'sensor_msgs/msg/JointState'
+HEADER = 'std_msgs/msg/Header'
+IMU = 'sensor_msgs/msg/Imu'
+TEMPERATURE = 'sensor_msgs/msg/Temperature'
+
+
+@dataclass(frozen=True, slots=True)
+class Method:
+    """One calibration method.
+
+    Attributes:
+        name: the name users give to ``--method``.
+        title: one line for listings.
+        topics: topic → message type the method reads.
+        reveal: topics that must all be in a bag for the method to run on it.
+        session: 'module:Class' of its :class:`~gyro_calib.session.MethodSession`.
+        keys: 'module' whose ``HANDOFF_KEYS`` are its hand-off keys.
+        auto: runs on every bag that reveals it when no ``--method`` is given (False: only
+            when asked, e.g. noise characterisation, which any gyro stream would reveal).
+        separate_bags: several bags are separate runs (e.g. one per mounting orientation),
+            fed one after the other with :meth:`MethodSession.start_bag` between them, even when
+            their stamps overlap; otherwise bags recorded at the same time are interleaved.
+    """
+
+    name: str
+    title: str
+    topics: Mapping[str, str]
+    reveal: tuple[str, ...]
+    session: str
+    keys: str
+    auto: bool = True
+    separate_bags: bool = False
+
+    def make_session(self, options: CalibrationOptions) -> MethodSession:
+        """A new session of this method with the user's options."""
+        module, cls = self.session.split(':')
+        return getattr(importlib.import_module(module), cls)(options)  # type: ignore[no-any-return]
+
+    def handoff_keys(self) -> tuple[HandoffKey, ...]:
+        """The keys this method may write to the hand-off file."""
+        return tuple(importlib.import_module(self.keys).HANDOFF_KEYS)
+
+
+METHODS: dict[str, Method] = {m.name: m for m in (
+    Method('rbrlg', 'rate-biased RLG: K̃, θ, K = K̃·cos θ, bias (METHODS §A)',
+           {topics.GYRO_PULSES: JOINT_STATE, topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
+            topics.RATE_TABLE_ZERO_INDEX: HEADER,
+            topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE,
+            topics.POSITION_TABLE_ZERO_INDEX: HEADER},
+           (topics.GYRO_PULSES, topics.RATE_TABLE_JOINT_STATES, topics.RATE_TABLE_ZERO_INDEX),
+           'gyro_calib.rbrlg.session:RbrlgSession', 'gyro_calib.rbrlg.keys'),
+    Method('fog', 'FOG scale factor: turntable (IEEE Std 952) and ladder-wave self-calibration '
+           '(METHODS §B)',
+           {topics.FOG_OUTPUT: JOINT_STATE, topics.FOG_INJECTION: JOINT_STATE,
+            topics.RATE_TABLE_JOINT_STATES: JOINT_STATE, topics.RATE_TABLE_ZERO_INDEX: HEADER},
+           (topics.FOG_OUTPUT,),
+           'gyro_calib.fog.session:FogSession', 'gyro_calib.fog.keys'),
+    Method('dither', 'dither-axis misalignment of a dithered RLG and its coning drift '
+           '(METHODS §C)',
+           {topics.GYRO_PULSES: JOINT_STATE, topics.VIBRATION_TABLE_JOINT_STATES: JOINT_STATE},
+           (topics.GYRO_PULSES, topics.VIBRATION_TABLE_JOINT_STATES),
+           'gyro_calib.dither.session:DitherSession', 'gyro_calib.dither.keys',
+           separate_bags=True),
+    Method('thermal', 'temperature bias model: lifting-wavelet denoising, stepwise regression '
+           '(METHODS §D)',
+           {topics.GYRO_PULSES: JOINT_STATE, topics.GYRO_TEMPERATURE: TEMPERATURE},
+           (topics.GYRO_PULSES, topics.GYRO_TEMPERATURE),
+           'gyro_calib.thermal.session:ThermalSession', 'gyro_calib.thermal.keys'),
+    Method('noise', 'noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml '
+           '(METHODS §E)',
+           {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE},
+           (), 'gyro_calib.noise.session:NoiseSession', 'gyro_calib.noise.keys', auto=False),
+)}
+"""Every method, by name."""
+
+
+@functools.cache
+def handoff_schema() -> dict[str, HandoffKey]:
+    """Every hand-off key of every method, by key name (the loader's schema)."""
+    out: dict[str, HandoffKey] = {}
+    for method in METHODS.values():
+        for key in method.handoff_keys():
+            if key.name in out:
+                raise RuntimeError(f'hand-off key {key.name} is claimed by {out[key.name].method} '
+                                   f'and {key.method}')
+            out[key.name] = key
+    return out
+
+
+def methods_revealed(topic_types: Mapping[str, str]) -> list[Method]:
+    """The automatic methods whose revealing topics are all present (with their types)."""
+    return [m for m in METHODS.values() if m.auto and m.reveal
+            and all(topic_types.get(t) == m.topics[t] for t in m.reveal)]
+
+
+def topic_types(methods: Iterable[Method]) -> dict[str, str]:
+    """Topic → type of everything the given methods read."""
+    out: dict[str, str] = {}
+    for m in methods:
+        out.update(m.topics)
+    return out
