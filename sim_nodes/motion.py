@@ -108,24 +108,33 @@ def rate_bias_profile(
     duration_s: float,
     initial_angle_rad: float = 0.0,
     ripple: RateRipple | None = None,
+    settle_s: float = 0.0,
 ) -> MotionProfile:
     """Rate-bias turntable motion (METHODS §A.1).
 
     From rest: accelerate to +rate, turn ``revolutions_per_segment`` revolutions
-    at constant rate, reverse through zero at constant deceleration to -rate,
-    turn the same number of revolutions back, reverse again, and so on until
-    ``duration_s``. The constant-rate segments always span the same angles.
+    at constant rate, reverse through zero at constant deceleration to -rate (resting
+    ``settle_s`` at zero rate on the way, when given), turn the same number of revolutions
+    back, reverse again, and so on until ``duration_s``. The constant-rate segments always
+    span the same angles.
     """
     if rate_rad_s <= 0.0 or acceleration_rad_s2 <= 0.0 or revolutions_per_segment <= 0.0:
         raise ValueError('rate, acceleration and revolutions_per_segment must be positive')
+    if settle_s < 0.0:
+        raise ValueError('settle_s must not be negative')
     t_const = revolutions_per_segment * 2.0 * math.pi / rate_rad_s
-    t_rev = 2.0 * rate_rad_s / acceleration_rad_s2
-    durations = [rate_rad_s / acceleration_rad_s2]
+    t_half = rate_rad_s / acceleration_rad_s2
+    durations = [t_half]
     accels = [acceleration_rad_s2]
     direction = 1.0
     while sum(durations) < duration_s:
-        durations += [t_const, t_rev]
-        accels += [0.0, -direction * acceleration_rad_s2]
+        if settle_s > 0.0:
+            durations += [t_const, t_half, settle_s, t_half]
+            accels += [0.0, -direction * acceleration_rad_s2, 0.0,
+                       -direction * acceleration_rad_s2]
+        else:
+            durations += [t_const, 2.0 * t_half]
+            accels += [0.0, -direction * acceleration_rad_s2]
         direction = -direction
     return MotionProfile(
         durations, accels, initial_angle_rad=initial_angle_rad, ripple=ripple

@@ -39,6 +39,8 @@ class RateTableConfig:
     """Whole revolutions at constant rate between reversals (m + 1, so an m = 5 window fits)."""
     acceleration_deg_s2: float = 1000.0
     """Angular acceleration during reversals, °/s²."""
+    settle_s: float = 0.0
+    """Rest at zero rate in the middle of each reversal, s (0 = reverse straight through)."""
     rate_ripple_fraction: float = 0.0
     """Rate ripple amplitude relative to the nominal rate (0 = off)."""
     rate_ripple_hz: float = 5.0
@@ -102,6 +104,7 @@ class RateTableSimulator:
             acceleration_rad_s2=math.radians(config.acceleration_deg_s2),
             revolutions_per_segment=config.revolutions_per_segment,
             duration_s=config.duration_s,
+            settle_s=config.settle_s,
             ripple=RateRipple(config.rate_ripple_fraction, config.rate_ripple_hz, rate),
         )
         self._period_ns = config.sample_period_ns

@@ -133,6 +133,10 @@ class Scenario:
         }
 
 
+# The odd bench's reference mark: 5.7° back from the reversal point after the forward cruise,
+# which lies at 2·ω²/(2a) + 6.4 revolutions = 174.375° (ω = 135 °/s, a = 600 °/s²).
+ODD_BENCH_MARK_DEG = 2 * 135.0**2 / (2 * 600.0) + 0.4 * 360.0 - 5.7
+
 # K̃ bench runs: the paper's rate table and gyro, 100 s (three forward/reverse pairs, so a
 # fault that costs a pair still leaves K̃).
 _K_TABLE = RateTableConfig(duration_s=100.0, seed=21)
@@ -181,6 +185,16 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
              faults=Faults(index_burst_s=(31.0, 43.0), index_burst_arcsec=300.0),
              expected={'window_pairs': 2, 'windows_accepted': 5, 'rejections': 5,
                        'rejection_reasons': ['jitter burst']}),
+    Scenario('k_tilde_mark_in_acceleration', "Someone else's rate-bias bench: 135 °/s, "
+             '600 °/s², 0.5 s rest at each reversal, 6.4 revolutions of cruise, and the '
+             'reference mark 5.7° past one reversal point, so the zero-index event after '
+             'that reversal falls in the acceleration (issue 9).', 'rate_bias',
+             RateTableConfig(duration_s=112.0, rate_deg_s=135.0, acceleration_deg_s2=600.0,
+                             settle_s=0.5, revolutions_per_segment=6.4,
+                             zero_index_angle_deg=ODD_BENCH_MARK_DEG, seed=27),
+             dataclasses.replace(_K_GYRO, seed=27),
+             expected={'window_pairs': 3, 'windows_accepted': 6, 'rejections': 6,
+                       'rejection_reasons': ['table accelerating at the zero-index event']}),
     Scenario('fault_out_of_order', 'K̃ bench whose gyro samples arrive with 200 '
              'neighbouring pairs swapped.', 'rate_bias', dataclasses.replace(_K_TABLE, seed=26),
              dataclasses.replace(_K_GYRO, seed=26), faults=Faults(out_of_order_pulses=200),
