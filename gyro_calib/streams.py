@@ -120,11 +120,14 @@ class StampedBuffer:
             t, v = t[~late], v[~late]
         if len(t):
             self._consolidate()
+            in_order = bool(np.all(t[1:] > t[:-1])) and (len(self._t) == 0
+                                                        or int(t[0]) > int(self._t[-1]))
             self._t = np.concatenate((self._t, t))
             self._v = np.concatenate((self._v, v))
             newest = int(t.max())
             self._newest_ns = newest if self._newest_ns is None else max(self._newest_ns, newest)
-            self._sort_and_dedupe()
+            if not in_order:  # the common case (strictly after what is held) needs no sort
+                self._sort_and_dedupe()
         return restarted
 
     def clear(self) -> None:

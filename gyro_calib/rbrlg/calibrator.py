@@ -45,10 +45,15 @@ MAX_FIT_HALF_WIDTH_S = 2.0
 
 
 def _period_near(t_ns: np.ndarray, t_event: int, half_ns: int) -> float:
-    """Median sample period of the stamps within ±``half_ns`` of ``t_event`` (0 if < 2), ns."""
+    """Median sample period (the upper median for an even count) of the stamps within
+    ±``half_ns`` of ``t_event`` (0 if fewer than 2), ns."""
     lo = int(np.searchsorted(t_ns, t_event - half_ns, 'left'))
     hi = int(np.searchsorted(t_ns, t_event + half_ns, 'right'))
-    return float(np.median(np.diff(t_ns[lo:hi]))) if hi - lo >= 2 else 0.0
+    if hi - lo < 2:
+        return 0.0
+    d = np.diff(t_ns[lo:hi])
+    k = len(d) // 2
+    return float(np.partition(d, k)[k])
 
 
 @dataclass(frozen=True, slots=True)
@@ -201,14 +206,15 @@ class RateBiasCalibrator:
         notices, self._notices = tuple(self._notices), []
         return CalibrationUpdate(tuple(new_windows), tuple(new_pairs), tuple(rejections), notices)
 
-    def _fit_half_width_ns(self, t_event: int, p_t: np.ndarray) -> int:
+    def _fit_half_width_ns(self, t_event: int, p_t: np.ndarray,
+                           period_ns: float | None = None) -> int:
         """Half-width of the fits around an event: ``fit_half_width_s``, widened so that a
         slow pulse stream still gives ``min_fit_samples_per_side`` samples each side (its
         period read from the samples within ±``fit_half_width_s``), at most MAX_FIT_HALF_WIDTH_S.
         """
         cfg = self.config
         half_ns = int(cfg.fit_half_width_s * NS_PER_S)
-        period = _period_near(p_t, t_event, half_ns)
+        period = _period_near(p_t, t_event, half_ns) if period_ns is None else period_ns
         if period <= 0:
             return half_ns
         need = int((cfg.min_fit_samples_per_side + 1) * period * 1.02)
@@ -233,7 +239,11 @@ class RateBiasCalibrator:
         """The table and the gyro at an event: encoder angle and pulse count by the same
         local fit, the table rate and how much it varies over the fit span."""
         cfg = self.config
-        half_ns = self._fit_half_width_ns(t_event, p_t)
+        nominal_ns = int(cfg.fit_half_width_s * NS_PER_S)
+        pulse_period = _period_near(p_t, t_event, nominal_ns)
+        half_ns = self._fit_half_width_ns(t_event, p_t, pulse_period)
+        if half_ns != nominal_ns:
+            pulse_period = _period_near(p_t, t_event, half_ns)
         half_s = half_ns / NS_PER_S
         angle = rate = math.nan
         angle_std = spread = 0.0
@@ -256,7 +266,7 @@ class RateBiasCalibrator:
                 pass  # too few encoder samples for a fit: the interpolated angle stands
             else:
                 angle, angle_std = fit.value, fit.std_uncertainty
-        pulse_gap_s = max(cfg.max_fit_gap_s, 2.5 * _period_near(p_t, t_event, half_ns) / NS_PER_S)
+        pulse_gap_s = max(cfg.max_fit_gap_s, 2.5 * pulse_period / NS_PER_S)
         state = dict(angle_std_rad=angle_std, rate_spread=spread, half_width_ns=half_ns)
         try:
             count = count_at_instant(
@@ -290,11 +300,13 @@ class RateBiasCalibrator:
         self.table.discard_before(keep_from - int(TABLE_HISTORY_S * NS_PER_S))
 
     def _trim_idle(self) -> None:
-        """With no index events at all, keep memory bounded to about max_window_s of data.
+        """With no index events pending, keep only what an event still to come may need: a
+        lagging event stream is waited for at most ``stall_timeout_s``, so the data older
+        than that (plus the widest fit span) can no longer be asked for.
 
-        Trims only once a buffer holds 1.25 × max_window_s, so the cost is amortised.
+        Trims only once a buffer holds 1.25 × that span, so the cost is amortised.
         """
-        limit = int(self.config.max_window_s * NS_PER_S)
+        limit = int((self.config.stall_timeout_s + 2 * MAX_FIT_HALF_WIDTH_S) * NS_PER_S)
         if self._cutter.open_event is not None:
             return
         for buf in (self.pulses, self.table):  # a stream never seen (no table) holds nothing

@@ -107,17 +107,28 @@ def count_at_instant(
     x = (t_span - instant_ns).astype(np.float64) / NS_PER_S
     y0 = counts[mid] if mid < hi else counts[lo]
     y = counts[lo:hi] - y0
-    design = np.vander(x, order + 1, increasing=True)
-    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-    residual = y - design @ coef
-    dof = len(x) - (order + 1)
-    s2 = float(residual @ residual) / dof
-    cov = s2 * np.linalg.inv(design.T @ design)
+    n = len(x)
+    if order == 1:  # the straight line in closed form (the common case, ~10× faster)
+        xm, ym = float(x.mean()), float(y.mean())
+        dx = x - xm
+        sxx = float(dx @ dx)
+        slope = float(dx @ (y - ym)) / sxx
+        intercept = ym - slope * xm
+        residual = y - (intercept + slope * x)
+        s2 = float(residual @ residual) / (n - 2)
+        value, var0, rate = intercept, s2 * (1.0 / n + xm * xm / sxx), slope
+    else:
+        design = np.vander(x, order + 1, increasing=True)
+        coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+        residual = y - design @ coef
+        s2 = float(residual @ residual) / (n - (order + 1))
+        var0 = float((s2 * np.linalg.inv(design.T @ design))[0, 0])
+        value, rate = float(coef[0]), float(coef[1])
     return CountAtInstant(
-        value=float(coef[0] + y0),
-        std_uncertainty=math.sqrt(cov[0, 0]),
-        n_used=len(x),
-        rate_pulses_s=float(coef[1]),
+        value=value + float(y0),
+        std_uncertainty=math.sqrt(var0),
+        n_used=n,
+        rate_pulses_s=rate,
         max_residual=float(np.max(np.abs(residual))),
     )
 
