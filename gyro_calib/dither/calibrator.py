@@ -306,6 +306,7 @@ class DitherCalibrator:
     _bad_frames: Counter[str] = field(default_factory=Counter)
     _lag_mark: tuple[int, int] | None = None
     _n_rejections_logged: int = 0
+    _recording_code: float | None = None
 
     def __post_init__(self) -> None:
         """Create the stream buffers and the two orientation records."""
@@ -372,6 +373,7 @@ class DitherCalibrator:
         if other.newest_ns is not None and (new_ns is None or other.newest_ns >= new_ns + back):
             other.clear()
         self._anchor_ns, self._next_block, self._lag_mark = None, 0, None
+        self._recording_code = None
         self._notices.append(
             f'{topic} restarted (stamps jumped back by more than '
             f'{self.settings.restart_backstep_s:g} s): the open block was dropped, '
@@ -382,17 +384,28 @@ class DitherCalibrator:
         """Judge what is left of this recording and start afresh for the next one.
 
         Use between two recordings (the Z bag, then the Y bag): their stamps may overlap or
-        go back, and the last partial block of the first is kept.
+        go back, and the last partial block of the first is kept. Without it (a live node),
+        a change of the joint_states frame_id is taken as the end of one recording and the
+        start of the next (see :meth:`process`): for recordings that follow each other in
+        time the results are identical, bit for bit.
         """
         lines = self.process(flush=True)
         self.pulses.clear()
         self.table.clear()
         self._anchor_ns, self._next_block, self._lag_mark = None, 0, None
+        self._recording_code = None
         return lines
 
     # -- processing --------------------------------------------------------------------------
     def process(self, *, flush: bool = False) -> list[str]:
         """Reduce every block both streams have passed; return new log lines.
+
+        A change of the table's frame_id (the table re-mounted along the other case axis)
+        ends one recording and starts the next, exactly as :meth:`end_recording` between
+        them would: once the pulses have passed the first joint_states sample of the new
+        orientation (stamp b), the block holding the old recording's last pulse is judged
+        as a last block (used if it spans at least half a block, on the samples before b),
+        and the block grid is anchored afresh at the first pulse from b on.
 
         Args:
             flush: end of the data: also judge the last, partial block (used if it spans at
@@ -401,13 +414,17 @@ class DitherCalibrator:
         s = self.settings
         block_ns = int(round(s.block_s * NS_PER_S))
         accepted: Counter[str] = Counter()
-        if self._anchor_ns is None and self.pulses.newest_ns is not None:
-            p_t, _ = self.pulses.arrays()
-            if len(p_t):
-                self._anchor_ns = int(p_t[0])
+        self._anchor()
         while self._anchor_ns is not None:
             start = self._anchor_ns + self._next_block * block_ns
             end = start + block_ns
+            boundary = self._orientation_boundary(end, flush)
+            if boundary is not None:
+                axis = self._end_orientation(start, end, boundary)
+                if axis is not None:
+                    accepted[axis] += 1
+                self._anchor()
+                continue
             newest = [self.pulses.newest_ns, self.table.newest_ns]
             lead = max((n for n in newest if n is not None), default=None)
             if lead is None:
@@ -439,6 +456,64 @@ class DitherCalibrator:
             self.table.discard_before(end)
             self._next_block += 1
         return self._log_lines(accepted)
+
+    def _anchor(self) -> None:
+        """Anchor the block grid at the first pulse held, if it is not anchored."""
+        if self._anchor_ns is None and self.pulses.newest_ns is not None:
+            p_t, _ = self.pulses.arrays()
+            if len(p_t):
+                self._anchor_ns = int(p_t[0])
+
+    def _orientation_boundary(self, end: int, flush: bool) -> int | None:
+        """Stamp b of the first joint_states sample of a new orientation, if the current
+        recording's last block is the one ending at ``end`` and the pulses before b are all
+        in (or the data ends); else None."""
+        t_t, t_v = self.table.arrays()
+        if not len(t_t):
+            return None
+        if self._recording_code is None:
+            self._recording_code = float(t_v[0, 2])
+        change = np.flatnonzero(t_v[:, 2] != self._recording_code)
+        if not len(change):
+            return None
+        b = int(t_t[change[0]])
+        newest = self.pulses.newest_ns
+        if not flush and (newest is None or newest < b):
+            return None  # pulses of the old orientation may still arrive
+        p_t, _ = self.pulses.arrays()
+        n_before = int(np.searchsorted(p_t, b))
+        if n_before and p_t[n_before - 1] >= end:
+            return None  # the old recording goes on past this block
+        return b
+
+    def _end_orientation(self, start: int, end: int, boundary: int) -> str | None:
+        """Judge the old recording's last block on the samples before ``boundary`` (as
+        ``process(flush=True)`` judges a last block), then start the next recording there."""
+        block_ns = end - start
+        stop = min(end, boundary)
+        p_t, p_v = self.pulses.arrays()
+        t_t, t_v = self.table.arrays()
+        pi = slice(*np.searchsorted(p_t, [start, stop]))
+        ti = slice(*np.searchsorted(t_t, [start, stop]))
+        old = AXES[int(self._recording_code or 0.0)]
+        new_code = t_v[int(np.searchsorted(t_t, boundary)), 2]
+        self._notices.append(
+            f'the table was re-mounted: joint_states frame_id changed from "{old}" to '
+            f'"{AXES[int(new_code)]}" at {_stamp(boundary)}; the {old.upper()} recording ends '
+            'there and the next starts (as end_recording() between them).')
+        axis = None
+        pb, counts = p_t[pi], p_v[pi, 0]
+        if len(pb) and pb[-1] - start >= block_ns // 2:
+            axis = self._reduce(start, end, pb, counts, t_t[ti], t_v[ti])
+        elif len(pb) and pb[-1] > start:
+            self._notices.append(
+                f'the last {(pb[-1] - start) / NS_PER_S:.2f} s of pulses (from '
+                f'{_stamp(start)}) are shorter than half a block: not used.')
+        self.pulses.discard_before(boundary)
+        self.table.discard_before(boundary)
+        self._anchor_ns, self._next_block, self._lag_mark = None, 0, None
+        self._recording_code = None
+        return axis
 
     def _stalled(self, newest: list[int | None]) -> bool:
         """True if one stream stopped while the other ran on by ``stall_timeout_s``."""
@@ -850,8 +925,14 @@ class DitherCalibrator:
             out[KEY_FREQUENCY] = Estimate(float(freqs.mean()), f_std, n, n - 1)
             if self.settings.has_scale_factor:
                 scale = summary.dither_amplitude_rad / float(amps.mean())
-                out[KEY_AMPLITUDE] = Estimate(summary.dither_amplitude_rad, a_std * scale, n,
-                                              n - 1)
+                # θ_d = K·P/cos a: a's uncertainty (rocking bound included) enters as tan a·u(a)
+                comps = self.components()[0]
+                a_raw = math.hypot(*(c.signed_rad for c in comps.values())) if comps else 0.0
+                u_a = (m.std_rad if m is not None else
+                       math.hypot(*(c.std_rad for c in comps.values())) if comps else 0.0)
+                rel = math.tan(a_raw) * u_a if math.isfinite(u_a) else 0.0
+                std = math.hypot(a_std * scale, rel * summary.dither_amplitude_rad)
+                out[KEY_AMPLITUDE] = Estimate(summary.dither_amplitude_rad, std, n, n - 1)
             else:
                 out[KEY_AMPLITUDE_PULSES] = Estimate(float(amps.mean()), a_std, n, n - 1)
         return out

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from gyro_calib.errors import ConfigError
 
@@ -78,6 +80,9 @@ class DitherSettings:
     left open are judged with what is there, s."""
     spectrum_samples: int = 4096
     """FFT length of the averaged spectrum kept for the plot (a power of two)."""
+    target_std_arcmin: float = math.nan
+    """σ per component that ``gyro-calib info`` plans the record for, arcmin (NaN = half the
+    acceptance limit at the coverage factor: max_misalignment_arcmin / (2·k))."""
 
     def __post_init__(self) -> None:
         """Validate every field once; raise ConfigError naming the field."""
@@ -122,6 +127,8 @@ class DitherSettings:
              'finite'),
             ('restart_backstep_s', self.restart_backstep_s > 0, 'positive'),
             ('stall_timeout_s', self.stall_timeout_s > 0, 'positive'),
+            ('target_std_arcmin', math.isnan(self.target_std_arcmin)
+             or self.target_std_arcmin > 0, 'NaN (half the limit at k) or positive'),
             ('spectrum_samples', self.spectrum_samples >= 256
              and self.spectrum_samples & (self.spectrum_samples - 1) == 0,
              'a power of two ≥ 256'),
@@ -146,6 +153,39 @@ class DitherSettings:
         return self.rocking_arcsec_per_arcmin / 60.0
 
     @property
+    def target_std_rad(self) -> float:
+        """The σ per component ``gyro-calib info`` plans for, rad."""
+        arcmin = (self.max_misalignment_arcmin / (2.0 * self.verdict_coverage_factor)
+                  if math.isnan(self.target_std_arcmin) else self.target_std_arcmin)
+        return math.radians(arcmin / 60.0)
+
+    @property
     def line_separation_hz(self) -> float:
         """Effective minimum separation of modelled lines, Hz."""
         return max(self.min_line_separation_hz, 3.0 / self.block_s)
+
+
+def dither_settings_from_mapping(values: Mapping[str, Any], *,
+                                 source: str = 'mapping') -> DitherSettings:
+    """DitherSettings from a mapping (a YAML file, ROS parameters), rejecting unknown keys.
+
+    Integers are taken for float fields (YAML ``block_s: 2``).
+
+    Raises:
+        ConfigError: an unknown field or an invalid value, naming the field and ``source``.
+    """
+    fields = {f.name: f for f in dataclasses.fields(DitherSettings)}
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; known fields: '
+                          f'{", ".join(sorted(fields))}.')
+    kwargs = {}
+    for name, value in values.items():
+        if (str(fields[name].type) == 'float' and isinstance(value, int)
+                and not isinstance(value, bool)):
+            value = float(value)
+        kwargs[name] = value
+    try:
+        return DitherSettings(**kwargs)
+    except ConfigError as exc:
+        raise ConfigError(f'{exc} (in {source})') from None

@@ -1,0 +1,418 @@
+"""The dither method behind the shared front door (registry, CLI, bag calibration, hand-off).
+
+Feeds :class:`~gyro_calib.dither.calibrator.DitherCalibrator` from ``/gyro/pulses`` and
+``/vibration_table/joint_states`` (the orientation is each sample's header.frame_id, ``'z'``
+or ``'y'``) exactly as ``dither_calibration_node`` does from DDS, so two bags give the same
+numbers offline as when they are replayed into the node. The bags of the two orientations
+are separate runs (:attr:`gyro_calib.registry.Method.separate_bags`): between them the
+calibrator's recording is ended (:meth:`DitherSession.start_bag`); live, the change of
+frame_id does the same (:meth:`DitherCalibrator.process`).
+
+The scale factor K (rad/pulse) gives θ_d in rad: from ``--scale-factor-rad-per-pulse`` (the
+node's ``scale_factor_rad_per_pulse``), else the settings file, else a hand-off file
+(``--calibration``: its ``scale_factor_rad_per_pulse``, or ``k_tilde_rad_per_pulse``); without
+it θ_d is reported in pulses and every figure that needs it says so. The misalignment itself
+needs no K (it is a ratio of the sideband to the dither line).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import TYPE_CHECKING, Any
+
+from gyro_calib.config import read_parameter_file
+from gyro_calib.dither import topics
+from gyro_calib.dither.calibrator import (
+    AXES,
+    KEY_A,
+    KEY_AMPLITUDE,
+    KEY_AMPLITUDE_PULSES,
+    KEY_CONING,
+    KEY_CONING_TOTAL,
+    KEY_FREQUENCY,
+    KEY_Y,
+    KEY_Z,
+    DitherCalibrator,
+    DitherSummary,
+)
+from gyro_calib.dither.floor import (
+    required_record_s,
+    required_sample_rate_hz,
+    required_table_rate_amplitude_rad_s,
+)
+from gyro_calib.dither.keys import METHOD
+from gyro_calib.dither.misalignment import RAD_PER_ARCMIN, Component
+from gyro_calib.dither.settings import DitherSettings, dither_settings_from_mapping
+from gyro_calib.errors import ConfigError
+from gyro_calib.session import CalibrationOptions, MethodSession
+from gyro_calib.units import NS_PER_S, RAD_PER_ARCSEC
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from gyro_calib.bag import SampleBatch
+    from gyro_calib.estimate import Estimate, Rejection
+
+JOINT_STATE = 'sensor_msgs/msg/JointState'
+TOPICS = {topics.GYRO_PULSES: JOINT_STATE, topics.VIBRATION_TABLE_JOINT_STATES: JOINT_STATE}
+NODE_NAME = 'dither_calibration_node'
+DEG_H_PER_RAD_S = 180.0 / math.pi * 3600.0
+"""°/h per rad/s."""
+
+
+def _arcmin(value_rad: float) -> str:
+    return f'{value_rad / RAD_PER_ARCMIN:.2f}′'
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f'{seconds:.0f} s'
+    if seconds < 7200:
+        return f'{seconds / 60:.0f} min'
+    return f'{seconds / 3600:.1f} h'
+
+
+def _finite_or_none(value: Any) -> Any:
+    """JSON-safe: non-finite floats become None (``--json`` refuses NaN)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _scale_factor_from_file(path: Path) -> tuple[float, str]:
+    """K from a hand-off file: its K, else its K̃ (they differ by cos θ, a few 1e-5)."""
+    from gyro_calib.handoff import load_calibration
+
+    cal = load_calibration(path)
+    for key, what in (('scale_factor_rad_per_pulse', 'K'),
+                      ('k_tilde_rad_per_pulse', 'K̃ (taken for K; K = K̃·cos θ differs by '
+                                                 'a few 1e-5, far below what θ_d needs)')):
+        got = cal.measured(key)
+        if got is not None:
+            return got[0], f'{what} from {path}'
+    raise ConfigError(f'calibration file {path} holds neither scale_factor_rad_per_pulse nor '
+                      'k_tilde_rad_per_pulse: give --scale-factor-rad-per-pulse, or calibrate '
+                      'the gyro\'s scale factor first (gyro-calib calibrate ... --method rbrlg '
+                      '--out FILE).')
+
+
+def dither_settings(options: CalibrationOptions) -> tuple[DitherSettings, str]:
+    """The settings (node parameters, then the config file's values) with K resolved, and a
+    sentence saying where K came from (or that it is unknown)."""
+    values = dict(options.settings)
+    source = 'ROS parameters'
+    if options.config_file is not None:
+        values.update(read_parameter_file(options.config_file, node_name=NODE_NAME))
+        source = str(options.config_file)
+    settings = dither_settings_from_mapping(values, source=source)
+    if options.scale_factor_rad_per_pulse is not None:
+        k, where = float(options.scale_factor_rad_per_pulse), 'K given'
+    elif settings.has_scale_factor:
+        k, where = settings.scale_factor_rad_per_pulse, f'K from {source}'
+    elif options.calibration_file is not None:
+        k, where = _scale_factor_from_file(options.calibration_file)
+    else:
+        return settings, ('no scale factor K given: θ_d is reported in pulses '
+                          '(dither_amplitude_pulses) and the dither × rocking coning is not '
+                          'computed; give --scale-factor-rad-per-pulse or --calibration FILE.')
+    if not (0 < k < 1e-2):
+        raise ConfigError(f'scale factor K = {k!r} rad/pulse ({where}) is invalid: it must be '
+                          'between 0 and 0.01 rad/pulse.')
+    settings = dataclasses.replace(settings, scale_factor_rad_per_pulse=k)
+    return settings, f'{where}: K = {k / RAD_PER_ARCSEC:.6g}″/pulse ({k:.6g} rad/pulse).'
+
+
+class DitherSession(MethodSession):
+    """Dither-axis misalignment a, its components, θ_d and the coning drift (METHODS §C)."""
+
+    name = METHOD
+
+    def __init__(self, options: CalibrationOptions) -> None:
+        """Build the calibrator from the options."""
+        settings, self.scale_factor_note = dither_settings(options)
+        self.calibrator = DitherCalibrator(settings)
+        self._pending: list[str] = []
+        self._bags: list[str] = []
+
+    # -- input ------------------------------------------------------------------------------
+    def topics(self) -> dict[str, str]:
+        """Pulses and the vibration table's joint_states."""
+        return dict(TOPICS)
+
+    def feed(self, batch: SampleBatch) -> None:
+        """Pulses (position = cumulative count) and table states (angle, rate, frame_id)."""
+        cal = self.calibrator
+        pulses = batch.joint_state(topics.GYRO_PULSES)
+        if pulses is not None:
+            cal.extend_pulses(pulses[0], pulses[1])
+        table = batch.columns.get(topics.VIBRATION_TABLE_JOINT_STATES)
+        if table is not None and len(table):
+            codes, names = table.frame_id.codes, table.frame_id.names
+            first = int(codes[0])
+            if bool((codes == first).all()):
+                frame: str | list[str] = names[first]
+            else:
+                frame = [names[c] for c in codes.tolist()]
+            cal.extend_table_states(table.stamp_ns, table.values['position'],
+                                    table.values['velocity'], frame)
+
+    def start_bag(self, index: int, path: Path) -> None:
+        """Bag ``index`` begins: end the previous bag's recording (its last block judged)."""
+        self._bags.append(str(path))
+        if index > 0:
+            self._pending.extend(self.calibrator.end_recording())
+
+    def process(self, *, flush: bool = False) -> list[str]:
+        """Reduce the blocks the data allow; new log lines."""
+        lines, self._pending = self._pending, []
+        return lines + self.calibrator.process(flush=flush)
+
+    # -- results ----------------------------------------------------------------------------
+    def _all_results(self) -> dict[str, Estimate]:
+        return self.calibrator.results()
+
+    def results(self) -> dict[str, Estimate]:
+        """By hand-off key (SI), those with a finite value and uncertainty."""
+        return {k: e for k, e in self._all_results().items()
+                if math.isfinite(e.value) and math.isfinite(e.std_uncertainty)}
+
+    def missing(self) -> dict[str, str]:
+        """Why each dither key is not measured (yet)."""
+        out = self.calibrator.missing()
+        for key, est in self._all_results().items():
+            if not (math.isfinite(est.value) and math.isfinite(est.std_uncertainty)):
+                out[key] = (f'only {est.n_used} accepted block: its uncertainty needs the '
+                            'scatter of at least two.')
+        return out
+
+    def rejections(self) -> list[Rejection]:
+        """Blocks rejected, each with its reason."""
+        return list(self.calibrator.rejections)
+
+    def notices(self) -> list[str]:
+        """Samples the streams dropped (duplicates, non-finite, late) and restarts."""
+        out = []
+        for name, buf in ((topics.GYRO_PULSES, self.calibrator.pulses),
+                          (topics.VIBRATION_TABLE_JOINT_STATES, self.calibrator.table)):
+            summary = buf.stats.summary()
+            if summary:
+                out.append(f'{name}: {summary}')
+        return out
+
+    def data_span_ns(self) -> tuple[int, int] | None:
+        """From the first to the last accepted block's samples."""
+        blocks = [b for r in self.calibrator.orientations.values() for b in r.blocks]
+        if not blocks:
+            return None
+        return (min(b.start_ns for b in blocks),
+                max(b.start_ns + int(round(b.span_s * NS_PER_S)) for b in blocks))
+
+    # -- reports ----------------------------------------------------------------------------
+    def summary_rows(self) -> list[tuple[str, str, str, str]]:
+        """a, the two components, θ_d, f_d and the coning drift in the paper's units."""
+        res = self.results()
+        rows: list[tuple[str, str, str, str]] = []
+
+        def add(name: str, key: str, scale: float, fmt: str) -> None:
+            est = res.get(key)
+            if est is None:
+                rows.append((name, '—', '', ''))
+            else:
+                rows.append((name, f'{est.value * scale:{fmt}}',
+                             f'{est.std_uncertainty * scale:.3g}', str(est.n_used)))
+
+        per_arcmin = 1.0 / RAD_PER_ARCMIN
+        add('a (′)', KEY_A, per_arcmin, '.3f')
+        add('a·|sin ψ₀|, table along Z (′)', KEY_Z, per_arcmin, '.3f')
+        add('a·|cos ψ₀|, table along Y (′)', KEY_Y, per_arcmin, '.3f')
+        if self.calibrator.settings.has_scale_factor:
+            add('θ_d (′)', KEY_AMPLITUDE, per_arcmin, '.4f')
+        else:
+            add('θ_d (pulses; no K given)', KEY_AMPLITUDE_PULSES, 1.0, '.3f')
+        add('f_d (Hz)', KEY_FREQUENCY, 1.0, '.4f')
+        add('ε eq. (24) (°/h)', KEY_CONING, DEG_H_PER_RAD_S, '.3g')
+        add('ε with dither × rocking (°/h)', KEY_CONING_TOTAL, DEG_H_PER_RAD_S, '.3g')
+        return rows
+
+    def summary_lines(self) -> list[str]:
+        """Each component and a with the floor beside it, the verdict (only when the record
+        decides it; else what record would), the coning, K's source and what is missing."""
+        cal = self.calibrator
+        n = {axis: rec.equations.n_blocks for axis, rec in cal.orientations.items()}
+        lines = [f'blocks accepted: {n["z"]} with the table along Z, {n["y"]} along Y; '
+                 f'rejected: {len(cal.rejections)}']
+        lines += cal.summary().lines()
+        lines.append(self.scale_factor_note)
+        lines.append('rocking: ' + self._rocking_note())
+        lines += [f'{key}: not measured — {why}' for key, why in self.missing().items()]
+        return lines
+
+    def _rocking_note(self) -> str:
+        s = self.calibrator.settings
+        if s.rocking_treatment == 'bound' and not s.has_scale_factor:
+            return ('in-phase transverse rocking NOT bounded: the bound k·a/θ_d needs θ_d in '
+                    'rad, i.e. the scale factor K; without it the uncertainties are '
+                    'statistical only and each component may be shifted by up to '
+                    f'{s.rocking_arcsec_per_arcmin:.3g}″ per ′ of a over θ_d (give K).')
+        if s.rocking_treatment == 'bound':
+            return (f'in-phase transverse rocking bounded (k = {s.rocking_arcsec_per_arcmin:.3g}″ '
+                    f'per ′, {s.rocking_model} model) and added to each uncertainty as a '
+                    'rectangular Type B (rocking_treatment = bound).')
+        if s.rocking_treatment == 'model':
+            return ('measured in-phase rocking subtracted (rocking_treatment = model: '
+                    f'{s.rocking_in_phase_xz_arcsec:g}″ about Y, {s.rocking_in_phase_xy_arcsec:g}″ '
+                    'about Z).')
+        return 'ignored (rocking_treatment = none): a may be biased by the in-phase rocking.'
+
+    def info_lines(self) -> list[str]:
+        """Per orientation: the record, its detection floor, and the record length, sample
+        rate or table amplitude a target σ per component needs; then a and the verdict."""
+        cal = self.calibrator
+        s = cal.settings
+        comps, why_not = cal.components()
+        summary = cal.summary()
+        target = s.target_std_rad
+        target_what = (f'half the {s.max_misalignment_arcmin:g}′ limit at k = '
+                       f'{s.verdict_coverage_factor:g}' if math.isnan(s.target_std_arcmin)
+                       else 'target_std_arcmin')
+        lines = [f'target σ per component: {_arcmin(target)} ({target_what})']
+        for axis in AXES:
+            c = comps.get(axis)
+            if c is None:
+                lines.append(f'table along {axis.upper()}: {why_not.get(axis, "not measured.")}')
+                continue
+            lines += self._orientation_info(axis, c, summary, target)
+        if summary.misalignment is not None:
+            m = summary.misalignment
+            floor = max(c.floor.component_std_rad for c in summary.components.values())
+            lines.append(f'a = {_arcmin(m.value_rad)} ± {_arcmin(m.std_rad)} (statistical '
+                         f'{_arcmin(m.statistical_std_rad)}; floor {_arcmin(floor)})')
+            if summary.verdict is not None:
+                lines.append(summary.verdict.sentence)
+        elif comps:
+            lines.append('a = √(z² + y²) needs both orientations reported: ' + (
+                'record the other orientation (the table along '
+                + ' and '.join(a.upper() for a in AXES if a not in summary.components) + ').'))
+        lines.append(self.scale_factor_note)
+        return lines
+
+    def _orientation_info(self, axis: str, c: Component, summary: DitherSummary,
+                          target: float) -> list[str]:
+        cal = self.calibrator
+        rec = cal.orientations[axis]
+        amp = rec.mean('table_rate_amplitude_rad_s')
+        fz, fd = rec.mean('table_frequency_hz'), rec.mean('dither_frequency_hz')
+        theta_pulses = rec.mean('dither_amplitude_pulses')
+        s = cal.settings
+        theta = (f'θ_d = {theta_pulses:.1f} pulses'
+                 + (f' = {_arcmin(theta_pulses * s.scale_factor_rad_per_pulse)}'
+                    if s.has_scale_factor else ''))
+        arw_pulses = (math.radians(s.angle_random_walk_deg_sqrt_h) / 60.0
+                      / s.scale_factor_rad_per_pulse if s.has_scale_factor else 0.0)
+        common = dict(dither_amplitude_rad=theta_pulses, scale_factor_rad_per_pulse=1.0,
+                      angle_random_walk_rad_sqrt_s=arw_pulses, dither_frequency_hz=fd,
+                      table_frequency_hz=fz)
+        t_need = required_record_s(target, table_rate_amplitude_rad_s=amp,
+                                   sample_rate_hz=c.sample_rate_hz, **common)
+        f_need = required_sample_rate_hz(target, record_s=c.record_s,
+                                         table_rate_amplitude_rad_s=amp, **common)
+        a_need = required_table_rate_amplitude_rad_s(target, record_s=c.record_s,
+                                                     sample_rate_hz=c.sample_rate_hz, **common)
+        rate = (f'{f_need / 1000:.3g} kHz' if math.isfinite(f_need)
+                else 'no sample rate (angle random walk alone is above it)')
+        floor = c.floor
+        out = [
+            f'table along {axis.upper()}: {c.n_blocks} blocks, {c.record_s:.0f} s of pulses at '
+            f'{c.sample_rate_hz:.0f} Hz; table {fz:.3f} Hz, A = {amp:.3g} rad/s; dither '
+            f'{fd:.3f} Hz, {theta}',
+            f'  detection floor of this record: σ_c = {_arcmin(floor.component_std_rad)} per '
+            f'component (quantisation {_arcmin(floor.quantisation_std_rad)}, angle random walk '
+            + (f'{_arcmin(floor.arw_std_rad)})' if arw_pulses else
+               'not given: angle_random_walk_deg_sqrt_h, ~1e-5 of the variance on an RLG)'),
+            f'  for σ_c = {_arcmin(target)}: record {_duration(t_need)} in this orientation '
+            f'(at A = {amp:.3g} rad/s, {c.sample_rate_hz:.0f} Hz), or sample at {rate} '
+            f'(this {c.record_s:.0f} s record), or A ≥ {a_need:.3g} rad/s (this record and '
+            'rate)',
+        ]
+        ab = 'a·|sin ψ₀|' if axis == 'z' else 'a·|cos ψ₀|'
+        if axis in summary.components:
+            out.append(f'  {ab} = {_arcmin(c.magnitude_rad)} ± {_arcmin(c.std_rad)} '
+                       f'(statistical {_arcmin(c.statistical_std_rad)}, floor '
+                       f'{_arcmin(floor.component_std_rad)})')
+        else:
+            out.append(f'  {ab}: not reported — {summary.withheld.get(axis, "")}')
+        return out
+
+    def limiting(self) -> str:
+        """What limits the result most, as an action."""
+        cal = self.calibrator
+        summary = cal.summary()
+        measured, _ = cal.components()
+        if not measured:
+            last = cal.rejections[-1].reason if cal.rejections else (
+                'no block of pulses and table joint_states yet.')
+            return f'no accepted block: {last}'
+        for axis in AXES:
+            if axis in measured and axis not in summary.components:
+                return f'table along {axis.upper()}: {summary.withheld[axis]}'
+        missing = [a for a in AXES if a not in summary.components]
+        if missing:
+            return (f'a needs the table along {" and ".join(m.upper() for m in missing)} too: '
+                    'one orientation sees only a·|sin ψ₀| or a·|cos ψ₀|.')
+        m = summary.misalignment
+        verdict = summary.verdict
+        if m is not None and verdict is not None and not verdict.decided:
+            return verdict.sentence
+        if m is not None:
+            type_b = math.sqrt(max(m.std_rad ** 2 - m.statistical_std_rad ** 2, 0.0))
+            if type_b > m.statistical_std_rad:
+                return (f'the rocking bound ({_arcmin(type_b)} Type B) dominates u(a) = '
+                        f'{_arcmin(m.std_rad)} over the record\'s {_arcmin(m.statistical_std_rad)}'
+                        ': measure the in-phase rocking (rocking_treatment = model).')
+            return (f'the detection floor: u(a) = {_arcmin(m.std_rad)} falls as 1/√(f_s·T) '
+                    '(longer records, faster sampling) or 1/A (larger table amplitude).')
+        return 'every quantity measured.'
+
+    def json_section(self) -> dict[str, Any]:
+        """Results, missing, rejections, and per component the floor, a, verdict, K."""
+        out = super().json_section()
+        cal = self.calibrator
+        summary = cal.summary()
+        comps, _ = cal.components()
+        section: dict[str, Any] = {}
+        for axis, c in comps.items():
+            section[axis] = {k: _finite_or_none(v) for k, v in {
+                'reported': axis in summary.components,
+                'withheld': summary.withheld.get(axis),
+                'value_rad': c.magnitude_rad, 'signed_rad': c.signed_rad,
+                'std_rad': c.std_rad, 'statistical_std_rad': c.statistical_std_rad,
+                'rocking_bound_rad': c.rocking_bound_rad,
+                'floor_rad': c.floor.component_std_rad, 'n_blocks': c.n_blocks,
+                'record_s': c.record_s, 'sample_rate_hz': c.sample_rate_hz,
+                'table_rate_amplitude_rad_s': cal.orientations[axis].mean(
+                    'table_rate_amplitude_rad_s'),
+                'table_frequency_hz': cal.orientations[axis].mean('table_frequency_hz'),
+            }.items()}
+        out['components'] = section
+        m = summary.misalignment
+        out['misalignment'] = None if m is None else {k: _finite_or_none(v) for k, v in {
+            'value_rad': m.value_rad, 'std_rad': m.std_rad,
+            'statistical_std_rad': m.statistical_std_rad,
+            'floor_rad': max(c.floor.component_std_rad for c in summary.components.values()),
+            'azimuth_rad': m.azimuth_rad, 'resolved': m.resolved}.items()}
+        v = summary.verdict
+        out['verdict'] = None if v is None else {
+            'decided': v.decided, 'accepted': v.accepted, 'sentence': v.sentence,
+            'limit_rad': cal.settings.max_misalignment_arcmin * RAD_PER_ARCMIN}
+        out['scale_factor'] = {
+            'rad_per_pulse': _finite_or_none(cal.settings.scale_factor_rad_per_pulse),
+            'note': self.scale_factor_note}
+        out['notes'] = list(summary.notes.values())
+        return out
+
+    def plot(self, out_dir: Path) -> list[Path]:
+        """Spectra with lines and sidebands, regression residuals, ε against a."""
+        from gyro_calib.dither.plots import plot_dither
+
+        return plot_dither(self.calibrator, out_dir)

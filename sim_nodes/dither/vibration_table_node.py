@@ -1,0 +1,187 @@
+"""vibration_table_sim: the angular vibration table with the dithered RLG on it (METHODS §C).
+
+One orientation per run: the table axis along case Z or case Y (``orientation``), published
+as the header.frame_id of /vibration_table/joint_states (name ``["vibration_table"]``,
+position = encoder angle in rad, velocity in rad/s, every ``table_decimation``-th pulse
+stamp); the gyro's cumulative pulse count on /gyro/pulses (name ``["gyro"]``); parameters,
+seed and truth on /sim/scenario. The samples come from the same chunked exact-kinematics
+simulator as the offline runs (:class:`~sim_nodes.dither.bench.DitherBenchSimulator`), so a
+live run and :func:`~sim_nodes.dither.scenarios.simulate_dither_run` give bit-identical
+samples. For the second orientation, start a second run with ``orientation:=y``, another
+``seed`` and a ``start_time_ns`` after the first run's end.
+
+Parameters: ``orientation`` ("z" or "y"); every field of
+:class:`~sim_nodes.dither.vibration_table.VibrationTableConfig` but ``axis`` as ``table.*``;
+every field of :class:`~sim_nodes.dither.gyro.DitheredGyroConfig` and of
+:class:`~sim_nodes.dither.bench.DitherBenchConfig`; ``real_time_factor`` (simulated seconds per
+wall second; 0 = as fast as the readers acknowledge), ``exit_when_done`` and
+``wait_for_subscribers``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+
+from gyro_calib.config import field_descriptions
+from gyro_calib.dither import topics
+from gyro_calib.nodes.ros_io import (
+    SCENARIO_QOS,
+    SENSOR_QOS,
+    declare_dataclass_parameters,
+    described_parameter,
+    make_executor,
+    ns_to_stamp,
+    publish_paced,
+)
+from sim_nodes.dither.bench import DitherBenchConfig, DitherBenchSimulator, DitherChunk
+from sim_nodes.dither.gyro import DitheredGyroConfig
+from sim_nodes.dither.scenarios import dither_truth
+from sim_nodes.dither.vibration_table import VibrationTableConfig
+
+CHUNK_S = 0.05
+"""Simulated time per chunk (the pacing granularity), s; chunking never changes a sample."""
+
+
+def scenario_yaml(gyro: DitheredGyroConfig, table: VibrationTableConfig,
+                  bench: DitherBenchConfig) -> str:
+    """This run's part of /sim/scenario: orientation, configs, seed and truth."""
+    import yaml
+
+    return yaml.safe_dump({
+        'method': 'dither', 'orientation': table.axis, 'gyro': dataclasses.asdict(gyro),
+        'table': dataclasses.asdict(table), 'bench_config': dataclasses.asdict(bench),
+        'truth': dither_truth(gyro, table)}, sort_keys=True)
+
+
+def _declare_table(node: Node) -> dict[str, Any]:
+    """``table.*`` parameters: every VibrationTableConfig field but ``axis``."""
+    descriptions = field_descriptions(VibrationTableConfig)
+    defaults = VibrationTableConfig()
+    return {f.name: described_parameter(node, 'table.' + f.name, getattr(defaults, f.name),
+                                        descriptions.get(f.name, ''))
+            for f in dataclasses.fields(VibrationTableConfig) if f.name != 'axis'}
+
+
+class VibrationTableNode(Node):
+    """Streams the bench simulator's chunks at a paced rate."""
+
+    def __init__(self) -> None:
+        """Declare parameters, build the bench and start the pacing timer."""
+        super().__init__('vibration_table_sim')
+        param = functools.partial(described_parameter, self)
+        orientation = self.declare_parameter('orientation', 'z', ParameterDescriptor(
+            description='Case axis the table axis is along: "z" or "y" (the joint_states '
+            'frame_id). rcl reads an unquoted y as the YAML boolean true; it is taken as "y".',
+            dynamic_typing=True)).value
+        orientation = 'y' if orientation is True else str(orientation).strip().lower()
+        try:
+            self.table_config = VibrationTableConfig(axis=orientation, **_declare_table(self))
+            self.gyro_config = DitheredGyroConfig(
+                **declare_dataclass_parameters(self, DitheredGyroConfig))
+            self.bench = DitherBenchConfig(**declare_dataclass_parameters(self, DitherBenchConfig))
+        except ValueError as exc:
+            raise SystemExit(f'vibration_table_sim: {exc}') from None
+        self.real_time_factor = float(param('real_time_factor', 1.0, 'Simulated seconds per '
+                                            'wall-clock second (0 = as fast as the readers '
+                                            'acknowledge).'))
+        self.exit_when_done = bool(param('exit_when_done', True,
+                                         'Shut the node down once the run has been simulated.'))
+        self.wait_for_subscribers = bool(param(
+            'wait_for_subscribers', True, 'Start only once /gyro/pulses and '
+            '/vibration_table/joint_states have a reader, so nothing is lost at the start.'))
+        self.sim = DitherBenchSimulator(self.gyro_config, self.table_config, self.bench)
+        self.chunk_samples = max(1, int(round(CHUNK_S * self.bench.sample_rate_hz)))
+        self.pulse_pub = self.create_publisher(JointState, topics.GYRO_PULSES, SENSOR_QOS)
+        self.table_pub = self.create_publisher(JointState, topics.VIBRATION_TABLE_JOINT_STATES,
+                                               SENSOR_QOS)
+        self.create_publisher(String, topics.SIM_SCENARIO, SCENARIO_QOS).publish(String(
+            data=scenario_yaml(self.gyro_config, self.table_config, self.bench)))
+        self._n_published = 0
+        self._wall_start: float | None = None
+        self._ready_since: float | None = None
+        self.done = False
+        self.create_timer(0.005, self._tick)
+
+    @property
+    def all_publishers(self) -> list[Any]:
+        """The sensor publishers (for the final acknowledgement wait)."""
+        return [self.pulse_pub, self.table_pub]
+
+    def _tick(self) -> None:
+        if self._wall_start is None:
+            if self.wait_for_subscribers and not all(
+                    p.get_subscription_count() for p in self.all_publishers):
+                return
+            if self._ready_since is None:
+                self._ready_since = time.monotonic()
+            if self.wait_for_subscribers and time.monotonic() - self._ready_since < 1.0:
+                return  # let the readers' side of discovery finish too
+            self._wall_start = time.monotonic()
+            self.get_logger().info(
+                f'simulating {self.bench.duration_s:g} s with the table along '
+                f'{self.table_config.axis.upper()} at {self.real_time_factor:g}× real time')
+        rate = self.bench.sample_rate_hz
+        budget = 20 if self.real_time_factor <= 0 else None
+        while not self.sim.finished and (budget is None or budget > 0):
+            if budget is None:
+                sim_due = (time.monotonic() - self._wall_start) * self.real_time_factor
+                if self._n_published / rate > sim_due:
+                    break
+            else:
+                budget -= 1
+            self._publish(self.sim.step(self.chunk_samples))
+        if self.sim.finished and not self.done:
+            self.done = True
+            self.get_logger().info('run finished')
+
+    def _publish(self, chunk: DitherChunk) -> None:
+        frame = self.table_config.axis
+        table_t = chunk.table_t_ns.tolist()
+        angle, rate = chunk.table_angle_rad.tolist(), chunk.table_rate_rad_s.tolist()
+        j = 0
+        for t_ns, count in zip(chunk.pulse_t_ns.tolist(), chunk.counts.tolist()):
+            while j < len(table_t) and table_t[j] <= t_ns:
+                msg = JointState(name=[topics.VIBRATION_TABLE_JOINT], position=[angle[j]],
+                                 velocity=[rate[j]])
+                ns_to_stamp(table_t[j], msg.header.stamp)
+                msg.header.frame_id = frame
+                publish_paced(self.table_pub, msg)
+                j += 1
+            out = JointState(name=[topics.GYRO_JOINT], position=[count])
+            ns_to_stamp(t_ns, out.header.stamp)
+            out.header.frame_id = topics.GYRO_JOINT
+            publish_paced(self.pulse_pub, out)
+        self._n_published += len(chunk.pulse_t_ns)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the vibration table simulator until its run is done (or it is shut down)."""
+    try:
+        with rclpy.init(args=args):
+            node = VibrationTableNode()
+            executor = make_executor()
+            executor.add_node(node)
+            while rclpy.ok() and not (node.done and node.exit_when_done):
+                executor.spin_once(timeout_sec=0.05)
+            if node.done:  # readers may lag: let them acknowledge the tail before exiting
+                for pub in node.all_publishers:
+                    if not pub.wait_for_all_acked(rclpy.duration.Duration(seconds=60.0)):
+                        node.get_logger().warning(
+                            f'{pub.topic_name}: readers did not acknowledge the last samples '
+                            'within 60 s; exiting anyway.')
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+
+
+if __name__ == '__main__':
+    main()
