@@ -200,6 +200,16 @@ class MethodNode(Node):
         self._write_handoff()
         self._publish_diagnostics()
 
+    def finish(self) -> None:
+        """End of the data (shutdown): judge what is still open, write the hand-off file."""
+        columns = {t: c for t, b in self._buffers.items() if (c := b.take()) is not None}
+        if columns:
+            last = max(int(c.stamp_ns.max()) for c in columns.values())
+            self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        for line in self.session.process(flush=True):
+            self.get_logger().info(line)
+        self._write_handoff()
+
     def _write_handoff(self) -> None:
         if not self.output_file:
             return
@@ -257,6 +267,9 @@ def run_method_node(method: str, node_name: str, result_topics: Mapping[str, str
             except GyroCalibError as exc:
                 rclpy.logging.get_logger(node_name).fatal(str(exc))
                 raise SystemExit(1) from None
-            spin(node)
+            try:
+                spin(node)
+            finally:
+                node.finish()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

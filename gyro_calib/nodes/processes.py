@@ -50,8 +50,8 @@ def ros_environment(domain_id: int) -> dict[str, str]:
 def _yaml_string(value: str) -> str:
     """``value`` as rcl reads it back as the same string: rcl parses ``-p`` values as YAML,
     so '' (rejected outright), 'true', '1.5' or 'a: b' must be quoted."""
-    try:
-        plain = yaml.safe_load(value) == value
+    try:  # rcl's YAML 1.1 also reads y/n/yes/no/on/off as booleans; PyYAML reads y/n as text
+        plain = yaml.safe_load(value) == value and value.lower() not in ('y', 'n')
     except yaml.YAMLError:
         plain = False
     return value if plain else "'" + value.replace("'", "''") + "'"
