@@ -17,6 +17,22 @@ with K the scale factor (rad/pulse) and b the bias (rad/s) of the hand-off file
 
 An absent angle random walk contributes nothing (the quantisation term then stands for
 the noise; for a rate-biased RLG at 1 kHz it is the larger one by orders of magnitude).
+
+Thermal compensation (METHODS §D). When the hand-off file holds a ``thermal_model``, b is
+not a constant but the model's bias b(H, Ḣ, gradients) at the gyro's current temperatures:
+:class:`PulseRateConverter` also takes the /gyro/temperature readings and uses the bias of
+the latest complete averaging interval (:class:`~gyro_calib.thermal.compensate.
+ThermalBiasTracker`: the same interval means, sensor checks and causal Ḣ as the offline
+compensation), with u(b) the model's coefficient uncertainty there. K is then the file's
+``scale_factor_rad_per_pulse`` (``k_tilde_rad_per_pulse`` with use_k_tilde), which must agree
+with the K the model was fitted with within 100 ppm, or, without one, the model's own K
+(its uncertainty unknown: u(K) = 0). A file's constant ``bias_rad_s`` is not used then: the
+model holds the whole bias. Where the model cannot give a bias — no temperature yet, a stuck
+cavity sensor, the latest interval older than ``thermal_max_age_s``, or the temperature
+outside the calibrated range by more than the model's margin — the converter returns a
+:class:`~gyro_calib.estimate.Rejection` saying so and **no rate**: an INS is better told
+nothing than given a rate whose bias is an extrapolation (a variance alone would not stop a
+consumer that ignores it). A model fitted on another gyro (``gyro_id``) is refused.
 Consecutive rates share a count, so their quantisation errors are anticorrelated; the
 per-message variance is still (2).
 
@@ -29,12 +45,18 @@ infinities or NaNs (∞·0) some consumers choke on.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from gyro_calib.errors import StreamError
+from gyro_calib.errors import GyroCalibError, StreamError
 from gyro_calib.estimate import Rejection
-from gyro_calib.handoff import Calibration
+from gyro_calib.handoff import Calibration, HandoffError
+
+if TYPE_CHECKING:
+    from gyro_calib.thermal.compensate import ThermalBiasTracker
+    from gyro_calib.thermal.model import ThermalBiasModel
 
 UNKNOWN_AXIS_VARIANCE_RAD2_S2 = 1.0e6
 """Variance of the unmeasured x and y rates, (rad/s)²: σ = 1000 rad/s, beyond any real
@@ -53,6 +75,8 @@ class PulseCalibration:
         bias_std: its standard uncertainty, rad/s.
         bias_known: the file holds ``bias_rad_s``.
         angle_random_walk_rad_per_sqrt_s: N, rad/√s (0 when the file has none).
+        thermal_model: the temperature bias model (the file's ``thermal_model``), or None;
+            when set, the bias comes from it live and ``bias_rad_s`` is not used.
     """
 
     scale_factor_rad_per_pulse: float
@@ -62,30 +86,75 @@ class PulseCalibration:
     bias_std: float = 0.0
     bias_known: bool = False
     angle_random_walk_rad_per_sqrt_s: float = 0.0
+    thermal_model: ThermalBiasModel | None = None
 
 
-def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False) -> PulseCalibration:
-    """The scale factor, bias and ARW the conversion uses.
+def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False,
+                      gyro_id: str = '') -> PulseCalibration:
+    """The scale factor, bias (or thermal bias model) and ARW the conversion uses.
 
     Args:
         calibration: the hand-off file's content.
         use_k_tilde: take K̃ as the scale factor (θ = 0: a gyro whose fix-error angle was not
-            measured); otherwise K = K̃·cos θ is required.
+            measured); otherwise K = K̃·cos θ is required (or, with a thermal model, the K
+            the model was fitted with).
+        gyro_id: the gyro this conversion is for ('' = not checked): a thermal model fitted
+            on another gyro is refused.
 
     Raises:
         HandoffError: naming the missing key (``scale_factor_rad_per_pulse``, or
-            ``k_tilde_rad_per_pulse`` with ``use_k_tilde``).
+            ``k_tilde_rad_per_pulse`` with ``use_k_tilde``), or a K that disagrees with the
+            thermal model's.
+        GyroCalibError (ModelFileError, ModelMismatchError): an invalid thermal model, or
+            one of another gyro.
     """
     if use_k_tilde:
         key, why = 'k_tilde_rad_per_pulse', 'imu_corrector was told to use K̃ with θ = 0'
     else:
         key, why = 'scale_factor_rad_per_pulse', (
             'K = K̃·cos θ needs the fix-error angle θ; set use_k_tilde to take K̃ with θ = 0')
+    arw = calibration.measured('angle_random_walk_rad_per_sqrt_s')
+    arw_value = arw[0] if arw else 0.0
+    model = thermal_model(calibration, gyro_id=gyro_id)
+    if model is not None:
+        got = calibration.measured(key)
+        k_model = model.scale_factor_rad_per_pulse
+        if got is None:
+            return PulseCalibration(k_model, 0.0, 'thermal_model', 0.0, 0.0, True, arw_value,
+                                    model)
+        if abs(got[0] / k_model - 1.0) > 1e-4:
+            raise HandoffError(
+                f'the calibration\'s {key} = {got[0]!r} rad/pulse differs from the '
+                f'{k_model!r} rad/pulse its thermal_model was fitted with by more than 100 ppm: '
+                'the model\'s bias belongs to that K. Refit the thermal model with this K.')
+        return PulseCalibration(got[0], got[1], key, 0.0, 0.0, True, arw_value, model)
     k, k_std = calibration.require(key, why=why)
     bias = calibration.measured('bias_rad_s')
-    arw = calibration.measured('angle_random_walk_rad_per_sqrt_s')
     return PulseCalibration(k, k_std, key, bias[0] if bias else 0.0, bias[1] if bias else 0.0,
-                            bias is not None, arw[0] if arw else 0.0)
+                            bias is not None, arw_value)
+
+
+def thermal_model(calibration: Calibration, *, gyro_id: str = '') -> ThermalBiasModel | None:
+    """The file's ``thermal_model`` (None without one), checked to belong to the gyro.
+
+    Raises:
+        ModelFileError: the mapping is not a valid model.
+        ModelMismatchError: the model names another gyro than the file or ``gyro_id``.
+    """
+    data = calibration.get('thermal_model')
+    if data is None:
+        return None
+    from gyro_calib.thermal.errors import ModelMismatchError
+    from gyro_calib.thermal.model import ThermalBiasModel
+
+    model = ThermalBiasModel.from_dict(data, source='the thermal_model of the calibration')
+    if calibration.gyro_id and model.gyro_id and calibration.gyro_id != model.gyro_id:
+        raise ModelMismatchError(
+            f'the calibration file is for gyro {calibration.gyro_id!r} but its thermal_model was '
+            f'fitted on gyro {model.gyro_id!r}: the file is inconsistent; recalibrate.')
+    for known in (gyro_id, calibration.gyro_id):
+        model.check_gyro(known)
+    return model
 
 
 @dataclass(frozen=True, slots=True)
@@ -146,15 +215,78 @@ class PulseRateConverter:
 
     * a non-finite count — the previous sample stays the reference;
     * a stamp not after the previous one — it becomes the new reference, so a source that
-      restarted (stamps jumped back) is followed again from its next sample.
+      restarted (stamps jumped back) is followed again from its next sample;
+    * with a thermal model: a sample for which the model gives no bias (module docstring;
+      the sample is still the next one's reference).
 
-    The calibration may be replaced between samples (the reference sample stays).
+    Temperatures (/gyro/temperature) go to :meth:`add_temperature`; without a thermal model
+    they are ignored. The calibration may be replaced between samples (the reference sample
+    stays; the temperature history is kept when the new model reduces temperatures the same
+    way).
     """
 
-    def __init__(self, calibration: PulseCalibration) -> None:
-        """Start with no reference sample."""
-        self.calibration = calibration
+    def __init__(self, calibration: PulseCalibration, *, thermal_max_age_s: float = 10.0) -> None:
+        """Start with no reference sample.
+
+        Args:
+            calibration: K, bias or thermal model, ARW.
+            thermal_max_age_s: the newest complete temperature interval may end at most this
+                long before a pulse sample's stamp for its bias to be used, s.
+        """
+        self._tracker: ThermalBiasTracker | None = None
+        self._calibration = calibration
+        self.thermal_max_age_ns = int(round(thermal_max_age_s * 1e9))
         self._last: tuple[int, float] | None = None
+        self._bias: tuple[int, float, float] | str | None = None
+        self.calibration = calibration
+
+    @property
+    def calibration(self) -> PulseCalibration:
+        """The calibration in use."""
+        return self._calibration
+
+    @calibration.setter
+    def calibration(self, calibration: PulseCalibration) -> None:
+        model = calibration.thermal_model
+        if model is None:
+            self._tracker = None
+        elif self._tracker is None or (
+                self._tracker.model.averaging_interval_s, self._tracker.model.hdot_window_s) != (
+                model.averaging_interval_s, model.hdot_window_s):
+            from gyro_calib.thermal.compensate import ThermalBiasTracker
+
+            self._tracker = ThermalBiasTracker(model)
+        else:
+            self._tracker.model = model
+        self._calibration = calibration
+        self._bias = None
+
+    def add_temperature(self, t_ns: int, celsius: float, frame_id: str) -> None:
+        """One /gyro/temperature reading (ignored without a thermal model)."""
+        if self._tracker is not None:
+            self._tracker.add_temperature(t_ns, celsius, frame_id)
+            self._bias = None  # recomputed at the next pulse sample
+
+    def thermal_bias(self, t_ns: int) -> tuple[float, float] | Rejection:
+        """The thermal model's bias and its standard uncertainty for a sample at ``t_ns``,
+        or a Rejection saying why there is none (rad/s)."""
+        if self._tracker is None:
+            return Rejection(t_ns, 'no thermal model.')
+        if self._bias is None:
+            try:
+                self._bias = self._tracker.bias()
+            except GyroCalibError as exc:
+                self._bias = f'no thermal compensation: {exc}'
+        if isinstance(self._bias, str):
+            return Rejection(t_ns, self._bias)
+        end_ns, b, b_std = self._bias
+        if t_ns - end_ns > self.thermal_max_age_ns:
+            return Rejection(t_ns, (
+                f'no thermal compensation: the newest complete temperature interval ends '
+                f'{(t_ns - end_ns) / 1e9:.1f} s before this pulse sample (more than '
+                f'thermal_max_age_s = {self.thermal_max_age_ns / 1e9:g} s): /gyro/temperature '
+                'is late or silent.'))
+        return b, b_std
 
     def add(self, t_ns: int, count: float) -> ImuAngularVelocity | Rejection | None:
         """The rate since the previous sample, a Rejection saying why not, or None (first)."""
@@ -166,4 +298,11 @@ class PulseRateConverter:
         if t_ns <= last[0]:
             return Rejection(t_ns, f'stamp {t_ns} ns is not after the previous one, {last[0]} '
                                    'ns; it becomes the new reference.')
-        return angular_velocity_from_pulses(last[0], last[1], t_ns, count, self.calibration)
+        calibration = self._calibration
+        if calibration.thermal_model is not None:
+            bias = self.thermal_bias(t_ns)
+            if isinstance(bias, Rejection):
+                return bias
+            calibration = dataclasses.replace(calibration, bias_rad_s=bias[0],
+                                              bias_std=bias[1])
+        return angular_velocity_from_pulses(last[0], last[1], t_ns, count, calibration)

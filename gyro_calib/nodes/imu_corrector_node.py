@@ -8,29 +8,40 @@ acceleration are marked unavailable (covariance[0] = −1, sensor_msgs/Imu, REP 
 
 Parameters: ``calibration_file`` (hand-off YAML, :mod:`gyro_calib.handoff`; re-read at
 every poll, so it may also be set at run time), ``use_k_tilde`` (take K̃ with θ = 0 when the
-file has no K), ``frame_id`` and ``reload_period_s``. A file without the scale factor it
-needs is refused, naming the missing key; one without the bias is used with a warning (the
-rates are then not bias-corrected).
+file has no K), ``frame_id``, ``reload_period_s``, ``gyro_id`` and ``thermal_max_age_s``.
+A file without the scale factor it needs is refused, naming the missing key; one without the
+bias is used with a warning (the rates are then not bias-corrected).
 The file is polled (inode, mtime, size) and reloaded when it changes; a missing or bad
 file is logged and the calibration in use is kept (none: nothing is published).
+
+Thermal compensation (METHODS §D): when the file holds a ``thermal_model``, the node also
+subscribes /gyro/temperature (sensor_msgs/Temperature, frame_id cavity_a, cavity_b, shell)
+and subtracts the model's bias at the current temperatures instead of a constant bias
+(:mod:`gyro_calib.imu_conversion`). While the model cannot give a bias — no temperature yet,
+a stuck cavity sensor, temperatures older than ``thermal_max_age_s``, or a temperature
+outside the calibrated range by more than the model's margin — nothing is published, and
+the log says why once (and again when compensation resumes). A model fitted on another gyro
+than ``gyro_id`` (or than the file names) is refused like any bad file.
 """
 
 from __future__ import annotations
 
 import os
+import re
 
 import rclpy
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Imu, JointState
+from sensor_msgs.msg import Imu, JointState, Temperature
 
 from gyro_calib import topics
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import load_calibration
 from gyro_calib.imu_conversion import ImuAngularVelocity, PulseRateConverter, pulse_calibration
+from gyro_calib.thermal.site import RAD_S_PER_DEG_H
 from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, spin, stamp_to_ns
 
 GYRO_IMU = '/gyro/imu'
@@ -60,7 +71,17 @@ class ImuCorrectorNode(Node):
         self.declare_parameter('reload_period_s', 1.0, ParameterDescriptor(
             description='How often the calibration file is checked for changes, s.',
             floating_point_range=[FloatingPointRange(from_value=0.01, to_value=3600.0)]))
+        self.declare_parameter('gyro_id', '', ParameterDescriptor(description=(
+            "The gyro's serial or name: a thermal model fitted on another gyro is refused "
+            "('' = not checked).")))
+        self.declare_parameter('thermal_max_age_s', 10.0, ParameterDescriptor(
+            description='With a thermal model: the newest complete temperature interval may '
+            'end at most this long before a pulse sample for its bias to be used, s.',
+            floating_point_range=[FloatingPointRange(from_value=1.0, to_value=3600.0)]))
         self.frame_id = self.get_parameter('frame_id').value
+        self.gyro_id = self.get_parameter('gyro_id').value
+        self.thermal_max_age_s = float(self.get_parameter('thermal_max_age_s').value)
+        self._thermal_state = ''
         self.add_on_set_parameters_callback(self._check_runtime_change)
         self.converter: PulseRateConverter | None = None
         self._file_key: tuple[int, int, int] | None = None
@@ -68,6 +89,8 @@ class ImuCorrectorNode(Node):
         self._skipped = 0
         self.pub = self.create_publisher(Imu, GYRO_IMU, IMU_QOS)
         self.create_subscription(JointState, topics.GYRO_PULSES, self._on_pulses, SENSOR_QOS)
+        self.create_subscription(Temperature, topics.GYRO_TEMPERATURE, self._on_temperature,
+                                 SENSOR_QOS)
         self._poll_file()
         self.create_timer(self.get_parameter('reload_period_s').value, self._poll_file)
 
@@ -92,12 +115,14 @@ class ImuCorrectorNode(Node):
             return
         self._file_key = key
         try:
-            calibration = pulse_calibration(load_calibration(path), use_k_tilde=self.use_k_tilde)
+            calibration = pulse_calibration(load_calibration(path), use_k_tilde=self.use_k_tilde,
+                                            gyro_id=self.gyro_id)
         except GyroCalibError as exc:
             self._problem(str(exc))
             return
         if self.converter is None:
-            self.converter = PulseRateConverter(calibration)
+            self.converter = PulseRateConverter(calibration,
+                                                thermal_max_age_s=self.thermal_max_age_s)
         else:
             self.converter.calibration = calibration
         self._last_problem = ''
@@ -105,8 +130,23 @@ class ImuCorrectorNode(Node):
         self.get_logger().info(
             f'calibration loaded from {path}: {c.scale_factor_key} = '
             f'{c.scale_factor_rad_per_pulse!r} ± {c.scale_factor_std!r} rad/pulse, bias = '
-            f'{c.bias_rad_s!r} ± {c.bias_std!r} rad/s; publishing {GYRO_IMU}')
-        if not c.bias_known:
+            + (f'{c.bias_rad_s!r} ± {c.bias_std!r} rad/s' if c.thermal_model is None
+               else 'from thermal_model') + f'; publishing {GYRO_IMU}')
+        m = c.thermal_model
+        if m is not None:
+            self._thermal_state = ''
+            self.get_logger().info(
+                f'thermal model of gyro {m.gyro_id or "(unnamed)"}: bias = b0 + '
+                f'{" + ".join(m.terms) or "(constant)"}, calibrated H {m.h_range_c[0]:.2f}…'
+                f'{m.h_range_c[1]:.2f} °C ± {m.extrapolation_margin_c:g} °C; the bias is '
+                f'taken live from {topics.GYRO_TEMPERATURE}'
+                + ('' if c.scale_factor_key != 'thermal_model' else
+                   '; K is the one the model was fitted with (its uncertainty is not in the '
+                   'file, so the Imu variance leaves it out)'))
+            if not self.gyro_id:
+                self.get_logger().warning('parameter gyro_id is not set: the thermal model\'s '
+                                          'gyro identity is not checked.')
+        elif not c.bias_known:
             self.get_logger().warning('the calibration has no bias_rad_s: the rates are NOT '
                                       'bias-corrected (calibrate with the site latitude).')
         if c.angle_random_walk_rad_per_sqrt_s == 0.0:
@@ -131,6 +171,16 @@ class ImuCorrectorNode(Node):
                 t_ns, f'no position for joint "{topics.GYRO_JOINT}" (names {list(msg.name)}).')
         else:
             out = self.converter.add(t_ns, count)
+        if isinstance(out, Rejection) and out.reason.startswith('no thermal compensation'):
+            self._thermal_problem(out.reason)
+            return
+        if isinstance(out, ImuAngularVelocity) and self._thermal_state:
+            self._thermal_state = ''
+            bias = self.converter.thermal_bias(t_ns)
+            self.get_logger().info(
+                f'thermal compensation resumed at stamp {t_ns} ns'
+                + (f' (bias {bias[0] / RAD_S_PER_DEG_H:.4f} °/h)' if isinstance(bias, tuple)
+                   else '') + f'; publishing {GYRO_IMU} again.')
         if isinstance(out, Rejection):
             self._skipped += 1
             if self._skipped % 100 == 1:
@@ -138,6 +188,19 @@ class ImuCorrectorNode(Node):
                     f'{self._skipped} pulse sample(s) skipped so far; latest: {out.reason}')
         elif out is not None:
             self.pub.publish(self._imu(out))
+
+    def _on_temperature(self, msg: Temperature) -> None:
+        if self.converter is not None:
+            self.converter.add_temperature(stamp_to_ns(msg.header.stamp), msg.temperature,
+                                           msg.header.frame_id)
+
+    def _thermal_problem(self, reason: str) -> None:
+        """Log why nothing is published, once per kind of reason (numbers aside)."""
+        kind = re.sub(r'[-+0-9.:]+', '#', reason)
+        if kind != self._thermal_state:
+            self._thermal_state = kind
+            self.get_logger().warning(f'{reason} Publishing nothing on {GYRO_IMU} until the '
+                                    'thermal model can give the bias.')
 
     def _imu(self, out: ImuAngularVelocity) -> Imu:
         imu = Imu()

@@ -66,7 +66,12 @@ class ThermalCalibrator:
     """Accumulates /gyro/pulses and /gyro/temperature into a thermal bias model."""
 
     def __init__(self, settings: ThermalSettings) -> None:
-        """Create the per-stream reducers (no data kept beyond about one interval)."""
+        """Create the per-stream reducers (no data kept beyond about one interval).
+
+        Raises:
+            ConfigError: the scale factor or the latitude is not given (NaN).
+        """
+        settings.require_site()
         self.settings = settings
         iset = settings.interval_settings()
         self._pulses = PulseIntervals(iset, settings.scale_factor_rad_per_pulse)

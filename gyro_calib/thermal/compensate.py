@@ -117,28 +117,62 @@ class CompensationReport:
         }
 
 
-def _reduce(settings: IntervalSettings, scale_factor: float, pulse_t_ns: ArrayLike,
-            pulse_counts: ArrayLike, temperature_t_ns: ArrayLike, temperature_c: ArrayLike,
-            frame_id: ArrayLike | str
-            ) -> tuple[IntervalTable, list[Rejection], tuple[str, ...]]:
-    """Reduce a whole recording exactly as the calibrator does; return the joined table,
-    the pulse rejections and the frame_ids seen."""
-    pulses = PulseIntervals(settings, scale_factor)
-    pulses.extend(np.asarray(pulse_t_ns, np.int64), pulse_counts)
-    pulses.reduce(flush=True)
-    t = np.asarray(temperature_t_ns, np.int64)
-    v = np.asarray(temperature_c, np.float64)
-    ids = split_frame_ids(frame_id, len(t))
-    temps = {}
-    for sensor in SENSORS:
-        sel = ids == sensor
-        if np.any(sel):
-            red = TemperatureIntervals(sensor, settings)
-            red.extend(t[sel], v[sel])
-            red.reduce(flush=True)
-            temps[sensor] = red.arrays()
-    table = join_intervals(pulses.arrays(), temps, settings.averaging_interval_s)
-    return table, pulses.rejections, tuple(sorted(set(ids.tolist())))
+class CompensationReducer:
+    """Reduces a recording stream by stream, chunk by chunk, exactly as the calibrator does
+    (the model's averaging interval and Ḣ window), for :func:`compensate_reduced`.
+
+    Memory: about one interval of samples per stream plus a few numbers per interval, so a
+    bag of any length is compensated in bounded memory (``gyro-calib compensate``).
+    """
+
+    def __init__(self, model: ThermalBiasModel,
+                 interval_settings: IntervalSettings | None = None) -> None:
+        """Create the per-stream reducers with the model's interval settings.
+
+        Raises:
+            ConfigError: ``interval_settings`` with another interval or Ḣ window than the
+                model's (Ḣ would not mean what it meant in the fit).
+        """
+        iset = interval_settings or IntervalSettings(
+            averaging_interval_s=model.averaging_interval_s, hdot_window_s=model.hdot_window_s)
+        if abs(iset.averaging_interval_s - model.averaging_interval_s) > 1e-12 or abs(
+                iset.hdot_window_s - model.hdot_window_s) > 1e-12:
+            raise ConfigError('interval_settings must use the model\'s averaging interval and '
+                              'Ḣ window, or Ḣ would not mean what it meant in the fit.')
+        self.model = model
+        self.settings = iset
+        self.pulses = PulseIntervals(iset, model.scale_factor_rad_per_pulse)
+        self.temperatures = {s: TemperatureIntervals(s, iset) for s in SENSORS}
+        self.frame_ids: set[str] = set()
+
+    def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
+        """Many /gyro/pulses samples (int ns stamps, cumulative counts)."""
+        self.pulses.extend(np.asarray(t_ns, np.int64), counts)
+
+    def extend_temperatures(self, t_ns: ArrayLike, celsius: ArrayLike,
+                            frame_id: ArrayLike | str) -> None:
+        """Many /gyro/temperature messages (int ns stamps, °C, frame_id per message)."""
+        t = np.asarray(t_ns, np.int64)
+        v = np.asarray(celsius, np.float64)
+        ids = split_frame_ids(frame_id, len(t))
+        for name in np.unique(ids).tolist():
+            self.frame_ids.add(str(name))
+            red = self.temperatures.get(str(name))
+            if red is not None:
+                sel = ids == name
+                red.extend(t[sel], v[sel])
+
+    def process(self, *, flush: bool = False) -> None:
+        """Reduce every interval the streams have passed (all at the end: ``flush``)."""
+        self.pulses.reduce(flush=flush)
+        for red in self.temperatures.values():
+            red.reduce(flush=flush)
+
+    def table(self) -> IntervalTable:
+        """The streams reduced so far, joined on the interval grid."""
+        return join_intervals(self.pulses.arrays(),
+                              {s: r.arrays() for s, r in self.temperatures.items()
+                               if r.n_messages}, self.settings.averaging_interval_s)
 
 
 def compensate(model: ThermalBiasModel, pulse_t_ns: ArrayLike, pulse_counts: ArrayLike,
@@ -172,6 +206,26 @@ def compensate(model: ThermalBiasModel, pulse_t_ns: ArrayLike, pulse_counts: Arr
     """
     if out_of_range not in ('raise', 'skip'):
         raise ConfigError(f"out_of_range = {out_of_range!r} is invalid: use 'raise' or 'skip'.")
+    check_identity(model, gyro_id=gyro_id,
+                   scale_factor_rad_per_pulse=scale_factor_rad_per_pulse)
+    reducer = CompensationReducer(model, interval_settings)
+    reducer.extend_pulses(pulse_t_ns, pulse_counts)
+    t = np.asarray(temperature_t_ns, np.int64)
+    if len(t):
+        reducer.extend_temperatures(t, temperature_c, temperature_frame_id)
+    reducer.process(flush=True)
+    return compensate_reduced(reducer, gyro_id=gyro_id, block_s=block_s,
+                              out_of_range=out_of_range)
+
+
+def check_identity(model: ThermalBiasModel, *, gyro_id: str = '',
+                   scale_factor_rad_per_pulse: float | None = None) -> None:
+    """Refuse a model fitted on another gyro or with another scale factor.
+
+    Raises:
+        ModelMismatchError: both gyro ids known and different, or K differing from the
+            model's by more than 100 ppm.
+    """
     model.check_gyro(gyro_id)
     k_rad = model.scale_factor_rad_per_pulse
     if scale_factor_rad_per_pulse is not None and abs(
@@ -180,14 +234,27 @@ def compensate(model: ThermalBiasModel, pulse_t_ns: ArrayLike, pulse_counts: Arr
             f'the recording\'s scale factor {scale_factor_rad_per_pulse:.10g} rad/pulse differs '
             f'from the {k_rad:.10g} rad/pulse the thermal model was fitted with by more than '
             '100 ppm: the model belongs to another gyro or calibration.')
-    iset = interval_settings or IntervalSettings(averaging_interval_s=model.averaging_interval_s,
-                                                 hdot_window_s=model.hdot_window_s)
-    if abs(iset.averaging_interval_s - model.averaging_interval_s) > 1e-12 or abs(
-            iset.hdot_window_s - model.hdot_window_s) > 1e-12:
-        raise ConfigError('interval_settings must use the model\'s averaging interval and Ḣ '
-                          'window, or Ḣ would not mean what it meant in the fit.')
-    table, pulse_rej, ids = _reduce(iset, k_rad, pulse_t_ns, pulse_counts, temperature_t_ns,
-                                    temperature_c, temperature_frame_id)
+
+
+def compensate_reduced(reducer: CompensationReducer, *, gyro_id: str = '',
+                       block_s: float = 100.0, out_of_range: str = 'raise'
+                       ) -> CompensationReport:
+    """The figures of a reduced recording (see :func:`compensate`, which calls it; call
+    :func:`check_identity` before reducing).
+
+    Raises:
+        TemperatureDataError, ModelMismatchError, ExtrapolationError, InsufficientDataError:
+            as :func:`compensate`.
+    """
+    if out_of_range not in ('raise', 'skip'):
+        raise ConfigError(f"out_of_range = {out_of_range!r} is invalid: use 'raise' or 'skip'.")
+    model = reducer.model
+    model.check_gyro(gyro_id)
+    iset = reducer.settings
+    k_rad = model.scale_factor_rad_per_pulse
+    table = reducer.table()
+    pulse_rej = reducer.pulses.rejections
+    ids = tuple(sorted(reducer.frame_ids))
     for sensor in (SENSOR_CAVITY_A, SENSOR_CAVITY_B):
         col = table.temperatures_c.get(sensor)
         if col is None or not np.any(np.isfinite(col)):

@@ -143,3 +143,57 @@ def plot_thermal(calibrator_or_report: ThermalCalibrator | ThermalFitReport, out
         fig.savefig(paths[-1], dpi=110)
         plt.close(fig)
     return paths
+
+
+def plot_compensation(report: CompensationReport, out_dir: Path) -> list[Path]:
+    """Figures of one compensated recording (``gyro-calib compensate --plot``):
+
+    - ``thermal_compensation.png``: 100 s means of the raw and compensated bias against
+      time, with the noise floor band; the model bias and H underneath;
+    - ``thermal_compensation_allan.png``: Allan deviation before/after.
+    """
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    v = report
+    t0 = float(v.t_mid_ns[0]) / NS_PER_S
+    e = v.earth_rate_along_axis_rad_s
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
+    tb, raw = _block_series(v.t_mid_ns, v.rate_raw_rad_s - e, v.block_s)
+    _, comp = _block_series(v.t_mid_ns, v.rate_raw_rad_s - e - v.bias_model_rad_s, v.block_s)
+    ax.plot((tb - t0) / 3600, raw / DEG_H, '.', ms=3,
+            label=f'raw − Earth rate: {v.bias_stability_raw.value / DEG_H:.4f} °/h')
+    ax.plot((tb - t0) / 3600, comp / DEG_H, '.', ms=3,
+            label=f'raw − Earth rate − model: {v.bias_stability_compensated.value / DEG_H:.4f} °/h')
+    f = v.noise_floor.floor.value / DEG_H
+    ax.axhspan(-f, f, color='g', alpha=0.15, label=f'± noise floor {f:.4f} °/h')
+    ax.set_ylabel(f'{v.block_s:g} s means (°/h)')
+    ax.set_title(f'bias stability {v.improvement:.0%} better after compensation')
+    ax.legend(fontsize=8)
+    tm = (v.t_mid_ns / NS_PER_S - t0) / 3600
+    ax2.plot(tm, v.bias_model_rad_s / DEG_H, 'k-', lw=1, label='model bias (°/h)')
+    ax2.set_ylabel('model bias (°/h)')
+    ax3 = ax2.twinx()
+    ax3.plot(tm, v.h_c, 'r-', lw=0.8, alpha=0.6)
+    ax3.set_ylabel('H (°C)', color='r')
+    ax2.set_xlabel('time (h)')
+    paths = [out_dir / 'thermal_compensation.png']
+    fig.tight_layout()
+    fig.savefig(paths[-1], dpi=110)
+    plt.close(fig)
+    if len(v.adev_tau_s):
+        fig, ax = plt.subplots(figsize=(7, 5))
+        ax.loglog(v.adev_tau_s, v.adev_raw_rad_s / DEG_H, 'o-', ms=3, label='raw')
+        ax.loglog(v.adev_tau_s, v.adev_compensated_rad_s / DEG_H, 'o-', ms=3,
+                  label='compensated')
+        ax.set_xlabel('τ (s)')
+        ax.set_ylabel('Allan deviation (°/h)')
+        ax.grid(True, which='both', alpha=0.3)
+        ax.legend()
+        paths.append(out_dir / 'thermal_compensation_allan.png')
+        fig.savefig(paths[-1], dpi=110)
+        plt.close(fig)
+    return paths

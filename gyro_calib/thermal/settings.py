@@ -1,8 +1,10 @@
 """Settings of the thermal calibration: one frozen dataclass, validated once.
 
 Field docstrings become ROS parameter descriptions; every unit is in the name or the
-docstring. ``scale_factor_rad_per_pulse`` and ``latitude_deg`` have no usable default
-(NaN): the calibration refuses to start without them.
+docstring. ``scale_factor_rad_per_pulse`` and ``latitude_deg`` default to NaN, "not
+given" (so the settings, and a node's parameters, can be built before they are known);
+:meth:`ThermalSettings.require_site` — called by the calibrator before it reads a sample
+— refuses to start without them, naming the flag to give.
 """
 
 from __future__ import annotations
@@ -17,6 +19,12 @@ from gyro_calib.thermal.terms import NAMED_SETS, candidate_terms
 from gyro_calib.thermal.wavelet import THRESHOLD_MODES, THRESHOLD_RULES, WAVELETS
 
 STYLES = ('continuous', 'soak')
+_K_EXPECTED = ('a positive number: give K from the RBRLG calibration or the data sheet '
+               '(--scale-factor-rad-per-pulse, or --calibration with a hand-off file that holds '
+               'it; node parameter scale_factor_rad_per_pulse)')
+_LATITUDE_EXPECTED = ('set to the site latitude in degrees (−90…90) so the Earth rate along '
+                      'the sense axis can be removed (--latitude-deg; node parameter '
+                      'latitude_deg)')
 """Calibration styles: regression on block means of the whole run, or on soak points."""
 
 
@@ -46,8 +54,9 @@ class ThermalSettings:
     """'continuous' (block means of the whole run) or 'soak' (one point per settled soak)."""
     candidate_terms: str = 'dynamic'
     """'static', 'dynamic', 'second_order' or a comma-separated list such as 'H,H^2,Hdot'."""
-    max_h_power: int = 3
-    """m: highest power of H in the named sets (eq. 14)."""
+    max_h_power: int = 4
+    """m: highest power of H in the named sets (eq. 14); stepwise keeps only the powers the
+    data support (4 fits the paper's strongly non-monotonic A-1, 3 leaves 0.03 °/h)."""
     stepwise_start: str = 'full'
     """Stepwise starts from 'full' (all candidates) or 'constant'."""
     p_enter: float = 0.05
@@ -120,13 +129,11 @@ class ThermalSettings:
                 raise ConfigError(f'{f.name} = {value!r} is invalid: it must be a {kind}.')
         t = self.averaging_interval_s
         checks: list[tuple[str, bool, str]] = [
-            ('scale_factor_rad_per_pulse',
-             math.isfinite(self.scale_factor_rad_per_pulse) and self.scale_factor_rad_per_pulse > 0,
-             'a positive number: give K from the RBRLG calibration or the data sheet '
-             '(--scale-factor-rad-per-pulse)'),
-            ('latitude_deg', math.isfinite(self.latitude_deg) and abs(self.latitude_deg) <= 90,
-             'set to the site latitude in degrees (−90…90) so the Earth rate along the sense '
-             'axis can be removed (--latitude-deg)'),
+            ('scale_factor_rad_per_pulse', math.isnan(self.scale_factor_rad_per_pulse) or (
+                math.isfinite(self.scale_factor_rad_per_pulse)
+                and self.scale_factor_rad_per_pulse > 0), _K_EXPECTED),
+            ('latitude_deg', math.isnan(self.latitude_deg) or abs(self.latitude_deg) <= 90,
+             _LATITUDE_EXPECTED),
             ('sense_axis_elevation_deg', -90 <= self.sense_axis_elevation_deg <= 90,
              'between −90 and 90'),
             ('sense_axis_azimuth_deg', math.isfinite(self.sense_axis_azimuth_deg), 'finite'),
@@ -183,6 +190,18 @@ class ThermalSettings:
                 "'soak': settled soak points carry no Ḣ or gradient information, so only "
                 "powers of H (the static model, eq. 14) can be fitted; use 'static'.")
 
+    def require_site(self) -> None:
+        """Raise ConfigError unless K and the latitude are given (the calibration needs both).
+
+        Raises:
+            ConfigError: naming the field and the flag or parameter that sets it.
+        """
+        for name, expected in (('scale_factor_rad_per_pulse', _K_EXPECTED),
+                               ('latitude_deg', _LATITUDE_EXPECTED)):
+            value = getattr(self, name)
+            if not math.isfinite(value):
+                raise ConfigError(f'{name} = {value!r} is invalid: it must be {expected}.')
+
     def interval_settings(self) -> IntervalSettings:
         """The stream-reduction part of these settings."""
         return IntervalSettings(
@@ -196,3 +215,27 @@ class ThermalSettings:
 def _multiple(x: float, t: float) -> bool:
     r = x / t
     return abs(r - round(r)) < 1e-9 * max(r, 1.0)
+
+
+def thermal_settings_from_mapping(values: dict[str, object], *,
+                                  source: str = 'mapping') -> ThermalSettings:
+    """Build ThermalSettings from a mapping (YAML, ROS parameters), rejecting unknown keys.
+
+    Raises:
+        ConfigError: an unknown key or an invalid value, naming ``source``.
+    """
+    names = {f.name for f in dataclasses.fields(ThermalSettings)}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; known fields: '
+                          f'{", ".join(sorted(names))}.')
+    defaults = ThermalSettings()
+    kwargs = dict(values)
+    for name, value in values.items():
+        if isinstance(getattr(defaults, name), float) and isinstance(value, int) \
+                and not isinstance(value, bool):
+            kwargs[name] = float(value)
+    try:
+        return ThermalSettings(**kwargs)  # type: ignore[arg-type]
+    except ConfigError as exc:
+        raise ConfigError(f'{exc} (in {source})') from None

@@ -18,6 +18,7 @@ cross-term model (2). :func:`random_gyro` draws further hidden laws for benchmar
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -168,6 +169,15 @@ def _describe(name: str, gyro: ThermalGyroConfig, chamber: ChamberProfile,
         'gyro': cfg,
         'chamber': {'start_c': chamber.start_c, 'segments': [list(s) for s in chamber.segments]},
         'faults': dataclasses.asdict(faults),
+        # what the operator knows (calibration inputs, not the answer): the site, the
+        # mounting, the gyro's serial and its K from the RBRLG calibration
+        'bench': {
+            'gyro_id': gyro.gyro_id,
+            'scale_factor_rad_per_pulse': gyro.scale_factor_rad_per_pulse,
+            'latitude_deg': gyro.latitude_deg,
+            'sense_axis_elevation_deg': gyro.sense_axis_elevation_deg,
+            'sense_axis_azimuth_deg': gyro.sense_axis_azimuth_deg,
+        },
         'truth': {
             'scale_factor_rad_per_pulse': gyro.scale_factor_rad_per_pulse,
             'earth_rate_along_axis_rad_s': gyro.earth_rate_along_axis_rad_s(),
@@ -178,33 +188,107 @@ def _describe(name: str, gyro: ThermalGyroConfig, chamber: ChamberProfile,
     }
 
 
+class FaultApplier:
+    """Applies :class:`ThermalFaults` to temperature messages chunk by chunk.
+
+    The only state is the stuck sensor's frozen reading (its last reading before
+    ``stuck_from_s``, carried from chunk to chunk), so any chunking gives the same output
+    as one call over the whole recording.
+    """
+
+    def __init__(self, faults: ThermalFaults, start_time_ns: int) -> None:
+        """Faults of a run starting at ``start_time_ns``."""
+        self.faults = faults
+        self.start_time_ns = int(start_time_ns)
+        self._last_good: float | None = None
+        self._frozen: float | None = None
+
+    def apply(self, t_ns: npt.NDArray[np.int64], values: npt.NDArray[np.float64],
+              frame_id: npt.NDArray[np.str_]) -> tuple[npt.NDArray[np.float64],
+                                                       npt.NDArray[np.bool_]]:
+        """The faulty readings of one chunk (a copy) and the mask of messages published."""
+        faults = self.faults
+        values = values.copy()
+        keep = np.ones(len(t_ns), bool)
+        rel_s = (t_ns - self.start_time_ns) / NS_PER_S
+        if faults.drop_temperature_topic:
+            keep[:] = False
+        if faults.drop_sensor is not None:
+            keep &= frame_id != faults.drop_sensor
+        if faults.stuck_sensor is not None:
+            mine = np.nonzero(frame_id == faults.stuck_sensor)[0]
+            stuck = mine[rel_s[mine] >= faults.stuck_from_s]
+            before = mine[rel_s[mine] < faults.stuck_from_s]
+            if len(before):
+                self._last_good = float(values[before[-1]])
+            if len(stuck):
+                if self._frozen is None:
+                    self._frozen = (self._last_good if self._last_good is not None
+                                    else float(values[stuck[0]]))
+                values[stuck] = self._frozen
+        if faults.nan_sensor is not None:
+            sel = (frame_id == faults.nan_sensor) & (rel_s >= faults.nan_s[0]) & (
+                rel_s < faults.nan_s[1])
+            values[sel] = np.nan
+        if faults.dropout_sensor is not None:
+            keep &= ~((frame_id == faults.dropout_sensor) & (rel_s >= faults.dropout_s[0])
+                      & (rel_s < faults.dropout_s[1]))
+        return values, keep
+
+
 def apply_faults(chunk_t: npt.NDArray[np.int64], values: npt.NDArray[np.float64],
                  frame_id: npt.NDArray[np.str_], faults: ThermalFaults,
                  start_time_ns: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                               npt.NDArray[np.bool_]]:
-    """Apply ``faults`` to temperature messages; return stamps, values and a keep mask."""
-    values = values.copy()
-    keep = np.ones(len(chunk_t), bool)
-    rel_s = (chunk_t - start_time_ns) / NS_PER_S
-    if faults.drop_temperature_topic:
-        keep[:] = False
-    if faults.drop_sensor is not None:
-        keep &= frame_id != faults.drop_sensor
-    if faults.stuck_sensor is not None:
-        mine = np.nonzero(frame_id == faults.stuck_sensor)[0]
-        stuck = mine[rel_s[mine] >= faults.stuck_from_s]
-        before = mine[rel_s[mine] < faults.stuck_from_s]
-        if len(stuck):
-            frozen = values[before[-1]] if len(before) else values[stuck[0]]
-            values[stuck] = frozen
-    if faults.nan_sensor is not None:
-        sel = (frame_id == faults.nan_sensor) & (rel_s >= faults.nan_s[0]) & (
-            rel_s < faults.nan_s[1])
-        values[sel] = np.nan
-    if faults.dropout_sensor is not None:
-        keep &= ~((frame_id == faults.dropout_sensor) & (rel_s >= faults.dropout_s[0])
-                  & (rel_s < faults.dropout_s[1]))
+    """Apply ``faults`` to a whole recording's temperature messages; return stamps, values
+    and a keep mask (:class:`FaultApplier` in one call)."""
+    values, keep = FaultApplier(faults, start_time_ns).apply(chunk_t, values, frame_id)
     return chunk_t, values, keep
+
+
+class ThermalRun:
+    """One chamber run of one gyro, faults applied, streamed in chunks (simulator nodes,
+    bag writers); :func:`simulate_thermal_run` concatenates the same chunks.
+
+    Attributes:
+        simulator: the gyro-in-chamber simulator.
+        scenario: plain-dict description (name, gyro id, seeds, configs, bench, truth).
+    """
+
+    def __init__(self, gyro: ThermalGyroConfig, chamber: ChamberProfile, *,
+                 name: str = 'thermal_run', start_time_ns: int = 1_700_000_000 * NS_PER_S,
+                 duration_s: float | None = None,
+                 faults: ThermalFaults | None = None) -> None:
+        """Set up the simulator and the faults; nothing is simulated yet."""
+        self.faults = faults or ThermalFaults()
+        self.simulator = ThermalGyroSimulator(gyro, chamber, start_time_ns=start_time_ns,
+                                              duration_s=duration_s)
+        self._faults = FaultApplier(self.faults, start_time_ns)
+        dur = (self.simulator.end_time_ns - self.simulator.start_time_ns) / NS_PER_S
+        self.scenario = _describe(name, gyro, chamber, start_time_ns, dur, self.faults)
+
+    @property
+    def finished(self) -> bool:
+        """True once every sample has been emitted."""
+        return self.simulator.finished
+
+    def advance(self, until_ns: int) -> ThermalChunk:
+        """Every sample stamped ≤ ``until_ns``, with the faults applied to the temperatures
+        (truth untouched)."""
+        c = self.simulator.advance(until_ns)
+        values, keep = self._faults.apply(c.temperature_t_ns, c.temperature_c,
+                                          c.temperature_frame_id)
+        return ThermalChunk(c.pulse_t_ns, c.pulse_counts, c.temperature_t_ns[keep],
+                            values[keep], c.temperature_variance_c2[keep],
+                            c.temperature_frame_id[keep], c.truth)
+
+    def chunks(self, chunk_s: float = 600.0) -> Iterator[ThermalChunk]:
+        """Yield chunks of ``chunk_s`` seconds until the run ends."""
+        step_ns = int(round(chunk_s * NS_PER_S))
+        t = self.simulator.start_time_ns - 1
+        while not self.finished:
+            t += step_ns
+            yield self.advance(t)
 
 
 def simulate_thermal_run(gyro: ThermalGyroConfig, chamber: ChamberProfile, *,
@@ -214,26 +298,22 @@ def simulate_thermal_run(gyro: ThermalGyroConfig, chamber: ChamberProfile, *,
                          chunk_s: float = 3600.0) -> ThermalRecording:
     """Run the gyro through the chamber programme offline; return the whole recording.
 
-    Faults act on the whole recording (a stuck sensor freezes at its last good value).
+    Faults act on the published temperatures (a stuck sensor freezes at its last good
+    value); the output does not depend on ``chunk_s``.
     """
-    faults = faults or ThermalFaults()
-    sim = ThermalGyroSimulator(gyro, chamber, start_time_ns=start_time_ns,
-                               duration_s=duration_s)
-    parts: list[ThermalChunk] = list(sim.chunks(chunk_s))
+    run = ThermalRun(gyro, chamber, name=name, start_time_ns=start_time_ns,
+                     duration_s=duration_s, faults=faults)
+    parts: list[ThermalChunk] = list(run.chunks(chunk_s))
     cat = np.concatenate
-    temp_t = cat([p.temperature_t_ns for p in parts])
-    temp_c = cat([p.temperature_c for p in parts])
-    frame = cat([p.temperature_frame_id for p in parts])
-    temp_t, temp_c, keep = apply_faults(temp_t, temp_c, frame, faults, start_time_ns)
-    dur = (sim.end_time_ns - sim.start_time_ns) / NS_PER_S
     return ThermalRecording(
         pulse_t_ns=cat([p.pulse_t_ns for p in parts]),
         pulse_counts=cat([p.pulse_counts for p in parts]),
-        temperature_t_ns=temp_t[keep], temperature_c=temp_c[keep],
-        temperature_variance_c2=cat([p.temperature_variance_c2 for p in parts])[keep],
-        temperature_frame_id=frame[keep],
+        temperature_t_ns=cat([p.temperature_t_ns for p in parts]),
+        temperature_c=cat([p.temperature_c for p in parts]),
+        temperature_variance_c2=cat([p.temperature_variance_c2 for p in parts]),
+        temperature_frame_id=cat([p.temperature_frame_id for p in parts]),
         truth=ThermalTruth.concatenate([p.truth for p in parts]),
-        scenario=_describe(name, gyro, chamber, start_time_ns, dur, faults))
+        scenario=run.scenario)
 
 
 def paper_soak_scenario(gyro_id: str = 'A-1', seed: int = 1, *, soak_s: float = 3600.0,
@@ -243,7 +323,8 @@ def paper_soak_scenario(gyro_id: str = 'A-1', seed: int = 1, *, soak_s: float = 
     """The paper's calibration run: −35…35 °C, 7 points, 1 h soaks, 1 °C/min ramps (§D.4)."""
     cfg = gyro or gyro_config(gyro_id, seed=seed, **overrides)
     return simulate_thermal_run(cfg, paper_soak_programme(soak_s=soak_s),
-                                name=f'thermal_paper_soak_{cfg.gyro_id}_{seed}', faults=faults)
+                                name=f'thermal_paper_soak_{cfg.gyro_id}_{cfg.seed}',
+                                faults=faults)
 
 
 def continuous_ramp_scenario(gyro_id: str = 'A-1', seed: int = 1, *, low_c: float = -35.0,
@@ -256,7 +337,7 @@ def continuous_ramp_scenario(gyro_id: str = 'A-1', seed: int = 1, *, low_c: floa
     cfg = gyro or gyro_config(gyro_id, seed=seed, **overrides)
     chamber = ramp_programme(low_c, high_c, rate_c_per_min=rate_c_per_min, cycles=cycles,
                              dwell_s=dwell_s)
-    return simulate_thermal_run(cfg, chamber, name=f'thermal_ramp_{cfg.gyro_id}_{seed}',
+    return simulate_thermal_run(cfg, chamber, name=f'thermal_ramp_{cfg.gyro_id}_{cfg.seed}',
                                 faults=faults)
 
 
@@ -273,5 +354,116 @@ def validation_scenario(gyro_id: str = 'A-1', seed: int = 101, *, soak_s: float 
     cfg = gyro or gyro_config(gyro_id, seed=seed, **overrides)
     chamber = soak_programme(VALIDATION_SET_POINTS_C, soak_s=soak_s,
                              ramp_rate_c_per_min=ramp_rate_c_per_min)
-    return simulate_thermal_run(cfg, chamber, name=f'thermal_validation_{cfg.gyro_id}_{seed}',
+    return simulate_thermal_run(cfg, chamber,
+                                name=f'thermal_validation_{cfg.gyro_id}_{cfg.seed}',
                                 faults=faults)
+
+
+PROGRAMMES = ('paper_soak', 'continuous_ramp', 'validation')
+"""Chamber programmes a :class:`ChamberRunConfig` names."""
+
+SENSOR_NAMES = ('', 'cavity_a', 'cavity_b', 'shell')
+"""Values of the fault fields naming a sensor ('' = no such fault)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ChamberRunConfig:
+    """One chamber run of a named gyro, as plain fields: the ``thermal_chamber_sim`` node's
+    parameters and the committed bags' recipes (:meth:`run` streams it, :meth:`recording`
+    simulates it whole; both give the same samples)."""
+
+    programme: str = 'paper_soak'
+    """'paper_soak' (−35…35 °C, 7 set points), 'continuous_ramp' (low → high → low) or
+    'validation' (set points between the paper's: −30, −20, −5, 10, 20, 30 °C)."""
+    gyro_id: str = 'A-1'
+    """Named gyro whose hidden bias law is simulated: A-1, A-2, B-1, B-2 or C-1."""
+    seed: int = 1
+    """Seed of the gyro's random streams (ARW, bias instability, sensor noise)."""
+    soak_s: float = 0.0
+    """Soak at each set point, s (0 = the programme's own: paper 3600, validation 2400)."""
+    ramp_rate_c_per_min: float = 1.0
+    """Soak programmes: rate of the ramps between set points, °C/min."""
+    low_c: float = -35.0
+    """continuous_ramp: lower end, °C."""
+    high_c: float = 35.0
+    """continuous_ramp: upper end, °C."""
+    rate_c_per_min: float = 0.5
+    """continuous_ramp: ramp rate, °C/min."""
+    cycles: int = 1
+    """continuous_ramp: number of up-and-down cycles."""
+    dwell_s: float = 1800.0
+    """continuous_ramp: dwell at each end, s."""
+    duration_s: float = 0.0
+    """Length of the run, s (0 = the whole programme)."""
+    pulse_rate_hz: float = 2.0
+    """Rate of /gyro/pulses samples, Hz (hours of data need only a few Hz)."""
+    temperature_rate_hz: float = 1.0
+    """Rate of each sensor's /gyro/temperature samples, Hz."""
+    latitude_deg: float = 34.26
+    """Site latitude, ° (the Earth rate along the vertical sense axis)."""
+    start_time_ns: int = 1_700_000_000 * NS_PER_S
+    """Stamp of the first sample, ns."""
+    stuck_sensor: str = ''
+    """Fault: sensor whose reading freezes from stuck_from_s on ('' = none)."""
+    stuck_from_s: float = 0.0
+    """Fault: when it freezes, s from the start."""
+    dropout_sensor: str = ''
+    """Fault: sensor that publishes nothing from dropout_start_s to dropout_end_s."""
+    dropout_start_s: float = 0.0
+    """Fault: start of the drop-out, s from the start."""
+    dropout_end_s: float = 0.0
+    """Fault: end of the drop-out, s from the start."""
+
+    def __post_init__(self) -> None:
+        """Reject a programme, gyro or sensor name the simulator does not know."""
+        if self.programme not in PROGRAMMES:
+            raise ValueError(f'programme = {self.programme!r}: use one of {", ".join(PROGRAMMES)}')
+        if self.gyro_id not in GYRO_LAWS:
+            raise ValueError(f'gyro_id = {self.gyro_id!r}: use one of {", ".join(GYRO_LAWS)}')
+        for name in ('stuck_sensor', 'dropout_sensor'):
+            if getattr(self, name) not in SENSOR_NAMES:
+                raise ValueError(f'{name} = {getattr(self, name)!r}: use one of '
+                                 f'{", ".join(repr(x) for x in SENSOR_NAMES)}')
+
+    def gyro(self) -> ThermalGyroConfig:
+        """The simulated gyro."""
+        return gyro_config(self.gyro_id, seed=self.seed, pulse_rate_hz=self.pulse_rate_hz,
+                           temperature_rate_hz=self.temperature_rate_hz,
+                           latitude_deg=self.latitude_deg)
+
+    def chamber(self) -> ChamberProfile:
+        """The chamber programme."""
+        if self.programme == 'paper_soak':
+            return paper_soak_programme(soak_s=self.soak_s or 3600.0,
+                                        ramp_rate_c_per_min=self.ramp_rate_c_per_min)
+        if self.programme == 'validation':
+            return soak_programme(VALIDATION_SET_POINTS_C, soak_s=self.soak_s or 2400.0,
+                                  ramp_rate_c_per_min=self.ramp_rate_c_per_min)
+        return ramp_programme(self.low_c, self.high_c, rate_c_per_min=self.rate_c_per_min,
+                              cycles=self.cycles, dwell_s=self.dwell_s)
+
+    def faults(self) -> ThermalFaults:
+        """The data faults."""
+        return ThermalFaults(
+            stuck_sensor=self.stuck_sensor or None, stuck_from_s=self.stuck_from_s,
+            dropout_sensor=self.dropout_sensor or None,
+            dropout_s=(self.dropout_start_s, self.dropout_end_s))
+
+    @property
+    def name(self) -> str:
+        """Run name, as the scenario functions name theirs."""
+        kind = {'paper_soak': 'paper_soak', 'continuous_ramp': 'ramp',
+                'validation': 'validation'}[self.programme]
+        return f'thermal_{kind}_{self.gyro_id}_{self.seed}'
+
+    def run(self) -> ThermalRun:
+        """The run, to be streamed in chunks."""
+        return ThermalRun(self.gyro(), self.chamber(), name=self.name,
+                          start_time_ns=self.start_time_ns,
+                          duration_s=self.duration_s or None, faults=self.faults())
+
+    def recording(self) -> ThermalRecording:
+        """The whole run offline (the same samples as :meth:`run`)."""
+        return simulate_thermal_run(self.gyro(), self.chamber(), name=self.name,
+                                    start_time_ns=self.start_time_ns,
+                                    duration_s=self.duration_s or None, faults=self.faults())

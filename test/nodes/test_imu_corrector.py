@@ -269,3 +269,124 @@ def test_node_publishes_calibrated_imu_and_follows_a_rewritten_file(
     assert bench.spin_until(lambda: bench.stamps()[-1] == last_ns, 10), node.log()
     _check(bench.imu[switch:], second)
     assert f'calibration file {path} is not valid YAML' in node.log()
+
+
+# ------------------------------------------------------ thermal compensation (METHODS §D)
+
+
+def _thermal_model(gyro_id: str = 'T-1', k_rad: float = K_RAD, slope_deg_h_per_c: float = 0.02,
+                   terms: tuple[str, ...] = ('H',)) -> Any:
+    """A hand-made model: bias = 0.3 °/h + slope·(H − 0 °C), calibrated −10…10 °C ± 2 °C."""
+    from gyro_calib.thermal.model import ThermalBiasModel
+    from gyro_calib.thermal.terms import VariableScaling
+
+    deg_h = math.pi / 180 / 3600
+    coef = (0.3 * deg_h,) + tuple(slope_deg_h_per_c * 10 * deg_h for _ in terms)
+    p = len(coef)
+    cov = tuple(tuple((1e-3 * deg_h) ** 2 if i == j else 0.0 for j in range(p)) for i in range(p))
+    return ThermalBiasModel(
+        gyro_id=gyro_id, terms=terms, coefficients_rad_s=coef, covariance_rad2_s2=cov,
+        scaling=VariableScaling({'H': 0.0, 'Hdot': 0.0, 'dTab': 0.0, 'dTcs': 0.0},
+                                {'H': 10.0, 'Hdot': 1e-3, 'dTab': 1.0, 'dTcs': 1.0}),
+        h_range_c=(-10.0, 10.0), hdot_range_c_s=(-1e-3, 1e-3), extrapolation_margin_c=2.0,
+        hdot_margin_fraction=0.5, scale_factor_rad_per_pulse=k_rad, latitude_deg=34.26,
+        sense_axis_elevation_deg=90.0, sense_axis_azimuth_deg=0.0,
+        earth_rate_along_axis_rad_s=15.041 * deg_h * math.sin(math.radians(34.26)),
+        averaging_interval_s=1.0, hdot_window_s=60.0, sensors=('cavity_a', 'cavity_b', 'shell'),
+        residual_std_rad_s=1e-8, fit_block_s=10.0, calibration_style='continuous',
+        covariance_kind='allan', n_used=100, dof=90)
+
+
+def _thermal_handoff(model: Any, *, file_gyro_id: str | None = None,
+                     rbrlg: Calibration | None = None) -> Calibration:
+    prov = Provenance('test', T0_NS - 600 * 10**9, T0_NS - 10**9)
+    cal = method_calibration('thermal', {'thermal_model': model.to_dict(),
+                                         'thermal_residual_std_rad_s': 1e-8}, prov,
+                             gyro_id=model.gyro_id if file_gyro_id is None else file_gyro_id)
+    return cal if rbrlg is None else cal.merged_into(rbrlg, handoff_schema())
+
+
+def _feed(converter: PulseRateConverter, start_s: int, stop_s: int, celsius: float,
+          pulses_per_s: float = 3.7) -> list[Any]:
+    """Temperatures at 1 Hz (all three sensors) and pulses at 2 Hz; the converter's outputs."""
+    outs = []
+    for i in range(2 * start_s, 2 * stop_s):
+        t = T0_NS + i * 500_000_000
+        if i % 2 == 0:
+            for sensor in ('cavity_a', 'cavity_b', 'shell'):
+                converter.add_temperature(t, celsius, sensor)
+        outs.append((t, converter.add(t, math.floor(i * pulses_per_s / 2))))
+    return outs
+
+
+def test_thermal_model_file_alone_gives_k_and_the_bias_at_the_current_temperature() -> None:
+    model = _thermal_model()
+    cal = pulse_calibration(_thermal_handoff(model), gyro_id='T-1')
+    assert cal.scale_factor_key == 'thermal_model'
+    assert cal.scale_factor_rad_per_pulse == K_RAD and cal.scale_factor_std == 0.0
+    assert cal.thermal_model == model
+    converter = PulseRateConverter(cal)
+    outs = _feed(converter, 0, 60, 5.0)
+    counts = [math.floor(i * 3.7 / 2) for i in range(len(outs))]
+    bias, bias_std = model.bias_rad_s(5.0)
+    n_rates = 0
+    for i in range(1, len(outs)):
+        out = outs[i][1]
+        if not isinstance(out, ImuAngularVelocity):
+            assert isinstance(out, Rejection)  # before both cavities have an interval
+            continue
+        n_rates += 1
+        expected = K_RAD * (counts[i] - counts[i - 1]) / 0.5 - bias[0]
+        assert out.angular_velocity_rad_s[2] == pytest.approx(expected, rel=1e-12, abs=1e-20)
+        assert out.covariance_rad2_s2[8] == pytest.approx(
+            K_RAD**2 / (6 * 0.25) + bias_std[0] ** 2, rel=1e-9)
+    assert n_rates >= len(outs) - 6  # only the first seconds wait for a temperature interval
+
+
+def test_thermal_bias_is_refused_before_temperatures_outside_the_range_and_when_stale() -> None:
+    model = _thermal_model()
+    converter = PulseRateConverter(pulse_calibration(_thermal_handoff(model)),
+                                   thermal_max_age_s=5.0)
+    converter.add(T0_NS, 0.0)
+    first = converter.add(T0_NS + 500_000_000, 2.0)
+    assert isinstance(first, Rejection) and 'no complete interval' in first.reason
+    inside = _feed(converter, 1, 40, 9.0)
+    assert isinstance(inside[-1][1], ImuAngularVelocity)
+    outside = _feed(converter, 40, 80, 13.5)  # 10 °C + 2 °C margin exceeded
+    assert isinstance(outside[-1][1], Rejection)
+    assert 'outside the calibrated range' in outside[-1][1].reason
+    assert '13.50 °C' in outside[-1][1].reason
+    back = _feed(converter, 80, 120, -11.0)  # within the margin
+    assert isinstance(back[-1][1], ImuAngularVelocity)
+    stale = converter.add(T0_NS + 140 * 10**9, 500.0)  # no temperature for 20 s
+    assert isinstance(stale, Rejection) and 'thermal_max_age_s = 5' in stale.reason
+
+
+def test_thermal_model_of_another_gyro_is_refused() -> None:
+    from gyro_calib.thermal.errors import ModelMismatchError
+
+    model = _thermal_model(gyro_id='T-1')
+    with pytest.raises(ModelMismatchError, match="fitted on gyro 'T-1'.*from gyro 'T-2'"):
+        pulse_calibration(_thermal_handoff(model), gyro_id='T-2')
+    with pytest.raises(ModelMismatchError, match='the file is inconsistent'):
+        pulse_calibration(_thermal_handoff(model, file_gyro_id='T-9'))
+
+
+def test_thermal_model_needs_the_k_it_was_fitted_with_and_replaces_the_constant_bias() -> None:
+    model = _thermal_model(k_rad=K_RAD)
+    same = pulse_calibration(_thermal_handoff(model, rbrlg=_handoff()))
+    assert same.scale_factor_key == 'scale_factor_rad_per_pulse'
+    assert same.scale_factor_std == 6e-14 and same.thermal_model is not None
+    assert same.bias_rad_s == 0.0  # the file's bias_rad_s is not used: the model holds it
+    other = _thermal_model(k_rad=K_RAD * (1 + 5e-4))
+    with pytest.raises(HandoffError, match='differs from the .* thermal_model was fitted with'):
+        pulse_calibration(_thermal_handoff(other, rbrlg=_handoff()))
+
+
+def test_converter_without_thermal_model_ignores_temperatures() -> None:
+    converter = PulseRateConverter(_calibration())
+    converter.add(T0_NS, 0.0)
+    converter.add_temperature(T0_NS, 99.0, 'cavity_a')
+    out = converter.add(T0_NS + 1_000_000, 412.0)
+    assert isinstance(out, ImuAngularVelocity)
+    assert out.angular_velocity_rad_s[2] == pytest.approx(K_RAD * 412e3 - 7.3e-6, rel=1e-12)

@@ -1,0 +1,99 @@
+"""thermal_calibration_node: a gyro's temperature bias model from a live chamber run (METHODS §D).
+
+Subscribes /gyro/pulses (sensor_msgs/JointState) and /gyro/temperature
+(sensor_msgs/Temperature, header.frame_id cavity_a, cavity_b, shell) and feeds the same
+session ``gyro-calib calibrate --method thermal`` uses (:mod:`gyro_calib.thermal.session`).
+The model is fitted at the end of the recording, which live means: once no message has
+arrived for ``fit_after_idle_s`` (wall time decides only *when*; the model depends only on
+the messages), and when the node is shut down with data not yet fitted (the hand-off file is
+then still written). With ``refit_every_s`` > 0 it also refits on the way. Every figure, with
+its uncertainty, count and the reason for anything missing, goes to /diagnostics (status
+``gyro_calib: thermal``); the model goes into the hand-off file (``output_file``) as
+``thermal_model``.
+
+Parameters: every field of :class:`~gyro_calib.thermal.settings.ThermalSettings`, the
+common ones of :mod:`gyro_calib.nodes.method_node` (``scale_factor_rad_per_pulse`` and
+``latitude_deg`` are required; ``gyro_id`` goes into the model), and ``fit_after_idle_s``.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.executors import ExternalShutdownException
+
+from gyro_calib.bag import SampleBatch
+from gyro_calib.errors import GyroCalibError
+from gyro_calib.nodes.method_node import MethodNode
+from gyro_calib.nodes.ros_io import described_parameter, spin
+from gyro_calib.thermal.settings import ThermalSettings
+
+
+class ThermalCalibrationNode(MethodNode):
+    """The generic method node, plus the end-of-recording fit."""
+
+    def __init__(self) -> None:
+        """Declare parameters (settings, common ones, fit_after_idle_s) and wire topics."""
+        super().__init__('thermal', 'thermal_calibration_node', {}, ThermalSettings)
+        self.fit_after_idle_s = float(described_parameter(
+            self, 'fit_after_idle_s', 5.0, 'Fit the model once no message has arrived for this '
+            'long, s (the end of the recording; 0 = only at shut-down or every refit_every_s).'))
+        self._declared = True
+        self._last_data = time.monotonic()
+        self.unfitted = False
+
+    def _refuse_runtime_change(self, params: list[Any]) -> SetParametersResult:
+        if not getattr(self, '_declared', False):  # still declaring fit_after_idle_s
+            return SetParametersResult(successful=True)
+        return super()._refuse_runtime_change(params)
+
+    def _process(self) -> None:
+        got = any(b.stamps for b in self._buffers.values())
+        super()._process()
+        now = time.monotonic()
+        if got:
+            self._last_data, self.unfitted = now, True
+        elif self.unfitted and self.fit_after_idle_s > 0 \
+                and now - self._last_data >= self.fit_after_idle_s:
+            self.get_logger().info(f'no message for {self.fit_after_idle_s:g} s: end of the '
+                                   'recording, fitting the model.')
+            self.finish()
+            super()._process()  # publishes the new results, hand-off and diagnostics
+
+    def finish(self) -> None:
+        """Fit on everything received so far (the end of the recording)."""
+        self.unfitted = False
+        columns = {t: c for t, b in self._buffers.items() if (c := b.take()) is not None}
+        if columns:  # messages that arrived since the last hand-over (shut-down)
+            last = max(int(c.stamp_ns.max()) for c in columns.values())
+            self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        for line in self.session.process(flush=True):
+            self._last_line = line
+            log = self.get_logger()
+            log.warning(line) if 'not fitted' in line or 'reject' in line else log.info(line)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the thermal calibration node until shut down."""
+    node = None
+    try:
+        with rclpy.init(args=args):
+            try:
+                node = ThermalCalibrationNode()
+            except GyroCalibError as exc:
+                rclpy.logging.get_logger('thermal_calibration_node').fatal(str(exc))
+                raise SystemExit(1) from None
+            spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None and node.unfitted:  # shut down mid-recording: fit what came
+            node.finish()
+            node._write_handoff()
+
+
+if __name__ == '__main__':
+    main()
