@@ -68,6 +68,8 @@ class CaseResult:
     name: str
     k_tilde: np.ndarray            # per-pair K̃, ″/pulse
     fit_var_pulses2: np.ndarray    # per-pair var(N⁺)+var(N⁻) from the end fits, pulses²
+    angle_var_arcsec2: np.ndarray  # per-pair var(A⁺)+var(A⁻) from the encoder fits, ″²
+    source: str                    # window_angle_source: 'encoder' or 'nominal'
     window_s: np.ndarray           # durations of the windows in the pairs, s
     n_windows: int
     n_rejected: int
@@ -87,14 +89,19 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                    help='simulated seconds per run (1100; ~37 pairs each)')
     p.add_argument('--first-seed', type=int, default=1, help='first seed (1); seeds run upwards')
     p.add_argument('--skip-noise-free', action='store_true', help='only the noisy case')
+    p.add_argument('--window-angle-source', choices=('encoder', 'nominal'), default='encoder',
+                   help="window angle: the encoder's (default) or exactly m·360° (eq. 3)")
     p.add_argument('--strict', action='store_true',
                    help='exit with status 1 when a target is missed')
     return p.parse_args(argv)
 
 
-def run_case(name: str, seeds: list[int], duration_s: float, *, noise_free: bool) -> CaseResult:
+def run_case(name: str, seeds: list[int], duration_s: float, *, noise_free: bool,
+             source: str = 'encoder') -> CaseResult:
     """Simulate and calibrate every seed; pool the pairs."""
-    k, fit_var, dur = [], [], []
+    from gyro_calib.units import ARCSEC_PER_RAD
+
+    k, fit_var, angle_var, dur = [], [], [], []
     n_windows = n_rejected = 0
     table = gyro = None
     t0 = time.perf_counter()
@@ -106,17 +113,21 @@ def run_case(name: str, seeds: list[int], duration_s: float, *, noise_free: bool
             gyro = replace(gyro, angle_random_walk_deg_sqrt_h=0.0)
         rec = simulate_rate_bias_bench(table, gyro)
         cal = calibrate_k_tilde(rec.pulse_t_ns, rec.pulse_counts, rec.table_t_ns,
-                                rec.table_angle_rad, rec.table_rate_rad_s, rec.zero_index_ns)
+                                rec.table_angle_rad, rec.table_rate_rad_s, rec.zero_index_ns,
+                                KTildeConfig(window_angle_source=source))
         n_windows += len(cal.windows)
         n_rejected += len(cal.rejections)
         for pair in cal.pairs:
             k.append(pair.k_tilde_arcsec_per_pulse)
             fit_var.append(pair.forward.pulses_std ** 2 + pair.reverse.pulses_std ** 2)
+            angle_var.append((pair.forward.angle_std_rad ** 2 + pair.reverse.angle_std_rad ** 2)
+                             * ARCSEC_PER_RAD ** 2)
             dur.extend((pair.forward.duration_s, pair.reverse.duration_s))
         print(f'  {name}: seed {seed}: {len(cal.pairs)} pairs, {len(cal.rejections)} rejections '
               f'({time.perf_counter() - t0:.1f} s wall so far)', file=sys.stderr, flush=True)
     assert table is not None and gyro is not None
-    return CaseResult(name, np.asarray(k), np.asarray(fit_var), np.asarray(dur), n_windows,
+    return CaseResult(name, np.asarray(k), np.asarray(fit_var), np.asarray(angle_var), source,
+                      np.asarray(dur), n_windows,
                       n_rejected, true_k_tilde_arcsec_per_pulse(gyro),
                       KTildeConfig().revolutions_per_window, table, gyro,
                       time.perf_counter() - t0)
@@ -129,9 +140,12 @@ def predicted_terms(case: CaseResult) -> dict[str, float]:
     n_arw = case.gyro.angle_random_walk_deg_sqrt_h * ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H
     t_window = m * 360.0 / case.table.rate_deg_s
     k = case.gyro.scale_factor_arcsec_per_pulse
-    # two windows per pair, each: two ends of jitter, ARW over T, two end fits
+    # two windows per pair, each: two ends of jitter (nominal angles) or of the encoder fits
+    # (encoder angles: the encoder measures the jitter), ARW over T, two end fits
     terms = {
-        'index jitter': 2 * (2 * sigma_j ** 2),
+        'index jitter': 2 * (2 * sigma_j ** 2) if case.source == 'nominal' else 0.0,
+        'encoder angle (fit)': (float(np.mean(case.angle_var_arcsec2))
+                                if case.source == 'encoder' else 0.0),
         'ARW': 2 * (n_arw ** 2 * t_window),
         'quantisation (fit)': k ** 2 * float(np.mean(case.fit_var_pulses2)),
     }
@@ -174,7 +188,7 @@ def report(case: CaseResult, bias_target: float, check_std: bool,
     lo, hi = chi2_ratio_range(n)
     est = mean_estimate(case.k_tilde.tolist())
     outcomes = [n >= MIN_PAIRS, abs(bias) < bias_target]
-    print(f'\n== {case.name} ==  jitter σ_j = {pred["_sigma_j"]:g}″, '
+    print(f'\n== {case.name} ==  window angles: {case.source}; jitter σ_j = {pred["_sigma_j"]:g}″, '
           f'ARW = {case.gyro.angle_random_walk_deg_sqrt_h:g} °/√h '
           f'(N_arw = {pred["_n_arw"]:.4g} ″/√s), quantise = {case.gyro.quantise}, '
           f'Earth {case.gyro.earth_rate_deg_h:g} °/h, bias {case.gyro.bias_deg_h:g} °/h, '
@@ -193,7 +207,7 @@ def report(case: CaseResult, bias_target: float, check_std: bool,
     else:
         print()
     print('  predicted per-pair floor, by term  (var of N⁺−N⁻ in ″², → rel. std alone):')
-    for name in ('index jitter', 'ARW', 'quantisation (fit)'):
+    for name in ('index jitter', 'encoder angle (fit)', 'ARW', 'quantisation (fit)'):
         print(f'    {name:<32} {pred[name + " [″²]"]:>10.4e} ″²  → {pred[name + " rel"]:.3e}')
     print(f'  {"per-pair rel. std (predicted)":<34} {pred["total rel"]:>24.3e}')
     print(f'  {"measured / predicted":<34} {ratio:>24.3f}   ', end='')
@@ -205,7 +219,8 @@ def report(case: CaseResult, bias_target: float, check_std: bool,
           f'{f"{est.value:.12f} ± {est.std_uncertainty:.1e}":>24}'
           f'   truth K/cos θ = {case.truth:.12f}')
     if quant_measured_rel is not None:
-        other = math.hypot(pred['index jitter rel'], pred['ARW rel'])
+        other = math.hypot(pred['index jitter rel'], pred['encoder angle (fit) rel'],
+                           pred['ARW rel'])
         alt = math.hypot(other, quant_measured_rel)
         print(f'  {"predicted, quantisation as measured":<34} {alt:>24.3e}'
               f'   (noise-free scatter {quant_measured_rel:.3e} in place of the fit term)')
@@ -227,11 +242,12 @@ def main(argv: list[str] | None = None) -> int:
           f'(~{opts.seeds * opts.duration / 29.4:.0f} pairs expected), paper set-up, m = {m}')
     t0 = time.perf_counter()
     outcomes: list[bool] = []
-    noisy = run_case('paper set-up (all sources on)', seeds, opts.duration, noise_free=False)
+    noisy = run_case('paper set-up (all sources on)', seeds, opts.duration, noise_free=False,
+                     source=opts.window_angle_source)
     clean = None
     if not opts.skip_noise_free:
         clean = run_case('noise-free (jitter 0, ARW 0; quantisation, Earth, bias, drift on)',
-                         seeds, opts.duration, noise_free=True)
+                         seeds, opts.duration, noise_free=True, source=opts.window_angle_source)
     quant = None if clean is None else float(np.std(clean.k_tilde / clean.truth - 1.0, ddof=1))
     outcomes += report(noisy, TARGET_BIAS, check_std=True, quant_measured_rel=quant)
     if clean is not None:

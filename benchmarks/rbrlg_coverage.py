@@ -178,18 +178,21 @@ def main() -> None:
             ('runs_k', 'runs_theta', 'runs_80', 'runs_full')}
     print(f'rbrlg coverage Monte Carlo on {os.cpu_count()} cores ({args.workers} workers): '
           f'{runs}')
-    results: dict[str, list] = {}
     t0 = time.perf_counter()
+    sections = [
+        ('K̃ and ω′ₑ+ω_B', _k_runs, list(range(1000, 1000 + runs['runs_k']))),
+        ('θ', _theta_runs, [(s, n, src) for src in ('default', 'paper') for n in STATIONS
+                            for s in range(2000, 2000 + (runs['runs_80'] if n == 80
+                                                         else runs['runs_theta']))]),
+        ('K', _full_runs, list(range(3000, 3000 + runs['runs_full']))),
+    ]
     with ProcessPoolExecutor(args.workers) as pool:
-        for part in pool.map(_k_runs, range(1000, 1000 + runs['runs_k'])):
-            _merge(results, part)
-        jobs = [(s, n, src) for src in ('default', 'paper') for n in STATIONS
-                for s in range(2000, 2000 + (runs['runs_80'] if n == 80 else runs['runs_theta']))]
-        for part in pool.map(_theta_runs, jobs):
-            _merge(results, part)
-        for part in pool.map(_full_runs, range(3000, 3000 + runs['runs_full'])):
-            _merge(results, part)
-    _report(results)
+        for title, job, items in sections:
+            results: dict[str, list] = {}
+            for part in pool.map(job, items, chunksize=1):
+                _merge(results, part)
+            print(f'\n== {title} ({time.perf_counter() - t0:.0f} s so far)', flush=True)
+            _report(results)
     print(f'({time.perf_counter() - t0:.0f} s)')
 
 

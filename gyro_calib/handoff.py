@@ -569,5 +569,6 @@ def keys_table(keys: Iterable[HandoffKey]) -> str:
     lines = ['| key | method | meaning |', '|---|---|---|']
     for k in keys:
         std = ' (+ `_std`)' if k.has_std else ''
-        lines.append(f'| `{k.name}`{std} | {k.method} | {k.description} |')
+        text = k.description.replace('|', '\\|')
+        lines.append(f'| `{k.name}`{std} | {k.method} | {text} |')
     return '\n'.join(lines)

@@ -45,7 +45,9 @@ def main(argv: list[str] | None = None) -> int:
           f'{opts.speed:g}× real time', flush=True)
     out = os.path.abspath(opts.out)
     procs = [
-        start_node('calibration_node', {'latitude_deg': gyro.latitude_deg, 'output_file': out},
+        start_node('calibration_node', {'latitude_deg': gyro.latitude_deg, 'output_file': out,
+                                        'angle_random_walk_deg_sqrt_h':
+                                            gyro.angle_random_walk_deg_sqrt_h},
                    env),
         start_node('rlg_sim', {'seed': opts.seed}, env),
     ]

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+from gyro_calib.handoff import load_calibration
 from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
 from gyro_calib.units import RAD_PER_ARCSEC
 from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
@@ -22,9 +25,10 @@ def _offline_k_tilde_rad(duration_s: float, seed: int) -> tuple[float, int]:
 
 
 def test_live_k_tilde_equals_offline_core_result(listener: ResultListener,
-                                                  nodes: list[NodeProcess]) -> None:
+                                                  nodes: list[NodeProcess],
+                                                  tmp_path: Path) -> None:
     duration, seed = 100.0, 11
-    nodes.append(launch('calibration_node', {}))
+    nodes.append(launch('calibration_node', {'output_file': str(tmp_path / 'gyro.yaml')}))
     nodes.append(launch('rlg_sim', {'seed': seed}))
     table = launch('rate_table_sim', {'duration_s': duration, 'seed': seed,
                                       'real_time_factor': SPEED})
@@ -38,6 +42,12 @@ def test_live_k_tilde_equals_offline_core_result(listener: ResultListener,
     assert listener.k_tilde[-1] == expected  # bit-identical: stamps and contents only
     assert listener.diagnostics['windows_rejected'] == '0', logs
     assert 'window accepted: +5 rev' in nodes[0].log()
+    # a rate-bias bench alone gives K̃: the node writes the hand-off of what it measured
+    handoff = load_calibration(tmp_path / 'gyro.yaml')
+    assert handoff.get('k_tilde_rad_per_pulse') == expected
+    assert not handoff.complete
+    assert {'fix_error_angle_rad', 'scale_factor_rad_per_pulse'} <= set(handoff.missing)
+    assert 'still missing: ' in nodes[0].log()
 
 
 def test_node_keeps_its_pairs_when_the_simulator_restarts(listener: ResultListener,
