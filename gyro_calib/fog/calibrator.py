@@ -84,6 +84,8 @@ class _Fits:
     turntable: TurntableFit | str
     mapping: MappingFit | str
     self_cal: SelfCalFit | str
+    rejections: tuple[Rejection, ...] = ()
+    """Segments the fits left out as unsteady (decided over all segments at fit time)."""
 
 
 @dataclass(slots=True)
@@ -96,6 +98,8 @@ class FogCalibrator:
     """Every measured segment (also those an injection overlaps), in time order."""
     plateaus: list[PlateauMeasurement] = field(default_factory=list)
     """Every accepted plateau, in time order."""
+    restarts: list[str] = field(default_factory=list)
+    """One whole sentence per source restart (what was dropped, what was kept)."""
     _out: StampedBuffer = field(init=False)
     _table: StampedBuffer = field(init=False)
     _index: StampedBuffer = field(init=False)
@@ -207,10 +211,12 @@ class FogCalibrator:
         self._plateaus_done = 0
         self._plateau_reference = self._zero_reference = None
         self._newest_out = None
-        self._log.append(
-            f'{topic} restarted (stamps jumped back by more than '
-            f'{self.settings.restart_backstep_s:g} s): open segments and plateaus were dropped; '
-            f'{len(self.segments)} segment(s) and {len(self.plateaus)} plateau(s) kept.')
+        note = (f'{topic} restarted (stamps jumped back by more than '
+                f'{self.settings.restart_backstep_s:g} s): open segments and plateaus were '
+                f'dropped; {len(self.segments)} segment(s) and {len(self.plateaus)} plateau(s) '
+                f'kept.')
+        self.restarts.append(note)
+        self._log.append(note)
 
     # -- processing -------------------------------------------------------------------------
     def process(self, *, flush: bool = False) -> list[str]:
@@ -226,7 +232,7 @@ class FogCalibrator:
         self._measure_plateaus(flush)
         self._trim()
         if flush:
-            self._log.extend(self._stream_notes())
+            self._log.extend(self.stream_notes())
         lines, self._log = self._log, []
         return lines
 
@@ -415,7 +421,9 @@ class FogCalibrator:
         self._cells.discard_before(cut)
         self._index.discard_before(cut)
 
-    def _stream_notes(self) -> list[str]:
+    def stream_notes(self) -> list[str]:
+        """One line per input stream that had samples dropped or re-sorted (NaN/inf,
+        duplicate or out-of-order stamps, restarts), naming what happened."""
         notes = []
         for topic, buf in ((topics.FOG_OUTPUT, self._out), (topics.FOG_INJECTION,
                                                               self._injection),
@@ -429,6 +437,11 @@ class FogCalibrator:
 
     # -- results -------------------------------------------------------------------------------
     @property
+    def seen_topics(self) -> frozenset[str]:
+        """The input topics that delivered at least one sample."""
+        return frozenset(self._seen)
+
+    @property
     def active_segments(self) -> list[SegmentMeasurement]:
         """Segments used by the turntable and mapping fits (no injection overlap)."""
         return [s for i, s in enumerate(self.segments) if i not in self._excluded]
@@ -436,7 +449,7 @@ class FogCalibrator:
     def fits(self) -> _Fits:
         """Turntable, mapping and self-calibration fits (each a fit or the reason why not)."""
         if self._fits is None:
-            segs = self.active_segments
+            segs, unsteady = self._steady(self.active_segments)
             noise = pooled_noise(segs)
             turntable = fit_turntable(segs, noise, self.settings)
             mapping = fit_mapping(segs, noise, self.settings)
@@ -452,8 +465,46 @@ class FogCalibrator:
                     self.plateaus, mapping if isinstance(mapping, MappingFit) else None,
                     turntable if isinstance(turntable, TurntableFit) else None, cov,
                     self.settings)
-            self._fits = _Fits(turntable, mapping, self_cal)
+            self._fits = _Fits(turntable, mapping, self_cal, unsteady)
         return self._fits
+
+    def _steady(self, segments: list[SegmentMeasurement]) -> tuple[
+            list[SegmentMeasurement], tuple[Rejection, ...]]:
+        """Leave out segments whose output was not steady: block scatter far beyond the
+        other segments' (the ARW does not depend on the rate; an unrecorded injection or a
+        loop disturbance makes the output rate jump within the segment).
+
+        The integer output's quantisation can beat slowly against the sample rate and leave
+        up to ½ count in each local-fit count, so up to 1 count² in a block increment: that
+        much (1/T_b counts²/s) is allowed beyond the ratio before a segment is called
+        unsteady."""
+        if len(segments) < 3:
+            return segments, ()
+        n2 = [s.arw_estimate()[0] if s.block_count >= 2 else math.nan for s in segments]
+        ratio = self.settings.unsteady_noise_ratio
+        keep, rejected = [], []
+        for i, seg in enumerate(segments):
+            others = [v for j, v in enumerate(n2) if j != i and math.isfinite(v)]
+            median = float(np.median(others)) if len(others) >= 2 else math.nan
+            excess = n2[i] - 1.0 / seg.block_s if seg.block_s > 0 else math.nan
+            if math.isfinite(excess) and median > 0 and excess > ratio * median:
+                reason = (f'segment at {rate_deg_s(seg.rate_rad_s)} {stamp_text(seg.start_ns)}: '
+                          f'the output rate was not steady — its block scatter is '
+                          f'{n2[i] / median:.3g} times the median of the other segments '
+                          f'(limit unsteady_noise_ratio = {ratio:g}, beyond the count '
+                          f'quantisation): the output changed during '
+                          f'the segment (an injection not recorded on /fog/injection? a loop '
+                          f'disturbance); not used.')
+                rejected.append(Rejection(seg.start_ns, reason))
+            else:
+                keep.append(seg)
+        return keep, tuple(rejected)
+
+    def all_rejections(self) -> list[Rejection]:
+        """Everything rejected, in stamp order: while streaming (segments, plateaus) and by
+        the fits (unsteady segments)."""
+        return sorted([*self.rejections, *self.fits().rejections],
+                      key=lambda r: (r.stamp_ns, r.reason))
 
     @property
     def bias_key(self) -> str:
@@ -488,8 +539,10 @@ class FogCalibrator:
                 out[KEY_SELF_CAL_SMALL_SIGNAL] = s.small_signal
             if s.difference is not None:
                 out[KEY_SELF_CAL_DIFFERENCE] = s.difference
-        rejected = tuple(sorted(self.rejections, key=lambda r: (r.stamp_ns, r.reason)))
-        return {k: dataclasses.replace(e, rejected=rejected) for k, e in out.items()}
+        rejected = tuple(self.all_rejections())
+        # a figure whose value or uncertainty is not a finite number is not measured
+        return {k: dataclasses.replace(e, rejected=rejected) for k, e in out.items()
+                if math.isfinite(e.value) and math.isfinite(e.std_uncertainty)}
 
     def summary(self) -> list[str]:
         """Whole-sentence lines: each measured figure with its uncertainty and count, and the
@@ -529,6 +582,9 @@ class FogCalibrator:
         return out
 
     def _why_missing(self, key: str, f: _Fits) -> str:
+        if key == KEY_ARW and isinstance(f.turntable, TurntableFit):
+            return (f'no segment was long enough for two noise blocks of min_block_s = '
+                    f'{self.settings.min_block_s:g} s: no angle random walk estimate.')
         if key in (KEY_SCALE_FACTOR, self.bias_key, KEY_NONLINEARITY, KEY_ARW):
             return self._turntable_reason(f.turntable)
         if key in (KEY_ASYMMETRY, KEY_QUADRATIC, KEY_CUBIC):

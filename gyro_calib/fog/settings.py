@@ -50,6 +50,11 @@ class FogSettings:
     """Blocks a segment or plateau is cut into to measure its noise (Type A)."""
     min_block_s: float = 0.5
     """Shortest noise block, s."""
+    unsteady_noise_ratio: float = 25.0
+    """A segment whose block scatter (its angle-random-walk estimate, less the most the count
+    quantisation can add) exceeds this multiple of the median of the other segments' did not
+    see a steady output (an unrecorded injection, a loop disturbance): it is rejected. Needs
+    three or more segments."""
     min_turntable_rates: int = 3
     """Distinct table rates needed for the turntable least squares."""
     mapping_rates_deg_s: tuple[float, ...] = (20.0, 20.01, 20.1, 21.0)
@@ -125,6 +130,7 @@ class FogSettings:
             ('max_fit_residual_counts', self.max_fit_residual_counts > 0, 'positive'),
             ('noise_blocks', self.noise_blocks >= 2, 'at least 2'),
             ('min_block_s', self.min_block_s > 0, 'positive'),
+            ('unsteady_noise_ratio', self.unsteady_noise_ratio > 1, 'greater than 1'),
             ('min_turntable_rates', self.min_turntable_rates >= 2, 'at least 2'),
             ('mapping_rate_tolerance_deg_s', self.mapping_rate_tolerance_deg_s > 0, 'positive'),
             ('static_rate_tolerance_deg_s', self.static_rate_tolerance_deg_s > 0, 'positive'),

@@ -18,8 +18,10 @@ Per constant-rate segment (METHODS §B, §E; issue 10 Part 1 items 3–4):
 
 Fits (:mod:`gyro_calib.fog.fits`; each rate one point, as IEEE Std 952 fits them; sandwich
 covariance from the segment variances): R = K·ω + B over all
-segments → K, bias B/K, nonlinearity; R = K₊·ω⁺ + K₋·ω⁻ + B → asymmetry
-2(K₊ − K₋)/(K₊ + K₋); R = B + K₁ω + K₂ω² + K₃ω³ → k₂ = K₂/K₁, k₃ = K₃/K₁ (≥ 5 rates).
+segments → K, nonlinearity (and the bias B/K when all rates have one sign);
+R = K₊·ω⁺ + K₋·ω⁻ + B → asymmetry 2(K₊ − K₋)/(K₊ + K₋) and, with rates of both signs, the
+bias B/K (the line's intercept would carry the asymmetry's even term K·(a/2)·mean|ω|);
+R = B + K₁ω + K₂ω² + K₃ω³ → k₂ = K₂/K₁, k₃ = K₃/K₁ (≥ 5 rates).
 The mapping is the same line fitted over the segments at the mapping rates only, weighted by
 their lengths (a local slope: weighting is only a matter of efficiency there).
 """
@@ -172,8 +174,8 @@ def measure_segment(run: SteadyRun, index_ns: npt.NDArray[np.int64], cells: Coun
             return (f'segment at {rate_deg_s(run.rate_rad_s)} {where}: the output counts '
                     f'around {stamp_text(edge)} deviate from a line by '
                     f'{fit.rms_residual:.3g} counts rms (limit '
-                    f'{settings.max_fit_residual_counts:g}): count glitch or an unsteady rate; '
-                    f'not used.')
+                    f'{settings.max_fit_residual_counts:g}): count glitch or an unsteady '
+                    f'output (an injection not recorded on /fog/injection?); not used.')
         fits.append(fit)
     counts = np.array([f.value for f in fits])
     rate_out = float((counts[-1] - counts[0]) / duration)
@@ -305,9 +307,8 @@ def fit_turntable(segments: list[SegmentMeasurement], noise: SegmentNoise,
     scale = Estimate(k, line.std(0), n, dof, basis=basis)
     bias = b / k
     bias_std = ratio_std(b, k, line.cov[1, 1], line.cov[0, 0], line.cov[0, 1])
+    bias_basis = basis
     notes: list[str] = []
-    if settings.latitude_known:
-        bias -= EARTH_RATE_RAD_S * math.sin(math.radians(settings.latitude_deg))
     nl = nonlinearity(line, r)
     asym = None
     if np.any(w > 0) and np.any(w < 0):
@@ -318,10 +319,18 @@ def fit_turntable(segments: list[SegmentMeasurement], noise: SegmentNoise,
             grad = np.array([4.0 * q / s**2, -4.0 * p / s**2])
             a_std = float(np.sqrt(max(grad @ two.cov[:2, :2] @ grad, 0.0)))
             asym = Estimate(2.0 * (p - q) / s * 1e6, a_std * 1e6, n, dof)
+            # an asymmetry is an even term (a/2)·K·|ω|: the line's intercept would carry
+            # K·(a/2)·mean|ω| of it; the two-slope fit's intercept is the zero-rate output
+            b2 = float(two.beta[2])
+            cov_bk = float(np.sum(two.operator[2] * line.operator[0] * var))
+            bias, bias_std = b2 / k, ratio_std(b2, k, two.cov[2, 2], line.cov[0, 0], cov_bk)
+            bias_basis = basis + '; intercept of the two-slope (asymmetry) fit'
         except np.linalg.LinAlgError:
             notes.append('asymmetry needs at least three distinct rates with both signs.')
     else:
         notes.append('asymmetry needs table rates of both signs.')
+    if settings.latitude_known:
+        bias -= EARTH_RATE_RAD_S * math.sin(math.radians(settings.latitude_deg))
     quad = cubic = None
     if n_rates >= 5:
         poly = weighted_least_squares(polynomial_design(w, 3), r, t, var)
@@ -335,7 +344,7 @@ def fit_turntable(segments: list[SegmentMeasurement], noise: SegmentNoise,
     arw = math.sqrt(noise.arw_counts2_s) / k_abs
     arw_std = arw / math.sqrt(2.0 * noise.dof) if noise.dof else math.inf
     return TurntableFit(
-        scale_factor=scale, bias=Estimate(bias, bias_std, n, dof, basis=basis),
+        scale_factor=scale, bias=Estimate(bias, bias_std, n, dof, basis=bias_basis),
         earth_removed=settings.latitude_known,
         nonlinearity_ppm=Estimate(nl.ppm, nl.std_ppm, n, max(n - 2, 0),
                                   basis='uncertainty of the largest residual / full scale'),

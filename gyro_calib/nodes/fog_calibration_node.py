@@ -2,25 +2,105 @@
 
 Subscribes /fog/output, /fog/injection, /rate_table/joint_states and /rate_table/zero_index;
 publishes the turntable K on /gyro_calib/fog/scale_factor and the self-calibrated K on
-/gyro_calib/fog/self_cal_scale_factor (counts/rad, transient-local), every figure with its
-uncertainty on /diagnostics, and updates the hand-off file. Parameters: every field of
+/gyro_calib/fog/self_cal_scale_factor (counts/rad, transient-local) as they firm up, every
+figure with its uncertainty on /diagnostics (status ``gyro_calib: fog``), and updates the
+hand-off file (``output_file``) atomically. Parameters: every field of
 :class:`~gyro_calib.fog.settings.FogSettings` and the common ones of
 :mod:`gyro_calib.nodes.method_node`.
+
+When it is stopped (Ctrl-C, SIGINT, SIGTERM) the recording has ended: the node takes the
+messages its readers already hold, measures the last open segment and plateau as the
+offline calibration does at the end of a bag, publishes the final results and diagnostics,
+writes the hand-off file, and exits — so the live numbers equal ``gyro-calib calibrate`` on a
+recording of the same run, bit for bit.
 """
 
 from __future__ import annotations
 
+import signal
+import threading
+import time
+from typing import Any
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+
 from gyro_calib import topics
+from gyro_calib.errors import GyroCalibError
 from gyro_calib.fog.calibrator import KEY_SCALE_FACTOR, KEY_SELF_CAL
+from gyro_calib.fog.session import FogSession
 from gyro_calib.fog.settings import FogSettings
-from gyro_calib.nodes.method_node import run_method_node
+from gyro_calib.nodes.method_node import MethodNode
+from gyro_calib.nodes.ros_io import make_executor
+
+RESULT_TOPICS = {KEY_SCALE_FACTOR: topics.FOG_SCALE_FACTOR,
+                 KEY_SELF_CAL: topics.FOG_SELF_CAL_SCALE_FACTOR}
+"""Hand-off key → the topic its value is published on (std_msgs/Float64, counts/rad)."""
+
+
+class FogCalibrationNode(MethodNode):
+    """The FOG method node; flushes the recording when it is stopped."""
+
+    def __init__(self) -> None:
+        """Declare parameters, build the FOG session, wire topics and timers."""
+        super().__init__('fog', 'fog_calibration_node', RESULT_TOPICS, FogSettings)
+        self.messages_taken = 0
+
+    def received(self) -> int:
+        """Messages received so far (handed to the session or still buffered)."""
+        return self.messages_taken + sum(len(b.stamps) for b in self._buffers.values())
+
+    def _process(self) -> None:
+        self.messages_taken += sum(len(b.stamps) for b in self._buffers.values())
+        super()._process()
+
+    def finish(self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 60.0) -> None:
+        """The recording ended: take what the readers hold, flush, publish, write.
+
+        Spins until no message has arrived for ``quiet_s`` (at most ``limit_s``): a reliable
+        writer counts a sample delivered once our reader has it, before our callback ran.
+        """
+        deadline = time.monotonic() + limit_s
+        seen, quiet_since = self.received(), time.monotonic()
+        while time.monotonic() - quiet_since < quiet_s and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+            if self.received() != seen:
+                seen, quiet_since = self.received(), time.monotonic()
+        session = self.session
+        assert isinstance(session, FogSession)
+        session.end_of_recording()
+        self._process()  # feeds the rest, flushes, publishes what changed, writes the file
+        self._write_handoff()  # also when only the reasons of what is missing changed
+        self._publish_diagnostics()
+        self.get_logger().info(f'recording ended after {self.received()} messages: last '
+                               f'segment and plateau measured; {len(session.results())} '
+                               'quantities final.')
+        pubs = [*self._result_pubs.values(), self.diag_pub]
+        for pub in pubs:
+            pub.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the FOG calibration node until shut down."""
-    run_method_node('fog', 'fog_calibration_node',
-                    {KEY_SCALE_FACTOR: topics.FOG_SCALE_FACTOR,
-                     KEY_SELF_CAL: topics.FOG_SELF_CAL_SCALE_FACTOR}, FogSettings, args)
+    """Run the FOG calibration node until stopped; then flush and publish the final results."""
+    from rclpy.signals import SignalHandlerOptions
+
+    stop = threading.Event()
+    with rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: stop.set())
+        try:
+            node = FogCalibrationNode()
+        except GyroCalibError as exc:
+            rclpy.logging.get_logger('fog_calibration_node').fatal(str(exc))
+            raise SystemExit(1) from None
+        executor = make_executor()
+        executor.add_node(node)
+        try:
+            while not stop.is_set():
+                executor.spin_once(timeout_sec=0.1)
+            node.finish(executor)
+        except ExternalShutdownException:
+            pass
 
 
 if __name__ == '__main__':

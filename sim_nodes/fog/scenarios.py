@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -178,38 +179,123 @@ def truth_of(config: FogConfig, *, mapping_rates_deg_s: tuple[float, ...] = MAPP
     return truth, table
 
 
-def _run(config: FogConfig, table: TableSettings, profile: MotionProfile,
-         injection: InjectionSchedule, *, model: str = 'equivalent') -> dict[str, np.ndarray]:
-    """Stream table and FOG over the whole profile; return the arrays per stream."""
-    table_cfg = RateTableConfig(
-        encoder_counts_per_rev=table.encoder_counts_per_rev,
-        zero_index_angle_deg=table.zero_index_angle_deg,
-        zero_index_jitter_arcsec=table.zero_index_jitter_arcsec,
-        sample_rate_hz=table.output_rate_hz,
-        joint_state_decimation=table.joint_state_decimation,
-        duration_s=profile.duration_s, start_time_ns=table.start_time_ns, seed=table.seed)
-    table_sim = RateTableSimulator(table_cfg, profile)
-    fog = FogSimulator(config, model=model, injection=injection)
-    out_t, out_c, js_t, js_a, js_r, idx = [], [], [], [], [], []
-    n_done = 0
-    dec = table.joint_state_decimation
-    while not table_sim.finished:
-        chunk = table_sim.step(table.chunk_samples)
-        out_t.append(chunk.t_ns)
-        out_c.append(fog.step(chunk.t_ns, chunk.true_angle_rad, chunk.true_rate_rad_s))
-        keep = (np.arange(n_done, n_done + len(chunk.t_ns)) % dec) == 0
-        n_done += len(chunk.t_ns)
-        js_t.append(chunk.t_ns[keep])
-        js_a.append(chunk.encoder_angle_rad[keep])
-        js_r.append(chunk.encoder_rate_rad_s[keep])
-        idx.append(chunk.zero_index_ns)
-    inj_t, inj_v = injection.messages
-    return {
-        'output_t_ns': np.concatenate(out_t), 'output_counts': np.concatenate(out_c),
-        'injection_t_ns': inj_t, 'injection_counts_s': inj_v,
-        'table_t_ns': np.concatenate(js_t), 'table_angle_rad': np.concatenate(js_a),
-        'table_rate_rad_s': np.concatenate(js_r), 'zero_index_ns': np.concatenate(idx),
-    }
+@dataclass(frozen=True, slots=True)
+class BenchChunk:
+    """What the simulated bench publishes over one stretch of a run.
+
+    Attributes:
+        output_t_ns, output_counts: `/fog/output` stamps (int64 ns) and cumulative counts.
+        table_t_ns, table_angle_rad, table_rate_rad_s: `/rate_table/joint_states` (every
+            ``joint_state_decimation``-th sample of the run).
+        zero_index_ns: `/rate_table/zero_index` stamps inside the stretch.
+    """
+
+    output_t_ns: IntArray
+    output_counts: FloatArray
+    table_t_ns: IntArray
+    table_angle_rad: FloatArray
+    table_rate_rad_s: FloatArray
+    zero_index_ns: IntArray
+
+
+class FogBench:
+    """One scenario's bench: the rate table on its motion profile, the FOG and its injections.
+
+    :meth:`chunks` streams the run (fresh simulators on every call, so it can be run again);
+    the offline functions (:meth:`record`) and the ``fog_sim`` node both stream it, so they
+    publish the same samples whatever the chunk size.
+    """
+
+    def __init__(self, config: FogConfig, table: TableSettings, profile: MotionProfile, *,
+                 published: InjectionSchedule | None = None,
+                 applied: InjectionSchedule | None = None, model: str = 'equivalent',
+                 truth: dict[str, float] | None = None,
+                 self_cal_truth: tuple[tuple[int, float], ...] = ()) -> None:
+        """Set the bench up.
+
+        Args:
+            config: the gyro.
+            table: turntable and sampling settings.
+            profile: the table's motion.
+            published: the `/fog/injection` messages (default: none).
+            applied: what actually reaches the loop (default: what is published).
+            model: FOG loop model (``'equivalent'`` or ``'loop'``).
+            truth: what a calibration should find (:func:`truth_of`).
+            self_cal_truth: (plateaus used, noise-free self-calibrated K) pairs.
+        """
+        self.config = config
+        self.table = table
+        self.profile = profile
+        self.published = published or InjectionSchedule()
+        self.applied = applied if applied is not None else self.published
+        self.model = model
+        self.truth = dict(truth or {})
+        self.self_cal_truth = self_cal_truth
+        self.table_config = RateTableConfig(
+            encoder_counts_per_rev=table.encoder_counts_per_rev,
+            zero_index_angle_deg=table.zero_index_angle_deg,
+            zero_index_jitter_arcsec=table.zero_index_jitter_arcsec,
+            sample_rate_hz=table.output_rate_hz,
+            joint_state_decimation=table.joint_state_decimation,
+            duration_s=profile.duration_s, start_time_ns=table.start_time_ns, seed=table.seed)
+
+    @property
+    def n_samples(self) -> int:
+        """Output samples of the whole run."""
+        return int(self.table_config.duration_s * self.table_config.sample_rate_hz) + 1
+
+    @property
+    def injection_messages(self) -> tuple[IntArray, FloatArray]:
+        """The `/fog/injection` messages: stamps (ns) and values (counts/s)."""
+        return self.published.messages
+
+    def chunks(self, chunk_samples: int | None = None) -> Iterator[BenchChunk]:
+        """Stream the run in chunks of ``chunk_samples`` output samples (default: the table
+        settings'); the samples do not depend on the chunk size."""
+        size = int(chunk_samples or self.table.chunk_samples)
+        if size < 1:
+            raise ValueError('chunk_samples must be at least 1')
+        table_sim = RateTableSimulator(self.table_config, self.profile)
+        fog = FogSimulator(self.config, model=self.model, injection=self.applied)
+        dec = self.table.joint_state_decimation
+        n_done = 0
+        while not table_sim.finished:
+            chunk = table_sim.step(size)
+            counts = fog.step(chunk.t_ns, chunk.true_angle_rad, chunk.true_rate_rad_s)
+            keep = (np.arange(n_done, n_done + len(chunk.t_ns)) % dec) == 0
+            n_done += len(chunk.t_ns)
+            yield BenchChunk(chunk.t_ns, counts, chunk.t_ns[keep], chunk.encoder_angle_rad[keep],
+                             chunk.encoder_rate_rad_s[keep], chunk.zero_index_ns)
+
+    def record(self) -> FogRecording:
+        """The whole run as arrays per stream, with the truth."""
+        parts = list(self.chunks())
+        inj_t, inj_v = self.injection_messages
+
+        def cat(name: str) -> np.ndarray:
+            return np.concatenate([getattr(c, name) for c in parts])
+
+        return FogRecording(
+            output_t_ns=cat('output_t_ns'), output_counts=cat('output_counts'),
+            injection_t_ns=inj_t, injection_counts_s=inj_v, table_t_ns=cat('table_t_ns'),
+            table_angle_rad=cat('table_angle_rad'), table_rate_rad_s=cat('table_rate_rad_s'),
+            zero_index_ns=cat('zero_index_ns'), truth=dict(self.truth),
+            self_cal_truth=self.self_cal_truth)
+
+
+def turntable_bench(config: FogConfig | None = None, *,
+                    rates_deg_s: tuple[float, ...] = IEEE_RATES_DEG_S,
+                    hold_s: float | tuple[float, ...] = 60.0,
+                    table: TableSettings | None = None,
+                    model: str = 'equivalent') -> FogBench:
+    """The bench of scenario (a), IEEE Std 952 multi-rate (arguments as
+    :func:`simulate_turntable`)."""
+    config = config or FogConfig()
+    table = table or TableSettings()
+    profile, _ = multi_rate_profile(rates_deg_s, hold_s, table.acceleration_deg_s2,
+                                    lead_s=table.lead_s)
+    truth, _ = truth_of(config)
+    return FogBench(config, table, profile, model=model, truth=truth)
 
 
 def simulate_turntable(config: FogConfig | None = None, *,
@@ -226,13 +312,8 @@ def simulate_turntable(config: FogConfig | None = None, *,
         table: turntable and sampling settings.
         model: FOG loop model (``'equivalent'`` or ``'loop'``).
     """
-    config = config or FogConfig()
-    table = table or TableSettings()
-    profile, _ = multi_rate_profile(rates_deg_s, hold_s, table.acceleration_deg_s2,
-                                    lead_s=table.lead_s)
-    arrays = _run(config, table, profile, InjectionSchedule(), model=model)
-    truth, _ = truth_of(config)
-    return FogRecording(**arrays, truth=truth)
+    return turntable_bench(config, rates_deg_s=rates_deg_s, hold_s=hold_s, table=table,
+                           model=model).record()
 
 
 @dataclass(frozen=True, slots=True)
@@ -278,6 +359,18 @@ def simulate_mapping_and_self_cal(
         table: turntable and sampling settings.
         model: FOG loop model.
     """
+    return mapping_self_cal_bench(config, mapping_rates_deg_s=mapping_rates_deg_s,
+                                  mapping_hold_s=mapping_hold_s, ladder=ladder, table=table,
+                                  model=model).record()
+
+
+def mapping_self_cal_bench(
+        config: FogConfig | None = None, *,
+        mapping_rates_deg_s: tuple[float, ...] | None = MAPPING_RATES_DEG_S,
+        mapping_hold_s: float = 60.0, ladder: SelfCalLadder | None = None,
+        table: TableSettings | None = None, model: str = 'equivalent') -> FogBench:
+    """The bench of scenario (b), mapping then ladder (arguments as
+    :func:`simulate_mapping_and_self_cal`)."""
     config = config or FogConfig()
     ladder = ladder or SelfCalLadder()
     table = table or TableSettings()
@@ -299,8 +392,7 @@ def simulate_mapping_and_self_cal(
     if ladder.end_with_zero:
         published.add(t_ns, 0.0)
         applied.add(t_ns, 0.0)
-    arrays = _run(config, table, profile, applied, model=model)
-    arrays['injection_t_ns'], arrays['injection_counts_s'] = published.messages
     truth, k_table = truth_of(config, mapping_rates_deg_s=rates or MAPPING_RATES_DEG_S,
                               plateau_step_counts_s=step, plateau_count=ladder.plateau_count)
-    return FogRecording(**arrays, truth=truth, self_cal_truth=k_table)
+    return FogBench(config, table, profile, published=published, applied=applied, model=model,
+                    truth=truth, self_cal_truth=k_table)

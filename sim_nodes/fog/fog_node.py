@@ -1,0 +1,239 @@
+"""fog_sim: a simulated FOG bench in one process — rate table and closed-loop FOG (METHODS §B).
+
+Runs a :class:`~sim_nodes.fog.bag_scenarios.FogScenario` — ``turntable`` (IEEE Std 952
+multi-rate) or ``mapping_self_cal`` (the equivalence mapping rates, then the injected ladder
+on the stopped table) — streaming the shared :class:`~sim_nodes.rate_table.RateTableSimulator`
+and the :class:`~sim_nodes.fog.gyro.FogSimulator` chunk by chunk (the same
+:class:`~sim_nodes.fog.scenarios.FogBench` the offline scenarios and the committed bags use,
+so the samples are bit-identical to theirs), and publishes
+
+- ``/fog/output`` (cumulative count), ``/fog/injection`` (injected rate as counts/s, at the
+  plateau's first stamp), ``/rate_table/joint_states``, ``/rate_table/zero_index``;
+- ``/sim/scenario``: YAML of the parameters, seeds and truth (transient-local).
+
+Parameters: ``scenario`` (turntable | mapping_self_cal), ``model`` (equivalent | loop),
+every field of :class:`~sim_nodes.fog.config.FogConfig` (the gyro), ``table.*`` of
+:class:`~sim_nodes.fog.scenarios.TableSettings`, ``turntable.rates_deg_s`` /
+``turntable.hold_s``, ``mapping.rates_deg_s`` ([] = no mapping phase) / ``mapping.hold_s``,
+``ladder.*`` of :class:`~sim_nodes.fog.scenarios.SelfCalLadder`, ``real_time_factor``
+(simulated seconds per wall second; 0 = as fast as the readers acknowledge),
+``exit_when_done``, ``wait_for_subscribers`` and ``min_subscribers``.
+
+    fog_sim --ros-args -p scenario:=mapping_self_cal -p real_time_factor:=10.0
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header, String
+
+from gyro_calib.config import field_descriptions
+from gyro_calib.fog import topics
+from gyro_calib.nodes.ros_io import (
+    EVENT_QOS,
+    SCENARIO_QOS,
+    SENSOR_QOS,
+    described_parameter,
+    make_executor,
+    ns_to_stamp,
+    publish_paced,
+)
+from gyro_calib.topics import RATE_TABLE_JOINT, SIM_SCENARIO
+from sim_nodes.fog.bag_scenarios import KINDS, FogScenario, scenario_from_parameters
+from sim_nodes.fog.config import FogConfig
+from sim_nodes.fog.scenarios import (
+    IEEE_RATES_DEG_S,
+    MAPPING_RATES_DEG_S,
+    BenchChunk,
+    SelfCalLadder,
+    TableSettings,
+)
+
+CHUNK_S = 0.1
+"""Simulated time per published chunk, s (does not change a sample)."""
+
+
+def declare_fields(node: Node, cls: type, prefix: str = '') -> dict[str, Any]:
+    """Declare one described parameter per field of ``cls``; return the values read.
+
+    Tuple fields become array parameters with dynamic typing (an empty default would
+    otherwise be typed as a byte array, and integer lists would refuse floats).
+    """
+    descriptions = field_descriptions(cls)
+    defaults = cls()
+    values: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        default = getattr(defaults, f.name)
+        desc = ParameterDescriptor(description=descriptions.get(f.name, ''),
+                                   dynamic_typing=isinstance(default, tuple))
+        if isinstance(default, tuple):
+            node.declare_parameter(prefix + f.name, list(default), desc)
+            value = node.get_parameter(prefix + f.name).value
+            kind = int if str(f.type).startswith('tuple[int') else float
+            values[f.name] = tuple(kind(v) for v in (value or ()))
+        else:
+            node.declare_parameter(prefix + f.name, default, desc)
+            values[f.name] = node.get_parameter(prefix + f.name).value
+    return values
+
+
+class FogBenchNode(Node):
+    """Streams a FOG scenario's bench at a paced rate."""
+
+    def __init__(self) -> None:
+        """Declare parameters, build the scenario and start the pacing timer."""
+        super().__init__('fog_sim')
+        param = functools.partial(described_parameter, self)
+        kind = param('scenario', 'turntable', f'One of {", ".join(KINDS)}.')
+        model = param('model', 'equivalent', "FOG loop model: 'equivalent' (long runs) or "
+                      "'loop' (every transit time τ).")
+        gyro = FogConfig(**declare_fields(self, FogConfig))
+        table = TableSettings(**declare_fields(self, TableSettings, 'table.'))
+        ladder = SelfCalLadder(**declare_fields(self, SelfCalLadder, 'ladder.'))
+        lists = {name: self.declare_parameter(name, list(default), ParameterDescriptor(
+            description=text, dynamic_typing=True)).value or []  # '[]' arrives as None
+            for name, default, text in (
+                ('turntable.rates_deg_s', IEEE_RATES_DEG_S, 'Turntable rates in order, °/s.'),
+                ('mapping.rates_deg_s', MAPPING_RATES_DEG_S, 'Equivalence-mapping rates, °/s '
+                 '([] = no mapping phase).'))}
+        hold = param('turntable.hold_s', 60.0, 'Time at each turntable rate, s.')
+        mapping_hold = param('mapping.hold_s', 60.0, 'Time at each mapping rate, s.')
+        self.real_time_factor = float(param('real_time_factor', 1.0, 'Simulated seconds per '
+                                            'wall-clock second (0 = as fast as the readers '
+                                            'acknowledge).'))
+        self.exit_when_done = bool(param('exit_when_done', True, 'Shut the node down once the '
+                                         'run has been simulated and acknowledged.'))
+        self.wait_for_subscribers = bool(param(
+            'wait_for_subscribers', True, 'Start only once every topic has min_subscribers '
+            'readers, so nothing is lost at the start.'))
+        self.min_subscribers = int(param('min_subscribers', 1, 'Readers each topic needs '
+                                         'before the run starts.'))
+        if kind not in KINDS:
+            raise SystemExit(f'fog_sim: scenario {kind!r} is not one of {KINDS}')
+        self.scenario: FogScenario = scenario_from_parameters(
+            kind, gyro, table, rates_deg_s=[float(r) for r in lists['turntable.rates_deg_s']],
+            hold_s=float(hold), mapping_rates_deg_s=[float(r) for r in
+                                                     lists['mapping.rates_deg_s']],
+            mapping_hold_s=float(mapping_hold), ladder=ladder, model=str(model))
+        self.bench = self.scenario.bench()
+        chunk = max(1, round(CHUNK_S * table.output_rate_hz))
+        self._chunks: Iterator[BenchChunk] = self.bench.chunks(chunk)
+        self._injection = list(zip(*(a.tolist() for a in self.bench.injection_messages)))
+        self._next_injection = 0
+        self.output_pub = self.create_publisher(JointState, topics.FOG_OUTPUT, SENSOR_QOS)
+        self.injection_pub = self.create_publisher(JointState, topics.FOG_INJECTION, SENSOR_QOS)
+        self.table_pub = self.create_publisher(JointState, topics.RATE_TABLE_JOINT_STATES,
+                                               SENSOR_QOS)
+        self.index_pub = self.create_publisher(Header, topics.RATE_TABLE_ZERO_INDEX, EVENT_QOS)
+        import yaml
+
+        self.create_publisher(String, SIM_SCENARIO, SCENARIO_QOS).publish(String(
+            data=yaml.safe_dump(self.scenario.description_dict(), sort_keys=True)))
+        self.sample_rate_hz = table.output_rate_hz
+        self._n_published = 0
+        self._wall_start: float | None = None
+        self._ready_since: float | None = None
+        self.done = False
+        self.create_timer(0.005, self._tick)
+
+    @property
+    def all_publishers(self) -> list[Any]:
+        """The stream publishers (for the start and the final acknowledgement waits)."""
+        return [self.output_pub, self.injection_pub, self.table_pub, self.index_pub]
+
+    def _tick(self) -> None:
+        if self.done:
+            return
+        if self._wall_start is None:
+            if self.wait_for_subscribers and not all(
+                    p.get_subscription_count() >= self.min_subscribers
+                    for p in self.all_publishers):
+                return
+            if self._ready_since is None:
+                self._ready_since = time.monotonic()
+            if self.wait_for_subscribers and time.monotonic() - self._ready_since < 1.0:
+                return  # let the readers' side of discovery finish too
+            self._wall_start = time.monotonic()
+            self.get_logger().info(
+                f'{self.scenario.kind}: simulating {self.bench.n_samples / self.sample_rate_hz:g}'
+                f' s at ' + (f'{self.real_time_factor:g}× real time' if self.real_time_factor
+                             > 0 else "the readers' pace"))
+        budget = 5 if self.real_time_factor <= 0 else None
+        while budget is None or budget > 0:
+            if budget is None:
+                due = (time.monotonic() - self._wall_start) * self.real_time_factor
+                if self._n_published / self.sample_rate_hz > due:
+                    return
+            else:
+                budget -= 1
+            chunk = next(self._chunks, None)
+            if chunk is None:
+                self._publish_injections(None)
+                self.done = True
+                self.get_logger().info(f'run finished: {self._n_published} output samples')
+                return
+            self._publish(chunk)
+
+    def _publish_injections(self, until_ns: int | None) -> None:
+        """Injection messages stamped up to ``until_ns`` (None: all that remain)."""
+        while self._next_injection < len(self._injection):
+            t_ns, value = self._injection[self._next_injection]
+            if until_ns is not None and t_ns > until_ns:
+                return
+            msg = JointState(name=[topics.FOG_INJECTION_JOINT], position=[float(value)])
+            ns_to_stamp(int(t_ns), msg.header.stamp)
+            msg.header.frame_id = topics.FOG_INJECTION_JOINT
+            publish_paced(self.injection_pub, msg)
+            self._next_injection += 1
+
+    def _publish(self, chunk: BenchChunk) -> None:
+        self._publish_injections(int(chunk.output_t_ns[-1]))
+        for t_ns, count in zip(chunk.output_t_ns.tolist(), chunk.output_counts.tolist()):
+            msg = JointState(name=[topics.FOG_JOINT], position=[count])
+            ns_to_stamp(t_ns, msg.header.stamp)
+            msg.header.frame_id = topics.FOG_JOINT
+            publish_paced(self.output_pub, msg)
+        for t_ns, angle, rate in zip(chunk.table_t_ns.tolist(), chunk.table_angle_rad.tolist(),
+                                     chunk.table_rate_rad_s.tolist()):
+            js = JointState(name=[RATE_TABLE_JOINT], position=[angle], velocity=[rate])
+            ns_to_stamp(t_ns, js.header.stamp)
+            js.header.frame_id = RATE_TABLE_JOINT
+            publish_paced(self.table_pub, js)
+        for t_ns in chunk.zero_index_ns.tolist():
+            header = Header(frame_id=RATE_TABLE_JOINT)
+            ns_to_stamp(t_ns, header.stamp)
+            publish_paced(self.index_pub, header)
+        self._n_published += len(chunk.output_t_ns)
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run the FOG bench until its run is done (or it is shut down)."""
+    try:
+        with rclpy.init(args=args):
+            node = FogBenchNode()
+            executor = make_executor()
+            executor.add_node(node)
+            while rclpy.ok() and not (node.done and node.exit_when_done):
+                executor.spin_once(timeout_sec=0.05)
+            if node.done:  # readers may lag: let them acknowledge the tail before exiting
+                for pub in node.all_publishers:
+                    if not pub.wait_for_all_acked(rclpy.duration.Duration(seconds=60.0)):
+                        node.get_logger().warning(
+                            f'{pub.topic_name}: readers did not acknowledge the last samples '
+                            'within 60 s; exiting anyway.')
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,197 @@
+"""The FOG over DDS: fog_sim → fog_calibration_node live, and committed bags replayed into the
+node, give the offline numbers bit for bit; the live bench publishes the offline samples."""
+
+from __future__ import annotations
+
+import signal
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from gyro_calib import topics
+from gyro_calib.bag import bag_info, iter_sample_batches
+from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.session import MethodSession
+from gyro_calib.units import format_stamp
+from sim_nodes.fog.bag_scenarios import scenario_from_parameters, write_recording_bag
+from sim_nodes.fog.config import FogConfig
+from sim_nodes.fog.scenarios import SelfCalLadder, TableSettings
+
+from .dds_harness import NodeProcess, launch
+
+BAGS = Path(__file__).resolve().parents[2] / 'bags'
+LATITUDE_DEG = FogConfig().latitude_deg
+
+
+class FogListener:
+    """Subscribes the FOG result topics and the FOG status of /diagnostics in this process."""
+
+    def __init__(self) -> None:
+        import rclpy
+        from diagnostic_msgs.msg import DiagnosticArray
+        from std_msgs.msg import Float64
+
+        from gyro_calib.nodes.ros_io import RESULT_QOS, make_executor
+
+        self._rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node('fog_test_listener', context=self.context)
+        self.scale_factor: list[float] = []
+        self.self_cal: list[float] = []
+        self.diagnostics: dict[str, str] = {}
+        self.node.create_subscription(Float64, topics.FOG_SCALE_FACTOR,
+                                      lambda m: self.scale_factor.append(m.data), RESULT_QOS)
+        self.node.create_subscription(Float64, topics.FOG_SELF_CAL_SCALE_FACTOR,
+                                      lambda m: self.self_cal.append(m.data), RESULT_QOS)
+        self.node.create_subscription(DiagnosticArray, topics.DIAGNOSTICS, self._on_diag, 10)
+        self.executor = make_executor(self.context)
+        self.executor.add_node(self.node)
+
+    def _on_diag(self, msg: Any) -> None:
+        for status in msg.status:
+            if status.name == 'gyro_calib: fog':
+                self.diagnostics = {kv.key: kv.value for kv in status.values}
+
+    def spin_for(self, seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def spin_until_exit(self, process: NodeProcess, timeout_s: float) -> bool:
+        """Spin while ``process`` runs; True if it exited within ``timeout_s``."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            self.executor.spin_once(timeout_sec=0.1)
+            if process.proc.poll() is not None:
+                return True
+        return False
+
+    def close(self) -> None:
+        self.node.destroy_node()
+        self._rclpy.shutdown(context=self.context)
+
+
+@pytest.fixture
+def fog_listener() -> Any:
+    lst = FogListener()
+    yield lst
+    lst.close()
+
+
+def expected_diagnostics(session: MethodSession) -> dict[str, str]:
+    """What the node's /diagnostics must say for these offline results (repr strings)."""
+    values = {'rejected': str(len(session.rejections()))}
+    for key, est in session.results().items():
+        values[key] = repr(float(est.value))
+        values[key + '_std'] = repr(float(est.std_uncertainty))
+        values[key + '_n'] = str(est.n_used)
+    for key, why in session.missing().items():
+        values[key + '_missing'] = why
+    rejections = session.rejections()
+    if rejections:
+        values['last_rejection'] = f'{format_stamp(rejections[-1].stamp_ns)}: ' \
+                                   f'{rejections[-1].reason}'
+    return values
+
+
+def _stop_and_flush(node: NodeProcess, listener: FogListener) -> None:
+    """Stop the calibration node (the recording ended); collect its final diagnostics."""
+    node.proc.send_signal(signal.SIGINT)
+    assert listener.spin_until_exit(node, 60.0), node.log()
+    assert node.proc.returncode == 0, node.log()
+    listener.spin_for(1.0)
+
+
+def _assert_node_equals_offline(listener: FogListener, node: NodeProcess,
+                                offline: MethodSession) -> None:
+    expected = expected_diagnostics(offline)
+    got = {k: listener.diagnostics.get(k) for k in expected}
+    assert got == expected, node.log()
+    extra = {k for k in listener.diagnostics if k.endswith(('_std', '_n', '_missing'))}
+    assert extra <= set(expected)
+    results = offline.results()
+    if 'fog_scale_factor_counts_per_rad' in results:
+        assert listener.scale_factor[-1] == results['fog_scale_factor_counts_per_rad'].value
+    if 'fog_self_cal_scale_factor_counts_per_rad' in results:
+        assert listener.self_cal[-1] == results['fog_self_cal_scale_factor_counts_per_rad'].value
+
+
+def test_live_fog_bench_gives_offline_samples_and_numbers_and_writes_the_handoff(
+        tmp_path: Path, fog_listener: FogListener, nodes: list[NodeProcess]) -> None:
+    gyro = FogConfig(seed=5)
+    table = TableSettings(output_rate_hz=200.0, seed=6)
+    ladder = SelfCalLadder(plateau_count=8, plateau_s=4.0)
+    scenario = scenario_from_parameters('mapping_self_cal', gyro, table, mapping_hold_s=12.0,
+                                        ladder=ladder)
+    recorded, handoff = tmp_path / 'live', tmp_path / 'fog.yaml'
+    recorder = launch('bag_recorder', {'out': str(recorded), 'log_time': 'header'})
+    nodes.append(recorder)
+    node = launch('fog_calibration_node', {'latitude_deg': LATITUDE_DEG,
+                                           'output_file': str(handoff), 'gyro_id': 'FOG-5'})
+    nodes.append(node)
+    sim = launch('fog_sim', {'scenario': 'mapping_self_cal', 'seed': 5, 'table.seed': 6,
+                             'table.output_rate_hz': 200.0, 'mapping.hold_s': 12.0,
+                             'ladder.plateau_count': 8, 'ladder.plateau_s': 4.0,
+                             'real_time_factor': 0.0, 'min_subscribers': 2})
+    nodes.append(sim)
+    assert fog_listener.spin_until_exit(sim, 150.0), '\n'.join(n.log() for n in nodes)
+    assert sim.proc.returncode == 0, sim.log()
+    _stop_and_flush(node, fog_listener)
+    recorder.stop(timeout_s=60.0)
+    logs = '\n'.join(n.log() for n in nodes)
+    assert recorder.proc.returncode == 0, logs
+
+    # the live bench published exactly the offline scenario's samples
+    rec = scenario.bench().record()
+    batch = next(iter_sample_batches(recorded, batch_messages=10**9))
+    out, inj = batch.joint_state(topics.FOG_OUTPUT), batch.joint_state(topics.FOG_INJECTION)
+    table_js = batch.joint_state(topics.RATE_TABLE_JOINT_STATES)
+    assert out is not None and inj is not None and table_js is not None
+    np.testing.assert_array_equal(out[0], rec.output_t_ns)
+    np.testing.assert_array_equal(out[1], rec.output_counts)
+    np.testing.assert_array_equal(inj[0], rec.injection_t_ns)
+    np.testing.assert_array_equal(inj[1], rec.injection_counts_s)
+    np.testing.assert_array_equal(table_js[0], rec.table_t_ns)
+    np.testing.assert_array_equal(table_js[1], rec.table_angle_rad)
+    np.testing.assert_array_equal(table_js[2], rec.table_rate_rad_s)
+    np.testing.assert_array_equal(batch.stamps(topics.RATE_TABLE_ZERO_INDEX), rec.zero_index_ns)
+    stored = bag_info(recorded).scenario
+    assert stored['kind'] == 'fog_mapping_self_cal' and stored['fog']['seed'] == 5
+    assert stored['truth']['mapping_counts_per_rad'] == rec.truth['mapping_counts_per_rad']
+
+    # ...and the node's numbers are the offline calibration's of those samples
+    offline_bag = write_recording_bag(rec, tmp_path / 'offline',
+                                      scenario=scenario.description_dict())
+    offline = calibrate_bags([offline_bag]).sessions['fog']
+    assert 'fog_self_cal_scale_factor_counts_per_rad' in offline.results()
+    _assert_node_equals_offline(fog_listener, node, offline)
+    assert 'recording ended after' in node.log()
+
+    # the hand-off file holds the FOG keys with their uncertainties
+    written = yaml.safe_load(handoff.read_text())
+    assert written['gyro_id'] == 'FOG-5' and written['methods']['fog']['source'] == 'live'
+    for key, est in offline.results().items():
+        assert written['gyro'][key] == est.value
+        assert written['gyro'][key + '_std'] == est.std_uncertainty
+    assert set(written['missing']) == set(offline.missing())
+
+
+@pytest.mark.parametrize('name', ['fog_fault_silent_injection', 'fog_turntable'])
+def test_replayed_fog_bag_gives_exactly_the_offline_numbers(
+        name: str, fog_listener: FogListener, nodes: list[NodeProcess]) -> None:
+    bag = BAGS / name
+    offline = calibrate_bags([bag]).sessions['fog']
+    node = launch('fog_calibration_node',
+                  {'latitude_deg': bag_info(bag).scenario['bench']['latitude_deg']})
+    nodes.append(node)
+    player = launch('bag_player', {'bag': str(bag), 'rate': 0.0})
+    nodes.append(player)
+    assert fog_listener.spin_until_exit(player, 150.0), '\n'.join(n.log() for n in nodes)
+    assert f'played {bag_info(bag).message_count} messages' in player.log(), player.log()
+    _stop_and_flush(node, fog_listener)
+    _assert_node_equals_offline(fog_listener, node, offline)
