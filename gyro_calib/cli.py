@@ -35,6 +35,8 @@ EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT = 0, 1, 2
 
 EXTRA_COMMANDS: tuple[str, ...] = (
     # method subcommands: modules 'gyro_calib.<method>.cli' with add_commands(subparsers)
+    'gyro_calib.thermal.cli',
+    'gyro_calib.noise.cli',
 )
 """Modules that add a method's own subcommands (their parsers and code stay in the method)."""
 

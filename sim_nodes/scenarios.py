@@ -11,7 +11,9 @@ import importlib
 from pathlib import Path
 from typing import Any
 
-SCENARIO_MODULES = ('sim_nodes.rbrlg.scenarios',)
+SCENARIO_MODULES = ('sim_nodes.rbrlg.scenarios', 'sim_nodes.fog.bag_scenarios',
+                    'sim_nodes.dither.bag_scenarios', 'sim_nodes.noise.bag_scenarios',
+                    'sim_nodes.thermal.bag_scenarios')
 """The methods' scenario modules, in listing order."""
 
 

@@ -8,7 +8,8 @@ Pure core (no ROS import). Modules:
 * :mod:`regression` — sideband regressors in closed form, block-reduced least squares;
 * :mod:`misalignment` — components → a (bias-corrected), rocking bound, acceptance verdict;
 * :mod:`coning` — eq. (24) and the dither × rocking coning;
-* :mod:`spectral` — the paper's one-orientation spectral method, for comparison;
+* :mod:`spectral` — the paper's one-orientation spectral method, for comparison (import it
+  from there: it pulls in scipy.signal, which the rest does not need);
 * :mod:`settings`, :mod:`calibrator` — the streaming :class:`DitherCalibrator` and
   :func:`calibrate_dither`; :mod:`plots` — figures; :mod:`topics` — topic names;
   :mod:`keys` — hand-off keys for the method registry.
@@ -30,7 +31,6 @@ from gyro_calib.dither.floor import (
     required_table_rate_amplitude_rad_s,
 )
 from gyro_calib.dither.settings import DitherSettings
-from gyro_calib.dither.spectral import spectral_misalignment
 
 __all__ = [
     'RESULT_KEYS',
@@ -43,5 +43,4 @@ __all__ = [
     'required_record_s',
     'required_sample_rate_hz',
     'required_table_rate_amplitude_rad_s',
-    'spectral_misalignment',
 ]

@@ -75,14 +75,17 @@ if TYPE_CHECKING:
 AXES = ('z', 'y')
 FRAME_CODES = {'z': 0.0, 'y': 1.0}
 
-KEY_A = 'dither_axis_misalignment_rad'
-KEY_Z = 'dither_misalignment_z_rad'
-KEY_Y = 'dither_misalignment_y_rad'
-KEY_FREQUENCY = 'dither_frequency_hz'
-KEY_AMPLITUDE = 'dither_amplitude_rad'
-KEY_AMPLITUDE_PULSES = 'dither_amplitude_pulses'
-KEY_CONING = 'coning_drift_rad_s'
-KEY_CONING_TOTAL = 'coning_drift_total_rad_s'
+from gyro_calib.dither.keys import (  # noqa: E402  (names shared with the hand-off keys)
+    KEY_A,
+    KEY_AMPLITUDE,
+    KEY_AMPLITUDE_PULSES,
+    KEY_CONING,
+    KEY_CONING_TOTAL,
+    KEY_FREQUENCY,
+    KEY_Y,
+    KEY_Z,
+)
+
 RESULT_KEYS = (KEY_A, KEY_Z, KEY_Y, KEY_FREQUENCY, KEY_AMPLITUDE, KEY_AMPLITUDE_PULSES,
                KEY_CONING, KEY_CONING_TOTAL)
 """Every key :meth:`DitherCalibrator.results` may return (issue 12 part 2, the total coning,

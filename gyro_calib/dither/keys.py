@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-from gyro_calib.dither.calibrator import (
-    KEY_A,
-    KEY_AMPLITUDE,
-    KEY_AMPLITUDE_PULSES,
-    KEY_CONING,
-    KEY_CONING_TOTAL,
-    KEY_FREQUENCY,
-    KEY_Y,
-    KEY_Z,
-)
 from gyro_calib.handoff import HandoffKey
 
 METHOD = 'dither'
+
+KEY_A = 'dither_axis_misalignment_rad'
+KEY_Z = 'dither_misalignment_z_rad'
+KEY_Y = 'dither_misalignment_y_rad'
+KEY_FREQUENCY = 'dither_frequency_hz'
+KEY_AMPLITUDE = 'dither_amplitude_rad'
+KEY_AMPLITUDE_PULSES = 'dither_amplitude_pulses'
+KEY_CONING = 'coning_drift_rad_s'
+KEY_CONING_TOTAL = 'coning_drift_total_rad_s'
 
 HANDOFF_KEYS = (
     HandoffKey(KEY_A, METHOD, 'dither-axis misalignment a = √(z² + y²), bias-corrected, from '

@@ -11,6 +11,10 @@ Pure core (NumPy/SciPy, no ROS). Entry points:
 - :func:`~gyro_calib.noise.fit.fit_noise_terms`: the joint fit of one curve.
 - :func:`~gyro_calib.noise.kalibr.write_kalibr_imu_yaml`: Kalibr ``imu.yaml``.
 - :func:`~gyro_calib.noise.plots.plot_noise` (imported on use: matplotlib).
+- :class:`~gyro_calib.noise.session.NoiseSession`: the method behind the front door
+  (registry, ``gyro-calib calibrate --method noise``, ``gyro-calib noise``
+  (:mod:`gyro_calib.noise.cli`), ``noise_node``); :mod:`gyro_calib.noise.outputs` writes
+  its files; :mod:`gyro_calib.noise.keys` holds the hand-off keys (per axis for an IMU).
 """
 
 from __future__ import annotations

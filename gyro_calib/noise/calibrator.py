@@ -89,6 +89,49 @@ class AxisResult:
     reason: str = ''
 
 
+@dataclass(frozen=True, slots=True)
+class StreamCounts:
+    """What the ordering and segmenting stages did with one input stream (summary counts).
+
+    Attributes:
+        topic: the input topic.
+        kind: 'pulses', 'fog' or 'imu'.
+        received: samples received.
+        out_of_order: samples that arrived behind a newer stamp and were sorted in.
+        duplicate: samples whose stamp was already held (dropped; the first kept).
+        late: samples more than ``reorder_window_s`` behind (dropped).
+        restarts: stamp jumps back of ``restart_backstep_s`` or more (new timelines).
+        segments: gap-free segments (the live one included).
+        gaps: gaps that ended a segment.
+        segments_left_out: segments too short or at another sample rate.
+        samples_left_out: samples in those.
+        non_finite: axis → NaN/inf samples dropped (axes with any).
+    """
+
+    topic: str
+    kind: str
+    received: int
+    out_of_order: int
+    duplicate: int
+    late: int
+    restarts: int
+    segments: int
+    gaps: int
+    segments_left_out: int
+    samples_left_out: int
+    non_finite: dict[str, int]
+
+    def line(self) -> str:
+        """One summary line with every count (zeros included)."""
+        bad = ', '.join(f'{a} {n}' for a, n in self.non_finite.items()) or '0'
+        return (f'{self.topic}: {self.received} samples received; {self.out_of_order} '
+                f're-sorted (out of order), {self.duplicate} duplicate stamps dropped, '
+                f'{self.late} too late (dropped), {self.restarts} restart(s); '
+                f'{self.segments} segment(s), {self.gaps} gap(s), {self.segments_left_out} '
+                f'segment(s) left out ({self.samples_left_out} samples); non-finite '
+                f'values dropped: {bad}.')
+
+
 @dataclass(slots=True)
 class _Stream:
     topic: str
@@ -300,6 +343,28 @@ class NoiseCalibrator:
         """Per input topic: samples received, re-sorted, duplicate, late (dropped), restarts."""
         return {s.topic: s.reorder.stats for s in self._streams.values()}
 
+    def stream_counts(self) -> list[StreamCounts]:
+        """Per input stream: ordering, segment and non-finite counts (see StreamCounts)."""
+        out = []
+        for kind, s in self._streams.items():
+            o, ch = s.reorder.stats, s.channels[0]
+            st = ch.stats
+            live = 1 if ch.has_live_segment else 0
+            out.append(StreamCounts(
+                s.topic, kind, o.received, o.out_of_order, o.duplicate, o.late, o.restarts,
+                len(ch.segments) + live, st.gaps, st.segments_short + st.segments_other_rate,
+                st.samples_left_out,
+                {c.name: c.stats.non_finite for c in s.channels if c.stats.non_finite}))
+        return out
+
+    def data_span_ns(self) -> tuple[int, int] | None:
+        """First and last stamp of the segments analysed (all axes), or None."""
+        spans = [span for s in self._streams.values() for c in s.channels
+                 if (span := c.used_span_ns()) is not None]
+        if not spans:
+            return None
+        return min(a for a, _ in spans), max(b for _, b in spans)
+
     def sample_storage_bytes(self) -> int:
         """Bytes of sample storage held now (bounded in 'partial' overlap mode)."""
         return sum(c.storage_bytes() for s in self._streams.values() for c in s.channels)
@@ -376,8 +441,11 @@ class NoiseCalibrator:
         if curve is None or usable < 2:
             n = ch.n_used_samples
             need = max(s.min_segment_samples, int(math.ceil(4.0 / s.max_tau_fraction)) + 1)
-            return none(f'the record of {ch.name} is too short for any noise term: {n} usable '
-                        f'sample(s) in segments of at least {s.min_segment_samples}; the Allan '
+            longest = max((g.n_samples for g in ch.segments), default=0)
+            return none(f'the record of {ch.name} is too short for any noise term: '
+                        f'{st.samples} sample(s) received, the longest gap-free segment has '
+                        f'{longest}, {n} usable in segments of at least '
+                        f'{s.min_segment_samples}; the Allan '
                         f'variance needs averaging times up to a fraction '
                         f'{s.max_tau_fraction:g} of a segment, so at least {need} samples in '
                         f'one segment.')
@@ -510,4 +578,5 @@ def calibrate_noise(*, pulses: tuple[ArrayLike, ArrayLike] | None = None,
     return cal
 
 
-__all__ = ['AxisResult', 'NoiseCalibrator', 'NoiseSettings', 'SYMBOLS', 'calibrate_noise']
+__all__ = ['AxisResult', 'NoiseCalibrator', 'NoiseSettings', 'SYMBOLS', 'StreamCounts',
+           'calibrate_noise']

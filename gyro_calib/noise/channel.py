@@ -330,6 +330,22 @@ class ChannelAccumulator:
         used = sum(s.n_samples for s in self.segments if s.used)
         return used + (self._live.n_samples if self._live is not None else 0)
 
+    @property
+    def has_live_segment(self) -> bool:
+        """A segment is open (samples since the last gap, restart or close)."""
+        return self._live is not None
+
+    def used_span_ns(self) -> tuple[int, int] | None:
+        """First and last stamp of the pooled segments and the live one, or None."""
+        spans = [(s.start_ns, s.end_ns) for s in self.segments if s.used]
+        seg = self._live
+        if seg is not None and seg.n_samples >= self.settings.min_segment_samples \
+                and not self._verdict(seg):
+            spans.append((seg.start_ns, seg.last_ns))
+        if not spans:
+            return None
+        return min(a for a, _ in spans), max(b for _, b in spans)
+
     def storage_bytes(self) -> int:
         """Bytes of sample storage held: the live segment's tree (or store) and reservoirs."""
         total = sum(len(a) * 16 for a in self._learn_t)

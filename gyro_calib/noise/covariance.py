@@ -54,27 +54,23 @@ _LAMBDA = np.array([1.0, -2.0, 1.0])
 _GL16 = np.polynomial.legendre.leggauss(16)
 
 
-def _kernel(term: int, t: FloatArray) -> FloatArray:
-    """Unit generalised covariance of term N (1), B (2), K (3) at lag t (samples)."""
-    a = np.abs(t)
-    if term == 1:
-        return -0.5 * a
-    if term == 2:
-        with np.errstate(divide='ignore', invalid='ignore'):
-            v = t * t * np.log(a) / (2.0 * math.pi)
-        return np.where(a > 0, v, 0.0)
-    return a**3 / 12.0
-
-
 def _gammas(d: FloatArray, offsets: FloatArray, weights: FloatArray,
             span: tuple[float, float]) -> FloatArray:
-    """γ of N, B, K at lags d (rows: N, B, K); N and K vanish outside ``span``."""
+    """γ of N, B, K at lags d (rows: N, B, K); N and K vanish outside ``span``.
+
+    Unit kernels K(t) (module docstring): N −|t|/2, B t²·ln|t|/(2π) (0 at t = 0), K |t|³/12,
+    evaluated together in one pass (this runs for every pair of averaging factors of a fit).
+    """
     args = d[:, None] + offsets[None, :]
-    out = np.empty((3, len(d)))
-    inside = (d >= span[0]) & (d <= span[1])
-    for row, term in enumerate((1, 2, 3)):
-        g = _kernel(term, args) @ weights
-        out[row] = g if term == 2 else np.where(inside, g, 0.0)
+    a = np.abs(args)
+    positive = a > 0
+    logs = np.log(np.where(positive, a, 1.0))
+    kernels = np.stack((-0.5 * a, np.where(positive, args * args * logs / (2.0 * math.pi),
+                                           0.0), a**3 / 12.0))
+    out = kernels @ weights
+    outside = (d < span[0]) | (d > span[1])
+    out[0, outside] = 0.0
+    out[2, outside] = 0.0
     return out
 
 
@@ -92,9 +88,36 @@ def _geometric_pieces(start: float, width: float, direction: int) -> list[tuple[
     return [(min(a, b), max(a, b)) for a, b in zip(edges[:-1], edges[1:])]
 
 
-@lru_cache(maxsize=200_000)
+_POWER = np.array([0, 1, 2, 3])
+_PAIR_SCALE_POWER = _POWER[:, None] + _POWER[None, :] + 1
+_PAIR_SCALE_POWER[0, 0] = 0
+_PAIR_SCALE_POWER[0, 1:] = _PAIR_SCALE_POWER[1:, 0] = _POWER[1:]
+"""pair_basis(s·m_a, s·m_b) = s^power · pair_basis(m_a, m_b) (both factors integrated):
+γ_T scales as s^p with p = 1, 2, 3 for N, B, K (the flicker kernel's s²t²·ln s part is a
+polynomial the second differences annihilate), the lag sum adds one power; the white-PM
+spikes sit at the same kinks (Q·Q unchanged, Q·U as γ_U)."""
+
+
 def pair_basis(m_a: int, m_b: int) -> tuple[tuple[float, ...], ...]:
-    """Σ_d γ_T(d)·γ_U(d) for T, U ∈ (Q, N, B, K), unit terms and τ0 = 1 (4 × 4, symmetric)."""
+    """Σ_d γ_T(d)·γ_U(d) for T, U ∈ (Q, N, B, K), unit terms and τ0 = 1 (4 × 4, symmetric).
+
+    Pairs whose factors share a power of two and stay integrated (≥ SMALL_M) when halved are
+    computed at the halved scale and scaled (:data:`_PAIR_SCALE_POWER`, equal to 1e-13):
+    the τ grid repeats per octave, so one curve needs far fewer distinct pairs.
+    """
+    shift = 0
+    while m_a % 2 == 0 and m_b % 2 == 0 and min(m_a, m_b) >= 2 * SMALL_M:
+        m_a, m_b, shift = m_a // 2, m_b // 2, shift + 1
+    base = _pair_basis(m_a, m_b)
+    if not shift:
+        return base
+    scaled = np.asarray(base) * np.ldexp(1.0, shift * _PAIR_SCALE_POWER)
+    return tuple(tuple(float(v) for v in row) for row in scaled)
+
+
+@lru_cache(maxsize=200_000)
+def _pair_basis(m_a: int, m_b: int) -> tuple[tuple[float, ...], ...]:
+    """pair_basis computed at this scale (see there)."""
     p = np.repeat(np.arange(3), 3)
     q = np.tile(np.arange(3), 3)
     offsets = (q * m_b - p * m_a).astype(np.float64)
@@ -130,26 +153,41 @@ def pair_basis(m_a: int, m_b: int) -> tuple[tuple[float, ...], ...]:
         pieces += _geometric_pieces(right, width, 1) + _geometric_pieces(left, width, -1)
         far_from = max(abs(left - 63.0 * width), abs(right + 63.0 * width))
     g = np.zeros((3, 3))
+    lags, inverse = np.unique(-offsets, return_inverse=True)
+    d = (np.concatenate([np.arange(a, b + 1, dtype=np.float64) for a, b in exact])
+         if exact else np.zeros(0))
+    t, w = _quadrature(pieces) if pieces else (np.zeros(0), np.zeros(0))
+    every = _gammas(np.concatenate((d, t, lags)), offsets, weights, span)  # one pass
     if exact:
-        d = np.concatenate([np.arange(a, b + 1, dtype=np.float64) for a, b in exact])
-        ge = _gammas(d, offsets, weights, span)
+        ge = every[:, :len(d)]
         g += ge @ ge.T
     if pieces:
-        t, w = _quadrature(pieces)
-        gi = _gammas(t, offsets, weights, span)
+        gi = every[:, len(d):len(d) + len(t)]
         g += (gi * w) @ gi.T
     # flicker tail beyond the numerical reach: γ_B ≈ −m_a²m_b²/(π d²), both sides
     g[1, 1] += (float(m_a) ** 2 * float(m_b) ** 2 / math.pi) ** 2 * 2.0 / (3.0 * far_from**3)
     # white PM spikes at the kinks: γ_Q(d) = Σ λ_pλ_q over d + q m_b − p m_a = 0
     out = np.zeros((4, 4))
     out[1:, 1:] = g
-    lags, inverse = np.unique(-offsets, return_inverse=True)
     gq = np.zeros(len(lags))
     np.add.at(gq, inverse, weights)
-    gc = _gammas(lags, offsets, weights, span)
+    gc = every[:, len(d) + len(t):]
     out[0, 0] = float(gq @ gq)
     out[0, 1:] = out[1:, 0] = gc @ gq
     return tuple(tuple(float(v) for v in row) for row in out)
+
+
+@lru_cache(maxsize=256)
+def _basis_stack(ms: tuple[int, ...]) -> FloatArray:
+    """pair_basis of every pair of averaging factors (len × len × 4 × 4), read-only; one
+    curve's factors are fitted several times (iterations, edge terms, snapshots)."""
+    n = len(ms)
+    out = np.empty((n, n, 4, 4))
+    for i in range(n):
+        for j in range(i, n):
+            out[i, j] = out[j, i] = pair_basis(min(ms[i], ms[j]), max(ms[i], ms[j]))
+    out.setflags(write=False)
+    return out
 
 
 def allan_correlation(m: npt.ArrayLike, spans: npt.ArrayLike, tau0_s: float,
@@ -165,15 +203,11 @@ def allan_correlation(m: npt.ArrayLike, spans: npt.ArrayLike, tau0_s: float,
     Returns:
         ρ (len(m) × len(m)); the identity where the model has no variance.
     """
-    ms = [int(v) for v in np.asarray(m)]
+    ms = tuple(int(v) for v in np.asarray(m))
     theta = np.asarray(terms_sq, dtype=np.float64)[:4]
     coeff = theta * float(tau0_s) ** TAU0_POWER
     n = len(ms)
-    g = np.zeros((n, n))
-    for i in range(n):
-        for j in range(i, n):
-            basis = np.asarray(pair_basis(min(ms[i], ms[j]), max(ms[i], ms[j])))
-            g[i, j] = g[j, i] = coeff @ basis @ coeff
+    g = np.einsum('ijkl,l->ijk', _basis_stack(ms), coeff) @ coeff
     diag = np.sqrt(np.clip(np.diag(g), 0.0, None))
     ok = diag > 0
     rho = np.eye(n)

@@ -88,6 +88,9 @@ class NoiseFit:
     chi2_ratio: float = math.nan
     covariance_scale: float = 1.0
     symbols_resolved: tuple[str, ...] = field(default=())
+    upper_bounds: dict[str, float] = field(default_factory=dict)
+    """term key → 2σ upper bound √(θ + 2σ(θ)) of each term not reported (from the last fit
+    it was in), SI unit of the key; the bound its reason quotes."""
 
     def model_avar(self, tau_s: npt.ArrayLike) -> FloatArray:
         """Fitted AVAR at τ, rate unit²."""
@@ -219,12 +222,17 @@ def _fmt(v: float) -> str:
     return f'{v:.3g}'
 
 
+def _upper_bound(theta: float, sigma: float) -> float:
+    """2σ upper bound of a coefficient from its squared estimate θ ± σ: √(θ + 2σ)."""
+    return math.sqrt(max(theta, 0.0) + 2.0 * sigma) if sigma > 0 else math.sqrt(max(theta, 0.0))
+
+
 def _reason(symbol: str, units: TermUnits, theta: float, sigma: float, tau_max_s: float,
             tau_min_s: float, threshold: float, context: str) -> str:
     k = SYMBOLS.index(symbol)
     name, unit = units.names[k], units.si_units[k]
-    upper = math.sqrt(max(theta, 0.0) + 2.0 * sigma) if sigma > 0 else math.sqrt(max(theta, 0.0))
-    fitted = (f'the joint fit gives {symbol}² = {_fmt(theta)} ± {_fmt(sigma)} {unit}², '
+    upper = _upper_bound(theta, sigma)
+    fitted = (f'the joint fit gives {symbol}² = {_fmt(theta)} ± {_fmt(sigma)} ({unit})², '
               f'less than {threshold:g} standard uncertainties from zero, so {symbol} < '
               f'{_fmt(upper)} {unit} (2σ upper bound)')
     where = {
@@ -322,11 +330,13 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         value = math.sqrt(theta)
         estimates[units.keys[k]] = Estimate(value, sig / (2.0 * value), curve.n_samples,
                                             n_used - in_model)
+    bounds: dict[str, float] = {}
     for k, s in enumerate(SYMBOLS):
         if k not in reported and units.keys[k] not in missing:
             theta, sig = last.get(k, (0.0, 0.0))
             missing[units.keys[k]] = _reason(s, units, theta, sig, float(tau_used[-1]),
                                              float(tau_used[0]), thresholds[k], context)
+            bounds[units.keys[k]] = _upper_bound(theta, sig)
     full_alpha = np.zeros(len(curve), dtype=np.int64)
     chi2, scale = math.nan, 1.0
     if sol is not None and active:
@@ -334,4 +344,4 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         chi2, scale = sol.chi2_ratio, sol.scale
     edf = curve.edf(full_alpha)
     return NoiseFit(estimates, missing, theta_final, cov_final, full_alpha, edf, used,
-                    chi2, scale, tuple(SYMBOLS[k] for k in reported))
+                    chi2, scale, tuple(SYMBOLS[k] for k in reported), bounds)

@@ -55,11 +55,10 @@ def _axis_value(cal: NoiseCalibrator, axis: str, units: TermUnits,
     est = res.fit.estimates.get(units.keys[k])
     if est is not None:
         return est.value, ''
-    theta = float(res.fit.theta[k])
-    sigma = math.sqrt(max(float(res.fit.theta_cov[k, k]), 0.0))
-    if sigma <= 0 and theta <= 0:
+    upper = res.fit.upper_bounds.get(units.keys[k], 0.0)
+    if not upper > 0:
         return None
-    return math.sqrt(max(theta, 0.0) + 2.0 * sigma), f'{axis}: 2σ upper bound (not resolved)'
+    return upper, f'{axis}: 2σ upper bound (not resolved)'
 
 
 def _largest(cal: NoiseCalibrator, prefix: str, units: TermUnits,

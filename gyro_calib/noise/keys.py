@@ -1,12 +1,25 @@
-"""Hand-off keys of the noise characterisation (METHODS §E; IEEE Std 952 Annex C terms)."""
+"""Hand-off keys of the noise characterisation (METHODS §E; IEEE Std 952 Annex C terms).
+
+A single-axis gyro (``/gyro/pulses``, ``/fog/output``) writes the five plain keys. An IMU
+(``sensor_msgs/Imu``) writes one key per axis and term, ``imu_<axis>_<term key>``: the
+gyro axes ``gyro_x``, ``gyro_y``, ``gyro_z`` with the gyro keys (rad, rad/s), the
+accelerometer axes ``accel_x`` … ``accel_z`` with the accelerometer keys (m/s, m/s²), as
+:mod:`gyro_calib.noise.terms` names them — e.g. ``imu_gyro_x_angle_random_walk_rad_per_sqrt_s``,
+``imu_accel_z_velocity_random_walk_m_s_per_sqrt_s``. One hand-off file per IMU.
+"""
 
 from __future__ import annotations
 
 from gyro_calib.handoff import HandoffKey
+from gyro_calib.noise.calibrator import IMU_AXES
+from gyro_calib.noise.terms import SYMBOLS, units_for_axis
 
 METHOD = 'noise'
 
-HANDOFF_KEYS = (
+_SLOPES = {'Q': '−1 slope', 'N': '−½ slope, σ(1 s)', 'B': 'flat part / 0.664, joint fit',
+           'K': '+½ slope, σ(3 s)', 'R': '+1 slope'}
+
+SINGLE_GYRO_KEYS = (
     HandoffKey('quantization_noise_rad', METHOD, 'quantisation noise Q (Allan variance −1 '
                'slope term 3Q²/τ²), rad', 'nonnegative'),
     HandoffKey('angle_random_walk_rad_per_sqrt_s', METHOD, 'angle random walk N (−½ slope, '
@@ -17,3 +30,19 @@ HANDOFF_KEYS = (
                'σ(3 s)), rad/s/√s', 'nonnegative'),
     HandoffKey('rate_ramp_rad_per_s2', METHOD, 'rate ramp R (+1 slope), rad/s²', 'nonnegative'),
 )
+"""The five terms of a single-axis gyro."""
+
+
+def imu_key(axis: str, term_key: str) -> str:
+    """The hand-off key of one term of one IMU axis: ``imu_<axis>_<term key>``."""
+    return f'imu_{axis}_{term_key}'
+
+
+IMU_KEYS = tuple(
+    HandoffKey(imu_key(axis, units.keys[k]), METHOD,
+               f'IMU {axis}: {units.names[k]} ({_SLOPES[symbol]}), {units.si_units[k]}',
+               'nonnegative')
+    for axis in IMU_AXES for units in (units_for_axis(axis),) for k, symbol in enumerate(SYMBOLS))
+"""The five terms of each of the six IMU axes (30 keys)."""
+
+HANDOFF_KEYS = SINGLE_GYRO_KEYS + IMU_KEYS

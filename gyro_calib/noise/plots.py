@@ -79,6 +79,12 @@ def _draw_axis(ax: Any, res: AxisResult) -> None:
     ax.set_title(f'{res.axis}: {curve.n_samples} samples, {curve.n_segments} segment(s), '
                  f'τ0 = {curve.tau0_s * 1e3:.4g} ms', fontsize=9)
     ax.grid(True, which='major', lw=0.4, alpha=0.5)
+    # minor ticks at 2 and 5 only: log axes over many decades otherwise spend most of the
+    # drawing time creating minor tick objects
+    from matplotlib.ticker import LogLocator, NullFormatter
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_minor_locator(LogLocator(base=10.0, subs=(2.0, 5.0)))
+        axis.set_minor_formatter(NullFormatter())
     ax.legend(fontsize=7, loc='best')
 
 
@@ -125,7 +131,10 @@ def plot_noise_figure(source: NoiseCalibrator | dict[str, AxisResult], path: str
         ax.set_visible(False)
     target = Path(path).absolute()
     target.parent.mkdir(parents=True, exist_ok=True)
-    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.08, top=0.95, wspace=0.25, hspace=0.3)
+    # margins in inches (tick labels and axis labels), whatever the number of panels
+    fig.subplots_adjust(left=0.9 / (6.0 * cols), right=1.0 - 0.12 / (6.0 * cols),
+                        bottom=0.55 / (4.5 * rows), top=1.0 - 0.3 / (4.5 * rows),
+                        wspace=0.25, hspace=0.3)
     fig.savefig(target, dpi=100)
     plt.close(fig)
     return target

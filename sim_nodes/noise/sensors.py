@@ -130,6 +130,12 @@ class ImuNoiseGenerator:
     stamps are ``start_ns + i·period_ns`` plus, optionally, host-stamp jitter drawn
     uniformly in ±``stamp_jitter_s`` (jitter in stamps only, as a host stamping a
     sensor that samples on its own clock).
+
+    Output resolution: a MEMS IMU delivers integers of its ADC, which the driver scales
+    to SI. ``gyro_lsb_rad_s`` / ``accel_lsb_m_s2`` round each rate sample to that step
+    (0 = off: full float output). While the noise spans several steps the rounding error
+    is white and uniform, so it adds white rate noise — angle (velocity) random walk
+    N² += LSB²·τ0/12 (:meth:`quantisation_random_walk`), not a −1 slope.
     """
 
     def __init__(self, gyro_terms: NoiseTerms | tuple[NoiseTerms, NoiseTerms, NoiseTerms],
@@ -137,7 +143,8 @@ class ImuNoiseGenerator:
                  sample_rate_hz: float = 400.0, seed: int = 1,
                  start_ns: int = 1_700_000_000 * NS_PER_S,
                  gravity_m_s2: float = STANDARD_GRAVITY_M_S2,
-                 stamp_jitter_s: float = 0.0) -> None:
+                 stamp_jitter_s: float = 0.0, gyro_lsb_rad_s: float = 0.0,
+                 accel_lsb_m_s2: float = 0.0) -> None:
         """Create six independent axes on child streams of ``seed``."""
         g = gyro_terms if isinstance(gyro_terms, tuple) else (gyro_terms,) * 3
         a = accel_terms if isinstance(accel_terms, tuple) else (accel_terms,) * 3
@@ -150,7 +157,14 @@ class ImuNoiseGenerator:
         self._jitter_rng = np.random.default_rng(ss[6])
         self.start_ns = start_ns
         self.gravity_m_s2, self.stamp_jitter_s = gravity_m_s2, stamp_jitter_s
+        if gyro_lsb_rad_s < 0 or accel_lsb_m_s2 < 0:
+            raise ValueError('output steps (LSB) must be zero (off) or positive')
+        self.gyro_lsb_rad_s, self.accel_lsb_m_s2 = gyro_lsb_rad_s, accel_lsb_m_s2
         self._index = 0
+
+    def quantisation_random_walk(self, lsb: float) -> float:
+        """Random walk the output rounding to ``lsb`` adds: √(LSB²·τ0/12), rate unit·√s."""
+        return math.sqrt(lsb * lsb * (self.period_ns / NS_PER_S) / 12.0)
 
     def chunk(self, n: int) -> tuple[IntArray, FloatArray, FloatArray]:
         """The next ``n`` samples: stamps (int ns), gyro (n × 3, rad/s), accel (n × 3, m/s²)."""
@@ -162,6 +176,10 @@ class ImuNoiseGenerator:
         gyro = np.column_stack([ax.samples(n) for ax in self.gyro])
         accel = np.column_stack([ax.samples(n) for ax in self.accel])
         accel[:, 2] += self.gravity_m_s2
+        if self.gyro_lsb_rad_s:
+            gyro = np.round(gyro / self.gyro_lsb_rad_s) * self.gyro_lsb_rad_s
+        if self.accel_lsb_m_s2:
+            accel = np.round(accel / self.accel_lsb_m_s2) * self.accel_lsb_m_s2
         return t, gyro, accel
 
 

@@ -1,0 +1,276 @@
+"""noise_node: Allan deviation and IEEE Std 952 noise terms of a live gyro or IMU (METHODS §E).
+
+The live twin of ``gyro-calib noise``: the same session (:class:`~gyro_calib.noise.session.
+NoiseSession`) fed from DDS instead of a bag, so a bag replayed into the node gives bit for
+bit the numbers the command gives offline.
+
+Input: the ``sensor_msgs/Imu`` topic named by ``topic`` (all six axes), or with ``topic``
+empty ``/gyro/pulses`` (K from ``scale_factor_rad_per_pulse`` or ``calibration_file``) or
+``/fog/output`` (``fog_scale_factor_counts_per_rad`` or ``calibration_file``).
+
+Output: every ``results_period_s`` (wall clock; the numbers do not depend on it) the running
+terms — the record so far analysed as if it ended now — on ``/diagnostics`` (status
+``gyro_calib: noise``: each hand-off key with ``_std``, ``_n``, and ``_missing`` reasons;
+per-axis keys ``imu_gyro_x_…`` for an IMU) and in ``output_file``. On shutdown (Ctrl-C,
+SIGINT, SIGTERM) it takes in what its readers already hold, ends the record and writes
+``kalibr_file`` (Kalibr ``imu.yaml``, IMU only), ``plot_file`` (ADEV figure) and
+``output_file`` (hand-off): each complete (written beside and renamed) or, on an error, not
+touched; the paths are logged.
+
+Parameters: ``topic``, ``calibration_file``, ``best_effort``, ``results_period_s``,
+``kalibr_file``, ``plot_file``; every field of :class:`~gyro_calib.noise.settings.
+NoiseSettings`; the common ones of :mod:`gyro_calib.nodes.method_node` (``output_file``,
+``gyro_id``, ``config_file``, ``scale_factor_rad_per_pulse``, ``process_period_s``).
+
+    noise_node --ros-args -p topic:=/imu/data -p kalibr_file:=imu.yaml -p plot_file:=adev.png
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import rclpy
+from rclpy.executors import ExternalShutdownException
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+from gyro_calib.bag import SampleBatch
+from gyro_calib.errors import ConfigError, GyroCalibError
+from gyro_calib.noise.keys import METHOD
+from gyro_calib.noise.outputs import resolve_targets, write_outputs
+from gyro_calib.noise.session import IMU, NoiseSession, check_scale_factor
+from gyro_calib.noise.settings import NoiseSettings
+from gyro_calib.nodes.method_node import (
+    _MESSAGE_CLASSES,
+    GENERIC_PARAMETERS,
+    MethodNode,
+    _TopicBuffer,
+)
+from gyro_calib.nodes.ros_io import SENSOR_QOS, described_parameter, make_executor
+from gyro_calib.session import CalibrationOptions
+
+NODE_NAME = 'noise_node'
+
+BEST_EFFORT_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
+"""For IMU drivers that publish with the sensor-data QoS (best effort)."""
+
+
+class NoiseNode(MethodNode):
+    """A :class:`MethodNode` of the noise method, with its own input wiring and shutdown files.
+
+    The generic node builds its session from the common parameters before this class can
+    declare ``topic`` and ``calibration_file``; the session is therefore rebuilt here and
+    the subscriptions re-wired to its topics.
+    """
+
+    def __init__(self) -> None:
+        """Declare the parameters, build the session, subscribe, start the refresh timer.
+
+        Raises:
+            ConfigError: a pulse/FOG input without a scale factor, Kalibr asked for a gyro,
+                an output directory that does not exist, an invalid setting.
+            HandoffError: the calibration file cannot be read.
+        """
+        super().__init__(METHOD, NODE_NAME, {}, NoiseSettings)
+        # the generic node refuses parameter changes from now on, declarations included
+        self.remove_on_set_parameters_callback(self._refuse_runtime_change)
+        param = functools.partial(described_parameter, self)
+        topic = str(param('topic', '', 'The sensor_msgs/Imu topic to characterise (all six '
+                          "axes); '' = /gyro/pulses or /fog/output, whichever arrives."))
+        calibration = str(param('calibration_file', '', 'Hand-off file to take the scale '
+                                'factor from (scale_factor_rad_per_pulse or '
+                                'k_tilde_rad_per_pulse; fog_scale_factor_counts_per_rad).'))
+        kalibr = str(param('kalibr_file', '', "Kalibr imu.yaml written on shutdown (IMU "
+                           "only; '' = none)."))
+        plot = str(param('plot_file', '', "Allan-deviation figure (PNG) written on shutdown "
+                         "('' = none; a directory gets noise_adev.png)."))
+        best_effort = bool(param('best_effort', False, 'Subscribe the Imu topic best effort '
+                                 '(most IMU drivers publish with the sensor-data QoS; a '
+                                 'reliable reader never matches them).'))
+        self.results_period_s = float(param(
+            'results_period_s', 5.0, 'How often the running terms are recomputed, s (a copy '
+            'and a fit per axis; the numbers do not depend on it).'))
+        self.add_on_set_parameters_callback(self._refuse_runtime_change)
+        if not self.results_period_s > 0:
+            raise ConfigError(f'results_period_s = {self.results_period_s!r} is invalid: it '
+                              'must be positive.')
+        get = self.get_parameter
+        settings = {f.name: get(f.name).value for f in dataclasses.fields(NoiseSettings)
+                    if f.name not in GENERIC_PARAMETERS}
+        k = float(get('scale_factor_rad_per_pulse').value)
+        config = str(get('config_file').value)
+        options = CalibrationOptions(
+            config_file=Path(config) if config else None,
+            scale_factor_rad_per_pulse=None if math.isnan(k) else k,
+            calibration_file=Path(calibration) if calibration else None,
+            topic=topic or None, gyro_id=self.gyro_id, settings=settings)
+        session = NoiseSession(options)
+        if session.kind == 'gyro':
+            if not (session.pulse_scale.known or session.fog_scale.known):
+                raise ConfigError(
+                    "with topic '' the node reads /gyro/pulses or /fog/output, and neither "
+                    'scale factor is given: set scale_factor_rad_per_pulse, '
+                    'fog_scale_factor_counts_per_rad or calibration_file (or set topic to an '
+                    'Imu topic).')
+        else:
+            check_scale_factor(options)
+        self.targets = resolve_targets(kalibr, plot, self.output_file)
+        if self.targets.kalibr is not None and session.kind != 'imu':
+            raise ConfigError(f"kalibr_file: Kalibr's imu.yaml describes an IMU; "
+                              f"{topic or '/gyro/pulses or /fog/output'} is a single-axis "
+                              'gyro (set topic to an Imu topic, or kalibr_file to "").')
+        session.auto_refresh = False
+        self.session = session
+        self.best_effort = best_effort
+        self._rewire()
+        self._qos_warned = False
+        self.create_timer(self.results_period_s, self._refresh)
+        self.get_logger().info(
+            f'noise: reading {", ".join(f"{t} ({m})" for t, m in session.topics().items())}'
+            + (' best effort' if best_effort else '')
+            + f'; running terms every {self.results_period_s:g} s; on shutdown: '
+            + (', '.join(f'{w} {p}' for w, p in (('kalibr', self.targets.kalibr),
+                                                 ('plot', self.targets.plot),
+                                                 ('hand-off', self.targets.handoff)) if p)
+               or 'no files'))
+
+    def _qos(self, msgtype: str) -> QoSProfile:
+        return BEST_EFFORT_QOS if self.best_effort and msgtype == IMU else SENSOR_QOS
+
+    def _rewire(self) -> None:
+        """Subscribe exactly the session's topics (the generic node subscribed its default)."""
+        wanted = self.session.topics()
+        for sub in list(self.subscriptions):
+            if sub.topic_name in self._buffers:
+                self.destroy_subscription(sub)
+        self._buffers = {}
+        for topic, msgtype in wanted.items():
+            buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
+            self.create_subscription(_MESSAGE_CLASSES[msgtype], topic, buf.add,
+                                     self._qos(msgtype))
+
+    def _process(self) -> None:
+        """Hand the buffered samples to the session (results come from :meth:`_refresh`)."""
+        columns = {t: c for t, b in self._buffers.items() if (c := b.take()) is not None}
+        if columns:
+            last = max(int(c.stamp_ns.max()) for c in columns.values())
+            self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        for line in self.session.process():
+            self._last_line = line
+            self.get_logger().info(line)
+
+    def received(self) -> int:
+        """Samples received so far (handed over or still buffered)."""
+        held = sum(len(b.stamps) for b in self._buffers.values())
+        return held + sum(s.received for s in self.session.calibrator.ordering_stats().values())
+
+    def _refresh(self) -> None:
+        """Recompute the running terms if samples arrived; publish and update the hand-off."""
+        self._process()
+        if not self.session.calibrator.axes():
+            self._check_qos()
+            return
+        started = time.monotonic()
+        if not self.session.refresh():
+            return
+        self.get_logger().info(self._terms_line(time.monotonic() - started))
+        self._write_handoff()
+        self._publish_diagnostics()
+
+    def _terms_line(self, seconds: float) -> str:
+        parts = []
+        for axis, res in self.session.axis_results().items():
+            if res.fit is None:
+                continue
+            u = res.units
+            terms = [f'{u.names[k].rsplit(" ", 1)[-1]} {est.value * u.quoted_factors[k]:.4g} '
+                     f'{u.quoted_units[k]}' for k, key in enumerate(u.keys)
+                     if (est := res.fit.estimates.get(key)) is not None]
+            if terms:
+                parts.append(f'{axis}: {", ".join(terms)}')
+        n = self.session.data_span_ns()
+        span = f' over {(n[1] - n[0]) / 1e9:.1f} s' if n else ''
+        return (f'running terms{span} ({seconds:.2f} s to compute): '
+                + ('; '.join(parts) if parts else 'none resolved yet'))
+
+    def _check_qos(self) -> None:
+        """Warn once when the input's publishers are best effort and we are reliable."""
+        if self._qos_warned or self.best_effort:
+            return
+        for topic in self._buffers:
+            infos = self.get_publishers_info_by_topic(topic)
+            if any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos):
+                self._qos_warned = True
+                self.get_logger().warning(
+                    f'{topic} is published best effort and this node reads reliable: no '
+                    'sample can arrive. Restart with -p best_effort:=true.')
+
+    def drain(self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 30.0) -> None:
+        """Spin until no sample has arrived for ``quiet_s`` (at most ``limit_s``): the
+        samples DDS already acknowledged to the publisher are taken in before the end."""
+        deadline = time.monotonic() + limit_s
+        seen, quiet_since = self.received(), time.monotonic()
+        while time.monotonic() - quiet_since < quiet_s and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+            now = self.received()
+            if now != seen:
+                seen, quiet_since = now, time.monotonic()
+
+    def finish(self) -> int:
+        """End the record, publish the final terms, write the files; 0, or 1 on failure."""
+        log = self.get_logger()
+        self._process()
+        for line in self.session.process(flush=True):
+            log.info(line)
+        self._publish_diagnostics()
+        try:
+            self.session.check_measurable()
+            written = write_outputs(self.session, self.targets, source='live',
+                                    gyro_id=self.gyro_id)
+        except (GyroCalibError, OSError) as exc:
+            log.error(f'noise: files not written: {" ".join(str(exc).split())}')
+            return 1
+        log.info(self._terms_line(0.0).replace('running terms', 'final terms', 1))
+        for what, path in written:
+            log.info(f'{what} written: {path}')
+        return 0
+
+
+def main(args: list[str] | None = None) -> None:
+    """Run until SIGINT/SIGTERM, then take in the backlog, end the record, write the files."""
+    from rclpy.signals import SignalHandlerOptions
+
+    stop = threading.Event()
+    status = 0
+    try:
+        with rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO):
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(sig, lambda *_: stop.set())
+            try:
+                node = NoiseNode()
+            except GyroCalibError as exc:
+                rclpy.logging.get_logger(NODE_NAME).fatal(' '.join(str(exc).split()))
+                raise SystemExit(1) from None
+            executor = make_executor()
+            executor.add_node(node)
+            try:
+                while not stop.is_set() and rclpy.ok():
+                    executor.spin_once(timeout_sec=0.1)
+                node.drain(executor)
+            except ExternalShutdownException:
+                pass
+            status = node.finish()
+    except KeyboardInterrupt:
+        pass
+    if status:
+        raise SystemExit(status)
+
+
+if __name__ == '__main__':
+    main()

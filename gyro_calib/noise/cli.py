@@ -1,0 +1,161 @@
+"""``gyro-calib noise``: Allan deviation, IEEE Std 952 noise terms and Kalibr ``imu.yaml``.
+
+    gyro-calib noise BAG [BAG ...] [--topic T]
+        [--scale-factor-rad-per-pulse K | --scale-factor-counts-per-rad S | --calibration FILE]
+        [--config FILE] [--json] [--kalibr imu.yaml] [--plot FILE] [--out handoff.yaml]
+        [--gyro-id ID] [--progress | --no-progress]
+
+The input is ``/gyro/pulses`` (with K), ``/fog/output`` (with counts/rad) or any
+``sensor_msgs/Imu`` topic (``--topic``; without it the one input the bag holds). The bags
+stream through the shared bag calibration (columnar decoding, several bags in stamp order)
+into :class:`gyro_calib.noise.session.NoiseSession`.
+
+Exit status: 0 terms measured (files written); 1 Allan deviations but no term resolved
+(nothing written); 2 bad input in one line — a path that is not a bag, a topic absent or
+of another type (the line lists the topics present with their types), a pulse or FOG
+stream without a scale factor, a channel that is constant or all NaN, a record too short
+for any term, an output path that cannot be written. On any failure no file is written or
+overwritten.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from gyro_calib.bag_calibration import BagCalibration
+
+EXIT_OK, EXIT_NOT_CALIBRATED = 0, 1
+
+
+def add_commands(subparsers: Any) -> None:
+    """Add ``noise`` to ``gyro-calib``'s subcommands."""
+    p = subparsers.add_parser(
+        'noise', help='noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml',
+        description='Overlapping Allan deviation (IEEE Std 952/647) of a gyro or IMU and its '
+        'noise terms Q, N, B, K, R by a joint weighted fit, with uncertainties.')
+    p.add_argument('bags', nargs='+', type=Path, metavar='BAG',
+                   help='rosbag2 MCAP bag (directory, or the .mcap file inside it); several '
+                   'are taken together in stamp order')
+    p.add_argument('--topic', help='the input: a sensor_msgs/Imu topic, /gyro/pulses or '
+                   '/fog/output (default: the one input the bag holds)')
+    scale = p.add_mutually_exclusive_group()
+    scale.add_argument('--scale-factor-rad-per-pulse', type=float, metavar='K',
+                       help="/gyro/pulses: the RLG's scale factor, rad/pulse")
+    scale.add_argument('--scale-factor-counts-per-rad', type=float, metavar='S',
+                       help="/fog/output: the FOG's scale factor, counts/rad")
+    scale.add_argument('--calibration', type=Path, metavar='FILE',
+                       help='a hand-off file to take the scale factor from '
+                       '(scale_factor_rad_per_pulse or k_tilde_rad_per_pulse; '
+                       'fog_scale_factor_counts_per_rad)')
+    p.add_argument('--config', type=Path, metavar='FILE',
+                   help='NoiseSettings YAML (plain mapping or ROS 2 parameter file of '
+                   'noise_node): taus_per_octave, overlap, fit_min_tau_s, ...')
+    p.add_argument('--json', action='store_true', help='print one JSON document on stdout '
+                   '(the human summary goes to stderr)')
+    p.add_argument('--kalibr', type=Path, metavar='IMU_YAML',
+                   help="write Kalibr's imu.yaml (IMU input only)")
+    p.add_argument('--plot', type=Path, metavar='FILE',
+                   help='write the log-log ADEV figure (a panel per axis); a directory gets '
+                   'noise_adev.png')
+    p.add_argument('--out', type=Path, metavar='HANDOFF_YAML',
+                   help='write (or update) the INS hand-off file of this sensor')
+    p.add_argument('--gyro-id', default='', help="the sensor's serial or name (hand-off)")
+    p.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
+                   help='progress bar on stderr (default: when stderr is a terminal)')
+    p.set_defaults(run=run_noise, method=['noise'], latitude_deg=None, heading_deg=None,
+                   position_table_revolutions=None, sense_axis_elevation_deg=None,
+                   sense_axis_azimuth_deg=None)
+
+
+def run_noise(args: argparse.Namespace) -> int:
+    """Check the input, calibrate the bags, print, write the files asked for."""
+    from gyro_calib.bag import bag_info, topics_present
+    from gyro_calib.bag_calibration import calibrate_bags, json_document, merged_topics
+    from gyro_calib.cli import _json_default, options_from_args, summary_text
+    from gyro_calib.noise.outputs import resolve_targets, write_outputs
+    from gyro_calib.noise.session import NoiseSession, check_scale_factor, input_kind, \
+        select_input
+
+    targets = resolve_targets(args.kalibr, args.plot, args.out)
+    for path in args.bags:
+        _check_lone_mcap(path)
+    infos = [bag_info(p) for p in args.bags]
+    present = merged_topics(infos)
+    counts: dict[str, int] = {}
+    for info in infos:
+        for t in info.topics.values():
+            counts[t.name] = counts.get(t.name, 0) + t.count
+    where = ' + '.join(str(i.path) for i in infos)
+    listing = topics_present(dataclasses.replace(
+        infos[0], topics={k: dataclasses.replace(v, count=counts[k])
+                          for i in infos for k, v in i.topics.items()}))
+    options = options_from_args(args)
+    stored = next((i.scenario for i in infos if i.scenario), {})
+    options = dataclasses.replace(options, topic=args.topic, scenario=stored)
+    topic = select_input({t: (m, counts.get(t, 0)) for t, m in present.items()}, options,
+                         where=where, listing=listing)
+    options = dataclasses.replace(options, topic=topic)
+    check_scale_factor(options)
+    if targets.kalibr is not None and input_kind(topic) != 'imu':
+        from gyro_calib.errors import ConfigError
+
+        raise ConfigError(f"--kalibr: Kalibr's imu.yaml describes an IMU; {topic} is a "
+                          'single-axis gyro (use --out or --json). Nothing was read.')
+
+    outcome = _calibrate(args, options)
+    session = outcome.sessions['noise']
+    assert isinstance(session, NoiseSession)
+    session.check_measurable()
+    human = sys.stderr if args.json else sys.stdout
+    print(summary_text(outcome), file=human)
+    if args.json:
+        print(json.dumps(json_document(outcome), indent=1, allow_nan=False,
+                         default=_json_default))
+    if not session.results():
+        print('gyro-calib: no noise term is resolved (see the reasons above); nothing '
+              'written.', file=sys.stderr)
+        return EXIT_NOT_CALIBRATED
+    for what, path in write_outputs(session, targets, source=outcome.source,
+                                    gyro_id=args.gyro_id):
+        print(f'{what} written: {path}', file=human)
+    return EXIT_OK
+
+
+def _check_lone_mcap(path: Path) -> None:
+    """A .mcap file without its bag's metadata.yaml: say what is expected, in one line.
+
+    rosbags and the columnar decoder can read such a file, but the shared bag reader
+    (:func:`gyro_calib.bag.bag_info`) takes bag directories only.
+
+    Raises:
+        NotABagError: naming the file and what to pass instead.
+    """
+    from gyro_calib.bag import NotABagError
+
+    if path.suffix == '.mcap' and path.is_file() and not (path.parent / 'metadata.yaml'
+                                                          ).is_file():
+        raise NotABagError(f'{path}: a lone .mcap file, without the metadata.yaml of a rosbag2 '
+                           'bag beside it; gyro-calib reads bag directories (metadata.yaml + '
+                           '.mcap, as ros2 bag record writes them): pass the directory the '
+                           'file came from.')
+
+
+def _calibrate(args: argparse.Namespace, options: Any) -> BagCalibration:
+    from gyro_calib.bag_calibration import calibrate_bags
+
+    show = sys.stderr.isatty() if args.progress is None else args.progress
+    if not show:
+        return calibrate_bags(args.bags, methods=['noise'], options=options)
+    from tqdm import tqdm
+
+    with tqdm(total=1000, desc='noise', unit='‰', file=sys.stderr,
+              bar_format='{desc} {percentage:3.0f}%|{bar}| {elapsed}<{remaining}') as bar:
+        def progress(fraction: float) -> None:
+            bar.update(int(fraction * 1000) - bar.n)
+        return calibrate_bags(args.bags, methods=['noise'], options=options, progress=progress)

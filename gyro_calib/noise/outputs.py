@@ -1,0 +1,140 @@
+"""Files of a noise run: Kalibr ``imu.yaml``, the ADEV figure, the INS hand-off file.
+
+Shared by ``gyro-calib noise`` and ``noise_node`` (on shutdown). Everything is prepared
+first — the Kalibr text, the hand-off record merged with the file already there, the
+figure rendered into a temporary file beside its target — and only then put in place, each
+by an atomic rename. Any error while preparing (no term to write, a hand-off file of
+another gyro, a directory that does not exist) leaves every target as it was.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from gyro_calib.errors import ConfigError, InsufficientDataError
+
+if TYPE_CHECKING:
+    from gyro_calib.noise.session import NoiseSession
+
+
+@dataclass(frozen=True, slots=True)
+class OutputTargets:
+    """Where to write (None: not asked for).
+
+    Attributes:
+        kalibr: Kalibr ``imu.yaml`` path.
+        plot: the figure's path (PNG unless another extension is given).
+        handoff: the INS hand-off file (merged with what other methods wrote there).
+    """
+
+    kalibr: Path | None = None
+    plot: Path | None = None
+    handoff: Path | None = None
+
+
+def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
+                    handoff: str | Path | None) -> OutputTargets:
+    """Check the targets before any work: files in existing directories, not directories
+    themselves (a directory given for the figure gets ``noise_adev.png`` inside).
+
+    Raises:
+        ConfigError: a target is a directory, or its directory does not exist.
+    """
+    from gyro_calib.noise.session import FIGURE_NAME
+
+    def check(path: str | Path | None, what: str, *, directory_ok: bool = False) -> Path | None:
+        if path is None or str(path) == '':
+            return None
+        p = Path(path)
+        if p.is_dir():
+            if directory_ok:
+                return (p / FIGURE_NAME).absolute()
+            raise ConfigError(f'{what} {p} is a directory; give a file name.')
+        if not p.absolute().parent.is_dir():
+            raise ConfigError(f'{what} {p}: the directory {p.absolute().parent} does not '
+                              'exist.')
+        return p.absolute()
+
+    return OutputTargets(check(kalibr, 'the Kalibr file'), check(plot, 'the figure',
+                                                                  directory_ok=True),
+                         check(handoff, 'the hand-off file'))
+
+
+def _write_text_atomically(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(prefix=f'.{path.name}.', suffix='.tmp', dir=path.parent)
+    try:
+        with os.fdopen(fd, 'w', encoding='utf-8') as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
+                  gyro_id: str = '') -> list[tuple[str, Path]]:
+    """Prepare every file asked for, then put them in place; return (what, absolute path).
+
+    Args:
+        session: a finished (flushed) or snapshot noise session.
+        targets: from :func:`resolve_targets`.
+        source: the provenance of the hand-off values ('live' or the bag paths).
+        gyro_id: the sensor's serial or name (hand-off identity).
+
+    Raises:
+        ConfigError: Kalibr asked for a single-axis gyro.
+        KalibrExportError: a Kalibr key has neither a term nor an upper bound.
+        InsufficientDataError: a hand-off file asked for and no term was measured.
+        HandoffError: the hand-off file there is invalid or of another gyro.
+        OSError: a file cannot be written (the ones before it are in place).
+    """
+    from gyro_calib.handoff import load_calibration, update_calibration
+    from gyro_calib.registry import handoff_schema
+
+    kalibr_text = session.kalibr_text() if targets.kalibr is not None else None
+    record = None
+    if targets.handoff is not None:
+        record = session.handoff(source, gyro_id=gyro_id)
+        if record is None:
+            raise InsufficientDataError(f'no noise term was measured: the hand-off file '
+                                        f'{targets.handoff} is not written.')
+        if targets.handoff.exists():  # refuse before writing anything (other gyro, invalid)
+            record.merged_into(load_calibration(targets.handoff), handoff_schema())
+    figure_tmp = None
+    if targets.plot is not None:
+        view = session.view
+        if view is None or not view.axes():
+            raise ConfigError('no sample was analysed: no figure to draw.')
+        from gyro_calib.noise.plots import plot_noise_figure
+
+        fd, name = tempfile.mkstemp(prefix=f'.{targets.plot.stem}.',
+                                    suffix=targets.plot.suffix or '.png',
+                                    dir=targets.plot.parent)
+        os.close(fd)
+        figure_tmp = Path(name)
+        try:
+            plot_noise_figure(view, figure_tmp)
+        except BaseException:
+            figure_tmp.unlink(missing_ok=True)
+            raise
+    written: list[tuple[str, Path]] = []
+    try:
+        if kalibr_text is not None and targets.kalibr is not None:
+            _write_text_atomically(targets.kalibr, kalibr_text)
+            written.append(('Kalibr imu.yaml', targets.kalibr))
+        if figure_tmp is not None and targets.plot is not None:
+            os.replace(figure_tmp, targets.plot)
+            figure_tmp = None
+            written.append(('figure', targets.plot))
+        if record is not None and targets.handoff is not None:
+            written.append(('hand-off', update_calibration(targets.handoff, record)))
+    finally:
+        if figure_tmp is not None:
+            figure_tmp.unlink(missing_ok=True)
+    return written

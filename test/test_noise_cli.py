@@ -1,0 +1,252 @@
+"""``gyro-calib noise`` through main(): the bad-input list of issue 11, each a one-line error
+with exit status 2 and nothing written or overwritten; and what a good run writes."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from gyro_calib.bag import BagMessage, ContractMessages, write_bag
+from gyro_calib.cli import main
+from sim_nodes.noise.bag_scenarios import imu_template
+
+START_NS = 1_700_000_000_000_000_000
+PERIOD_NS = 10_000_000  # 100 Hz
+IMU = 'sensor_msgs/msg/Imu'
+JOINT_STATE = 'sensor_msgs/msg/JointState'
+K = 4.0e-6
+
+
+def imu_messages(topic: str, t: np.ndarray, gyro: np.ndarray,
+                 accel: np.ndarray) -> list[BagMessage]:
+    template, accel_offset = imu_template('imu')
+    rows = template.rows(t, gyro)
+    at = template.value_at + accel_offset
+    rows[:, at:at + 24] = np.ascontiguousarray(accel.astype('<f8')).view(np.uint8).reshape(
+        len(t), 24)
+    return [BagMessage(topic, int(ti), r.tobytes()) for ti, r in zip(t, rows)]
+
+
+def white_imu(n: int, seed: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(np.random.SeedSequence(seed))
+    t = START_NS + PERIOD_NS * np.arange(n, dtype=np.int64)
+    return t, rng.normal(0, 3e-3, (n, 3)), rng.normal(0, 2e-2, (n, 3)) + (0, 0, 9.81)
+
+
+def pulse_messages(t: np.ndarray, counts: np.ndarray,
+                   topic: str = '/gyro/pulses') -> list[BagMessage]:
+    cdr = ContractMessages()
+    return [BagMessage(topic, int(ti), cdr.joint_state(int(ti), 'gyro', float(c)))
+            for ti, c in zip(t, counts)]
+
+
+def merged(*streams: list[BagMessage]) -> list[BagMessage]:
+    return sorted((m for s in streams for m in s), key=lambda m: m.log_time_ns)
+
+
+@pytest.fixture(scope='module')
+def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp('noise_bags')
+    t, g, a = white_imu(4000)
+    rng = np.random.default_rng(8)
+    pulses = np.cumsum(1e-3 * 0.01 / K + rng.normal(0, 30.0, 4000))
+    table = pulse_messages(t[::10], np.arange(400, dtype=float), '/rate_table/joint_states')
+    specs: dict[str, list[BagMessage]] = {
+        'imu': imu_messages('/imu/data', t, g, a),
+        'imu_and_table': merged(imu_messages('/imu/data', t, g, a), table),
+        'two_imus': merged(imu_messages('/imu/a', t, g, a), imu_messages('/imu/b', t, g, a)),
+        'imu_short': imu_messages('/imu/data', t[:40], g[:40], a[:40]),
+        'imu_constant': imu_messages('/imu/data', t, np.zeros_like(g),
+                                     np.tile([0.0, 0.0, 9.81], (len(t), 1))),
+        'imu_nan': imu_messages('/imu/data', t, np.full_like(g, np.nan), np.full_like(a, np.nan)),
+        'imu_dead_accel': imu_messages('/imu/data', t, g, np.zeros_like(a)),
+        'pulses': pulse_messages(t, pulses),
+        'pulses_locked_in': pulse_messages(t, np.full(len(t), 5071.0)),
+    }
+    out = {}
+    for name, messages in specs.items():
+        types = {m.topic: IMU for m in messages if m.topic.startswith('/imu')}
+        write_bag(root / name, messages, types=types)
+        out[name] = root / name
+    return out
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
+    status = main(['noise', *map(str, argv), '--no-progress'])
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+@pytest.fixture
+def outputs(tmp_path: Path) -> dict[str, Path]:
+    """Files that exist before the run: a failing run must leave them as they are."""
+    files = {'kalibr': tmp_path / 'imu.yaml', 'plot': tmp_path / 'adev.png',
+             'out': tmp_path / 'handoff.yaml'}
+    for path in files.values():
+        path.write_text(f'before {path.name}\n')
+    return files
+
+
+def unchanged(files: dict[str, Path]) -> bool:
+    return (all(p.read_text() == f'before {p.name}\n' for p in files.values())
+            and sorted(p.name for p in next(iter(files.values())).parent.iterdir())
+            == sorted(p.name for p in files.values()))
+
+
+def out_flags(files: dict[str, Path]) -> list[Any]:
+    return ['--kalibr', files['kalibr'], '--plot', files['plot'], '--out', files['out']]
+
+
+def one_line_error(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith('gyro-calib: error: '), err
+    return lines[0]
+
+
+@pytest.mark.parametrize('bag, extra, text', [
+    ('imu', ['--topic', '/imu/dta'],
+     'no topic /imu/dta in the bag(s); they hold /imu/data (sensor_msgs/msg/Imu, 4000)'),
+    ('imu_and_table', ['--topic', '/rate_table/joint_states'],
+     'topic /rate_table/joint_states has type sensor_msgs/msg/JointState, but gyro-calib noise '
+     'reads sensor_msgs/msg/Imu there'),
+    ('two_imus', [], 'several inputs to characterise (/imu/a, /imu/b); choose one with --topic'),
+    ('imu_short', [], 'the record of each axis (gyro_x, gyro_y, gyro_z, accel_x, accel_y, '
+     'accel_z) is too short for any noise term: 40 sample(s) received'),
+    ('imu_constant', [], 'each axis (gyro_x, gyro_y, gyro_z, accel_x, accel_y) on /imu/data is '
+     'constant (every finite sample equals 0.0)'),
+    ('imu_nan', [], 'all 4000 samples of each axis (gyro_x, gyro_y, gyro_z, accel_x, accel_y, '
+     'accel_z) on /imu/data were non-finite'),
+    ('pulses', [], '/gyro/pulses needs the scale factor K to turn pulses into rad, and none '
+     'was given: pass --scale-factor-rad-per-pulse K, or --calibration FILE'),
+    ('pulses_locked_in', ['--scale-factor-rad-per-pulse', K],
+     'A static RLG inside its lock-in band without dither gives no pulses'),
+])
+def test_bad_input_is_one_line_exit_2_and_nothing_is_written(
+        bags: dict[str, Path], outputs: dict[str, Path], capsys: pytest.CaptureFixture[str],
+        bag: str, extra: list[Any], text: str) -> None:
+    flags = out_flags(outputs) if bag.startswith('imu') else ['--plot', outputs['plot'],
+                                                              '--out', outputs['out']]
+    status, out, err = run(capsys, bags[bag], *extra, *flags)
+    assert status == 2, (out, err)
+    assert text in one_line_error(err)
+    assert unchanged(outputs)
+
+
+def test_topic_error_lists_every_topic_with_its_type(
+        bags: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    status, _, err = run(capsys, bags['imu_and_table'], '--topic', '/imu')
+    assert status == 2
+    assert ('/imu/data (sensor_msgs/msg/Imu, 4000), /rate_table/joint_states '
+            '(sensor_msgs/msg/JointState, 400)') in one_line_error(err)
+
+
+@pytest.mark.parametrize('what', ['a file', 'a directory without metadata.yaml',
+                                  'a lone .mcap file', 'a missing path'])
+def test_a_path_that_is_not_a_bag_is_one_line_exit_2(
+        bags: dict[str, Path], outputs: dict[str, Path], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str], what: str) -> None:
+    other = tmp_path.parent / f'{tmp_path.name}_input'
+    other.mkdir()
+    if what == 'a file':
+        path = other / 'imu.yaml'
+        path.write_text('not: a bag\n')
+    elif what == 'a directory without metadata.yaml':
+        path = other / 'dir'
+        path.mkdir()
+        (path / 'notes.txt').write_text('x')
+    elif what == 'a lone .mcap file':  # rosbags needs the bag's metadata.yaml beside it
+        path = other / 'imu.mcap'
+        shutil.copy(bags['imu'] / 'imu.mcap', path)
+    else:
+        path = other / 'nowhere'
+    status, _, err = run(capsys, path, *out_flags(outputs))
+    assert status == 2
+    line = one_line_error(err)
+    assert str(path) in line
+    assert ('not a rosbag2 bag (a directory with metadata.yaml and the .mcap file)' in line
+            or 'no such file or directory' in line
+            or 'a lone .mcap file, without the metadata.yaml of a rosbag2 bag' in line)
+    assert unchanged(outputs)
+
+
+def test_the_mcap_file_inside_a_bag_is_read_as_the_bag(
+        bags: dict[str, Path], capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, _ = run(capsys, bags['imu'] / 'imu.mcap')
+    assert status == 0 and 'gyro_x: angle random walk N' in out
+
+
+@pytest.mark.parametrize('extra, text', [
+    (['--kalibr', 'K'], "Kalibr's imu.yaml describes an IMU; /gyro/pulses is a single-axis"),
+    (['--out', 'DIR'], 'is a directory; give a file name'),
+    (['--kalibr', 'MISSING/imu.yaml'], 'does not exist'),
+])
+def test_outputs_that_cannot_be_written_are_refused_before_reading(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        extra: list[str], text: str) -> None:
+    subs = {'K': str(tmp_path / 'k.yaml'), 'DIR': str(tmp_path),
+            'MISSING/imu.yaml': str(tmp_path / 'missing' / 'imu.yaml')}
+    status, _, err = run(capsys, bags['pulses'], '--scale-factor-rad-per-pulse', K,
+                         *[subs.get(x, x) for x in extra])
+    assert status == 2 and text in one_line_error(err)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_handoff_file_of_another_gyro_is_refused_and_nothing_is_written(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out, kalibr = tmp_path / 'handoff.yaml', tmp_path / 'imu.yaml'
+    assert run(capsys, bags['imu'], '--out', out, '--gyro-id', 'imu-A')[0] == 0
+    before = out.read_text()
+    status, _, err = run(capsys, bags['imu'], '--out', out, '--gyro-id', 'imu-B',
+                         '--kalibr', kalibr)
+    assert status == 2 and "holds gyro 'imu-A'" in one_line_error(err)
+    assert out.read_text() == before and not kalibr.exists()
+
+
+def test_a_good_imu_run_writes_every_file_and_prints_their_paths(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    files = {'kalibr': tmp_path / 'imu.yaml', 'plot': tmp_path / 'adev.png',
+             'out': tmp_path / 'handoff.yaml'}
+    status, out, err = run(capsys, bags['imu'], '--json', *out_flags(files))
+    assert status == 0, err
+    doc = json.loads(out)
+    assert set(doc['methods']['noise']) == {'axes'}
+    for what, path in (('Kalibr imu.yaml', files['kalibr']), ('figure', files['plot']),
+                       ('hand-off', files['out'])):
+        assert f'{what} written: {path}' in err  # the human part goes to stderr with --json
+    kalibr = yaml.safe_load(files['kalibr'].read_text())
+    assert kalibr['rostopic'] == '/imu/data' and kalibr['update_rate'] == pytest.approx(100.0)
+    gyro_n = max(doc['methods']['noise']['axes'][f'gyro_{a}']['results'][
+        'angle_random_walk_rad_per_sqrt_s']['value'] for a in 'xyz')
+    assert kalibr['gyroscope_noise_density'] == pytest.approx(gyro_n, rel=1e-6)
+    assert files['plot'].read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    record = yaml.safe_load(files['out'].read_text())
+    n = record['gyro']['imu_gyro_z_angle_random_walk_rad_per_sqrt_s']
+    assert abs(n - 3e-3 * math.sqrt(0.01)) < 4 * record['gyro'][
+        'imu_gyro_z_angle_random_walk_rad_per_sqrt_s_std']
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith('.')]
+
+
+def test_a_dead_accelerometer_is_reported_and_the_gyro_axes_still_measured(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, err = run(capsys, bags['imu_dead_accel'], '--out', tmp_path / 'h.yaml')
+    assert status == 0, err
+    assert 'accel_x: no term — accel_x on /imu/data is constant' in out
+    assert 'gyro_x: angle random walk N' in out
+    status, _, err = run(capsys, bags['imu_dead_accel'], '--kalibr', tmp_path / 'k.yaml')
+    assert status == 2 and 'accelerometer_noise_density' in one_line_error(err)
+    assert not (tmp_path / 'k.yaml').exists()
+
+
+def test_a_directory_given_as_the_calibration_file_is_one_line_exit_2(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    status, _, err = run(capsys, bags['pulses'], '--calibration', bags['imu'],
+                         '--out', tmp_path / 'h.yaml')
+    assert status == 2 and f'cannot read calibration file {bags["imu"]}' in one_line_error(err)
+    assert list(tmp_path.iterdir()) == []
