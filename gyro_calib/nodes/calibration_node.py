@@ -14,10 +14,8 @@ from __future__ import annotations
 
 import math
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Header
@@ -35,7 +33,7 @@ from gyro_calib.nodes.ros_io import (
     RESULT_QOS,
     SENSOR_QOS,
     declare_dataclass_parameters,
-    spin,
+    run_node,
     stamp_to_ns,
 )
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
@@ -225,17 +223,8 @@ class CalibrationNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the calibration node until shut down."""
-    try:
-        with rclpy.init(args=args):
-            try:
-                node = CalibrationNode()
-            except GyroCalibError as exc:
-                rclpy.logging.get_logger('calibration_node').fatal(str(exc))
-                raise SystemExit(1) from None
-            spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    """Run the calibration node until SIGINT/SIGTERM."""
+    run_node('calibration_node', CalibrationNode, args)
 
 
 if __name__ == '__main__':

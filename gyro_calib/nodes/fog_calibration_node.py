@@ -17,21 +17,17 @@ recording of the same run, bit for bit.
 
 from __future__ import annotations
 
-import signal
-import threading
 import time
 from typing import Any
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
 
 from gyro_calib import topics
-from gyro_calib.errors import GyroCalibError
 from gyro_calib.fog.calibrator import KEY_SCALE_FACTOR, KEY_SELF_CAL
 from gyro_calib.fog.session import FogSession
 from gyro_calib.fog.settings import FogSettings
 from gyro_calib.nodes.method_node import MethodNode
-from gyro_calib.nodes.ros_io import make_executor
+from gyro_calib.nodes.ros_io import run_node
 
 RESULT_TOPICS = {KEY_SCALE_FACTOR: topics.FOG_SCALE_FACTOR,
                  KEY_SELF_CAL: topics.FOG_SELF_CAL_SCALE_FACTOR}
@@ -82,25 +78,8 @@ class FogCalibrationNode(MethodNode):
 
 def main(args: list[str] | None = None) -> None:
     """Run the FOG calibration node until stopped; then flush and publish the final results."""
-    from rclpy.signals import SignalHandlerOptions
-
-    stop = threading.Event()
-    with rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO):
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: stop.set())
-        try:
-            node = FogCalibrationNode()
-        except GyroCalibError as exc:
-            rclpy.logging.get_logger('fog_calibration_node').fatal(str(exc))
-            raise SystemExit(1) from None
-        executor = make_executor()
-        executor.add_node(node)
-        try:
-            while not stop.is_set():
-                executor.spin_once(timeout_sec=0.1)
-            node.finish(executor)
-        except ExternalShutdownException:
-            pass
+    run_node('fog_calibration_node', FogCalibrationNode, args,
+             on_stop=lambda node, executor: node.finish(executor))
 
 
 if __name__ == '__main__':

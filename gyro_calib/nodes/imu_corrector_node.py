@@ -29,9 +29,7 @@ from __future__ import annotations
 import os
 import re
 
-import rclpy
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Imu, JointState, Temperature
@@ -42,7 +40,7 @@ from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import load_calibration
 from gyro_calib.imu_conversion import ImuAngularVelocity, PulseRateConverter, pulse_calibration
 from gyro_calib.thermal.site import RAD_S_PER_DEG_H
-from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, spin, stamp_to_ns
+from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, run_node, stamp_to_ns
 
 GYRO_IMU = '/gyro/imu'
 """sensor_msgs/Imu: calibrated rate about the gyro's sense axis (z), rad/s, with covariance."""
@@ -215,12 +213,8 @@ class ImuCorrectorNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the IMU corrector node until shut down."""
-    try:
-        with rclpy.init(args=args):
-            spin(ImuCorrectorNode())
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    """Run the IMU corrector node until SIGINT/SIGTERM."""
+    run_node('imu_corrector', ImuCorrectorNode, args)
 
 
 if __name__ == '__main__':

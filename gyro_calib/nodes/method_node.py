@@ -22,10 +22,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, Temperature
 from std_msgs.msg import Float64, Header
@@ -40,7 +38,7 @@ from gyro_calib.nodes.ros_io import (
     RESULT_QOS,
     SENSOR_QOS,
     described_parameter,
-    spin,
+    run_node,
     stamp_to_ns,
 )
 from gyro_calib.registry import HEADER, IMU, JOINT_STATE, METHODS, TEMPERATURE
@@ -259,17 +257,6 @@ def _description(cls: type, name: str) -> str:
 
 def run_method_node(method: str, node_name: str, result_topics: Mapping[str, str],
                     settings_cls: type | None = None, args: list[str] | None = None) -> None:
-    """Run a method's node until shut down (the ros2/examples ``main`` shape)."""
-    try:
-        with rclpy.init(args=args):
-            try:
-                node = MethodNode(method, node_name, result_topics, settings_cls)
-            except GyroCalibError as exc:
-                rclpy.logging.get_logger(node_name).fatal(str(exc))
-                raise SystemExit(1) from None
-            try:
-                spin(node)
-            finally:
-                node.finish()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    """Run a method's node until SIGINT/SIGTERM, then judge what is open and write the hand-off."""
+    run_node(node_name, lambda: MethodNode(method, node_name, result_topics, settings_cls), args,
+             on_stop=lambda node, _executor: node.finish())

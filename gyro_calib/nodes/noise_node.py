@@ -30,14 +30,10 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import signal
-import threading
 import time
 from pathlib import Path
 from typing import Any
 
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from gyro_calib.bag import SampleBatch
@@ -52,7 +48,7 @@ from gyro_calib.nodes.method_node import (
     MethodNode,
     _TopicBuffer,
 )
-from gyro_calib.nodes.ros_io import SENSOR_QOS, described_parameter, make_executor
+from gyro_calib.nodes.ros_io import SENSOR_QOS, described_parameter, run_node
 from gyro_calib.session import CalibrationOptions
 
 NODE_NAME = 'noise_node'
@@ -244,32 +240,15 @@ class NoiseNode(MethodNode):
 
 def main(args: list[str] | None = None) -> None:
     """Run until SIGINT/SIGTERM, then take in the backlog, end the record, write the files."""
-    from rclpy.signals import SignalHandlerOptions
+    status: list[int] = []
 
-    stop = threading.Event()
-    status = 0
-    try:
-        with rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO):
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                signal.signal(sig, lambda *_: stop.set())
-            try:
-                node = NoiseNode()
-            except GyroCalibError as exc:
-                rclpy.logging.get_logger(NODE_NAME).fatal(' '.join(str(exc).split()))
-                raise SystemExit(1) from None
-            executor = make_executor()
-            executor.add_node(node)
-            try:
-                while not stop.is_set() and rclpy.ok():
-                    executor.spin_once(timeout_sec=0.1)
-                node.drain(executor)
-            except ExternalShutdownException:
-                pass
-            status = node.finish()
-    except KeyboardInterrupt:
-        pass
-    if status:
-        raise SystemExit(status)
+    def finish(node: NoiseNode, executor: Any) -> None:
+        node.drain(executor)
+        status.append(node.finish())
+
+    run_node(NODE_NAME, NoiseNode, args, on_stop=finish)
+    if status and status[0]:
+        raise SystemExit(status[0])
 
 
 if __name__ == '__main__':

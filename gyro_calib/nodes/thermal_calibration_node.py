@@ -21,14 +21,11 @@ from __future__ import annotations
 import time
 from typing import Any
 
-import rclpy
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.executors import ExternalShutdownException
 
 from gyro_calib.bag import SampleBatch
-from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.method_node import MethodNode
-from gyro_calib.nodes.ros_io import described_parameter, spin
+from gyro_calib.nodes.ros_io import described_parameter, run_node
 from gyro_calib.thermal.settings import ThermalSettings
 
 
@@ -77,22 +74,14 @@ class ThermalCalibrationNode(MethodNode):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the thermal calibration node until shut down."""
-    node = None
-    try:
-        with rclpy.init(args=args):
-            try:
-                node = ThermalCalibrationNode()
-            except GyroCalibError as exc:
-                rclpy.logging.get_logger('thermal_calibration_node').fatal(str(exc))
-                raise SystemExit(1) from None
-            spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        if node is not None and node.unfitted:  # shut down mid-recording: fit what came
+    """Run the thermal calibration node until SIGINT/SIGTERM; stopped mid-recording, fit what came."""
+
+    def fit_what_came(node: ThermalCalibrationNode, _executor: object) -> None:
+        if node.unfitted:
             node.finish()
             node._write_handoff()
+
+    run_node('thermal_calibration_node', ThermalCalibrationNode, args, on_stop=fit_what_came)
 
 
 if __name__ == '__main__':

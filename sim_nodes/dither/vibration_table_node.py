@@ -25,9 +25,7 @@ import functools
 import time
 from typing import Any
 
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -39,7 +37,9 @@ from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     declare_dataclass_parameters,
     described_parameter,
-    make_executor,
+    acknowledge_tail,
+    run_node,
+    simulation_done,
     ns_to_stamp,
     publish_paced,
 )
@@ -166,21 +166,7 @@ class VibrationTableNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the vibration table simulator until its run is done (or it is shut down)."""
-    try:
-        with rclpy.init(args=args):
-            node = VibrationTableNode()
-            executor = make_executor()
-            executor.add_node(node)
-            while rclpy.ok() and not (node.done and node.exit_when_done):
-                executor.spin_once(timeout_sec=0.05)
-            if node.done:  # readers may lag: let them acknowledge the tail before exiting
-                for pub in node.all_publishers:
-                    if not pub.wait_for_all_acked(rclpy.duration.Duration(seconds=60.0)):
-                        node.get_logger().warning(
-                            f'{pub.topic_name}: readers did not acknowledge the last samples '
-                            'within 60 s; exiting anyway.')
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    run_node('vibration_table_sim', VibrationTableNode, args, done=simulation_done, on_stop=acknowledge_tail)
 
 
 if __name__ == '__main__':

@@ -30,9 +30,7 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, String
@@ -44,7 +42,9 @@ from gyro_calib.nodes.ros_io import (
     SCENARIO_QOS,
     SENSOR_QOS,
     described_parameter,
-    make_executor,
+    acknowledge_tail,
+    run_node,
+    simulation_done,
     ns_to_stamp,
     publish_paced,
 )
@@ -218,21 +218,7 @@ class FogBenchNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the FOG bench until its run is done (or it is shut down)."""
-    try:
-        with rclpy.init(args=args):
-            node = FogBenchNode()
-            executor = make_executor()
-            executor.add_node(node)
-            while rclpy.ok() and not (node.done and node.exit_when_done):
-                executor.spin_once(timeout_sec=0.05)
-            if node.done:  # readers may lag: let them acknowledge the tail before exiting
-                for pub in node.all_publishers:
-                    if not pub.wait_for_all_acked(rclpy.duration.Duration(seconds=60.0)):
-                        node.get_logger().warning(
-                            f'{pub.topic_name}: readers did not acknowledge the last samples '
-                            'within 60 s; exiting anyway.')
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    run_node('fog_sim', FogBenchNode, args, done=simulation_done, on_stop=acknowledge_tail)
 
 
 if __name__ == '__main__':

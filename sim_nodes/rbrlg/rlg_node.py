@@ -13,8 +13,6 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import rclpy
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
@@ -27,7 +25,7 @@ from gyro_calib.nodes.ros_io import (
     declare_dataclass_parameters,
     ns_to_stamp,
     publish_paced,
-    spin,
+    run_node,
     stamp_to_ns,
 )
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
@@ -118,12 +116,8 @@ class RingLaserGyroNode(Node):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the gyro simulator until shut down."""
-    try:
-        with rclpy.init(args=args):
-            spin(RingLaserGyroNode())
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+    """Run the gyro simulator until SIGINT/SIGTERM."""
+    run_node('rlg_sim', RingLaserGyroNode, args)
 
 
 if __name__ == '__main__':
