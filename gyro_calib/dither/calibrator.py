@@ -92,6 +92,28 @@ RESULT_KEYS = (KEY_A, KEY_Z, KEY_Y, KEY_FREQUENCY, KEY_AMPLITUDE, KEY_AMPLITUDE_
 and ``dither_amplitude_pulses``, given instead of ``dither_amplitude_rad`` without K)."""
 COMPONENT_KEYS = {'z': KEY_Z, 'y': KEY_Y}
 
+CLOCK_LOCK_FACTOR = 2.0
+"""λ: with the vibration frequency dividing the pulse sample rate (table and sample clocks
+locked, e.g. 20 Hz at 2 kHz), a component's random uncertainty is at least λ times its
+white-noise σ. The pulse quantisation then repeats with the table phase at every sample and
+only the dither and the count drift can decorrelate it; where they do not (the drift of a
+gyro with IA north, 11.5 pulses/s), part of the quantisation error stays coherent with the
+sidebands for longer than the data checks (block scatter, null sidebands) can see on one
+record. Monte Carlo (benchmarks/dither_floor_monte_carlo.py, A = 20 rad/s, 60 s, IA north,
+20 Hz): scatter 1.8× the white σ, ±1σ coverage 50 % without this widening."""
+
+
+def clock_lock(table_hz: float, sample_rate_hz: float, record_s: float) -> int:
+    """n if the vibration frequency divides the sample rate (|f_z − f_s/n| < 1/T), else 0.
+
+    Then the table phase at the samples repeats every n samples and slips by less than one
+    table cycle over the record T: the table never dithers the quantisation.
+    """
+    if not (table_hz > 0 and sample_rate_hz > 0 and record_s > 0):
+        return 0
+    n = max(round(sample_rate_hz / table_hz), 1)
+    return n if abs(table_hz - sample_rate_hz / n) < 1.0 / record_s else 0
+
 
 def _arcmin(value_rad: float) -> str:
     return f'{value_rad / RAD_PER_ARCMIN:.2f}′'
@@ -763,6 +785,22 @@ class DitherCalibrator:
                 dither_frequency_hz=rec.mean('dither_frequency_hz'),
                 table_frequency_hz=rec.mean('table_frequency_hz'),
                 misalignment_rad=abs(signed[axis]))
+            fz = rec.mean('table_frequency_hz')
+            lock_std, lock_note = 0.0, ''
+            n_lock = clock_lock(fz, fs, rec.record_s)
+            if n_lock:
+                white = sigma / math.sqrt(max(sol.inflation, 1.0))
+                lock_std = math.sqrt(max((CLOCK_LOCK_FACTOR * white) ** 2 - sigma ** 2, 0.0))
+                lock_note = (
+                    f'table along {axis.upper()}: the vibration frequency {fz:.3f} Hz divides the '
+                    f'{fs:.0f} Hz sample rate ({n_lock}×): the pulse quantisation is locked to '
+                    'the table phase and does not average as white noise (Monte Carlo: up to '
+                    '1.8× the floor at 60 s, ±1σ coverage 50 %), which the data checks of one '
+                    f'record cannot fully see; the uncertainty is therefore widened to '
+                    f'{CLOCK_LOCK_FACTOR:g}× the white-noise σ ({_arcmin(white)} → '
+                    f'{_arcmin(math.hypot(sigma, lock_std))}). For the floor, vibrate half way '
+                    f'between two divisors of the sample rate, e.g. {fs / (n_lock + 0.5):.2f} Hz '
+                    f'or {fs / (n_lock - 0.5):.2f} Hz.')
             comps[axis] = Component(
                 axis=axis, signed_rad=signed[axis], statistical_std_rad=sigma,
                 rocking_bound_rad=bound,
@@ -771,7 +809,8 @@ class DitherCalibrator:
                 n_blocks=sol.n_blocks, dof=sol.dof, record_s=rec.record_s, sample_rate_hz=fs,
                 birge_ratio_squared=sol.birge_ratio_squared,
                 null_ratio_squared=sol.null_ratio_squared,
-                count_drift_pulses_s=rec.mean('drift_pulses_s'))
+                count_drift_pulses_s=rec.mean('drift_pulses_s'),
+                clock_lock_std_rad=lock_std, clock_lock_note=lock_note)
         return comps, missing
 
     def _rocking_bound(self, axis: str, signed: dict[str, float], sigma: float,
@@ -847,7 +886,7 @@ class DitherCalibrator:
             misalignment = combine_components(z, y)
             verdict = acceptance_verdict(
                 misalignment.value_rad, misalignment.std_rad,
-                statistical_std_rad=misalignment.statistical_std_rad,
+                statistical_std_rad=misalignment.random_std_rad,
                 limit_rad=s.max_misalignment_arcmin * RAD_PER_ARCMIN,
                 coverage_factor=s.verdict_coverage_factor,
                 record_s=min(z.record_s, y.record_s),
@@ -857,18 +896,7 @@ class DitherCalibrator:
                                   dither_amplitude_rad=theta_d,
                                   rocking_per_misalignment=s.rocking_per_misalignment,
                                   rocking_phase_rad=s.rocking_phase_rad, model=s.rocking_model)
-        notes = {}
-        for axis, c in comps.items():
-            rec = self.orientations[axis]
-            fz = rec.mean('table_frequency_hz')
-            ratio = c.sample_rate_hz / fz
-            if abs(fz - c.sample_rate_hz / round(ratio)) < 2.0 / c.record_s:
-                notes[axis] = (
-                    f'table along {axis.upper()}: the vibration frequency {fz:.3f} Hz divides the '
-                    f'{c.sample_rate_hz:.0f} Hz sample rate ({round(ratio)}×): pulse quantisation '
-                    'can line up with the sidebands on short records (measured up to 2× the '
-                    'floor at 60 s, below it from 4 min on); a non-divisor such as '
-                    f'{fz * 0.9935:.2f} Hz avoids it.')
+        notes = {axis: c.clock_lock_note for axis, c in comps.items() if c.clock_lock_note}
         return DitherSummary(reported, withheld, misalignment, verdict, coning,
                              float(np.mean(freqs)) if freqs else math.nan, amp_pulses, theta_d,
                              notes)
@@ -911,12 +939,14 @@ class DitherCalibrator:
         out: dict[str, Estimate] = {}
         for axis, c in summary.components.items():
             out[COMPONENT_KEYS[axis]] = Estimate(c.magnitude_rad, c.std_rad, c.n_blocks, c.dof,
-                                                 tuple(self.rejections))
+                                                 tuple(self.rejections), c.clock_lock_note)
         m = summary.misalignment
         if m is not None:
             z, y = summary.components['z'], summary.components['y']
             out[KEY_A] = Estimate(m.value_rad, m.std_rad, z.n_blocks + y.n_blocks,
-                                  min(z.dof, y.dof), tuple(self.rejections))
+                                  min(z.dof, y.dof), tuple(self.rejections),
+                                  ' '.join(c.clock_lock_note for c in (z, y)
+                                           if c.clock_lock_note))
             out.update(self._coning_estimates(summary))
         blocks = [b for r in self.orientations.values() for b in r.blocks]
         if blocks:

@@ -51,6 +51,10 @@ class Component:
         null_ratio_squared: null-sideband χ²/dof (≈ 1 when the noise at the sidebands is
             white; the statistical σ is already widened by it when above 1).
         count_drift_pulses_s: mean straight-line drift of the count, pulses/s.
+        clock_lock_std_rad: Type B widening for clock-locked quantisation, rad (0 unless the
+            vibration frequency divides the sample rate): √(max(0, (λ·σ_white)² − σ²)), so
+            that the random part √(σ² + this²) is at least λ times the white-noise σ.
+        clock_lock_note: the sentence that says why it was added ('' when 0).
     """
 
     axis: str
@@ -67,6 +71,13 @@ class Component:
     birge_ratio_squared: float
     null_ratio_squared: float = math.nan
     count_drift_pulses_s: float = math.nan
+    clock_lock_std_rad: float = 0.0
+    clock_lock_note: str = ''
+
+    @property
+    def random_std_rad(self) -> float:
+        """√(σ² + clock-lock²): the part that shrinks with record length, rad."""
+        return math.hypot(self.statistical_std_rad, self.clock_lock_std_rad)
 
     @property
     def type_b_std_rad(self) -> float:
@@ -77,8 +88,8 @@ class Component:
 
     @property
     def std_rad(self) -> float:
-        """Total standard uncertainty: √(σ² + (δ/√3)²), rad."""
-        return math.hypot(self.statistical_std_rad, self.type_b_std_rad)
+        """Total standard uncertainty: √(σ² + clock-lock² + (δ/√3)²), rad."""
+        return math.hypot(self.random_std_rad, self.type_b_std_rad)
 
     @property
     def magnitude_rad(self) -> float:
@@ -102,6 +113,7 @@ class Misalignment:
         rocking_bound_rad: largest shift of a the rocking bound allows, rad.
         azimuth_rad: ψ₀ = atan2(ŝ_z, ŝ_y) in the kinematics sign convention, rad.
         resolved: True if â_raw ≥ 2·max(σ_z, σ_y).
+        clock_lock_std_rad: the components' clock-lock widening propagated to a, rad.
     """
 
     value_rad: float
@@ -110,12 +122,18 @@ class Misalignment:
     rocking_bound_rad: float
     azimuth_rad: float
     resolved: bool
+    clock_lock_std_rad: float = 0.0
+
+    @property
+    def random_std_rad(self) -> float:
+        """√(σ² + clock-lock²), rad (shrinks with record length)."""
+        return math.hypot(self.statistical_std_rad, self.clock_lock_std_rad)
 
     @property
     def std_rad(self) -> float:
-        """√(σ² + (bound/√3)²), rad."""
+        """√(σ² + clock-lock² + (bound/√3)²), rad."""
         b = 0.0 if math.isnan(self.rocking_bound_rad) else self.rocking_bound_rad
-        return math.hypot(self.statistical_std_rad, b / math.sqrt(3.0))
+        return math.hypot(self.random_std_rad, b / math.sqrt(3.0))
 
 
 def combine_components(z: Component, y: Component) -> Misalignment:
@@ -127,12 +145,14 @@ def combine_components(z: Component, y: Component) -> Misalignment:
     sigma_max = math.sqrt(max(vz, vy))
     resolved = raw >= 2.0 * sigma_max
     std = math.sqrt(sz * sz * vz + sy * sy * vy) / raw if resolved else sigma_max
+    lz, ly = z.clock_lock_std_rad ** 2, y.clock_lock_std_rad ** 2
+    lock = math.sqrt(sz * sz * lz + sy * sy * ly) / raw if resolved else math.sqrt(max(lz, ly))
     bz, by = z.rocking_bound_rad, y.rocking_bound_rad
     if raw > 0:
         bound = (abs(sz) * bz + abs(sy) * by) / raw
     else:
         bound = max(bz, by)
-    return Misalignment(value, raw, std, bound, math.atan2(sz, sy), resolved)
+    return Misalignment(value, raw, std, bound, math.atan2(sz, sy), resolved, lock)
 
 
 @dataclass(frozen=True, slots=True)

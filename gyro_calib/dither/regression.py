@@ -239,7 +239,7 @@ class ReducedNormalEquations:
         inflate = max([1.0] + [x for x in (birge2, null2) if math.isfinite(x)])
         cov = sigma2 * inflate * inv[:2, :2]
         return SidebandSolution(beta[:2], cov, sigma2, dof, birge2, self.n_blocks,
-                                self.n_samples, null2, n_null)
+                                self.n_samples, null2, n_null, inflate)
 
 
 @dataclass(frozen=True, slots=True)
@@ -258,6 +258,7 @@ class SidebandSolution:
         null_ratio_squared: F², mean squared normalised null-sideband coefficient (≈ 1 when
             the noise at the sidebands is white; NaN without null regressors).
         n_null: number of null regressors.
+        inflation: the factor max(1, R_B², F²) the white-noise covariance was widened by.
     """
 
     beta: FloatArray
@@ -269,3 +270,4 @@ class SidebandSolution:
     n_samples: int
     null_ratio_squared: float = math.nan
     n_null: int = 0
+    inflation: float = 1.0
