@@ -2,6 +2,7 @@
 """Coverage of the RBRLG ±1σ intervals from few pairs and few stations (issue 9, part 4).
 
     python benchmarks/rbrlg_coverage.py [--runs-k 300] [--runs-theta 300] [--quick]
+        [--sections k theta full]
 
 For each case, many seeded simulated benches are calibrated; the fraction of runs whose
 |estimate − truth| ≤ the reported standard uncertainty is printed with its binomial standard
@@ -172,6 +173,8 @@ def main() -> None:
     parser.add_argument('--runs-full', type=int, default=200)
     parser.add_argument('--quick', action='store_true', help='a tenth of the runs')
     parser.add_argument('--workers', type=int, default=os.cpu_count() or 1)
+    parser.add_argument('--sections', nargs='+', choices=('k', 'theta', 'full'),
+                        default=['k', 'theta', 'full'], help='which sections to run')
     args = parser.parse_args()
     scale = 0.1 if args.quick else 1.0
     runs = {k: max(3, int(getattr(args, k) * scale)) for k in
@@ -180,14 +183,16 @@ def main() -> None:
           f'{runs}')
     t0 = time.perf_counter()
     sections = [
-        ('K̃ and ω′ₑ+ω_B', _k_runs, list(range(1000, 1000 + runs['runs_k']))),
-        ('θ', _theta_runs, [(s, n, src) for src in ('default', 'paper') for n in STATIONS
+        ('k', 'K̃ and ω′ₑ+ω_B', _k_runs, list(range(1000, 1000 + runs['runs_k']))),
+        ('theta', 'θ', _theta_runs, [(s, n, src) for src in ('default', 'paper') for n in STATIONS
                             for s in range(2000, 2000 + (runs['runs_80'] if n == 80
                                                          else runs['runs_theta']))]),
-        ('K', _full_runs, list(range(3000, 3000 + runs['runs_full']))),
+        ('full', 'K', _full_runs, list(range(3000, 3000 + runs['runs_full']))),
     ]
     with ProcessPoolExecutor(args.workers) as pool:
-        for title, job, items in sections:
+        for key, title, job, items in sections:
+            if key not in args.sections:
+                continue
             results: dict[str, list] = {}
             for part in pool.map(job, items, chunksize=1):
                 _merge(results, part)
