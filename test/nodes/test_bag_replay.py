@@ -26,8 +26,11 @@ NUMBERS = ('window_pairs', 'windows_accepted', 'windows_rejected', 'stations',
            'scale_factor_std_uncertainty_rad_per_pulse', 'bias_deg_h')
 
 
-@pytest.mark.parametrize('name', ['k_tilde_bench', 'theta_four_position', 'fault_out_of_order',
-                                  'k_tilde_mark_in_acceleration'])
+# The node's per-message cost makes each 1 kHz replay about a minute: the two benches that
+# exercise most (the full procedure; the mark in the acceleration of issue 9) are replayed here.
+# k_tilde_bench runs live in test_dds_bench; every committed bag is calibrated offline by the
+# bag tests with the same core the node runs.
+@pytest.mark.parametrize('name', ['theta_four_position', 'k_tilde_mark_in_acceleration'])
 def test_replayed_bag_gives_exactly_the_offline_numbers(
         name: str, listener: ResultListener, nodes: list[NodeProcess]) -> None:
     bag = BAGS / name
@@ -49,7 +52,9 @@ def test_replayed_bag_gives_exactly_the_offline_numbers(
     # offline numbers (a loaded CI machine took more than the 1 s once allowed here)
     listener.spin_until(lambda: all(listener.diagnostics.get(k) == expected.get(k)
                                     for k in NUMBERS), 60.0)
-    assert 'played 120043 messages' in player.log() or name != 'k_tilde_bench', player.log()
+    n_messages = sum(t.count for t in bag_info(bag).topics.values())
+    assert player.proc.returncode == 0, player.log()
+    assert f'played {n_messages} messages' in player.log(), player.log()
     for key in NUMBERS:
         assert listener.diagnostics.get(key) == expected.get(key), (key, logs)
     assert listener.k_tilde, logs  # /gyro_calib/k_tilde published (issue 9: odd benches too)
