@@ -52,12 +52,13 @@ def test_live_k_tilde_equals_offline_core_result(listener: ResultListener,
 
 def test_node_keeps_its_pairs_when_the_simulator_restarts(listener: ResultListener,
                                                           nodes: list[NodeProcess]) -> None:
-    duration = 70.0  # two pairs per run
+    duration = 70.0  # two pairs per run; 250 Hz: restarts, not the sample rate, are tested
     nodes.append(launch('calibration_node', {}))
     nodes.append(launch('rlg_sim', {'seed': 3}))
     for run in (1, 2):
         table = launch('rate_table_sim', {'duration_s': duration, 'seed': 3 + run,
-                                          'real_time_factor': SPEED})
+                                          'real_time_factor': 2 * SPEED,
+                                          'sample_rate_hz': 250.0})
         nodes.append(table)
         assert listener.spin_until(
             lambda run=run: listener.diagnostics.get('window_pairs') == str(2 * run),
