@@ -10,6 +10,7 @@ jumped back by more than a threshold).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -209,3 +210,23 @@ def timeline_starts(t_ns: npt.NDArray[np.int64], backstep_ns: int,
         out.append(start)
         newest = None
     return out
+
+
+def feed_by_timeline(streams: Sequence[tuple[Callable[..., object], npt.NDArray[np.int64],
+                                             tuple[npt.ArrayLike, ...]]],
+                     backstep_ns: int, process: Callable[[], object]) -> None:
+    """Feed whole recorded streams to a streaming calibrator one timeline at a time.
+
+    ``streams`` holds, per input, ``(extend, t_ns, values)``: the calibrator's method that
+    takes a batch ``extend(t_ns, *values)``, the stamps, and the value columns. A source
+    restart (stamps jumping back by ``backstep_ns``, :func:`timeline_starts`) splits each
+    stream; the k-th timeline of every stream is fed, then ``process()`` runs, then the
+    next — as a live node would see a restarted bench.
+    """
+    cuts = [[0, *timeline_starts(t, backstep_ns), len(t)] for _, t, _ in streams]
+    for k in range(max(len(c) - 1 for c in cuts)):
+        for (extend, t, values), c in zip(streams, cuts):
+            if k + 1 < len(c):
+                part = slice(c[k], c[k + 1])
+                extend(t[part], *(np.asarray(v)[part] for v in values))
+        process()

@@ -53,7 +53,7 @@ from gyro_calib.fog.turntable import (
     measure_segment,
     pooled_noise,
 )
-from gyro_calib.streams import StampedBuffer, timeline_starts
+from gyro_calib.streams import StampedBuffer, feed_by_timeline
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -639,11 +639,5 @@ def calibrate_fog(
          (table_angle_rad, table_rate_rad_s)),
         (cal.extend_zero_index, np.asarray(zero_index_ns, np.int64), ()),
     ]
-    cuts = [[0, *timeline_starts(t, back), len(t)] for _, t, _ in streams]
-    for k in range(max(len(c) - 1 for c in cuts)):
-        for (extend, t, values), c in zip(streams, cuts):
-            if k + 1 < len(c):
-                part = slice(c[k], c[k + 1])
-                extend(t[part], *(np.asarray(v)[part] for v in values))
-        cal.process(flush=True)
+    feed_by_timeline(streams, back, lambda: cal.process(flush=True))
     return cal

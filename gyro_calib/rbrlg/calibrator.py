@@ -30,7 +30,7 @@ from gyro_calib.rbrlg.windows import (
     WholeRevolutionWindows,
     count_at_instant,
 )
-from gyro_calib.streams import StampedBuffer, timeline_starts
+from gyro_calib.streams import StampedBuffer, feed_by_timeline
 from gyro_calib.units import ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
@@ -373,11 +373,5 @@ def calibrate_k_tilde(
          (table_angle_rad, table_rate_rad_s)),
         (cal.extend_zero_index, np.asarray(zero_index_ns, np.int64), ()),
     ]
-    cuts = [[0, *timeline_starts(t, back), len(t)] for _, t, _ in streams]
-    for k in range(max(len(c) - 1 for c in cuts)):
-        for (extend, t, values), c in zip(streams, cuts):
-            if k + 1 < len(c):
-                part = slice(c[k], c[k + 1])
-                extend(t[part], *(np.asarray(v)[part] for v in values))
-        cal.process(flush=True)
+    feed_by_timeline(streams, back, lambda: cal.process(flush=True))
     return cal
