@@ -171,7 +171,8 @@ class RateTableNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the table simulator until its run is done (or it is shut down)."""
-    run_node('rate_table_sim', RateTableNode, args, done=simulation_done, on_stop=acknowledge_tail)
+    run_node('rate_table_sim', RateTableNode, args, done=simulation_done,
+             on_stop=acknowledge_tail)
 
 
 if __name__ == '__main__':

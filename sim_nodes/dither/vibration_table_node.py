@@ -166,7 +166,8 @@ class VibrationTableNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the vibration table simulator until its run is done (or it is shut down)."""
-    run_node('vibration_table_sim', VibrationTableNode, args, done=simulation_done, on_stop=acknowledge_tail)
+    run_node('vibration_table_sim', VibrationTableNode, args, done=simulation_done,
+             on_stop=acknowledge_tail)
 
 
 if __name__ == '__main__':

@@ -218,7 +218,8 @@ class FogBenchNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the FOG bench until its run is done (or it is shut down)."""
-    run_node('fog_sim', FogBenchNode, args, done=simulation_done, on_stop=acknowledge_tail)
+    run_node('fog_sim', FogBenchNode, args, done=simulation_done,
+             on_stop=acknowledge_tail)
 
 
 if __name__ == '__main__':

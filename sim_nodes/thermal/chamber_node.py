@@ -135,7 +135,8 @@ class ThermalChamberNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the chamber simulator until its run is done (or it is shut down)."""
-    run_node('thermal_chamber_sim', ThermalChamberNode, args, done=simulation_done, on_stop=acknowledge_tail)
+    run_node('thermal_chamber_sim', ThermalChamberNode, args, done=simulation_done,
+             on_stop=acknowledge_tail)
 
 
 if __name__ == '__main__':
