@@ -29,6 +29,7 @@ from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     SENSOR_QOS,
     declare_dataclass_parameters,
+    StartGate,
     acknowledge_tail,
     run_node,
     simulation_done,
@@ -109,7 +110,7 @@ class RateTableNode(Node):
             data=scenario_yaml(scenario, self.config, procedure, int(k_pairs))))
         self._n_published = 0
         self._wall_start: float | None = None
-        self._ready_since: float | None = None
+        self._start_gate = StartGate(self.wait_for_subscribers)
         self.done = False
         self.create_timer(0.005, self._tick)
 
@@ -121,14 +122,9 @@ class RateTableNode(Node):
     def _tick(self) -> None:
         master = self.tables[0][0]
         if self._wall_start is None:
-            if self.wait_for_subscribers and not all(
-                    p.get_subscription_count() for p in self.all_publishers):
-                return  # the gyro must integrate from our first sample, the calibrator see it
-            if self._ready_since is None:
-                self._ready_since = time.monotonic()
-            if self.wait_for_subscribers and time.monotonic() - self._ready_since < 1.0:
-                return  # let the gyro's pulse publisher finish discovery too
-            self._wall_start = time.monotonic()
+            if not self._start_gate.open(self.all_publishers):
+                return  # readers first (see StartGate)
+            self._wall_start = self._start_gate.opened_at
             self.get_logger().info(f'simulating {master.n_samples_total / self.config.sample_rate_hz:g} '
                                    f's at {self.real_time_factor:g}× real time')
         rate = self.config.sample_rate_hz

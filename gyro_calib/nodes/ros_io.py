@@ -133,6 +133,36 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
             signal.signal(sig, handler)
 
 
+class StartGate:
+    """When a simulator may start publishing: once every sensor topic has its readers.
+
+    A simulator whose first samples nobody reads would be integrated from the wrong instant
+    by the gyro simulator and missed by the calibrator. After every publisher has
+    ``min_readers`` readers, ``settle_s`` more let the readers' side of discovery finish.
+    With ``wait`` off the gate opens at once. :attr:`opened_at` is the monotonic wall time
+    it opened (the simulators pace from it).
+    """
+
+    def __init__(self, wait: bool, *, min_readers: int = 1, settle_s: float = 1.0) -> None:
+        self.wait, self.min_readers, self.settle_s = wait, min_readers, settle_s
+        self.opened_at: float | None = None
+        self._readers_since: float | None = None
+
+    def open(self, publishers: list[Publisher]) -> bool:
+        """True once the gate is open (it stays open)."""
+        if self.opened_at is not None:
+            return True
+        if self.wait:
+            if not all(p.get_subscription_count() >= self.min_readers for p in publishers):
+                return False
+            if self._readers_since is None:
+                self._readers_since = time.monotonic()
+            if time.monotonic() - self._readers_since < self.settle_s:
+                return False
+        self.opened_at = time.monotonic()
+        return True
+
+
 def simulation_done(node: Node) -> bool:
     """A simulator node has published its whole run and is asked to exit then."""
     return bool(node.done and node.exit_when_done)

@@ -37,6 +37,7 @@ from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     declare_dataclass_parameters,
     described_parameter,
+    StartGate,
     acknowledge_tail,
     run_node,
     simulation_done,
@@ -108,7 +109,7 @@ class VibrationTableNode(Node):
             data=scenario_yaml(self.gyro_config, self.table_config, self.bench)))
         self._n_published = 0
         self._wall_start: float | None = None
-        self._ready_since: float | None = None
+        self._start_gate = StartGate(self.wait_for_subscribers)
         self.done = False
         self.create_timer(0.005, self._tick)
 
@@ -119,14 +120,9 @@ class VibrationTableNode(Node):
 
     def _tick(self) -> None:
         if self._wall_start is None:
-            if self.wait_for_subscribers and not all(
-                    p.get_subscription_count() for p in self.all_publishers):
-                return
-            if self._ready_since is None:
-                self._ready_since = time.monotonic()
-            if self.wait_for_subscribers and time.monotonic() - self._ready_since < 1.0:
-                return  # let the readers' side of discovery finish too
-            self._wall_start = time.monotonic()
+            if not self._start_gate.open(self.all_publishers):
+                return  # readers first (see StartGate)
+            self._wall_start = self._start_gate.opened_at
             self.get_logger().info(
                 f'simulating {self.bench.duration_s:g} s with the table along '
                 f'{self.table_config.axis.upper()} at {self.real_time_factor:g}× real time')

@@ -42,6 +42,7 @@ from gyro_calib.nodes.ros_io import (
     SCENARIO_QOS,
     SENSOR_QOS,
     described_parameter,
+    StartGate,
     acknowledge_tail,
     run_node,
     simulation_done,
@@ -142,7 +143,7 @@ class FogBenchNode(Node):
         self.sample_rate_hz = table.output_rate_hz
         self._n_published = 0
         self._wall_start: float | None = None
-        self._ready_since: float | None = None
+        self._start_gate = StartGate(self.wait_for_subscribers, min_readers=self.min_subscribers)
         self.done = False
         self.create_timer(0.005, self._tick)
 
@@ -155,15 +156,9 @@ class FogBenchNode(Node):
         if self.done:
             return
         if self._wall_start is None:
-            if self.wait_for_subscribers and not all(
-                    p.get_subscription_count() >= self.min_subscribers
-                    for p in self.all_publishers):
-                return
-            if self._ready_since is None:
-                self._ready_since = time.monotonic()
-            if self.wait_for_subscribers and time.monotonic() - self._ready_since < 1.0:
-                return  # let the readers' side of discovery finish too
-            self._wall_start = time.monotonic()
+            if not self._start_gate.open(self.all_publishers):
+                return  # readers first (see StartGate)
+            self._wall_start = self._start_gate.opened_at
             self.get_logger().info(
                 f'{self.scenario.kind}: simulating {self.bench.n_samples / self.sample_rate_hz:g}'
                 f' s at ' + (f'{self.real_time_factor:g}× real time' if self.real_time_factor

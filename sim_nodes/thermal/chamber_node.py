@@ -30,6 +30,7 @@ from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     declare_dataclass_parameters,
     described_parameter,
+    StartGate,
     acknowledge_tail,
     run_node,
     simulation_done,
@@ -69,7 +70,7 @@ class ThermalChamberNode(Node):
         self._step_ns = int(round(self.chunk_s * 1e9))
         self._until_ns = self.run.simulator.start_time_ns - 1
         self._wall_start: float | None = None
-        self._ready_since: float | None = None
+        self._start_gate = StartGate(self.wait_for_subscribers)
         self.published = 0
         self.done = False
         self.create_timer(0.005, self._tick)
@@ -81,14 +82,9 @@ class ThermalChamberNode(Node):
 
     def _tick(self) -> None:
         if self._wall_start is None:
-            if self.wait_for_subscribers and not all(
-                    p.get_subscription_count() for p in self.all_publishers):
-                return
-            if self._ready_since is None:
-                self._ready_since = time.monotonic()
-            if self.wait_for_subscribers and time.monotonic() - self._ready_since < 1.0:
-                return  # let the readers finish discovery too
-            self._wall_start = time.monotonic()
+            if not self._start_gate.open(self.all_publishers):
+                return  # readers first (see StartGate)
+            self._wall_start = self._start_gate.opened_at
             sim = self.run.simulator
             self.get_logger().info(
                 f'{self.run.scenario["name"]}: simulating '
