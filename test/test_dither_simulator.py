@@ -151,7 +151,8 @@ def test_vibration_table_encoder_is_quantised_and_late_by_its_latency() -> None:
     np.testing.assert_allclose(angle / res, np.round(angle / res), atol=1e-9)
     true = cfg.motion.angle_rad(t - 1e-3)
     assert np.max(np.abs(angle - true)) <= res / 2 + 1e-15
-    np.testing.assert_allclose(rate, 5.0 * np.cos(2 * math.pi * 20 * (t - 1e-3)), atol=1e-12)
+    np.testing.assert_allclose(rate, 5.0 * np.cos(2 * math.pi * cfg.frequency_hz * (t - 1e-3)),
+                               atol=1e-12)
 
 
 def test_static_gyro_drifts_at_the_exact_coning_rate() -> None:
