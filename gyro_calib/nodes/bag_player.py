@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import sys
 import time
 from pathlib import Path
 
@@ -125,7 +126,8 @@ def main(args: list[str] | None = None) -> None:
             try:
                 player = BagPlayer()
             except GyroCalibError as exc:
-                raise SystemExit(f'bag_player: error: {exc}') from None
+                print(f'bag_player: error: {exc}', file=sys.stderr)  # bad input
+                raise SystemExit(2) from None
             log = player.get_logger()
             if player.wait and not player.wait_for_readers():
                 log.warning('not every topic has a reader after 60 s; playing anyway.')

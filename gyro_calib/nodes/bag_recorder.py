@@ -17,6 +17,7 @@ calibration inputs of the topic contract), ``duration_s`` (0 = until stopped),
 from __future__ import annotations
 
 import functools
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -156,7 +157,8 @@ def main(args: list[str] | None = None) -> None:
         try:
             recorder = BagRecorder()
         except GyroCalibError as exc:
-            raise SystemExit(f'bag_recorder: error: {exc}') from None
+            print(f'bag_recorder: error: {exc}', file=sys.stderr)  # bad input
+            raise SystemExit(2) from None
         recorder.get_logger().info(f'recording {", ".join(recorder.counts)} to '
                                    f'{recorder.path}')
         executor = make_executor()

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64, Header
@@ -33,6 +33,7 @@ from gyro_calib.nodes.ros_io import (
     RESULT_QOS,
     SENSOR_QOS,
     declare_dataclass_parameters,
+    described_parameter,
     run_node,
     stamp_to_ns,
 )
@@ -46,13 +47,13 @@ class CalibrationNode(Node):
         """Declare parameters, build the calibrator, wire topics."""
         super().__init__('calibration_node')
         values = declare_dataclass_parameters(self, KTildeConfig)
-        self.declare_parameter('config_file', '', ParameterDescriptor(
-            description='YAML file with calibration settings; its values override parameters.'))
-        path = self.get_parameter('config_file').value
+        path = described_parameter(
+            self, 'config_file', '',
+            'YAML file with calibration settings; its values override parameters.')
         self.config = (load_k_tilde_config(path) if path
                        else k_tilde_config_from_mapping(values, source='ROS parameters'))
-        site = {name: self.declare_parameter(name, default, ParameterDescriptor(
-            description=text)).value for name, default, text in (
+        site = {name: described_parameter(self, name, default, text)
+                for name, default, text in (
             ('position_table_revolutions', 1, 'n: position-table revolutions each way per '
              'station.'),
             ('latitude_deg', float('nan'), 'Site latitude, °, to separate the bias from the '

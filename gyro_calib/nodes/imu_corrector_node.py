@@ -40,7 +40,13 @@ from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import load_calibration
 from gyro_calib.imu_conversion import ImuAngularVelocity, PulseRateConverter, pulse_calibration
 from gyro_calib.thermal.site import RAD_S_PER_DEG_H
-from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, run_node, stamp_to_ns
+from gyro_calib.nodes.ros_io import (
+    SENSOR_QOS,
+    declare_parameter_value,
+    ns_to_stamp,
+    run_node,
+    stamp_to_ns,
+)
 
 GYRO_IMU = '/gyro/imu'
 """sensor_msgs/Imu: calibrated rate about the gyro's sense axis (z), rad/s, with covariance."""
@@ -57,22 +63,22 @@ class ImuCorrectorNode(Node):
     def __init__(self) -> None:
         """Declare parameters, wire topics, load the calibration and start polling it."""
         super().__init__('imu_corrector')
-        self.declare_parameter('calibration_file', '', ParameterDescriptor(description=(
+        declare_parameter_value(self, 'calibration_file', '', ParameterDescriptor(description=(
             'Hand-off calibration YAML (gyro_calib.handoff); required. Polled and reloaded '
             'when it changes; nothing is published until a valid file is read.')))
-        self.declare_parameter('use_k_tilde', False, ParameterDescriptor(description=(
+        declare_parameter_value(self, 'use_k_tilde', False, ParameterDescriptor(description=(
             'Take K̃ (k_tilde_rad_per_pulse) as the scale factor, i.e. θ = 0, when θ was not '
             'measured; by default K (scale_factor_rad_per_pulse) is required.')))
         self.use_k_tilde = bool(self.get_parameter('use_k_tilde').value)
-        self.declare_parameter('frame_id', 'gyro', ParameterDescriptor(
+        declare_parameter_value(self, 'frame_id', 'gyro', ParameterDescriptor(
             description='header.frame_id of the Imu messages; its z axis is the sense axis.'))
-        self.declare_parameter('reload_period_s', 1.0, ParameterDescriptor(
+        declare_parameter_value(self, 'reload_period_s', 1.0, ParameterDescriptor(
             description='How often the calibration file is checked for changes, s.',
             floating_point_range=[FloatingPointRange(from_value=0.01, to_value=3600.0)]))
-        self.declare_parameter('gyro_id', '', ParameterDescriptor(description=(
+        declare_parameter_value(self, 'gyro_id', '', ParameterDescriptor(description=(
             "The gyro's serial or name: a thermal model fitted on another gyro is refused "
             "('' = not checked).")))
-        self.declare_parameter('thermal_max_age_s', 10.0, ParameterDescriptor(
+        declare_parameter_value(self, 'thermal_max_age_s', 10.0, ParameterDescriptor(
             description='With a thermal model: the newest complete temperature interval may '
             'end at most this long before a pulse sample for its bias to be used, s.',
             floating_point_range=[FloatingPointRange(from_value=1.0, to_value=3600.0)]))

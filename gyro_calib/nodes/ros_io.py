@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import signal
 import threading
 import time
@@ -59,10 +60,113 @@ def ns_to_stamp(t_ns: int, stamp: Time) -> Time:
     return stamp
 
 
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _takes(default: Any) -> tuple[str, str]:
+    """(what a parameter with ``default`` takes, in words; an example value as typed)."""
+    if isinstance(default, bool):
+        return 'a boolean', 'true'
+    if isinstance(default, int):
+        return 'an integer', str(default)
+    if isinstance(default, float):
+        return 'a number', '1.0' if math.isnan(default) else repr(default)
+    if isinstance(default, str):
+        return 'a string', "\"'text'\""
+    if default and all(isinstance(v, str) for v in default):
+        return 'a list of strings', "\"['a', 'b']\""
+    if default and all(isinstance(v, int) for v in default):
+        return 'a list of integers', '[1, 2]'
+    return 'a list of numbers', '[1.0, 2.0]'
+
+
+def _coerced(name: str, default: Any, given: Any) -> Any:
+    """``given`` as the type of ``default``: an integer (or a list of integers) where a float
+    (a list of numbers) is declared becomes a float; anything else is refused.
+
+    Raises:
+        ConfigError: naming the parameter, the type it takes and what to pass.
+    """
+    from gyro_calib.errors import ConfigError
+
+    takes, example = _takes(default)
+    if isinstance(default, float) and _is_number(given):
+        return float(given)
+    if takes == 'a list of numbers' and isinstance(given, list) and all(
+            _is_number(v) for v in given):
+        return [float(v) for v in given]
+    shown = f"'{given}'" if isinstance(given, str) else str(given)
+    if isinstance(default, str) and not isinstance(given, (list, dict)):
+        example = f'"\'{given}\'"'  # quoted, rcl reads it as a string
+    raise ConfigError(f'parameter {name} := {shown} ({type(given).__name__}) is invalid: it '
+                      f'takes {takes}; pass e.g. -p {name}:={example}.')
+
+
+def declare_parameter_value(node: Node, name: str, default: Any,
+                            descriptor: ParameterDescriptor) -> Any:
+    """Declare one parameter, typed by ``default``, and return its value.
+
+    Every node declares its parameters through here. ROS types ``-p duration_s:=30`` as an
+    integer; where a float is declared it is taken as 30.0 (and ``[1, 2]`` as ``[1.0, 2.0]``
+    where a list of floats is), and the parameter stays a float. Any other type is refused.
+
+    Raises:
+        ConfigError: one line naming the parameter, the type it takes and what to pass
+            (:func:`run_node` logs it and exits with status 2).
+    """
+    from rclpy.exceptions import (
+        InvalidParameterTypeException,
+        InvalidParameterValueException,
+    )
+
+    from gyro_calib.errors import ConfigError
+
+    def given() -> Any:  # the value the user passed (-p name:=...), as rcl typed it
+        probe = node.declare_parameter(name, None, ParameterDescriptor(dynamic_typing=True))
+        node.undeclare_parameter(name)
+        return probe.value
+
+    try:
+        try:
+            value = node.declare_parameter(name, default, descriptor).value
+        except InvalidParameterTypeException:
+            value = node.declare_parameter(name, _coerced(name, default, given()), descriptor,
+                                           ignore_override=True).value
+    except InvalidParameterValueException:  # outside the descriptor's range
+        ranges = [f'{r.from_value:g} to {r.to_value:g}'
+                  for r in (*descriptor.floating_point_range, *descriptor.integer_range)]
+        raise ConfigError(f'parameter {name} := {given()} is out of range: it must lie in '
+                          f'{" or ".join(ranges) or "its declared range"}; pass e.g. -p '
+                          f'{name}:={_takes(default)[1]}.') from None
+    if isinstance(default, list) and value is None:
+        value = []
+    return value
+
+
+def number_list_parameter(node: Node, name: str, default: tuple[float, ...] | list[float],
+                          description: str) -> list[float]:
+    """Declare a list-of-numbers parameter that also takes [] and lists of integers; return it.
+
+    Dynamically typed (a typed array refuses ``[]`` and integer lists where floats are
+    declared), then checked here.
+
+    Raises:
+        ConfigError: naming the parameter when it is not a list of numbers.
+    """
+    value = node.declare_parameter(name, list(default), ParameterDescriptor(
+        description=description, dynamic_typing=True)).value
+    if value is None:  # '-p name:=[]' arrives as NOT_SET
+        return []
+    if not isinstance(value, list) or not all(_is_number(v) for v in value):
+        _coerced(name, [1.0], value)  # raises, naming the parameter
+    return [float(v) for v in value]
+
+
 def described_parameter(node: Node, name: str, default: Any, description: str) -> Any:
     """Declare one parameter with its description; return its value."""
-    return node.declare_parameter(name, default, ParameterDescriptor(
-        description=description)).value
+    return declare_parameter_value(node, name, default,
+                                   ParameterDescriptor(description=description))
 
 
 def declare_dataclass_parameters(node: Node, cls: type, prefix: str = '') -> dict[str, Any]:
@@ -78,11 +182,9 @@ def declare_dataclass_parameters(node: Node, cls: type, prefix: str = '') -> dic
         desc = ParameterDescriptor(description=descriptions.get(f.name, ''))
         if isinstance(default, tuple):  # ROS arrays are lists
             default = list(default)
-        node.declare_parameter(prefix + f.name, default, desc)
-        value = node.get_parameter(prefix + f.name).value
+        value = declare_parameter_value(node, prefix + f.name, default, desc)
         values[f.name] = tuple(value) if isinstance(default, list) else value
     return values
-
 
 
 def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | None = None,
@@ -96,7 +198,8 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
     shuts down. With rclpy's own handler the context was shut down under a waiting
     EventsExecutor, and the teardown afterwards crashed with SIGSEGV once in CI.
     A :class:`~gyro_calib.errors.GyroCalibError` or ``ValueError`` from ``make_node``
-    (bad parameters) is logged as fatal and exits with status 1; a stop by signal exits 0.
+    (bad parameters) is logged as fatal in one line and exits with status 2 (bad input, as
+    the command line); a stop by signal exits 0.
     """
     import rclpy
     from rclpy.executors import ExternalShutdownException
@@ -113,7 +216,7 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
                 node = make_node()
             except (GyroCalibError, ValueError) as exc:
                 rclpy.logging.get_logger(node_name).fatal(' '.join(str(exc).split()))
-                raise SystemExit(1) from None
+                raise SystemExit(2) from None
             executor = make_executor()
             executor.add_node(node)
             try:

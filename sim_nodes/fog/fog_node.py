@@ -30,7 +30,6 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header, String
@@ -41,13 +40,14 @@ from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     SCENARIO_QOS,
     SENSOR_QOS,
-    described_parameter,
     StartGate,
     acknowledge_tail,
+    described_parameter,
+    ns_to_stamp,
+    number_list_parameter,
+    publish_paced,
     run_node,
     simulation_done,
-    ns_to_stamp,
-    publish_paced,
 )
 from gyro_calib.topics import RATE_TABLE_JOINT, SIM_SCENARIO
 from sim_nodes.fog.bag_scenarios import KINDS, FogScenario, scenario_from_parameters
@@ -67,24 +67,21 @@ CHUNK_S = 0.1
 def declare_fields(node: Node, cls: type, prefix: str = '') -> dict[str, Any]:
     """Declare one described parameter per field of ``cls``; return the values read.
 
-    Tuple fields become array parameters with dynamic typing (an empty default would
-    otherwise be typed as a byte array, and integer lists would refuse floats).
+    Tuple fields become list-of-number parameters (an empty default would otherwise be typed
+    as a byte array, and integer lists would refuse floats).
     """
     descriptions = field_descriptions(cls)
     defaults = cls()
     values: dict[str, Any] = {}
     for f in dataclasses.fields(cls):
         default = getattr(defaults, f.name)
-        desc = ParameterDescriptor(description=descriptions.get(f.name, ''),
-                                   dynamic_typing=isinstance(default, tuple))
+        text = descriptions.get(f.name, '')
         if isinstance(default, tuple):
-            node.declare_parameter(prefix + f.name, list(default), desc)
-            value = node.get_parameter(prefix + f.name).value
+            value = number_list_parameter(node, prefix + f.name, default, text)
             kind = int if str(f.type).startswith('tuple[int') else float
-            values[f.name] = tuple(kind(v) for v in (value or ()))
+            values[f.name] = tuple(kind(v) for v in value)
         else:
-            node.declare_parameter(prefix + f.name, default, desc)
-            values[f.name] = node.get_parameter(prefix + f.name).value
+            values[f.name] = described_parameter(node, prefix + f.name, default, text)
     return values
 
 
@@ -101,12 +98,12 @@ class FogBenchNode(Node):
         gyro = FogConfig(**declare_fields(self, FogConfig))
         table = TableSettings(**declare_fields(self, TableSettings, 'table.'))
         ladder = SelfCalLadder(**declare_fields(self, SelfCalLadder, 'ladder.'))
-        lists = {name: self.declare_parameter(name, list(default), ParameterDescriptor(
-            description=text, dynamic_typing=True)).value or []  # '[]' arrives as None
-            for name, default, text in (
-                ('turntable.rates_deg_s', IEEE_RATES_DEG_S, 'Turntable rates in order, °/s.'),
-                ('mapping.rates_deg_s', MAPPING_RATES_DEG_S, 'Equivalence-mapping rates, °/s '
-                 '([] = no mapping phase).'))}
+        lists = {name: number_list_parameter(self, name, default, text)
+                 for name, default, text in (
+                     ('turntable.rates_deg_s', IEEE_RATES_DEG_S, 'Turntable rates in order, '
+                      '°/s.'),
+                     ('mapping.rates_deg_s', MAPPING_RATES_DEG_S, 'Equivalence-mapping rates, '
+                      '°/s ([] = no mapping phase).'))}
         hold = param('turntable.hold_s', 60.0, 'Time at each turntable rate, s.')
         mapping_hold = param('mapping.hold_s', 60.0, 'Time at each mapping rate, s.')
         self.real_time_factor = float(param('real_time_factor', 1.0, 'Simulated seconds per '
