@@ -12,6 +12,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + PACKAGE]),
         ('share/' + PACKAGE, ['package.xml']),
         ('share/' + PACKAGE + '/config', ['config/calibration.yaml']),
+        ('share/' + PACKAGE + '/docs', ['docs/methods.md']),
     ],
     package_data={PACKAGE: ['py.typed']},
     python_requires='>=3.10',
