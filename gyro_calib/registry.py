@@ -65,7 +65,7 @@ class Method:
 
 
 METHODS: dict[str, Method] = {m.name: m for m in (
-    Method('rbrlg', 'rate-biased RLG: K̃, θ, K = K̃·cos θ, bias (METHODS §A)',
+    Method('rbrlg', 'rate-biased RLG: K̃, θ, K = K̃·cos θ, bias (docs/methods.md §A)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
             topics.RATE_TABLE_ZERO_INDEX: HEADER,
             topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE,
@@ -73,24 +73,24 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            (topics.GYRO_PULSES, topics.RATE_TABLE_JOINT_STATES, topics.RATE_TABLE_ZERO_INDEX),
            'gyro_calib.rbrlg.session:RbrlgSession', 'gyro_calib.rbrlg.keys'),
     Method('fog', 'FOG scale factor: turntable (IEEE Std 952) and ladder-wave self-calibration '
-           '(METHODS §B)',
+           '(docs/methods.md §B)',
            {topics.FOG_OUTPUT: JOINT_STATE, topics.FOG_INJECTION: JOINT_STATE,
             topics.RATE_TABLE_JOINT_STATES: JOINT_STATE, topics.RATE_TABLE_ZERO_INDEX: HEADER},
            (topics.FOG_OUTPUT,),
            'gyro_calib.fog.session:FogSession', 'gyro_calib.fog.keys'),
     Method('dither', 'dither-axis misalignment of a dithered RLG and its coning drift '
-           '(METHODS §C)',
+           '(docs/methods.md §C)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.VIBRATION_TABLE_JOINT_STATES: JOINT_STATE},
            (topics.GYRO_PULSES, topics.VIBRATION_TABLE_JOINT_STATES),
            'gyro_calib.dither.session:DitherSession', 'gyro_calib.dither.keys',
            separate_bags=True),
     Method('thermal', 'temperature bias model: lifting-wavelet denoising, stepwise regression '
-           '(METHODS §D)',
+           '(docs/methods.md §D)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.GYRO_TEMPERATURE: TEMPERATURE},
            (topics.GYRO_PULSES, topics.GYRO_TEMPERATURE),
            'gyro_calib.thermal.session:ThermalSession', 'gyro_calib.thermal.keys'),
     Method('noise', 'noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml '
-           '(METHODS §E)',
+           '(docs/methods.md §E)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE},
            (), 'gyro_calib.noise.session:NoiseSession', 'gyro_calib.noise.keys', auto=False),
 )}

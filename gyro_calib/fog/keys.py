@@ -38,7 +38,7 @@ HANDOFF_KEYS = (
     HandoffKey(KEY_ARW, METHOD, 'angle random walk from the segment scatter, rad/√s',
                'nonnegative'),
     HandoffKey(KEY_MAPPING, METHOD, 'equivalence mapping: output counts per rad/s of the '
-               'turntable rate steps 0.01, 0.1, 1 °/s (METHODS §B), counts/rad'),
+               'turntable rate steps 0.01, 0.1, 1 °/s (docs/methods.md §B.3), counts/rad'),
     HandoffKey(KEY_SELF_CAL, METHOD, 'self-calibrated K: LS slope over the automatically found '
                'linear range (mapping uncertainty included), counts/rad'),
     HandoffKey(KEY_SELF_CAL_RANGE, METHOD, 'largest injected equivalent rate whose IEEE '

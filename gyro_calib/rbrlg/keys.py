@@ -8,7 +8,7 @@ METHOD = 'rbrlg'
 
 HANDOFF_KEYS = (
     HandoffKey('k_tilde_rad_per_pulse', METHOD, 'K̃, scale factor assuming cos θ = 1 '
-               '(METHODS §A.2 eq. 3), rad/pulse', 'positive'),
+               '(docs/methods.md §A.2 eq. (3)), rad/pulse', 'positive'),
     HandoffKey('scale_factor_rad_per_pulse', METHOD, 'K = K̃·cos θ (eq. 4), rad/pulse; needs θ',
                'positive'),
     HandoffKey('fix_error_angle_rad', METHOD, 'θ, the sense axis tilt from the rate-table axis '

@@ -55,7 +55,7 @@ def plot_rbrlg(calibrator: RbrlgCalibrator, out_dir: Path) -> list[Path]:
         ax.fill_between(t - t[0], m - b, m + b, color='C1', alpha=0.2, label='running mean ± 1σ')
         ax.set_xlabel('time of the pair from the first, s')
         ax.set_ylabel(f'K̃ / {ref:.10f} ″/pulse − 1, ppb')
-        ax.set_title(f'K̃ from {len(k)} forward/reverse pairs (METHODS §A.2 eq. 3)')
+        ax.set_title(f'K̃ from {len(k)} forward/reverse pairs (docs/methods.md §A eq. (3))')
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
         path = out_dir / 'rbrlg_k_tilde_pairs.png'
@@ -80,7 +80,7 @@ def plot_rbrlg(calibrator: RbrlgCalibrator, out_dir: Path) -> list[Path]:
         theta = res.fix_error.fix_error_angle_rad
         top.set_title(f'θ = {np.degrees(theta.value) * 3600:.3f}″ ± '
                       f'{np.degrees(theta.std_uncertainty) * 3600:.3f}″ from {len(psi)} stations '
-                      '(METHODS §A.3 eq. 10)')
+                      '(docs/methods.md §A eq. (10))')
         top.set_ylabel('N_og = (N⁺ − N⁻)/2, pulses')
         top.legend(fontsize=8)
         top.grid(alpha=0.3)

@@ -81,7 +81,7 @@ def add_commands(subparsers: Any) -> None:
                    help='leave intervals outside the calibrated range (plus margin) '
                    'uncompensated and list them, instead of refusing the bag')
     p.add_argument('--block-s', type=float, default=100.0,
-                   help='bias-stability block length, s (default 100, METHODS §E)')
+                   help='bias-stability block, s (default 100, docs/methods.md §E eq. (12))')
     p.set_defaults(run=run_compensate)
 
 
