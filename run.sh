@@ -26,6 +26,6 @@ case "$cmd" in
   demo) setup; exec "$VENV/bin/bench_demo" "$@" ;;
   test) setup; exec "$VENV/bin/python" -m pytest "$@" ;;
   setup) setup ;;
-  *) echo "usage: ./run.sh demo [--duration S --speed X --seed N] | ./run.sh test [pytest args]" >&2
+  *) echo "usage: ./run.sh demo [--pairs N --speed X --seed N --out FILE] | ./run.sh test [pytest args]" >&2
      exit 2 ;;
 esac

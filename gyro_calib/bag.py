@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import functools
 import heapq
+import math
+import re
 import struct
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -74,6 +76,27 @@ class WrongMessageTypeError(BagError):
 
 class EmptyBagError(BagError):
     """The bag holds no message (on the topics asked for)."""
+
+
+def scenario_text(scenario: Mapping[str, Any]) -> str:
+    """The scenario as stored in ``custom_data``: one line of flow-style YAML, Unicode kept.
+
+    rosbags writes metadata.yaml with ruamel, which folds long double-quoted scalars and
+    can split an escape sequence across the fold (``\\u2080`` came back as ``u2080``); a
+    single line without escapes is stored plain or single-quoted, which folds safely.
+    """
+    text = yaml.safe_dump(dict(scenario), sort_keys=True, default_flow_style=True,
+                          allow_unicode=True, width=2**31 - 1)
+    return text.strip()
+
+
+_SPLIT_ESCAPE = re.compile(r'\\ (?=u[0-9A-Fa-f]{4}|x[0-9A-Fa-f]{2}|U[0-9A-Fa-f]{8})')
+
+
+def parse_scenario_text(text: str) -> Any:
+    """The stored scenario; repairs an escape split by the ruamel line fold of bags written
+    before :func:`scenario_text` (``\\ u2080`` → ``\\u2080`` inside a quoted scalar)."""
+    return yaml.safe_load(_SPLIT_ESCAPE.sub(lambda m: '\\', text))
 
 
 @functools.cache
@@ -156,7 +179,7 @@ def write_bag(path: str | Path, messages: Iterable[BagMessage], *,
     writer = Writer(tmp, version=9, storage_plugin=StoragePlugin.MCAP)
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
     if scenario is not None:
-        writer.set_custom_data(SCENARIO_KEY, yaml.safe_dump(scenario, sort_keys=True))
+        writer.set_custom_data(SCENARIO_KEY, scenario_text(scenario))
     connections: dict[str, Any] = {}
     try:
         with writer:
@@ -241,6 +264,48 @@ def checksum_chunks(writer: Any) -> None:
             zstd.compress, options={zstd.CompressionParameter.checksum_flag: 1})
 
 
+def _usable_metadata(meta: Path) -> bool:
+    """True when ``meta`` is a readable rosbag2 metadata.yaml (a mapping with
+    ``rosbag2_bagfile_information``)."""
+    try:
+        document = yaml.safe_load(meta.read_text(encoding='utf-8'))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return False
+    return isinstance(document, dict) and isinstance(
+        document.get('rosbag2_bagfile_information'), dict)
+
+
+def _open_lone_mcap(path: Path) -> Any:
+    """rosbags' Reader on a .mcap file without its bag's metadata.yaml (counts and span
+    from the file's own summary)."""
+    from rosbags.rosbag2 import Reader
+
+    try:
+        reader = Reader(path)
+        reader.open()
+    except Exception as exc:  # noqa: BLE001 -- rosbags raises many kinds on a damaged file
+        raise CorruptBagError(f'{path}: damaged or truncated, cannot be read as an MCAP file '
+                              f'({type(exc).__name__}: {_one_line(exc)}).') from exc
+    return reader
+
+
+def _lone_mcap_custom_data(path: Path) -> dict[str, str]:
+    """custom_data of the rosbag2 metadata record a .mcap file carries ({} if none)."""
+    try:
+        from mcap.reader import make_reader
+
+        with open(path, 'rb') as f:
+            for record in make_reader(f).iter_metadata():
+                if record.name == 'rosbag2':
+                    meta = yaml.safe_load(record.metadata.get('serialized_metadata', ''))
+                    info = meta.get('rosbag2_bagfile_information', meta)
+                    custom = info.get('custom_data') if isinstance(info, dict) else None
+                    return dict(custom) if isinstance(custom, dict) else {}
+    except Exception:  # noqa: BLE001 -- the stored scenario is optional
+        return {}
+    return {}
+
+
 def _open_reader(path: Path) -> Any:
     """An opened rosbags Reader, with every failure turned into a named BagError."""
     from rosbags.rosbag2 import Reader
@@ -248,19 +313,31 @@ def _open_reader(path: Path) -> Any:
 
     if not path.exists():
         raise BagNotFoundError(f'{path}: no such file or directory.')
+    if path.is_file() and path.suffix == '.bag':
+        raise NotABagError(f'{path}: a ROS 1 bag; convert it first with `rosbags-convert '
+                           f'--src {path} --dst {path.with_suffix("")}` (installed with '
+                           'rosbags), then pass the rosbag2 directory it writes.')
     if path.is_file() and path.suffix == '.mcap':
+        if not _usable_metadata(path.parent / 'metadata.yaml'):
+            return _open_lone_mcap(path)
         path = path.parent
     if not path.is_dir() or not (path / 'metadata.yaml').is_file():
         raise NotABagError(f'{path}: not a rosbag2 bag (a directory with metadata.yaml and '
-                           'the .mcap file).')
+                           'the .mcap file, or a lone .mcap file).')
     meta = path / 'metadata.yaml'
     try:
-        yaml.safe_load(meta.read_text(encoding='utf-8'))
+        document = yaml.safe_load(meta.read_text(encoding='utf-8'))
     except (UnicodeDecodeError, yaml.YAMLError) as exc:
         raise CorruptBagError(f'{meta}: damaged or truncated, not valid YAML '
                               f'({_one_line(exc)}).') from exc
     except OSError as exc:
         raise CorruptBagError(f'{meta}: cannot be read ({exc.strerror or exc}).') from exc
+    if not isinstance(document, dict) or not isinstance(
+            document.get('rosbag2_bagfile_information'), dict):
+        what = 'the file is empty' if document is None else 'no rosbag2_bagfile_information'
+        raise CorruptBagError(f'{meta}: damaged or truncated ({what}): the recording was '
+                              'not closed properly; `ros2 bag reindex` rebuilds it, or pass '
+                              'the .mcap file itself (read with its own summary).')
     try:
         reader = Reader(path)
         reader.open()
@@ -290,8 +367,10 @@ def bag_info(path: str | Path) -> BagInfo:
             counts[con.topic] = TopicInfo(con.topic, con.msgtype, n)
         metadata = getattr(reader.storage, 'metadata', None)
         custom = (metadata.custom if metadata is not None else None) or {}
+        if not custom and path.is_file():
+            custom = _lone_mcap_custom_data(path)
         try:
-            scenario = yaml.safe_load(custom.get(SCENARIO_KEY, '')) or {}
+            scenario = parse_scenario_text(custom.get(SCENARIO_KEY, '')) or {}
         except yaml.YAMLError as exc:
             raise CorruptBagError(f'{path}: the stored scenario is not valid YAML: {exc}') from exc
         total = sum(t.count for t in counts.values())
@@ -299,6 +378,40 @@ def bag_info(path: str | Path) -> BagInfo:
                        int(reader.end_time) if total else 0, total, scenario)
     finally:
         reader.close()
+
+
+def header_stamp_spans(path: str | Path, info: BagInfo) -> dict[str, tuple[int, int, int,
+                                                                         float]]:
+    """Topic → (messages, earliest and latest header stamp ns, typical sample interval ns)
+    of every topic whose type carries a header stamp the columnar decoder reads (JointState,
+    Header, Imu, Temperature): rates from the sample instants, not the receive (log) times.
+    The typical interval is the median over batches of each batch's median positive stamp
+    step, so gaps and a few disordered stamps do not move it.
+
+    Raises:
+        CorruptBagError: a chunk cannot be read or a message cannot be decoded.
+    """
+    from gyro_calib import mcap_columns
+
+    types = {t.name: t.msgtype for t in info.topics.values()
+             if t.msgtype in mcap_columns.CODECS and t.count}
+    spans: dict[str, tuple[int, int, int]] = {}
+    steps: dict[str, list[float]] = {}
+    if not types:
+        return {}
+    for batch in iter_sample_batches(path, types):
+        for topic, cols in batch.columns.items():
+            stamps = np.sort(np.asarray(cols.stamp_ns, dtype=np.int64))
+            if not len(stamps):
+                continue
+            n, lo, hi = spans.get(topic, (0, int(stamps[0]), int(stamps[-1])))
+            spans[topic] = (n + len(stamps), min(lo, int(stamps[0])), max(hi, int(stamps[-1])))
+            diffs = np.diff(stamps)
+            diffs = diffs[diffs > 0]
+            if len(diffs):
+                steps.setdefault(topic, []).append(float(np.median(diffs)))
+    return {t: (*v, float(np.median(steps[t])) if t in steps else math.nan)
+            for t, v in spans.items()}
 
 
 def check_topics(info: BagInfo, wanted: Mapping[str, str], required: Iterable[str], *,

@@ -1,8 +1,15 @@
 """``gyro-calib``: calibrate, inspect and simulate bags offline (no ROS graph needed).
 
     gyro-calib calibrate BAG [BAG ...] [--method NAME ...] [--out FILE] [--json] [--plot DIR]
-    gyro-calib info BAG [BAG ...] [--method NAME ...]
-    gyro-calib simulate SCENARIO --out BAG      (gyro-calib simulate --list)
+    gyro-calib info BAG [BAG ...] [--method NAME ...] [--json]
+    gyro-calib simulate SCENARIO --out BAG [--seed N] [--duration-s S] [--sample-rate-hz HZ]
+    gyro-calib methods | --version
+
+BAG is a rosbag2 directory, the .mcap file inside one or a lone .mcap file (read with its
+own summary), or a CSV/text table of a static record (:mod:`gyro_calib.table_input`). Every
+output path is checked before any work (:mod:`gyro_calib.outputs`). Abbreviated flags are
+not accepted (``--lat`` is an error, not ``--latitude-deg``). A flag that no method run
+uses is refused (exit 2), naming the methods it applies to.
 
 Without ``--method``, every method whose topics the bags hold runs (see ``gyro-calib
 methods``). Several bags are taken together in stamp order.
@@ -41,6 +48,62 @@ EXTRA_COMMANDS: tuple[str, ...] = (
 """Modules that add a method's own subcommands (their parsers and code stay in the method)."""
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with abbreviations off (``--lat`` is not silently ``--latitude-deg``)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs['allow_abbrev'] = False
+        super().__init__(*args, **kwargs)
+
+
+FLAG_METHODS: dict[str, tuple[str, ...]] = {
+    'latitude_deg': ('rbrlg', 'fog', 'thermal'),
+    'heading_deg': ('rbrlg',),
+    'position_table_revolutions': ('rbrlg',),
+    'scale_factor_rad_per_pulse': ('dither', 'thermal', 'noise'),
+    'scale_factor_counts_per_rad': ('noise',),
+    'calibration': ('dither', 'thermal', 'noise'),
+    'sense_axis_elevation_deg': ('thermal',),
+    'sense_axis_azimuth_deg': ('thermal',),
+}
+"""Flag (argparse dest) → the methods that use it; a flag none of the methods run uses is
+refused (:func:`refuse_unused_flags`). ``--config`` and ``--gyro-id`` serve every method."""
+
+
+def _flag(dest: str) -> str:
+    return '--' + dest.replace('_', '-')
+
+
+def refuse_unused_flags(args: argparse.Namespace, methods: Sequence[str]) -> None:
+    """Refuse a settings flag that none of ``methods`` uses.
+
+    Raises:
+        ConfigError: naming the flag, the methods run and the methods it applies to.
+    """
+    from gyro_calib.errors import ConfigError
+
+    for dest, users in FLAG_METHODS.items():
+        if getattr(args, dest, None) is None or any(m in users for m in methods):
+            continue
+        raise ConfigError(f'{_flag(dest)} does not apply to the method(s) run here '
+                          f'({", ".join(methods)}); it is used by {", ".join(users)}. Drop it, '
+                          'or choose the method with --method. Nothing was read.')
+
+
+def check_calibration_file(path: Path | None) -> None:
+    """Load a ``--calibration`` hand-off file before any work, whether or not the methods
+    run use it, so a wrong file is never silently ignored.
+
+    Raises:
+        HandoffError: the file is missing, unreadable or invalid.
+    """
+    if path is None:
+        return
+    from gyro_calib.handoff import load_calibration
+
+    load_calibration(path)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gyro-calib`` console script; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -55,9 +118,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    from gyro_calib import __version__
+
+    parser = _Parser(
         prog='gyro-calib', description='Offline optical-gyro calibration from MCAP bags.')
-    sub = parser.add_subparsers(required=True, metavar='COMMAND')
+    parser.add_argument('--version', action='version', version=f'gyro-calib {__version__}')
+    sub = parser.add_subparsers(required=True, metavar='COMMAND', parser_class=_Parser)
 
     cal = sub.add_parser('calibrate', help='calibrate bags: every method whose topics are there')
     cal.add_argument('bags', nargs='+', type=Path, metavar='BAG',
@@ -67,7 +133,8 @@ def _parser() -> argparse.ArgumentParser:
     cal.add_argument('--json', action='store_true',
                      help='print one JSON document of the results on stdout (the human summary '
                      'goes to stderr)')
-    cal.add_argument('--plot', type=Path, metavar='DIR', help='write PNG figures into DIR')
+    cal.add_argument('--plot', type=Path, metavar='DIR', help='write PNG figures into DIR '
+                     '(created if absent, in an existing directory)')
     cal.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
                      help='progress bar on stderr (default: when stderr is a terminal)')
     cal.set_defaults(run=_calibrate)
@@ -75,6 +142,9 @@ def _parser() -> argparse.ArgumentParser:
     info = sub.add_parser('info', help='topics, counts, duration, and what each method would use')
     info.add_argument('bags', nargs='+', type=Path, metavar='BAG')
     method_arguments(info)
+    info.add_argument('--json', action='store_true',
+                      help='print one JSON document on stdout (the shape of calibrate --json, '
+                      'with each bag described)')
     info.set_defaults(run=_info)
 
     methods = sub.add_parser('methods', help='list the calibration methods and their topics')
@@ -87,6 +157,12 @@ def _parser() -> argparse.ArgumentParser:
     sim.add_argument('scenario', nargs='?', help='scenario name (see --list)')
     sim.add_argument('--out', type=Path, help='bag directory to create (must not exist)')
     sim.add_argument('--list', action='store_true', help='list the scenarios and exit')
+    sim.add_argument('--seed', type=int, help="the scenario's seed (each random source gets "
+                     'SEED + k)')
+    sim.add_argument('--duration-s', type=float, help='record length, s (where the scenario '
+                     'has one; procedure-driven scenarios take their length from the '
+                     'procedure)')
+    sim.add_argument('--sample-rate-hz', type=float, help='sample (output) rate, Hz')
     sim.set_defaults(run=_simulate)
     return parser
 
@@ -133,20 +209,32 @@ _options = options_from_args
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    if args.out is not None and args.out.is_dir():
-        print(f'gyro-calib: error: --out {args.out} is a directory.', file=sys.stderr)
-        return EXIT_BAD_INPUT
+    from gyro_calib.bag import bag_info
+    from gyro_calib.bag_calibration import select_methods
+    from gyro_calib.outputs import check_output_file, check_plot_dir, make_plot_dir
+
+    if args.out is not None:
+        check_output_file(args.out, '--out')
+        if args.out.exists():
+            from gyro_calib.handoff import load_calibration
+
+            load_calibration(args.out)  # a file that cannot be updated: refused before work
+    plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
+    check_calibration_file(args.calibration)
+    refuse_unused_flags(args, [m.name for m in select_methods([bag_info(p) for p in args.bags],
+                                                               args.method)])
     show = sys.stderr.isatty() if args.progress is None else args.progress
     outcome = _run_with_progress(args, show)
     human = sys.stderr if args.json else sys.stdout
     print(summary_text(outcome), file=human)
-    if args.plot is not None:
-        for session in outcome.sessions.values():
-            for path in session.plot(args.plot):
-                print(f'figure written: {path.resolve()}', file=human)
     if args.json:
         print(json.dumps(json_document(outcome), indent=1, allow_nan=False,
                          default=_json_default))
+    if plot_dir is not None and outcome.calibrated_anything:
+        make_plot_dir(plot_dir)
+        for session in outcome.sessions.values():
+            for path in session.plot(plot_dir):
+                print(f'figure written: {path.resolve()}', file=human)
     if not outcome.calibrated_anything:
         print('gyro-calib: nothing could be calibrated from the bag(s); nothing written.',
               file=sys.stderr)
@@ -221,46 +309,142 @@ def summary_text(outcome: BagCalibration) -> str:
     return '\n'.join(lines)
 
 
+def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
+    """What each method could do with the bag(s): ``{"runs": bool, "how": line}`` by name.
+
+    An automatic method runs when its revealing topics are all there with their types; a
+    method that runs only when asked (noise) is offered for each input it could read.
+    """
+    from gyro_calib.bag_calibration import merged_topics
+    from gyro_calib.registry import methods_revealed
+
+    present = merged_topics(infos)
+    counts: dict[str, int] = {}
+    for info in infos:
+        for t in info.topics.values():
+            counts[t.name] = counts.get(t.name, 0) + t.count
+    revealed = {m.name for m in methods_revealed(
+        {t: m for t, m in present.items() if counts.get(t)})}
+    out: dict[str, dict[str, Any]] = {}
+    for m in METHODS.values():
+        if m.auto:
+            lacking = [f'{t} ({m.topics[t]})' for t in m.reveal
+                       if present.get(t) != m.topics[t] or not counts.get(t)]
+            out[m.name] = ({'runs': True, 'how': 'runs by default (gyro-calib calibrate)'}
+                           if m.name in revealed else
+                           {'runs': False, 'how': f'needs {", ".join(lacking)}'})
+            continue
+        inputs = [t for t, typ in m.topics.items() if present.get(t) == typ and counts.get(t)]
+        if m.any_topic:
+            inputs += sorted(t for t, typ in present.items()
+                             if typ == m.any_topic and counts.get(t))
+        out[m.name] = ({'runs': True, 'how': f'gyro-calib {m.name} BAG --topic T, T one of '
+                        f'{", ".join(inputs)}'} if inputs else
+                       {'runs': False, 'how': 'needs one of '
+                        + ', '.join([*m.topics, *([f"a {m.any_topic} topic"]
+                                                  if m.any_topic else [])])})
+    return out
+
+
+def bag_description(info: Any) -> dict[str, Any]:
+    """One bag for ``info``: span, topics with counts and rates from the header stamps
+    (the sample instants; log times only for types without a decodable header)."""
+    from gyro_calib.bag import header_stamp_spans
+
+    spans = header_stamp_spans(info.path, info) if info.message_count else {}
+    topics = []
+    for t in sorted(info.topics.values(), key=lambda t: t.name):
+        n, lo, hi, step_ns = spans.get(t.name, (0, 0, 0, math.nan))
+        if n > 1 and step_ns > 0:
+            rate, basis = 1e9 / step_ns, 'header stamps, median step'
+        elif info.duration_s > 0 and t.count > 1:
+            rate, basis = (t.count - 1) / info.duration_s, 'log times'
+        else:
+            rate, basis = math.nan, 'too few messages'
+        topics.append({'name': t.name, 'type': t.msgtype, 'count': t.count,
+                       'rate_hz': rate if math.isfinite(rate) else None, 'rate_from': basis})
+    scenario = info.scenario if isinstance(info.scenario, dict) else {}
+    return {'path': str(info.path), 'duration_s': info.duration_s,
+            'start_ns': info.start_ns, 'end_ns': info.end_ns, 'messages': info.message_count,
+            'topics': topics, 'scenario_name': scenario.get('name'),
+            'scenario_description': scenario.get('description'),
+            'stored_settings': sorted(scenario)}
+
+
+def _print_bag(desc: dict[str, Any], out: Any) -> None:
+    print(f'bag: {desc["path"]}', file=out)
+    print(f'duration: {desc["duration_s"]:.3f} s  ({desc["start_ns"] / 1e9:.6f} s → '
+          f'{desc["end_ns"] / 1e9:.6f} s, log times), messages: {desc["messages"]}', file=out)
+    width = max([len(t['name']) for t in desc['topics']] + [5])
+    print(f'{"topic".ljust(width)}  {"type":28}  {"count":>9}  {"rate Hz":>9}  (rate from)',
+          file=out)
+    for t in desc['topics']:
+        rate = f'{t["rate_hz"]:9.1f}' if t['rate_hz'] is not None else f'{"—":>9}'
+        print(f'{t["name"].ljust(width)}  {t["type"]:28}  {t["count"]:9d}  {rate}  '
+              f'({t["rate_from"]})', file=out)
+    if desc['scenario_name']:
+        print(f'scenario: {desc["scenario_name"]} — {desc["scenario_description"] or ""}',
+              file=out)
+    elif desc['stored_settings']:
+        print(f'scenario: none named (recorded live); stored bench settings: '
+              f'{", ".join(desc["stored_settings"])}', file=out)
+
+
 def _info(args: argparse.Namespace) -> int:
     from gyro_calib.bag import bag_info
 
-    for path in args.bags:
-        info = bag_info(path)
-        print(f'bag: {info.path}')
-        print(f'duration: {info.duration_s:.3f} s  ({info.start_ns / 1e9:.6f} s → '
-              f'{info.end_ns / 1e9:.6f} s), messages: {info.message_count}')
-        width = max([len(t) for t in info.topics] + [5])
-        print(f'{"topic".ljust(width)}  {"type":28}  {"count":>9}  {"rate Hz":>9}')
-        for t in sorted(info.topics.values(), key=lambda t: t.name):
-            rate = t.count / info.duration_s if info.duration_s > 0 else 0.0
-            print(f'{t.name.ljust(width)}  {t.msgtype:28}  {t.count:9d}  {rate:9.1f}')
-        if info.scenario:
-            print(f'scenario: {info.scenario.get("name", "?")} — '
-                  f'{info.scenario.get("description", "")}')
-    outcome = calibrate_bags(args.bags, methods=args.method, options=_options(args))
-    for name, session in outcome.sessions.items():
-        print(f'== {name}: {METHODS[name].title}')
-        for line in session.info_lines():
-            print(line)
-        rejections = session.rejections()
-        print(f'rejected: {len(rejections)}')
-        for rej in rejections:
-            print(f'  {format_stamp(rej.stamp_ns)}: {rej.reason}')
-        print(f'limits the result: {session.limiting()}')
+    check_calibration_file(args.calibration)
+    infos = [bag_info(p) for p in args.bags]
+    human = sys.stderr if args.json else sys.stdout
+    descriptions = [bag_description(i) for i in infos]
+    for desc in descriptions:
+        _print_bag(desc, human)
+    prospects = method_prospects(infos)
+    print('what each method could do with the bag(s):', file=human)
+    for name, p in prospects.items():
+        print(f'  {name:8} {"yes" if p["runs"] else "no ":3}  {p["how"]}', file=human)
+    names = list(args.method or [n for n, p in prospects.items()
+                                 if p['runs'] and METHODS[n].auto])
+    doc: dict[str, Any] = {'methods': {}, 'bags': [str(i.path) for i in infos],
+                           'messages': 0, 'bag_info': descriptions}
+    if names:
+        refuse_unused_flags(args, names)
+        outcome = calibrate_bags(args.bags, methods=names, options=_options(args))
+        doc = {**json_document(outcome), 'bag_info': descriptions}
+        for name, session in outcome.sessions.items():
+            print(f'== {name}: {METHODS[name].title}', file=human)
+            for line in session.info_lines():
+                print(line, file=human)
+            rejections = session.rejections()
+            print(f'rejected: {len(rejections)}', file=human)
+            for rej in rejections:
+                print(f'  {format_stamp(rej.stamp_ns)}: {rej.reason}', file=human)
+            print(f'limits the result: {session.limiting()}', file=human)
+            doc['methods'][name]['limiting'] = session.limiting()
+    for name, p in prospects.items():
+        doc['methods'].setdefault(name, {'results': {}, 'missing': {}, 'rejections': []})
+        doc['methods'][name]['prospect'] = p
+    doc['command'] = 'info'
+    if args.json:
+        print(json.dumps(doc, indent=1, allow_nan=False, default=_json_default))
     return EXIT_OK
 
 
 def _methods(args: argparse.Namespace) -> int:
     for m in METHODS.values():
-        print(f'{m.name:8} {m.title}')
+        print(f'{m.name:8} {m.title}' + ('' if m.auto else '  [runs when asked: --method '
+                                              f'{m.name} or gyro-calib {m.name}]'))
         for topic, msgtype in m.topics.items():
-            need = 'needed' if topic in m.reveal else 'optional'
+            need = 'needed' if topic in m.reveal else ('one of these' if not m.reveal
+                                                       else 'optional')
             print(f'           {topic:32} {msgtype:28} {need}')
+        if m.any_topic:
+            print(f'           {"any topic (--topic)":32} {m.any_topic:28} one of these')
     return EXIT_OK
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from sim_nodes.scenarios import SCENARIOS, write_scenario_bag
+    from sim_nodes.scenarios import SCENARIOS
 
     if args.list:
         for name, sc in SCENARIOS.items():
@@ -278,8 +462,25 @@ def _simulate(args: argparse.Namespace) -> int:
         print(f'gyro-calib: error: unknown scenario {args.scenario!r}; known: '
               f'{", ".join(SCENARIOS)}.', file=sys.stderr)
         return EXIT_BAD_INPUT
-    write_scenario_bag(args.scenario, args.out)
-    print(f'wrote {args.out}')
+    overrides = {k: v for k, v in (('seed', args.seed), ('duration_s', args.duration_s),
+                                   ('sample_rate_hz', args.sample_rate_hz)) if v is not None}
+    for key in ('duration_s', 'sample_rate_hz'):
+        if key in overrides and not (math.isfinite(overrides[key]) and overrides[key] > 0):
+            print(f'gyro-calib: error: --{key.replace("_", "-")} = {overrides[key]!r} is '
+                  'invalid: it must be a positive number.', file=sys.stderr)
+            return EXIT_BAD_INPUT
+    from gyro_calib.outputs import check_new_directory
+    from sim_nodes.scenarios import scenario_parameters, write_scenario_bag_with
+
+    check_new_directory(args.out, '--out')
+    try:
+        write_scenario_bag_with(args.scenario, args.out, overrides)
+    except KeyError as exc:
+        print(f'gyro-calib: error: {exc.args[0]}', file=sys.stderr)
+        return EXIT_BAD_INPUT
+    changed = ', '.join(f'{k} = {v}' for k, v in overrides.items())
+    print(f'wrote {args.out}' + (f' ({changed}; defaults: {scenario_parameters(args.scenario)})'
+                                 if changed else ''))
     return EXIT_OK
 
 

@@ -64,6 +64,7 @@ import yaml
 
 from gyro_calib import __version__
 from gyro_calib.errors import GyroCalibError
+from gyro_calib.outputs import new_file_mode
 
 FORMAT_VERSION = 2
 """The layout version this module writes; format 1 files are still read."""
@@ -467,8 +468,8 @@ def write_calibration(path: str | Path, calibration: Calibration,
 
     A temporary file in the same directory is written, flushed and fsynced, renamed onto
     the target by ``os.replace`` and the directory is fsynced. The file keeps the mode of
-    the file it replaces (new files: 0644). Symbolic links are followed: the link's
-    target is replaced.
+    the file it replaces (new files: 0666 & ~umask, :mod:`gyro_calib.outputs`). Symbolic
+    links are followed: the link's target is replaced.
 
     Returns:
         The absolute path written.
@@ -484,10 +485,7 @@ def write_calibration(path: str | Path, calibration: Calibration,
                              sort_keys=False, allow_unicode=True, width=100))
     tmp: str | None = None
     try:
-        try:
-            mode = os.stat(target).st_mode & 0o7777
-        except FileNotFoundError:
-            mode = 0o644
+        mode = new_file_mode(target)
         fd, tmp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=target.parent)
         with os.fdopen(fd, 'w', encoding='utf-8') as stream:
             stream.write(text)

@@ -486,8 +486,8 @@ def _open_reader(path: Path) -> Any:
     failures gyro_calib.bag lets through (a damaged record length makes rosbags allocate
     without bound: MemoryError; struct.error, OverflowError) are CorruptBagError too."""
     try:
-        if path.suffix == '.mcap' and path.is_file() and not (
-                path.parent / 'metadata.yaml').exists():
+        if path.suffix == '.mcap' and path.is_file() and not bag._usable_metadata(
+                path.parent / 'metadata.yaml'):
             from rosbags.rosbag2 import Reader
 
             reader = Reader(path)

@@ -43,6 +43,8 @@ class Method:
         separate_bags: several bags are separate runs (e.g. one per mounting orientation),
             fed one after the other with :meth:`MethodSession.start_bag` between them, even when
             their stamps overlap; otherwise bags recorded at the same time are interleaved.
+        any_topic: a message type the method also reads on any topic the user names
+            (``--topic``; noise: ``sensor_msgs/Imu``), '' if none.
     """
 
     name: str
@@ -53,6 +55,7 @@ class Method:
     keys: str
     auto: bool = True
     separate_bags: bool = False
+    any_topic: str = ''
 
     def make_session(self, options: CalibrationOptions) -> MethodSession:
         """A new session of this method with the user's options."""
@@ -92,7 +95,8 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method('noise', 'noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml '
            '(docs/methods.md §E)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE},
-           (), 'gyro_calib.noise.session:NoiseSession', 'gyro_calib.noise.keys', auto=False),
+           (), 'gyro_calib.noise.session:NoiseSession', 'gyro_calib.noise.keys', auto=False,
+           any_topic=IMU),
 )}
 """Every method, by name."""
 

@@ -43,3 +43,68 @@ def write_scenario_files(name: str, directory: str | Path) -> Path:
     """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` into ``directory``."""
     scenario, module = _ALL[name]
     return module.write_scenario_files(scenario, directory)  # type: ignore[no-any-return]
+
+
+OVERRIDABLE = ('seed', 'duration_s', 'sample_rate_hz', 'output_rate_hz')
+"""Parameter names ``gyro-calib simulate`` may change (wherever they sit in the scenario)."""
+
+
+def _walk(obj: Any, path: str = '') -> list[tuple[str, Any]]:
+    """(dotted path, value) of every field of a (nested) dataclass scenario."""
+    import dataclasses
+
+    out: list[tuple[str, Any]] = []
+    if not dataclasses.is_dataclass(obj) or isinstance(obj, type):
+        return out
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        where = f'{path}{f.name}'
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            out += _walk(value, where + '.')
+        else:
+            out.append((where, value))
+    return out
+
+
+def scenario_parameters(name: str) -> dict[str, Any]:
+    """The overridable parameters of scenario ``name``: dotted path → value."""
+    return {p: v for p, v in _walk(SCENARIOS[name]) if p.rsplit('.', 1)[-1] in OVERRIDABLE}
+
+
+def _replace_path(obj: Any, path: list[str], value: Any) -> Any:
+    import dataclasses
+
+    head = path[0]
+    if len(path) == 1:
+        return dataclasses.replace(obj, **{head: value})
+    return dataclasses.replace(obj, **{head: _replace_path(getattr(obj, head), path[1:], value)})
+
+
+def with_overrides(name: str, overrides: dict[str, Any]) -> Any:
+    """Scenario ``name`` with parameters changed: ``seed`` (each seed of the scenario gets
+    ``seed + k``, k its order, so the sources stay independent), ``duration_s``, a sample
+    rate (``sample_rate_hz``, or ``output_rate_hz`` where the scenario names it so).
+
+    Raises:
+        KeyError: the scenario has no such parameter (the message names those it has).
+    """
+    scenario = SCENARIOS[name]
+    params = scenario_parameters(name)
+    for key, value in overrides.items():
+        names = ('sample_rate_hz', 'output_rate_hz') if key == 'sample_rate_hz' else (key,)
+        paths = [p for p in params if p.rsplit('.', 1)[-1] in names]
+        if not paths:
+            have = sorted({p.rsplit('.', 1)[-1] for p in params})
+            raise KeyError(f'scenario {name} has no {key} parameter (it has: '
+                           f'{", ".join(have) or "none"}).')
+        for k, p in enumerate(paths):
+            new = value + k if key == 'seed' else type(params[p])(value)
+            scenario = _replace_path(scenario, p.split('.'), new)
+    return scenario
+
+
+def write_scenario_bag_with(name: str, path: str | Path, overrides: dict[str, Any]) -> Path:
+    """Simulate scenario ``name`` with :func:`with_overrides` and write its bag at ``path``."""
+    _, module = _ALL[name]
+    return module.write_scenario_bag(  # type: ignore[no-any-return]
+        with_overrides(name, overrides), path)

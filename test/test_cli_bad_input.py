@@ -375,7 +375,12 @@ def test_calibrate_on_bad_input_leaves_an_existing_output_file_byte_for_byte_unc
 
 
 # -- info ------------------------------------------------------------------------------------
-@cases
+DESCRIBABLE = [c for c in BAD_INPUTS
+               if c.startswith('missing ') or ' recorded as ' in c or c.startswith('empty bag')]
+"""Bags that are readable but no (or not every) method can use: info describes them."""
+
+
+@pytest.mark.parametrize('case', [c for c in BAD_INPUTS if c not in DESCRIBABLE])
 def test_info_on_bad_input_prints_one_error_line_and_exits_2(
         case: str, bad_bag: Callable[[str], Path],
         capsys: pytest.CaptureFixture[str]) -> None:
@@ -386,6 +391,19 @@ def test_info_on_bad_input_prints_one_error_line_and_exits_2(
     line = the_one_error_line(run)
     assert_names(line, BAD_INPUTS[case].names, path=bag)
     assert run.code == EXIT_BAD_INPUT
+
+
+@pytest.mark.parametrize('case', DESCRIBABLE)
+def test_info_describes_a_readable_bag_no_method_can_use_and_says_what_each_lacks(
+        case: str, bad_bag: Callable[[str], Path],
+        capsys: pytest.CaptureFixture[str]) -> None:
+    bag = bad_bag(case)
+
+    run = gyro_calib(capsys, 'info', bag)
+
+    assert run.code == 0 and run.err == ''
+    assert f'bag: {bag}' in run.out
+    assert re.search(r'^  rbrlg +no +needs /', run.out, re.M), run.out
 
 
 # -- simulate --------------------------------------------------------------------------------

@@ -86,8 +86,10 @@ def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
 
 @pytest.fixture
 def outputs(tmp_path: Path) -> dict[str, Path]:
-    """Files that exist before the run: a failing run must leave them as they are."""
-    files = {'kalibr': tmp_path / 'imu.yaml', 'plot': tmp_path / 'adev.png',
+    """Files that exist before the run: a failing run must leave them as they are (the
+    figure is noise_adev.png in the --plot directory)."""
+    (tmp_path / 'figs').mkdir()
+    files = {'kalibr': tmp_path / 'imu.yaml', 'plot': tmp_path / 'figs' / 'noise_adev.png',
              'out': tmp_path / 'handoff.yaml'}
     for path in files.values():
         path.write_text(f'before {path.name}\n')
@@ -96,12 +98,13 @@ def outputs(tmp_path: Path) -> dict[str, Path]:
 
 def unchanged(files: dict[str, Path]) -> bool:
     return (all(p.read_text() == f'before {p.name}\n' for p in files.values())
-            and sorted(p.name for p in next(iter(files.values())).parent.iterdir())
-            == sorted(p.name for p in files.values()))
+            and sorted(p.name for p in files['out'].parent.iterdir())
+            == ['figs', 'handoff.yaml', 'imu.yaml']
+            and [p.name for p in files['plot'].parent.iterdir()] == ['noise_adev.png'])
 
 
 def out_flags(files: dict[str, Path]) -> list[Any]:
-    return ['--kalibr', files['kalibr'], '--plot', files['plot'], '--out', files['out']]
+    return ['--kalibr', files['kalibr'], '--plot', files['plot'].parent, '--out', files['out']]
 
 
 def one_line_error(err: str) -> str:
@@ -131,7 +134,7 @@ def one_line_error(err: str) -> str:
 def test_bad_input_is_one_line_exit_2_and_nothing_is_written(
         bags: dict[str, Path], outputs: dict[str, Path], capsys: pytest.CaptureFixture[str],
         bag: str, extra: list[Any], text: str) -> None:
-    flags = out_flags(outputs) if bag.startswith('imu') else ['--plot', outputs['plot'],
+    flags = out_flags(outputs) if bag.startswith('imu') else ['--plot', outputs['plot'].parent,
                                                               '--out', outputs['out']]
     status, out, err = run(capsys, bags[bag], *extra, *flags)
     assert status == 2, (out, err)
@@ -148,7 +151,7 @@ def test_topic_error_lists_every_topic_with_its_type(
 
 
 @pytest.mark.parametrize('what', ['a file', 'a directory without metadata.yaml',
-                                  'a lone .mcap file', 'a missing path'])
+                                  'a missing path'])
 def test_a_path_that_is_not_a_bag_is_one_line_exit_2(
         bags: dict[str, Path], outputs: dict[str, Path], tmp_path: Path,
         capsys: pytest.CaptureFixture[str], what: str) -> None:
@@ -161,18 +164,14 @@ def test_a_path_that_is_not_a_bag_is_one_line_exit_2(
         path = other / 'dir'
         path.mkdir()
         (path / 'notes.txt').write_text('x')
-    elif what == 'a lone .mcap file':  # rosbags needs the bag's metadata.yaml beside it
-        path = other / 'imu.mcap'
-        shutil.copy(bags['imu'] / 'imu.mcap', path)
     else:
         path = other / 'nowhere'
     status, _, err = run(capsys, path, *out_flags(outputs))
     assert status == 2
     line = one_line_error(err)
     assert str(path) in line
-    assert ('not a rosbag2 bag (a directory with metadata.yaml and the .mcap file)' in line
-            or 'no such file or directory' in line
-            or 'a lone .mcap file, without the metadata.yaml of a rosbag2 bag' in line)
+    assert ('not a rosbag2 bag (a directory with metadata.yaml and the .mcap file' in line
+            or 'no such file or directory' in line)
     assert unchanged(outputs)
 
 
@@ -211,12 +210,12 @@ def test_a_handoff_file_of_another_gyro_is_refused_and_nothing_is_written(
 
 def test_a_good_imu_run_writes_every_file_and_prints_their_paths(
         bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    files = {'kalibr': tmp_path / 'imu.yaml', 'plot': tmp_path / 'adev.png',
+    files = {'kalibr': tmp_path / 'imu.yaml', 'plot': tmp_path / 'figs' / 'noise_adev.png',
              'out': tmp_path / 'handoff.yaml'}
     status, out, err = run(capsys, bags['imu'], '--json', *out_flags(files))
     assert status == 0, err
     doc = json.loads(out)
-    assert set(doc['methods']['noise']) == {'axes'}
+    assert set(doc['methods']['noise']) == {'results', 'missing', 'rejections', 'axes'}
     for what, path in (('Kalibr imu.yaml', files['kalibr']), ('figure', files['plot']),
                        ('hand-off', files['out'])):
         assert f'{what} written: {path}' in err  # the human part goes to stderr with --json

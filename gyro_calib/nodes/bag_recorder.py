@@ -30,7 +30,7 @@ from rclpy.serialization import deserialize_message
 from std_msgs.msg import String
 
 from gyro_calib import topics
-from gyro_calib.bag import CONTRACT_TYPES, SCENARIO_KEY, BagError, checksum_chunks
+from gyro_calib.bag import CONTRACT_TYPES, SCENARIO_KEY, BagError, checksum_chunks, scenario_text
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.bag_player import message_class
 from gyro_calib.nodes.ros_io import (
@@ -130,8 +130,7 @@ class BagRecorder(Node):
     def close(self) -> None:
         """Store the scenario and close the bag (writes metadata.yaml)."""
         if self.scenario:
-            self._writer.set_custom_data(SCENARIO_KEY, yaml.safe_dump(self.scenario,
-                                                                      sort_keys=True))
+            self._writer.set_custom_data(SCENARIO_KEY, scenario_text(self.scenario))
         self._writer.close()
         summary = ', '.join(f'{name}: {n}' for name, n in self.counts.items())
         self.get_logger().info(f'wrote {self.path} ({summary})')

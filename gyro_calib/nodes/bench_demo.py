@@ -26,7 +26,8 @@ from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     """Command-line options of the demo."""
     p = argparse.ArgumentParser(description=__doc__,
-                                formatter_class=argparse.RawDescriptionHelpFormatter)
+                                formatter_class=argparse.RawDescriptionHelpFormatter,
+                                allow_abbrev=False)
     p.add_argument('--pairs', type=int, default=3, help='K̃-phase window pairs (3)')
     p.add_argument('--speed', type=float, default=5.0, help='real-time factor (5)')
     p.add_argument('--seed', type=int, default=1, help='simulator seed (1)')

@@ -2,7 +2,7 @@
 
     gyro-calib noise BAG [BAG ...] [--topic T]
         [--scale-factor-rad-per-pulse K | --scale-factor-counts-per-rad S | --calibration FILE]
-        [--config FILE] [--json] [--kalibr imu.yaml] [--plot FILE] [--out handoff.yaml]
+        [--config FILE] [--json] [--kalibr imu.yaml] [--plot DIR] [--out handoff.yaml]
         [--gyro-id ID] [--progress | --no-progress]
 
 The input is ``/gyro/pulses`` (with K), ``/fog/output`` (with counts/rad) or any
@@ -40,8 +40,8 @@ def add_commands(subparsers: Any) -> None:
         description='Overlapping Allan deviation (IEEE Std 952/647) of a gyro or IMU and its '
         'noise terms Q, N, B, K, R by a joint weighted fit, with uncertainties.')
     p.add_argument('bags', nargs='+', type=Path, metavar='BAG',
-                   help='rosbag2 MCAP bag (directory, or the .mcap file inside it); several '
-                   'are taken together in stamp order')
+                   help='rosbag2 MCAP bag (directory, the .mcap file inside it, a lone .mcap '
+                   'file) or a CSV/text table; several are taken together in stamp order')
     p.add_argument('--topic', help='the input: a sensor_msgs/Imu topic, /gyro/pulses or '
                    '/fog/output (default: the one input the bag holds)')
     scale = p.add_mutually_exclusive_group()
@@ -60,9 +60,9 @@ def add_commands(subparsers: Any) -> None:
                    '(the human summary goes to stderr)')
     p.add_argument('--kalibr', type=Path, metavar='IMU_YAML',
                    help="write Kalibr's imu.yaml (IMU input only)")
-    p.add_argument('--plot', type=Path, metavar='FILE',
-                   help='write the log-log ADEV figure (a panel per axis); a directory gets '
-                   'noise_adev.png')
+    p.add_argument('--plot', type=Path, metavar='DIR',
+                   help='write the log-log ADEV figure (a panel per axis) as noise_adev.png '
+                   'into DIR (created if absent, in an existing directory)')
     p.add_argument('--out', type=Path, metavar='HANDOFF_YAML',
                    help='write (or update) the INS hand-off file of this sensor')
     p.add_argument('--gyro-id', default='', help="the sensor's serial or name (hand-off)")
@@ -76,15 +76,18 @@ def add_commands(subparsers: Any) -> None:
 def run_noise(args: argparse.Namespace) -> int:
     """Check the input, calibrate the bags, print, write the files asked for."""
     from gyro_calib.bag import bag_info, topics_present
-    from gyro_calib.bag_calibration import calibrate_bags, json_document, merged_topics
+    from gyro_calib.bag_calibration import json_document, merged_topics
     from gyro_calib.cli import _json_default, options_from_args, summary_text
     from gyro_calib.noise.outputs import resolve_targets, write_outputs
-    from gyro_calib.noise.session import NoiseSession, check_scale_factor, input_kind, \
-        select_input
+    from gyro_calib.noise.session import FIGURE_NAME, NoiseSession, check_scale_factor, \
+        input_kind, select_input
 
-    targets = resolve_targets(args.kalibr, args.plot, args.out)
-    for path in args.bags:
-        _check_lone_mcap(path)
+    from gyro_calib.cli import check_calibration_file
+    from gyro_calib.outputs import check_plot_dir, make_plot_dir
+
+    targets = resolve_targets(args.kalibr, None, args.out)
+    plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
+    check_calibration_file(args.calibration)
     infos = [bag_info(p) for p in args.bags]
     present = merged_topics(infos)
     counts: dict[str, int] = {}
@@ -101,6 +104,7 @@ def run_noise(args: argparse.Namespace) -> int:
     topic = select_input({t: (m, counts.get(t, 0)) for t, m in present.items()}, options,
                          where=where, listing=listing)
     options = dataclasses.replace(options, topic=topic)
+    _refuse_scale_flag_of_another_input(args, input_kind(topic), topic)
     check_scale_factor(options)
     if targets.kalibr is not None and input_kind(topic) != 'imu':
         from gyro_calib.errors import ConfigError
@@ -121,29 +125,32 @@ def run_noise(args: argparse.Namespace) -> int:
         print('gyro-calib: no noise term is resolved (see the reasons above); nothing '
               'written.', file=sys.stderr)
         return EXIT_NOT_CALIBRATED
+    if plot_dir is not None:
+        targets = dataclasses.replace(targets, plot=make_plot_dir(plot_dir) / FIGURE_NAME)
     for what, path in write_outputs(session, targets, source=outcome.source,
                                     gyro_id=args.gyro_id):
         print(f'{what} written: {path}', file=human)
     return EXIT_OK
 
 
-def _check_lone_mcap(path: Path) -> None:
-    """A .mcap file without its bag's metadata.yaml: say what is expected, in one line.
-
-    rosbags and the columnar decoder can read such a file, but the shared bag reader
-    (:func:`gyro_calib.bag.bag_info`) takes bag directories only.
+def _refuse_scale_flag_of_another_input(args: argparse.Namespace, kind: str,
+                                        topic: str) -> None:
+    """A scale-factor flag for an input that is not the one read is refused, not ignored.
 
     Raises:
-        NotABagError: naming the file and what to pass instead.
+        ConfigError: naming the flag, the input read and the input the flag is for.
     """
-    from gyro_calib.bag import NotABagError
+    from gyro_calib.errors import ConfigError
 
-    if path.suffix == '.mcap' and path.is_file() and not (path.parent / 'metadata.yaml'
-                                                          ).is_file():
-        raise NotABagError(f'{path}: a lone .mcap file, without the metadata.yaml of a rosbag2 '
-                           'bag beside it; gyro-calib reads bag directories (metadata.yaml + '
-                           '.mcap, as ros2 bag record writes them): pass the directory the '
-                           'file came from.')
+    for flag, dest, fits in (('--scale-factor-rad-per-pulse', 'scale_factor_rad_per_pulse',
+                              ('pulses', 'gyro')),
+                             ('--scale-factor-counts-per-rad', 'scale_factor_counts_per_rad',
+                              ('fog', 'gyro'))):
+        if getattr(args, dest, None) is not None and kind not in fits:
+            meant = '/gyro/pulses' if 'pulse' in flag else '/fog/output'
+            raise ConfigError(f'{flag} applies to {meant}, but the input read is {topic} '
+                              f'({kind}); it would be ignored. Drop it (or choose the input '
+                              'with --topic). Nothing was read.')
 
 
 def _calibrate(args: argparse.Namespace, options: Any) -> BagCalibration:

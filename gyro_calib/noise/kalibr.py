@@ -28,8 +28,6 @@ a comment.
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -122,18 +120,12 @@ def write_kalibr_imu_yaml(path: str | Path, cal: NoiseCalibrator, *, rostopic: s
         KalibrExportError: a required term is missing, or the file cannot be written.
     """
     text = kalibr_imu_yaml(cal, rostopic=rostopic, update_rate_hz=update_rate_hz)
+    from gyro_calib.outputs import write_text_atomically
+
     target = Path(path).absolute()
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f'.{target.name}.', dir=target.parent)
-        try:
-            with os.fdopen(fd, 'w', encoding='utf-8') as f:
-                f.write(text)
-                f.flush()
-                os.fsync(f.fileno())
-            os.replace(tmp, target)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        write_text_atomically(target, text)
     except OSError as exc:
-        raise KalibrExportError(f'cannot write the Kalibr file {target}: {exc.strerror}.') from None
+        raise KalibrExportError(f'cannot write the Kalibr file {target}: '
+                                f'{exc.strerror}.') from None
     return target

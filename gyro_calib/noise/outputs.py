@@ -10,7 +10,6 @@ another gyro, a directory that does not exist) leaves every target as it was.
 from __future__ import annotations
 
 import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -46,35 +45,19 @@ def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
     """
     from gyro_calib.noise.session import FIGURE_NAME
 
+    from gyro_calib.outputs import check_output_file
+
     def check(path: str | Path | None, what: str, *, directory_ok: bool = False) -> Path | None:
         if path is None or str(path) == '':
             return None
         p = Path(path)
-        if p.is_dir():
-            if directory_ok:
-                return (p / FIGURE_NAME).absolute()
-            raise ConfigError(f'{what} {p} is a directory; give a file name.')
-        if not p.absolute().parent.is_dir():
-            raise ConfigError(f'{what} {p}: the directory {p.absolute().parent} does not '
-                              'exist.')
-        return p.absolute()
+        if p.is_dir() and directory_ok:
+            return (p / FIGURE_NAME).absolute()
+        return check_output_file(p, what)
 
     return OutputTargets(check(kalibr, 'the Kalibr file'), check(plot, 'the figure',
                                                                   directory_ok=True),
                          check(handoff, 'the hand-off file'))
-
-
-def _write_text_atomically(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f'.{path.name}.', suffix='.tmp', dir=path.parent)
-    try:
-        with os.fdopen(fd, 'w', encoding='utf-8') as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
@@ -95,6 +78,7 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         OSError: a file cannot be written (the ones before it are in place).
     """
     from gyro_calib.handoff import load_calibration, update_calibration
+    from gyro_calib.outputs import temporary_beside, write_text_atomically
     from gyro_calib.registry import handoff_schema
 
     kalibr_text = session.kalibr_text() if targets.kalibr is not None else None
@@ -113,11 +97,7 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             raise ConfigError('no sample was analysed: no figure to draw.')
         from gyro_calib.noise.plots import plot_noise_figure
 
-        fd, name = tempfile.mkstemp(prefix=f'.{targets.plot.stem}.',
-                                    suffix=targets.plot.suffix or '.png',
-                                    dir=targets.plot.parent)
-        os.close(fd)
-        figure_tmp = Path(name)
+        figure_tmp = temporary_beside(targets.plot, targets.plot.suffix or '.png')
         try:
             plot_noise_figure(view, figure_tmp)
         except BaseException:
@@ -126,7 +106,7 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
     written: list[tuple[str, Path]] = []
     try:
         if kalibr_text is not None and targets.kalibr is not None:
-            _write_text_atomically(targets.kalibr, kalibr_text)
+            write_text_atomically(targets.kalibr, kalibr_text)
             written.append(('Kalibr imu.yaml', targets.kalibr))
         if figure_tmp is not None and targets.plot is not None:
             os.replace(figure_tmp, targets.plot)

@@ -489,11 +489,14 @@ class NoiseSession(MethodSession):
 
     # -- output -----------------------------------------------------------------------------
     def json_section(self) -> dict[str, Any]:
-        """``{"axes": {AXIS: {"tau_s", "adev", "adev_std", "results": {KEY: {"value",
-        "std", "n"}}}}}`` — the core's shape; axis ``gyro`` for a single gyro, ``gyro_x`` …
-        ``accel_z`` for an IMU; term keys as :mod:`gyro_calib.noise.terms` names them."""
+        """Every method's ``{"results", "missing", "rejections"}`` (hand-off keys) plus the
+        curves: ``"axes": {AXIS: {"tau_s", "adev", "adev_std", "results": {KEY: {"value",
+        "std", "n"}}}}`` — axis ``gyro`` for a single gyro, ``gyro_x`` … ``accel_z`` for an
+        IMU; term keys as :mod:`gyro_calib.noise.terms` names them."""
         view = self.view
-        return view.json_section() if view is not None else {'axes': {}}
+        out = super().json_section()
+        out.update(view.json_section() if view is not None else {'axes': {}})
+        return out
 
     def summary_rows(self) -> list[tuple[str, str, str, str]]:
         """One row per resolved term: SI and the quoted unit (°/√h, °/h, µg …)."""
