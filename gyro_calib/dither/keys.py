@@ -29,10 +29,10 @@ HANDOFF_KEYS = (
                'positive'),
     HandoffKey(KEY_AMPLITUDE_PULSES, METHOD, 'dither amplitude θ_d·cos a/K as the output '
                'carries it, when K is not given, pulses', 'positive'),
-    HandoffKey(KEY_CONING, METHOD, 'coning drift of eq. (24) ½·Ω_d·θ_xz·θ_xy·sin φ from a and '
-               'the rocking model (worst case sin φ = 1 unless φ is given), rad/s',
+    HandoffKey(KEY_CONING, METHOD, 'coning drift of §C eq. (24) ½·Ω_d·θ_xz·θ_xy·sin φ from a '
+               'and the rocking model (worst case sin φ = 1 unless φ is given), rad/s',
                'nonnegative'),
-    HandoffKey(KEY_CONING_TOTAL, METHOD, 'eq. (24) plus the dither × rocking coning '
+    HandoffKey(KEY_CONING_TOTAL, METHOD, '§C eq. (24) plus the dither × rocking coning '
                '½·Ω_d·θ_d·θ_xy·sin φ·a·|sin ψ₀| (worst-case sum; needs K), rad/s',
                'nonnegative'),
 )

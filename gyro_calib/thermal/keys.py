@@ -28,7 +28,7 @@ def _check_model(value: Any) -> str:
 
 HANDOFF_KEYS = (
     HandoffKey('thermal_model', METHOD, 'the bias model B(H, Ḣ, gradients) the INS subtracts '
-               '(eqs. 14/17, terms chosen by stepwise regression), with its covariance, '
+               '(§D eqs. (14)/(17), terms chosen by stepwise regression), with its covariance, '
                'calibrated range and the scale factor it was fitted with', 'mapping',
                has_std=False, check=_check_model),
     HandoffKey('thermal_residual_std_rad_s', METHOD, 'std of the fit residuals of the '
