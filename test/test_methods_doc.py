@@ -156,6 +156,21 @@ def test_every_bare_equation_in_a_method_package_resolves(where: str, section: s
             f'{where}: §{section} has no eq. ({tag}) in {DOC.name}'
 
 
+def test_every_file_and_name_the_document_points_to_exists() -> None:
+    """A path or a setting/function name in backticks is a pointer into the code: it must
+    not outlive a rename."""
+    text = DOC.read_text(encoding='utf-8')
+    paths = set(re.findall(r'`((?:gyro_calib|sim_nodes|benchmarks|test)/[\w/]*(?:\.py)?)`', text))
+    assert len(paths) > 10
+    for path in sorted(paths):
+        assert (ROOT / path).exists(), f'{DOC.name} points to {path}, which does not exist'
+    code = '\n'.join(p.read_text(encoding='utf-8') for p in (ROOT / 'gyro_calib').rglob('*.py'))
+    names = set(re.findall(r'`([A-Za-z_]\w*_\w*)(?::[^`]*)?`', text))
+    assert len(names) > 30
+    for name in sorted(names):
+        assert name in code, f'{DOC.name} names `{name}`, which the code does not have'
+
+
 def test_the_readme_links_the_document() -> None:
     readme = (ROOT / 'README.md').read_text(encoding='utf-8')
     assert '(docs/methods.md)' in readme

@@ -25,9 +25,9 @@ here (lines at Ω_d, Ω_z, their sums and harmonics) is below 1e-12 of a step's 
 
 Sign convention: a positive dither φ (right-handed about DI) turns IA's azimuth from ψ₀ to
 ψ₀ − φ, so with the table along Z the gyro sees ω_T·(b₀ + a·cos(ψ₀ − φ)): the sideband
-coefficient of φ·ω_T is +a·sin ψ₀ (along Y it is −a·cos ψ₀). METHODS §C writes
-a·cos(ψ₀ + φ); only the sign convention of ψ₀ differs, the magnitudes a·|sin ψ₀| and
-a·|cos ψ₀| are the same.
+coefficient of φ·ω_T is +a·sin ψ₀ (along Y it is −a·cos ψ₀), as METHODS §C eq. 1. The
+seed write-up had a·cos(ψ₀ + φ); only the sign convention of ψ₀ differs, the magnitudes
+a·|sin ψ₀| and a·|cos ψ₀| are the same.
 """
 
 from __future__ import annotations
