@@ -24,6 +24,7 @@ from gyro_calib.bag import (
     iter_sample_batches,
     topics_present,
 )
+from gyro_calib.config import read_method_file
 from gyro_calib.errors import ConfigError
 from gyro_calib.registry import METHODS, Method, methods_revealed
 from gyro_calib.session import CalibrationOptions, MethodSession
@@ -38,12 +39,22 @@ class BagCalibration:
         sessions: method name → its session (results, rejections, hand-off...).
         messages: messages decoded.
         log: lines the sessions logged while the bags streamed (rejections, notices).
+        options: method name → the options its session was built with (its own bags'
+            stored bench settings, the config file's bench settings).
+        notes: given settings that differ from the bench settings the bags store.
     """
 
     infos: list[BagInfo]
     sessions: dict[str, MethodSession]
     messages: int
     log: list[str] = field(default_factory=list)
+    options: dict[str, CalibrationOptions] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+
+    def gyro_id(self, method: str) -> str:
+        """The gyro id of a method's run: given, in the config file, or stored with its bags."""
+        options = self.options.get(method)
+        return str(options.setting('gyro_id', '') or '') if options is not None else ''
 
     @property
     def calibrated_anything(self) -> bool:
@@ -69,6 +80,40 @@ def merged_topics(infos: Sequence[BagInfo]) -> dict[str, str]:
                 raise WrongMessageTypeError(f'topic {t.name} has type {out[t.name]} in one bag '
                                             f'and {t.msgtype} in {info.path}.')
     return out
+
+
+def own_bags(method: Method, infos: Sequence[BagInfo]) -> list[BagInfo]:
+    """The bags that are the method's own: those holding all its revealing topics (with their
+    types); when none does (or it has none), those holding any of its topics."""
+    def holds(info: BagInfo, topic: str) -> bool:
+        t = info.topics.get(topic)
+        return t is not None and t.msgtype == method.topics[topic]
+
+    mine = [i for i in infos if method.reveal and all(holds(i, t) for t in method.reveal)]
+    return mine or [i for i in infos if any(holds(i, t) for t in method.topics) or (
+        method.any_topic and any(t.msgtype == method.any_topic for t in i.topics.values()))]
+
+
+def method_options(options: CalibrationOptions, method: Method,
+                   infos: Sequence[BagInfo]) -> CalibrationOptions:
+    """``options`` for one method: the bench settings stored with its own bags (never another
+    method's bags) and the bench settings in its config file.
+
+    Raises:
+        ConfigError: the config file is unreadable, or a bench setting in it out of range.
+    """
+    changes: dict[str, Any] = {}
+    if not options.stored_benches and not options.scenario:
+        benches = tuple((str(i.path), i.scenario['bench']) for i in own_bags(method, infos)
+                        if isinstance(i.scenario.get('bench'), dict))
+        changes['stored_benches'] = benches
+        first = next((i.scenario for i in own_bags(method, infos) if i.scenario), {})
+        changes['scenario'] = first
+    if options.config_file is not None and method.node and not options.config_bench:
+        _, bench = read_method_file(options.config_file, node_name=method.node,
+                                    fields=method.settings_fields())
+        changes['config_bench'] = bench
+    return dataclasses.replace(options, **changes) if changes else options
 
 
 def select_methods(infos: Sequence[BagInfo], names: Sequence[str] | None) -> list[Method]:
@@ -131,10 +176,10 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
     infos = [bag_info(p) for p in paths]
     chosen = select_methods(infos, methods)
     options = options or CalibrationOptions()
-    if not options.scenario:
-        stored = next((i.scenario for i in infos if i.scenario), {})
-        options = dataclasses.replace(options, scenario=stored)
-    sessions = {m.name: m.make_session(options) for m in chosen}
+    per_method = {m.name: method_options(options, m, infos) for m in chosen}
+    sessions = {m.name: m.make_session(per_method[m.name]) for m in chosen}
+    notes = [f'{m.name}: note: {line}' for m in chosen
+             for line in per_method[m.name].conflicts(m.bench_settings)]
     present = merged_topics(infos)
     log: list[str] = []
     counts = [0]
@@ -175,7 +220,7 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
         log += [f'{name}: {line}' for line in s.process(flush=True)]
     if progress is not None:
         progress(1.0)
-    return BagCalibration(infos, sessions, counts[0], log)
+    return BagCalibration(infos, sessions, counts[0], log, per_method, notes)
 
 
 def json_document(outcome: BagCalibration) -> dict[str, Any]:

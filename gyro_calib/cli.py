@@ -304,6 +304,7 @@ def summary_text(outcome: BagCalibration) -> str:
         for notice in session.notices():
             lines.append(f'  note: {notice}')
         lines.append('')
+    lines += outcome.notes
     bags = ', '.join(f'{i.path} ({i.duration_s:.3f} s)' for i in outcome.infos)
     lines.append(f'bag(s): {bags}; {outcome.messages} messages decoded')
     return '\n'.join(lines)

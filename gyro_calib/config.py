@@ -7,7 +7,10 @@ is the single source of the parameter description its node declares.
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from pathlib import Path
+from collections.abc import Iterable
 from typing import Any
 
 import yaml
@@ -58,3 +61,142 @@ def field_descriptions(cls: type) -> dict[str, str]:
                 and isinstance(after.value.value, str)):
             out[node.target.id] = ' '.join(after.value.value.split())
     return out
+
+
+# ---------------------------------------------------------------------------------------
+# The bench settings every front door shares (one schema, one validation)
+
+
+@dataclass(frozen=True, slots=True)
+class BenchSetting:
+    """A setting of the bench (site, mounting, gyro) that several front doors give.
+
+    The same setting arrives as a CLI flag, a ``--config``/``config_file`` field, a node
+    parameter, or a bench setting a simulated bag stores (``scenario.bench``); every one is
+    checked by :meth:`check`, so the message names its unit and range wherever it came from.
+
+    Attributes:
+        name: field / parameter / stored-bench name, unit in the name.
+        unit: the unit shown in messages ('' for counts and text).
+        description: what it is, its convention and default (the parameter description).
+        kind: float, int or str.
+        low, high: the accepted closed range (``low_open``: ``low`` itself excluded).
+    """
+
+    name: str
+    unit: str
+    description: str
+    kind: type = float
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+
+    @property
+    def flag(self) -> str:
+        """The CLI flag that sets it."""
+        return '--' + FLAG_NAMES.get(self.name, self.name).replace('_', '-')
+
+    def expected(self) -> str:
+        """The accepted values, with the unit."""
+        unit = f' {self.unit}' if self.unit else ''
+        if self.kind is str:
+            return 'a string'
+        what = 'an integer' if self.kind is int else 'a number'
+        if math.isinf(self.low) and math.isinf(self.high):
+            return f'{what} (finite){unit}'
+        if self.low_open and self.low == 0:
+            what = 'a positive integer' if self.kind is int else 'a positive number'
+            return what + (f', at most {self.high:g}{unit}' if math.isfinite(self.high)
+                           else f' of{unit}')
+        if math.isinf(self.high):
+            rel = 'above' if self.low_open else 'at least'
+            return f'{what} {rel} {self.low:g}{unit}'
+        if self.low_open:
+            return f'{what} above {self.low:g} and at most {self.high:g}{unit}'
+        return f'{what} between {self.low:g} and {self.high:g}{unit}'
+
+    def check(self, value: Any, where: str) -> Any:
+        """``value`` as ``kind`` if it is valid, else ConfigError naming the setting, where it
+        came from (``where``: a flag, a file, a bag), its unit and its range."""
+        ok = True
+        if self.kind is str:
+            ok = isinstance(value, str)
+        elif isinstance(value, bool) or not isinstance(
+                value, int if self.kind is int else (int, float)):
+            ok = False
+        else:
+            number = float(value)
+            ok = (math.isfinite(number) and number <= self.high
+                  and (number > self.low if self.low_open else number >= self.low))
+        if not ok:
+            unit = f' {self.unit}' if self.unit and self.kind is not str else ''
+            raise ConfigError(f'{self.name} = {value!r}{unit} ({where}) is invalid: it must be '
+                              f'{self.expected()}.')
+        return self.kind(value)
+
+
+FLAG_NAMES = {'fog_scale_factor_counts_per_rad': 'scale_factor_counts_per_rad'}
+"""Bench settings whose CLI flag is named differently from the field."""
+
+_EARTH = 'ω sin φ (Up) and ω cos φ (North)'
+
+BENCH_SETTINGS: dict[str, BenchSetting] = {s.name: s for s in (
+    BenchSetting('latitude_deg', '°', 'Site latitude φ, positive North, °; the Earth rate '
+                 f'{_EARTH} is removed from the bias with it (NaN / not given: the bias is '
+                 'reported with the Earth rate in it).', low=-90.0, high=90.0),
+    BenchSetting('heading_deg', '°', 'RBRLG: heading of the position-table base x axis, '
+                 'measured from East towards North (counter-clockwise seen from above: 0 = '
+                 'East, 90 = North; = 90° − the azimuth from North), °. Default 0.',
+                 low=-360.0, high=360.0),
+    BenchSetting('sense_axis_elevation_deg', '°', 'Thermal (static base): sense-axis elevation '
+                 'above the horizon, ° (90 = vertical, the default).', low=-90.0, high=90.0),
+    BenchSetting('sense_axis_azimuth_deg', '°', "Thermal (static base): azimuth of the sense "
+                 "axis' horizontal part, measured from North towards East (clockwise seen from "
+                 'above: 0 = North, 90 = East; = 90° − a heading from East), °. Default 0.',
+                 low=-360.0, high=360.0),
+    BenchSetting('position_table_revolutions', '', 'RBRLG: n, position-table revolutions each '
+                 'way per θ station. Default 1.', kind=int, low=1.0, high=1000.0),
+    BenchSetting('scale_factor_rad_per_pulse', 'rad/pulse', "A pulse gyro's scale factor K "
+                 '(angle = K·count), rad/pulse.', low=0.0, high=1e-2, low_open=True),
+    BenchSetting('fog_scale_factor_counts_per_rad', 'counts/rad', "A FOG's scale factor "
+                 '(angle = count / SF), counts/rad.', low=0.0, low_open=True),
+    BenchSetting('gyro_id', '', "The gyro's serial or name (hand-off identity).", kind=str),
+)}
+"""Every bench setting, by name: the one range check of flags, config files, node parameters
+and the bench settings stored in bags."""
+
+
+def check_bench_setting(name: str, value: Any, where: str) -> Any:
+    """``value`` checked against :data:`BENCH_SETTINGS` (see :meth:`BenchSetting.check`)."""
+    return BENCH_SETTINGS[name].check(value, where)
+
+
+def given(value: Any) -> bool:
+    """False for None, NaN and '' (a setting not given)."""
+    return value is not None and value != '' and not (
+        isinstance(value, float) and math.isnan(value))
+
+
+NODE_ONLY_PARAMETERS = ('config_file', 'output_file', 'process_period_s', 'fit_after_idle_s')
+"""Node parameters a shared config file may hold that the offline front door does not use."""
+
+
+def read_method_file(path: str | Path, *, node_name: str,
+                     fields: Iterable[str]) -> tuple[dict[str, Any], dict[str, Any]]:
+    """A method's config file (``--config``, a node's ``config_file`` or ``--params-file``
+    parameter file): (its method settings, its bench settings).
+
+    The file may hold every parameter of the method's node: the settings fields
+    (``fields``), the bench settings (:data:`BENCH_SETTINGS`, returned apart and also kept
+    among the settings when they are fields too) and the node-only parameters (dropped).
+    Anything else is refused by the method's own mapping reader, which lists the fields.
+
+    Raises:
+        ConfigError: the file cannot be read or parsed, or holds no mapping.
+    """
+    values = read_parameter_file(path, node_name=node_name)
+    names = set(fields)
+    bench = {k: v for k, v in values.items() if k in BENCH_SETTINGS}
+    settings = {k: v for k, v in values.items()
+                if k in names or (k not in BENCH_SETTINGS and k not in NODE_ONLY_PARAMETERS)}
+    return settings, bench

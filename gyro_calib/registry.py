@@ -45,6 +45,10 @@ class Method:
             their stamps overlap; otherwise bags recorded at the same time are interleaved.
         any_topic: a message type the method also reads on any topic the user names
             (``--topic``; noise: ``sensor_msgs/Imu``), '' if none.
+        node: its live node's name (the key of its ROS 2 parameter files).
+        settings: 'module:Class' of its settings dataclass (node parameters, ``--config``).
+        bench_settings: the bench settings (:data:`gyro_calib.config.BENCH_SETTINGS`) it
+            uses; the bench settings stored with its own bags must agree on these.
     """
 
     name: str
@@ -56,11 +60,25 @@ class Method:
     auto: bool = True
     separate_bags: bool = False
     any_topic: str = ''
+    node: str = ''
+    settings: str = ''
+    bench_settings: tuple[str, ...] = ()
 
     def make_session(self, options: CalibrationOptions) -> MethodSession:
         """A new session of this method with the user's options."""
         module, cls = self.session.split(':')
         return getattr(importlib.import_module(module), cls)(options)  # type: ignore[no-any-return]
+
+    def settings_class(self) -> type:
+        """Its settings dataclass."""
+        module, cls = self.settings.split(':')
+        return getattr(importlib.import_module(module), cls)  # type: ignore[no-any-return]
+
+    def settings_fields(self) -> tuple[str, ...]:
+        """The fields of its settings dataclass."""
+        import dataclasses
+
+        return tuple(f.name for f in dataclasses.fields(self.settings_class()))
 
     def handoff_keys(self) -> tuple[HandoffKey, ...]:
         """The keys this method may write to the hand-off file."""
@@ -74,29 +92,43 @@ METHODS: dict[str, Method] = {m.name: m for m in (
             topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE,
             topics.POSITION_TABLE_ZERO_INDEX: HEADER},
            (topics.GYRO_PULSES, topics.RATE_TABLE_JOINT_STATES, topics.RATE_TABLE_ZERO_INDEX),
-           'gyro_calib.rbrlg.session:RbrlgSession', 'gyro_calib.rbrlg.keys'),
+           'gyro_calib.rbrlg.session:RbrlgSession', 'gyro_calib.rbrlg.keys',
+           node='calibration_node', settings='gyro_calib.rbrlg.config:KTildeConfig',
+           bench_settings=('latitude_deg', 'heading_deg', 'position_table_revolutions',
+                           'gyro_id')),
     Method('fog', 'FOG scale factor: turntable (IEEE Std 952) and ladder-wave self-calibration '
            '(docs/methods.md §B)',
            {topics.FOG_OUTPUT: JOINT_STATE, topics.FOG_INJECTION: JOINT_STATE,
             topics.RATE_TABLE_JOINT_STATES: JOINT_STATE, topics.RATE_TABLE_ZERO_INDEX: HEADER},
            (topics.FOG_OUTPUT,),
-           'gyro_calib.fog.session:FogSession', 'gyro_calib.fog.keys'),
+           'gyro_calib.fog.session:FogSession', 'gyro_calib.fog.keys',
+           node='fog_calibration_node', settings='gyro_calib.fog.settings:FogSettings',
+           bench_settings=('latitude_deg', 'gyro_id')),
     Method('dither', 'dither-axis misalignment of a dithered RLG and its coning drift '
            '(docs/methods.md §C)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.VIBRATION_TABLE_JOINT_STATES: JOINT_STATE},
            (topics.GYRO_PULSES, topics.VIBRATION_TABLE_JOINT_STATES),
            'gyro_calib.dither.session:DitherSession', 'gyro_calib.dither.keys',
-           separate_bags=True),
+           separate_bags=True, node='dither_calibration_node',
+           settings='gyro_calib.dither.settings:DitherSettings',
+           bench_settings=('scale_factor_rad_per_pulse', 'gyro_id')),
     Method('thermal', 'temperature bias model: lifting-wavelet denoising, stepwise regression '
            '(docs/methods.md §D)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.GYRO_TEMPERATURE: TEMPERATURE},
            (topics.GYRO_PULSES, topics.GYRO_TEMPERATURE),
-           'gyro_calib.thermal.session:ThermalSession', 'gyro_calib.thermal.keys'),
+           'gyro_calib.thermal.session:ThermalSession', 'gyro_calib.thermal.keys',
+           node='thermal_calibration_node',
+           settings='gyro_calib.thermal.settings:ThermalSettings',
+           bench_settings=('scale_factor_rad_per_pulse', 'latitude_deg',
+                           'sense_axis_elevation_deg', 'sense_axis_azimuth_deg', 'gyro_id')),
     Method('noise', 'noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml '
            '(docs/methods.md §E)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE},
            (), 'gyro_calib.noise.session:NoiseSession', 'gyro_calib.noise.keys', auto=False,
-           any_topic=IMU),
+           any_topic=IMU, node='noise_node',
+           settings='gyro_calib.noise.settings:NoiseSettings',
+           bench_settings=('scale_factor_rad_per_pulse', 'fog_scale_factor_counts_per_rad',
+                           'gyro_id')),
 )}
 """Every method, by name."""
 

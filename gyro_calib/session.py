@@ -12,10 +12,13 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from gyro_calib.config import BENCH_SETTINGS, check_bench_setting, given
+from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Calibration, Provenance, method_calibration
 from gyro_calib.units import format_stamp
 
@@ -24,27 +27,38 @@ if TYPE_CHECKING:
     from gyro_calib.estimate import Estimate, Rejection
 
 
+_OPTION_OF = {'fog_scale_factor_counts_per_rad': 'scale_factor_counts_per_rad'}
+"""Bench setting → the CalibrationOptions attribute that carries it, where they differ."""
+
+
 @dataclass(frozen=True, slots=True)
 class CalibrationOptions:
     """What the user told the front door (CLI flags, node parameters); None = not given.
 
-    Each method takes the options it needs; a bag's stored bench settings (``scenario``)
-    fill in what the user did not give.
+    Each method takes the options it needs. A bench setting (:data:`gyro_calib.config.
+    BENCH_SETTINGS`) is resolved by :meth:`setting`: the flag or node parameter, else the
+    config file, else the bench settings stored with the method's own bags, else the
+    default — each value range-checked by the same code wherever it came from.
 
     Attributes:
         latitude_deg: site latitude, ° (separates the bias from the Earth rate).
-        heading_deg: table-base heading from East, °.
+        heading_deg: table-base heading from East towards North, °.
         config_file: the method's settings YAML (plain mapping or ROS 2 parameter file).
         position_table_revolutions: RBRLG n.
         scale_factor_rad_per_pulse: a pulse gyro's K, rad/pulse.
         scale_factor_counts_per_rad: a FOG's K, counts/rad.
         calibration_file: a hand-off file to take scale factors (and the gyro id) from.
         topic: the input topic when a method reads any topic of a type (noise: an Imu).
-        sense_axis_elevation_deg, sense_axis_azimuth_deg: the sense axis on a static base, °.
+        sense_axis_elevation_deg: the sense axis' elevation on a static base, °.
+        sense_axis_azimuth_deg: its azimuth from North towards East, °.
         gyro_id: the gyro's serial or name (hand-off identity).
         scenario: the bench settings and truth a simulated bag stores (metadata), or {}.
         settings: the method's settings by field name (a node's ROS parameters); the
             config file's values win over them.
+        stored_benches: (bag, its stored ``scenario.bench``) of each of the method's own bags;
+            when empty, ``scenario['bench']`` is the one stored bench.
+        config_bench: the bench settings found in the config file (by name).
+        given_by: 'flag' (CLI) or 'parameter' (node): how messages name a given setting.
     """
 
     latitude_deg: float | None = None
@@ -60,20 +74,117 @@ class CalibrationOptions:
     gyro_id: str = ''
     scenario: dict[str, Any] = field(default_factory=dict)
     settings: dict[str, Any] = field(default_factory=dict)
+    stored_benches: tuple[tuple[str, Mapping[str, Any]], ...] = ()
+    config_bench: Mapping[str, Any] = field(default_factory=dict)
+    given_by: str = 'flag'
+
+    def __post_init__(self) -> None:
+        """Range-check every bench setting given (flag or node parameter).
+
+        Raises:
+            ConfigError: naming the setting, the flag or parameter, its unit and range.
+        """
+        for name in BENCH_SETTINGS:
+            value = getattr(self, _OPTION_OF.get(name, name), None)
+            if given(value):
+                check_bench_setting(name, value, self.origin_of_given(name))
+        for name, value in self.config_bench.items():
+            if given(value):
+                check_bench_setting(name, value, f'config file {self.config_file}')
+
+    def origin_of_given(self, name: str) -> str:
+        """How a given setting is named: its flag, or its node parameter."""
+        if self.given_by == 'parameter':
+            return f'parameter {name}'
+        return BENCH_SETTINGS[name].flag
+
+    def _benches(self) -> tuple[tuple[str, Mapping[str, Any]], ...]:
+        if self.stored_benches:
+            return self.stored_benches
+        stored = self.scenario.get('bench', {}) if isinstance(self.scenario, dict) else {}
+        return (('the bag',  stored),) if isinstance(stored, dict) and stored else ()
+
+    def stored(self, key: str) -> tuple[Any, str] | None:
+        """The bench setting ``key`` stored with the method's bags and which bag(s) hold it,
+        or None when none does.
+
+        Raises:
+            ConfigError: the bags store different values (naming the setting, the bags and
+                the flag that decides), or the stored value is out of range.
+        """
+        found = [(src, bench[key]) for src, bench in self._benches()
+                 if isinstance(bench, Mapping) and given(bench.get(key))]
+        if not found:
+            return None
+        values = {repr(v) for _, v in found}
+        if len(values) > 1:
+            listing = ', '.join(f'{src} stores {v!r}' for src, v in found)
+            spec = BENCH_SETTINGS.get(key)
+            unit = f' {spec.unit}' if spec is not None and spec.unit else ''
+            decide = (f'give {spec.flag} (or calibrate the bags separately)' if spec is not None
+                      else 'calibrate the bags separately')
+            raise ConfigError(f'the bags store different bench settings {key}{unit} '
+                              f'({listing}); {decide}.')
+        where = ', '.join(src for src, _ in found)
+        origin = f'the bench settings stored in {where}'
+        value = found[0][1]
+        if key in BENCH_SETTINGS:
+            value = check_bench_setting(key, value, origin)
+        return value, origin
 
     def bench(self, key: str, default: Any) -> Any:
-        """A bench setting stored in the bag (``scenario['bench'][key]``), else ``default``."""
-        stored = self.scenario.get('bench', {}) if isinstance(self.scenario, dict) else {}
-        return stored.get(key, default) if isinstance(stored, dict) else default
+        """A bench setting stored with the method's bags, else ``default`` (see :meth:`stored`)."""
+        got = self.stored(key)
+        return default if got is None else got[0]
 
-    def pick(self, given: Any, key: str, default: Any) -> Any:
+    def pick(self, given_value: Any, key: str, default: Any) -> Any:
         """The user's value if given, else the bag's stored bench setting, else ``default``."""
-        return given if given is not None else self.bench(key, default)
+        return given_value if given(given_value) else self.bench(key, default)
+
+    def setting_with_origin(self, name: str, default: Any = None) -> tuple[Any, str]:
+        """A bench setting and where it came from: flag or node parameter, else the config
+        file, else the bench settings stored with the method's bags, else ``default``."""
+        value = getattr(self, _OPTION_OF.get(name, name), None)
+        if given(value):
+            return check_bench_setting(name, value, self.origin_of_given(name)), \
+                self.origin_of_given(name)
+        if given(self.config_bench.get(name)):
+            where = f'config file {self.config_file}'
+            return check_bench_setting(name, self.config_bench[name], where), where
+        got = self.stored(name)
+        if got is not None:
+            return got
+        return default, 'default'
+
+    def setting(self, name: str, default: Any = None) -> Any:
+        """A bench setting's value (see :meth:`setting_with_origin`)."""
+        return self.setting_with_origin(name, default)[0]
+
+    def conflicts(self, names: Iterable[str]) -> list[str]:
+        """One line per bench setting given (flag, parameter, config file) that differs from
+        the bench settings stored with the bags (or published on /sim/scenario)."""
+        lines = []
+        for name in names:
+            value, origin = self.setting_with_origin(name)
+            if origin == 'default' or origin.startswith('the bench settings') \
+                    or not given(value):
+                continue
+            try:
+                got = self.stored(name)
+            except ConfigError:
+                continue  # the bags disagree among themselves; the given value decides
+            if got is None or got[0] == value:
+                continue
+            unit = BENCH_SETTINGS[name].unit
+            unit = f' {unit}' if unit else ''
+            lines.append(f'{name}: {origin} gives {value!r}{unit} but {got[1]} says '
+                         f'{got[0]!r}{unit}; using {value!r}{unit} (check which is right).')
+        return lines
 
     @property
     def latitude(self) -> float:
         """Latitude, ° (NaN when unknown)."""
-        return float(self.pick(self.latitude_deg, 'latitude_deg', math.nan))
+        return float(self.setting('latitude_deg', math.nan))
 
 
 class MethodSession(ABC):

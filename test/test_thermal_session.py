@@ -127,7 +127,7 @@ def test_scale_factor_comes_from_the_flag_then_the_calibration_file_then_the_bag
     settings, origin = thermal_settings(CalibrationOptions(scenario=bench))
     assert settings.scale_factor_rad_per_pulse == K_RAD * 1.01 and settings.latitude_deg == 10.0
     assert settings.gyro_id == 'BAG' and settings.sense_axis_elevation_deg == 80.0
-    assert origin['scale_factor_rad_per_pulse'] == "the bag's bench settings"
+    assert origin['scale_factor_rad_per_pulse'] == 'the bench settings stored in the bag'
     handoff = tmp_path / 'rbrlg.yaml'
     write_calibration(handoff, method_calibration(
         'rbrlg', {'k_tilde_rad_per_pulse': K_RAD, 'k_tilde_rad_per_pulse_std': 1e-13,

@@ -21,7 +21,7 @@ import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
-from gyro_calib.config import read_parameter_file
+from gyro_calib.config import read_method_file
 from gyro_calib.dither import topics
 from gyro_calib.dither.calibrator import (
     AXES,
@@ -103,7 +103,8 @@ def dither_settings(options: CalibrationOptions) -> tuple[DitherSettings, str]:
     values = dict(options.settings)
     source = 'ROS parameters'
     if options.config_file is not None:
-        values.update(read_parameter_file(options.config_file, node_name=NODE_NAME))
+        values.update(read_method_file(options.config_file, node_name=NODE_NAME, fields=[
+            f.name for f in dataclasses.fields(DitherSettings)])[0])
         source = str(options.config_file)
     settings = dither_settings_from_mapping(values, source=source)
     if options.scale_factor_rad_per_pulse is not None:

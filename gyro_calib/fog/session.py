@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gyro_calib import topics
-from gyro_calib.config import read_parameter_file
+from gyro_calib.config import read_method_file
 from gyro_calib.fog.calibrator import (
     KEY_ARW,
     KEY_ASYMMETRY,
@@ -68,7 +68,8 @@ def fog_settings(options: CalibrationOptions) -> FogSettings:
     values = dict(options.settings)
     source = 'ROS parameters'
     if options.config_file is not None:
-        values.update(read_parameter_file(options.config_file, node_name='fog_calibration_node'))
+        values.update(read_method_file(options.config_file, node_name='fog_calibration_node',
+                                       fields=[f.name for f in dataclasses.fields(FogSettings)])[0])
         source = str(options.config_file)
     settings = fog_settings_from_mapping(values, source=source) if values else FogSettings()
     latitude = options.latitude

@@ -13,6 +13,7 @@ ROS 2 parameter file) whose values win, ``position_table_revolutions`` (n),
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
@@ -26,7 +27,9 @@ from gyro_calib.rbrlg.diagnostics import calibration_status
 from gyro_calib.handoff import Provenance, method_calibration, update_calibration
 from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_values
 from gyro_calib.rbrlg.stations import Station
-from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
+from gyro_calib.config import read_method_file
+from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
+from gyro_calib.session import CalibrationOptions
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
@@ -50,8 +53,13 @@ class CalibrationNode(Node):
         path = described_parameter(
             self, 'config_file', '',
             'YAML file with calibration settings; its values override parameters.')
-        self.config = (load_k_tilde_config(path) if path
-                       else k_tilde_config_from_mapping(values, source='ROS parameters'))
+        file_bench: dict[str, object] = {}
+        if path:  # the node's whole parameter schema (bench settings too), as --config
+            file_values, file_bench = read_method_file(
+                path, node_name='calibration_node', fields=list(values))
+            self.config = k_tilde_config_from_mapping(file_values, source=path)
+        else:
+            self.config = k_tilde_config_from_mapping(values, source='ROS parameters')
         site = {name: described_parameter(self, name, default, text)
                 for name, default, text in (
             ('position_table_revolutions', 1, 'n: position-table revolutions each way per '
@@ -68,6 +76,16 @@ class CalibrationNode(Node):
             ('gyro_id', '', "The gyro's serial or name, written to the hand-off file."))}
         self.output_file = str(site.pop('output_file'))
         self.gyro_id = str(site.pop('gyro_id'))
+        options = CalibrationOptions(  # the one range check of every bench setting
+            latitude_deg=None if math.isnan(site['latitude_deg']) else site['latitude_deg'],
+            heading_deg=site['heading_deg'],
+            position_table_revolutions=site['position_table_revolutions'],
+            gyro_id=self.gyro_id, config_file=Path(path) if path else None,
+            config_bench=file_bench, given_by='parameter')
+        site['latitude_deg'] = options.latitude
+        site['heading_deg'] = options.setting('heading_deg', 0.0)
+        site['position_table_revolutions'] = options.setting('position_table_revolutions', 1)
+        self.gyro_id = str(options.setting('gyro_id', ''))
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self.bench = RbrlgCalibrator(
             self.config, int(site['position_table_revolutions']), float(site['latitude_deg']),

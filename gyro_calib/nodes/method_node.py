@@ -30,6 +30,7 @@ from std_msgs.msg import Float64, Header
 
 from gyro_calib import topics
 from gyro_calib.bag import SampleBatch
+from gyro_calib.config import read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import update_calibration
 from gyro_calib.mcap_columns import FrameIds, TopicColumns
@@ -151,7 +152,12 @@ class MethodNode(Node):
             config_file=Path(p['config_file']) if p['config_file'] else None,
             scale_factor_rad_per_pulse=(None if math.isnan(p['scale_factor_rad_per_pulse'])
                                         else p['scale_factor_rad_per_pulse']),
-            gyro_id=p['gyro_id'], settings=settings)
+            gyro_id=p['gyro_id'], settings=settings, given_by='parameter')
+        if options.config_file is not None and self.method.node:
+            _, bench = read_method_file(options.config_file, node_name=self.method.node,
+                                        fields=self.method.settings_fields())
+            options = dataclasses.replace(options, config_bench=bench)
+        self.options = options
         self.output_file, self.gyro_id = p['output_file'], p['gyro_id']
         self.session: MethodSession = self.method.make_session(options)
         self.add_on_set_parameters_callback(self._refuse_runtime_change)

@@ -7,13 +7,14 @@ the node.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
 from gyro_calib import topics
-from gyro_calib.errors import ConfigError
+from gyro_calib.config import read_method_file
 from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults, handoff_values
-from gyro_calib.rbrlg.config import KTildeConfig, load_k_tilde_config
+from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
 from gyro_calib.rbrlg.keys import METHOD
 from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.units import RAD_PER_ARCSEC
@@ -30,6 +31,8 @@ TOPICS = {topics.GYRO_PULSES: 'sensor_msgs/msg/JointState',
           topics.POSITION_TABLE_JOINT_STATES: 'sensor_msgs/msg/JointState',
           topics.POSITION_TABLE_ZERO_INDEX: 'std_msgs/msg/Header'}
 
+NODE_NAME = 'calibration_node'
+
 DEG_H = math.radians(1.0) / 3600.0
 """rad/s per °/h."""
 
@@ -37,16 +40,16 @@ DEG_H = math.radians(1.0) / 3600.0
 def rbrlg_calibrator(options: CalibrationOptions) -> RbrlgCalibrator:
     """The calibrator with the user's settings: flags first, then the bench settings stored in
     the bag, then the defaults."""
-    k_config = load_k_tilde_config(options.config_file) if options.config_file else KTildeConfig()
-    revolutions = int(options.pick(options.position_table_revolutions,
-                                   'position_table_revolutions', 1))
-    if revolutions < 1:
-        raise ConfigError(f'position_table_revolutions = {revolutions} is invalid: it must be at '
-                          'least 1.')
+    k_config = KTildeConfig()
+    if options.config_file is not None:
+        values, _ = read_method_file(options.config_file, node_name=NODE_NAME,
+                                     fields=[f.name for f in dataclasses.fields(KTildeConfig)])
+        k_config = k_tilde_config_from_mapping(values, source=str(options.config_file))
     return RbrlgCalibrator(
-        k_config=k_config, position_table_revolutions=revolutions,
+        k_config=k_config,
+        position_table_revolutions=int(options.setting('position_table_revolutions', 1)),
         latitude_deg=options.latitude,
-        heading_deg=float(options.pick(options.heading_deg, 'heading_deg', 0.0)))
+        heading_deg=float(options.setting('heading_deg', 0.0)))
 
 
 class RbrlgSession(MethodSession):

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gyro_calib.config import read_parameter_file
+from gyro_calib.config import read_method_file
 from gyro_calib.errors import ConfigError, GyroCalibError
 from gyro_calib.registry import JOINT_STATE, TEMPERATURE
 from gyro_calib.session import CalibrationOptions, MethodSession
@@ -77,7 +77,8 @@ def thermal_settings(options: CalibrationOptions) -> tuple[ThermalSettings, dict
     values = dict(options.settings)
     source = 'ROS parameters'
     if options.config_file is not None:
-        values.update(read_parameter_file(options.config_file, node_name=NODE_NAME))
+        values.update(read_method_file(options.config_file, node_name=NODE_NAME, fields=[
+            f.name for f in dataclasses.fields(ThermalSettings)])[0])
         source = str(options.config_file)
     settings = thermal_settings_from_mapping(values, source=source)
     origin: dict[str, str] = {}
@@ -96,8 +97,8 @@ def thermal_settings(options: CalibrationOptions) -> tuple[ThermalSettings, dict
             origin[field] = source
         elif _given(from_file):
             changes[field], origin[field] = from_file, file_note
-        elif _given(options.bench(field, None)):
-            changes[field], origin[field] = options.bench(field, None), 'the bag\'s bench settings'
+        elif (stored := options.stored(field)) is not None:
+            changes[field], origin[field] = stored
 
     k_file, k_note = None, ''
     if handoff is not None:
