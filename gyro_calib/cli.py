@@ -176,7 +176,9 @@ def method_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--latitude-deg', type=float,
                         help='site latitude, ° (default: the bench settings stored in the '
                         'bag, else unknown: bias not separated from Earth rate)')
-    parser.add_argument('--heading-deg', type=float, help='table-base heading from East, °')
+    parser.add_argument('--heading-deg', type=float,
+                        help='rbrlg: heading of the position-table base x axis, from East '
+                        'towards North (0 = East, 90 = North; = 90 − an azimuth), °')
     parser.add_argument('--position-table-revolutions', type=int,
                         help='rbrlg: n, position-table revolutions each way per station')
     parser.add_argument('--scale-factor-rad-per-pulse', type=float,
@@ -189,7 +191,8 @@ def method_arguments(parser: argparse.ArgumentParser) -> None:
                         help='thermal: sense-axis elevation on the static base, ° (default 90: '
                         'vertical)')
     parser.add_argument('--sense-axis-azimuth-deg', type=float,
-                        help='thermal: sense-axis azimuth from North, °')
+                        help='thermal: sense-axis azimuth, from North towards East (0 = '
+                        'North, 90 = East; = 90 − a heading), °')
     parser.add_argument('--gyro-id', default='', help="the gyro's serial or name (hand-off)")
 
 
