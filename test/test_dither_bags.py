@@ -107,7 +107,8 @@ def test_human_summary_gives_the_paper_units_and_the_floor_beside_each_figure(
     for head in ('table along Z: a·|sin ψ₀| =', 'table along Y: a·|cos ψ₀| =', 'a = '):
         line = next(x for x in lines if x.startswith(head))
         assert 'floor' in line, line
-    assert any('above the 5′ limit (k = 2): reject.' in x for x in lines)
+    assert any('(k = 2, rocking allowance included): above the 5′ limit: reject.' in x
+               for x in lines)
     assert 'K given: K = 1″/pulse' in text
 
 
@@ -116,8 +117,19 @@ def test_json_document_has_results_components_floor_and_verdict(
     dither = pair_run['doc']['methods']['dither']
     assert set(dither) >= {'results', 'missing', 'rejections', 'components', 'misalignment',
                            'verdict', 'scale_factor'}
-    for value in dither['results'].values():
-        assert set(value) == {'value', 'std', 'n'}
+    for key, value in dither['results'].items():
+        if key in (KEY_A, KEY_Z, KEY_Y):  # its parts beside the combined std (issue 16)
+            assert set(value) == {'value', 'std', 'n', 'std_statistical', 'systematic_bound',
+                                  'systematic_model', 'interval', 'coverage_factor'}
+            assert value['std'] == pytest.approx(math.hypot(
+                value['std_statistical'], value['systematic_bound'] / math.sqrt(3)))
+            assert 'rocking' in value['systematic_model']
+            low, high = value['interval']
+            assert low < value['value'] < high
+        else:
+            assert set(value) == {'value', 'std', 'n'}
+    verdict = dither['verdict']
+    assert verdict['state'] == 'reject' and verdict['lower_rad'] > verdict['limit_rad']
     for comp in dither['components'].values():
         assert comp['reported'] is True and comp['floor_rad'] > 0
     assert dither['misalignment']['floor_rad'] > 0
@@ -153,10 +165,16 @@ def test_one_orientation_gives_its_component_and_says_a_needs_the_other() -> Non
     assert 'dither_axis_misalignment_rad: not measured — a = √(z² + y²) needs both' in out
     assert 'θ_d (pulses; no K given)' in out and 'no scale factor K given' in out
     assert 'NOT bounded' in out  # without K the rocking cannot be bounded: it says so
-    res = outcome.sessions['dither'].results()
-    assert set(res) == {KEY_Z, KEY_FREQUENCY, KEY_AMPLITUDE_PULSES}
+    session = outcome.sessions['dither']
+    # the component is measured and shown; its uncertainty is unbounded (no K, one
+    # orientation), so the hand-off leaves it out and says why
+    assert set(session.results()) == {KEY_FREQUENCY, KEY_AMPLITUDE_PULSES}
+    z = session.json_section()['results'][KEY_Z]
+    assert z['std'] is None and z['systematic_bound'] is None and z['std_statistical'] > 0
+    assert 'its uncertainty is unbounded' in session.missing()[KEY_Z]
+    assert next(x for x in lines if x.startswith('a·|sin ψ₀|')).split()[-2] == 'unbounded'
     exp = _expected('dither_z')
-    assert abs(res[KEY_Z].value - abs(exp['truth']['effective_z_rad'])) \
+    assert abs(z['value'] - abs(exp['truth']['effective_z_rad'])) \
         < exp['tolerance']['effective_component_rad']
 
 
@@ -172,21 +190,22 @@ def test_stripped_output_is_refused_with_its_reason_and_no_number() -> None:
     assert 'dither-stripped' in session.limiting()
 
 
-def test_table_too_small_for_the_floor_withholds_the_component_with_what_would_do() -> None:
+def test_table_too_small_for_the_floor_reports_the_component_with_what_would_do() -> None:
     exp = _expected('dither_small_table')
     session = calibrate_bags([BAGS / 'dither_small_table'],
                              options=CalibrationOptions(scale_factor_rad_per_pulse=K)
                              ).sessions['dither']
     assert isinstance(session, DitherSession)
     res = session.results()
-    assert KEY_Z not in res and KEY_A not in res
     assert KEY_FREQUENCY in res and KEY_AMPLITUDE in res  # what it did measure is kept
-    why = session.missing()[KEY_Z]
-    for reason in exp['withheld_reasons']:
+    z = session.json_section()['results'][KEY_Z]  # measured: reported with its interval
+    assert z['interval'][0] == 0.0 and z['std_statistical'] > 0
+    why = session.calibrator.summary().unresolved['z']
+    for reason in exp['unresolved_reasons']:
         assert reason in why
-    assert 'use A ≥' in why and 'or record' in why
+    assert 'or record' in why
     assert session.calibrator.orientations['z'].equations.n_blocks == exp['blocks_accepted']
-    assert session.limiting().startswith('table along Z: table rate amplitude 1 rad/s')
+    assert session.limiting() == why
 
 
 def test_info_prints_the_floor_and_the_record_a_target_needs() -> None:
@@ -202,14 +221,14 @@ def test_info_prints_the_floor_and_the_record_a_target_needs() -> None:
     need = (floor_arcmin / 1.25) ** 2 * 40.0
     assert f'record {need:.0f} s in this orientation' in out or \
         f'record {need / 60:.0f} min in this orientation' in out
-    assert out.rstrip().splitlines()[-1].startswith('limits the result: the rocking bound')
+    assert out.rstrip().splitlines()[-1].startswith('limits the result: the rocking allowance')
 
 
 def test_info_of_a_small_table_names_the_amplitude_that_would_do() -> None:
     code, out, _ = _cli('info', str(BAGS / 'dither_small_table'))
     assert code == 0
     assert 'detection floor of this record: σ_c = ' in out and 'or A ≥ ' in out
-    assert 'not reported — table rate amplitude 1 rad/s is too small' in out
+    assert 'cannot be told from zero' in out and 'table rate amplitude 1 rad/s' in out
 
 
 @pytest.mark.parametrize('name', ['dither_y', 'dither_stripped'])

@@ -15,8 +15,10 @@ from gyro_calib.dither.floor import (
 )
 from gyro_calib.dither.misalignment import (
     Component,
-    acceptance_verdict,
+    RockingAllowance,
     combine_components,
+    interval_verdict,
+    misalignment_interval,
 )
 from gyro_calib.errors import ConfigError
 
@@ -120,28 +122,85 @@ def test_rocking_bound_adds_a_rectangular_type_b_uncertainty() -> None:
     assert c.std_rad == pytest.approx(math.hypot(0.3, 0.9 / math.sqrt(3)) * ARCMIN)
 
 
-def test_verdict_accepts_and_rejects_only_when_the_record_decides() -> None:
-    kw = dict(limit_rad=5 * ARCMIN, coverage_factor=2.0, record_s=300.0, sample_rate_hz=2000.0)
-    ok = acceptance_verdict(2 * ARCMIN, 1 * ARCMIN, statistical_std_rad=1 * ARCMIN, **kw)
-    bad = acceptance_verdict(9 * ARCMIN, 1 * ARCMIN, statistical_std_rad=1 * ARCMIN, **kw)
-    assert ok.decided and ok.accepted and 'accept' in ok.sentence
-    assert bad.decided and bad.accepted is False and 'reject' in bad.sentence
+NO_ROCKING = RockingAllowance('none', 'proportional', 0.0)
+VERDICT_KW = dict(limit_rad=5 * ARCMIN, record_s=300.0, sample_rate_hz=2000.0,
+                  table_rate_amplitude_rad_s=5.0)
 
 
-def test_undecided_verdict_says_how_much_more_record_or_how_fast_to_sample() -> None:
-    v = acceptance_verdict(3 * ARCMIN, 2.4 * ARCMIN, statistical_std_rad=2.4 * ARCMIN,
-                           limit_rad=5 * ARCMIN, coverage_factor=2.0, record_s=300.0,
-                           sample_rate_hz=2000.0)
-    assert not v.decided and v.accepted is None
-    assert 'cannot decide a < 5′' in v.sentence and 'more' in v.sentence and 'kHz' in v.sentence
-    # σ must fall from 2.4′ to 1′: 5.76 × the samples
-    assert v.more_record_s == pytest.approx(300 * (5.76 - 1))
-    assert v.sample_rate_needed_hz == pytest.approx(2000 * 5.76)
+def _verdict(z: Component, y: Component | None, rocking: RockingAllowance = NO_ROCKING):
+    comps = {'z': z} if y is None else {'z': z, 'y': y}
+    m = None if y is None else combine_components(z, y, rocking)
+    interval = misalignment_interval(m, comps, rocking, 2.0)
+    return interval, interval_verdict(interval, m, rocking, **VERDICT_KW,
+                                      missing_axes=() if y is not None else ('y',))
 
 
-def test_undecided_verdict_says_when_no_record_can_decide() -> None:
-    # the Type B part (rocking bound) alone exceeds the margin
-    v = acceptance_verdict(4 * ARCMIN, 1.5 * ARCMIN, statistical_std_rad=0.2 * ARCMIN,
-                           limit_rad=5 * ARCMIN, coverage_factor=2.0, record_s=300.0,
-                           sample_rate_hz=2000.0)
+def test_verdict_accepts_and_rejects_only_when_the_interval_clears_the_limit() -> None:
+    _, ok = _verdict(_component('z', 1.2 * ARCMIN, 0.5 * ARCMIN),
+                     _component('y', 1.6 * ARCMIN, 0.5 * ARCMIN))
+    _, bad = _verdict(_component('z', 5.4 * ARCMIN, 0.5 * ARCMIN),
+                      _component('y', 7.2 * ARCMIN, 0.5 * ARCMIN))
+    assert ok.decided and ok.accepted and ok.state == 'accept' and 'accept' in ok.sentence
+    assert bad.decided and bad.accepted is False and bad.state == 'reject'
+
+
+def test_rocking_allowance_is_a_multiplicative_interval_on_a() -> None:
+    # κ = 0.2, proportional: ρ = √2·κ; a ∈ [(â − 2σ)/(1 + ρ), (â + 2σ)/(1 − ρ)]
+    rocking = RockingAllowance('bound', 'proportional', 0.2, 1 / 35)
+    rho = math.sqrt(2) * 0.2
+    z, y = _component('z', 30 * ARCMIN, 0.3 * ARCMIN), _component('y', 40 * ARCMIN, 0.4 * ARCMIN)
+    m = combine_components(z, y, rocking)
+    interval, _ = _verdict(z, y, rocking)
+    assert m.rho == pytest.approx(rho)
+    assert m.rocking_bound_rad == pytest.approx(rho * m.value_rad / (1 - rho))
+    assert interval.upper_rad == pytest.approx((m.value_rad + 2 * m.random_std_rad) / (1 - rho))
+    assert interval.lower_rad == pytest.approx((m.value_rad - 2 * m.random_std_rad) / (1 + rho))
+
+
+def test_a_is_reported_with_a_huge_y_uncertainty_and_rejected_from_z_alone() -> None:
+    # the bench: Z 58′ well measured, Y −15′ ± 23′ (cannot be told from zero)
+    rocking = RockingAllowance('bound', 'proportional', 0.1, 1 / 35)
+    z, y = _component('z', 58.2 * ARCMIN, 2.0 * ARCMIN), _component('y', -14.8 * ARCMIN,
+                                                                     22.6 * ARCMIN)
+    m = combine_components(z, y, rocking)
+    assert m.value_rad > 0 and math.isfinite(m.std_rad)  # a is formed, however wide
+    interval, verdict = _verdict(z, y, rocking)
+    assert verdict.state == 'reject'
+    # Z alone: a ≥ |s_z| and s_z is shifted by ≤ κ·a
+    z_low = (z.magnitude_rad - 2 * z.random_std_rad) / 1.1
+    assert interval.lower_rad >= z_low > 5 * ARCMIN
+    # with one orientation only the lower end still rejects, naming the component
+    only_z, alone = _verdict(z, None, rocking)
+    assert only_z.lower_rad == pytest.approx(z_low) and math.isinf(only_z.upper_rad)
+    assert alone.state == 'reject' and 'component Z alone' in alone.sentence
+
+
+def test_undecidable_verdict_says_what_record_or_table_amplitude_would_decide() -> None:
+    z, y = _component('z', 2.4 * ARCMIN, 1.2 * ARCMIN), _component('y', 3.2 * ARCMIN,
+                                                                    1.2 * ARCMIN)
+    m = combine_components(z, y, NO_ROCKING)
+    _, v = _verdict(z, y)
+    assert not v.decided and v.accepted is None and v.state == 'undecidable'
+    assert 'cannot decide a < 5′' in v.sentence and 'more in each orientation' in v.sentence
+    assert 'table rate amplitude' in v.sentence and 'kHz' in v.sentence
+    target = (5 * ARCMIN - m.value_rad) / 2  # upper end â + 2σ below the limit
+    factor = (m.random_std_rad / target) ** 2
+    assert v.more_record_s == pytest.approx(300 * (factor - 1))
+    assert v.sample_rate_needed_hz == pytest.approx(2000 * factor)
+    assert v.table_rate_amplitude_needed_rad_s == pytest.approx(5.0 * math.sqrt(factor))
+
+
+def test_undecidable_verdict_says_when_no_record_can_decide() -> None:
+    # the rocking allowance alone spans the limit: â/(1 + ρ) < 5′ < â/(1 − ρ)
+    rocking = RockingAllowance('bound', 'proportional', 0.3, 1 / 35)
+    _, v = _verdict(_component('z', 3 * ARCMIN, 0.05 * ARCMIN),
+                    _component('y', 4 * ARCMIN, 0.05 * ARCMIN), rocking)
     assert not v.decided and 'with any record' in v.sentence
+
+
+def test_unsized_rocking_bounds_nothing_and_asks_for_k() -> None:
+    rocking = RockingAllowance('bound', 'proportional', math.nan, 1 / 35)
+    interval, v = _verdict(_component('z', 50 * ARCMIN, 0.5 * ARCMIN),
+                           _component('y', 30 * ARCMIN, 0.5 * ARCMIN), rocking)
+    assert interval.lower_rad == 0.0 and math.isinf(interval.upper_rad)
+    assert v.state == 'undecidable' and 'scale factor K' in v.sentence

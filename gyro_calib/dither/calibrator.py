@@ -27,7 +27,7 @@ import math
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -47,10 +47,14 @@ from gyro_calib.dither.lines import (
 from gyro_calib.dither.misalignment import (
     RAD_PER_ARCMIN,
     Component,
+    Interval,
     Misalignment,
+    RockingAllowance,
     Verdict,
-    acceptance_verdict,
+    allowance_half_width,
     combine_components,
+    interval_verdict,
+    misalignment_interval,
 )
 from gyro_calib.dither.regression import (
     ReducedNormalEquations,
@@ -82,6 +86,10 @@ from gyro_calib.dither.keys import (  # noqa: E402  (names shared with the hand-
     KEY_CONING,
     KEY_CONING_TOTAL,
     KEY_FREQUENCY,
+    KEY_LIMIT,
+    KEY_LOWER,
+    KEY_UPPER,
+    KEY_VERDICT,
     KEY_Y,
     KEY_Z,
 )
@@ -234,21 +242,48 @@ def line_conflicts(dither_hz: float, table_hz: float, *, separation_hz: float,
     return out
 
 
+def _pm(std_rad: float) -> str:
+    """'± x′', or '± unbounded' when the uncertainty cannot be stated."""
+    return f'± {_arcmin(std_rad)}' if math.isfinite(std_rad) else '± unbounded'
+
+
+def describe_component(c: Component) -> str:
+    """One component as the summary, the figures and the log state it (same numbers)."""
+    ab = 'a·|sin ψ₀|' if c.axis == 'z' else 'a·|cos ψ₀|'
+    if c.rocking_bound_rad == 0.0:
+        rock = ''
+    elif math.isinf(c.rocking_bound_rad):
+        rock = '; rocking allowance unbounded'
+    else:
+        rock = f'; rocking allowance ±{_arcmin(c.rocking_bound_rad)}'
+    lock = (f'; clock-lock {_arcmin(c.clock_lock_std_rad)}' if c.clock_lock_std_rad else '')
+    return (f'table along {c.axis.upper()}: {ab} = {_arcmin(c.magnitude_rad)} {_pm(c.std_rad)} '
+            f'(statistical {_arcmin(c.statistical_std_rad)}{lock}{rock}; floor for this '
+            f'{c.record_s:.0f} s record {_arcmin(c.floor.component_std_rad)}; {c.n_blocks} '
+            'blocks)')
+
+
 @dataclass(frozen=True, slots=True)
 class DitherSummary:
     """Everything measured so far, for reports and plots.
 
     Attributes:
-        components: per measured orientation, its :class:`Component`.
-        withheld: per orientation whose component is not reported, the reason.
-        notes: per orientation, conditions worth a line (e.g. a vibration frequency that
-            divides the sample rate).
-        misalignment: a from both (None until both are reported).
-        verdict: acceptance against ``max_misalignment_arcmin`` (None without a).
+        components: per measured orientation, its :class:`Component` (every one measured is
+            reported, however wide its uncertainty).
+        withheld: per orientation with no component, why (no accepted block).
+        misalignment: a from both (None until both orientations are measured).
+        verdict: acceptance against ``max_misalignment_arcmin`` from the interval (None
+            without a component).
         coning: eq. (24) and the dither × rocking term (None without a).
         dither_frequency_hz: mean Ω_d/2π over accepted blocks (NaN if none).
         dither_amplitude_pulses: mean fitted dither line amplitude (NaN if none).
         dither_amplitude_rad: θ_d with K (NaN without K).
+        notes: per orientation, conditions worth a line (e.g. a vibration frequency that
+            divides the sample rate).
+        unresolved: per orientation whose component rests on few blocks or cannot be told
+            from zero, a sentence with what would resolve it.
+        interval: a's k-interval with the rocking allowance (None without a component).
+        rocking: the rocking allowance the results rest on.
     """
 
     components: dict[str, Component]
@@ -260,6 +295,29 @@ class DitherSummary:
     dither_amplitude_pulses: float
     dither_amplitude_rad: float
     notes: dict[str, str] = field(default_factory=dict)
+    unresolved: dict[str, str] = field(default_factory=dict)
+    interval: Interval | None = None
+    rocking: RockingAllowance | None = None
+
+    def misalignment_line(self) -> str | None:
+        """a as the summary and the figures state it (None without a)."""
+        m = self.misalignment
+        if m is None:
+            return None
+        floor = max(c.floor.component_std_rad for c in self.components.values())
+        state = '' if m.resolved else ' (not resolved from zero)'
+        if m.rocking_bound_rad == 0.0:
+            rock = ''
+        elif math.isinf(m.rocking_bound_rad):
+            rock = '; rocking allowance unbounded'
+        else:
+            rock = (f'; rocking allowance ±{_arcmin(m.rocking_bound_rad)}: a ∈ '
+                    f'[â/(1 + {m.rho:.3g}), â/(1 − {m.rho:.3g})]')
+        lock = (f'; clock-lock {_arcmin(m.clock_lock_std_rad)}' if m.clock_lock_std_rad
+                else '')
+        return (f'a = {_arcmin(m.value_rad)} {_pm(m.std_rad)}{state} (statistical '
+                f'{_arcmin(m.statistical_std_rad)}{lock}{rock}); floor {_arcmin(floor)}; '
+                f'ψ₀ = {math.degrees(m.azimuth_rad):.0f}° (kinematics sign convention)')
 
     def lines(self) -> list[str]:
         """Human summary: each component and a with the floor beside it, verdict, coning."""
@@ -267,16 +325,10 @@ class DitherSummary:
         for axis in AXES:
             c = self.components.get(axis)
             if c is not None:
-                ab = 'a·|sin ψ₀|' if axis == 'z' else 'a·|cos ψ₀|'
-                bound = (f', rocking bound ±{_arcmin(c.rocking_bound_rad)}'
-                         if math.isfinite(c.rocking_bound_rad) and c.rocking_bound_rad > 0
-                         else '')
-                out.append(f'table along {axis.upper()}: {ab} = {_arcmin(c.magnitude_rad)} ± '
-                           f'{_arcmin(c.std_rad)} (statistical {_arcmin(c.statistical_std_rad)}'
-                           f'{bound}; floor for this {c.record_s:.0f} s record '
-                           f'{_arcmin(c.floor.component_std_rad)}; {c.n_blocks} blocks)')
+                out.append(describe_component(c))
             elif axis in self.withheld:
                 out.append(f'table along {axis.upper()}: {self.withheld[axis]}')
+        out.extend(self.unresolved.values())
         out.extend(self.notes.values())
         for axis, c in self.components.items():
             if c.null_ratio_squared > 1.5:
@@ -288,17 +340,11 @@ class DitherSummary:
                     f'{math.sqrt(c.null_ratio_squared):.2f}×. A vibration frequency that does '
                     'not divide the sample rate (e.g. 19.87 Hz rather than 20 Hz at 2 kHz) '
                     'avoids it.')
-        if any(math.isinf(c.rocking_bound_rad) for c in self.components.values()):
-            out.append('rocking bound: unbounded — with k/θ_d ≥ 0.71 the in-phase rocking may be '
-                       'as large as the misalignment signal; set rocking_arcsec_per_arcmin for '
-                       'this gyro, or measure the rocking (rocking_treatment = model).')
-        m = self.misalignment
-        if m is not None:
-            floor = max(c.floor.component_std_rad for c in self.components.values())
-            state = '' if m.resolved else ' (not resolved from zero)'
-            out.append(f'a = {_arcmin(m.value_rad)} ± {_arcmin(m.std_rad)}{state}; floor '
-                       f'{_arcmin(floor)}; ψ₀ = {math.degrees(m.azimuth_rad):.0f}° '
-                       f'(kinematics sign convention)')
+        notes = {c.rocking_note for c in self.components.values() if c.rocking_note}
+        out.extend(f'rocking allowance unbounded: {n}.' for n in sorted(notes))
+        line = self.misalignment_line()
+        if line is not None:
+            out.append(line)
         if self.verdict is not None:
             out.append(self.verdict.sentence)
         if self.coning is not None:
@@ -739,9 +785,20 @@ class DitherCalibrator:
         amps = [b.dither_amplitude_pulses for r in self.orientations.values() for b in r.blocks]
         return float(np.mean(amps)) if amps else math.nan
 
+    def rocking_allowance(self, theta_d_rad: float) -> RockingAllowance:
+        """The rocking allowance of these settings at dither amplitude θ_d (rad; NaN = no K)."""
+        s = self.settings
+        k = s.rocking_per_misalignment if s.rocking_treatment == 'bound' else 0.0
+        kappa = 0.0 if k == 0.0 else k / theta_d_rad
+        return RockingAllowance(s.rocking_treatment, s.rocking_model, kappa,
+                                s.rocking_arcsec_per_arcmin)
+
     def components(self) -> tuple[dict[str, Component], dict[str, str]]:
-        """Each measured orientation's component before the reporting rules, and why the
-        others have none (the reported ones are in :meth:`summary`)."""
+        """Each measured orientation's component, and why the others have none.
+
+        Every measured component is reported (issue 16): one the record cannot tell from
+        zero gets its interval and a note saying what would resolve it (:meth:`summary`).
+        """
         s = self.settings
         sols = {axis: self._raw_solution(axis) for axis in AXES}
         raw = {axis: float(sol.beta[0]) for axis, sol in sols.items() if sol is not None}
@@ -750,6 +807,7 @@ class DitherCalibrator:
         amp_pulses = self._dither_amplitude_pulses()
         theta_d = (s.scale_factor_rad_per_pulse * amp_pulses / cos_a if s.has_scale_factor
                    else math.nan)
+        rocking = self.rocking_allowance(theta_d)
         arw_pulses = (math.radians(s.angle_random_walk_deg_sqrt_h) / 60.0
                       / s.scale_factor_rad_per_pulse if s.has_scale_factor else 0.0)
         comps: dict[str, Component] = {}
@@ -768,14 +826,11 @@ class DitherCalibrator:
                             else s.rocking_in_phase_xy_arcsec) * RAD_PER_ARCSEC
                 value += in_phase / theta_d
             signed[axis] = float(value)
+        random_std: dict[str, float] = {}
+        built: dict[str, dict[str, Any]] = {}
         for axis in signed:
             sol, rec = sols[axis], self.orientations[axis]
             sigma = math.sqrt(sol.covariance[0, 0]) * cos_a
-            other = signed.get('y' if axis == 'z' else 'z')
-            if s.rocking_treatment == 'bound':
-                bound = self._rocking_bound(axis, signed, sigma, theta_d)
-            else:
-                bound = 0.0
             fs = rec.mean('sample_rate_hz')
             floor = detection_floor(
                 table_rate_amplitude_rad_s=rec.mean('table_rate_amplitude_rad_s'),
@@ -801,52 +856,60 @@ class DitherCalibrator:
                     f'{_arcmin(math.hypot(sigma, lock_std))}). For the floor, vibrate half way '
                     f'between two divisors of the sample rate, e.g. {fs / (n_lock + 0.5):.2f} Hz '
                     f'or {fs / (n_lock - 0.5):.2f} Hz.')
-            comps[axis] = Component(
+            random_std[axis] = math.hypot(sigma, lock_std)
+            built[axis] = dict(
                 axis=axis, signed_rad=signed[axis], statistical_std_rad=sigma,
-                rocking_bound_rad=bound,
                 quadrature_rad=(-1.0 if axis == 'z' else 1.0) * float(sol.beta[1]) * cos_a,
                 quadrature_std_rad=math.sqrt(sol.covariance[1, 1]) * cos_a, floor=floor,
                 n_blocks=sol.n_blocks, dof=sol.dof, record_s=rec.record_s, sample_rate_hz=fs,
                 birge_ratio_squared=sol.birge_ratio_squared,
                 null_ratio_squared=sol.null_ratio_squared,
                 count_drift_pulses_s=rec.mean('drift_pulses_s'),
-                clock_lock_std_rad=lock_std, clock_lock_note=lock_note)
+                clock_lock_std_rad=lock_std, clock_lock_note=lock_note,
+                table_rate_amplitude_rad_s=rec.mean('table_rate_amplitude_rad_s'))
+        bound, note = self._component_allowance(signed, built, rocking)
+        for axis, kw in built.items():
+            comps[axis] = Component(rocking_bound_rad=bound, rocking_note=note, **kw)
         return comps, missing
 
-    def _rocking_bound(self, axis: str, signed: dict[str, float], sigma: float,
-                       theta_d: float) -> float:
-        """δ for one orientation under ``'bound'`` (NaN without K; inf if unboundable).
+    @staticmethod
+    def _component_allowance(signed: dict[str, float], built: dict[str, dict[str, Any]],
+                             rocking: RockingAllowance) -> tuple[float, str]:
+        """(κ·â/(1 − ρ), why unbounded) for the components (module misalignment docstring).
 
-        The rocking scales with the true a, which the rocking itself may have shrunk: with
-        κ = k/θ_d, |a_true − a_measured| ≤ √2·κ·a_true, so a_true ≤ (â + σ)/(1 − √2·κ). With
-        one orientation only, a ≥ |ŝ| is all that is known: the bound is then a lower estimate.
+        The shift of one component is at most κ·a, and a is bounded only with both
+        orientations measured and ρ < 1; without K, κ is not known at all.
         """
-        s = self.settings
-        if not s.has_scale_factor:
-            return math.nan
-        kappa = s.rocking_per_misalignment / theta_d
-        if math.sqrt(2.0) * kappa >= 1.0:
-            return math.inf
-        other = signed.get('y' if axis == 'z' else 'z')
-        measured = math.hypot(signed[axis], other) if other is not None else abs(signed[axis])
-        a_true = (measured + sigma) / (1.0 - math.sqrt(2.0) * kappa)
-        if s.rocking_model == 'proportional':
-            return kappa * a_true
-        # components: the shift along Z comes from the XZ tilt (the Y component) and vice versa
-        return kappa * min(a_true, (abs(other) + sigma) / (1.0 - math.sqrt(2.0) * kappa)
-                           if other is not None else a_true)
+        if rocking.kappa == 0.0:
+            return 0.0, ''
+        if not rocking.sized:
+            return math.inf, ('the rocking allowance k·a/θ_d needs θ_d in rad, i.e. the scale '
+                              'factor K (give --scale-factor-rad-per-pulse or --calibration '
+                              'FILE, or rocking_treatment: none if the bench has no '
+                              'transverse rocking)')
+        if len(signed) < 2:
+            return math.inf, ('the rocking allowance κ·a needs a, and one orientation bounds '
+                              'a only from below: record the other orientation')
+        if rocking.rho >= 1.0:
+            return math.inf, (f'ρ = {rocking.rho:.2f} ≥ 1: the rocking k·a may be as large as '
+                              'the misalignment signal (κ = k/θ_d); measure the rocking '
+                              '(rocking_treatment = model) or use a larger dither amplitude')
+        vz, vy = (built[a]['statistical_std_rad'] ** 2 for a in AXES)
+        value = math.sqrt(max(0.0, signed['z'] ** 2 + signed['y'] ** 2 - vz - vy))
+        return allowance_half_width(value, rocking.kappa, rocking.rho), ''
 
-    def _withhold_reason(self, c: Component) -> str | None:
-        """Why a measured component is not reported (None if it is)."""
+    def _resolution_note(self, c: Component) -> str | None:
+        """What a component rests on when it is weak: few blocks, or not told from zero
+        (then the table amplitude or record that would resolve half the limit)."""
         s = self.settings
         rec = self.orientations[c.axis]
+        notes = []
         if c.n_blocks < s.min_blocks:
-            return (f'only {c.n_blocks} block(s) ({c.record_s:.0f} s) accepted with the table '
-                    f'along {c.axis.upper()}; min_blocks = {s.min_blocks} are needed.')
-        limit = s.max_misalignment_arcmin * RAD_PER_ARCMIN
+            notes.append(f'rests on only {c.n_blocks} block(s) ({c.record_s:.0f} s; min_blocks '
+                          f'= {s.min_blocks}): its block-scatter check is weak')
         k = s.verdict_coverage_factor
-        if c.floor.component_std_rad > limit / k and not c.significant:
-            target = limit / (2 * k)
+        if not c.significant:
+            target = s.max_misalignment_arcmin * RAD_PER_ARCMIN / (2 * k)
             amp = rec.mean('table_rate_amplitude_rad_s')
             common = dict(dither_amplitude_rad=rec.mean('dither_amplitude_pulses'),
                           sample_rate_hz=c.sample_rate_hz, scale_factor_rad_per_pulse=1.0,
@@ -855,51 +918,57 @@ class DitherCalibrator:
             a_needed = required_table_rate_amplitude_rad_s(target, record_s=c.record_s,
                                                            **common)
             t_needed = required_record_s(target, table_rate_amplitude_rad_s=amp, **common)
-            return (f'table rate amplitude {amp:.3g} rad/s is too small for this '
-                    f'{c.record_s:.0f} s record: its floor is {_arcmin(c.floor.component_std_rad)} '
-                    f'per component, so a misalignment at the {s.max_misalignment_arcmin:g}′ '
-                    f'limit cannot be told from zero (measured {_arcmin(c.signed_rad)} ± '
-                    f'{_arcmin(c.std_rad)}, not reported). To resolve half the limit at k = '
-                    f'{k:g} (σ ≤ {_arcmin(target)}) use A ≥ {a_needed:.3g} rad/s for the same '
-                    f'record, or record {t_needed / 60:.0f} min at this amplitude.')
-        return None
+            notes.append(
+                f'cannot be told from zero ({_arcmin(c.signed_rad)} ± '
+                f'{_arcmin(c.random_std_rad)} statistical; the floor of this {c.record_s:.0f} s '
+                f'record at table rate amplitude {amp:.3g} rad/s is '
+                f'{_arcmin(c.floor.component_std_rad)}); to resolve half the '
+                f'{s.max_misalignment_arcmin:g}′ limit at k = {k:g} (σ ≤ {_arcmin(target)}) '
+                f'use A ≥ {a_needed:.3g} rad/s for the same record, or record '
+                f'{t_needed / 60:.0f} min at this amplitude')
+        if not notes:
+            return None
+        return f'table along {c.axis.upper()}: the component ' + '; it '.join(notes) + '.'
 
     def summary(self) -> DitherSummary:
-        """Everything measured so far (components, a, verdict, coning, dither)."""
+        """Everything measured so far (components, a, interval, verdict, coning, dither)."""
         s = self.settings
-        comps, withheld = self.components()
-        reported: dict[str, Component] = {}
+        comps, missing = self.components()
+        unresolved: dict[str, str] = {}
         for axis, c in comps.items():
-            reason = self._withhold_reason(c)
-            if reason is None:
-                reported[axis] = c
-            else:
-                withheld[axis] = reason
-        misalignment = verdict = coning = None
+            reason = self._resolution_note(c)
+            if reason is not None:
+                unresolved[axis] = reason
+        misalignment = verdict = coning = interval = None
         freqs = [b.dither_frequency_hz for r in self.orientations.values() for b in r.blocks]
         amp_pulses = self._dither_amplitude_pulses()
         a_for_cos = math.hypot(*(c.signed_rad for c in comps.values())) if comps else 0.0
         theta_d = (s.scale_factor_rad_per_pulse * amp_pulses / math.cos(a_for_cos)
                    if s.has_scale_factor else math.nan)
-        if len(reported) == 2:
-            z, y = reported['z'], reported['y']
-            misalignment = combine_components(z, y)
-            verdict = acceptance_verdict(
-                misalignment.value_rad, misalignment.std_rad,
-                statistical_std_rad=misalignment.random_std_rad,
-                limit_rad=s.max_misalignment_arcmin * RAD_PER_ARCMIN,
-                coverage_factor=s.verdict_coverage_factor,
-                record_s=min(z.record_s, y.record_s),
-                sample_rate_hz=min(z.sample_rate_hz, y.sample_rate_hz))
+        rocking = self.rocking_allowance(theta_d)
+        if len(comps) == 2:
+            z, y = comps['z'], comps['y']
+            misalignment = combine_components(z, y, rocking)
             coning = coning_drift(z.magnitude_rad, y.magnitude_rad,
                                   dither_frequency_hz=float(np.mean(freqs)),
                                   dither_amplitude_rad=theta_d,
                                   rocking_per_misalignment=s.rocking_per_misalignment,
                                   rocking_phase_rad=s.rocking_phase_rad, model=s.rocking_model)
+        if comps:
+            interval = misalignment_interval(misalignment, comps, rocking,
+                                             s.verdict_coverage_factor)
+            verdict = interval_verdict(
+                interval, misalignment, rocking,
+                limit_rad=s.max_misalignment_arcmin * RAD_PER_ARCMIN,
+                record_s=min(c.record_s for c in comps.values()),
+                sample_rate_hz=min(c.sample_rate_hz for c in comps.values()),
+                table_rate_amplitude_rad_s=max(c.table_rate_amplitude_rad_s
+                                               for c in comps.values()),
+                missing_axes=tuple(a for a in AXES if a not in comps))
         notes = {axis: c.clock_lock_note for axis, c in comps.items() if c.clock_lock_note}
-        return DitherSummary(reported, withheld, misalignment, verdict, coning,
+        return DitherSummary(comps, missing, misalignment, verdict, coning,
                              float(np.mean(freqs)) if freqs else math.nan, amp_pulses, theta_d,
-                             notes)
+                             notes, unresolved, interval, rocking)
 
     def _coning_estimates(self, summary: DitherSummary) -> dict[str, Estimate]:
         """Eq. (24) and the total, with uncertainty by the unscented transform of (ŝ_z, ŝ_y)."""
@@ -918,7 +987,13 @@ class DitherCalibrator:
         out = {}
         n = z.n_blocks + y.n_blocks
         dof = min(z.dof, y.dof)
+        unbounded = not (math.isfinite(vz) and math.isfinite(vy))
         for key, attr in ((KEY_CONING, 'eq24_rad_s'), (KEY_CONING_TOTAL, 'total_rad_s')):
+            if unbounded:  # a's uncertainty has no bound, so has ε's (value still measured)
+                value = getattr(vals[0], attr)
+                if math.isfinite(value):
+                    out[key] = Estimate(float(value), math.inf, n, dof)
+                continue
             v = np.array([getattr(c, attr) for c in vals])
             if not np.all(np.isfinite(v)):
                 continue
@@ -931,8 +1006,10 @@ class DitherCalibrator:
         """Measured quantities by hand-off key (SI units), only those measured so far.
 
         ``dither_misalignment_z_rad`` / ``_y_rad``: bias-corrected a·|sin ψ₀|, a·|cos ψ₀|;
-        ``dither_axis_misalignment_rad``: bias-corrected a (both orientations needed);
-        standard uncertainties include the rocking bound (Type B) under ``'bound'``.
+        ``dither_axis_misalignment_rad``: bias-corrected a (both orientations needed). Every
+        measured one is returned, however wide: the standard uncertainty combines the
+        statistical part and the rocking allowance (bound/√3) and is inf when the allowance
+        cannot be sized (:meth:`result_parts` has the parts and the interval).
         ``dither_amplitude_rad`` needs K; without it ``dither_amplitude_pulses`` is given.
         """
         summary = self.summary()
@@ -963,11 +1040,45 @@ class DitherCalibrator:
                 a_raw = math.hypot(*(c.signed_rad for c in comps.values())) if comps else 0.0
                 u_a = (m.std_rad if m is not None else
                        math.hypot(*(c.std_rad for c in comps.values())) if comps else 0.0)
-                rel = math.tan(a_raw) * u_a if math.isfinite(u_a) else 0.0
+                if not math.isfinite(u_a):  # unbounded a: its statistical part instead
+                    u_a = (m.random_std_rad if m is not None else
+                           math.hypot(*(c.random_std_rad for c in comps.values())))
+                rel = math.tan(a_raw) * u_a
                 std = math.hypot(a_std * scale, rel * summary.dither_amplitude_rad)
                 out[KEY_AMPLITUDE] = Estimate(summary.dither_amplitude_rad, std, n, n - 1)
             else:
                 out[KEY_AMPLITUDE_PULSES] = Estimate(float(amps.mean()), a_std, n, n - 1)
+        return out
+
+    def result_parts(self) -> dict[str, dict[str, Any]]:
+        """Per misalignment key, the parts of its uncertainty (``--json``).
+
+        ``std_statistical`` (the random part: residuals, block scatter, clock-lock widening),
+        ``systematic_bound`` (half-width of the rocking allowance; inf when it cannot be
+        sized, 0 when not bounded), ``systematic_model`` (what the bound rests on),
+        ``interval`` ([lower, upper] at ``coverage_factor``, the allowance included).
+        """
+        summary = self.summary()
+        rocking = summary.rocking
+        model = rocking.description() if rocking is not None else ''
+        k = self.settings.verdict_coverage_factor
+        out: dict[str, dict[str, Any]] = {}
+        m = summary.misalignment
+        a_hi = (summary.interval.upper_rad if summary.interval is not None else math.inf)
+        kappa = rocking.kappa if rocking is not None else 0.0
+        for axis, c in summary.components.items():
+            slack = k * c.random_std_rad + (kappa * a_hi if kappa else 0.0)
+            out[COMPONENT_KEYS[axis]] = {
+                'std_statistical': c.random_std_rad, 'systematic_bound': c.rocking_bound_rad,
+                'systematic_model': model + (f' ({c.rocking_note})' if c.rocking_note else ''),
+                'interval': [max(c.magnitude_rad - slack, 0.0), c.magnitude_rad + slack],
+                'coverage_factor': k}
+        if m is not None and summary.interval is not None:
+            out[KEY_A] = {
+                'std_statistical': m.random_std_rad, 'systematic_bound': m.rocking_bound_rad,
+                'systematic_model': model,
+                'interval': [summary.interval.lower_rad, summary.interval.upper_rad],
+                'coverage_factor': k}
         return out
 
     def missing(self) -> dict[str, str]:
@@ -985,18 +1096,27 @@ class DitherCalibrator:
                     tail if axis not in summary.components else '')
         if KEY_A not in have:
             absent = [a.upper() for a in AXES if a not in summary.components]
-            if absent:
-                why = f'no reported component with the table along {" and ".join(absent)}'
-            else:
-                why = 'both components are measured'
-            out[KEY_A] = (f'a = √(z² + y²) needs both orientations\' components; {why}. One '
-                          'orientation sees only a·|sin ψ₀| or a·|cos ψ₀|, which depends on '
-                          'the mounting azimuth ψ₀.')
+            out[KEY_A] = (f'a = √(z² + y²) needs both orientations\' components; none with '
+                          f'the table along {" and ".join(absent)}. One orientation sees only '
+                          'a·|sin ψ₀| or a·|cos ψ₀|, which depends on the mounting azimuth ψ₀ '
+                          '(it bounds a from below: see the verdict).')
             for key in (KEY_CONING, KEY_CONING_TOTAL):
                 out[key] = 'the coning drift needs a, which needs both orientations.'
         elif KEY_CONING_TOTAL not in have:
             out[KEY_CONING_TOTAL] = ('the dither × rocking coning needs θ_d in rad: give '
                                      'scale_factor_rad_per_pulse (K).')
+        for key, est in have.items():
+            if math.isinf(est.std_uncertainty):
+                out[key] = (f'its value ({est.value:.6g}) is measured and shown with its '
+                            'statistical part (summary, --json), but its uncertainty is '
+                            'unbounded (the rocking allowance, see above): the hand-off file '
+                            'takes only values with a stated uncertainty.')
+        interval, verdict = summary.interval, summary.verdict
+        if verdict is None:
+            for key in (KEY_VERDICT, KEY_LOWER, KEY_UPPER, KEY_LIMIT):
+                out[key] = 'the verdict needs at least one measured component.'
+        elif interval is not None and not math.isfinite(interval.upper_rad):
+            out[KEY_UPPER] = ('nothing bounds a from above yet: ' + verdict.sentence)
         if KEY_FREQUENCY not in have:
             out[KEY_FREQUENCY] = 'no accepted block yet (needs the dither line).' + tail
         if KEY_AMPLITUDE not in have:

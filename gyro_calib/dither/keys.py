@@ -14,10 +14,15 @@ KEY_AMPLITUDE = 'dither_amplitude_rad'
 KEY_AMPLITUDE_PULSES = 'dither_amplitude_pulses'
 KEY_CONING = 'coning_drift_rad_s'
 KEY_CONING_TOTAL = 'coning_drift_total_rad_s'
+KEY_VERDICT = 'dither_misalignment_verdict'
+KEY_LOWER = 'dither_axis_misalignment_lower_rad'
+KEY_UPPER = 'dither_axis_misalignment_upper_rad'
+KEY_LIMIT = 'dither_misalignment_limit_rad'
 
 HANDOFF_KEYS = (
     HandoffKey(KEY_A, METHOD, 'dither-axis misalignment a = √(z² + y²), bias-corrected, from '
-               'the table along Z and along Y (uncertainty includes the rocking bound), rad',
+               'the table along Z and along Y (std: the statistical part and the rocking '
+               'allowance as bound/√3; the interval keys below bound a), rad',
                'nonnegative'),
     HandoffKey(KEY_Z, METHOD, 'a·|sin ψ₀|, the component the table along case Z sees, '
                'bias-corrected, rad', 'nonnegative'),
@@ -35,4 +40,16 @@ HANDOFF_KEYS = (
     HandoffKey(KEY_CONING_TOTAL, METHOD, '§C eq. (24) plus the dither × rocking coning '
                '½·Ω_d·θ_d·θ_xy·sin φ·a·|sin ψ₀| (worst-case sum; needs K), rad/s',
                'nonnegative'),
+    HandoffKey(KEY_VERDICT, METHOD, 'acceptance of a against dither_misalignment_limit_rad from '
+               'the interval [lower, upper] (k = verdict_coverage_factor, rocking allowance '
+               'included): accept (upper below the limit), reject (lower above it; one '
+               'component\'s lower end suffices, a ≥ |component|) or undecidable', 'text',
+               False),
+    HandoffKey(KEY_LOWER, METHOD, 'lower end of a\'s interval at k = verdict_coverage_factor, '
+               'rocking allowance included, rad', 'nonnegative', False),
+    HandoffKey(KEY_UPPER, METHOD, 'upper end of a\'s interval at k = verdict_coverage_factor, '
+               'rocking allowance included (absent when nothing bounds a from above), rad',
+               'positive', False),
+    HandoffKey(KEY_LIMIT, METHOD, 'the acceptance limit max_misalignment_arcmin the verdict '
+               'was taken against, rad', 'positive', False),
 )

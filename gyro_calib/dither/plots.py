@@ -19,7 +19,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gyro_calib.dither.calibrator import KEY_A, KEY_CONING, DitherCalibrator
+from gyro_calib.dither.calibrator import (
+    COMPONENT_KEYS,
+    KEY_A,
+    KEY_CONING,
+    DitherCalibrator,
+    describe_component,
+)
 from gyro_calib.dither.coning import PAPER_ROCKING_PER_MISALIGNMENT, coning_drift
 from gyro_calib.dither.misalignment import RAD_PER_ARCMIN
 
@@ -135,12 +141,24 @@ def _plot_residuals(cal: DitherCalibrator, axis: str, out_dir: Path) -> Path:
     beta = sign * np.array([b.beta[0] for b in rec.blocks]) / RAD_PER_ARCMIN
     std = np.array([b.beta_std[0] for b in rec.blocks]) / RAD_PER_ARCMIN
     ax3.errorbar(t, beta, yerr=std, fmt='.', ms=3, lw=0.5, color='0.4', label='each block')
-    comps, _ = cal.components()
-    c = comps.get(axis)
+    summary = cal.summary()
+    c = summary.components.get(axis)
     if c is not None:
-        v, s = c.signed_rad / RAD_PER_ARCMIN, c.statistical_std_rad / RAD_PER_ARCMIN
+        # the numbers the summary prints (describe_component), drawn with the blocks' sign
+        sign = 1.0 if c.signed_rad >= 0 else -1.0
+        v = sign * c.magnitude_rad / RAD_PER_ARCMIN
+        s = c.random_std_rad / RAD_PER_ARCMIN
         ax3.axhspan(v - s, v + s, color='tab:green', alpha=0.3,
-                    label=f'whole record {v:.2f}′ ± {s:.2f}′')
+                    label=f'reported {abs(v):.2f}′, ± statistical {s:.2f}′')
+        parts = cal.result_parts().get(COMPONENT_KEYS[axis])
+        if parts is not None:
+            low, high = (x / RAD_PER_ARCMIN for x in parts['interval'])
+            if math.isfinite(high):
+                edges = (sign * low, sign * high)
+                ax3.axhspan(min(edges), max(edges), color='tab:green', alpha=0.1,
+                            label=f'interval at k = {parts["coverage_factor"]:g} '
+                                  f'(rocking allowance included): {low:.2f}′ – {high:.2f}′')
+        ax3.set_title(describe_component(c), fontsize=8, wrap=True)
     ax3.set_xlabel('block start (s)')
     ax3.set_ylabel('signed component (′)')
     ax3.legend(fontsize=7)
@@ -175,7 +193,8 @@ def _plot_coning(results: dict[str, Estimate], out_dir: Path, *, dither_hz: floa
                     label=f'+ dither × rocking, {model} (ψ₀ = 45°)')
     ax.axvline(5.0, color='tab:red', lw=0.8, label='acceptance limit 5′')
     ax.axhline(0.0005, color='0.5', lw=0.6, ls='-.', label='0.0005 °/h')
-    if KEY_A in results and KEY_CONING in results:
+    if KEY_A in results and KEY_CONING in results and all(
+            math.isfinite(results[k].std_uncertainty) for k in (KEY_A, KEY_CONING)):
         ra, rc = results[KEY_A], results[KEY_CONING]
         ax.errorbar([ra.value / RAD_PER_ARCMIN], [rc.value * DEG_H_PER_RAD_S],
                     xerr=[ra.std_uncertainty / RAD_PER_ARCMIN],

@@ -31,10 +31,15 @@ from gyro_calib.dither.calibrator import (
     KEY_CONING,
     KEY_CONING_TOTAL,
     KEY_FREQUENCY,
+    KEY_LIMIT,
+    KEY_LOWER,
+    KEY_UPPER,
+    KEY_VERDICT,
     KEY_Y,
     KEY_Z,
     DitherCalibrator,
     DitherSummary,
+    describe_component,
 )
 from gyro_calib.dither.floor import (
     required_record_s,
@@ -182,7 +187,8 @@ class DitherSession(MethodSession):
         """Why each dither key is not measured (yet)."""
         out = self.calibrator.missing()
         for key, est in self._all_results().items():
-            if not (math.isfinite(est.value) and math.isfinite(est.std_uncertainty)):
+            if key not in out and not (math.isfinite(est.value)
+                                       and math.isfinite(est.std_uncertainty)):
                 out[key] = (f'only {est.n_used} accepted block: its uncertainty needs the '
                             'scatter of at least two.')
         return out
@@ -212,7 +218,7 @@ class DitherSession(MethodSession):
     # -- reports ----------------------------------------------------------------------------
     def summary_rows(self) -> list[tuple[str, str, str, str]]:
         """a, the two components, θ_d, f_d and the coning drift in the paper's units."""
-        res = self.results()
+        res = {k: e for k, e in self._all_results().items() if math.isfinite(e.value)}
         rows: list[tuple[str, str, str, str]] = []
 
         def add(name: str, key: str, scale: float, fmt: str) -> None:
@@ -220,8 +226,9 @@ class DitherSession(MethodSession):
             if est is None:
                 rows.append((name, '—', '', ''))
             else:
-                rows.append((name, f'{est.value * scale:{fmt}}',
-                             f'{est.std_uncertainty * scale:.3g}', str(est.n_used)))
+                std = (f'{est.std_uncertainty * scale:.3g}'
+                       if math.isfinite(est.std_uncertainty) else 'unbounded')
+                rows.append((name, f'{est.value * scale:{fmt}}', std, str(est.n_used)))
 
         per_arcmin = 1.0 / RAD_PER_ARCMIN
         add('a (′)', KEY_A, per_arcmin, '.3f')
@@ -252,14 +259,16 @@ class DitherSession(MethodSession):
     def _rocking_note(self) -> str:
         s = self.calibrator.settings
         if s.rocking_treatment == 'bound' and not s.has_scale_factor:
-            return ('in-phase transverse rocking NOT bounded: the bound k·a/θ_d needs θ_d in '
-                    'rad, i.e. the scale factor K; without it the uncertainties are '
-                    'statistical only and each component may be shifted by up to '
-                    f'{s.rocking_arcsec_per_arcmin:.3g}″ per ′ of a over θ_d (give K).')
+            return ('in-phase transverse rocking NOT bounded without K: the allowance k·a/θ_d '
+                    'needs θ_d in rad, so a and its components are given with their '
+                    'statistical part and an unbounded uncertainty (give K, or set '
+                    'rocking_treatment: none if the bench has no transverse rocking).')
         if s.rocking_treatment == 'bound':
-            return (f'in-phase transverse rocking bounded (k = {s.rocking_arcsec_per_arcmin:.3g}″ '
-                    f'per ′, {s.rocking_model} model) and added to each uncertainty as a '
-                    'rectangular Type B (rocking_treatment = bound).')
+            rocking = self.calibrator.summary().rocking
+            what = rocking.description() if rocking is not None else ''
+            return (f'allowance for in-phase transverse rocking (rocking_treatment = bound): '
+                    f'{what}. It is an interval on a, not a random error: the verdict uses '
+                    'the interval; std combines it as a rectangular bound/√3.')
         if s.rocking_treatment == 'model':
             return ('measured in-phase rocking subtracted (rocking_treatment = model: '
                     f'{s.rocking_in_phase_xz_arcsec:g}″ about Y, {s.rocking_in_phase_xy_arcsec:g}″ '
@@ -284,17 +293,15 @@ class DitherSession(MethodSession):
                 lines.append(f'table along {axis.upper()}: {why_not.get(axis, "not measured.")}')
                 continue
             lines += self._orientation_info(axis, c, summary, target)
-        if summary.misalignment is not None:
-            m = summary.misalignment
-            floor = max(c.floor.component_std_rad for c in summary.components.values())
-            lines.append(f'a = {_arcmin(m.value_rad)} ± {_arcmin(m.std_rad)} (statistical '
-                         f'{_arcmin(m.statistical_std_rad)}; floor {_arcmin(floor)})')
-            if summary.verdict is not None:
-                lines.append(summary.verdict.sentence)
+        line = summary.misalignment_line()
+        if line is not None:
+            lines.append(line)
         elif comps:
-            lines.append('a = √(z² + y²) needs both orientations reported: ' + (
+            lines.append('a = √(z² + y²) needs both orientations measured: ' + (
                 'record the other orientation (the table along '
                 + ' and '.join(a.upper() for a in AXES if a not in summary.components) + ').'))
+        if summary.verdict is not None:
+            lines.append(summary.verdict.sentence)
         lines.append(self.scale_factor_note)
         return lines
 
@@ -336,58 +343,92 @@ class DitherSession(MethodSession):
             f'(this {c.record_s:.0f} s record), or A ≥ {a_need:.3g} rad/s (this record and '
             'rate)',
         ]
-        ab = 'a·|sin ψ₀|' if axis == 'z' else 'a·|cos ψ₀|'
-        if axis in summary.components:
-            out.append(f'  {ab} = {_arcmin(c.magnitude_rad)} ± {_arcmin(c.std_rad)} '
-                       f'(statistical {_arcmin(c.statistical_std_rad)}, floor '
-                       f'{_arcmin(floor.component_std_rad)})')
-        else:
-            out.append(f'  {ab}: not reported — {summary.withheld.get(axis, "")}')
+        out.append('  ' + describe_component(c).split(': ', 1)[1])
+        if axis in summary.unresolved:
+            out.append('  ' + summary.unresolved[axis])
         return out
 
     def limiting(self) -> str:
         """What limits the result most, as an action."""
         cal = self.calibrator
         summary = cal.summary()
-        measured, _ = cal.components()
+        measured = summary.components
         if not measured:
             last = cal.rejections[-1].reason if cal.rejections else (
                 'no block of pulses and table joint_states yet.')
             return f'no accepted block: {last}'
-        for axis in AXES:
-            if axis in measured and axis not in summary.components:
-                return f'table along {axis.upper()}: {summary.withheld[axis]}'
-        missing = [a for a in AXES if a not in summary.components]
-        if missing:
-            return (f'a needs the table along {" and ".join(m.upper() for m in missing)} too: '
-                    'one orientation sees only a·|sin ψ₀| or a·|cos ψ₀|.')
-        m = summary.misalignment
         verdict = summary.verdict
-        if m is not None and verdict is not None and not verdict.decided:
+        for axis in AXES:
+            if axis in summary.unresolved:
+                return summary.unresolved[axis]
+        missing = [a for a in AXES if a not in measured]
+        if missing:
+            lead = (f'a needs the table along {" and ".join(m.upper() for m in missing)} too: '
+                    'one orientation sees only a·|sin ψ₀| or a·|cos ψ₀|')
+            if verdict is not None and verdict.decided:
+                return f'{lead} ({verdict.sentence})'
+            return lead + '.'
+        m = summary.misalignment
+        if verdict is not None and not verdict.decided:
             return verdict.sentence
         if m is not None:
-            type_b = math.sqrt(max(m.std_rad ** 2 - m.statistical_std_rad ** 2, 0.0))
-            if type_b > m.statistical_std_rad:
-                return (f'the rocking bound ({_arcmin(type_b)} Type B) dominates u(a) = '
-                        f'{_arcmin(m.std_rad)} over the record\'s {_arcmin(m.statistical_std_rad)}'
-                        ': measure the in-phase rocking (rocking_treatment = model).')
+            if math.isinf(m.rocking_bound_rad):
+                return ('the rocking allowance is unbounded: '
+                        + next(c.rocking_note for c in measured.values() if c.rocking_note) + '.')
+            if m.rocking_bound_rad > m.random_std_rad:
+                return (f'the rocking allowance (±{_arcmin(m.rocking_bound_rad)} on a, an '
+                        f'interval) dominates the record\'s statistical '
+                        f'{_arcmin(m.random_std_rad)}: measure the in-phase rocking '
+                        '(rocking_treatment = model).')
             return (f'the detection floor: u(a) = {_arcmin(m.std_rad)} falls as 1/√(f_s·T) '
                     '(longer records, faster sampling) or 1/A (larger table amplitude).')
         return 'every quantity measured.'
 
+    def handoff_values(self) -> dict[str, Any]:
+        """The measured keys with their ``_std`` (finite ones), then the verdict, a's interval
+        ends and the limit they were judged against."""
+        out = super().handoff_values()
+        summary = self.calibrator.summary()
+        if summary.verdict is not None and summary.interval is not None:
+            out[KEY_VERDICT] = summary.verdict.state
+            out[KEY_LOWER] = summary.interval.lower_rad
+            if math.isfinite(summary.interval.upper_rad):
+                out[KEY_UPPER] = summary.interval.upper_rad
+            out[KEY_LIMIT] = self.calibrator.settings.max_misalignment_arcmin * RAD_PER_ARCMIN
+        return out
+
     def json_section(self) -> dict[str, Any]:
-        """Results, missing, rejections, and per component the floor, a, verdict, K."""
+        """Results (with their parts), missing, rejections, components, a, verdict, K.
+
+        Each result keeps ``value``, ``std`` (null when unbounded) and ``n``; the
+        misalignment keys add ``std_statistical``, ``systematic_bound`` (half-width, null when
+        unbounded), ``systematic_model``, ``interval`` and ``coverage_factor``.
+        """
         out = super().json_section()
         cal = self.calibrator
         summary = cal.summary()
-        comps, _ = cal.components()
+        results: dict[str, Any] = {}
+        parts = cal.result_parts()
+        for key, est in self._all_results().items():
+            if not math.isfinite(est.value):
+                continue
+            entry: dict[str, Any] = {'value': est.value,
+                                     'std': _finite_or_none(float(est.std_uncertainty)),
+                                     'n': est.n_used}
+            for name, value in parts.get(key, {}).items():
+                entry[name] = ([_finite_or_none(float(v)) for v in value]
+                               if isinstance(value, list) else _finite_or_none(value))
+            results[key] = entry
+        out['results'] = results
+        comps = summary.components
         section: dict[str, Any] = {}
         for axis, c in comps.items():
             section[axis] = {k: _finite_or_none(v) for k, v in {
-                'reported': axis in summary.components,
-                'withheld': summary.withheld.get(axis),
+                'reported': True,
+                'unresolved': summary.unresolved.get(axis),
                 'value_rad': c.magnitude_rad, 'signed_rad': c.signed_rad,
                 'std_rad': c.std_rad, 'statistical_std_rad': c.statistical_std_rad,
+                'random_std_rad': c.random_std_rad,
                 'rocking_bound_rad': c.rocking_bound_rad,
                 'floor_rad': c.floor.component_std_rad, 'n_blocks': c.n_blocks,
                 'record_s': c.record_s, 'sample_rate_hz': c.sample_rate_hz,
@@ -399,13 +440,26 @@ class DitherSession(MethodSession):
         m = summary.misalignment
         out['misalignment'] = None if m is None else {k: _finite_or_none(v) for k, v in {
             'value_rad': m.value_rad, 'std_rad': m.std_rad,
-            'statistical_std_rad': m.statistical_std_rad,
-            'floor_rad': max(c.floor.component_std_rad for c in summary.components.values()),
+            'statistical_std_rad': m.statistical_std_rad, 'random_std_rad': m.random_std_rad,
+            'rocking_bound_rad': m.rocking_bound_rad, 'rho': m.rho,
+            'floor_rad': max(c.floor.component_std_rad for c in comps.values()),
             'azimuth_rad': m.azimuth_rad, 'resolved': m.resolved}.items()}
-        v = summary.verdict
-        out['verdict'] = None if v is None else {
-            'decided': v.decided, 'accepted': v.accepted, 'sentence': v.sentence,
-            'limit_rad': cal.settings.max_misalignment_arcmin * RAD_PER_ARCMIN}
+        v, iv = summary.verdict, summary.interval
+        out['verdict'] = None if v is None or iv is None else {
+            'state': v.state, 'decided': v.decided, 'accepted': v.accepted,
+            'sentence': v.sentence,
+            'limit_rad': cal.settings.max_misalignment_arcmin * RAD_PER_ARCMIN,
+            'lower_rad': iv.lower_rad, 'upper_rad': _finite_or_none(iv.upper_rad),
+            'lower_from': iv.lower_from, 'coverage_factor': iv.coverage_factor,
+            'more_record_s': _finite_or_none(v.more_record_s),
+            'sample_rate_needed_hz': _finite_or_none(v.sample_rate_needed_hz),
+            'table_rate_amplitude_needed_rad_s':
+                _finite_or_none(v.table_rate_amplitude_needed_rad_s)}
+        rocking = summary.rocking
+        out['rocking_allowance'] = None if rocking is None else {
+            'treatment': rocking.treatment, 'model': rocking.model,
+            'kappa': _finite_or_none(rocking.kappa), 'rho': _finite_or_none(rocking.rho),
+            'description': rocking.description()}
         out['scale_factor'] = {
             'rad_per_pulse': _finite_or_none(cal.settings.scale_factor_rad_per_pulse),
             'note': self.scale_factor_note}
