@@ -357,7 +357,11 @@ def bag_info(path: str | Path) -> BagInfo:
     Raises:
         BagError (subclass): the path is missing, not a bag, or the bag is damaged.
     """
+    from gyro_calib import table_input
+
     path = Path(path)
+    if table_input.is_table(path):
+        return table_input.table_info(path)  # type: ignore[no-any-return]
     reader = _open_reader(path)
     try:
         counts: dict[str, TopicInfo] = {}
@@ -495,8 +499,11 @@ def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
     """
-    from gyro_calib import mcap_columns
+    from gyro_calib import mcap_columns, table_input
 
+    if table_input.is_table(path):
+        yield from table_input.iter_table_batches(path, topic_types, batch_messages)
+        return
     types = dict(topic_types if topic_types is not None else CONTRACT_TYPES)
     for batch in mcap_columns.iter_column_batches(path, types, batch_messages=batch_messages):
         yield SampleBatch(batch.topics, batch.messages, batch.last_log_time_ns)

@@ -223,7 +223,10 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
     return BagCalibration(infos, sessions, counts[0], log, per_method, notes)
 
 
-def json_document(outcome: BagCalibration) -> dict[str, Any]:
-    """The ``--json`` document: ``{"methods": {NAME: {"results": ..., "rejections": ...}}}``."""
-    return {'methods': {name: s.json_section() for name, s in outcome.sessions.items()},
+def json_document(outcome: BagCalibration, command: str = 'calibrate') -> dict[str, Any]:
+    """The ``--json`` document every command shares (``gyro_calib/schema/result.schema.json``):
+    ``{"command", "methods": {NAME: {"results", "missing", "rejections", ...}}, "bags",
+    "messages"}``."""
+    return {'command': command,
+            'methods': {name: s.json_section() for name, s in outcome.sessions.items()},
             'bags': [str(i.path) for i in outcome.infos], 'messages': outcome.messages}

@@ -409,12 +409,13 @@ def _info(args: argparse.Namespace) -> int:
         print(f'  {name:8} {"yes" if p["runs"] else "no ":3}  {p["how"]}', file=human)
     names = list(args.method or [n for n, p in prospects.items()
                                  if p['runs'] and METHODS[n].auto])
-    doc: dict[str, Any] = {'methods': {}, 'bags': [str(i.path) for i in infos],
-                           'messages': 0, 'bag_info': descriptions}
+    doc: dict[str, Any] = {'command': 'info', 'methods': {},
+                           'bags': [str(i.path) for i in infos], 'messages': 0,
+                           'bag_info': descriptions}
     if names:
         refuse_unused_flags(args, names)
         outcome = calibrate_bags(args.bags, methods=names, options=_options(args))
-        doc = {**json_document(outcome), 'bag_info': descriptions}
+        doc = {**json_document(outcome, 'info'), 'bag_info': descriptions}
         for name, session in outcome.sessions.items():
             print(f'== {name}: {METHODS[name].title}', file=human)
             for line in session.info_lines():
@@ -428,7 +429,6 @@ def _info(args: argparse.Namespace) -> int:
     for name, p in prospects.items():
         doc['methods'].setdefault(name, {'results': {}, 'missing': {}, 'rejections': []})
         doc['methods'][name]['prospect'] = p
-    doc['command'] = 'info'
     if args.json:
         print(json.dumps(doc, indent=1, allow_nan=False, default=_json_default))
     return EXIT_OK

@@ -105,7 +105,7 @@ def test_cli_calibrate_writes_one_model_mapping_with_its_k_and_gyro(model_file: 
 def test_compensate_on_the_unseen_validation_run_meets_the_papers_77_percent(
         model_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
     doc = _json(capsys, ['compensate', str(BAGS / 'thermal_validation'), '--calibration',
-                         str(model_file), '--json'])
+                         str(model_file), '--json'])['methods']['thermal']
     res = doc['results']
     raw = res['bias_stability_raw_rad_s']['value']
     comp = res['bias_stability_compensated_rad_s']['value']
@@ -145,7 +145,7 @@ def test_compensate_out_writes_the_compensated_rate_on_gyro_imu(
     batch = next(iter_sample_batches(out, {'/gyro/imu': IMU}, batch_messages=10**9))
     z = batch.columns['/gyro/imu'].values['angular_velocity_rad_s'][:, 2]
     # consecutive-sample rates telescope: their mean is the run's compensated mean rate
-    mean = doc['results']['mean_rate_compensated_rad_s']
+    mean = doc['methods']['thermal']['results']['mean_rate_compensated_rad_s']
     assert abs(float(np.mean(z)) - mean['value']) < 3 * mean['std']
 
 
@@ -210,7 +210,7 @@ def test_validation_outside_the_calibrated_range_is_refused_or_skipped_when_aske
     assert 'outside the calibrated range' in err and 'would extrapolate' in err
     assert not out.exists()
     doc = _json(capsys, ['compensate', str(bag), '--calibration', str(model_file),
-                         '--skip-out-of-range', '--json'])
+                         '--skip-out-of-range', '--json'])['methods']['thermal']
     assert any('outside the calibrated range' in r and 'not compensated' in r
                for r in doc['rejections'])
     assert doc['results']['bias_stability_compensated_rad_s']['n'] >= 2

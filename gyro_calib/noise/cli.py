@@ -119,7 +119,7 @@ def run_noise(args: argparse.Namespace) -> int:
     human = sys.stderr if args.json else sys.stdout
     print(summary_text(outcome), file=human)
     if args.json:
-        print(json.dumps(json_document(outcome), indent=1, allow_nan=False,
+        print(json.dumps(json_document(outcome, 'noise'), indent=1, allow_nan=False,
                          default=_json_default))
     if not session.results():
         print('gyro-calib: no noise term is resolved (see the reasons above); nothing '

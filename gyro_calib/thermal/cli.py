@@ -74,7 +74,8 @@ def add_commands(subparsers: Any) -> None:
                    f'compensated rate on {GYRO_IMU} (sensor_msgs/Imu); must not exist')
     p.add_argument('--json', action='store_true', help='print one JSON document on stdout '
                    '(the human summary goes to stderr)')
-    p.add_argument('--plot', type=Path, metavar='DIR', help='write PNG figures into DIR')
+    p.add_argument('--plot', type=Path, metavar='DIR', help='write PNG figures into DIR '
+                   '(created if absent, in an existing directory)')
     p.add_argument('--gyro-id', default='', help='the recorded gyro (default: the bench '
                    'settings stored in the bag); a model of another gyro is refused')
     p.add_argument('--skip-out-of-range', action='store_true',
@@ -279,14 +280,18 @@ def _est(e: Estimate) -> dict[str, Any]:
 
 
 def json_document(result: BagCompensation) -> dict[str, Any]:
-    """The ``--json`` document (rates in rad/s; NaN → null)."""
+    """The ``--json`` document, in the shape every command shares (README, ``gyro_calib/
+    schema/result.schema.json``): ``methods.thermal.{results, missing, rejections}`` plus
+    the compensation's figures, model and notes (rates in rad/s; NaN → null)."""
     from gyro_calib.thermal.session import finite_json
 
     r = result.report
     fl = r.noise_floor
     m = result.model
-    return finite_json({
+    return finite_json({'command': 'compensate', 'methods': {'thermal': {
         'results': {k: _est(e) for k, e in r.results().items()},
+        'missing': {},
+        'rejections': [f'{format_stamp(x.stamp_ns)}: {x.reason}' for x in r.rejections],
         'earth_rate_along_axis_rad_s': r.earth_rate_along_axis_rad_s,
         'improvement': r.improvement,
         'noise_floor': {'bias_stability_rad_s': _est(fl.floor),
@@ -300,8 +305,7 @@ def json_document(result: BagCompensation) -> dict[str, Any]:
                   'extrapolation_margin_c': m.extrapolation_margin_c,
                   'scale_factor_rad_per_pulse': m.scale_factor_rad_per_pulse},
         'gyro_id': result.gyro_id,
-        'rejections': [f'{format_stamp(x.stamp_ns)}: {x.reason}' for x in r.rejections],
-        'notes': list(r.notes),
+        'notes': list(r.notes)}},
         'bags': [str(b) for b in result.bags],
     })
 
@@ -350,8 +354,13 @@ def run_compensate(args: argparse.Namespace) -> int:
     """``gyro-calib compensate``: exit status 0, or a GyroCalibError for main() to print."""
     from gyro_calib.bag import BagError
 
+    from gyro_calib.outputs import check_new_directory, check_plot_dir, make_plot_dir
+
     if args.out is not None and args.out.exists():
         raise BagError(f'{args.out}: exists already; not overwriting it.')
+    if args.out is not None:
+        check_new_directory(args.out, '--out')
+    plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     if args.out is not None and len(args.bags) != 1:
         raise ConfigError('--out writes a copy of one bag: give a single BAG with it.')
     result = compensate_bags(args.bags, args.calibration, gyro_id=args.gyro_id,
@@ -368,10 +377,10 @@ def run_compensate(args: argparse.Namespace) -> int:
               + ')', file=human)
         doc['out'] = {'bag': str(args.out.resolve()), 'topic': GYRO_IMU,
                       'type': IMU, 'messages': written, 'samples_without_bias': without}
-    if args.plot is not None:
+    if plot_dir is not None:
         from gyro_calib.thermal.plots import plot_compensation
 
-        for path in plot_compensation(result.report, args.plot):
+        for path in plot_compensation(result.report, make_plot_dir(plot_dir)):
             print(f'figure written: {path.resolve()}', file=human)
     if args.json:
         print(json.dumps(doc, indent=1, allow_nan=False))
