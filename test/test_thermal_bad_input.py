@@ -215,6 +215,26 @@ def test_invalid_settings_name_the_field(field: str, value, match: str) -> None:
         ThermalCalibrator(ThermalSettings(**{**BASE, field: value}))
 
 
+def test_missing_scale_factor_and_latitude_are_named_together_in_one_line() -> None:
+    with pytest.raises(ConfigError) as err:
+        ThermalCalibrator(ThermalSettings(gyro_id='A-2'))
+    msg = str(err.value)
+    assert '\n' not in msg
+    assert 'scale_factor_rad_per_pulse = nan' in msg and '--scale-factor-rad-per-pulse' in msg
+    assert 'latitude_deg = nan' in msg and '--latitude-deg' in msg
+
+
+def test_a_bad_value_from_the_bench_names_its_source_once() -> None:
+    from gyro_calib.thermal.session import provenance
+
+    bench = "the bag's bench settings"
+    text = provenance({'scale_factor_rad_per_pulse': bench, 'latitude_deg': bench,
+                       'sense_axis_elevation_deg': bench, 'gyro_id': '--gyro-id'})
+    assert text.count(bench) == 1
+    assert text == ('scale_factor_rad_per_pulse, latitude_deg and sense_axis_elevation_deg '
+                    "from the bag's bench settings; gyro_id from --gyro-id")
+
+
 def test_soak_style_refuses_dynamic_terms() -> None:
     with pytest.raises(ConfigError, match="only\npowers of H|powers of H"):
         ThermalSettings(**BASE, calibration_style='soak', candidate_terms='dynamic')
@@ -260,8 +280,26 @@ def test_live_tracker_refuses_a_stuck_cavity_sensor(model: ThermalBiasModel) -> 
         tracker.bias()
 
 
-def test_temperatures_sparser_than_the_averaging_interval_say_what_to_set() -> None:
-    rec = _ramp(temperature_rate_hz=0.5)
-    with pytest.raises(TemperatureDataError, match='read about every 2 s.*averaging_interval_s'):
+def test_temperatures_sparser_than_the_averaging_interval_are_interpolated() -> None:
+    """Sensors read every 2 s (all together) still give a model on 1 s intervals, close to
+    the one from the same run read every second."""
+    sparse, dense = _ramp(temperature_rate_hz=0.5), _ramp()
+    rep = _calibrate(sparse).report
+    assert any('read about every 2 s: interpolated' in n for n in rep.notes)
+    assert not rep.rejections
+    ref = _calibrate(dense).report
+    both = np.isfinite(rep.bias_model_rad_s) & np.isfinite(ref.bias_model_rad_s)
+    gap = np.sqrt(np.mean((rep.bias_model_rad_s - ref.bias_model_rad_s)[both] ** 2))
+    assert gap < 0.005 * math.pi / 180 / 3600  # °/h
+
+
+def test_a_sensor_read_further_apart_than_the_largest_gap_is_refused_in_one_line() -> None:
+    rec = _ramp(temperature_rate_hz=1 / 200)
+    with pytest.raises(TemperatureDataError) as err:
         _calibrate(rec)
-    assert _calibrate(rec, averaging_interval_s=2.0).model().averaging_interval_s == 2.0
+    msg = str(err.value)
+    assert '\n' not in msg
+    assert 'temperature sensor cavity_a is read about every 200 s' in msg
+    assert 'max_temperature_gap_s = 120 s' in msg and 'at least 240 s' in msg
+    model = _calibrate(rec, max_temperature_gap_s=240.0).model()
+    assert model.max_temperature_gap_s == 240.0

@@ -66,7 +66,8 @@ def _bag(path: Path, config: ChamberRunConfig, *, drop_topic: str | None = None,
     return path
 
 
-@pytest.mark.parametrize('name', ['thermal_calibration', 'thermal_fault_stuck_sensor'])
+@pytest.mark.parametrize('name', ['thermal_calibration', 'thermal_fault_stuck_sensor',
+                                  'thermal_ramp_only_sparse'])
 def test_committed_bag_calibrates_to_the_hidden_law_with_the_expected_rejections(
         name: str) -> None:
     exp = _expected(name)

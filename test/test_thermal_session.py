@@ -182,8 +182,11 @@ def test_summary_speaks_degrees_per_hour_and_names_terms_snr_and_floor(
     b0 = session.results()['thermal_coefficient_const_rad_s'].value
     assert float(rows[0][1]) == pytest.approx(b0 / (math.pi / 180 / 3600), abs=1e-5)
     text = '\n'.join(session.summary_lines())
-    for term in session.report.model.terms:  # type: ignore[union-attr]
-        assert f'{term} coefficient (°/h)' in [r[0] for r in rows]
+    terms = session.report.model.terms  # type: ignore[union-attr]
+    for j, term in enumerate(terms, start=1):
+        assert f't{j}: {term} coefficient (°/h)' in [r[0] for r in rows]
+    assert 'bias = b0' + ''.join(f' + t{j}·{t}' for j, t in enumerate(terms, start=1)) in text
+    assert '− -' not in text and '−  -' not in text
     assert 'stepwise over H, H^2, H^3, H^4, Hdot' in text
     assert 'SNR raw → denoised (dB)' in text
     assert 'noise floor of 100 s means' in text

@@ -146,7 +146,7 @@ class ThermalCalibrator:
     def table(self) -> IntervalTable:
         """The streams reduced so far, joined on the interval grid."""
         return join_intervals(self._pulses.arrays(),
-                              {s: r.arrays() for s, r in self._temps.items()
+                              {s: r.stamped_arrays() for s, r in self._temps.items()
                                if r.n_messages or len(r.arrays()[0])},
                               self.settings.averaging_interval_s)
 
@@ -173,8 +173,9 @@ class ThermalCalibrator:
                      f'{", ".join(report.candidates)}: {steps}.')
         lines.append(
             f'thermal model fitted on {report.fit.n} {self._row_kind()} '
-            f'({m.calibration_style}): bias = b0 + '
-            + (' + '.join(m.terms) if m.terms else '(constant only)')
+            f'({m.calibration_style}): bias = b0'
+            + (''.join(f' + t{j}·{t}' for j, t in enumerate(m.terms, start=1))
+               or ' (constant only)')
             + f'; residual std {m.residual_std_rad_s / _RAD_S_PER_DEG_H:.4f} °/h; calibrated '
             f'H {m.h_range_c[0]:.2f}…{m.h_range_c[1]:.2f} °C.')
         if report.holdout_stability_raw is not None and report.holdout_stability_compensated:

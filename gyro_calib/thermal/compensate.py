@@ -55,7 +55,7 @@ from gyro_calib.thermal.intervals import (
     true_runs,
 )
 from gyro_calib.thermal.model import ThermalBiasModel
-from gyro_calib.thermal.topics import SENSOR_CAVITY_A, SENSOR_CAVITY_B, SENSORS
+from gyro_calib.thermal.topics import SENSOR_CAVITY_A, SENSOR_CAVITY_B, SENSOR_SHELL, SENSORS
 from gyro_calib.units import NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
@@ -117,6 +117,14 @@ class CompensationReport:
         }
 
 
+def model_interval_settings(model: ThermalBiasModel) -> IntervalSettings:
+    """The reduction the model was fitted with: its interval, Ḣ window and largest
+    interpolated gap between a sensor's readings."""
+    return IntervalSettings(averaging_interval_s=model.averaging_interval_s,
+                            hdot_window_s=model.hdot_window_s,
+                            max_temperature_gap_s=model.max_temperature_gap_s)
+
+
 class CompensationReducer:
     """Reduces a recording stream by stream, chunk by chunk, exactly as the calibrator does
     (the model's averaging interval and Ḣ window), for :func:`compensate_reduced`.
@@ -133,8 +141,7 @@ class CompensationReducer:
             ConfigError: ``interval_settings`` with another interval or Ḣ window than the
                 model's (Ḣ would not mean what it meant in the fit).
         """
-        iset = interval_settings or IntervalSettings(
-            averaging_interval_s=model.averaging_interval_s, hdot_window_s=model.hdot_window_s)
+        iset = interval_settings or model_interval_settings(model)
         if abs(iset.averaging_interval_s - model.averaging_interval_s) > 1e-12 or abs(
                 iset.hdot_window_s - model.hdot_window_s) > 1e-12:
             raise ConfigError('interval_settings must use the model\'s averaging interval and '
@@ -171,7 +178,7 @@ class CompensationReducer:
     def table(self) -> IntervalTable:
         """The streams reduced so far, joined on the interval grid."""
         return join_intervals(self.pulses.arrays(),
-                              {s: r.arrays() for s, r in self.temperatures.items()
+                              {s: r.stamped_arrays() for s, r in self.temperatures.items()
                                if r.n_messages}, self.settings.averaging_interval_s)
 
 
@@ -374,20 +381,23 @@ class ThermalBiasTracker:
     the latest complete averaging interval, from the same interval means, the same sensor
     checks and the same causal Ḣ as :func:`compensate` — so a live corrector subtracts
     what the offline compensation subtracts, one interval (plus the reorder window) later.
-    It keeps only the last max(Ḣ window, stuck-sensor span) intervals. One difference: a
+    It keeps only the last max(Ḣ window, stuck-sensor span) + ``max_temperature_gap_s``
+    intervals. One difference: a
     stuck sensor is recognised live only once it has been stuck for ``sensor_stuck_s``,
     while the offline pass blanks the whole stuck span.
     """
 
     def __init__(self, model: ThermalBiasModel, *,
                  interval_settings: IntervalSettings | None = None) -> None:
-        """Create per-sensor reducers using the model's interval and Ḣ window."""
+        """Create per-sensor reducers using the model's interval, Ḣ window and largest
+        interpolated gap."""
         self.model = model
-        self.settings = interval_settings or IntervalSettings(
-            averaging_interval_s=model.averaging_interval_s, hdot_window_s=model.hdot_window_s)
+        self.settings = interval_settings or model_interval_settings(model)
         self._temps = {s: TemperatureIntervals(s, self.settings) for s in SENSORS}
         stuck_n = int(round(self.settings.sensor_stuck_s / self.settings.averaging_interval_s))
-        self._n_keep = max(self.settings.hdot_window_n, stuck_n + 2)
+        self._gap_n = int(math.ceil(self.settings.max_temperature_gap_s
+                                    / self.settings.averaging_interval_s)) + 1
+        self._n_keep = max(self.settings.hdot_window_n, stuck_n + 2) + self._gap_n
 
     def add_temperature(self, t_ns: int, celsius: float, frame_id: str) -> None:
         """One /gyro/temperature message (unknown frame_ids are ignored)."""
@@ -398,32 +408,65 @@ class ThermalBiasTracker:
     def bias(self) -> tuple[int, float, float]:
         """(end stamp of the interval used in ns, bias rad/s, its standard uncertainty).
 
+        The interval used is the latest one every sensor has a reading in or after (a
+        sensor read every few seconds is interpolated up to its latest reading, so the bias
+        lags by up to one reading interval).
+
         Raises:
-            InsufficientDataError: no complete interval with H and Ḣ yet, or a sensor the
-                model needs is stuck.
+            InsufficientDataError: no complete interval with H and Ḣ yet, a sensor the
+                model needs is stuck, or has not been read for ``max_temperature_gap_s``.
             ExtrapolationError: the temperature is outside the calibrated range.
         """
         n_keep = self._n_keep
         for red in self._temps.values():
             red.reduce()
-        tables = {s: r.arrays() for s, r in self._temps.items() if len(r.arrays()[0])}
+        tables = {s: r.stamped_arrays() for s, r in self._temps.items()
+                  if len(r.arrays()[0])}
         if SENSOR_CAVITY_A not in tables or SENSOR_CAVITY_B not in tables:
             raise InsufficientDataError('no complete interval of both cavity_a and cavity_b '
                                         'temperatures yet.')
-        k_end = min(int(k[-1]) for k, _ in tables.values() if len(k))
+        newest = max(int(cols[0][-1]) for cols in tables.values())
+        last_read = {}
+        for s, cols in tables.items():
+            fin = np.nonzero(np.isfinite(cols[1]))[0]
+            last_read[s] = int(cols[0][fin[-1]]) if len(fin) else None
+        needs_shell = 'dTcs' in self.model.variables
+        for s in (SENSOR_CAVITY_A, SENSOR_CAVITY_B) + ((SENSOR_SHELL,) if needs_shell else ()):
+            k_s = last_read.get(s)
+            if k_s is None or newest - k_s > self._gap_n:
+                raise InsufficientDataError(
+                    f'no reading from temperature sensor {s} in the last '
+                    f'{self.settings.max_temperature_gap_s:g} s (max_temperature_gap_s): the '
+                    'bias cannot be computed.')
+        k_end = min(k for s, k in last_read.items() if k is not None
+                    and (s != SENSOR_SHELL or needs_shell))
         k0 = k_end - n_keep + 1
-        window = {}
-        for s, (k, m) in tables.items():
+        window, offsets = {}, {}
+        for s, (k, m, off) in tables.items():
             col = np.full(n_keep, np.nan)
+            ocol = np.full(n_keep, np.nan)
             sel = (k >= k0) & (k <= k_end)
             col[k[sel] - k0] = m[sel]
+            ocol[k[sel] - k0] = off[sel]
+            # the next reading after k_end bounds the interpolation up to k_end
+            after = np.nonzero((k > k_end) & np.isfinite(m))[0]
+            if len(after):
+                j = int(after[0])
+                col = np.append(col, [np.nan] * (int(k[j]) - k_end - 1) + [m[j]])
+                ocol = np.append(ocol, [np.nan] * (int(k[j]) - k_end - 1) + [off[j]])
             window[s] = col
+            offsets[s] = ocol
+        width = max(len(c) for c in window.values())
+        window = {s: np.concatenate((c, np.full(width - len(c), np.nan)))
+                  for s, c in window.items()}
+        offsets = {s: np.concatenate((c, np.full(width - len(c), np.nan)))
+                   for s, c in offsets.items()}
         table = IntervalTable(self.settings.averaging_interval_s,
-                              np.arange(k0, k_end + 1, dtype=np.int64), np.full(n_keep, np.nan),
-                              np.zeros(n_keep, np.int64), window)
+                              np.arange(k0, k0 + width, dtype=np.int64), np.full(width, np.nan),
+                              np.zeros(width, np.int64), window, offsets)
         check = check_sensors(table, self.settings)
         n_hd = self.settings.hdot_window_n
-        recent = {s: c[-n_hd:] for s, c in check.temperatures_c.items()}
+        recent = {s: c[n_keep - n_hd:n_keep] for s, c in check.temperatures_c.items()}
         variables = thermal_variables(recent, self.settings)
         last = {v: variables[v][-1:] for v in variables}
         needed = ('H', *self.model.variables)

@@ -2,8 +2,10 @@
 
 :func:`fit_thermal` does, in order:
 
-1. sensor checks: both cavity sensors present; stuck and silent spans blanked
-   (:func:`gyro_calib.thermal.intervals.check_sensors`);
+1. sensor checks: both cavity sensors present; each sensor interpolated between its
+   readings onto the intervals without one (METHODS §D.5; a sensor whose readings lie
+   further apart than ``max_temperature_gap_s`` is refused); stuck and silent spans
+   blanked (:func:`gyro_calib.thermal.intervals.check_sensors`);
 2. variables per interval: raw rate K·ΔN/Δt minus the Earth rate along the sense axis
    = bias; H, Ḣ (causal slope), ΔT_ab, ΔT_cs;
 3. denoising of the rate by the lifting wavelet transform, per gap-free run
@@ -47,6 +49,7 @@ from gyro_calib.thermal.allan import bias_stability, block_means
 from gyro_calib.thermal.errors import TemperatureDataError
 from gyro_calib.thermal.intervals import (
     IntervalTable,
+    SensorCheck,
     check_sensors,
     thermal_variables,
     true_runs,
@@ -228,9 +231,10 @@ def fit_thermal(table: IntervalTable, settings: ThermalSettings, *,
     if not np.any(np.isfinite(table.dcount)):
         raise InsufficientDataError('no valid /gyro/pulses interval: the pulse topic is missing '
                                     'or every interval has a gap or glitch.')
-    _require_dense_temperatures(table, s)
     check = check_sensors(table, isets)
+    _require_readable_sensors(check, s)
     rejections += check.rejections
+    notes += check.notes
     temps = check.temperatures_c
     shell = SENSOR_SHELL in temps and bool(np.any(np.isfinite(temps[SENSOR_SHELL])))
     terms = candidate_terms(s.candidate_terms, max_h_power=s.max_h_power, shell=shell)
@@ -321,7 +325,7 @@ def fit_thermal(table: IntervalTable, settings: ThermalSettings, *,
         residual_std_rad_s=final.residual_std,
         fit_block_s=s.fit_block_s if s.calibration_style == 'continuous' else math.nan,
         calibration_style=s.calibration_style, covariance_kind=final.covariance_kind,
-        n_used=final.n, dof=final.dof)
+        n_used=final.n, dof=final.dof, max_temperature_gap_s=s.max_temperature_gap_s)
     hold_raw = hold_comp = None
     if holdout_fit is not None:
         hold_mask = _held_intervals(table, rows, s) & valid
@@ -360,20 +364,23 @@ def _require_cavity_sensors(table: IntervalTable, frame_ids_seen: tuple[str, ...
         f'{seen}): H is the mean of cavity_a and cavity_b, so both are needed.')
 
 
-def _require_dense_temperatures(table: IntervalTable, s: ThermalSettings) -> None:
-    """Refuse when most intervals hold no cavity reading: the sensors are read more slowly
-    than the averaging interval (H and Ḣ would be missing every other interval)."""
-    span = np.isfinite(table.dcount)
-    h_ok = np.isfinite(table.temperatures_c[SENSOR_CAVITY_A]) & np.isfinite(
-        table.temperatures_c[SENSOR_CAVITY_B])
-    first, last = np.nonzero(h_ok)[0][[0, -1]]
-    inside = span[first:last + 1]
-    frac = float(np.mean(h_ok[first:last + 1][inside])) if np.any(inside) else 1.0
-    if frac < 0.6:
-        raise TemperatureDataError(
-            f'only {frac:.0%} of the {s.averaging_interval_s:g} s intervals hold a reading of '
-            f'both cavity sensors: they are read about every {s.averaging_interval_s / frac:.2g} '
-            's. Set averaging_interval_s at least that long.')
+def _require_readable_sensors(check: SensorCheck, s: ThermalSettings) -> None:
+    """Refuse a sensor read so sparsely that it cannot be interpolated onto the intervals:
+    its readings lie further apart than ``max_temperature_gap_s`` almost everywhere."""
+    for name, smp in check.sampling.items():
+        if smp.n_points == 0:
+            continue
+        spacing = smp.typical_spacing_s
+        if smp.n_points < 2 or spacing > s.max_temperature_gap_s:
+            every = (f'about every {spacing:.4g} s' if math.isfinite(spacing)
+                     else f'only {smp.n_points} time(s) in the whole recording')
+            need = (f'set max_temperature_gap_s to at least {math.ceil(1.2 * spacing):g} s '
+                    '(if the temperature changes slowly enough over that span) or '
+                    if math.isfinite(spacing) else '')
+            raise TemperatureDataError(
+                f'temperature sensor {name} is read {every}, further apart than '
+                f'max_temperature_gap_s = {s.max_temperature_gap_s:g} s: its temperature '
+                f'cannot be interpolated between readings; {need}read the sensor more often.')
 
 
 def _block_rows(table: IntervalTable, valid: npt.NDArray[np.bool_],

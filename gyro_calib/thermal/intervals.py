@@ -53,6 +53,8 @@ class IntervalSettings:
             is stuck, s.
         sensor_stuck_min_change_c: ... while the other cavity sensor (shell: H) moved at
             least this much, °C.
+        max_temperature_gap_s: a temperature sensor is interpolated onto the intervals
+            between two of its readings at most this far apart, s (METHODS §D.5).
     """
 
     averaging_interval_s: float = 1.0
@@ -63,6 +65,7 @@ class IntervalSettings:
     max_rate_deg_s: float = 100.0
     sensor_stuck_s: float = 300.0
     sensor_stuck_min_change_c: float = 0.5
+    max_temperature_gap_s: float = 120.0
 
     @property
     def interval_ns(self) -> int:
@@ -266,24 +269,35 @@ class TemperatureIntervals:
         inside = kk >= 0
         sums = np.bincount(kk[inside], weights=v[:cut, 0][inside], minlength=n)
         counts = np.bincount(kk[inside], minlength=n)
+        # mean stamp of the readings, as an offset from the interval start (ns)
+        offsets = (t[:cut][inside] - (kk[inside] + self._k_next) * tint).astype(np.float64)
+        off_sums = np.bincount(kk[inside], weights=offsets, minlength=n)
         with np.errstate(invalid='ignore', divide='ignore'):
             means = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+            mean_off = np.where(counts > 0, off_sums / np.maximum(counts, 1), np.nan)
         ks = np.arange(self._k_next, k_end, dtype=np.int64)
-        self._rows.append(ks, means, counts.astype(np.float64))
+        self._rows.append(ks, means, counts.astype(np.float64), mean_off)
         self._k_next = int(k_end)
         self.buffer.discard_before(int(k_end * tint))
         return n
 
     def keep_last(self, n: int) -> None:
         """Forget all but the last ``n`` reduced rows (live use keeps a window only)."""
-        cols = self._rows.arrays(3)
+        cols = self._rows.arrays(4)
         if len(cols[0]) > n:
             self._rows = _Rows([tuple(c[-n:] for c in cols)])
 
     def arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
         """Interval index k and mean reading (NaN where the sensor was silent), °C."""
-        k, m, _ = self._rows.arrays(3)
+        k, m, _, _ = self._rows.arrays(4)
         return k.astype(np.int64), m.astype(np.float64)
+
+    def stamped_arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
+                                      npt.NDArray[np.float64]]:
+        """k, mean reading (°C, NaN where silent) and the mean stamp of those readings as
+        an offset from the interval start (ns, NaN where silent)."""
+        k, m, _, off = self._rows.arrays(4)
+        return k.astype(np.int64), m.astype(np.float64), off.astype(np.float64)
 
 
 @dataclass(frozen=True, slots=True)
@@ -296,6 +310,9 @@ class IntervalTable:
         dcount: pulse count difference (NaN where invalid).
         dt_ns: its duration (0 where invalid).
         temperatures_c: per sensor name, the interval means (NaN where missing).
+        temperature_offsets_ns: per sensor name, the mean stamp of the readings in each
+            interval as an offset from its start, ns (NaN where missing; a sensor not
+            listed counts as read at the interval centres).
     """
 
     interval_s: float
@@ -303,6 +320,7 @@ class IntervalTable:
     dcount: npt.NDArray[np.float64]
     dt_ns: npt.NDArray[np.int64]
     temperatures_c: dict[str, npt.NDArray[np.float64]]
+    temperature_offsets_ns: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)
 
     @property
     def t_mid_ns(self) -> npt.NDArray[np.int64]:
@@ -323,12 +341,15 @@ class IntervalTable:
 
 def join_intervals(pulses: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                  npt.NDArray[np.int64]] | None,
-                   temperatures: dict[str, tuple[npt.NDArray[np.int64],
-                                                 npt.NDArray[np.float64]]],
+                   temperatures: dict[str, tuple[npt.NDArray, ...]],
                    interval_s: float) -> IntervalTable:
-    """Place every stream's rows on one contiguous interval grid (the union of their spans)."""
+    """Place every stream's rows on one contiguous interval grid (the union of their spans).
+
+    ``temperatures`` maps a sensor to (k, means) or (k, means, stamp offsets ns)
+    (:meth:`TemperatureIntervals.stamped_arrays`).
+    """
     ks = [p[0] for p in [pulses] if p is not None and len(p[0])]
-    ks += [k for k, _ in temperatures.values() if len(k)]
+    ks += [cols[0] for cols in temperatures.values() if len(cols[0])]
     if not ks:
         return IntervalTable(interval_s, np.zeros(0, np.int64), np.zeros(0),
                              np.zeros(0, np.int64), {s: np.zeros(0) for s in temperatures})
@@ -340,12 +361,18 @@ def join_intervals(pulses: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
     if pulses is not None and len(pulses[0]):
         dcount[pulses[0] - k0] = pulses[1]
         dt[pulses[0] - k0] = pulses[2]
-    temps = {}
-    for name, (k, m) in temperatures.items():
+    temps, offsets = {}, {}
+    for name, cols in temperatures.items():
+        k, m = cols[0], cols[1]
         col = np.full(n, np.nan)
         col[k - k0] = m
         temps[name] = col
-    return IntervalTable(interval_s, np.arange(k0, k1 + 1, dtype=np.int64), dcount, dt, temps)
+        if len(cols) > 2:
+            off = np.full(n, np.nan)
+            off[k - k0] = cols[2]
+            offsets[name] = off
+    return IntervalTable(interval_s, np.arange(k0, k1 + 1, dtype=np.int64), dcount, dt, temps,
+                         offsets)
 
 
 def causal_slope(values: npt.NDArray[np.float64], window_n: int,
@@ -378,16 +405,88 @@ def causal_slope(values: npt.NDArray[np.float64], window_n: int,
 
 
 @dataclass(frozen=True, slots=True)
-class SensorCheck:
-    """Temperatures after the sensor checks, and what the checks found.
+class SensorSampling:
+    """How one temperature sensor was read, from its interval rows.
 
     Attributes:
-        temperatures_c: per sensor, interval means with stuck spans set to NaN.
+        sensor: its name.
+        n_points: intervals holding at least one finite reading.
+        typical_spacing_s: median spacing of those readings' mean stamps, s (NaN below two);
+            about the averaging interval when the sensor is read faster than that.
+        longest_gap_s: the longest spacing, s (NaN below two points).
+        n_filled: intervals without a reading given a value by interpolation.
+        n_bridged: gaps longer than 2.5 typical spacings (dropouts) that were bridged.
+    """
+
+    sensor: str
+    n_points: int
+    typical_spacing_s: float
+    longest_gap_s: float
+    n_filled: int
+    n_bridged: int
+
+
+def interpolate_sensor(col: npt.NDArray[np.float64], offsets_ns: npt.NDArray[np.float64] | None,
+                       interval_s: float, max_gap_s: float, sensor: str = ''
+                       ) -> tuple[npt.NDArray[np.float64], SensorSampling]:
+    """Give each interval without a reading the sensor's value at the interval centre,
+    linearly interpolated between the two readings around it when they lie at most
+    ``max_gap_s`` apart (METHODS §D.5); intervals holding readings keep their mean.
+
+    Each interval's readings count as one point at their mean stamp (``offsets_ns`` from
+    the interval start; the interval centre where not given). Nothing is extrapolated:
+    before the first and after the last reading the value stays NaN.
+    """
+    tint = interval_s * NS_PER_S
+    idx = np.arange(len(col), dtype=np.float64)
+    fin = np.isfinite(col)
+    off = np.full(len(col), 0.5 * tint) if offsets_ns is None else np.where(
+        np.isfinite(offsets_ns), offsets_ns, 0.5 * tint)
+    t_pts = (idx * tint + off)[fin]
+    v_pts = col[fin]
+    out = col.copy()
+    if len(t_pts) < 2:
+        return out, SensorSampling(sensor, len(t_pts), math.nan, math.nan, 0, 0)
+    spacing = np.diff(t_pts) / NS_PER_S
+    typical = float(np.median(spacing))
+    centres = idx * tint + 0.5 * tint
+    i = np.searchsorted(t_pts, centres, side='right')
+    inside = (~fin) & (i >= 1) & (i < len(t_pts))
+    ii = i[inside]
+    gap_ok = (t_pts[ii] - t_pts[ii - 1]) <= max_gap_s * NS_PER_S * (1 + 1e-12)
+    fill = np.zeros(len(col), bool)
+    fill[np.nonzero(inside)[0][gap_ok]] = True
+    out[fill] = np.interp(centres[fill], t_pts, v_pts)
+    bridged = (spacing > 2.5 * typical) & (spacing <= max_gap_s * (1 + 1e-12))
+    return out, SensorSampling(sensor, len(t_pts), typical, float(spacing.max()),
+                               int(np.count_nonzero(fill)), int(np.count_nonzero(bridged)))
+
+
+def sensor_sampling(table: IntervalTable, settings: IntervalSettings
+                    ) -> dict[str, SensorSampling]:
+    """How each sensor of ``table`` was read (see :class:`SensorSampling`)."""
+    return {name: interpolate_sensor(col, table.temperature_offsets_ns.get(name),
+                                     table.interval_s, settings.max_temperature_gap_s,
+                                     name)[1]
+            for name, col in table.temperatures_c.items()}
+
+
+@dataclass(frozen=True, slots=True)
+class SensorCheck:
+    """Temperatures after interpolation and the sensor checks, and what the checks found.
+
+    Attributes:
+        temperatures_c: per sensor, interval values (means, or interpolated between
+            readings) with stuck spans set to NaN.
         rejections: stuck and silent spans, one whole sentence each.
+        sampling: per sensor, how it was read and what interpolation filled.
+        notes: whole sentences on what interpolation did.
     """
 
     temperatures_c: dict[str, npt.NDArray[np.float64]]
     rejections: tuple[Rejection, ...]
+    sampling: dict[str, SensorSampling] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
 
 def true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -399,19 +498,46 @@ def true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
 
 
 def check_sensors(table: IntervalTable, settings: IntervalSettings) -> SensorCheck:
-    """Find stuck and silent spans of each sensor; blank the stuck ones.
+    """Interpolate each sensor onto the intervals it has no reading in
+    (:func:`interpolate_sensor`), then find stuck and silent spans; blank the stuck ones.
 
-    A sensor is stuck over a run of intervals in which its mean reading is exactly the
-    same for at least ``sensor_stuck_s`` while the other cavity sensor (for the shell:
-    the other two) moved by at least ``sensor_stuck_min_change_c``. A sensor is silent
-    over a run of intervals with no finite reading (dropped out, or NaN messages).
+    A sensor is stuck over a run of intervals in which its value is exactly the same for
+    at least ``sensor_stuck_s`` while the other cavity sensor (for the shell: the other
+    two) moved by at least ``sensor_stuck_min_change_c`` (equal readings interpolate to
+    equal values, so a sparse stuck sensor is found too). A sensor is silent over a run
+    of intervals with no value: no finite reading within ``max_temperature_gap_s``
+    (dropped out, or NaN messages).
     """
-    temps = {s: c.copy() for s, c in table.temperatures_c.items()}
+    temps: dict[str, npt.NDArray[np.float64]] = {}
+    sampling: dict[str, SensorSampling] = {}
+    notes: list[str] = []
+    for name, col in table.temperatures_c.items():
+        temps[name], sampling[name] = interpolate_sensor(
+            col, table.temperature_offsets_ns.get(name), table.interval_s,
+            settings.max_temperature_gap_s, name)
+        smp = sampling[name]
+        if smp.n_filled and math.isfinite(smp.typical_spacing_s) \
+                and smp.typical_spacing_s > 1.5 * table.interval_s:
+            fin = np.nonzero(np.isfinite(temps[name]))[0]
+            pulses = np.isfinite(table.dcount)
+            edges = int(np.count_nonzero(pulses[:fin[0]]) + np.count_nonzero(
+                pulses[fin[-1] + 1:])) if len(fin) else 0
+            notes.append(f'temperature sensor {name} is read about every '
+                         f'{smp.typical_spacing_s:.3g} s: interpolated between its readings '
+                         f'onto {smp.n_filled} of the {table.interval_s:g} s intervals'
+                         + (f'; the {edges} interval(s) before its first or after its last '
+                            'reading are not used.' if edges else '.'))
+        if smp.n_bridged:
+            notes.append(f'temperature sensor {name}: {smp.n_bridged} gap(s) in its readings '
+                         f'longer than its usual spacing (up to {smp.longest_gap_s:.0f} s, '
+                         f'within max_temperature_gap_s = {settings.max_temperature_gap_s:g} s) '
+                         'bridged by interpolation.')
+    filled = {name: c.copy() for name, c in temps.items()}
     out: list[Rejection] = []
     tint = int(round(table.interval_s * NS_PER_S))
     min_n = max(2, int(round(settings.sensor_stuck_s / table.interval_s)))
     pulses_span = np.isfinite(table.dcount)
-    for sensor, col in table.temperatures_c.items():
+    for sensor, col in filled.items():
         others = [temps[o] for o in SENSORS if o in temps and o != sensor
                   and (sensor == SENSOR_SHELL or o != SENSOR_SHELL)]
         fin = np.isfinite(col)
@@ -433,15 +559,20 @@ def check_sensors(table: IntervalTable, settings: IntervalSettings) -> SensorChe
                     f'while the other sensors moved by {moved:.2f} °C: it is stuck; those '
                     'intervals are not used. Check the sensor and its wiring.')))
         silent = ~fin & pulses_span
+        fin_idx = np.nonzero(fin)[0]
+        edge_n = int(settings.max_temperature_gap_s / table.interval_s)
         for a, b in true_runs(silent):
+            if len(fin_idx) and (b <= fin_idx[0] or a > fin_idx[-1]) and b - a <= edge_n:
+                continue  # before the first or after the last reading: an edge, noted below
             t0 = int(table.k[a]) * tint
             t1 = int(table.k[b - 1] + 1) * tint
             out.append(Rejection(t0, (
                 f'temperature sensor {sensor} gave no finite reading from {format_stamp(t0)} '
-                f'to {format_stamp(t1)} ({b - a} interval(s); dropped out or NaN): those '
-                'intervals are not used.')))
+                f'to {format_stamp(t1)} ({b - a} interval(s); dropped out or NaN, and no two '
+                f'readings within max_temperature_gap_s = {settings.max_temperature_gap_s:g} s '
+                'around them): those intervals are not used.')))
     out.sort(key=lambda r: r.stamp_ns)
-    return SensorCheck(temps, tuple(out))
+    return SensorCheck(temps, tuple(out), sampling, tuple(notes))
 
 
 def thermal_variables(temperatures_c: dict[str, npt.NDArray[np.float64]],

@@ -89,6 +89,8 @@ class ThermalBiasModel:
         calibration_style: ``continuous`` or ``soak``.
         covariance_kind: ``allan``, ``wls`` or ``ols``.
         n_used, dof: rows in the fit and its degrees of freedom.
+        max_temperature_gap_s: the largest gap between a sensor's readings interpolated
+            across in the fit, s (models written before it was stored: 120 s, the default).
     """
 
     gyro_id: str
@@ -114,6 +116,7 @@ class ThermalBiasModel:
     covariance_kind: str
     n_used: int
     dof: int
+    max_temperature_gap_s: float = 120.0
 
     @property
     def variables(self) -> tuple[str, ...]:
@@ -242,6 +245,7 @@ class ThermalBiasModel:
             'thermal_covariance_kind': self.covariance_kind,
             'thermal_n_used': int(self.n_used),
             'thermal_dof': int(self.dof),
+            'thermal_max_temperature_gap_s': float(self.max_temperature_gap_s),
         })
         return d
 
@@ -320,4 +324,6 @@ class ThermalBiasModel:
             fit_block_s=get('thermal_fit_block_s', float),
             calibration_style=str(get('thermal_calibration_style', str)),
             covariance_kind=str(get('thermal_covariance_kind', str)),
-            n_used=int(get('thermal_n_used', int)), dof=int(get('thermal_dof', int)))
+            n_used=int(get('thermal_n_used', int)), dof=int(get('thermal_dof', int)),
+            max_temperature_gap_s=(get('thermal_max_temperature_gap_s', float)
+                                   if 'thermal_max_temperature_gap_s' in d else 120.0))

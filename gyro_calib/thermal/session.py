@@ -138,8 +138,26 @@ def thermal_settings(options: CalibrationOptions) -> tuple[ThermalSettings, dict
     try:
         settings = dataclasses.replace(settings, **changes)
     except ConfigError as exc:
-        raise ConfigError(f'{exc} (from {", ".join(origin[n] for n in changes)})') from None
+        raise ConfigError(f'{exc} ({provenance({n: origin[n] for n in changes})})') from None
     return settings, origin
+
+
+def provenance(origin: dict[str, str], short: dict[str, str] | None = None) -> str:
+    """Where settings came from, each source named once: ``K and latitude from the bag's
+    bench settings; gyro_id from --gyro-id`` (``short`` renames fields)."""
+    by_source: dict[str, list[str]] = {}
+    for name, source in origin.items():
+        by_source.setdefault(source, []).append((short or {}).get(name, name))
+    parts = []
+    for source, names in by_source.items():
+        listed = names[0] if len(names) == 1 else ', '.join(names[:-1]) + ' and ' + names[-1]
+        parts.append(f'{listed} from {source}')
+    return '; '.join(parts)
+
+
+def _minus(centre: float, fmt: str) -> str:
+    """'− c' for a centre c ≥ 0, '+ |c|' below (no '− -0.3')."""
+    return f'− {centre:{fmt}}' if centre >= 0 else f'+ {-centre:{fmt}}'
 
 
 class ThermalSession(MethodSession):
@@ -271,8 +289,8 @@ class ThermalSession(MethodSession):
                              f'{est.std_uncertainty / RAD_S_PER_DEG_H:.2g}', str(est.n_used)))
 
         add('b0: bias at the centre (°/h)', res.get(f'{COEFFICIENT_PREFIX}const_rad_s'))
-        for term in rep.model.terms:
-            add(f'{term} coefficient (°/h)',
+        for j, term in enumerate(rep.model.terms, start=1):
+            add(f't{j}: {term} coefficient (°/h)',
                 res.get(f'{COEFFICIENT_PREFIX}{parse_term(term).key}_rad_s'))
         add('fit residual std (°/h)', res.get('thermal_residual_std_rad_s'))
         add('held-out bias stability raw (°/h)', res.get(HOLDOUT_KEYS[0]))
@@ -295,25 +313,30 @@ class ThermalSession(MethodSession):
         sc = m.scaling
         steps = ', '.join(f'{st.action} {st.term} (p = {st.p_value:.2g})'
                           for st in rep.selection.steps if st.action != 'skip') or 'none'
-        lines.insert(0, f'model ({m.calibration_style}, {m.n_used} rows): bias = b0 + '
-                     + (' + '.join(f't·{t}' for t in m.terms) or '(constant only)')
+        lines.insert(0, f'model ({m.calibration_style}, {m.n_used} rows): bias = b0'
+                     + (''.join(f' + t{j}·{t}' for j, t in enumerate(m.terms, start=1))
+                        or ' (constant only)')
                      + f'; stepwise over {", ".join(rep.candidates)}: {steps}'
                      + (f'; held-out check removed {", ".join(rep.pruned)}' if rep.pruned
                         else '') + '.')
-        lines.insert(1, f'coefficients are per unit of the scaled variables: H → (H − '
-                     f'{sc.centre["H"]:.3f} °C)/{sc.scale["H"]:.3f} °C, Ḣ → Ḣ/'
-                     f'{sc.scale["Hdot"] * 60:.4g} °C/min, dTab → (dTab − {sc.centre["dTab"]:.3g})'
-                     f'/{sc.scale["dTab"]:.3g} °C, dTcs → (dTcs − {sc.centre["dTcs"]:.3g})/'
-                     f'{sc.scale["dTcs"]:.3g} °C (all in thermal_model).')
+        lines.insert(1, f'coefficients are per unit of the scaled variables: H → (H '
+                     f'{_minus(sc.centre["H"], ".3f")} °C)/{sc.scale["H"]:.3f} °C, Ḣ → Ḣ/'
+                     f'{sc.scale["Hdot"] * 60:.4g} °C/min, dTab → (dTab '
+                     f'{_minus(sc.centre["dTab"], ".3g")})/{sc.scale["dTab"]:.3g} °C, dTcs → '
+                     f'(dTcs {_minus(sc.centre["dTcs"], ".3g")})/{sc.scale["dTcs"]:.3g} °C (all '
+                     'in thermal_model).')
         lines.insert(2, f'calibrated H {m.h_range_c[0]:.2f}…{m.h_range_c[1]:.2f} °C (± '
                      f'{m.extrapolation_margin_c:g} °C margin), Ḣ {m.hdot_range_c_s[0] * 60:.3f}…'
                      f'{m.hdot_range_c_s[1] * 60:.3f} °C/min; K = '
-                     f'{m.scale_factor_rad_per_pulse!r} rad/pulse '
-                     f'({self.origin.get("scale_factor_rad_per_pulse", "settings")}), latitude '
-                     f'{m.latitude_deg:g}° ({self.origin.get("latitude_deg", "settings")}), '
-                     f'Earth rate along the sense axis '
+                     f'{m.scale_factor_rad_per_pulse!r} rad/pulse, latitude '
+                     f'{m.latitude_deg:g}° ('
+                     + provenance({n: self.origin.get(n, 'the settings') for n in (
+                         'scale_factor_rad_per_pulse', 'latitude_deg')},
+                         short={'scale_factor_rad_per_pulse': 'K', 'latitude_deg': 'latitude'})
+                     + '), Earth rate along the sense axis '
                      f'{m.earth_rate_along_axis_rad_s / RAD_S_PER_DEG_H:.4f} °/h; gyro '
                      f'{m.gyro_id or "(unnamed: identity not checked on use)"}.')
+        lines += [n for n in rep.notes if n.startswith('temperature sensor')]
         if rep.snr:
             lines.append('per temperature point: H (°C), raw bias (°/h), model at Ḣ = 0 '
                          '(°/h), SNR raw → denoised (dB):')

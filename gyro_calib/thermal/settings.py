@@ -109,6 +109,10 @@ class ThermalSettings:
     """A sensor reading exactly constant this long while the others move is stuck, s."""
     sensor_stuck_min_change_c: float = 0.5
     """... while another sensor moved at least this much, °C."""
+    max_temperature_gap_s: float = 120.0
+    """Largest span between two readings of one temperature sensor across which it is
+    interpolated onto the averaging intervals, s (sensors read at 0.01–1 Hz need no reading
+    in every interval; a longer gap leaves its intervals unused)."""
     refit_every_s: float = 0.0
     """Live use: refit after this much new data (0 = fit only at the end of the recording), s."""
 
@@ -175,6 +179,8 @@ class ThermalSettings:
             ('max_rate_deg_s', self.max_rate_deg_s > 0, 'positive'),
             ('sensor_stuck_s', self.sensor_stuck_s > 0, 'positive'),
             ('sensor_stuck_min_change_c', self.sensor_stuck_min_change_c > 0, 'positive'),
+            ('max_temperature_gap_s', 0 < self.max_temperature_gap_s < math.inf,
+             'positive and finite'),
             ('refit_every_s', self.refit_every_s >= 0, 'non-negative'),
         ]
         for name, ok, expected in checks:
@@ -194,13 +200,14 @@ class ThermalSettings:
         """Raise ConfigError unless K and the latitude are given (the calibration needs both).
 
         Raises:
-            ConfigError: naming the field and the flag or parameter that sets it.
+            ConfigError: naming every missing field and the flag or parameter that sets it.
         """
-        for name, expected in (('scale_factor_rad_per_pulse', _K_EXPECTED),
-                               ('latitude_deg', _LATITUDE_EXPECTED)):
-            value = getattr(self, name)
-            if not math.isfinite(value):
-                raise ConfigError(f'{name} = {value!r} is invalid: it must be {expected}.')
+        missing = [f'{name} = {getattr(self, name)!r} is invalid: it must be {expected}'
+                   for name, expected in (('scale_factor_rad_per_pulse', _K_EXPECTED),
+                                          ('latitude_deg', _LATITUDE_EXPECTED))
+                   if not math.isfinite(getattr(self, name))]
+        if missing:  # every missing setting at once, not one per run
+            raise ConfigError('; '.join(missing) + '.')
 
     def interval_settings(self) -> IntervalSettings:
         """The stream-reduction part of these settings."""
@@ -209,7 +216,8 @@ class ThermalSettings:
             reorder_window_s=self.reorder_window_s, restart_backstep_s=self.restart_backstep_s,
             max_pulse_gap_s=self.max_pulse_gap_s, max_rate_deg_s=self.max_rate_deg_s,
             sensor_stuck_s=self.sensor_stuck_s,
-            sensor_stuck_min_change_c=self.sensor_stuck_min_change_c)
+            sensor_stuck_min_change_c=self.sensor_stuck_min_change_c,
+            max_temperature_gap_s=self.max_temperature_gap_s)
 
 
 def _multiple(x: float, t: float) -> bool:

@@ -174,6 +174,19 @@ SCENARIOS: dict[str, ThermalScenario] = {s.name: s for s in (
                   'rejection_reasons': ['temperature sensor cavity_b reads exactly',
                                         'it is stuck',
                                         'temperature sensor shell gave no finite reading']}),
+    ThermalScenario(
+        'thermal_ramp_only_sparse', 'An odd but legal bench (issue 16): gyro B-1 '
+        '(rate-sensitive) on ramps only, never soaking, −20…35 °C at 0.47–0.83 °C/min for '
+        '5.8 h, starting hot; each temperature sensor read about every 2 s on its own clock '
+        '(offsets 0.37, 1.21, 0.83 s; periods 2 s, 2.0004 s, 1.9997 s) with a 1/64 °C LSB; '
+        '2 Hz pulses. The sensors are interpolated onto the 1 s intervals.',
+        ChamberRunConfig(programme='ramp_only', gyro_id='B-1', seed=16, low_c=-20.0,
+                         high_c=35.0, ramp_rates_c_per_min=(0.47, 0.83, 0.62, 0.71, 0.55),
+                         start_hot=True, duration_s=5.8 * 3600.0, pulse_rate_hz=2.0,
+                         sensor_read_intervals_s=(2.0, 2.0004, 1.9997),
+                         sensor_clock_offsets_s=(0.37, 1.21, 0.83),
+                         temperature_resolution_c=1.0 / 64.0),
+        expected={'rejections': 0, 'model_rms_error_deg_h': 0.02}),
 )}
 """The committed thermal scenarios (``bags/<name>``)."""
 

@@ -10,7 +10,9 @@ Programmes used as scenarios (METHODS §D.2, §D.4):
 - :func:`paper_soak_programme`: the paper's fixed-point calibration, −35…35 °C at seven
   set points, 1 h soak each, joined by ramps (the paper gives no ramp rate: 1 °C/min);
 - :func:`ramp_programme`: continuous slow ramps between two temperatures with dwells at
-  the ends (the paper's second calibration style).
+  the ends (the paper's second calibration style);
+- :func:`ramp_only_programme`: ramps back and forth at changing rates, never dwelling (a
+  soak-free chamber run).
 """
 
 from __future__ import annotations
@@ -131,3 +133,25 @@ def ramp_programme(low_c: float, high_c: float, *, rate_c_per_min: float, cycles
         segments += [(ramp_s, float(high_c)), (dwell_s, float(high_c)),
                      (ramp_s, float(low_c)), (dwell_s, float(low_c))]
     return ChamberProfile(first, tuple(segments))
+
+
+def ramp_only_programme(low_c: float, high_c: float, *, rates_c_per_min: Sequence[float],
+                        duration_s: float, start_hot: bool = False) -> ChamberProfile:
+    """Ramps between ``low_c`` and ``high_c`` and back, never dwelling, the k-th leg at the
+    k-th rate of ``rates_c_per_min`` (cycled), until ``duration_s``; the chamber starts at
+    ``low_c`` (``high_c`` with ``start_hot``), the gyro already at the chamber temperature.
+    """
+    if not high_c > low_c or not rates_c_per_min or min(rates_c_per_min) <= 0 \
+            or duration_s <= 0:
+        raise ValueError('need high_c > low_c, positive rates_c_per_min and duration_s > 0')
+    current = float(high_c if start_hot else low_c)
+    segments: list[tuple[float, float]] = []
+    t, k = 0.0, 0
+    while t < duration_s:
+        target = float(low_c if current == high_c else high_c)
+        leg_s = abs(target - current) / float(rates_c_per_min[k % len(rates_c_per_min)]) * 60.0
+        segments.append((leg_s, target))
+        t += leg_s
+        current = target
+        k += 1
+    return ChamberProfile(float(high_c if start_hot else low_c), tuple(segments))

@@ -183,7 +183,14 @@ class ThermalGyroConfig:
     pulse_rate_hz: float = 10.0
     """Rate of /gyro/pulses samples, Hz (1e9/rate must be whole ns)."""
     temperature_rate_hz: float = 1.0
-    """Rate of each sensor's /gyro/temperature samples, Hz (1e9/rate whole ns)."""
+    """Rate of each sensor's /gyro/temperature samples, Hz (1e9/rate whole ns); all sensors
+    are read together on one clock unless ``sensor_read_intervals_s`` is given."""
+    sensor_read_intervals_s: tuple[float, ...] = ()
+    """Each sensor's own reading interval, s, in the order cavity_a, cavity_b, shell (a
+    chamber logger reading each sensor on its own clock; () = all at temperature_rate_hz)."""
+    sensor_clock_offsets_s: tuple[float, ...] = ()
+    """When each sensor's clock takes its first reading, s after the start (same order;
+    () = all at 0)."""
     thermal_step_s: float = 1.0
     """Grid step of the thermal network and bias instability, s."""
     quantise: bool = True
@@ -208,6 +215,13 @@ class ThermalGyroConfig:
             period = NS_PER_S / getattr(self, name)
             if abs(period - round(period)) > 1e-6:
                 raise ValueError(f'{name}: 1e9 / rate must be a whole number of ns')
+        n_sen = len(self.sensors)
+        for name, low in (('sensor_read_intervals_s', 1e-9), ('sensor_clock_offsets_s', 0.0)):
+            values = getattr(self, name)
+            if values and (len(values) < n_sen or not all(
+                    math.isfinite(v) and v >= low for v in values)):
+                raise ValueError(f'{name} = {values!r}: give one value per sensor '
+                                 f'({", ".join(self.sensors)}), each >= {low:g} s')
 
     @property
     def sensors(self) -> tuple[str, ...]:
@@ -342,6 +356,14 @@ class ThermalGyroSimulator:
         self._next_pulse = 0
         self._next_temp = 0
         self._last_pulse_ns: int | None = None
+        # sensors on their own clocks (None: all read together every _temp_period_ns)
+        n_sen = len(cfg.sensors)
+        self._own_clocks = bool(cfg.sensor_read_intervals_s or cfg.sensor_clock_offsets_s)
+        intervals = cfg.sensor_read_intervals_s or (1.0 / cfg.temperature_rate_hz,) * n_sen
+        offsets = cfg.sensor_clock_offsets_s or (0.0,) * n_sen
+        self._read_period_ns = [int(round(v * NS_PER_S)) for v in intervals[:n_sen]]
+        self._read_offset_ns = [int(round(v * NS_PER_S)) for v in offsets[:n_sen]]
+        self._next_read = [0] * n_sen
 
     # -- thermal network ---------------------------------------------------------------------
     def _system(self, slope_c_s: float) -> npt.NDArray[np.float64]:
@@ -445,9 +467,13 @@ class ThermalGyroSimulator:
     @property
     def finished(self) -> bool:
         """True once every sample of the run has been emitted."""
-        return (self.start_time_ns + self._next_pulse * self._pulse_period_ns > self.end_time_ns
-                and self.start_time_ns + self._next_temp * self._temp_period_ns
-                > self.end_time_ns)
+        t0, end = self.start_time_ns, self.end_time_ns
+        if self._own_clocks:
+            temps_done = all(t0 + off + n * per > end for off, n, per in zip(
+                self._read_offset_ns, self._next_read, self._read_period_ns))
+        else:
+            temps_done = t0 + self._next_temp * self._temp_period_ns > end
+        return t0 + self._next_pulse * self._pulse_period_ns > end and temps_done
 
     def advance(self, until_ns: int) -> ThermalChunk:
         """Emit every pulse and temperature sample stamped ≤ ``until_ns`` (and ≤ the end)."""
@@ -462,6 +488,9 @@ class ThermalGyroSimulator:
         tt = t0 + t_idx * self._temp_period_ns
         self._extend_grid(max((until_ns - t0) / NS_PER_S, 0.0))
         counts = self._pulses(p_t)
+        if self._own_clocks:
+            self._next_pulse += n_p
+            return self._own_clock_chunk(p_t, counts, until_ns)
         truth, sensor_true = self._truth_at(tt)
         names = cfg.sensors
         n_sen = len(names)
@@ -481,6 +510,51 @@ class ThermalGyroSimulator:
             temperature_t_ns=np.repeat(tt, n_sen), temperature_c=readings.reshape(-1),
             temperature_variance_c2=np.full(n_t * n_sen, variance),
             temperature_frame_id=np.tile(np.array(names), n_t), truth=truth)
+
+    def _read(self, true_c: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], float]:
+        """Sensor readings of true sensor temperatures: white noise (drawn in message
+        order), rounded to the resolution (LSB); and the variance each message carries."""
+        cfg = self.config
+        readings = true_c + self._rng_sensor.standard_normal(len(true_c)) \
+            * cfg.temperature_noise_c
+        q = cfg.temperature_resolution_c
+        if q:
+            readings = np.round(readings / q) * q
+        return readings, cfg.temperature_noise_c**2 + q * q / 12.0
+
+    def _own_clock_chunk(self, p_t: npt.NDArray[np.int64], counts: npt.NDArray[np.float64],
+                         until_ns: int) -> ThermalChunk:
+        """Temperatures of sensors each read on its own clock (period and first reading of
+        its own); messages in stamp order, at equal stamps in sensor order; truth at every
+        instant any sensor is read."""
+        t0 = self.start_time_ns
+        names = self.config.sensors
+        stamps, which = [], []
+        for j in range(len(names)):
+            per, off = self._read_period_ns[j], self._read_offset_ns[j]
+            first = t0 + off
+            n = 0 if until_ns < first else (until_ns - first) // per + 1 - self._next_read[j]
+            n = max(0, int(n))
+            stamps.append(first + (self._next_read[j] + np.arange(n, dtype=np.int64)) * per)
+            which.append(np.full(n, j, np.int64))
+            self._next_read[j] += n
+        t_msg = np.concatenate(stamps) if stamps else np.zeros(0, np.int64)
+        j_msg = np.concatenate(which) if which else np.zeros(0, np.int64)
+        order = np.lexsort((j_msg, t_msg))
+        t_msg, j_msg = t_msg[order], j_msg[order]
+        instants, row = np.unique(t_msg, return_inverse=True)
+        truth, sensor_true = self._truth_at(instants)
+        true_c = np.array([sensor_true[j][r] for j, r in zip(j_msg.tolist(), row.tolist())],
+                          np.float64)
+        readings, variance = self._read(true_c)
+        oldest_needed_ns = until_ns if self._last_pulse_ns is None else min(
+            until_ns, self._last_pulse_ns)
+        self._drop_grid_before((oldest_needed_ns - t0) / NS_PER_S)
+        return ThermalChunk(
+            pulse_t_ns=p_t, pulse_counts=counts, temperature_t_ns=t_msg,
+            temperature_c=readings, temperature_variance_c2=np.full(len(t_msg), variance),
+            temperature_frame_id=np.array(names)[j_msg] if len(j_msg) else
+            np.zeros(0, dtype='<U8'), truth=truth)
 
     def _pulses(self, p_t: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
         cfg = self.config

@@ -28,6 +28,7 @@ from gyro_calib.units import NS_PER_S
 from sim_nodes.thermal.chamber import (
     ChamberProfile,
     paper_soak_programme,
+    ramp_only_programme,
     ramp_programme,
     soak_programme,
 )
@@ -359,7 +360,7 @@ def validation_scenario(gyro_id: str = 'A-1', seed: int = 101, *, soak_s: float 
                                 faults=faults)
 
 
-PROGRAMMES = ('paper_soak', 'continuous_ramp', 'validation')
+PROGRAMMES = ('paper_soak', 'continuous_ramp', 'validation', 'ramp_only')
 """Chamber programmes a :class:`ChamberRunConfig` names."""
 
 SENSOR_NAMES = ('', 'cavity_a', 'cavity_b', 'shell')
@@ -373,8 +374,9 @@ class ChamberRunConfig:
     simulates it whole; both give the same samples)."""
 
     programme: str = 'paper_soak'
-    """'paper_soak' (−35…35 °C, 7 set points), 'continuous_ramp' (low → high → low) or
-    'validation' (set points between the paper's: −30, −20, −5, 10, 20, 30 °C)."""
+    """'paper_soak' (−35…35 °C, 7 set points), 'continuous_ramp' (low → high → low),
+    'validation' (set points between the paper's: −30, −20, −5, 10, 20, 30 °C) or
+    'ramp_only' (low ↔ high at the rates ramp_rates_c_per_min in turn, no soak or dwell)."""
     gyro_id: str = 'A-1'
     """Named gyro whose hidden bias law is simulated: A-1, A-2, B-1, B-2 or C-1."""
     seed: int = 1
@@ -393,12 +395,24 @@ class ChamberRunConfig:
     """continuous_ramp: number of up-and-down cycles."""
     dwell_s: float = 1800.0
     """continuous_ramp: dwell at each end, s."""
+    ramp_rates_c_per_min: tuple[float, ...] = (0.5,)
+    """ramp_only: the rate of each leg in turn (cycled), °C/min."""
+    start_hot: bool = False
+    """continuous_ramp and ramp_only: the chamber (and the gyro) start at high_c."""
     duration_s: float = 0.0
     """Length of the run, s (0 = the whole programme)."""
     pulse_rate_hz: float = 2.0
     """Rate of /gyro/pulses samples, Hz (hours of data need only a few Hz)."""
     temperature_rate_hz: float = 1.0
     """Rate of each sensor's /gyro/temperature samples, Hz."""
+    sensor_read_intervals_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """Each sensor's own reading interval (cavity_a, cavity_b, shell), s; 0 = every
+    1/temperature_rate_hz. Any non-zero here or in sensor_clock_offsets_s puts every sensor
+    on its own clock."""
+    sensor_clock_offsets_s: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """When each sensor's clock takes its first reading, s after the start."""
+    temperature_resolution_c: float = 0.01
+    """Resolution (LSB) the temperature readings are rounded to, °C (e.g. 1/64)."""
     latitude_deg: float = 34.26
     """Site latitude, ° (the Earth rate along the vertical sense axis)."""
     start_time_ns: int = 1_700_000_000 * NS_PER_S
@@ -427,9 +441,17 @@ class ChamberRunConfig:
 
     def gyro(self) -> ThermalGyroConfig:
         """The simulated gyro."""
+        own = any(self.sensor_read_intervals_s) or any(self.sensor_clock_offsets_s)
+        default_s = 1.0 / self.temperature_rate_hz
         return gyro_config(self.gyro_id, seed=self.seed, pulse_rate_hz=self.pulse_rate_hz,
                            temperature_rate_hz=self.temperature_rate_hz,
-                           latitude_deg=self.latitude_deg)
+                           latitude_deg=self.latitude_deg,
+                           temperature_resolution_c=self.temperature_resolution_c,
+                           sensor_read_intervals_s=tuple(
+                               float(v) or default_s for v in self.sensor_read_intervals_s)
+                           if own else (),
+                           sensor_clock_offsets_s=tuple(
+                               float(v) for v in self.sensor_clock_offsets_s) if own else ())
 
     def chamber(self) -> ChamberProfile:
         """The chamber programme."""
@@ -439,8 +461,14 @@ class ChamberRunConfig:
         if self.programme == 'validation':
             return soak_programme(VALIDATION_SET_POINTS_C, soak_s=self.soak_s or 2400.0,
                                   ramp_rate_c_per_min=self.ramp_rate_c_per_min)
+        if self.programme == 'ramp_only':
+            return ramp_only_programme(self.low_c, self.high_c,
+                                       rates_c_per_min=self.ramp_rates_c_per_min,
+                                       duration_s=self.duration_s or 6 * 3600.0,
+                                       start_hot=self.start_hot)
         return ramp_programme(self.low_c, self.high_c, rate_c_per_min=self.rate_c_per_min,
-                              cycles=self.cycles, dwell_s=self.dwell_s)
+                              cycles=self.cycles, dwell_s=self.dwell_s,
+                              start_c=self.high_c if self.start_hot else None)
 
     def faults(self) -> ThermalFaults:
         """The data faults."""
@@ -453,7 +481,7 @@ class ChamberRunConfig:
     def name(self) -> str:
         """Run name, as the scenario functions name theirs."""
         kind = {'paper_soak': 'paper_soak', 'continuous_ramp': 'ramp',
-                'validation': 'validation'}[self.programme]
+                'validation': 'validation', 'ramp_only': 'ramp_only'}[self.programme]
         return f'thermal_{kind}_{self.gyro_id}_{self.seed}'
 
     def run(self) -> ThermalRun:
