@@ -63,8 +63,14 @@ def test_json_section_has_exactly_the_issue_shape(imu_cal: NoiseCalibrator) -> N
     assert list(section) == ['axes']
     assert list(section['axes']) == list(IMU_AXES)
     for axis in section['axes'].values():
-        assert list(axis) == ['tau_s', 'adev', 'adev_std', 'results']
-        assert len(axis['tau_s']) == len(axis['adev']) == len(axis['adev_std']) > 10
+        assert list(axis)[:4] == ['tau_s', 'adev', 'adev_std', 'results']
+        assert set(axis) == {'tau_s', 'adev', 'adev_std', 'results', 'm', 'clusters',
+                             'noise_alpha', 'adev_edf', 'mdev', 'mdev_std', 'mdev_edf',
+                             'hdev', 'hdev_std', 'hdev_edf', 'totdev', 'totdev_std',
+                             'totdev_edf', 'fit'}
+        n_tau = len(axis['tau_s'])
+        assert n_tau > 10
+        assert all(len(axis[k]) == n_tau for k in axis if k not in ('results', 'fit'))
         for entry in axis['results'].values():
             assert list(entry) == ['value', 'std', 'n']
     gx = section['axes']['gyro_x']
@@ -251,7 +257,7 @@ def test_partial_overlap_memory_is_bounded(imu_record: tuple[np.ndarray, ...]) -
     from gyro_calib.noise.tree import TREE_BLOCK
 
     t, g, a = imu_record
-    s = NoiseSettings()
+    s = NoiseSettings(overlap='partial')
     for n in (len(t) // 8, len(t)):
         cal = NoiseCalibrator(s)
         cal.extend_imu(t[:n], g[:n], a[:n])
@@ -301,7 +307,9 @@ def test_total_deviation_comes_from_the_decimated_record_and_matches_allantools(
 
     gen = ImuNoiseGenerator(GYRO, ACCEL, sample_rate_hz=100.0, seed=10)
     t, g, a = gen.chunk(20_000)
-    cal = calibrate_noise(imu=(t, g, a), settings=NoiseSettings(total_deviation_points=1024))
+    cal = calibrate_noise(imu=(t, g, a), settings=NoiseSettings(total_deviation_points=1024,
+                                                                overlap='partial',
+                                                                taus_per_octave=4))
     tau, dev, std = cal.axis_result('gyro_x').total_deviation  # type: ignore[misc]
     phase = np.concatenate(([0.0], np.cumsum(g[:, 0] - g[0, 0]) * 0.01))
     stride = 16  # 20 001 points kept at most 2·1024 + 1: 2^4

@@ -43,7 +43,7 @@ def test_fit_of_the_exact_allan_variance_returns_the_terms_exactly() -> None:
                        rate_random_walk=1e-6, rate_ramp=1e-8)
     curve, gen = _simulate(terms, 100.0, 100_000, 1)
     exact = dataclasses.replace(curve, avar=gen.allan_variance(curve.tau_s))
-    fit = fit_noise_terms(exact, GYRO_UNITS, eliminate_edges=False)
+    fit = fit_noise_terms(exact, GYRO_UNITS, eliminate_edges=False, min_clusters=0)
     # the discrete random walk adds K²τ0²/(6τ), a white-FM-like sliver, to N²
     expected = np.array([3e-6**2, 1e-8 + 1e-12 * 1e-4 / 6, 1e-10, 1e-12, 1e-16])
     assert np.allclose(fit.theta, expected, rtol=2e-3, atol=0)
@@ -146,12 +146,29 @@ def test_model_misfit_scales_the_uncertainty_up() -> None:
     white = rng.standard_normal(200_000) * 1e-3
     filtered = np.convolve(white, np.ones(8) / 8, mode='same')  # an 8-tap moving average
     curve = _curve(filtered, 0.01)
-    fit = fit_noise_terms(curve, GYRO_UNITS)
+    fit = fit_noise_terms(curve, GYRO_UNITS, exclude_band_limited=False)
     assert fit.covariance_scale > 1.0
+    assert any('scaled by' in n for n in fit.notes)
     clean = fit_noise_terms(curve, GYRO_UNITS, min_tau_s=0.5)
     assert clean.covariance_scale == 1.0
     est = clean.estimates[N_KEY]
     assert abs(est.value - 1e-3 * math.sqrt(0.01)) < 3 * est.std_uncertainty
+
+
+def test_band_limited_short_tau_is_found_from_the_data_and_left_out() -> None:
+    """The same filtered record with defaults: the bent short-τ range is left out by itself,
+    the note says from where and why, and N is right within its uncertainty."""
+    rng = np.random.default_rng(7)
+    white = rng.standard_normal(200_000) * 1e-3
+    filtered = np.convolve(white, np.ones(8) / 8, mode='same')
+    curve = _curve(filtered, 0.01)
+    fit = fit_noise_terms(curve, GYRO_UNITS)
+    assert 0.04 <= fit.band_limited_below_s <= 2.0
+    assert any('departs from the IEEE 952 model' in n for n in fit.notes)
+    est = fit.estimates[N_KEY]
+    assert abs(est.value - 1e-3 * math.sqrt(0.01)) < 3 * est.std_uncertainty
+    lo, hi, share = fit.tau_ranges[N_KEY]
+    assert lo >= fit.band_limited_below_s and share > 0.5
 
 
 def test_covariance_model_matches_a_monte_carlo_of_allan_variance_estimates() -> None:

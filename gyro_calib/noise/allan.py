@@ -205,3 +205,85 @@ def total_deviation(phase: npt.ArrayLike, *, tau0_s: float,
     ms, sums, n = total_variance_sums(phase, m)
     tau = np.asarray(ms * tau0_s, dtype=np.float64)
     return tau, np.asarray(np.sqrt(sums / (2.0 * n)) / tau, dtype=np.float64)
+
+
+TAU_GRIDS = ('default', 'octave', 'decade', 'all')
+"""Named τ grids (setting ``taus``); a list of τ in seconds is the fifth form."""
+
+
+def parse_taus(spec: object) -> str | tuple[float, ...]:
+    """A ``taus`` setting as a grid name or a tuple of τ, s.
+
+    Accepts a name of :data:`TAU_GRIDS`, a list/tuple of numbers, or a string of numbers
+    separated by commas or spaces (``"1, 10, 100"``, ``"[1, 10]"``).
+
+    Raises:
+        ValueError: anything else, or a τ that is not positive and finite.
+    """
+    if isinstance(spec, str):
+        text = spec.strip().lower()
+        if text in TAU_GRIDS:
+            return text
+        items: list[object] = [s for s in text.strip('[]()').replace(',', ' ').split() if s]
+    elif isinstance(spec, (list, tuple)):
+        items = list(spec)
+    else:
+        raise ValueError(f'taus = {spec!r}: expected one of {", ".join(TAU_GRIDS)} or a list '
+                         'of averaging times in seconds')
+    try:
+        values = tuple(float(v) for v in items)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f'taus = {spec!r}: expected one of {", ".join(TAU_GRIDS)} or a list '
+                         'of averaging times in seconds') from None
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise ValueError(f'taus = {spec!r}: every averaging time must be positive and finite, '
+                         'in seconds, and at least one given')
+    return values
+
+
+@dataclass(frozen=True, slots=True)
+class TauGrid:
+    """Averaging factors of a τ grid for a sample period τ0 (Stable32/allantools grids).
+
+    - ``default``: every octave m = 2^k (``taus_per_octave`` > 1 adds log-spaced points
+      between them) and the decades τ = 10^k s, so values at 1, 10, 100 s can be read;
+    - ``octave``: m = 2^k (allantools ``taus='octave'``);
+    - ``decade``: τ = 1, 2, 4 × 10^k s (with τ0 = 1 s, allantools ``taus='decade'``);
+    - ``all``: every m (one pass per m: long records take long);
+    - a tuple of τ, s: m = round(τ/τ0).
+
+    Attributes:
+        spec: the grid name or the τ list, s.
+        tau0_s: nominal sample period, s.
+        taus_per_octave: points per octave of the default grid.
+    """
+
+    spec: str | tuple[float, ...]
+    tau0_s: float
+    taus_per_octave: int = 1
+
+    def factors_up_to(self, m_max: int) -> IntArray:
+        """Averaging factors 1 ≤ m ≤ m_max of the grid, ascending, unique."""
+        if m_max < 1:
+            return np.zeros(0, dtype=np.int64)
+        spec = self.spec
+        if spec == 'all':
+            return np.arange(1, m_max + 1, dtype=np.int64)
+        if isinstance(spec, tuple):
+            m = np.round(np.asarray(spec) / self.tau0_s)
+        else:
+            top = math.log2(m_max) + 1.0
+            per = self.taus_per_octave if spec == 'default' else 1
+            parts = []
+            if spec in ('default', 'octave'):
+                k = np.arange(int(math.ceil(top * per)) + 1)
+                parts.append(np.round(2.0 ** (k / per)))
+            if spec in ('default', 'decade'):
+                lo = math.floor(math.log10(self.tau0_s))
+                hi = math.ceil(math.log10(m_max * self.tau0_s)) + 1
+                mult = (1.0,) if spec == 'default' else (1.0, 2.0, 4.0)
+                dec = np.array([f * 10.0**e for e in range(lo, hi) for f in mult])
+                parts.append(np.round(dec / self.tau0_s))
+            m = np.concatenate(parts)
+        m = m[(m >= 1) & (m <= m_max)]
+        return np.unique(m.astype(np.int64))

@@ -78,6 +78,10 @@ class AxisResult:
         adev_std: standard deviation of each ADEV point (from the EDF), rate unit.
         total_deviation: (tau_s, totdev, totdev_std) at long τ, or None.
         reason: why the axis has no terms at all ('' when the fit ran).
+        alpha: noise type α used for the error bars at each τ (from the fitted model where
+            it was fitted, from the curve's own local slope elsewhere).
+        others: 'mdev', 'hdev', 'totdev' → (deviation, its std, its EDF) at the curve's τ
+            (full overlap only; NaN where the statistic has no term).
     """
 
     axis: str
@@ -87,6 +91,8 @@ class AxisResult:
     adev_std: FloatArray | None
     total_deviation: tuple[FloatArray, FloatArray, FloatArray] | None
     reason: str = ''
+    alpha: npt.NDArray[np.int64] | None = None
+    others: dict[str, tuple[FloatArray, FloatArray, FloatArray]] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -454,9 +460,18 @@ class NoiseCalibrator:
                               edge_significance=s.edge_term_significance,
                               ramp_significance=s.ramp_term_significance,
                               min_tau_s=s.fit_min_tau_s, max_tau_s=s.fit_max_tau_s,
-                              context=context)
-        std = adev_std(curve.adev, fit.edf)
-        return AxisResult(ch.name, units, curve, fit, std, self._totdev(ch, fit))
+                              context=context, min_clusters=s.fit_min_clusters,
+                              exclude_band_limited=s.fit_exclude_band_limited)
+        alpha = _noise_types(curve, fit)
+        edf = curve.edf(alpha)
+        std = adev_std(curve.adev, edf)
+        others = {}
+        for name, (var, _, _) in curve.others.items():
+            dev = np.sqrt(var)
+            nu = curve.edf(alpha, name)
+            others[name] = (dev, adev_std(dev, nu), nu)
+        totdev = self._totdev(ch, fit) if curve.overlap == 'partial' else None
+        return AxisResult(ch.name, units, curve, fit, std, totdev, '', alpha, others)
 
     @staticmethod
     def _totdev(ch: ChannelAccumulator,
@@ -511,10 +526,22 @@ class NoiseCalibrator:
                 for key, est in res.fit.estimates.items():
                     results[key] = {'value': float(est.value), 'std': float(est.std_uncertainty),
                                     'n': int(est.n_used)}
-            axes[axis] = {'tau_s': [float(v) for v in res.curve.tau_s],
-                          'adev': [float(v) for v in res.curve.adev],
-                          'adev_std': [float(v) for v in res.adev_std],
-                          'results': results}
+            c = res.curve
+            record: dict[str, Any] = {'tau_s': _floats(c.tau_s), 'adev': _floats(c.adev),
+                                      'adev_std': _floats(res.adev_std), 'results': results}
+            record['m'] = [int(v) for v in c.m]
+            if c.clusters is not None:
+                record['clusters'] = _floats(c.clusters)
+            if res.alpha is not None:
+                record['noise_alpha'] = [int(v) for v in res.alpha]
+                record['adev_edf'] = _floats(c.edf(res.alpha))
+            for name, (dev, std, nu) in (res.others or {}).items():
+                record[name] = _floats(dev)
+                record[f'{name}_std'] = _floats(std)
+                record[f'{name}_edf'] = _floats(nu)
+            if res.fit is not None:
+                record['fit'] = res.fit.json_record(c)
+            axes[axis] = record
         return {'axes': axes}
 
     def summary_table(self) -> str:
@@ -537,10 +564,9 @@ class NoiseCalibrator:
                 quoted = (f'{est.value * q:.4g} ± {est.std_uncertainty * q:.2g} '
                           f'{u.quoted_units[k]}')
                 rows.append(f'{axis:8s} {u.names[k]:28s} {si:>24s} {quoted:>24s}')
-            if res.fit.covariance_scale > 1.0:
-                notes.append(f'{axis}: the model fits the Allan variance worse than its '
-                             f'scatter allows (χ² ratio {res.fit.chi2_ratio:.3g}); '
-                             f'uncertainties were scaled up by √{res.fit.covariance_scale:.3g}.')
+            notes.extend(f'{axis}: {n}' for n in res.fit.notes)
+            for key, (lo, hi, _) in res.fit.tau_ranges.items():
+                notes.append(f'{axis}: {key} rests on τ = {lo:.3g} … {hi:.3g} s.')
         return '\n'.join(rows + [''] + notes if notes else rows)
 
     def handoff_entries(self, axis: str = 'gyro') -> dict[str, float]:
@@ -550,6 +576,20 @@ class NoiseCalibrator:
             out[key] = float(est.value)
             out[f'{key}_std'] = float(est.std_uncertainty)
         return out
+
+
+def _noise_types(curve: AllanCurve, fit: NoiseFit) -> npt.NDArray[np.int64]:
+    """Noise type α at each τ: the fitted model's where it was fitted, else the local
+    log-log slope of the measured curve (α from the slope μ as in :mod:`.edf`)."""
+    alpha = np.asarray(fit.alpha, dtype=np.int64).copy()
+    rest = ~np.asarray(fit.used)
+    if np.any(rest):
+        with np.errstate(invalid='ignore', divide='ignore'):
+            lt, la = np.log(curve.tau_s), np.log(np.where(curve.avar > 0, curve.avar, np.nan))
+            mu = np.gradient(la, lt) if len(lt) >= 2 else np.full(len(lt), -1.0)
+        mu = np.where(np.isfinite(mu), mu, -1.0)
+        alpha[rest] = alpha_from_slope(mu)[rest]
+    return alpha
 
 
 def calibrate_noise(*, pulses: tuple[ArrayLike, ArrayLike] | None = None,
@@ -576,6 +616,11 @@ def calibrate_noise(*, pulses: tuple[ArrayLike, ArrayLike] | None = None,
         cal.extend_imu(*imu)
     cal.process(flush=True)
     return cal
+
+
+def _floats(values: npt.ArrayLike) -> list[float | None]:
+    """JSON numbers (None where a statistic has no value at that τ)."""
+    return [float(v) if math.isfinite(float(v)) else None for v in np.asarray(values).ravel()]
 
 
 __all__ = ['AxisResult', 'NoiseCalibrator', 'NoiseSettings', 'SYMBOLS', 'StreamCounts',

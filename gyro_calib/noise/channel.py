@@ -34,8 +34,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gyro_calib.estimate import Rejection
-from gyro_calib.noise.allan import AveragingGrid, total_variance_sums
+from gyro_calib.noise.allan import AllanSums, AveragingGrid, TauGrid, total_variance_sums
 from gyro_calib.noise.curve import AllanCurve, CurvePool, SegmentSums
+from gyro_calib.noise.exact import ExactDeviations
 from gyro_calib.noise.tree import AllanTree, FullOverlapStore, PhaseReservoir
 from gyro_calib.units import NS_PER_S
 
@@ -93,7 +94,7 @@ class SegmentInfo:
 
 @dataclass(slots=True)
 class _Segment:
-    engine: AllanTree | FullOverlapStore
+    engine: AllanTree | FullOverlapStore | ExactDeviations
     reservoir: PhaseReservoir | None
     start_ns: int
     last_ns: int
@@ -209,10 +210,19 @@ class ChannelAccumulator:
     def _append(self, t: IntArray, v: FloatArray) -> None:
         s = self.settings
         if self._live is None:
-            engine: AllanTree | FullOverlapStore = (
-                AllanTree(self._grid) if s.overlap == 'partial' else FullOverlapStore(self._grid))
-            reservoir = (PhaseReservoir(s.total_deviation_points)
-                         if s.total_deviation_points else None)
+            engine: AllanTree | FullOverlapStore | ExactDeviations
+            reservoir = None
+            if s.overlap == 'partial':
+                engine = AllanTree(self._grid)
+                reservoir = (PhaseReservoir(s.total_deviation_points)
+                             if s.total_deviation_points else None)
+            else:
+                grid = TauGrid(s.tau_spec, self.nominal_period_ns / NS_PER_S,
+                               s.taus_per_octave)
+                engine = ExactDeviations(grid.factors_up_to, s.max_tau_fraction,
+                                         deviations=s.deviation_names,
+                                         memory_points=s.memory_points,
+                                         scratch_dir=s.scratch_dir or None)
             self._live = _Segment(engine, reservoir, int(t[0]), int(t[0]), ref=float(v[0]))
             if self.kind == 'rate':
                 self._push(np.zeros(1))
@@ -269,14 +279,20 @@ class ChannelAccumulator:
         tau0 = self._period_s(seg)
         if not tau0 > 0:
             return None
-        sums = seg.engine.sums()
+        extra = None
+        if isinstance(seg.engine, ExactDeviations):
+            extra = seg.engine.sums()
+            sums = AllanSums(extra.m, extra.adev_sum, extra.adev_terms,
+                             np.ones_like(extra.m), extra.n_points)
+        else:
+            sums = seg.engine.sums()
         if self.kind == 'rate':
             scale = 1.0
         else:
             k = self.phase_scale if math.isfinite(self.phase_scale) else 1.0
             scale = k * k / (tau0 * tau0)
         max_m = int(self.settings.max_tau_fraction * (sums.n_points - 1))
-        return SegmentSums(sums, tau0, scale, max_m)
+        return SegmentSums(sums, tau0, scale, max_m, extra)
 
     def _verdict(self, seg: _Segment) -> str:
         s = self.settings
@@ -301,6 +317,8 @@ class ChannelAccumulator:
                            not reason, reason)
         self.segments.append(info)
         if reason:
+            if isinstance(seg.engine, ExactDeviations):
+                seg.engine.close()
             if seg.n_samples < self.settings.min_segment_samples:
                 self.stats.segments_short += 1
             else:
@@ -314,6 +332,8 @@ class ChannelAccumulator:
         if sums is not None:
             self._pool.add(sums)
         self._keep_reservoir(seg)
+        if isinstance(seg.engine, ExactDeviations):
+            seg.engine.close()
 
     def _keep_reservoir(self, seg: _Segment) -> None:
         if seg.reservoir is None:

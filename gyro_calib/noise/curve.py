@@ -15,12 +15,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gyro_calib.noise.edf import edf_oadev
+from gyro_calib.noise.edf import edf_greenhall, edf_oadev, edf_totdev
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
     from gyro_calib.noise.allan import AllanSums
+    from gyro_calib.noise.exact import DeviationSums
 
     FloatArray = npt.NDArray[np.float64]
     IntArray = npt.NDArray[np.int64]
@@ -56,17 +57,24 @@ class AllanCurve:
     n_samples: int
     n_segments: int
     overlap: str
+    clusters: FloatArray | None = None
+    """Non-overlapping clusters T/τ at each τ (all segments: Σ (N_i − 1)/m)."""
+    others: dict[str, tuple[FloatArray, IntArray, FloatArray]] = field(default_factory=dict)
+    """'mdev', 'hdev', 'totdev' → (variance, rate unit²; terms; EDF by noise type, 5 × len)
+    at the same τ (NaN where the statistic has no term); only those computed."""
 
     @property
     def adev(self) -> FloatArray:
         """Allan deviation, rate unit."""
         return np.sqrt(self.avar)
 
-    def edf(self, alpha: npt.ArrayLike) -> FloatArray:
-        """EDF at each τ for the noise type α at that τ (array or scalar)."""
+    def edf(self, alpha: npt.ArrayLike, statistic: str = 'adev') -> FloatArray:
+        """EDF at each τ for the noise type α at that τ (array or scalar), of the ADEV or
+        of another statistic in :attr:`others`."""
         a = np.broadcast_to(np.asarray(alpha, dtype=np.int64), self.tau_s.shape)
         rows = np.array([ALPHAS.index(int(v)) for v in a], dtype=np.int64)
-        return self.edf_by_alpha[rows, np.arange(len(self.tau_s))]
+        table = self.edf_by_alpha if statistic == 'adev' else self.others[statistic][2]
+        return table[rows, np.arange(len(self.tau_s))]
 
     def __len__(self) -> int:
         """Number of τ points."""
@@ -83,12 +91,14 @@ class SegmentSums:
         variance_scale: multiplies sum_sq/(2 m²) to give AVAR in rate unit² (1 for rate
             input; (phase unit per count)²/τ0² for phase input).
         max_m: largest averaging factor reported from this segment.
+        extra: the exact store's MDEV/HDEV/TOTDEV sums (full overlap), or None.
     """
 
     sums: AllanSums
     tau0_s: float
     variance_scale: float
     max_m: int
+    extra: DeviationSums | None = None
 
 
 @dataclass(slots=True)
@@ -131,11 +141,63 @@ class CurvePool:
         level_m = arr[:, 0] / arr[:, 4]
         edf = np.empty((len(ALPHAS), k))
         for r, alpha in enumerate(ALPHAS):
-            nu = edf_oadev(level_points, level_m, alpha)
+            if overlap == 'full':
+                nu = edf_greenhall(level_points, level_m, alpha)
+            else:
+                nu = edf_oadev(level_points, level_m, alpha)
             den = np.bincount(idx, arr[:, 2] ** 2 / nu, k)
             edf[r] = n_sum**2 / den  # (Σ n_i)² / Σ (n_i²/EDF_i)
+        clusters = np.bincount(idx, (arr[:, 5] - 1.0) / arr[:, 0], k)
+        others = self._others(segs, unique_m)
         n_samples = sum(s.sums.n_points for s in segs)
         total_w = sum(s.sums.n_points for s in segs)
         tau0 = sum(s.sums.n_points * s.tau0_s for s in segs) / total_w
         return AllanCurve(unique_m * tau0_w, avar, unique_m, n_sum.astype(np.int64), span, edf,
-                          float(tau0), int(n_samples), len(segs), overlap)
+                          float(tau0), int(n_samples), len(segs), overlap, clusters, others)
+
+    @staticmethod
+    def _others(segs: list[SegmentSums], unique_m: IntArray
+                ) -> dict[str, tuple[FloatArray, IntArray, FloatArray]]:
+        """Pooled MDEV/HDEV/TOTDEV variances, terms and EDF rows at the curve's factors.
+
+        Variances in rate unit²: MVAR = Σs/(2m⁴Σn), HVAR = Σs/(6m²Σn), TOTVAR =
+        Σs/(2m²Σn) with the phase in rate·samples (τ0 cancels; SP 1065 eqs. 14, 17, 25).
+        """
+        exact = [s for s in segs if s.extra is not None]
+        if not exact:
+            return {}
+        k = len(unique_m)
+        mf = unique_m.astype(np.float64)
+        norms = {'mdev': 2.0 * mf**4, 'hdev': 6.0 * mf**2, 'totdev': 2.0 * mf**2}
+        out: dict[str, tuple[FloatArray, IntArray, FloatArray]] = {}
+        for name in ('mdev', 'hdev', 'totdev'):
+            total, terms = np.zeros(k), np.zeros(k)
+            den = np.zeros((len(ALPHAS), k))
+            seen = False
+            for s in exact:
+                e = s.extra
+                assert e is not None
+                sums = getattr(e, f'{name}_sum')
+                n_t = getattr(e, f'{name}_terms')
+                keep = (e.m <= s.max_m) & (n_t > 0) & np.isfinite(sums)
+                if not np.any(keep):
+                    continue
+                seen = True
+                pos = np.searchsorted(unique_m, e.m[keep])
+                total[pos] += sums[keep] * s.variance_scale
+                terms[pos] += n_t[keep]
+                for r, alpha in enumerate(ALPHAS):
+                    if name == 'totdev':
+                        nu = edf_totdev(e.n_points, e.m[keep], alpha)
+                    else:
+                        nu = edf_greenhall(e.n_points, e.m[keep], alpha,
+                                           d=2 if name == 'mdev' else 3,
+                                           modified=name == 'mdev')
+                    den[r, pos] += n_t[keep].astype(np.float64) ** 2 / nu
+            if not seen:
+                continue
+            with np.errstate(invalid='ignore', divide='ignore'):
+                var = np.where(terms > 0, total / (norms[name] * terms), np.nan)
+                edf = np.where(den > 0, terms**2 / den, 1.0)
+            out[name] = (var, terms.astype(np.int64), edf)
+        return out

@@ -91,6 +91,31 @@ class NoiseFit:
     upper_bounds: dict[str, float] = field(default_factory=dict)
     """term key → 2σ upper bound √(θ + 2σ(θ)) of each term not reported (from the last fit
     it was in), SI unit of the key; the bound its reason quotes."""
+    tau_ranges: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    """term key → (τ_min, τ_max, largest share) of the fitted τ where the reported term
+    carries at least half of the model's AVAR (else at least a tenth; else the τ of its
+    largest share): the τ range its value rests on, s."""
+    notes: tuple[str, ...] = ()
+    """What the fit left out and why (band-limited short τ, few clusters, misfit)."""
+    band_limited_below_s: float = 0.0
+    """Shortest τ kept when a short-τ range departing from the model was left out, s
+    (0: nothing left out)."""
+
+    def json_record(self, curve: AllanCurve) -> dict[str, object]:
+        """The fit as JSON: fitted τ range, χ², scaling, each term's τ range, notes."""
+        tau = curve.tau_s[self.used]
+        return {
+            'tau_min_s': float(tau[0]) if len(tau) else None,
+            'tau_max_s': float(tau[-1]) if len(tau) else None,
+            'points': int(np.count_nonzero(self.used)),
+            'chi2_reduced': (float(self.chi2_ratio) if math.isfinite(self.chi2_ratio)
+                             else None),
+            'uncertainty_scale': float(math.sqrt(self.covariance_scale)),
+            'band_limited_below_s': float(self.band_limited_below_s),
+            'term_tau_ranges_s': {k: {'tau_min_s': v[0], 'tau_max_s': v[1],
+                                      'largest_share': v[2]}
+                                  for k, v in self.tau_ranges.items()},
+            'notes': list(self.notes)}
 
     def model_avar(self, tau_s: npt.ArrayLike) -> FloatArray:
         """Fitted AVAR at τ, rate unit²."""
@@ -117,6 +142,12 @@ class _Solution:
     edf: FloatArray
     chi2_ratio: float
     scale: float
+    z: FloatArray = field(default_factory=lambda: np.zeros(0))
+    """standardised residuals (AVAR̂ − model)/sd at the fitted points."""
+    misfit: bool = False
+    """χ² above its expectation by more than three standard deviations."""
+    cov_statistical: FloatArray = field(default_factory=lambda: np.zeros((5, 5)))
+    """the covariance before the misfit scaling."""
 
 
 def _solve(curve: AllanCurve, used: npt.NDArray[np.bool_], active: list[int]) -> _Solution:
@@ -194,7 +225,9 @@ def _solve(curve: AllanCurve, used: npt.NDArray[np.bool_], active: list[int]) ->
         for j, k in enumerate(active):
             if not free[j]:
                 cov[k, k] = max(float(var_all[j]), 0.0)
-    return _Solution(theta, cov, alpha, edf, chi2_ratio, scale)
+    cov_stat = cov / scale
+    z = (y - basis @ theta) / sd
+    return _Solution(theta, cov, alpha, edf, chi2_ratio, scale, z, scale > 1.0, cov_stat)
 
 
 def _estimate_sd(noise: FloatArray, ramp: FloatArray, edf: FloatArray,
@@ -256,7 +289,8 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
                     min_tau_s: float = 0.0,
                     max_tau_s: float = math.inf,
                     terms: tuple[str, ...] = SYMBOLS, context: str = '',
-                    eliminate_edges: bool = True) -> NoiseFit:
+                    eliminate_edges: bool = True, min_clusters: float = 10.0,
+                    exclude_band_limited: bool = True) -> NoiseFit:
     """Fit the five IEEE 952 terms jointly to one axis's Allan variance (module docstring).
 
     Args:
@@ -274,12 +308,34 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         max_tau_s: leave out longer τ, s.
         terms: symbols of the terms to fit (others are absent with a reason).
         context: 'pulses' for an RLG pulse stream (adds the lock-in note to Q's reason).
+        eliminate_edges: take Q and R out of the model when below their thresholds.
+        min_clusters: leave out τ with fewer non-overlapping clusters T/τ than this (their
+            estimates are few and χ²-skewed).
+        exclude_band_limited: leave out the short-τ range where the curve departs from the
+            model (a sensor's anti-alias/decimation filter bends the white-noise line):
+            while the fit's χ² exceeds its expectation by 3 standard deviations and the
+            shortest fitted τ is 3σ off the model, that τ is left out and the fit repeated
+            (at most half the points).
 
     Returns:
         The fit; ``estimates`` is empty (every key in ``missing``) when nothing resolves.
     """
     used = ((curve.tau_s >= min_tau_s) & (curve.tau_s <= max_tau_s)
             & np.isfinite(curve.avar) & (curve.avar > 0))
+    notes: list[str] = []
+    if curve.clusters is not None and min_clusters > 0:
+        few = used & (curve.clusters < min_clusters)
+        if np.any(few):
+            notes.append(f'{int(np.count_nonzero(few))} τ point(s) from '
+                         f'{_fmt(float(curve.tau_s[few][0]))} s have fewer than '
+                         f'{min_clusters:g} clusters (T/τ) and are left out of the term fit '
+                         f'(shown in the curve).')
+            used &= ~few
+    band_below = 0.0
+    if exclude_band_limited:
+        used, band_below, note = _exclude_band_limited(curve, used, terms)
+        if note:
+            notes.append(note)
     keys = dict(zip(SYMBOLS, units.keys))
     missing: dict[str, str] = {}
     empty = NoiseFit({}, {}, np.zeros(5), np.zeros((5, 5)), np.zeros(len(curve), dtype=np.int64),
@@ -293,7 +349,8 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
                f'({n_used} in the fitted τ range), too few to fit any noise term.')
         for s in SYMBOLS:
             missing.setdefault(keys[s], f'{units.names[SYMBOLS.index(s)]} is not reported: {why}')
-        return NoiseFit({}, missing, empty.theta, empty.theta_cov, empty.alpha, empty.edf, used)
+        return NoiseFit({}, missing, empty.theta, empty.theta_cov, empty.alpha, empty.edf, used,
+                        notes=tuple(notes))
     tau_used = curve.tau_s[used]
     active = [SYMBOLS.index(s) for s in SYMBOLS if s in terms]
     # at most as many terms as points less one
@@ -308,11 +365,14 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
     sol = None
     for _ in range(2):
         sol = _solve(curve, used, active)
-        sigma = np.sqrt(np.clip(np.diag(sol.cov), 0.0, None))
+        # significance from the statistical covariance: a misfit widens the reported
+        # uncertainty (by the χ² ratio), it does not make a term vanish
+        sigma = np.sqrt(np.clip(np.diag(sol.cov_statistical), 0.0, None))
         z = {k: (sol.theta[k] / sigma[k] if sigma[k] > 0 else
                  (math.inf if sol.theta[k] > 0 else 0.0)) for k in active}
+        sigma_scaled = np.sqrt(np.clip(np.diag(sol.cov), 0.0, None))
         for k in active:
-            last[k] = (float(sol.theta[k]), float(sigma[k]))
+            last[k] = (float(sol.theta[k]), float(sigma_scaled[k]))
         drop = [k for k in edges if z[k] < thresholds[k]]
         if not drop or not eliminate_edges:
             break
@@ -343,5 +403,61 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         full_alpha[used] = sol.alpha
         chi2, scale = sol.chi2_ratio, sol.scale
     edf = curve.edf(full_alpha)
+    if scale > 1.0:
+        notes.append(f'the model fits the Allan variance worse than its scatter allows '
+                     f'(χ² ratio {chi2:.3g}); every uncertainty is scaled by '
+                     f'√{scale:.3g} = {math.sqrt(scale):.3g}.')
+    ranges = _term_ranges(theta_final, tau_used, [units.keys[k] for k in reported], reported)
     return NoiseFit(estimates, missing, theta_final, cov_final, full_alpha, edf, used,
-                    chi2, scale, tuple(SYMBOLS[k] for k in reported), bounds)
+                    chi2, scale, tuple(SYMBOLS[k] for k in reported), bounds, ranges,
+                    tuple(notes), band_below)
+
+
+def _term_ranges(theta: FloatArray, tau: FloatArray, keys: list[str],
+                 idx: list[int]) -> dict[str, tuple[float, float, float]]:
+    """τ range each reported term rests on (see :attr:`NoiseFit.tau_ranges`)."""
+    parts = avar_basis(tau) * theta
+    total = parts.sum(axis=1)
+    out: dict[str, tuple[float, float, float]] = {}
+    with np.errstate(invalid='ignore', divide='ignore'):
+        share = np.where(total[:, None] > 0, parts / total[:, None], 0.0)
+    for key, k in zip(keys, idx):
+        sh = share[:, k]
+        for level in (0.5, 0.1):
+            sel = sh >= level
+            if np.any(sel):
+                break
+        else:
+            sel = sh == sh.max()
+        out[key] = (float(tau[sel][0]), float(tau[sel][-1]), float(sh.max()))
+    return out
+
+
+def _exclude_band_limited(curve: AllanCurve, used: npt.NDArray[np.bool_],
+                          terms: tuple[str, ...]) -> tuple[npt.NDArray[np.bool_], float, str]:
+    """Leave out the short-τ range that departs from the model (see fit_noise_terms)."""
+    active = [SYMBOLS.index(s) for s in SYMBOLS if s in terms]
+    n0 = int(np.count_nonzero(used))
+    if n0 < 6 or len(active) < 2:
+        return used, 0.0, ''
+    used = used.copy()
+    dropped: list[float] = []
+    z_first = 0.0
+    while int(np.count_nonzero(used)) > max(n0 // 2, 5):
+        sol = _solve(curve, used, active)
+        if not sol.misfit or len(sol.z) == 0 or abs(float(sol.z[0])) < 3.0:
+            break
+        first = int(np.nonzero(used)[0][0])
+        z_first = float(sol.z[0]) if not dropped else z_first
+        dropped.append(float(curve.tau_s[first]))
+        used[first] = False
+    if not dropped:
+        return used, 0.0, ''
+    kept = float(curve.tau_s[np.nonzero(used)[0][0]])
+    side = 'below' if z_first < 0 else 'above'
+    return used, kept, (
+        f'τ < {_fmt(kept)} s ({len(dropped)} point(s) from {_fmt(dropped[0])} s) left out of '
+        f'the term fit: the curve departs from the IEEE 952 model there (the shortest τ '
+        f'lies {abs(z_first):.3g} standard deviations {side} it; white noise through a '
+        f"low-pass filter, e.g. the sensor's anti-alias or decimation filter, bends the "
+        f'−½ line at short τ).')

@@ -27,11 +27,25 @@ class NoiseSettings:
     first 256 intervals)."""
     gap_threshold_periods: float = 1.5
     """A stamp interval longer than this many nominal periods is a gap: it ends a segment."""
-    taus_per_octave: int = 4
-    """Log-spaced averaging times per octave (1 = octave points only)."""
-    overlap: str = 'partial'
-    """'partial': decimation tree, memory bounded independently of the record length
-    (within 1 % of full overlap); 'full': full overlap at every τ, keeps every sample."""
+    taus: str = 'default'
+    """The τ grid: 'default' (every octave m = 2^k and the decades τ = 10^k s), 'octave'
+    (m = 2^k), 'decade' (τ = 1, 2, 4 × 10^k s), 'all' (every m), or a list of averaging
+    times in s ("1, 10, 100" or a YAML list). Every τ is computed with full overlap."""
+    taus_per_octave: int = 1
+    """Log-spaced averaging times per octave of the 'default' grid (1 = octave points
+    only; each point costs one pass over the record)."""
+    deviations: str = 'adev, mdev, hdev, totdev'
+    """Statistics computed at every τ besides the overlapping ADEV (always): mdev
+    (modified), hdev (overlapping Hadamard), totdev (total); comma-separated."""
+    overlap: str = 'full'
+    """'full': exact full overlap at every τ (NIST SP 1065 eq. 11, = allantools.oadev),
+    the phase kept in a scratch file beyond ``memory_points``; 'partial': the older
+    decimation tree (approximate at long τ, ADEV and TOTDEV only)."""
+    memory_points: int = 4194304
+    """Phase points per axis and segment held in memory; a longer segment's phase goes to a
+    scratch file (8 bytes per point, deleted at the end) and memory stays bounded."""
+    scratch_dir: str = ''
+    """Directory of the scratch files ('' = the system's temporary directory)."""
     tree_min_averaging_factor: int = 512
     """Smallest averaging factor a tree level ≥ 1 computes (a power of two): the stride of
     a partial-overlap point is at most τ divided by this. The difference from full overlap
@@ -62,11 +76,31 @@ class NoiseSettings:
     region), s."""
     fit_max_tau_s: float = math.inf
     """Leave longer averaging times out of the term fit, s."""
+    fit_min_clusters: float = 10.0
+    """Leave averaging times with fewer non-overlapping clusters T/τ than this out of the
+    term fit (they stay in the curve)."""
+    fit_exclude_band_limited: int = 1
+    """1: find the short-τ range where the curve departs from the model (a sensor's
+    anti-alias/decimation filter) and leave it out of the term fit, saying so; 0: fit
+    from fit_min_tau_s on."""
     total_deviation_points: int = 4096
     """Phase points kept per segment (decimated) for the total deviation at long τ; 0 = off."""
 
     def __post_init__(self) -> None:
         """Validate every field once; raise ConfigError naming the field."""
+        from gyro_calib.noise.allan import parse_taus
+        from gyro_calib.noise.exact import DEVIATIONS
+
+        if isinstance(self.taus, (list, tuple)):
+            object.__setattr__(self, 'taus', ', '.join(f'{float(v):g}' for v in self.taus))
+        try:
+            parse_taus(self.taus)
+        except ValueError as exc:
+            raise ConfigError(f'{exc}.') from None
+        devs = [d.strip() for d in str(self.deviations).replace(' ', ',').split(',') if d.strip()]
+        if not all(d in DEVIATIONS for d in devs):
+            raise ConfigError(f'deviations = {self.deviations!r} is invalid: it must list some '
+                              f'of {", ".join(DEVIATIONS)}, comma-separated.')
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if f.type in ('int', int):
@@ -90,6 +124,7 @@ class NoiseSettings:
             ('gap_threshold_periods', self.gap_threshold_periods > 1.0, 'greater than 1'),
             ('taus_per_octave', 1 <= self.taus_per_octave <= 32, 'between 1 and 32'),
             ('overlap', self.overlap in ('partial', 'full'), "'partial' or 'full'"),
+            ('memory_points', self.memory_points >= 1024, 'at least 1024'),
             ('tree_min_averaging_factor', 2 <= m and not m & (m - 1),
              'a power of two, at least 2'),
             ('max_tau_fraction', 0.0 < self.max_tau_fraction <= 0.5, 'in (0, 0.5]'),
@@ -102,6 +137,8 @@ class NoiseSettings:
             ('edge_term_significance', self.edge_term_significance > 0, 'positive'),
             ('ramp_term_significance', self.ramp_term_significance > 0, 'positive'),
             ('fit_min_tau_s', self.fit_min_tau_s >= 0, 'zero or positive'),
+            ('fit_min_clusters', self.fit_min_clusters >= 0, 'zero or positive'),
+            ('fit_exclude_band_limited', self.fit_exclude_band_limited in (0, 1), '0 or 1'),
             ('fit_max_tau_s', self.fit_max_tau_s > self.fit_min_tau_s,
              'greater than fit_min_tau_s'),
             ('total_deviation_points', self.total_deviation_points == 0
@@ -111,3 +148,18 @@ class NoiseSettings:
             if not ok:
                 raise ConfigError(f'{name} = {getattr(self, name)!r} is invalid: '
                                   f'it must be {expected}.')
+
+    @property
+    def tau_spec(self) -> str | tuple[float, ...]:
+        """The τ grid: a name or the τ list, s."""
+        from gyro_calib.noise.allan import parse_taus
+
+        return parse_taus(self.taus)
+
+    @property
+    def deviation_names(self) -> tuple[str, ...]:
+        """The statistics computed (adev always)."""
+        from gyro_calib.noise.exact import DEVIATIONS
+
+        devs = {d.strip() for d in self.deviations.replace(' ', ',').split(',')}
+        return tuple(d for d in DEVIATIONS if d in devs or d == 'adev')
