@@ -4,6 +4,8 @@
     gyro-calib info BAG [BAG ...] [--method NAME ...] [--json]
     gyro-calib simulate SCENARIO --out BAG [--seed N] [--duration-s S] [--sample-rate-hz HZ]
     gyro-calib methods | --version
+    gyro-calib report HANDOFF [BAG ...] --out DIR [--spec SPEC]   (certificate, HTML + PDF)
+    gyro-calib batch MANIFEST --out DIR [--workers N | --scheduler URL] [--spec SPEC]
 
 BAG is a rosbag2 directory, the .mcap file inside one or a lone .mcap file (read with its
 own summary), or a CSV/text table of a static record (:mod:`gyro_calib.table_input`). Every
@@ -44,6 +46,8 @@ EXTRA_COMMANDS: tuple[str, ...] = (
     # method subcommands: modules 'gyro_calib.<method>.cli' with add_commands(subparsers)
     'gyro_calib.thermal.cli',
     'gyro_calib.noise.cli',
+    'gyro_calib.report.cli',
+    'gyro_calib.batch.cli',
 )
 """Modules that add a method's own subcommands (their parsers and code stay in the method)."""
 
@@ -138,6 +142,9 @@ def _parser() -> argparse.ArgumentParser:
     cal.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
                      help='progress bar on stderr (default: when stderr is a terminal)')
     cal.set_defaults(run=_calibrate)
+    from gyro_calib.report.cli import calibrate_arguments
+
+    calibrate_arguments(cal)  # --report DIR, --spec
 
     info = sub.add_parser('info', help='topics, counts, duration, and what each method would use')
     info.add_argument('bags', nargs='+', type=Path, metavar='BAG')
@@ -226,6 +233,10 @@ def _calibrate(args: argparse.Namespace) -> int:
     check_calibration_file(args.calibration)
     refuse_unused_flags(args, [m.name for m in select_methods([bag_info(p) for p in args.bags],
                                                                args.method)])
+    if args.report is not None or args.spec is not None:  # checked before any work
+        from gyro_calib.report.cli import check_calibrate_report
+
+        check_calibrate_report(args)
     show = sys.stderr.isatty() if args.progress is None else args.progress
     outcome = _run_with_progress(args, show)
     human = sys.stderr if args.json else sys.stdout
@@ -242,9 +253,12 @@ def _calibrate(args: argparse.Namespace) -> int:
         print('gyro-calib: nothing could be calibrated from the bag(s); nothing written.',
               file=sys.stderr)
         return EXIT_NOT_CALIBRATED
-    if args.out is not None:
-        return _write_handoff(args, outcome, human)
-    return EXIT_OK
+    status = _write_handoff(args, outcome, human) if args.out is not None else EXIT_OK
+    if args.report is not None and status == EXIT_OK:
+        from gyro_calib.report.cli import report_after_calibrate
+
+        report_after_calibrate(args, outcome, human)
+    return status
 
 
 def _write_handoff(args: argparse.Namespace, outcome: BagCalibration, human: Any) -> int:

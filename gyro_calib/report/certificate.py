@@ -1,0 +1,371 @@
+"""The calibration certificate of one gyro: the model, its HTML (self-contained) and its PDF.
+
+:func:`build_certificate` joins the hand-off file (the values, as the INS receives them) with
+what the run knows (:class:`~gyro_calib.report.evidence.RunEvidence`: degrees of freedom,
+budgets, rejections, figures, input hashes, settings) and a spec (verdicts). Values are the
+hand-off's, converted to the unit a lab quotes (:mod:`gyro_calib.report.units`); k and U follow
+from the degrees of freedom (:mod:`gyro_calib.report.uncertainty`). What ISO/IEC 17025 7.8.2,
+7.8.4 and 7.8.6 ask a calibration certificate to hold is laid out in :data:`TEMPLATE`.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime
+import math
+import os
+import re
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from gyro_calib import __version__
+from gyro_calib.handoff import Calibration, HandoffKey
+from gyro_calib.registry import METHODS, handoff_schema
+from gyro_calib.report.evidence import MethodEvidence, RunEvidence
+from gyro_calib.report.spec import NOT_MEASURED, Spec, overall, verdict
+from gyro_calib.report.uncertainty import (
+    BudgetLine,
+    Expanded,
+    contribution_percent,
+    expanded_uncertainty,
+)
+from gyro_calib.report.units import user_unit
+
+REJECTIONS_LISTED = 40
+"""Rejection lines listed per method; the rest are counted in one line."""
+
+
+@dataclass(frozen=True, slots=True)
+class QuantityRow:
+    """One measured quantity on the certificate (values in the quoted unit unless ``_si``)."""
+
+    key: str
+    method: str
+    description: str
+    unit: str
+    value_si: float
+    std_si: float
+    factor: float
+    value: str
+    std: str
+    n: str
+    dof: str
+    k: str
+    expanded: str
+    budget: tuple[tuple[str, str, str, str], ...]
+    k_note: str
+    limit: str = ''
+    verdict: str = ''
+    in_handoff: bool = True
+    note: str = ''
+    k_value: float | None = None
+    expanded_si: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class MethodSection:
+    """A method's part of the certificate."""
+
+    name: str
+    title: str
+    source: str
+    created_utc: str
+    span: str
+    missing: tuple[tuple[str, str], ...]
+    rejections: tuple[str, ...]
+    rejections_more: int
+    notices: tuple[str, ...]
+    summary: tuple[str, ...]
+    figures: tuple[tuple[str, str, str], ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Certificate:
+    """Everything printed on one gyro's certificate."""
+
+    gyro_id: str
+    file_stem: str
+    issued_utc: str
+    software: str
+    handoff_path: str
+    calibrated_utc: str
+    complete: bool
+    rows: tuple[QuantityRow, ...]
+    facts: tuple[tuple[str, str, str], ...]
+    mappings: tuple[tuple[str, str, str], ...]
+    methods: tuple[MethodSection, ...]
+    bags: tuple[tuple[str, str, str, str], ...]
+    settings: tuple[tuple[str, str, str], ...]
+    latitude: str
+    rule: str
+    overall: str
+    spec_source: str
+    spec_missing: tuple[str, ...]
+    evidence_note: str
+    notes: tuple[str, ...] = field(default=())
+
+
+def _utc_now() -> str:
+    return datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds')
+
+
+def _decimals(std: float) -> int | None:
+    """Decimal places that show u to two significant digits (GUM 7.2.6), None: use e-notation."""
+    if not std > 0 or not math.isfinite(std):
+        return None
+    d = 1 - math.floor(math.log10(std))
+    return max(d, 0) if d <= 12 else None
+
+
+def format_number(value: float, std: float) -> str:
+    """``value`` rounded where its standard uncertainty ``std`` has its second digit."""
+    if not math.isfinite(value):
+        return str(value)
+    d = _decimals(std)
+    if d is None:
+        return f'{value:.6g}' if std == 0 else f'{value:.4e}'
+    return f'{value:.{d}f}'
+
+
+def _generic_values(values: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
+    """Key → {'value', 'std', 'n', 'dof'} of every uncertain quantity of the hand-off, read
+    generically: scalar keys with ``_std`` (and ``_n``, ``_dof`` where present) twins, or a
+    mapping with 'value' and 'std'."""
+    out: dict[str, dict[str, Any]] = {}
+    for key, value in values.items():
+        if isinstance(value, Mapping) and 'value' in value and 'std' in value:
+            out[key] = dict(value)
+        elif (key + '_std') in values and not isinstance(value, (Mapping, list, str, bool)):
+            out[key] = {'value': value, 'std': values[key + '_std'],
+                        'n': values.get(key + '_n'), 'dof': values.get(key + '_dof')}
+    return out
+
+
+def _twin(key: str, values: Mapping[str, Any]) -> bool:
+    for suffix in ('_std', '_n', '_dof'):
+        if key.endswith(suffix) and key[:-len(suffix)] in values:
+            return True
+    return False
+
+
+def _quantity_row(key: str, method: str, description: str, value_si: float, std_si: float,
+                  est_n: int | None, budget: tuple[BudgetLine, ...], spec: Spec | None,
+                  in_handoff: bool, note: str = '', dof_given: float | None = None) -> QuantityRow:
+    unit = user_unit(key)
+    if not budget and dof_given is not None:
+        budget = (BudgetLine('stated in the hand-off', std_si, float(dof_given)),)
+    exp: Expanded = expanded_uncertainty(std_si, budget)
+    f = unit.factor
+    u = std_si * f
+    rows = tuple((b.source, format_number(b.std * f, b.std * f),
+                  '∞' if math.isinf(b.dof) else f'{b.dof:g}',
+                  f'{contribution_percent(b, std_si):.1f} %') for b in exp.budget)
+    limit_text, verdict_text = '', ''
+    if spec is not None and key in spec.limits:
+        lim = spec.limits[key]
+        limit_text = lim.text()
+        verdict_text = verdict(lim, value_si * f, u,
+                               None if exp.expanded is None else exp.expanded * f, spec.rule)
+    return QuantityRow(
+        key=key, method=method, description=description, unit=unit.label or unit.si,
+        value_si=value_si, std_si=std_si, factor=f, value=format_number(value_si * f, u),
+        std=format_number(u, u), n='—' if est_n is None else str(est_n),
+        dof='—' if exp.dof is None else ('∞' if math.isinf(exp.dof) else f'{exp.dof:.3g}'),
+        k='—' if exp.k is None else f'{exp.k:.2f}',
+        expanded='—' if exp.expanded is None else format_number(exp.expanded * f, u),
+        budget=rows, k_note=exp.note, limit=limit_text, verdict=verdict_text,
+        in_handoff=in_handoff, note=note, k_value=exp.k, expanded_si=exp.expanded)
+
+
+def _span_text(start_ns: int, end_ns: int) -> str:
+    return f'{start_ns / 1e9:.3f} s → {end_ns / 1e9:.3f} s ({(end_ns - start_ns) / 1e9:.3f} s)'
+
+
+def build_certificate(calibration: Calibration, evidence: RunEvidence | None = None,
+                      spec: Spec | None = None, *, handoff_path: str = '',
+                      schema: Mapping[str, HandoffKey] | None = None) -> Certificate:
+    """The certificate of one gyro.
+
+    Args:
+        calibration: the hand-off file's content (its values are the certificate's values).
+        evidence: what the run knows (None: the hand-off alone; k = 2 is then assumed and
+            the certificate says so).
+        spec: limits and decision rule (None: no verdicts, and the certificate says so).
+        handoff_path: the hand-off file, as named on the certificate.
+        schema: the hand-off keys (default: every registered method's).
+    """
+    sch = handoff_schema() if schema is None else schema
+    order = {k: i for i, k in enumerate(sch)}
+    ev_methods = {m.method: m for m in (evidence.methods if evidence else ())}
+    estimates = {k: (m, e) for m in ev_methods.values() for k, e in m.estimates.items()}
+    values = dict(calibration.values)
+    generic = _generic_values(values)
+    rows: list[QuantityRow] = []
+    notes: list[str] = []
+    for key in sorted(generic, key=lambda k: (order.get(k, len(order)), k)):
+        entry = generic[key]
+        value, std = float(entry['value']), float(entry['std'])
+        spec_key = sch.get(key)
+        method = spec_key.method if spec_key else '?'
+        description = spec_key.description if spec_key else 'key not known to this gyro_calib'
+        est_n: int | None = entry.get('n')
+        budget: tuple[BudgetLine, ...] = ()
+        note = ''
+        if key in estimates:
+            m, est = estimates[key]
+            same = (math.isclose(est.value, value, rel_tol=1e-9, abs_tol=0.0)
+                    and math.isclose(est.std_uncertainty, std, rel_tol=1e-9, abs_tol=0.0))
+            if same:
+                budget = m.budgets.get(key, ())
+                est_n = est.n_used if est_n is None else est_n
+            else:
+                note = (f'the data given give {est.value:.10g} ± {est.std_uncertainty:.3g} '
+                        '(SI), not the hand-off\'s value: degrees of freedom not taken from them')
+                notes.append(f'{key}: {note}.')
+        rows.append(_quantity_row(key, method, description, value, std, est_n, budget, spec,
+                                  True, note, entry.get('dof')))
+    for key, (m, est) in sorted(estimates.items(), key=lambda kv: (kv[1][0].method, kv[0])):
+        if key in generic:
+            continue
+        rows.append(_quantity_row(key, m.method, 'measured by the session; not a hand-off key',
+                                  est.value, est.std_uncertainty, est.n_used,
+                                  m.budgets.get(key, ()), spec, False))
+    facts, mappings = [], []
+    for key, value in values.items():
+        if key in generic or _twin(key, values):
+            continue
+        spec_key = sch.get(key)
+        description = spec_key.description if spec_key else ''
+        if isinstance(value, Mapping):
+            mappings.append((key, description, yaml.safe_dump(dict(value), sort_keys=False,
+                                                              allow_unicode=True, width=96)))
+        else:
+            unit = user_unit(key)
+            shown = (f'{float(value) * unit.factor:.6g} {unit.label}'.strip()
+                     if isinstance(value, float) else str(value))
+            facts.append((key, shown, description))
+    rule, verdict_all, spec_missing, spec_source = '', '', [], ''
+    if spec is not None:
+        rule, spec_source = spec.rule_text, spec.source
+        judged = {r.key: r.verdict for r in rows if r.verdict}
+        for key in spec.limits:
+            if key not in judged:
+                why = calibration.missing.get(key, 'not in the hand-off file')
+                spec_missing.append(f'{key} ({spec.limits[key].text()}): {NOT_MEASURED} — {why}')
+        verdict_all = overall(list(judged.values()) + [NOT_MEASURED] * len(spec_missing))
+    sections = []
+    for name, prov in calibration.methods.items():
+        ev: MethodEvidence | None = ev_methods.get(name)
+        missing = {k: v for k, v in prov.missing.items() if k not in values}
+        rejections = ev.rejections if ev else ()
+        sections.append(MethodSection(
+            name=name, title=METHODS[name].title if name in METHODS else name,
+            source=prov.source, created_utc=prov.created_utc,
+            span=_span_text(prov.data_start_stamp_ns, prov.data_end_stamp_ns),
+            missing=tuple(missing.items()), rejections=rejections[:REJECTIONS_LISTED],
+            rejections_more=max(len(rejections) - REJECTIONS_LISTED, 0),
+            notices=ev.notices if ev else (), summary=ev.summary if ev else (),
+            figures=tuple((f.name, f.caption, 'data:image/png;base64,'
+                           + base64.b64encode(f.png).decode('ascii'))
+                          for f in (ev.figures if ev else ()))))
+    bags = tuple((b.path, name, digest, f'{_span_text(b.start_ns, b.end_ns)}, {b.messages} msgs')
+                 for b in (evidence.bags if evidence else ()) for name, digest in b.files)
+    settings = tuple((s.name, s.value, s.origin) for s in (evidence.settings if evidence else ()))
+    lat = next((s for s in (evidence.settings if evidence else ()) if s.name == 'latitude_deg'),
+               None)
+    latitude = (f'{lat.value} ({lat.origin})' if lat and lat.value != '—'
+                else 'not known: no bias was separated from the Earth rate' if lat
+                else 'not recorded in the hand-off file (give the bags to see the settings)')
+    created = sorted(p.created_utc for p in calibration.methods.values())
+    stem = _file_stem(calibration.gyro_id or Path(handoff_path).stem or 'gyro')
+    return Certificate(
+        gyro_id=calibration.gyro_id or '(no gyro id given)', file_stem=stem,
+        issued_utc=_utc_now(), software=f'gyro_calib {__version__} (hand-off written by '
+        f'{calibration.gyro_calib_version or "?"})', handoff_path=handoff_path,
+        calibrated_utc=' … '.join(dict.fromkeys([created[0], created[-1]])) if created else '',
+        complete=calibration.complete, rows=tuple(rows), facts=tuple(facts),
+        mappings=tuple(mappings), methods=tuple(sections), bags=bags, settings=settings,
+        latitude=latitude, rule=rule, overall=verdict_all, spec_source=spec_source,
+        spec_missing=tuple(spec_missing),
+        evidence_note='' if evidence else (
+            'No bag was given: degrees of freedom, budgets, rejections, figures and input '
+            'hashes are not known to this certificate; k = 2 is assumed for every quantity.'),
+        notes=tuple(notes))
+
+
+def _file_stem(name: str) -> str:
+    """A file name stem from a gyro id (characters other than letters, digits, ._- → _)."""
+    return re.sub(r'[^A-Za-z0-9._-]', '_', name).strip('.') or 'gyro'
+
+
+def render_html(cert: Certificate) -> str:
+    """The certificate as one self-contained HTML document (no external resource)."""
+    import jinja2
+
+    env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined)
+    from gyro_calib.report.template import TEMPLATE
+
+    return env.from_string(TEMPLATE).render(c=cert)
+
+
+def render_pdf(html: str) -> bytes:
+    """The certificate's PDF (WeasyPrint; A4 from the page CSS)."""
+    import logging
+
+    from weasyprint import HTML
+
+    logging.getLogger('weasyprint').setLevel(logging.ERROR)
+    logging.getLogger('fontTools').setLevel(logging.ERROR)
+    return bytes(HTML(string=html).write_pdf())
+
+
+def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> list[Path]:
+    """Write ``<out_dir>/<stem>.html`` (and ``.pdf``); each replaces its file atomically.
+
+    Both documents are rendered before anything is written."""
+    html = render_html(cert)
+    documents = [(out_dir / f'{cert.file_stem}.html', html.encode('utf-8'))]
+    if pdf:
+        documents.append((out_dir / f'{cert.file_stem}.pdf', render_pdf(html)))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for path, data in documents:
+        fd, tmp = tempfile.mkstemp(prefix=f'.{path.name}.', suffix='.tmp', dir=out_dir)
+        try:
+            with os.fdopen(fd, 'wb') as stream:
+                stream.write(data)
+            os.chmod(tmp, 0o666 & ~_umask())
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+        written.append(path.resolve())
+    return written
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def certificate_record(cert: Certificate) -> dict[str, Any]:
+    """The certificate's quantities as plain data (the fleet files are made of these)."""
+    return {
+        'gyro_id': cert.gyro_id, 'overall': cert.overall, 'rule': cert.rule,
+        'complete': cert.complete,
+        'quantities': [{'key': r.key, 'method': r.method, 'unit': r.unit,
+                        'value': r.value_si * r.factor, 'std': r.std_si * r.factor,
+                        'k': r.k_value, 'U': (None if r.expanded_si is None
+                                              else r.expanded_si * r.factor),
+                        'n': r.n, 'dof': r.dof, 'limit': r.limit, 'verdict': r.verdict,
+                        'value_si': r.value_si, 'std_si': r.std_si, 'in_handoff': r.in_handoff}
+                       for r in cert.rows],
+        'not_measured': list(cert.spec_missing),
+    }

@@ -1,0 +1,162 @@
+"""``gyro-calib report`` and ``gyro-calib calibrate … --report DIR``: the certificate of a gyro.
+
+    gyro-calib report HANDOFF.yaml [BAG ...] [--spec SPEC.yaml] --out DIR [--no-pdf]
+
+writes ``DIR/<gyro_id>.html`` (self-contained) and ``DIR/<gyro_id>.pdf``. With bags, the
+methods of the hand-off file whose topics the bags hold are run again on them (with the same
+settings flags as ``calibrate``) for the degrees of freedom, budgets, rejections, figures and
+input hashes; without, the certificate rests on the hand-off file alone and says so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from gyro_calib.errors import ConfigError
+
+if TYPE_CHECKING:
+    from gyro_calib.bag_calibration import BagCalibration
+    from gyro_calib.handoff import Calibration
+    from gyro_calib.report.evidence import RunEvidence
+    from gyro_calib.report.spec import Spec
+
+EXIT_OK = 0
+
+
+def add_commands(sub: Any) -> None:
+    """Add ``report`` to the ``gyro-calib`` subcommands."""
+    from gyro_calib.cli import method_arguments
+
+    rep = sub.add_parser('report', help='the calibration certificate of a gyro (HTML + PDF)')
+    rep.add_argument('handoff', type=Path, metavar='HANDOFF', help='the hand-off YAML file')
+    rep.add_argument('bags', nargs='*', type=Path, metavar='BAG',
+                     help='the bags it was calibrated from (for degrees of freedom, budgets, '
+                     'rejections, figures, hashes)')
+    rep.add_argument('--out', type=Path, required=True, metavar='DIR',
+                     help='directory for <gyro_id>.html and <gyro_id>.pdf')
+    rep.add_argument('--spec', type=Path, metavar='SPEC',
+                     help='acceptance limits and decision rule (YAML); without it no verdicts')
+    rep.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
+                     help='write the PDF beside the HTML (default: yes)')
+    method_arguments(rep)
+    rep.set_defaults(run=run_report)
+
+
+def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--report DIR`` and ``--spec`` for ``gyro-calib calibrate``."""
+    parser.add_argument('--report', type=Path, metavar='DIR',
+                        help='write the certificate (<gyro_id>.html and .pdf) into DIR')
+    parser.add_argument('--spec', type=Path, metavar='SPEC',
+                        help='with --report: acceptance limits and decision rule (YAML)')
+
+
+def check_output_dir(path: Path) -> None:
+    """Refuse an output directory that is a file (before any work)."""
+    if path.exists() and not path.is_dir():
+        raise ConfigError(f'--out/--report {path} exists and is not a directory.')
+
+
+def check_calibrate_report(args: argparse.Namespace) -> None:
+    """``calibrate --report DIR [--spec SPEC]``: checked before any work."""
+    if args.report is None:
+        raise ConfigError('--spec applies only with --report DIR (the certificate).')
+    check_output_dir(args.report)
+    load_spec_arg(args.spec)
+
+
+def load_spec_arg(path: Path | None) -> Spec | None:
+    """The spec file of ``--spec`` (checked before any work), or None."""
+    if path is None:
+        return None
+    from gyro_calib.report.spec import load_spec
+
+    return load_spec(path)
+
+
+def run_report(args: argparse.Namespace) -> int:
+    """``gyro-calib report``: load, (re-)run the bags, build and write the certificate."""
+    from gyro_calib.cli import options_from_args
+    from gyro_calib.handoff import load_calibration
+
+    check_output_dir(args.out)
+    spec = load_spec_arg(args.spec)
+    calibration = load_calibration(args.handoff)
+    evidence = None
+    if args.bags:
+        options = options_from_args(args)
+        if not options.gyro_id and calibration.gyro_id:
+            options = dataclasses.replace(options, gyro_id=calibration.gyro_id)
+        evidence = evidence_from_bags(args.bags, calibration, options, args.method)
+    paths = write_report(calibration, evidence, spec, args.out, handoff_path=str(args.handoff),
+                         pdf=args.pdf)
+    for path in paths:
+        print(f'certificate written: {path}')
+    return EXIT_OK
+
+
+def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
+                       methods: list[str] | None) -> RunEvidence:
+    """Run the hand-off's methods whose topics the bags hold; their evidence.
+
+    Raises:
+        BagError, ConfigError: as ``calibrate`` does; also when the bags hold none of the
+            hand-off's methods' topics.
+    """
+    from gyro_calib.bag import bag_info
+    from gyro_calib.bag_calibration import calibrate_bags, merged_topics
+    from gyro_calib.registry import METHODS
+    from gyro_calib.report.evidence import evidence_from_outcome
+
+    if not methods:
+        present = merged_topics([bag_info(p) for p in bags])
+        methods = [name for name in calibration.methods if name in METHODS and (
+            all(present.get(t) == METHODS[name].topics[t] for t in METHODS[name].reveal)
+            if METHODS[name].reveal else
+            any(present.get(t) == ty for t, ty in METHODS[name].topics.items()))]
+        if not methods:
+            raise ConfigError(f'the bag(s) {", ".join(map(str, bags))} hold the topics of none '
+                              f'of the hand-off file\'s methods ({", ".join(calibration.methods)})'
+                              '; give the bags it was calibrated from, or none.')
+    outcome = calibrate_bags(bags, methods=methods, options=options)
+    return evidence_from_outcome(outcome, options)
+
+
+def write_report(calibration: Calibration, evidence: RunEvidence | None, spec: Spec | None,
+                 out_dir: Path, *, handoff_path: str = '', pdf: bool = True) -> list[Path]:
+    """Build the certificate and write its HTML (and PDF) into ``out_dir``."""
+    from gyro_calib.report.certificate import build_certificate, write_certificate
+
+    cert = build_certificate(calibration, evidence, spec, handoff_path=handoff_path)
+    return write_certificate(cert, out_dir, pdf=pdf)
+
+
+def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
+                           human: Any = sys.stdout) -> None:
+    """``calibrate --report DIR``: the certificate of the run just made (the hand-off file of
+    ``--out`` as merged, else this run's record)."""
+    from gyro_calib.cli import options_from_args
+    from gyro_calib.handoff import load_calibration
+    from gyro_calib.registry import handoff_schema
+    from gyro_calib.report.evidence import evidence_from_outcome
+
+    if args.out is not None and Path(args.out).exists():
+        record = load_calibration(args.out)
+        where = str(args.out)
+    else:
+        record = None
+        for session in outcome.sessions.values():
+            part = session.handoff(outcome.source, gyro_id=args.gyro_id)
+            if part is not None:
+                record = part if record is None else part.merged_into(record, handoff_schema())
+        where = '(this run; no --out file)'
+    if record is None:
+        print('gyro-calib: no certificate: nothing was measured.', file=sys.stderr)
+        return
+    evidence = evidence_from_outcome(outcome, options_from_args(args))
+    for path in write_report(record, evidence, load_spec_arg(args.spec), args.report,
+                             handoff_path=where):
+        print(f'certificate written: {path}', file=human)

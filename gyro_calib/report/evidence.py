@@ -1,0 +1,240 @@
+"""What a certificate needs from a calibration run, in a form that travels between processes.
+
+:func:`evidence_from_outcome` takes a finished :class:`~gyro_calib.bag_calibration.
+BagCalibration` (the sessions that ran) and keeps, per method, the estimates with their
+degrees of freedom and uncertainty bases, the budget sources the estimator knows, what is
+missing and why, the rejections, and the method's figures as PNG bytes; and for the run, each
+input bag with the SHA-256 of its files and the bench settings with where each came from.
+Everything here is a frozen dataclass of plain values, so a Dask worker can return it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from gyro_calib.estimate import Estimate
+from gyro_calib.registry import METHODS
+from gyro_calib.report.uncertainty import BudgetLine
+from gyro_calib.units import format_stamp
+
+if TYPE_CHECKING:
+    from gyro_calib.bag import BagInfo
+    from gyro_calib.bag_calibration import BagCalibration
+    from gyro_calib.session import CalibrationOptions, MethodSession
+
+FIGURE_CAPTIONS = {
+    'rbrlg_k_tilde_pairs': 'K̃ per forward/reverse pair with the running mean and its ±1σ band '
+                           '(METHODS §A.2)',
+    'rbrlg_stations': 'Station fit N_og(β) = c₀ + c₁·cos β + c₂·sin β with residuals '
+                      '(METHODS §A.3)',
+    'fog_turntable_nonlinearity': 'FOG turntable: residuals of the linear fit (nonlinearity) '
+                                  '(METHODS §B)',
+    'fog_self_cal_range': 'FOG self-calibration: K against the range used (METHODS §B)',
+    'dither_coning': 'Dither: the two components and a with its interval against the limit '
+                     '(METHODS §C)',
+    'thermal_bias_vs_h': 'Thermal bias model over the calibration data (METHODS §D)',
+    'thermal_residuals': 'Thermal model residuals against time (METHODS §D)',
+    'thermal_before_after': 'Bias before and after compensation (METHODS §D)',
+    'thermal_allan': 'Allan deviation before and after compensation (METHODS §D)',
+}
+"""Captions of the methods' figures by file stem (others are captioned by their name)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Figure:
+    """One figure: file stem, caption, PNG bytes."""
+
+    name: str
+    caption: str
+    png: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class BagInput:
+    """One input bag.
+
+    Attributes:
+        path: as given.
+        files: (file name inside the bag, SHA-256 hex) of each file, sorted.
+        start_ns, end_ns: log-time span, ns.
+        messages: message count.
+    """
+
+    path: str
+    files: tuple[tuple[str, str], ...]
+    start_ns: int
+    end_ns: int
+    messages: int
+
+    @property
+    def duration_s(self) -> float:
+        """Log-time span, s."""
+        return (self.end_ns - self.start_ns) / 1e9
+
+
+@dataclass(frozen=True, slots=True)
+class Setting:
+    """A bench setting used: name, value as printed, where it came from."""
+
+    name: str
+    value: str
+    origin: str
+
+
+@dataclass(frozen=True, slots=True)
+class MethodEvidence:
+    """One method's run, as the certificate shows it.
+
+    Attributes:
+        method: registry name.
+        title: one line describing the method.
+        estimates: hand-off key (or session result) → estimate, SI.
+        budgets: key → its uncertainty sources (as the estimator knows them).
+        missing: key → why it was not measured.
+        rejections: one line per rejected window/event/station, with its stamp.
+        notices: stream events (restarts, drops).
+        summary: the lines under the method's summary table (counts, bases).
+        figures: the method's figures.
+        span_ns: (first, last) stamp the results rest on, or None.
+    """
+
+    method: str
+    title: str
+    estimates: Mapping[str, Estimate]
+    budgets: Mapping[str, tuple[BudgetLine, ...]]
+    missing: Mapping[str, str]
+    rejections: tuple[str, ...]
+    notices: tuple[str, ...]
+    summary: tuple[str, ...]
+    figures: tuple[Figure, ...]
+    span_ns: tuple[int, int] | None
+
+
+@dataclass(frozen=True, slots=True)
+class RunEvidence:
+    """A calibration run: its methods, input bags and settings."""
+
+    methods: tuple[MethodEvidence, ...]
+    bags: tuple[BagInput, ...]
+    settings: tuple[Setting, ...]
+
+
+def sha256_files(path: Path) -> tuple[tuple[str, str], ...]:
+    """(name, SHA-256 hex) of a bag's files: every file of a bag directory, or the one file."""
+    path = Path(path)
+    files = sorted(p for p in path.rglob('*') if p.is_file()) if path.is_dir() else [path]
+    out = []
+    for f in files:
+        digest = hashlib.sha256()
+        with f.open('rb') as stream:
+            for block in iter(lambda: stream.read(1 << 20), b''):
+                digest.update(block)
+        out.append((str(f.relative_to(path)) if path.is_dir() else f.name, digest.hexdigest()))
+    return tuple(out)
+
+
+def bag_input(info: BagInfo) -> BagInput:
+    """The bag's identity: files with their hashes, span, count."""
+    return BagInput(str(info.path), sha256_files(info.path), info.start_ns, info.end_ns,
+                    info.message_count)
+
+
+_OPTION_FLAGS = (
+    ('latitude_deg', '--latitude-deg', '°'),
+    ('heading_deg', '--heading-deg', '°'),
+    ('position_table_revolutions', '--position-table-revolutions', ''),
+    ('scale_factor_rad_per_pulse', '--scale-factor-rad-per-pulse', 'rad/pulse'),
+    ('scale_factor_counts_per_rad', '--scale-factor-counts-per-rad', 'counts/rad'),
+    ('sense_axis_elevation_deg', '--sense-axis-elevation-deg', '°'),
+    ('sense_axis_azimuth_deg', '--sense-axis-azimuth-deg', '°'),
+    ('config_file', '--config', ''),
+    ('calibration_file', '--calibration', ''),
+)
+
+
+def settings_used(options: CalibrationOptions) -> tuple[Setting, ...]:
+    """Each setting with its origin: the flag, the bench settings stored in the bag, or not
+    given (the method's default)."""
+    bench = options.scenario.get('bench', {}) if isinstance(options.scenario, dict) else {}
+    bench = bench if isinstance(bench, dict) else {}
+    out = []
+    for name, flag, unit in _OPTION_FLAGS:
+        given = getattr(options, name)
+        if given is not None:
+            out.append(Setting(name, f'{given} {unit}'.strip(), f'flag {flag}'))
+        elif name in bench:
+            out.append(Setting(name, f'{bench[name]} {unit}'.strip(),
+                               'bench settings stored in the bag'))
+        else:
+            out.append(Setting(name, '—', 'not given (the method\'s default applies)'))
+    listed = {s.name for s in out}
+    for name, value in bench.items():
+        if name not in listed:
+            out.append(Setting(name, str(value), 'bench settings stored in the bag'))
+    return tuple(out)
+
+
+def _budgets(session: MethodSession,
+             estimates: Mapping[str, Estimate]) -> dict[str, tuple[BudgetLine, ...]]:
+    """The sources of each estimate's u: what the estimator states, split where it knows the
+    parts (dither: statistical and the rocking Type B allowance)."""
+    out: dict[str, tuple[BudgetLine, ...]] = {}
+    for key, est in estimates.items():
+        source = est.basis or f'{session.name} estimator (stated u, {est.dof} dof)'
+        out[key] = (BudgetLine(source, est.std_uncertainty, float(est.dof)),)
+    if session.name == 'dither':
+        section = session.json_section()
+        parts: dict[str, Any] = {}
+        for axis, key in (('z', 'dither_misalignment_z_rad'),
+                          ('y', 'dither_misalignment_y_rad')):
+            parts[key] = (section.get('components') or {}).get(axis)
+        parts['dither_axis_misalignment_rad'] = section.get('misalignment')
+        for key, part in parts.items():
+            est = estimates.get(key)
+            stat = (part or {}).get('statistical_std_rad')
+            if est is None or stat is None or not math.isfinite(stat):
+                continue
+            stat = min(float(stat), est.std_uncertainty)
+            rest = math.sqrt(max(est.std_uncertainty**2 - stat**2, 0.0))
+            lines = [BudgetLine('statistical scatter of the sideband fits', stat,
+                                float(est.dof))]
+            if rest > 0:
+                lines.append(BudgetLine('rocking allowance and clock-lock widening '
+                                        '(Type B, as a standard uncertainty)', rest, math.inf))
+            out[key] = tuple(lines)
+    return out
+
+
+def method_evidence(session: MethodSession, *, figures: bool = True) -> MethodEvidence:
+    """One session's evidence (figures drawn into a temporary directory and read back)."""
+    estimates = dict(session.results())
+    figs: list[Figure] = []
+    if figures:
+        with tempfile.TemporaryDirectory(prefix='gyro_calib_fig_') as tmp:
+            for path in session.plot(Path(tmp)):
+                stem = Path(path).stem
+                figs.append(Figure(stem, FIGURE_CAPTIONS.get(stem, stem.replace('_', ' ')),
+                                   Path(path).read_bytes()))
+    rejections = tuple(f'{format_stamp(r.stamp_ns)}: {r.reason}' for r in session.rejections())
+    return MethodEvidence(
+        session.name, METHODS[session.name].title, estimates, _budgets(session, estimates),
+        dict(session.missing()), rejections, tuple(session.notices()),
+        tuple(session.summary_lines()), tuple(figs), session.data_span_ns())
+
+
+def evidence_from_outcome(outcome: BagCalibration, options: CalibrationOptions, *,
+                          figures: bool = True) -> RunEvidence:
+    """The evidence of a finished bag calibration (hashes read from the bags' files)."""
+    stored = next((i.scenario for i in outcome.infos if i.scenario), {})
+    if not options.scenario and stored:
+        options = dataclasses.replace(options, scenario=stored)
+    return RunEvidence(
+        tuple(method_evidence(s, figures=figures) for s in outcome.sessions.values()),
+        tuple(bag_input(i) for i in outcome.infos), settings_used(options))
