@@ -1,1 +1,88 @@
-def add_commands(sub): pass
+"""``gyro-calib batch``: calibrate a fleet of gyros on Dask (see :mod:`gyro_calib.batch`).
+
+    gyro-calib batch MANIFEST --out DIR [--workers N | --scheduler tcp://HOST:PORT]
+                     [--spec SPEC.yaml] [--force] [--no-pdf] [--progress]
+
+Exit status: 0 every gyro calibrated; 1 some gyro failed (its row says why; the others
+are done); 2 bad input (manifest, spec, output directory), nothing written; 130 interrupted
+(what finished is kept, the fleet files list it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from gyro_calib.errors import ConfigError
+
+EXIT_OK, EXIT_SOME_FAILED, EXIT_INTERRUPTED = 0, 1, 130
+
+
+def add_commands(sub: Any) -> None:
+    """Add ``batch`` to the ``gyro-calib`` subcommands."""
+    bat = sub.add_parser('batch', help='calibrate many gyros in parallel (Dask): hand-off files, '
+                         'certificates, fleet.csv/parquet/jsonl/html')
+    bat.add_argument('manifest', type=Path, metavar='MANIFEST',
+                     help='YAML or CSV listing gyro ids, bags and settings, or a directory '
+                     'with one folder per gyro')
+    bat.add_argument('--out', type=Path, required=True, metavar='DIR', help='output directory')
+    where = bat.add_mutually_exclusive_group()
+    where.add_argument('--workers', type=int, metavar='N',
+                       help='local cluster of N worker processes (default: the cores)')
+    where.add_argument('--scheduler', metavar='URL',
+                       help='submit to a running Dask scheduler, e.g. tcp://host:8786 (bags '
+                       'on a path every worker reads)')
+    bat.add_argument('--spec', type=Path, metavar='SPEC',
+                     help='acceptance limits and decision rule (YAML) for the certificates')
+    bat.add_argument('--force', action='store_true',
+                     help='recalibrate gyros whose inputs and settings are unchanged')
+    bat.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
+                     help='a PDF beside each HTML certificate (default: yes)')
+    bat.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
+                     help='progress bar over gyros on stderr (default: when stderr is a '
+                     'terminal)')
+    bat.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check the inputs, start or reach the cluster, run the fleet, write its files."""
+    from gyro_calib.batch.manifest import load_manifest
+    from gyro_calib.batch.run import make_client, print_summary, run_batch
+    from gyro_calib.report.cli import check_output_dir, load_spec_arg
+
+    if args.workers is not None and args.workers < 1:
+        raise ConfigError(f'--workers {args.workers} is invalid: it must be at least 1.')
+    check_output_dir(args.out)
+    jobs = load_manifest(args.manifest)
+    spec = load_spec_arg(args.spec)
+    show = sys.stderr.isatty() if args.progress is None else args.progress
+    try:
+        client, cluster = make_client(args.workers, args.scheduler)
+    except OSError as exc:
+        raise ConfigError(f'cannot reach the Dask scheduler {args.scheduler}: {exc}.') from None
+    bar = None
+    try:
+        if show:
+            from tqdm import tqdm
+
+            bar = tqdm(total=len(jobs), desc='gyros', unit='gyro', file=sys.stderr)
+
+        def progress(done: int, total: int) -> None:
+            if bar is not None:
+                bar.update(done - bar.n)
+
+        outcome = run_batch(jobs, args.out, client=client, spec=spec, spec_path=args.spec,
+                            force=args.force, pdf=args.pdf, progress=progress)
+    finally:
+        if bar is not None:
+            bar.close()
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    print_summary(outcome)
+    if outcome.interrupted:
+        print('gyro-calib: interrupted; the gyros that finished are kept.', file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return EXIT_SOME_FAILED if outcome.failed else EXIT_OK

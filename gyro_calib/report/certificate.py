@@ -253,11 +253,19 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
     if spec is not None:
         rule, spec_source = spec.rule_text, spec.source
         judged = {r.key: r.verdict for r in rows if r.verdict}
+        not_measured = 0
         for key in spec.limits:
-            if key not in judged:
-                why = calibration.missing.get(key, 'not in the hand-off file')
-                spec_missing.append(f'{key} ({spec.limits[key].text()}): {NOT_MEASURED} — {why}')
-        verdict_all = overall(list(judged.values()) + [NOT_MEASURED] * len(spec_missing))
+            if key in judged:
+                continue
+            owner = sch[key].method if key in sch else ''
+            if owner not in calibration.methods:  # the spec covers other methods too
+                spec_missing.append(f'{key} ({spec.limits[key].text()}): not applicable — '
+                                    f'method {owner or "?"} did not run for this gyro')
+                continue
+            why = calibration.missing.get(key, 'not in the hand-off file')
+            spec_missing.append(f'{key} ({spec.limits[key].text()}): {NOT_MEASURED} — {why}')
+            not_measured += 1
+        verdict_all = overall(list(judged.values()) + [NOT_MEASURED] * not_measured)
     sections = []
     for name, prov in calibration.methods.items():
         ev: MethodEvidence | None = ev_methods.get(name)

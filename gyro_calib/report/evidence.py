@@ -216,16 +216,23 @@ def method_evidence(session: MethodSession, *, figures: bool = True) -> MethodEv
     """One session's evidence (figures drawn into a temporary directory and read back)."""
     estimates = dict(session.results())
     figs: list[Figure] = []
+    notices = list(session.notices())
     if figures:
         with tempfile.TemporaryDirectory(prefix='gyro_calib_fig_') as tmp:
-            for path in session.plot(Path(tmp)):
+            try:
+                paths = session.plot(Path(tmp))
+            except Exception as exc:  # noqa: BLE001  (a figure must not cost the certificate)
+                paths = []
+                notices.append(f'the {session.name} figures could not be drawn: '
+                               f'{type(exc).__name__}: {" ".join(str(exc).split())}')
+            for path in paths:
                 stem = Path(path).stem
                 figs.append(Figure(stem, FIGURE_CAPTIONS.get(stem, stem.replace('_', ' ')),
                                    Path(path).read_bytes()))
     rejections = tuple(f'{format_stamp(r.stamp_ns)}: {r.reason}' for r in session.rejections())
     return MethodEvidence(
         session.name, METHODS[session.name].title, estimates, _budgets(session, estimates),
-        dict(session.missing()), rejections, tuple(session.notices()),
+        dict(session.missing()), rejections, tuple(notices),
         tuple(session.summary_lines()), tuple(figs), session.data_span_ns())
 
 

@@ -76,7 +76,7 @@ pre { font-size: 7pt; white-space: pre-wrap; background: #f6f6f6; padding: 3pt; 
 
 <h2>Acceptance</h2>
 {% if c.rule %}
-<p>Specification: <span class="key">{{ c.spec_source }}</span>. Decision rule {{ c.rule }}. Verdict of the unit: <span class="verdict {{ c.overall }}">{{ c.overall }}</span> (FAIL if any quantity fails; CONDITIONAL if any is conditional or not measured).</p>
+<p>Specification: <span class="key">{{ c.spec_source }}</span>. Decision rule {{ c.rule }}. Verdict of the unit: <span class="verdict {{ c.overall }}">{{ c.overall }}</span> (FAIL if any quantity fails; CONDITIONAL if any is conditional, or not measured by a method that ran).</p>
 {% if c.spec_missing %}<ul>{% for s in c.spec_missing %}<li>{{ s }}</li>{% endfor %}</ul>{% endif %}
 {% else %}<p id="no-spec">No specification was given (<span class="key">--spec</span>): this certificate states no verdicts.</p>{% endif %}
 

@@ -1,0 +1,210 @@
+"""The batch manifest: each gyro's id, bags, methods and settings.
+
+Three forms:
+
+* YAML — a list (or ``gyros:`` list) of mappings ``{id, bags: [...], methods: [...],
+  settings: {latitude_deg: 28.2, ...}}``;
+* CSV — columns ``gyro_id``, ``bags`` (``;``-separated), optional ``methods``
+  (``;``-separated) and one column per setting (empty cell: not given);
+* a directory with one folder per gyro (the folder name is the id) holding its bags and,
+  optionally, ``settings.yaml`` (the settings mapping, ``methods`` allowed in it).
+
+Relative paths are relative to the manifest (or the directory). Settings are the
+``gyro-calib calibrate`` flags without ``--`` and with ``_`` (``latitude_deg``,
+``scale_factor_rad_per_pulse``, ``config`` …).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from gyro_calib.errors import ConfigError
+from gyro_calib.registry import METHODS
+
+SETTINGS: dict[str, type] = {
+    'latitude_deg': float, 'heading_deg': float, 'position_table_revolutions': int,
+    'scale_factor_rad_per_pulse': float, 'scale_factor_counts_per_rad': float,
+    'sense_axis_elevation_deg': float, 'sense_axis_azimuth_deg': float,
+    'config': Path, 'calibration': Path,
+}
+"""Per-gyro settings (as the ``calibrate`` flags) and their types."""
+
+
+@dataclass(frozen=True, slots=True)
+class GyroJob:
+    """One gyro of the fleet.
+
+    Attributes:
+        gyro_id: its serial or name.
+        bags: its bag paths (absolute).
+        methods: the methods to run (empty: every method the bags reveal).
+        settings: setting name → value (see :data:`SETTINGS`).
+    """
+
+    gyro_id: str
+    bags: tuple[str, ...]
+    methods: tuple[str, ...] = ()
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def options(self) -> Any:
+        """The :class:`~gyro_calib.session.CalibrationOptions` of this gyro."""
+        from gyro_calib.session import CalibrationOptions
+
+        s = self.settings
+        path = (lambda v: None if v is None else Path(v))
+        return CalibrationOptions(
+            latitude_deg=s.get('latitude_deg'), heading_deg=s.get('heading_deg'),
+            position_table_revolutions=s.get('position_table_revolutions'),
+            scale_factor_rad_per_pulse=s.get('scale_factor_rad_per_pulse'),
+            scale_factor_counts_per_rad=s.get('scale_factor_counts_per_rad'),
+            sense_axis_elevation_deg=s.get('sense_axis_elevation_deg'),
+            sense_axis_azimuth_deg=s.get('sense_axis_azimuth_deg'),
+            config_file=path(s.get('config')), calibration_file=path(s.get('calibration')),
+            gyro_id=self.gyro_id)
+
+
+def load_manifest(path: Path) -> list[GyroJob]:
+    """The gyros of a manifest file or directory.
+
+    Raises:
+        ConfigError: unreadable, empty, a gyro without id or bags, a duplicate id, an unknown
+            method or setting, a setting of the wrong type — one line naming where.
+    """
+    path = Path(path)
+    if path.is_dir():
+        jobs = _from_directory(path)
+    elif not path.exists():
+        raise ConfigError(f'manifest {path}: no such file or directory.')
+    elif path.suffix.lower() == '.csv':
+        jobs = _from_csv(path)
+    else:
+        jobs = _from_yaml(path)
+    if not jobs:
+        raise ConfigError(f'manifest {path} lists no gyro.')
+    seen: set[str] = set()
+    for job in jobs:
+        if job.gyro_id in seen:
+            raise ConfigError(f'manifest {path}: gyro {job.gyro_id!r} is listed twice.')
+        seen.add(job.gyro_id)
+    return jobs
+
+
+def _job(where: str, base: Path, gyro_id: Any, bags: Any, methods: Any,
+         settings: Any) -> GyroJob:
+    if not isinstance(gyro_id, (str, int)) or not str(gyro_id).strip():
+        raise ConfigError(f'{where}: every gyro needs an id.')
+    gid = str(gyro_id).strip()
+    if isinstance(bags, str):
+        bags = [bags]
+    if not isinstance(bags, list) or not bags or not all(isinstance(b, str) for b in bags):
+        raise ConfigError(f'{where}: gyro {gid} needs a list of bag paths.')
+    methods = [] if methods in (None, '') else methods
+    if isinstance(methods, str):
+        methods = [m.strip() for m in methods.split(';') if m.strip()]
+    if not isinstance(methods, list) or any(m not in METHODS for m in methods):
+        raise ConfigError(f'{where}: gyro {gid}: methods {methods!r} must name methods of '
+                          f'{", ".join(METHODS)}.')
+    if not isinstance(settings, dict):
+        raise ConfigError(f'{where}: gyro {gid}: settings must be a mapping.')
+    checked: dict[str, Any] = {}
+    for name, value in settings.items():
+        if value is None or value == '':
+            continue
+        if name not in SETTINGS:
+            raise ConfigError(f'{where}: gyro {gid}: unknown setting {name!r}; the settings '
+                              f'are {", ".join(SETTINGS)}.')
+        kind = SETTINGS[name]
+        try:
+            if kind is Path:
+                checked[name] = str((base / str(value)).absolute())
+            elif kind is int:
+                if isinstance(value, float) and not value.is_integer():
+                    raise ValueError
+                checked[name] = int(value)
+            else:
+                number = float(value)
+                if not math.isfinite(number):
+                    raise ValueError
+                checked[name] = number
+        except (TypeError, ValueError):
+            raise ConfigError(f'{where}: gyro {gid}: {name} = {value!r} is not '
+                              f'{"an integer" if kind is int else "a finite number"}.') from None
+    return GyroJob(gid, tuple(str((base / b).absolute()) for b in bags), tuple(methods),
+                   checked)
+
+
+def _from_yaml(path: Path) -> list[GyroJob]:
+    try:
+        data = yaml.safe_load(path.read_text(encoding='utf-8'))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+        raise ConfigError(f'manifest {path} cannot be read as YAML: '
+                          f'{" ".join(str(exc).split())}.') from None
+    if isinstance(data, dict) and 'gyros' in data:
+        data = data['gyros']
+    if not isinstance(data, list):
+        raise ConfigError(f'manifest {path} must be a list of gyros (or a mapping with '
+                          '"gyros:"), each {id, bags, methods, settings}.')
+    jobs = []
+    for i, entry in enumerate(data):
+        where = f'manifest {path}, entry {i + 1}'
+        if not isinstance(entry, dict):
+            raise ConfigError(f'{where} must be a mapping {{id, bags, methods, settings}}.')
+        unknown = sorted(set(entry) - {'id', 'gyro_id', 'bags', 'methods', 'settings'})
+        if unknown:
+            raise ConfigError(f'{where}: unknown field(s) {", ".join(unknown)}.')
+        jobs.append(_job(where, path.parent, entry.get('id', entry.get('gyro_id')),
+                         entry.get('bags'), entry.get('methods'), entry.get('settings') or {}))
+    return jobs
+
+
+def _from_csv(path: Path) -> list[GyroJob]:
+    try:
+        with path.open(newline='', encoding='utf-8') as stream:
+            rows = list(csv.DictReader(stream))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise ConfigError(f'manifest {path} cannot be read as CSV: {exc}.') from None
+    jobs = []
+    for i, row in enumerate(rows):
+        where = f'manifest {path}, line {i + 2}'
+        if None in row:
+            raise ConfigError(f'{where} has more cells than the header.')
+        bags = [b.strip() for b in (row.get('bags') or '').split(';') if b.strip()]
+        settings = {k: (v or '').strip() for k, v in row.items()
+                    if k not in ('gyro_id', 'bags', 'methods')}
+        jobs.append(_job(where, path.parent, row.get('gyro_id', ''), bags,
+                         row.get('methods'), settings))
+    return jobs
+
+
+def _is_bag(path: Path) -> bool:
+    return (path.is_dir() and ((path / 'metadata.yaml').exists() or any(path.glob('*.mcap')))
+            ) or (path.is_file() and path.suffix == '.mcap')
+
+
+def _from_directory(path: Path) -> list[GyroJob]:
+    jobs = []
+    for folder in sorted(p for p in path.iterdir() if p.is_dir()):
+        bags = sorted(str(p.relative_to(folder)) for p in folder.iterdir() if _is_bag(p))
+        settings: Any = {}
+        settings_file = folder / 'settings.yaml'
+        if settings_file.exists():
+            try:
+                settings = yaml.safe_load(settings_file.read_text(encoding='utf-8')) or {}
+            except (OSError, UnicodeDecodeError, yaml.YAMLError) as exc:
+                raise ConfigError(f'{settings_file} cannot be read as YAML: '
+                                  f'{" ".join(str(exc).split())}.') from None
+        if not isinstance(settings, dict):
+            raise ConfigError(f'{settings_file} must hold a mapping of settings.')
+        settings = dict(settings)
+        methods = settings.pop('methods', None)
+        where = f'manifest directory {path}, folder {folder.name}'
+        if not bags:
+            raise ConfigError(f'{where} holds no bag.')
+        jobs.append(_job(where, folder, folder.name, bags, methods, settings))
+    return jobs

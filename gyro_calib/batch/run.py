@@ -1,0 +1,192 @@
+"""Run a fleet on Dask distributed: a local cluster of worker processes, or a given scheduler.
+
+Per gyro: one plan task (hash the bags, skip when unchanged, pick the methods), one task per
+method (the streaming bag calibration), one finish task (hand-off file and certificate as
+bytes) that depends on them. The parent schedules, writes what the finish tasks return, and
+never opens a bag. Ctrl-C cancels what is pending and keeps what finished.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import re
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from gyro_calib.batch.fleet import _atomic_write, write_fleet
+from gyro_calib.batch.manifest import GyroJob
+from gyro_calib.batch.tasks import (
+    GyroResult,
+    Plan,
+    finish_gyro,
+    plan_gyro,
+    reason,
+    run_method,
+)
+
+RECORD = 'record.json'
+"""Each gyro's record (fingerprint, inputs, certificate rows) in its folder."""
+
+
+@dataclass(slots=True)
+class BatchOutcome:
+    """What a batch did: the records by gyro (in manifest order) and what was skipped."""
+
+    records: list[dict[str, Any]]
+    skipped: list[str] = field(default_factory=list)
+    interrupted: bool = False
+    files: list[Path] = field(default_factory=list)
+
+    @property
+    def failed(self) -> list[str]:
+        """Gyros that failed, in whole or in part."""
+        return [r['gyro_id'] for r in self.records if r.get('status') != 'ok']
+
+
+def gyro_stem(gyro_id: str) -> str:
+    """The gyro's folder and file stem (characters other than letters, digits, ._- → _)."""
+    return re.sub(r'[^A-Za-z0-9._-]', '_', gyro_id).strip('.') or 'gyro'
+
+
+def spec_digest(path: Path | None) -> str:
+    """SHA-256 of the spec file's bytes ('' without one)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest() if path else ''
+
+
+def _previous(out_dir: Path, stem: str) -> dict[str, Any] | None:
+    """The gyro's previous record, if its results are all still there."""
+    path = out_dir / stem / RECORD
+    try:
+        record = json.loads(path.read_text(encoding='utf-8'))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict) or record.get('status') not in ('ok', 'partial'):
+        return None
+    if not (out_dir / stem / f'{stem}.yaml').exists() or not (
+            out_dir / stem / f'{stem}.html').exists():
+        return None
+    return record
+
+
+def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
+    """A Dask client: to ``scheduler``, or to a new local cluster of ``workers`` processes
+    (one thread each; default: the machine's cores). Returns (client, cluster or None)."""
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler:
+        return Client(scheduler, timeout='20s'), None
+    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                           processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any = None,
+              spec_path: Path | None = None, force: bool = False, pdf: bool = True,
+              progress: Callable[[int, int], None] | None = None) -> BatchOutcome:
+    """Calibrate every gyro of ``jobs`` on ``client``'s cluster; write per-gyro and fleet
+    files into ``out_dir`` (what finished is kept when interrupted)."""
+    from dask.distributed import as_completed
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    digest = spec_digest(spec_path)
+    stems = {j.gyro_id: gyro_stem(j.gyro_id) for j in jobs}
+    previous = {j.gyro_id: _previous(out_dir, stems[j.gyro_id]) for j in jobs}
+    records: dict[str, dict[str, Any]] = {}
+    skipped: list[str] = []
+    by_id = {j.gyro_id: j for j in jobs}
+    pending: dict[str, tuple[str, str]] = {}
+    queue = as_completed()
+    submitted: list[Any] = []
+    for job in jobs:
+        prev = previous[job.gyro_id]
+        fut = client.submit(plan_gyro, job, (prev or {}).get('fingerprint', ''), digest, force,
+                            key=f'plan-{stems[job.gyro_id]}-{os.urandom(4).hex()}', pure=False)
+        pending[fut.key] = ('plan', job.gyro_id)
+        submitted.append(fut)
+        queue.add(fut)
+    done = 0
+    interrupted = False
+    try:
+        for fut in queue:
+            kind, gid = pending.pop(fut.key)
+            job = by_id[gid]
+            try:
+                result = fut.result()
+            except Exception as exc:  # noqa: BLE001  (a worker died: that gyro's row says so)
+                records[gid] = _failed(job, stems[gid], f'task {kind} failed: {reason(exc)}')
+                done += 1
+            else:
+                if kind == 'plan':
+                    plan: Plan = result
+                    if plan.error:
+                        records[gid] = _failed(job, stems[gid], plan.error, plan)
+                        done += 1
+                    elif plan.skip:
+                        records[gid] = previous[gid] or {}
+                        skipped.append(gid)
+                        done += 1
+                    else:
+                        runs = [client.submit(run_method, job, m, pure=False,
+                                              key=f'{m}-{stems[gid]}-{os.urandom(4).hex()}')
+                                for m in plan.methods]
+                        fin = client.submit(finish_gyro, job, plan, spec, pdf, stems[gid], *runs,
+                                            pure=False,
+                                            key=f'finish-{stems[gid]}-{os.urandom(4).hex()}')
+                        pending[fin.key] = ('finish', gid)
+                        submitted += [*runs, fin]
+                        queue.add(fin)
+                else:
+                    records[gid] = _store(out_dir, result)
+                    done += 1
+            if progress is not None and gid in records:
+                progress(done, len(jobs))
+    except KeyboardInterrupt:
+        interrupted = True
+        client.cancel(submitted)
+    ordered = [records[j.gyro_id] for j in jobs if j.gyro_id in records]
+    files = write_fleet(ordered, out_dir, spec_limits=spec.limits if spec is not None else None)
+    return BatchOutcome(ordered, skipped, interrupted, files)
+
+
+def _failed(job: GyroJob, stem: str, why: str, plan: Plan | None = None) -> dict[str, Any]:
+    return {'gyro_id': job.gyro_id, 'stem': stem, 'status': 'failed', 'reason': why,
+            'fingerprint': '', 'settings': job.settings, 'methods': list(job.methods),
+            'inputs': {b: [list(f) for f in files] for b, files in
+                       (plan.inputs.items() if plan else ())}, 'errors': [why]}
+
+
+def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
+    """Write a finished gyro's files (each atomically), then its record (last: a record means
+    the files are there)."""
+    record = dict(result.record)
+    folder = out_dir / record['stem']
+    folder.mkdir(parents=True, exist_ok=True)
+    for rel, data in result.files.items():
+        _atomic_write(out_dir / rel, data)
+    if record.get('status') == 'failed':
+        record['fingerprint'] = ''  # never skipped: re-runs retry it
+    _atomic_write(folder / RECORD, json.dumps(record, sort_keys=True, indent=1,
+                                              default=str).encode('utf-8'))
+    return record
+
+
+def print_summary(outcome: BatchOutcome, stream: Any = sys.stdout) -> None:
+    """One line per gyro, then the totals and the fleet files."""
+    for rec in outcome.records:
+        cert = rec.get('certificate') or {}
+        skipped = ' (unchanged: skipped)' if rec['gyro_id'] in outcome.skipped else ''
+        verdict = f' {cert["overall"]}' if cert.get('overall') else ''
+        why = f': {rec["reason"]}' if rec.get('reason') else ''
+        print(f'{rec["gyro_id"]}: {rec.get("status")}{verdict}{skipped}{why}', file=stream)
+    print(f'{len(outcome.records)} gyros: {len(outcome.records) - len(outcome.failed)} ok, '
+          f'{len(outcome.failed)} failed, {len(outcome.skipped)} skipped as unchanged'
+          + (' (interrupted: the rest did not run)' if outcome.interrupted else ''), file=stream)
+    for path in outcome.files:
+        print(f'written: {path.resolve()}', file=stream)

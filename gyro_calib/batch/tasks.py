@@ -1,0 +1,169 @@
+"""The work of one gyro, as Dask tasks: plan, one calibration per method, finish.
+
+Every task takes and returns plain picklable values and never raises for a bad gyro: a bad
+bag or setting comes back as the gyro's ``error`` (one line), so the fleet goes on. The
+finish task renders the hand-off file and the certificate and returns them as bytes; the
+parent writes them (the output directory need not be visible to remote workers).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import traceback
+from dataclasses import dataclass, field
+from typing import Any
+
+from gyro_calib import __version__
+from gyro_calib.batch.manifest import GyroJob
+from gyro_calib.errors import GyroCalibError
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    """What to do for one gyro.
+
+    Attributes:
+        gyro_id: the gyro.
+        inputs: bag path → ((file, SHA-256), ...).
+        fingerprint: SHA-256 of inputs, settings, methods, spec and gyro_calib version.
+        methods: the methods to run.
+        skip: True when the fingerprint equals the previous run's (results exist).
+        error: why the gyro cannot be calibrated ('' if it can).
+    """
+
+    gyro_id: str
+    inputs: dict[str, tuple[tuple[str, str], ...]] = field(default_factory=dict)
+    fingerprint: str = ''
+    methods: tuple[str, ...] = ()
+    skip: bool = False
+    error: str = ''
+
+
+@dataclass(frozen=True, slots=True)
+class MethodRun:
+    """One method's run on one gyro: its hand-off part and evidence, or the error."""
+
+    gyro_id: str
+    method: str
+    part: Any = None
+    evidence: Any = None
+    error: str = ''
+
+
+@dataclass(frozen=True, slots=True)
+class GyroResult:
+    """A finished gyro: the files to write (relative path → bytes) and its record."""
+
+    gyro_id: str
+    files: dict[str, bytes]
+    record: dict[str, Any]
+
+
+def reason(exc: BaseException) -> str:
+    """One line for a failed gyro: the domain error's message, else type and message."""
+    text = ' '.join(str(exc).split())
+    if isinstance(exc, GyroCalibError):
+        return text
+    where = traceback.extract_tb(exc.__traceback__)[-1] if exc.__traceback__ else None
+    at = f' (at {where.filename.rsplit("/", 1)[-1]}:{where.lineno})' if where else ''
+    return f'internal error {type(exc).__name__}: {text}{at}'
+
+
+def plan_gyro(job: GyroJob, previous_fingerprint: str, spec_digest: str, force: bool) -> Plan:
+    """Hash the gyro's bags, decide whether it must run, and pick its methods."""
+    try:
+        from gyro_calib.bag import bag_info
+        from gyro_calib.bag_calibration import select_methods
+        from gyro_calib.report.evidence import sha256_files
+
+        inputs = {}
+        for bag in job.bags:
+            info = bag_info(bag)  # checks the path is a bag
+            inputs[bag] = sha256_files(info.path)
+        fingerprint = hashlib.sha256(json.dumps(
+            {'version': __version__, 'inputs': inputs, 'settings': job.settings,
+             'methods': job.methods, 'spec': spec_digest, 'gyro_id': job.gyro_id},
+            sort_keys=True).encode()).hexdigest()
+        if fingerprint == previous_fingerprint and not force:
+            return Plan(job.gyro_id, inputs, fingerprint, (), True)
+        infos = [bag_info(b) for b in job.bags]
+        methods = tuple(m.name for m in select_methods(infos, job.methods or None))
+        return Plan(job.gyro_id, inputs, fingerprint, methods)
+    except Exception as exc:  # noqa: BLE001  (a bad gyro is a row, not the end of the fleet)
+        return Plan(job.gyro_id, error=reason(exc))
+
+
+def run_method(job: GyroJob, method: str) -> MethodRun:
+    """Calibrate the gyro's bags with one method (streaming, as ``gyro-calib calibrate``)."""
+    try:
+        from gyro_calib.bag_calibration import calibrate_bags
+        from gyro_calib.report.evidence import evidence_from_outcome
+
+        options = job.options()
+        outcome = calibrate_bags(list(job.bags), methods=[method], options=options)
+        session = outcome.sessions[method]
+        part = session.handoff(outcome.source, gyro_id=job.gyro_id)
+        if part is None:
+            why = next(iter(session.missing().values()), 'nothing measured')
+            return MethodRun(job.gyro_id, method, error=f'{method}: nothing measured: {why}')
+        return MethodRun(job.gyro_id, method, part, evidence_from_outcome(outcome, options))
+    except Exception as exc:  # noqa: BLE001  (as above)
+        return MethodRun(job.gyro_id, method, error=f'{method}: {reason(exc)}')
+
+
+def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
+                *runs: MethodRun) -> GyroResult:
+    """Merge the methods' hand-off parts, render the hand-off file and the certificate."""
+    errors = [r.error for r in runs if r.error]
+    done = [r for r in runs if not r.error]
+    base = {'gyro_id': job.gyro_id, 'stem': stem, 'fingerprint': plan.fingerprint,
+            'inputs': {b: [list(f) for f in files] for b, files in plan.inputs.items()},
+            'settings': job.settings, 'methods': list(plan.methods), 'errors': errors}
+    try:
+        if not done:
+            return GyroResult(job.gyro_id, {}, {**base, 'status': 'failed',
+                                                'reason': '; '.join(errors) or 'no method'})
+        import yaml
+
+        from gyro_calib.handoff import calibration_to_yaml_dict
+        from gyro_calib.registry import handoff_schema
+        from gyro_calib.report.certificate import (
+            build_certificate,
+            certificate_record,
+            render_html,
+            render_pdf,
+        )
+        from gyro_calib.report.evidence import RunEvidence
+
+        schema = handoff_schema()
+        record = None
+        for run in done:
+            record = run.part if record is None else run.part.merged_into(record, schema)
+        evidence = RunEvidence(
+            tuple(m for r in done for m in r.evidence.methods),
+            tuple({b.path: b for r in done for b in r.evidence.bags}.values()),
+            done[0].evidence.settings)
+        handoff_name = f'{stem}/{stem}.yaml'
+        cert = build_certificate(record, evidence, spec, handoff_path=handoff_name)
+        cert = _with_stem(cert, stem)
+        html = render_html(cert)
+        files = {handoff_name: (
+            '# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py\n'
+            + yaml.safe_dump(dict(calibration_to_yaml_dict(record, schema)), sort_keys=False,
+                             allow_unicode=True, width=100)).encode('utf-8'),
+            f'{stem}/{stem}.html': html.encode('utf-8')}
+        if pdf:
+            files[f'{stem}/{stem}.pdf'] = render_pdf(html)
+        status = 'partial' if errors else 'ok'
+        return GyroResult(job.gyro_id, files, {**base, 'status': status, 'reason':
+                                               '; '.join(errors),
+                                               'certificate': certificate_record(cert)})
+    except Exception as exc:  # noqa: BLE001  (as above)
+        return GyroResult(job.gyro_id, {}, {**base, 'status': 'failed', 'reason': reason(exc)})
+
+
+def _with_stem(cert: Any, stem: str) -> Any:
+    import dataclasses
+
+    return dataclasses.replace(cert, file_stem=stem)
