@@ -223,7 +223,7 @@ def test_hand_off_alone_gives_a_certificate_that_says_k_2_is_assumed(tmp_path: P
     cert = build_certificate(record, None)
     assert {r.k for r in cert.rows} == {'2.00'}
     assert 'k = 2 is assumed' in cert.evidence_note
-    assert set(r.key for r in cert.rows) == {k for k in record.values if k + '_std' in record.values}
+    assert {r.key for r in cert.rows} == {k for k in record.values if k + '_std' in record.values}
 
 
 def test_values_read_generically_so_added_keys_appear() -> None:
@@ -253,7 +253,7 @@ def render_png(html_path: Path, png: Path) -> list[str]:
         [_chromium(), '--headless', '--no-sandbox', '--disable-gpu', '--hide-scrollbars',
          '--no-first-run', '--enable-logging=stderr', '--v=0', f'--screenshot={png}',
          '--window-size=1000,1400', f'--user-data-dir={png.parent / "chromium-profile"}',
-         html_path.as_uri()], capture_output=True, text=True, timeout=120,
+         html_path.as_uri()], check=False, capture_output=True, text=True, timeout=120,
         env={**os.environ, 'HOME': str(png.parent)})
     assert png.exists(), run.stderr[-2000:]
     return [line for line in run.stderr.splitlines() if 'CONSOLE' in line]

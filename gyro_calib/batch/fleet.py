@@ -17,8 +17,6 @@ import html
 import io
 import json
 import math
-import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -61,18 +59,9 @@ def fleet_rows(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f'.{path.name}.', suffix='.tmp', dir=path.parent)
-    try:
-        with os.fdopen(fd, 'wb') as stream:
-            stream.write(data)
-        mask = os.umask(0)
-        os.umask(mask)
-        os.chmod(tmp, 0o666 & ~mask)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    from gyro_calib.report.certificate import write_bytes_atomically
+
+    write_bytes_atomically(path, data)
 
 
 def write_fleet(records: Sequence[dict[str, Any]], out_dir: Path, *,

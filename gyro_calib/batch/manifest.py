@@ -89,6 +89,10 @@ def load_manifest(path: Path) -> list[GyroJob]:
         raise ConfigError(f'manifest {path} lists no gyro.')
     seen: set[str] = set()
     for job in jobs:
+        try:
+            job.options()  # every setting range-checked before any work
+        except ConfigError as exc:
+            raise ConfigError(f'manifest {path}, gyro {job.gyro_id}: {exc}') from None
         if job.gyro_id in seen:
             raise ConfigError(f'manifest {path}: gyro {job.gyro_id!r} is listed twice.')
         seen.add(job.gyro_id)

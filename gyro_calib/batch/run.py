@@ -94,7 +94,7 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
     files into ``out_dir`` (what finished is kept when interrupted)."""
     from dask.distributed import as_completed
 
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir.mkdir(exist_ok=True)  # checked before any work; parents are never created
     digest = spec_digest(spec_path)
     stems = {j.gyro_id: gyro_stem(j.gyro_id) for j in jobs}
     previous = {j.gyro_id: _previous(out_dir, stems[j.gyro_id]) for j in jobs}
@@ -167,7 +167,7 @@ def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
     the files are there)."""
     record = dict(result.record)
     folder = out_dir / record['stem']
-    folder.mkdir(parents=True, exist_ok=True)
+    folder.mkdir(exist_ok=True)
     for rel, data in result.files.items():
         _atomic_write(out_dir / rel, data)
     if record.get('status') == 'failed':
@@ -177,8 +177,9 @@ def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
     return record
 
 
-def print_summary(outcome: BatchOutcome, stream: Any = sys.stdout) -> None:
-    """One line per gyro, then the totals and the fleet files."""
+def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
+    """One line per gyro, then the totals and the fleet files (on stdout by default)."""
+    stream = sys.stdout if stream is None else stream
     for rec in outcome.records:
         cert = rec.get('certificate') or {}
         skipped = ' (unchanged: skipped)' if rec['gyro_id'] in outcome.skipped else ''

@@ -100,7 +100,7 @@ class Certificate:
     mappings: tuple[tuple[str, str, str], ...]
     methods: tuple[MethodSection, ...]
     bags: tuple[tuple[str, str, str, str], ...]
-    settings: tuple[tuple[str, str, str], ...]
+    settings: tuple[tuple[str, str, str, str], ...]
     latitude: str
     rule: str
     overall: str
@@ -283,11 +283,12 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                           for f in (ev.figures if ev else ()))))
     bags = tuple((b.path, name, digest, f'{_span_text(b.start_ns, b.end_ns)}, {b.messages} msgs')
                  for b in (evidence.bags if evidence else ()) for name, digest in b.files)
-    settings = tuple((s.name, s.value, s.origin) for s in (evidence.settings if evidence else ()))
-    lat = next((s for s in (evidence.settings if evidence else ()) if s.name == 'latitude_deg'),
-               None)
-    latitude = (f'{lat.value} ({lat.origin})' if lat and lat.value != '—'
-                else 'not known: no bias was separated from the Earth rate' if lat
+    settings = tuple((s.method, s.name, s.value, s.origin)
+                     for s in (evidence.settings if evidence else ()))
+    lats = [s for s in (evidence.settings if evidence else ()) if s.name == 'latitude_deg']
+    known = sorted({f'{s.value} ({s.origin})' for s in lats if s.value != '—'})
+    latitude = ('; '.join(known) if known
+                else 'not known: no bias was separated from the Earth rate' if lats
                 else 'not recorded in the hand-off file (give the bags to see the settings)')
     created = sorted(p.created_utc for p in calibration.methods.values())
     stem = _file_stem(calibration.gyro_id or Path(handoff_path).stem or 'gyro')
@@ -340,27 +341,29 @@ def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> 
     documents = [(out_dir / f'{cert.file_stem}.html', html.encode('utf-8'))]
     if pdf:
         documents.append((out_dir / f'{cert.file_stem}.pdf', render_pdf(html)))
-    out_dir.mkdir(parents=True, exist_ok=True)
-    written = []
-    for path, data in documents:
-        fd, tmp = tempfile.mkstemp(prefix=f'.{path.name}.', suffix='.tmp', dir=out_dir)
-        try:
-            with os.fdopen(fd, 'wb') as stream:
-                stream.write(data)
-            os.chmod(tmp, 0o666 & ~_umask())
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.unlink(tmp)
-            raise
-        written.append(path.resolve())
-    return written
+    out_dir.mkdir(exist_ok=True)  # checked before any work; parents are never created
+    return [write_bytes_atomically(path, data) for path, data in documents]
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+def write_bytes_atomically(path: Path, data: bytes) -> Path:
+    """Write ``data`` to ``path``: temporary file beside it, fsync, rename; the mode of
+    :func:`gyro_calib.outputs.new_file_mode` (the user's umask, or the replaced file's)."""
+    from gyro_calib.outputs import new_file_mode
+
+    target = Path(path).absolute()
+    mode = new_file_mode(target)
+    fd, tmp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=target.parent)
+    try:
+        with os.fdopen(fd, 'wb') as stream:
+            stream.write(data)
+            stream.flush()
+            os.fchmod(stream.fileno(), mode)
+            os.fsync(stream.fileno())
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return target
 
 
 def certificate_record(cert: Certificate) -> dict[str, Any]:

@@ -54,17 +54,19 @@ def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
                         help='with --report: acceptance limits and decision rule (YAML)')
 
 
-def check_output_dir(path: Path) -> None:
-    """Refuse an output directory that is a file (before any work)."""
-    if path.exists() and not path.is_dir():
-        raise ConfigError(f'--out/--report {path} exists and is not a directory.')
+def check_output_dir(path: Path, what: str = '--out') -> Path:
+    """The output directory, checked before any work (the rule of :mod:`gyro_calib.outputs`:
+    created when absent, in an existing parent; a file is refused)."""
+    from gyro_calib.outputs import check_plot_dir
+
+    return check_plot_dir(path, what)
 
 
 def check_calibrate_report(args: argparse.Namespace) -> None:
     """``calibrate --report DIR [--spec SPEC]``: checked before any work."""
     if args.report is None:
         raise ConfigError('--spec applies only with --report DIR (the certificate).')
-    check_output_dir(args.report)
+    check_output_dir(args.report, '--report')
     load_spec_arg(args.spec)
 
 
@@ -135,7 +137,7 @@ def write_report(calibration: Calibration, evidence: RunEvidence | None, spec: S
 
 
 def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
-                           human: Any = sys.stdout) -> None:
+                           human: Any = None) -> None:
     """``calibrate --report DIR``: the certificate of the run just made (the hand-off file of
     ``--out`` as merged, else this run's record)."""
     from gyro_calib.cli import options_from_args
@@ -156,6 +158,7 @@ def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
     if record is None:
         print('gyro-calib: no certificate: nothing was measured.', file=sys.stderr)
         return
+    human = sys.stdout if human is None else human
     evidence = evidence_from_outcome(outcome, options_from_args(args))
     for path in write_report(record, evidence, load_spec_arg(args.spec), args.report,
                              handoff_path=where):

@@ -10,7 +10,6 @@ Everything here is a frozen dataclass of plain values, so a Dask worker can retu
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import math
 import tempfile
@@ -19,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from gyro_calib.errors import GyroCalibError
 from gyro_calib.estimate import Estimate
 from gyro_calib.registry import METHODS
 from gyro_calib.report.uncertainty import BudgetLine
@@ -81,11 +81,12 @@ class BagInput:
 
 @dataclass(frozen=True, slots=True)
 class Setting:
-    """A bench setting used: name, value as printed, where it came from."""
+    """A bench setting used: name, value as printed, where it came from, by which method."""
 
     name: str
     value: str
     origin: str
+    method: str = ''
 
 
 @dataclass(frozen=True, slots=True)
@@ -146,38 +147,30 @@ def bag_input(info: BagInfo) -> BagInput:
                     info.message_count)
 
 
-_OPTION_FLAGS = (
-    ('latitude_deg', '--latitude-deg', '°'),
-    ('heading_deg', '--heading-deg', '°'),
-    ('position_table_revolutions', '--position-table-revolutions', ''),
-    ('scale_factor_rad_per_pulse', '--scale-factor-rad-per-pulse', 'rad/pulse'),
-    ('scale_factor_counts_per_rad', '--scale-factor-counts-per-rad', 'counts/rad'),
-    ('sense_axis_elevation_deg', '--sense-axis-elevation-deg', '°'),
-    ('sense_axis_azimuth_deg', '--sense-axis-azimuth-deg', '°'),
-    ('config_file', '--config', ''),
-    ('calibration_file', '--calibration', ''),
-)
+def settings_used(options: CalibrationOptions, method: str = '') -> tuple[Setting, ...]:
+    """Each bench setting (:data:`gyro_calib.config.BENCH_SETTINGS`) with its value and where it
+    came from (flag or node parameter, config file, the bench settings stored with the
+    method's bags, or the default), as the method's session took it; then its config file."""
+    from gyro_calib.config import BENCH_SETTINGS
 
-
-def settings_used(options: CalibrationOptions) -> tuple[Setting, ...]:
-    """Each setting with its origin: the flag, the bench settings stored in the bag, or not
-    given (the method's default)."""
-    bench = options.scenario.get('bench', {}) if isinstance(options.scenario, dict) else {}
-    bench = bench if isinstance(bench, dict) else {}
     out = []
-    for name, flag, unit in _OPTION_FLAGS:
-        given = getattr(options, name)
-        if given is not None:
-            out.append(Setting(name, f'{given} {unit}'.strip(), f'flag {flag}'))
-        elif name in bench:
-            out.append(Setting(name, f'{bench[name]} {unit}'.strip(),
-                               'bench settings stored in the bag'))
-        else:
-            out.append(Setting(name, '—', 'not given (the method\'s default applies)'))
-    listed = {s.name for s in out}
-    for name, value in bench.items():
-        if name not in listed:
-            out.append(Setting(name, str(value), 'bench settings stored in the bag'))
+    for name, spec in BENCH_SETTINGS.items():
+        if name == 'gyro_id':
+            continue
+        try:
+            value, origin = options.setting_with_origin(name)
+        except GyroCalibError as exc:  # e.g. the bags disagree: say so, do not guess
+            value, origin = None, ' '.join(str(exc).split())
+        shown = '—' if value is None or (isinstance(value, float) and math.isnan(value)) \
+            else f'{value} {spec.unit}'.strip()
+        if origin == 'default':
+            origin = 'not given: the method\'s default'
+        out.append(Setting(name, shown, origin, method))
+    if options.config_file is not None:
+        out.append(Setting('config file', str(options.config_file), 'flag --config', method))
+    if options.calibration_file is not None:
+        out.append(Setting('calibration file', str(options.calibration_file),
+                           'flag --calibration', method))
     return tuple(out)
 
 
@@ -239,9 +232,9 @@ def method_evidence(session: MethodSession, *, figures: bool = True) -> MethodEv
 def evidence_from_outcome(outcome: BagCalibration, options: CalibrationOptions, *,
                           figures: bool = True) -> RunEvidence:
     """The evidence of a finished bag calibration (hashes read from the bags' files)."""
-    stored = next((i.scenario for i in outcome.infos if i.scenario), {})
-    if not options.scenario and stored:
-        options = dataclasses.replace(options, scenario=stored)
+    per_method = getattr(outcome, 'options', {}) or {}
+    settings = tuple(s for name in outcome.sessions
+                     for s in settings_used(per_method.get(name, options), name))
     return RunEvidence(
         tuple(method_evidence(s, figures=figures) for s in outcome.sessions.values()),
-        tuple(bag_input(i) for i in outcome.infos), settings_used(options))
+        tuple(bag_input(i) for i in outcome.infos), settings)

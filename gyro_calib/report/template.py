@@ -56,8 +56,8 @@ pre { font-size: 7pt; white-space: pre-wrap; background: #f6f6f6; padding: 3pt; 
 {% else %}<p>The input bags were not given to the report; each method's source below is as the hand-off file records it.</p>{% endif %}
 {% if c.settings %}
 <h3>Bench settings used</h3>
-<table id="settings"><tr><th>setting</th><th>value</th><th>where it came from</th></tr>
-{% for s in c.settings %}<tr><td class="key">{{ s[0] }}</td><td>{{ s[1] }}</td><td>{{ s[2] }}</td></tr>
+<table id="settings"><tr><th>method</th><th>setting</th><th>value</th><th>where it came from</th></tr>
+{% for s in c.settings %}<tr><td>{{ s[0] }}</td><td class="key">{{ s[1] }}</td><td>{{ s[2] }}</td><td class="small">{{ s[3] }}</td></tr>
 {% endfor %}</table>
 {% endif %}
 
