@@ -9,7 +9,33 @@ VENV="${GYRO_CALIB_VENV:-.venv}"
 PY="${PYTHON:-python3.11}"
 command -v "$PY" >/dev/null 2>&1 || PY=python3
 
+# Debian packages the Python wheels load or the tests run (issue 20): Pango for WeasyPrint
+# (certificate PDFs), DejaVu fonts, and Chromium for the headless certificate render test.
+SYSTEM_PACKAGES=(libpango-1.0-0 libpangoft2-1.0-0 fonts-dejavu-core chromium)
+
+system_packages() {
+  # Idempotent and free when everything is there: dpkg -s per package, apt-get only if missing.
+  command -v dpkg >/dev/null 2>&1 || return 0
+  local missing=() p
+  for p in "${SYSTEM_PACKAGES[@]}"; do
+    dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    if command -v sudo >/dev/null 2>&1; then sudo="sudo"; else
+      echo "run.sh: please install (as root): apt-get install ${missing[*]}" >&2; return 0
+    fi
+  fi
+  echo "run.sh: installing Debian packages: ${missing[*]}" >&2
+  { $sudo apt-get update -qq &&
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends \
+      "${missing[@]}"; } ||
+    echo "run.sh: could not install ${missing[*]}; certificate PDFs and the render test need them" >&2
+}
+
 setup() {
+  system_packages
   local stamp="$VENV/.gyro_calib-installed"
   if [ -f "$stamp" ] && [ "$stamp" -nt requirements.txt ] && [ "$stamp" -nt setup.py ]; then
     return 0
