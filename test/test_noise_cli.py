@@ -66,6 +66,8 @@ def bags(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
                                      np.tile([0.0, 0.0, 9.81], (len(t), 1))),
         'imu_nan': imu_messages('/imu/data', t, np.full_like(g, np.nan), np.full_like(a, np.nan)),
         'imu_dead_accel': imu_messages('/imu/data', t, g, np.zeros_like(a)),
+        'imu_dead_gyro_z': imu_messages('/imu/data', t, np.column_stack(
+            (g[:, 0], g[:, 1], np.full(len(t), 0.0125))), a),
         'pulses': pulse_messages(t, pulses),
         'pulses_locked_in': pulse_messages(t, np.full(len(t), 5071.0)),
     }
@@ -237,9 +239,39 @@ def test_a_dead_accelerometer_is_reported_and_the_gyro_axes_still_measured(
     assert status == 0, err
     assert 'accel_x: no term — accel_x on /imu/data is constant' in out
     assert 'gyro_x: angle random walk N' in out
-    status, _, err = run(capsys, bags['imu_dead_accel'], '--kalibr', tmp_path / 'k.yaml')
-    assert status == 2 and 'accelerometer_noise_density' in one_line_error(err)
+    status, out, err = run(capsys, bags['imu_dead_accel'], '--kalibr', tmp_path / 'k.yaml',
+                           '--json')
+    assert status == 2 and 'accelerometer_noise_density' in err.strip().splitlines()[-1]
+    assert out == ''  # a failing command prints nothing on stdout
     assert not (tmp_path / 'k.yaml').exists()
+
+
+def test_kalibr_with_one_dead_gyro_axis_is_written_from_the_measured_axes(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A constant gyro_z: the file comes from gyro_x, gyro_y and says gyro_z was left out."""
+    target = tmp_path / 'k.yaml'
+    status, out, err = run(capsys, bags['imu_dead_gyro_z'], '--kalibr', target, '--json')
+    assert status == 0, err
+    json.loads(out)
+    text = target.read_text()
+    assert '# gyro_z left out of the Kalibr file: gyro_z on /imu/data is constant' in text
+    assert 'largest of 2 axes' in text and 'left out: gyro_z' in text
+    assert 'gyro_z left out of the Kalibr file' in err
+    assert yaml.safe_load(text)['gyroscope_noise_density'] > 0
+
+
+def test_taus_flag_gives_the_grid_asked_for(bags: dict[str, Path],
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, err = run(capsys, bags['imu'], '--json', '--taus', '0.1, 1, 10')
+    assert status == 0, err
+    axes = json.loads(out)['methods']['noise']['axes']
+    assert axes['gyro_x']['tau_s'] == pytest.approx([0.1, 1.0, 10.0], rel=1e-9)
+    status, out, err = run(capsys, bags['imu'], '--json')
+    tau = json.loads(out)['methods']['noise']['axes']['gyro_x']['tau_s']
+    for decade in (0.01, 0.1, 1.0, 10.0):  # the default grid holds the decades
+        assert min(abs(v / decade - 1) for v in tau) < 1e-9
+    status, out, err = run(capsys, bags['imu'], '--taus', 'fortnightly')
+    assert status == 2 and '--taus' in one_line_error(err) and out == ''
 
 
 def test_a_directory_given_as_the_calibration_file_is_one_line_exit_2(
@@ -248,3 +280,22 @@ def test_a_directory_given_as_the_calibration_file_is_one_line_exit_2(
                          '--out', tmp_path / 'h.yaml')
     assert status == 2 and f'cannot read calibration file {bags["imu"]}' in one_line_error(err)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_interrupt_after_every_file_was_written_says_so_and_exits_0(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 17 item 15: Ctrl-C landing once the files are in place is not a silent 130."""
+    import gyro_calib.noise.outputs as outputs
+
+    real = outputs.write_outputs
+
+    def interrupted(*args: Any, **kwargs: Any) -> Any:
+        real(*args, **kwargs)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(outputs, 'write_outputs', interrupted)
+    target = tmp_path / 'h.yaml'
+    status, out, err = run(capsys, bags['imu'], '--out', target)
+    assert status == 0 and target.exists()
+    assert f'interrupted after every file was written (hand-off {target})' in err

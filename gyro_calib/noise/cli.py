@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from gyro_calib.bag_calibration import BagCalibration
 
-EXIT_OK, EXIT_NOT_CALIBRATED = 0, 1
+EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_INTERRUPTED = 0, 1, 130
 
 
 def add_commands(subparsers: Any) -> None:
@@ -65,6 +65,9 @@ def add_commands(subparsers: Any) -> None:
                    'into DIR (created if absent, in an existing directory)')
     p.add_argument('--out', type=Path, metavar='HANDOFF_YAML',
                    help='write (or update) the INS hand-off file of this sensor')
+    p.add_argument('--taus', metavar='GRID',
+                   help="the τ grid: default (octaves and decades), octave, decade, all, or "
+                   "averaging times in s, e.g. '1,10,100' (setting taus)")
     p.add_argument('--gyro-id', default='', help="the sensor's serial or name (hand-off)")
     p.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
                    help='progress bar on stderr (default: when stderr is a terminal)')
@@ -99,6 +102,15 @@ def run_noise(args: argparse.Namespace) -> int:
         infos[0], topics={k: dataclasses.replace(v, count=counts[k])
                           for i in infos for k, v in i.topics.items()}))
     options = options_from_args(args)
+    if args.taus is not None:
+        from gyro_calib.errors import ConfigError
+        from gyro_calib.noise.allan import parse_taus
+
+        try:
+            parse_taus(args.taus)
+        except ValueError as exc:
+            raise ConfigError(f'--taus: {exc}. Nothing was read.') from None
+        options = dataclasses.replace(options, settings={**options.settings, 'taus': args.taus})
     stored = next((i.scenario for i in infos if i.scenario), {})
     options = dataclasses.replace(options, topic=args.topic, scenario=stored)
     topic = select_input({t: (m, counts.get(t, 0)) for t, m in present.items()}, options,
@@ -118,18 +130,37 @@ def run_noise(args: argparse.Namespace) -> int:
     session.check_measurable()
     human = sys.stderr if args.json else sys.stdout
     print(summary_text(outcome), file=human)
-    if args.json:
-        print(json.dumps(json_document(outcome, 'noise'), indent=1, allow_nan=False,
-                         default=_json_default))
+    document = (json.dumps(json_document(outcome, 'noise'), indent=1, allow_nan=False,
+                           default=_json_default) if args.json else None)
     if not session.results():
+        if document is not None:
+            print(document)
         print('gyro-calib: no noise term is resolved (see the reasons above); nothing '
               'written.', file=sys.stderr)
         return EXIT_NOT_CALIBRATED
     if plot_dir is not None:
         targets = dataclasses.replace(targets, plot=make_plot_dir(plot_dir) / FIGURE_NAME)
-    for what, path in write_outputs(session, targets, source=outcome.source,
-                                    gyro_id=args.gyro_id):
-        print(f'{what} written: {path}', file=human)
+    # the files first: a command that fails writing them prints nothing on stdout
+    written: list[tuple[str, Path]] = []
+    asked = sum(p is not None for p in (targets.kalibr, targets.plot, targets.handoff))
+    try:
+        write_outputs(session, targets, source=outcome.source, gyro_id=args.gyro_id,
+                      progress=written)
+        if document is not None:
+            print(document)
+        for what, path in written:
+            print(f'{what} written: {path}', file=human)
+    except KeyboardInterrupt:
+        if not written:
+            raise
+        names = ', '.join(f'{what} {path}' for what, path in written)
+        if len(written) == asked:  # the work is done: say so, exit as done
+            print(f'gyro-calib: interrupted after every file was written ({names}).',
+                  file=sys.stderr)
+            return EXIT_OK
+        print(f'gyro-calib: interrupted while writing; written: {names}; the others were '
+              'not written.', file=sys.stderr)
+        return EXIT_INTERRUPTED
     return EXIT_OK
 
 

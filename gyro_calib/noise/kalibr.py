@@ -61,22 +61,40 @@ def _axis_value(cal: NoiseCalibrator, axis: str, units: TermUnits,
 
 def _largest(cal: NoiseCalibrator, prefix: str, units: TermUnits,
              symbol: str, kalibr_key: str) -> tuple[float, str]:
+    """The largest value over the measured axes; axes without one (dead, constant, too
+    short) are left out and named in the comment. Raises if no axis has a value."""
     axes = [a for a in cal.axes() if a.startswith(prefix + '_')]
     values = []
+    left_out = []
     for axis in axes:
         v = _axis_value(cal, axis, units, symbol)
         if v is None:
-            reason = cal.axis_result(axis).reason or 'no fit'
-            raise KalibrExportError(
-                f'cannot write {kalibr_key} for Kalibr: {axis} has no '
-                f'{units.names[SYMBOLS.index(symbol)]} and no upper bound ({reason})')
+            left_out.append(axis)
+            continue
         values.append((v[0], v[1], axis))
     if not values:
-        raise KalibrExportError(f'cannot write {kalibr_key} for Kalibr: no {prefix} axes were '
-                                f'measured (an Imu stream is needed).')
+        why = (f'{", ".join(left_out)} not measured; {left_out[0]}: '
+               f'{cal.axis_result(left_out[0]).reason or "no fit"}') if left_out else ''
+        raise KalibrExportError(f'cannot write {kalibr_key} for Kalibr: no {prefix} axis has '
+                                f'a {units.names[SYMBOLS.index(symbol)]} or an upper bound'
+                                + (f' ({why})' if why else ' (an Imu stream is needed)'))
     value, note, axis = max(values)
     comment = note if note else f'largest of {len(values)} axes ({axis})'
+    if left_out:
+        comment += f'; left out: {", ".join(left_out)} (not measured, see the header)'
     return value, comment
+
+
+def kalibr_left_out(cal: NoiseCalibrator) -> list[str]:
+    """One line per axis left out of the Kalibr file (no N and K, nor bounds), with why."""
+    out = []
+    for axis in cal.axes():
+        units = GYRO_UNITS if axis.startswith('gyro') else ACCEL_UNITS
+        if any(_axis_value(cal, axis, units, s) is None for s in ('N', 'K')):
+            res = cal.axis_result(axis)
+            why = res.reason or 'its noise terms were not measured'
+            out.append(f'{axis} left out of the Kalibr file: {why}')
+    return out
 
 
 def kalibr_imu_yaml(cal: NoiseCalibrator, *, rostopic: str,
@@ -96,7 +114,8 @@ def kalibr_imu_yaml(cal: NoiseCalibrator, *, rostopic: str,
                                 'known (no Imu samples analysed).')
     lines = [
         '# Kalibr IMU noise parameters from gyro_calib noise (Allan deviation, joint fit to',
-        '# IEEE Std 952 Annex C). Each value is the largest of the three axes.',
+        '# IEEE Std 952 Annex C). Each value is the largest of the measured axes.',
+        *(f'# {line}' for line in kalibr_left_out(cal)),
         '# noise_density = angle/velocity random walk N; random_walk = rate/acceleration',
         '# random walk K. Bias instability has no Kalibr key (see the noise report).',
         f'accelerometer_noise_density: {an[0]:.6e}  # m/s^2/sqrt(Hz); {an[1]}',

@@ -61,7 +61,8 @@ def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
 
 
 def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
-                  gyro_id: str = '') -> list[tuple[str, Path]]:
+                  gyro_id: str = '',
+                  progress: list[tuple[str, Path]] | None = None) -> list[tuple[str, Path]]:
     """Prepare every file asked for, then put them in place; return (what, absolute path).
 
     Args:
@@ -69,6 +70,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         targets: from :func:`resolve_targets`.
         source: the provenance of the hand-off values ('live' or the bag paths).
         gyro_id: the sensor's serial or name (hand-off identity).
+        progress: filled with each file as it is put in place (so a caller interrupted
+            while writing knows what was written).
 
     Raises:
         ConfigError: Kalibr asked for a single-axis gyro.
@@ -103,11 +106,13 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         except BaseException:
             figure_tmp.unlink(missing_ok=True)
             raise
-    written: list[tuple[str, Path]] = []
+    written: list[tuple[str, Path]] = progress if progress is not None else []
     try:
         if kalibr_text is not None and targets.kalibr is not None:
             write_text_atomically(targets.kalibr, kalibr_text)
-            written.append(('Kalibr imu.yaml', targets.kalibr))
+            left = session.kalibr_left_out()
+            written.append(('Kalibr imu.yaml' + (f' ({"; ".join(left)})' if left else ''),
+                            targets.kalibr))
         if figure_tmp is not None and targets.plot is not None:
             os.replace(figure_tmp, targets.plot)
             figure_tmp = None

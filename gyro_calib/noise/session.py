@@ -630,6 +630,13 @@ class NoiseSession(MethodSession):
             return []
         return [plot_noise_figure(view, out_dir / FIGURE_NAME)]
 
+    def kalibr_left_out(self) -> list[str]:
+        """Axes left out of the Kalibr file, one line each with the reason."""
+        from gyro_calib.noise.kalibr import kalibr_left_out
+
+        view = self.view
+        return kalibr_left_out(view) if view is not None else []
+
     def kalibr_text(self) -> str:
         """Kalibr ``imu.yaml`` text of an IMU run (largest of the three axes per key).
 
