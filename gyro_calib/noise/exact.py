@@ -198,7 +198,7 @@ class ExactDeviations:
 
     def __init__(self, factors_up_to: Callable[[int], IntArray], max_fraction: float, *,
                  deviations: tuple[str, ...] = DEVIATIONS, block: int = EXACT_BLOCK,
-                 memory_points: int = 1 << 22, scratch_dir: str | None = None) -> None:
+                 memory_points: int = 1 << 20, scratch_dir: str | None = None) -> None:
         """Create an empty store.
 
         Args:
@@ -218,7 +218,7 @@ class ExactDeviations:
         self._factors: dict[int, _Factor] = {}
         self._processed_to = 0
         self._work = np.empty((3, block))  # reused: fresh large temporaries cost page faults
-        self._reads = np.empty((4, block + 6 * block))
+        self._reads = np.empty((4, 3 * block))
 
     @property
     def n_samples(self) -> int:
@@ -227,7 +227,7 @@ class ExactDeviations:
 
     def nbytes(self) -> int:
         """Bytes of sample storage in memory (bounded once the scratch file is in use)."""
-        return self.phase.nbytes()
+        return self.phase.nbytes() + int(self._work.nbytes + self._reads.nbytes)
 
     def close(self) -> None:
         """Free the scratch file (the sums already computed stay valid in copies)."""

@@ -41,7 +41,7 @@ class NoiseSettings:
     """'full': exact full overlap at every τ (NIST SP 1065 eq. 11, = allantools.oadev),
     the phase kept in a scratch file beyond ``memory_points``; 'partial': the older
     decimation tree (approximate at long τ, ADEV and TOTDEV only)."""
-    memory_points: int = 4194304
+    memory_points: int = 1048576
     """Phase points per axis and segment held in memory; a longer segment's phase goes to a
     scratch file (8 bytes per point, deleted at the end) and memory stays bounded."""
     scratch_dir: str = ''
