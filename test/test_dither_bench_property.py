@@ -246,5 +246,5 @@ def test_every_bench_reports_within_its_stated_uncertainty_or_names_why() -> Non
     inside = [x for o in outcomes for x in o.in_interval]
     one = [x for o in outcomes for x in o.in_one_sigma]
     assert inside and one, 'no example measured anything: the space is not covered'
-    assert np.mean(inside) >= 0.9, f'k = 2 interval coverage {np.mean(inside):.2f} of {len(inside)}'
+    assert np.mean(inside) >= 0.9, f'k = 2 coverage {np.mean(inside):.2f} of {len(inside)}'
     assert np.mean(one) >= 0.55, f'±1σ coverage {np.mean(one):.2f} of {len(one)}'
