@@ -12,6 +12,7 @@ whatever the bag's length.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import heapq
 import math
@@ -30,7 +31,14 @@ from gyro_calib import topics
 from gyro_calib.errors import GyroCalibError
 
 SCENARIO_KEY = 'gyro_calib.scenario'
-"""custom_data key of the scenario YAML in metadata.yaml."""
+"""custom_data key of the scenario YAML in metadata.yaml (the bench in the root namespace;
+:func:`scenario_key` names a namespaced bench's)."""
+
+
+def scenario_key(namespace: str) -> str:
+    """custom_data key of the scenario of the bench in ``namespace`` ('' = the root)."""
+    ns = topics.normalized_namespace(namespace)
+    return f'{SCENARIO_KEY}:{ns}' if ns else SCENARIO_KEY
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 HEADER = 'std_msgs/msg/Header'
@@ -152,8 +160,12 @@ class ContractMessages:
 
 def write_bag(path: str | Path, messages: Iterable[BagMessage], *,
               types: dict[str, str] | None = None,
-              scenario: dict[str, Any] | None = None) -> None:
+              scenario: dict[str, Any] | None = None,
+              namespace_scenarios: Mapping[str, Mapping[str, Any]] | None = None) -> None:
     """Write ``messages`` (log-time order) to a new rosbag2 MCAP bag at ``path``.
+
+    ``namespace_scenarios`` stores the scenario of each namespaced bench
+    (:func:`scenario_key`), as :mod:`gyro_calib.nodes.bag_recorder` does.
 
     Chunks are zstd-compressed inside the MCAP (rosbag2's storage compression), the
     layout is rosbag2 version 9 (``metadata.yaml`` + ``<name>.mcap``), and ``scenario``
@@ -180,6 +192,8 @@ def write_bag(path: str | Path, messages: Iterable[BagMessage], *,
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
     if scenario is not None:
         writer.set_custom_data(SCENARIO_KEY, scenario_text(scenario))
+    for ns, part in (namespace_scenarios or {}).items():
+        writer.set_custom_data(scenario_key(ns), scenario_text(part))
     connections: dict[str, Any] = {}
     try:
         with writer:
@@ -225,6 +239,9 @@ class BagInfo:
         start_ns, end_ns: first and last log time, ns.
         message_count: messages in all topics.
         scenario: the scenario YAML stored by the writer (parameters, seed, truth), or {}.
+        namespace: the namespace the bag is seen from ('' = the root; see
+            :meth:`in_namespace`): its topics are named as in the contract.
+        namespace_scenarios: namespace → the scenario stored for the bench there.
     """
 
     path: Path
@@ -233,11 +250,26 @@ class BagInfo:
     end_ns: int
     message_count: int
     scenario: dict[str, Any] = field(default_factory=dict)
+    namespace: str = ''
+    namespace_scenarios: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @property
     def duration_s(self) -> float:
         """Log-time span, s."""
         return (self.end_ns - self.start_ns) / 1e9 if self.message_count else 0.0
+
+    def in_namespace(self, namespace: str) -> BagInfo:
+        """The bag as the bench in ``namespace`` sees it: the topics under it, named without
+        the namespace ('/bench2/gyro/pulses' → '/gyro/pulses'), the others left out, and that
+        bench's scenario. The root namespace ('' or '/') gives the bag as it is."""
+        ns = topics.normalized_namespace(namespace)
+        if not ns:
+            return self
+        inside = {name[len(ns):]: TopicInfo(name[len(ns):], t.msgtype, t.count)
+                  for name, t in self.topics.items() if name.startswith(ns + '/')}
+        return dataclasses.replace(self, topics=inside, namespace=ns,
+                                   message_count=sum(t.count for t in inside.values()),
+                                   scenario=self.namespace_scenarios.get(ns, {}))
 
 
 def _one_line(exc: BaseException) -> str:
@@ -375,11 +407,14 @@ def bag_info(path: str | Path) -> BagInfo:
             custom = _lone_mcap_custom_data(path)
         try:
             scenario = parse_scenario_text(custom.get(SCENARIO_KEY, '')) or {}
+            benches = {key[len(SCENARIO_KEY) + 1:]: parse_scenario_text(text) or {}
+                       for key, text in custom.items() if key.startswith(SCENARIO_KEY + ':')}
         except yaml.YAMLError as exc:
             raise CorruptBagError(f'{path}: the stored scenario is not valid YAML: {exc}') from exc
         total = sum(t.count for t in counts.values())
         return BagInfo(path, counts, int(reader.start_time) if total else 0,
-                       int(reader.end_time) if total else 0, total, scenario)
+                       int(reader.end_time) if total else 0, total, scenario,
+                       namespace_scenarios=benches)
     finally:
         reader.close()
 
@@ -403,7 +438,7 @@ def header_stamp_spans(path: str | Path, info: BagInfo) -> dict[str, tuple[int, 
     steps: dict[str, list[float]] = {}
     if not types:
         return {}
-    for batch in iter_sample_batches(path, types):
+    for batch in iter_sample_batches(path, types, namespace=info.namespace):
         for topic, cols in batch.columns.items():
             stamps = np.sort(np.asarray(cols.stamp_ns, dtype=np.int64))
             if not len(stamps):
@@ -487,14 +522,16 @@ class SampleBatch:
 
 
 def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None = None, *,
-                        batch_messages: int = 50_000) -> Iterator[SampleBatch]:
+                        batch_messages: int = 50_000,
+                        namespace: str = '') -> Iterator[SampleBatch]:
     """Stream the given topics of a bag as :class:`SampleBatch` es.
 
     Decoded by :mod:`gyro_calib.mcap_columns`: whole chunks at a time with NumPy,
     bit-identical to rosbags' CDR deserialiser, which decodes any message of another
     layout (and whole bags the columnar path does not read itself). Memory is bounded by
     ``batch_messages`` plus one group of chunks; stamps are the header stamps (never the
-    log times).
+    log times). With a ``namespace``, the topics are read under it and named as in the
+    contract (:meth:`BagInfo.in_namespace`).
 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
@@ -505,21 +542,30 @@ def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None 
         yield from table_input.iter_table_batches(path, topic_types, batch_messages)
         return
     types = dict(topic_types if topic_types is not None else CONTRACT_TYPES)
+    ns = topics.normalized_namespace(namespace)
+    if ns:
+        types = {ns + t: m for t, m in types.items()}
     for batch in mcap_columns.iter_column_batches(path, types, batch_messages=batch_messages):
-        yield SampleBatch(batch.topics, batch.messages, batch.last_log_time_ns)
+        columns = batch.topics
+        if ns:
+            columns = {t[len(ns):]: dataclasses.replace(c, topic=t[len(ns):])
+                       for t, c in columns.items()}
+        yield SampleBatch(columns, batch.messages, batch.last_log_time_ns)
 
 
 def iter_bags(paths: Sequence[str | Path], topic_types: Mapping[str, str], *,
-              batch_messages: int = 50_000) -> Iterator[tuple[int, SampleBatch]]:
+              batch_messages: int = 50_000,
+              namespace: str = '') -> Iterator[tuple[int, SampleBatch]]:
     """(bag index, batch) of several bags taken together in stamp order.
 
     Bags that share a topic are separate recordings (or one recording split in time) and
     are read one after the other, in order of their start; a source whose stamps jump back
     from one to the next is then a restart to the calibrators. Bags that share no topic and
     overlap in time (one recording split by topic) are interleaved batch by batch by log
-    time, so their streams reach the calibrators together.
+    time, so their streams reach the calibrators together. With a ``namespace``, the
+    topics of the bench in it (:meth:`BagInfo.in_namespace`).
     """
-    infos = [bag_info(p) for p in paths]
+    infos = [bag_info(p).in_namespace(namespace) for p in paths]
     order = sorted(range(len(paths)), key=lambda i: infos[i].start_ns)
     split_by_topic = all(
         not (set(infos[a].topics) & set(infos[b].topics) & set(topic_types))
@@ -527,10 +573,12 @@ def iter_bags(paths: Sequence[str | Path], topic_types: Mapping[str, str], *,
     if not split_by_topic:
         for i in order:
             for batch in iter_sample_batches(paths[i], topic_types,
-                                             batch_messages=batch_messages):
+                                             batch_messages=batch_messages,
+                                             namespace=namespace):
                 yield i, batch
         return
-    iters = {i: iter_sample_batches(paths[i], topic_types, batch_messages=batch_messages)
+    iters = {i: iter_sample_batches(paths[i], topic_types, batch_messages=batch_messages,
+                                    namespace=namespace)
              for i in order}
     heap: list[tuple[int, int, SampleBatch]] = []
     for i, it in iters.items():

@@ -14,7 +14,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gyro_calib import topics
 from gyro_calib.bag import (
+    CONTRACT_TYPES,
     BagInfo,
     MissingTopicError,
     WrongMessageTypeError,
@@ -41,7 +43,9 @@ class BagCalibration:
         log: lines the sessions logged while the bags streamed (rejections, notices).
         options: method name → the options its session was built with (its own bags'
             stored bench settings, the config file's bench settings).
-        notes: given settings that differ from the bench settings the bags store.
+        notes: given settings that differ from the bench settings the bags store, and the
+            namespace read when it was found in the bags rather than given.
+        namespace: the namespace whose topics were read ('' = the root).
     """
 
     infos: list[BagInfo]
@@ -50,6 +54,7 @@ class BagCalibration:
     log: list[str] = field(default_factory=list)
     options: dict[str, CalibrationOptions] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    namespace: str = ''
 
     def gyro_id(self, method: str) -> str:
         """The gyro id of a method's run: given, in the config file, or stored with its bags."""
@@ -65,6 +70,51 @@ class BagCalibration:
     def source(self) -> str:
         """The bag path(s), for the hand-off provenance."""
         return ', '.join(str(i.path) for i in self.infos)
+
+
+def resolve_namespace(infos: Sequence[BagInfo], namespace: str | None) -> tuple[str, str]:
+    """(the namespace to read, a note saying it was found in the bags, or '').
+
+    Given (``--namespace``), it is checked to hold topics. Not given: the root when it holds a
+    topic of the contract, else the one namespace that does (several: refused).
+
+    Raises:
+        ConfigError: a malformed namespace; one that holds no topic of the bags (the
+            namespaces that do are named); several benches and none chosen.
+    """
+    names = [t for info in infos for t in info.topics]
+    found = topics.namespaces_holding(names, CONTRACT_TYPES)
+    shown = ', '.join(n or '/' for n in found) or 'none'
+    if namespace is not None:
+        try:
+            ns = topics.normalized_namespace(namespace)
+        except ValueError as exc:
+            raise ConfigError(f'--namespace: {exc}') from None
+        if ns and not any(t.startswith(ns + '/') for t in names):
+            raise ConfigError(f'--namespace {ns}: no topic of the bag(s) lies under it; the '
+                              f'namespaces holding calibration topics are: {shown}.')
+        return ns, ''
+    if '' in found or not found:
+        return '', ''
+    if len(found) > 1:
+        raise ConfigError(f'the bag(s) hold the topics of several benches, under {shown}: '
+                          'choose one with --namespace.')
+    return found[0], (f'reading the topics under {found[0]}, the one namespace in the bag(s) '
+                      'holding calibration topics.')
+
+
+def bag_infos(paths: Sequence[str | Path], namespace: str | None = None
+              ) -> tuple[list[BagInfo], str]:
+    """Each bag's info as seen from the namespace read (:func:`resolve_namespace`), and the
+    note saying the namespace was found in the bags ('' when given or the root).
+
+    Raises:
+        BagError (subclass): as :func:`gyro_calib.bag.bag_info`.
+        ConfigError: as :func:`resolve_namespace`.
+    """
+    infos = [bag_info(p) for p in paths]
+    ns, note = resolve_namespace(infos, namespace)
+    return [i.in_namespace(ns) for i in infos], note
 
 
 def merged_topics(infos: Sequence[BagInfo]) -> dict[str, str]:
@@ -160,11 +210,14 @@ def select_methods(infos: Sequence[BagInfo], names: Sequence[str] | None) -> lis
 def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None = None,
                    options: CalibrationOptions | None = None,
                    progress: Callable[[float], None] | None = None,
-                   batch_messages: int = 50_000) -> BagCalibration:
+                   batch_messages: int = 50_000,
+                   namespace: str | None = None) -> BagCalibration:
     """Stream the bags at ``paths`` (together, in stamp order) through the methods' sessions.
 
     ``options`` carry the user's settings; the bench settings a simulated bag stores fill in
     the rest. ``progress`` is called with the fraction of the bags' messages decoded.
+    ``namespace`` names the bench whose topics are read (None: the root, or the one
+    namespace the bags hold; :func:`resolve_namespace`).
 
     Raises:
         BagError (subclass): missing path, not a bag, damaged bag, missing topic, wrong
@@ -173,13 +226,16 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
     """
     if not paths:
         raise ConfigError('no bag given.')
-    infos = [bag_info(p) for p in paths]
+    infos, ns_note = bag_infos(paths, namespace)
+    ns = infos[0].namespace
     chosen = select_methods(infos, methods)
     options = options or CalibrationOptions()
     per_method = {m.name: method_options(options, m, infos) for m in chosen}
     sessions = {m.name: m.make_session(per_method[m.name]) for m in chosen}
     notes = [f'{m.name}: note: {line}' for m in chosen
              for line in per_method[m.name].conflicts(m.bench_settings)]
+    if ns_note:
+        notes.insert(0, f'note: {ns_note}')
     present = merged_topics(infos)
     log: list[str] = []
     counts = [0]
@@ -208,19 +264,20 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
 
     paths_ = [i.path for i in infos]
     if together:
-        run(together, lambda types: iter_bags(paths_, types, batch_messages=batch_messages),
-            False)
+        run(together, lambda types: iter_bags(paths_, types, batch_messages=batch_messages,
+                                              namespace=ns), False)
     if separate:
         def one_by_one(types: dict[str, str]) -> Any:
             for index, path in enumerate(paths_):
-                for batch in iter_sample_batches(path, types, batch_messages=batch_messages):
+                for batch in iter_sample_batches(path, types, batch_messages=batch_messages,
+                                                 namespace=ns):
                     yield index, batch
         run(separate, one_by_one, True)
     for name, s in sessions.items():
         log += [f'{name}: {line}' for line in s.process(flush=True)]
     if progress is not None:
         progress(1.0)
-    return BagCalibration(infos, sessions, counts[0], log, per_method, notes)
+    return BagCalibration(infos, sessions, counts[0], log, per_method, notes, ns)
 
 
 def json_document(outcome: BagCalibration, command: str = 'calibrate') -> dict[str, Any]:

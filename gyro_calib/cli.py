@@ -201,6 +201,15 @@ def method_arguments(parser: argparse.ArgumentParser) -> None:
                         help='thermal: sense-axis azimuth, from North towards East (0 = '
                         'North, 90 = East; = 90 − a heading), °')
     parser.add_argument('--gyro-id', default='', help="the gyro's serial or name (hand-off)")
+    namespace_argument(parser)
+
+
+def namespace_argument(parser: argparse.ArgumentParser) -> None:
+    """``--namespace NS``: read the topics of the bench in namespace NS."""
+    parser.add_argument('--namespace', metavar='NS',
+                        help="read the method's topics under NS (e.g. /bench2, for a bag "
+                        'recorded from several benches; default: the root, or the one '
+                        'namespace the bag holds)')
 
 
 def options_from_args(args: argparse.Namespace) -> CalibrationOptions:
@@ -219,8 +228,7 @@ _options = options_from_args
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from gyro_calib.bag import bag_info
-    from gyro_calib.bag_calibration import select_methods
+    from gyro_calib.bag_calibration import bag_infos, select_methods
     from gyro_calib.outputs import check_output_file, check_plot_dir, make_plot_dir
 
     if args.out is not None:
@@ -231,8 +239,8 @@ def _calibrate(args: argparse.Namespace) -> int:
             load_calibration(args.out)  # a file that cannot be updated: refused before work
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     check_calibration_file(args.calibration)
-    refuse_unused_flags(args, [m.name for m in select_methods([bag_info(p) for p in args.bags],
-                                                               args.method)])
+    infos, _ = bag_infos(args.bags, args.namespace)
+    refuse_unused_flags(args, [m.name for m in select_methods(infos, args.method)])
     if args.report is not None or args.spec is not None:  # checked before any work
         from gyro_calib.report.cli import check_calibrate_report
 
@@ -295,7 +303,8 @@ def _json_default(value: Any) -> Any:
 def _run_with_progress(args: argparse.Namespace, show: bool) -> BagCalibration:
     options = _options(args)
     if not show:
-        return calibrate_bags(args.bags, methods=args.method, options=options)
+        return calibrate_bags(args.bags, methods=args.method, options=options,
+                              namespace=args.namespace)
     from tqdm import tqdm
 
     with tqdm(total=1000, desc='calibrating', unit='‰', file=sys.stderr,
@@ -303,7 +312,7 @@ def _run_with_progress(args: argparse.Namespace, show: bool) -> BagCalibration:
         def progress(fraction: float) -> None:
             bar.update(int(fraction * 1000) - bar.n)
         return calibrate_bags(args.bags, methods=args.method, options=options,
-                              progress=progress)
+                              progress=progress, namespace=args.namespace)
 
 
 def summary_text(outcome: BagCalibration) -> str:
@@ -409,11 +418,13 @@ def _print_bag(desc: dict[str, Any], out: Any) -> None:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from gyro_calib.bag import bag_info
+    from gyro_calib.bag_calibration import bag_infos
 
     check_calibration_file(args.calibration)
-    infos = [bag_info(p) for p in args.bags]
+    infos, namespace_note = bag_infos(args.bags, args.namespace)
     human = sys.stderr if args.json else sys.stdout
+    if namespace_note:
+        print(f'note: {namespace_note}', file=human)
     descriptions = [bag_description(i) for i in infos]
     for desc in descriptions:
         _print_bag(desc, human)
@@ -428,7 +439,8 @@ def _info(args: argparse.Namespace) -> int:
                            'bag_info': descriptions}
     if names:
         refuse_unused_flags(args, names)
-        outcome = calibrate_bags(args.bags, methods=names, options=_options(args))
+        outcome = calibrate_bags(args.bags, methods=names, options=_options(args),
+                                 namespace=args.namespace)
         doc = {**json_document(outcome, 'info'), 'bag_info': descriptions}
         for name, session in outcome.sessions.items():
             print(f'== {name}: {METHODS[name].title}', file=human)

@@ -5,6 +5,8 @@ All topics carry SI units (REP 103). Header stamps are the sample instants.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 RATE_TABLE_JOINT_STATES = '/rate_table/joint_states'
 """sensor_msgs/JointState, name ['rate_table']: unwrapped encoder angle (rad), rate (rad/s)."""
 RATE_TABLE_ZERO_INDEX = '/rate_table/zero_index'
@@ -67,3 +69,50 @@ unknown); header.frame_id names the sensor: 'cavity_a', 'cavity_b' (their mean i
 optionally 'shell'."""
 TEMPERATURE_SENSORS = ('cavity_a', 'cavity_b', 'shell')
 """The sensor names (header.frame_id) of /gyro/temperature."""
+
+
+def relative(topic: str) -> str:
+    """A contract name relative to the node's namespace: '/gyro/pulses' → 'gyro/pulses'.
+
+    Every node creates its topics with these names, so in the default namespace they resolve
+    to the contract's absolute names above and under ``--ros-args -r __ns:=/bench2`` to
+    '/bench2/gyro/pulses' (results and /diagnostics too): one namespace per bench.
+    """
+    return topic.lstrip('/')
+
+
+def normalized_namespace(namespace: str) -> str:
+    """'' for the root namespace ('' or '/'), else '/a/b' (one leading slash, none trailing).
+
+    Raises:
+        ValueError: a name ROS would refuse as a namespace (empty parts, characters other
+            than letters, digits and '_', a part starting with a digit).
+    """
+    parts = namespace.strip('/').split('/')
+    if parts == ['']:
+        return ''
+    for part in parts:
+        if not part or not (part[0].isalpha() or part[0] == '_') or not all(
+                c.isalnum() or c == '_' for c in part) or not part.isascii():
+            raise ValueError(f'namespace {namespace!r} is not a ROS namespace: its parts must be '
+                             "letters, digits and '_' (not starting with a digit), e.g. /bench2.")
+    return '/' + '/'.join(parts)
+
+
+def under(namespace: str, topic: str) -> str:
+    """The absolute name of the contract ``topic`` in ``namespace`` ('' = the root)."""
+    return normalized_namespace(namespace) + topic
+
+
+def namespaces_holding(names: Iterable[str], contract: Iterable[str]) -> list[str]:
+    """The namespaces in which a contract topic appears among ``names`` ('' = the root), sorted.
+
+    '/bench2/gyro/pulses' with '/gyro/pulses' in the contract gives '/bench2'.
+    """
+    wanted = tuple(contract)
+    found = set()
+    for name in names:
+        for topic in wanted:
+            if name.endswith(topic) and (name == topic or name[:-len(topic)].startswith('/')):
+                found.add(name[:-len(topic)])
+    return sorted(found)

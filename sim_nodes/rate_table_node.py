@@ -36,6 +36,7 @@ from gyro_calib.nodes.ros_io import (
     ns_to_stamp,
     publish_paced,
 )
+from gyro_calib.topics import relative
 from sim_nodes.rbrlg.bench import CHUNK_SAMPLES, two_axis_simulators
 from sim_nodes.rbrlg.procedure import (
     ThetaProcedureConfig,
@@ -103,10 +104,11 @@ class RateTableNode(Node):
                  (topics.POSITION_TABLE_JOINT, topics.POSITION_TABLE_JOINT_STATES,
                   topics.POSITION_TABLE_ZERO_INDEX)]
         for sim, (joint, js_topic, index_topic) in zip(sims, names):
-            self.tables.append((sim, self.create_publisher(JointState, js_topic, SENSOR_QOS),
-                                self.create_publisher(Header, index_topic, EVENT_QOS), joint))
-        self.truth_pub = self.create_publisher(JointState, truth_topic, SENSOR_QOS)
-        self.create_publisher(String, topics.SIM_SCENARIO, SCENARIO_QOS).publish(String(
+            self.tables.append((
+                sim, self.create_publisher(JointState, relative(js_topic), SENSOR_QOS),
+                self.create_publisher(Header, relative(index_topic), EVENT_QOS), joint))
+        self.truth_pub = self.create_publisher(JointState, relative(truth_topic), SENSOR_QOS)
+        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(String(
             data=scenario_yaml(scenario, self.config, procedure, int(k_pairs))))
         self._n_published = 0
         self._wall_start: float | None = None

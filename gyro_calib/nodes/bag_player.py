@@ -9,6 +9,8 @@ Parameters: ``bag`` (path, required), ``rate`` (1.0), ``clock`` (false),
 ``clock_period_s`` (0.01), ``topics`` (default: every topic in the bag),
 ``wait_for_subscribers`` (true: start once every topic has a reader, so nothing is
 lost at the start).
+Topics are published relative to the node's namespace: under ``__ns:=/bench2`` a bag of
+one bench plays as the bench in /bench2 (/clock stays global).
 
     bag_player --ros-args -p bag:=bags/k_tilde_bench -p rate:=5.0
 """
@@ -33,6 +35,7 @@ from gyro_calib.nodes.ros_io import (
     ns_to_stamp,
     publish_paced,
 )
+from gyro_calib.topics import relative
 
 
 def message_class(msgtype: str) -> type:
@@ -66,8 +69,8 @@ class BagPlayer(Node):
         if unknown:
             raise GyroCalibError(f'{self.path}: no topic(s) {", ".join(unknown)} in the bag.')
         self.publishers_by_topic = {
-            name: self.create_publisher(message_class(self.info.topics[name].msgtype), name,
-                                        SENSOR_QOS)
+            name: self.create_publisher(message_class(self.info.topics[name].msgtype),
+                                        relative(name), SENSOR_QOS)
             for name in names}
         self.clock_pub = None
         if self.clock:

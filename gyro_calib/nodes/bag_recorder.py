@@ -8,10 +8,13 @@ is stored in the bag's metadata under ``custom_data['gyro_calib.scenario']``.
 The bag is closed properly on Ctrl-C / SIGINT, or after ``duration_s``.
 
 Parameters: ``out`` (bag directory to create, required), ``topics`` (default: the
-calibration inputs of the topic contract), ``duration_s`` (0 = until stopped),
-``log_time`` (``receive`` | ``header``).
+calibration inputs of the topic contract), ``namespaces`` (the benches whose contract topics
+are recorded, e.g. ``['/bench1', '/bench2']``; default the root: one bench), ``duration_s``
+(0 = until stopped), ``log_time`` (``receive`` | ``header``). Each namespaced bench's
+scenario is stored under its own key (:func:`gyro_calib.bag.scenario_key`).
 
     bag_recorder --ros-args -p out:=my_run
+    bag_recorder --ros-args -p out:=lab -p "namespaces:=['/bench1', '/bench2']"
 """
 
 from __future__ import annotations
@@ -30,7 +33,13 @@ from rclpy.serialization import deserialize_message
 from std_msgs.msg import String
 
 from gyro_calib import topics
-from gyro_calib.bag import CONTRACT_TYPES, SCENARIO_KEY, BagError, checksum_chunks, scenario_text
+from gyro_calib.bag import (
+    CONTRACT_TYPES,
+    BagError,
+    checksum_chunks,
+    scenario_key,
+    scenario_text,
+)
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.bag_player import message_class
 from gyro_calib.nodes.ros_io import (
@@ -51,8 +60,15 @@ class BagRecorder(Node):
         param = functools.partial(described_parameter, self)
 
         out = str(param('out', '', 'Bag directory to create (required; must not exist).'))
-        names = [t for t in param('topics', [''], 'Topics to record (default: the '
-                                  'calibration inputs).') if t] or list(CONTRACT_TYPES)
+        given = [t for t in param('topics', [''], 'Topics to record (default: the '
+                                  'calibration inputs).') if t]
+        try:
+            self.namespaces = sorted({topics.normalized_namespace(n) for n in param(
+                'namespaces', [''], "Namespaces of the benches recorded ([''] = the root): "
+                'the contract topics under each (unless topics is given) and its scenario.')})
+        except ValueError as exc:
+            raise GyroCalibError(f'parameter namespaces: {exc}') from None
+        names = given or [ns + t for ns in self.namespaces for t in CONTRACT_TYPES]
         self.duration_s = float(param('duration_s', 0.0, 'Stop after this many seconds '
                                       '(0 = until stopped).'))
         self.log_time = str(param('log_time', 'receive', 'Log time of each message: '
@@ -66,21 +82,25 @@ class BagRecorder(Node):
             raise BagError(f'{self.path}: exists already; not overwriting it.')
         types = {name: self._type_of(name) for name in names}
         self.counts = dict.fromkeys(names, 0)
-        self.scenario: dict[str, Any] = {}
+        self.scenarios: dict[str, dict[str, Any]] = {ns: {} for ns in self.namespaces}
         self._writer, self._connections = self._open(types)
         for name, msgtype in types.items():
             cls = message_class(msgtype)
             self.create_subscription(
                 cls, name, lambda raw, n=name, c=cls: self._on_message(n, c, raw),
                 SENSOR_QOS, raw=True)
-        self.create_subscription(String, topics.SIM_SCENARIO, self._on_scenario,
-                                 SCENARIO_READER_QOS)
+        for ns in self.namespaces:
+            self.create_subscription(String, ns + topics.SIM_SCENARIO,
+                                     functools.partial(self._on_scenario, ns),
+                                     SCENARIO_READER_QOS)
         self.started = time.monotonic()
 
     def _type_of(self, name: str, timeout_s: float = 10.0) -> str:
-        """Contract topics have fixed types; others are looked up in the ROS graph."""
-        if name in CONTRACT_TYPES:
-            return CONTRACT_TYPES[name]
+        """Contract topics (in any recorded namespace) have fixed types; others are looked up
+        in the ROS graph."""
+        for ns in self.namespaces:
+            if name.startswith(ns + '/') and name[len(ns):] in CONTRACT_TYPES:
+                return CONTRACT_TYPES[name[len(ns):]]
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             for topic, kinds in self.get_topic_names_and_types():
@@ -113,14 +133,14 @@ class BagRecorder(Node):
         self._writer.write(self._connections[name], log_ns, raw)
         self.counts[name] += 1
 
-    def _on_scenario(self, msg: String) -> None:
+    def _on_scenario(self, namespace: str, msg: String) -> None:
         try:
             part = yaml.safe_load(msg.data)
         except yaml.YAMLError as exc:
             self.get_logger().warning(f'{topics.SIM_SCENARIO}: not YAML ({exc}); ignored.')
             return
         if isinstance(part, dict):
-            self.scenario.update(part)
+            self.scenarios[namespace].update(part)
 
     @property
     def done(self) -> bool:
@@ -129,8 +149,9 @@ class BagRecorder(Node):
 
     def close(self) -> None:
         """Store the scenario and close the bag (writes metadata.yaml)."""
-        if self.scenario:
-            self._writer.set_custom_data(SCENARIO_KEY, scenario_text(self.scenario))
+        for ns, scenario in self.scenarios.items():
+            if scenario:
+                self._writer.set_custom_data(scenario_key(ns), scenario_text(scenario))
         self._writer.close()
         summary = ', '.join(f'{name}: {n}' for name, n in self.counts.items())
         self.get_logger().info(f'wrote {self.path} ({summary})')

@@ -47,6 +47,7 @@ from gyro_calib.nodes.ros_io import (
     run_node,
     stamp_to_ns,
 )
+from gyro_calib.topics import relative
 
 GYRO_IMU = '/gyro/imu'
 """sensor_msgs/Imu: calibrated rate about the gyro's sense axis (z), rad/s, with covariance."""
@@ -91,10 +92,11 @@ class ImuCorrectorNode(Node):
         self._file_key: tuple[int, int, int] | None = None
         self._last_problem = ''
         self._skipped = 0
-        self.pub = self.create_publisher(Imu, GYRO_IMU, IMU_QOS)
-        self.create_subscription(JointState, topics.GYRO_PULSES, self._on_pulses, SENSOR_QOS)
-        self.create_subscription(Temperature, topics.GYRO_TEMPERATURE, self._on_temperature,
+        self.pub = self.create_publisher(Imu, relative(GYRO_IMU), IMU_QOS)
+        self.create_subscription(JointState, relative(topics.GYRO_PULSES), self._on_pulses,
                                  SENSOR_QOS)
+        self.create_subscription(Temperature, relative(topics.GYRO_TEMPERATURE),
+                                 self._on_temperature, SENSOR_QOS)
         self._poll_file()
         self.create_timer(self.get_parameter('reload_period_s').value, self._poll_file)
 

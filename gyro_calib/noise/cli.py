@@ -35,6 +35,8 @@ EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_INTERRUPTED = 0, 1, 130
 
 def add_commands(subparsers: Any) -> None:
     """Add ``noise`` to ``gyro-calib``'s subcommands."""
+    from gyro_calib.cli import namespace_argument
+
     p = subparsers.add_parser(
         'noise', help='noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml',
         description='Overlapping Allan deviation (IEEE Std 952/647) of a gyro or IMU and its '
@@ -53,6 +55,7 @@ def add_commands(subparsers: Any) -> None:
                        help='a hand-off file to take the scale factor from '
                        '(scale_factor_rad_per_pulse or k_tilde_rad_per_pulse; '
                        'fog_scale_factor_counts_per_rad)')
+    namespace_argument(p)
     p.add_argument('--config', type=Path, metavar='FILE',
                    help='NoiseSettings YAML (plain mapping or ROS 2 parameter file of '
                    'noise_node): taus_per_octave, overlap, fit_min_tau_s, ...')
@@ -78,8 +81,8 @@ def add_commands(subparsers: Any) -> None:
 
 def run_noise(args: argparse.Namespace) -> int:
     """Check the input, calibrate the bags, print, write the files asked for."""
-    from gyro_calib.bag import bag_info, topics_present
-    from gyro_calib.bag_calibration import json_document, merged_topics
+    from gyro_calib.bag import topics_present
+    from gyro_calib.bag_calibration import bag_infos, json_document, merged_topics
     from gyro_calib.cli import _json_default, options_from_args, summary_text
     from gyro_calib.noise.outputs import resolve_targets, write_outputs
     from gyro_calib.noise.session import FIGURE_NAME, NoiseSession, check_scale_factor, \
@@ -91,7 +94,7 @@ def run_noise(args: argparse.Namespace) -> int:
     targets = resolve_targets(args.kalibr, None, args.out)
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     check_calibration_file(args.calibration)
-    infos = [bag_info(p) for p in args.bags]
+    infos, _ = bag_infos(args.bags, args.namespace)
     present = merged_topics(infos)
     counts: dict[str, int] = {}
     for info in infos:
@@ -189,11 +192,13 @@ def _calibrate(args: argparse.Namespace, options: Any) -> BagCalibration:
 
     show = sys.stderr.isatty() if args.progress is None else args.progress
     if not show:
-        return calibrate_bags(args.bags, methods=['noise'], options=options)
+        return calibrate_bags(args.bags, methods=['noise'], options=options,
+                              namespace=args.namespace)
     from tqdm import tqdm
 
     with tqdm(total=1000, desc='noise', unit='‰', file=sys.stderr,
               bar_format='{desc} {percentage:3.0f}%|{bar}| {elapsed}<{remaining}') as bar:
         def progress(fraction: float) -> None:
             bar.update(int(fraction * 1000) - bar.n)
-        return calibrate_bags(args.bags, methods=['noise'], options=options, progress=progress)
+        return calibrate_bags(args.bags, methods=['noise'], options=options, progress=progress,
+                              namespace=args.namespace)

@@ -44,6 +44,7 @@ from gyro_calib.nodes.ros_io import (
     ns_to_stamp,
     publish_paced,
 )
+from gyro_calib.topics import relative
 from sim_nodes.dither.bench import DitherBenchConfig, DitherBenchSimulator, DitherChunk
 from sim_nodes.dither.gyro import DitheredGyroConfig
 from sim_nodes.dither.scenarios import dither_truth
@@ -102,10 +103,11 @@ class VibrationTableNode(Node):
             '/vibration_table/joint_states have a reader, so nothing is lost at the start.'))
         self.sim = DitherBenchSimulator(self.gyro_config, self.table_config, self.bench)
         self.chunk_samples = max(1, int(round(CHUNK_S * self.bench.sample_rate_hz)))
-        self.pulse_pub = self.create_publisher(JointState, topics.GYRO_PULSES, SENSOR_QOS)
-        self.table_pub = self.create_publisher(JointState, topics.VIBRATION_TABLE_JOINT_STATES,
+        self.pulse_pub = self.create_publisher(JointState, relative(topics.GYRO_PULSES),
                                                SENSOR_QOS)
-        self.create_publisher(String, topics.SIM_SCENARIO, SCENARIO_QOS).publish(String(
+        self.table_pub = self.create_publisher(
+            JointState, relative(topics.VIBRATION_TABLE_JOINT_STATES), SENSOR_QOS)
+        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(String(
             data=scenario_yaml(self.gyro_config, self.table_config, self.bench)))
         self._n_published = 0
         self._wall_start: float | None = None

@@ -49,7 +49,7 @@ from gyro_calib.nodes.ros_io import (
     run_node,
     simulation_done,
 )
-from gyro_calib.topics import RATE_TABLE_JOINT, SIM_SCENARIO
+from gyro_calib.topics import RATE_TABLE_JOINT, SIM_SCENARIO, relative
 from sim_nodes.fog.bag_scenarios import KINDS, FogScenario, scenario_from_parameters
 from sim_nodes.fog.config import FogConfig
 from sim_nodes.fog.scenarios import (
@@ -128,14 +128,14 @@ class FogBenchNode(Node):
         self._chunks: Iterator[BenchChunk] = self.bench.chunks(chunk)
         self._injection = list(zip(*(a.tolist() for a in self.bench.injection_messages)))
         self._next_injection = 0
-        self.output_pub = self.create_publisher(JointState, topics.FOG_OUTPUT, SENSOR_QOS)
-        self.injection_pub = self.create_publisher(JointState, topics.FOG_INJECTION, SENSOR_QOS)
-        self.table_pub = self.create_publisher(JointState, topics.RATE_TABLE_JOINT_STATES,
-                                               SENSOR_QOS)
-        self.index_pub = self.create_publisher(Header, topics.RATE_TABLE_ZERO_INDEX, EVENT_QOS)
+        pub = self.create_publisher
+        self.output_pub = pub(JointState, relative(topics.FOG_OUTPUT), SENSOR_QOS)
+        self.injection_pub = pub(JointState, relative(topics.FOG_INJECTION), SENSOR_QOS)
+        self.table_pub = pub(JointState, relative(topics.RATE_TABLE_JOINT_STATES), SENSOR_QOS)
+        self.index_pub = pub(Header, relative(topics.RATE_TABLE_ZERO_INDEX), EVENT_QOS)
         import yaml
 
-        self.create_publisher(String, SIM_SCENARIO, SCENARIO_QOS).publish(String(
+        self.create_publisher(String, relative(SIM_SCENARIO), SCENARIO_QOS).publish(String(
             data=yaml.safe_dump(self.scenario.description_dict(), sort_keys=True)))
         self.sample_rate_hz = table.output_rate_hz
         self._n_published = 0

@@ -28,6 +28,7 @@ from gyro_calib.nodes.ros_io import (
     run_node,
     stamp_to_ns,
 )
+from gyro_calib.topics import relative
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 
@@ -64,11 +65,12 @@ class RingLaserGyroNode(Node):
         self.sim: RingLaserGyroSimulator | TwoAxisGyroSimulator | None = None
         self._last_ns: int | None = None
         self._waited_for_reader = False
-        self.pub = self.create_publisher(JointState, topics.GYRO_PULSES, SENSOR_QOS)
+        self.pub = self.create_publisher(JointState, relative(topics.GYRO_PULSES), SENSOR_QOS)
         self.create_subscription(
-            JointState, topics.RATE_TABLE_TRUE_MOTION, self._on_truth, SENSOR_QOS)
-        self.create_subscription(JointState, topics.BENCH_TRUE_MOTION, self._on_truth, SENSOR_QOS)
-        self.create_publisher(String, topics.SIM_SCENARIO, SCENARIO_QOS).publish(
+            JointState, relative(topics.RATE_TABLE_TRUE_MOTION), self._on_truth, SENSOR_QOS)
+        self.create_subscription(
+            JointState, relative(topics.BENCH_TRUE_MOTION), self._on_truth, SENSOR_QOS)
+        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(
             String(data=scenario_yaml(self.config, self.mount)))
 
     def _on_truth(self, msg: JointState) -> None:

@@ -37,6 +37,7 @@ from gyro_calib.nodes.ros_io import (
     ns_to_stamp,
     publish_paced,
 )
+from gyro_calib.topics import relative
 from sim_nodes.thermal.gyro import ThermalChunk
 from sim_nodes.thermal.scenarios import ChamberRunConfig
 
@@ -61,11 +62,13 @@ class ThermalChamberNode(Node):
         if not self.chunk_s > 0:
             raise ValueError(f'chunk_s = {self.chunk_s!r} must be positive')
         self.run = self.config.run()
-        self.pulse_pub = self.create_publisher(JointState, topics.GYRO_PULSES, SENSOR_QOS)
-        self.temp_pub = self.create_publisher(Temperature, topics.GYRO_TEMPERATURE, SENSOR_QOS)
+        self.pulse_pub = self.create_publisher(JointState, relative(topics.GYRO_PULSES),
+                                               SENSOR_QOS)
+        self.temp_pub = self.create_publisher(Temperature, relative(topics.GYRO_TEMPERATURE),
+                                              SENSOR_QOS)
         import yaml
 
-        self.create_publisher(String, topics.SIM_SCENARIO, SCENARIO_QOS).publish(
+        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(
             String(data=yaml.safe_dump(self.run.scenario, sort_keys=True)))
         self._step_ns = int(round(self.chunk_s * 1e9))
         self._until_ns = self.run.simulator.start_time_ns - 1
