@@ -18,8 +18,7 @@ from pathlib import Path
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64, Header
+from std_msgs.msg import Float64
 
 from gyro_calib import topics
 from gyro_calib.rbrlg.calibrator import CalibrationUpdate
@@ -31,6 +30,12 @@ from gyro_calib.config import read_method_file
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
+from gyro_calib.bag import SampleBatch
+from gyro_calib.mcap_columns import TopicColumns
+from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, _TopicBuffer
+from gyro_calib.nodes.node_state import NodeState, feed_columns, state_directory
+from gyro_calib.rbrlg.session import TOPICS as RBRLG_TOPICS
+from gyro_calib.registry import HEADER
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
@@ -38,7 +43,6 @@ from gyro_calib.nodes.ros_io import (
     declare_dataclass_parameters,
     described_parameter,
     run_node,
-    stamp_to_ns,
 )
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
@@ -73,7 +77,10 @@ class CalibrationNode(Node):
             ('output_file', 'gyro_calibration.yaml', 'INS hand-off YAML, rewritten atomically '
              'with whatever is measured whenever K̃ or θ changes; other methods\' keys in it '
              'are kept ("" = do not write).'),
-            ('gyro_id', '', "The gyro's serial or name, written to the hand-off file."))}
+            ('gyro_id', '', "The gyro's serial or name, written to the hand-off file."),
+            ('state_dir', '', "Durable record of the data consumed, replayed on restart after "
+             "a crash ('' = beside output_file as <output_file>.state)."),
+            ('keep_state', False, 'Keep the state directory after a completed calibration.'))}
         self.output_file = str(site.pop('output_file'))
         self.gyro_id = str(site.pop('gyro_id'))
         options = CalibrationOptions(  # the one range check of every bench setting
@@ -94,16 +101,16 @@ class CalibrationNode(Node):
         self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
         self._handoff_note = ''
-        self._bad_messages = 0
         self._station_rejections_seen = 0
-        self.create_subscription(JointState, topics.GYRO_PULSES, self._on_pulses, SENSOR_QOS)
-        self.create_subscription(
-            JointState, topics.RATE_TABLE_JOINT_STATES, self._on_table, SENSOR_QOS)
-        self.create_subscription(Header, topics.RATE_TABLE_ZERO_INDEX, self._on_index, EVENT_QOS)
-        self.create_subscription(JointState, topics.POSITION_TABLE_JOINT_STATES,
-                                 self._on_position_table, SENSOR_QOS)
-        self.create_subscription(Header, topics.POSITION_TABLE_ZERO_INDEX,
-                                 self._on_position_index, EVENT_QOS)
+        self._buffers: dict[str, _TopicBuffer] = {}
+        for topic, msgtype in RBRLG_TOPICS.items():
+            buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
+            self.create_subscription(_MESSAGE_CLASSES[msgtype], topic, buf.add,
+                                     EVENT_QOS if msgtype == HEADER else SENSOR_QOS)
+        self.state = NodeState(self, 'rbrlg', self.gyro_id,
+                               state_directory(str(site.pop('state_dir')), self.output_file),
+                               bool(site.pop('keep_state')),
+                               parameters={**values, **site, 'config_file': path})
         self.k_tilde_pub = self.create_publisher(Float64, topics.K_TILDE, RESULT_QOS)
         self.theta_pub = self.create_publisher(Float64, topics.FIX_ERROR_ANGLE, RESULT_QOS)
         self.k_pub = self.create_publisher(Float64, topics.SCALE_FACTOR, RESULT_QOS)
@@ -119,42 +126,40 @@ class CalibrationNode(Node):
         return SetParametersResult(successful=False, reason=(
             'calibration parameters are read at start-up; restart the node to change them.'))
 
-    def _joint_sample(self, msg: JointState, joint: str) -> tuple[int, float, float] | None:
-        try:
-            i = msg.name.index(joint) if msg.name else 0
-            velocity = msg.velocity[i] if len(msg.velocity) > i else math.nan
-            return stamp_to_ns(msg.header.stamp), msg.position[i], velocity
-        except (ValueError, IndexError):
-            self._bad_messages += 1
-            if self._bad_messages == 1:
-                self.get_logger().error(
-                    f'JointState without a position for joint "{joint}" (names {list(msg.name)}); '
-                    'such messages are skipped.')
-            return None
+    def _feed(self, columns: dict[str, TopicColumns]) -> None:
+        """Record a batch (state directory), then hand it to the calibrator as the offline
+        session does (:meth:`gyro_calib.rbrlg.session.RbrlgSession.feed`)."""
+        if not columns:
+            return
+        self.state.record_batch(columns)
+        feed_columns(self._extend, columns)
 
-    def _on_pulses(self, msg: JointState) -> None:
-        sample = self._joint_sample(msg, topics.GYRO_JOINT)
-        if sample is not None:
-            self.bench.add_pulses(sample[0], sample[1])
+    def _extend(self, batch: SampleBatch) -> None:
+        pulses = batch.joint_state(topics.GYRO_PULSES)
+        self.bench.extend(
+            pulses=pulses[:2] if pulses is not None else None,
+            rate_table=batch.joint_state(topics.RATE_TABLE_JOINT_STATES),
+            rate_zero_index_ns=batch.stamps(topics.RATE_TABLE_ZERO_INDEX),
+            position_table=batch.joint_state(topics.POSITION_TABLE_JOINT_STATES),
+            position_zero_index_ns=batch.stamps(topics.POSITION_TABLE_ZERO_INDEX))
 
-    def _on_table(self, msg: JointState) -> None:
-        sample = self._joint_sample(msg, topics.RATE_TABLE_JOINT)
-        if sample is not None:
-            self.bench.add_rate_table_state(*sample)
-
-    def _on_index(self, msg: Header) -> None:
-        self.bench.add_rate_zero_index(stamp_to_ns(msg.stamp))
-
-    def _on_position_table(self, msg: JointState) -> None:
-        sample = self._joint_sample(msg, topics.POSITION_TABLE_JOINT)
-        if sample is not None:
-            self.bench.add_position_table_state(*sample)
-
-    def _on_position_index(self, msg: Header) -> None:
-        self.bench.add_position_zero_index(stamp_to_ns(msg.stamp))
+    def _replay_process(self) -> list[str]:
+        self._consume(*self.bench.process())
+        return []
 
     def _process(self) -> None:
-        update, stations = self.bench.process()
+        self.state.resume_once(self._extend, self._replay_process)
+        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
+        self._consume(*self.bench.process())
+
+    def finish(self) -> None:
+        """Shutdown: take in what is buffered, write the hand-off; the state directory is
+        removed once θ, K and the bias are all measured (unless ``keep_state``)."""
+        self._process()
+        self._publish_results()
+        self.state.finish(complete=not self.bench.missing())
+
+    def _consume(self, update: CalibrationUpdate, stations: list[Station]) -> None:
         self._report(update)
         if stations:
             self._report_stations(stations)
@@ -243,7 +248,8 @@ class CalibrationNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the calibration node until SIGINT/SIGTERM."""
-    run_node('calibration_node', CalibrationNode, args)
+    run_node('calibration_node', CalibrationNode, args,
+             on_stop=lambda node, _executor: node.finish())
 
 
 if __name__ == '__main__':

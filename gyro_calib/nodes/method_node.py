@@ -34,6 +34,7 @@ from gyro_calib.config import read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import update_calibration
 from gyro_calib.mcap_columns import FrameIds, TopicColumns
+from gyro_calib.nodes.node_state import NodeState, state_directory
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
@@ -47,7 +48,8 @@ from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.units import format_stamp
 
 GENERIC_PARAMETERS = ('config_file', 'output_file', 'gyro_id', 'latitude_deg', 'heading_deg',
-                      'scale_factor_rad_per_pulse', 'process_period_s')
+                      'scale_factor_rad_per_pulse', 'process_period_s', 'state_dir',
+                      'keep_state')
 """Parameters every method node declares (a settings field of the same name is not
 declared twice: the session takes it from the options)."""
 
@@ -145,7 +147,12 @@ class MethodNode(Node):
             ('scale_factor_rad_per_pulse', math.nan, "A pulse gyro's scale factor K, rad/pulse "
              '(NaN: not given).'),
             ('process_period_s', 0.2, 'How often buffered samples are handed to the '
-             'calibrator, s (results do not depend on it).'))}
+             'calibrator, s (results do not depend on it).'),
+            ('state_dir', '', "Durable record of the data consumed, replayed on restart "
+             "after a crash ('' = beside output_file as <output_file>.state; no "
+             'output_file and no state_dir = no record).'),
+            ('keep_state', False, 'Keep the state directory after a completed calibration '
+             '(default: removed once nothing is missing).'))}
         options = CalibrationOptions(
             latitude_deg=None if math.isnan(p['latitude_deg']) else p['latitude_deg'],
             heading_deg=p['heading_deg'],
@@ -159,6 +166,9 @@ class MethodNode(Node):
             options = dataclasses.replace(options, config_bench=bench)
         self.options = options
         self.output_file, self.gyro_id = p['output_file'], p['gyro_id']
+        self.state = NodeState(self, method, p['gyro_id'],
+                               state_directory(p['state_dir'], p['output_file']),
+                               bool(p['keep_state']), parameters={**settings, **p})
         self.session: MethodSession = self.method.make_session(options)
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self._buffers: dict[str, _TopicBuffer] = {}
@@ -180,11 +190,17 @@ class MethodNode(Node):
         return SetParametersResult(successful=False, reason=(
             'calibration parameters are read at start-up; restart the node to change them.'))
 
+    def _feed(self, columns: dict[str, TopicColumns]) -> None:
+        """Record the batch (state directory), then hand it to the session."""
+        if not columns:
+            return
+        self.state.record_batch(columns)
+        last = max(int(c.stamp_ns.max()) for c in columns.values())
+        self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+
     def _process(self) -> None:
-        columns = {t: c for t, b in self._buffers.items() if (c := b.take()) is not None}
-        if columns:
-            last = max(int(c.stamp_ns.max()) for c in columns.values())
-            self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        self.state.resume_once(self.session.feed, self.session.process)
+        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
         lines = self.session.process()
         for line in lines:
             self._last_line = line
@@ -205,14 +221,14 @@ class MethodNode(Node):
         self._publish_diagnostics()
 
     def finish(self) -> None:
-        """End of the data (shutdown): judge what is still open, write the hand-off file."""
-        columns = {t: c for t, b in self._buffers.items() if (c := b.take()) is not None}
-        if columns:
-            last = max(int(c.stamp_ns.max()) for c in columns.values())
-            self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        """End of the data (shutdown): judge what is still open, write the hand-off file;
+        the state directory is removed when nothing is missing (unless ``keep_state``)."""
+        self.state.resume_once(self.session.feed, self.session.process)
+        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
         for line in self.session.process(flush=True):
             self.get_logger().info(line)
         self._write_handoff()
+        self.state.finish(complete=not self.session.missing())
 
     def _write_handoff(self) -> None:
         if not self.output_file:

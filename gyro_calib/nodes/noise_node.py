@@ -36,7 +36,6 @@ from typing import Any
 
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from gyro_calib.bag import SampleBatch
 from gyro_calib.errors import ConfigError, GyroCalibError
 from gyro_calib.noise.keys import METHOD
 from gyro_calib.noise.outputs import resolve_targets, write_outputs
@@ -153,10 +152,8 @@ class NoiseNode(MethodNode):
 
     def _process(self) -> None:
         """Hand the buffered samples to the session (results come from :meth:`_refresh`)."""
-        columns = {t: c for t, b in self._buffers.items() if (c := b.take()) is not None}
-        if columns:
-            last = max(int(c.stamp_ns.max()) for c in columns.values())
-            self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        self.state.resume_once(self.session.feed, self.session.process)
+        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
         for line in self.session.process():
             self._last_line = line
             self.get_logger().info(line)
@@ -235,6 +232,7 @@ class NoiseNode(MethodNode):
         log.info(self._terms_line(0.0).replace('running terms', 'final terms', 1))
         for what, path in written:
             log.info(f'{what} written: {path}')
+        self.state.finish(complete=True)
         return 0
 
 

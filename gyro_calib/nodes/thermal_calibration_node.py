@@ -23,7 +23,6 @@ from typing import Any
 
 from rcl_interfaces.msg import SetParametersResult
 
-from gyro_calib.bag import SampleBatch
 from gyro_calib.nodes.method_node import MethodNode
 from gyro_calib.nodes.ros_io import described_parameter, run_node
 from gyro_calib.thermal.settings import ThermalSettings
@@ -63,10 +62,9 @@ class ThermalCalibrationNode(MethodNode):
     def finish(self) -> None:
         """Fit on everything received so far (the end of the recording)."""
         self.unfitted = False
-        columns = {t: c for t, b in self._buffers.items() if (c := b.take()) is not None}
-        if columns:  # messages that arrived since the last hand-over (shut-down)
-            last = max(int(c.stamp_ns.max()) for c in columns.values())
-            self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        self.state.resume_once(self.session.feed, self.session.process)
+        # messages that arrived since the last hand-over (shut-down): recorded, then fed
+        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
         for line in self.session.process(flush=True):
             self._last_line = line
             log = self.get_logger()
@@ -80,6 +78,7 @@ def main(args: list[str] | None = None) -> None:
         if node.unfitted:
             node.finish()
             node._write_handoff()
+        node.state.finish(complete=not node.session.missing())
 
     run_node('thermal_calibration_node', ThermalCalibrationNode, args, on_stop=fit_what_came)
 

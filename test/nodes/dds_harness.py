@@ -8,7 +8,6 @@ lands in the work tree.
 from __future__ import annotations
 
 import atexit
-import functools
 import os
 import shutil
 import signal
@@ -51,8 +50,9 @@ class NodeProcess:
                 self.proc.wait()
 
 
-@functools.cache
 def _scratch_dir() -> str:
+    """A fresh directory per node process: a default output (and the state directory beside
+    it) of one test is never resumed by another."""
     path = tempfile.mkdtemp(prefix='gyro_calib_dds_')
     atexit.register(shutil.rmtree, path, ignore_errors=True)
     return path

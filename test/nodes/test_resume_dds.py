@@ -1,0 +1,133 @@
+"""A calibration node killed (SIGKILL) mid-run and started again loses nothing it had
+consumed: its final hand-off equals the offline calibration of the data it saw, bit for bit
+(issue 19, part 1).
+
+The data it saw is exactly its state directory (kept with ``keep_state``): what it consumed
+before the kill and after the restart; what the bench published while no node ran is a gap.
+The kill instants are drawn at random (seeded, so CI is repeatable); set
+GYRO_CALIB_STRESS=1 for more of them.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import time
+from pathlib import Path
+
+import pytest
+
+from gyro_calib.bag import SampleBatch, bag_info
+from gyro_calib.handoff import load_calibration
+from gyro_calib.registry import METHODS
+from gyro_calib.session import CalibrationOptions
+from gyro_calib.state_record import StateRecord
+
+from .dds_harness import NodeProcess, launch
+
+BAGS = Path(__file__).resolve().parents[2] / 'bags'
+KILLS = 6 if os.environ.get('GYRO_CALIB_STRESS') else 1
+
+
+def _offline_of_record(method: str, state_dir: Path, options: CalibrationOptions) -> dict:
+    """Hand-off values of a fresh session fed the record, as ``gyro-calib calibrate`` feeds."""
+    session = METHODS[method].make_session(options)
+    for columns in StateRecord(state_dir, {}).replay():
+        n = sum(len(c) for c in columns.values())
+        session.feed(SampleBatch(columns, n, max(int(c.stamp_ns.max())
+                                                 for c in columns.values())))
+        session.process()
+    if hasattr(session, 'end_of_recording'):
+        session.end_of_recording()
+    session.process(flush=True)
+    record = session.handoff('offline')
+    assert record is not None
+    return dict(record.values)
+
+
+def _wait_for(path: Path, what: str, node: NodeProcess, timeout_s: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not path.exists():
+        assert time.monotonic() < deadline and node.proc.poll() is None, \
+            f'{what} never appeared:\n{node.log()}'
+        time.sleep(0.05)
+
+
+def _wait_until_recorded(state: Path, topic: str, stamp_s: float, node: NodeProcess,
+                         timeout_s: float = 90.0) -> None:
+    """Until the node has consumed ``topic`` up to ``stamp_s`` (the end of the run)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        last = StateRecord(state, {}).summary().last_stamp_ns_by_topic.get(topic, 0)
+        if last >= stamp_s * 1e9:
+            return
+        assert time.monotonic() < deadline and node.proc.poll() is None, \
+            f'{topic} recorded up to {last / 1e9} s only:\n{node.log()}'
+        time.sleep(0.2)
+
+
+@pytest.mark.parametrize('seed', range(KILLS))
+def test_fog_node_killed_mid_run_resumes_to_the_offline_numbers_of_what_it_saw(
+        seed: int, tmp_path: Path, nodes: list[NodeProcess]) -> None:
+    bag = BAGS / 'fog_fault_short_plateau'
+    latitude = float(bag_info(bag).scenario['bench']['latitude_deg'])
+    handoff, state = tmp_path / 'fog.yaml', tmp_path / 'state'
+    params = {'latitude_deg': latitude, 'output_file': str(handoff), 'gyro_id': 'FOG-1',
+              'state_dir': str(state), 'keep_state': True}
+    first = launch('fog_calibration_node', params)
+    nodes.append(first)
+    player = launch('bag_player', {'bag': str(bag), 'rate': 8.0})
+    nodes.append(player)
+    _wait_for(state / 'state.yaml', 'the state directory', first)
+    # the bag plays for ~15 s at 8x: kill somewhere in its first two thirds
+    time.sleep(random.Random(seed).uniform(1.0, 9.0))
+    first.proc.send_signal(signal.SIGKILL)
+    first.proc.wait(timeout=10)
+    second = launch('fog_calibration_node', params)
+    nodes.append(second)
+    player.proc.wait(timeout=120)
+    _wait_until_recorded(state, '/fog/output', 123.0, second)
+    second.proc.send_signal(signal.SIGINT)
+    second.proc.wait(timeout=90)
+    logs = '\n'.join(n.log() for n in nodes)
+    assert second.proc.returncode == 0, logs
+    assert 'resumed from' in second.log(), logs
+    got = dict(load_calibration(handoff).values)
+    expected = _offline_of_record('fog', state, CalibrationOptions(latitude_deg=latitude))
+    assert got == expected, logs
+    assert StateRecord(state, {}).summary().messages < sum(
+        t.count for t in bag_info(bag).topics.values())  # a gap while no node ran
+
+
+def test_calibration_node_resumes_its_windows_after_a_kill(
+        tmp_path: Path, nodes: list[NodeProcess]) -> None:
+    handoff, state = tmp_path / 'gyro.yaml', tmp_path / 'state'
+    params = {'output_file': str(handoff), 'state_dir': str(state), 'keep_state': True}
+    first = launch('calibration_node', params)
+    nodes.append(first)
+    nodes.append(launch('rlg_sim', {'seed': 7}))
+    table = launch('rate_table_sim', {'duration_s': 120.0, 'seed': 7, 'real_time_factor': 6.0,
+                                      'sample_rate_hz': 250.0})
+    nodes.append(table)
+    deadline = time.monotonic() + 120
+    while 'K̃ = ' not in first.log():  # killed once it holds a pair of windows
+        assert time.monotonic() < deadline and table.proc.poll() is None, first.log()
+        time.sleep(0.1)
+    first.proc.send_signal(signal.SIGKILL)
+    first.proc.wait(timeout=10)
+    second = launch('calibration_node', params)
+    nodes.append(second)
+    table.proc.wait(timeout=180)
+    # a killed reader holds the pulse writer up until its lease ends: wait for the pulses
+    _wait_until_recorded(state, '/gyro/pulses', 119.0, second)
+    second.proc.send_signal(signal.SIGINT)
+    second.proc.wait(timeout=60)
+    logs = '\n'.join(n.log() for n in nodes)
+    assert second.proc.returncode == 0, logs
+    assert 'resumed from' in second.log(), logs
+    assert handoff.exists(), logs
+    got = dict(load_calibration(handoff).values)
+    expected = _offline_of_record('rbrlg', state, CalibrationOptions())
+    assert got == expected, logs
+    assert 'k_tilde_rad_per_pulse' in got, logs
