@@ -8,7 +8,7 @@ Run (from the repository root):
 Each bench is one pair of orientations from the exact-kinematics simulator (sim_nodes.dither;
 quantised pulses, angle random walk, Earth rate and bias): a uniform in 0–60′, ψ₀ uniform,
 θ_d 3–10′, f_d 350–550 Hz, table 5–10 rad/s at 15–40 Hz (not a divisor of the 2 kHz
-sample rate, except in the clock-locked setting: 20 Hz), 30 s per orientation, K = 1″.
+sample rate, except in the clock-locked setting: 20 Hz), 15 s per orientation, K = 1″.
 Settings: the rocking absent with rocking_treatment none (the statistical σ alone) and bound
 (the default), the rocking in phase with the dither (k uniform up to the paper's 1″ per 35′,
 what the allowance assumes) and in quadrature, and a clock-locked table.
@@ -75,7 +75,7 @@ def one_bench(setting: str, rng: np.random.Generator, duration_s: float) -> dict
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--n', type=int, default=100, help='benches per setting')
-    parser.add_argument('--duration-s', type=float, default=30.0)
+    parser.add_argument('--duration-s', type=float, default=15.0)
     parser.add_argument('--seed', type=int, default=16)
     args = parser.parse_args()
     t0 = time.perf_counter()
