@@ -35,7 +35,7 @@ from typing import Any
 
 from gyro_calib.bag_calibration import BagCalibration, calibrate_bags, json_document
 from gyro_calib.errors import GyroCalibError
-from gyro_calib.handoff import update_calibration
+from gyro_calib.handoff import load_calibration, update_calibration
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.units import format_stamp
@@ -134,6 +134,9 @@ def _parser() -> argparse.ArgumentParser:
                      help='rosbag2 MCAP bag (directory); several are taken together')
     method_arguments(cal)
     cal.add_argument('--out', type=Path, help='write (or update) the INS hand-off YAML here')
+    cal.add_argument('--replace', action='store_true',
+                     help="--out: take this run's values even where the file's are more precise "
+                     'or disagree with them (a repaired gyro, a corrected bench setting)')
     cal.add_argument('--json', action='store_true',
                      help='print one JSON document of the results on stdout (the human summary '
                      'goes to stderr)')
@@ -272,7 +275,7 @@ def _calibrate(args: argparse.Namespace) -> int:
 def _write_handoff(args: argparse.Namespace, outcome: BagCalibration, human: Any) -> int:
     record = None
     for session in outcome.sessions.values():
-        part = session.handoff(outcome.source, gyro_id=args.gyro_id)
+        part = session.handoff(outcome.source, gyro_id=outcome.gyro_id(session.name))
         if part is None:
             continue
         from gyro_calib.registry import handoff_schema
@@ -282,12 +285,20 @@ def _write_handoff(args: argparse.Namespace, outcome: BagCalibration, human: Any
         print(f'gyro-calib: {args.out} not written: no method measured a hand-off value.',
               file=sys.stderr)
         return EXIT_NOT_CALIBRATED
-    path = update_calibration(args.out, record)
+    report: list[str] = []
+    path = update_calibration(args.out, record, replace=args.replace, report=report)
     print(f'hand-off written: {path}', file=human)
-    missing = record.missing
-    if missing:
-        print(f'hand-off incomplete ({len(missing)} missing):', file=human)
-        for key, why in missing.items():
+    for line in report:
+        print(f'  {line}', file=human)
+    written = load_calibration(path)  # the file's state, with what earlier runs gave
+    if written.missing:
+        print(f'hand-off incomplete ({len(written.missing)} missing):', file=human)
+        for key, why in written.missing.items():
+            print(f'  {key}: {why}', file=human)
+    if written.not_measurable:
+        print(f'not measurable on the bench(es) calibrated ({len(written.not_measurable)}; the '
+              'file is complete without them):', file=human)
+        for key, why in written.not_measurable.items():
             print(f'  {key}: {why}', file=human)
     return EXIT_OK
 

@@ -8,49 +8,61 @@ units are SI and in the key names. A value that was not measured is an *absent k
 placeholder number. Method-specific keys carry the method's prefix (``fog_…``, ``dither_…``,
 ``thermal_…``); the RBRLG keys keep the names of format 1.
 
-Example (``format_version: 2``)::
+Example (``format_version: 3``)::
 
     # gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py
-    format_version: 2
+    format_version: 3
     gyro_calib_version: 0.2.0
-    gyro_id: ''                          # serial or name, when given (--gyro-id)
-    complete: false
-    missing:
+    gyro_id: A-1                         # serial or name; binds: another gyro's run is refused
+    conventions:                         # what every number is (CONVENTIONS)
+      axis: ...
+      rate: ...
+      units: ...
+    complete: false                      # false: a key this bench could give is missing
+    missing:                             # those keys, once, each with why
       bias_rad_s: the bias needs the site latitude (--latitude-deg) to remove the Earth rate.
+    not_measurable:                      # keys the methods give, but not from such a bench
+      fix_error_angle_rad: θ needs the position-table stations of the four-position procedure.
     gyro:
-      k_tilde_rad_per_pulse: 4.0860157e-06           # K̃ (METHODS §A.2, eq. 3)
+      k_tilde_rad_per_pulse: 4.0860157e-06           # K̃ (§A eq. (3))
       k_tilde_rad_per_pulse_std: 4.8e-14
       bias_plus_earth_rate_rad_s: 2.4e-05            # ω′ₑ + ω_B along the sense axis
       bias_plus_earth_rate_rad_s_std: 3.0e-08
-      scale_factor_rad_per_pulse: 4.0859955e-06      # K = K̃·cos θ (eq. 4)
-      scale_factor_rad_per_pulse_std: 5.1e-14
-      fix_error_angle_rad: 0.0031355                 # θ (METHODS §A.3)
-      fix_error_angle_rad_std: 2.0e-06
       window_pairs: 3
-      stations: 4
     methods:
-      rbrlg:
-        source: bags/bench_2026-11-23
+      rbrlg:                             # the latest run of each method
+        source: bags/k_tilde_bench
         created_utc: '2026-11-23T09:30:00+00:00'
         data_start_stamp_ns: 1795426200000000000
         data_end_stamp_ns: 1795426500000000000
-        missing:
-          bias_rad_s: the bias needs the site latitude (--latitude-deg) to remove the Earth rate.
+        conditions: {heading_deg: 0.0}   # the bench settings its values rest on
+        keys: [k_tilde_rad_per_pulse, bias_plus_earth_rate_rad_s, window_pairs]
+        earlier_runs: []                 # runs whose values were kept (each with its keys)
+
+Each value comes from exactly one run, named by the ``keys`` of its method's latest run or of
+one of its ``earlier_runs``: a K̃ of one run beside a θ of another is stated, with each run's
+conditions (latitude and heading a bias rests on, the K a thermal model was fitted with).
 
 The keys each method may write, with units and meaning, are its ``HANDOFF_KEYS`` (listed in
 the README); unknown keys are refused (a misspelt key would otherwise be silently dropped).
 Floats need a dot in the mantissa (YAML 1.1: ``4.0e-6``, not ``4e-6``, which reads as a
-string). Files of ``format_version: 1`` (RBRLG only, flat metadata) still load.
+string). Files of ``format_version`` 1 (RBRLG only, flat metadata) and 2 (one provenance per
+method, ``missing`` per method too) still load; they are rewritten as format 3.
 
 :func:`write_calibration` replaces the file atomically (temporary file in the same
 directory, fsync, rename, fsync of the directory), so a reader such as ``imu_corrector``
 sees the old file or the new one, never half of one. :func:`update_calibration` merges a
-method's new record into the gyro's file: the keys of the methods that ran are replaced,
-those of other methods kept.
+run into the gyro's file key by key (:meth:`Calibration.merged_into`): each quantity is kept
+from the run that measured it best (smaller standard uncertainty; the keys that follow it —
+counts, quantities derived in the same fit — go with it), one line per key says what was
+added, replaced, kept or dropped, and what would make the file inconsistent is refused:
+another gyro, a value differing from the file's by more than 5 combined standard
+uncertainties (``replace`` takes the run's values), a model fitted with another scale factor.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import math
 import os
@@ -66,8 +78,28 @@ from gyro_calib import __version__
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.outputs import new_file_mode
 
-FORMAT_VERSION = 2
-"""The layout version this module writes; format 1 files are still read."""
+FORMAT_VERSION = 3
+"""The layout version this module writes; formats 1 and 2 are still read."""
+
+CONVENTIONS: dict[str, str] = {
+    'axis': "every rate, angle and bias is about the gyro's sense (input) axis, positive "
+            'right-handed about it: the sense in which the pulse count or FOG output count '
+            'increases; sensor_msgs/Imu consumers (imu_corrector) carry it as the '
+            "frame's z axis.",
+    'rate': 'a pulse gyro: ω = K·Δcount/Δt − b (K scale_factor_rad_per_pulse); a FOG: '
+            'ω = Δcount/(SF·Δt) − b (SF fog_scale_factor_counts_per_rad); b the bias (bias_rad_s, '
+            'fog_bias_rad_s, or thermal_model at the gyro\'s temperatures), rad/s.',
+    'bias': 'a bias key holds the gyro bias with the Earth rate along the sense axis removed, '
+            'for the latitude and heading in its run\'s conditions; a *_plus_earth_rate key '
+            'still holds that Earth rate (valid only on that bench, in that orientation).',
+    'units': 'SI, unit in each key name; <key>_std is the standard (k = 1) uncertainty in '
+             'the same unit; an absent key was not measured (missing / not_measurable say why).',
+}
+"""What every number in the file is (written under ``conventions:``)."""
+
+MAX_DISAGREEMENT_SIGMA = 5.0
+"""A run's value differing from the file's by more than this many combined standard
+uncertainties is not merged (another gyro, a changed gyro, or a wrong bench setting)."""
 
 
 class HandoffError(GyroCalibError):
@@ -90,6 +122,11 @@ class HandoffKey:
             'float_list' (list of finite numbers) or 'mapping' (checked by ``check``).
         has_std: a ``<name>_std`` twin (standard uncertainty, same unit) goes with it.
         check: extra validation of the value: returns a problem ('' if fine).
+        follows: the key it goes with when a file is updated (a count, or a quantity of the
+            same fit): it is always from the same run as that key. '' = its own.
+        bench_specific: its value holds on the bench it was measured on only (a bias with the
+            Earth rate along that bench's axis in it): runs on other benches are not compared
+            with it for consistency.
     """
 
     name: str
@@ -98,6 +135,8 @@ class HandoffKey:
     kind: str = 'float'
     has_std: bool = True
     check: Callable[[Any], str] | None = None
+    follows: str = ''
+    bench_specific: bool = False
 
 
 def _problem(key: HandoffKey, value: Any) -> str:
@@ -151,8 +190,14 @@ class Provenance:
         source: 'live' or the bag path(s) calibrated.
         data_start_stamp_ns, data_end_stamp_ns: header stamps of the first and last sample the
             values rest on, int ns.
-        missing: keys this method would measure but did not, each with the reason.
+        missing: keys this method would measure from such a bench but did not, with why.
         created_utc: when the values were produced, ISO-8601 UTC.
+        conditions: the bench settings the values rest on (latitude_deg, heading_deg, the
+            scale factor a model was fitted with...), by name.
+        not_measurable: keys the method gives, but not from such a bench, with why.
+        keys: the keys (no ``_std``) of the file this run gave; None = all of its method's
+            (a record not yet merged, or a format 1/2 file).
+        earlier: earlier runs of the method whose keys the file kept (each with its keys).
     """
 
     source: str
@@ -160,6 +205,19 @@ class Provenance:
     data_end_stamp_ns: int
     missing: Mapping[str, str] = field(default_factory=dict)
     created_utc: str = field(default_factory=_utc_now_iso)
+    conditions: Mapping[str, Any] = field(default_factory=dict)
+    not_measurable: Mapping[str, str] = field(default_factory=dict)
+    keys: tuple[str, ...] | None = None
+    earlier: tuple[Provenance, ...] = ()
+
+    def same_run(self, other: Provenance) -> bool:
+        """True when both describe one run (a live node rewriting its file as it goes)."""
+        return (self.source, self.data_start_stamp_ns) == (other.source,
+                                                            other.data_start_stamp_ns)
+
+    def label(self) -> str:
+        """The run in one phrase, for merge lines."""
+        return f'{self.source} ({self.created_utc})'
 
 
 @dataclass(frozen=True, slots=True)
@@ -178,16 +236,41 @@ class Calibration:
 
     @property
     def missing(self) -> dict[str, str]:
-        """Every key a method that ran would measure but did not, with its reason."""
+        """Every key the latest run of a method could measure from its bench but did not (and
+        no earlier run gave), with its reason."""
         out: dict[str, str] = {}
         for prov in self.methods.values():
-            out.update({k: v for k, v in prov.missing.items() if k not in self.values})
+            out.update({k: v for k, v in prov.missing.items()
+                        if k not in self.values and k not in prov.not_measurable})
+        return out
+
+    @property
+    def not_measurable(self) -> dict[str, str]:
+        """Keys the methods that ran give, but not from the benches they ran on, with why."""
+        out: dict[str, str] = {}
+        for prov in self.methods.values():
+            out.update({k: v for k, v in prov.not_measurable.items() if k not in self.values})
         return out
 
     @property
     def complete(self) -> bool:
-        """True when the methods that ran measured everything they measure."""
+        """True when the methods that ran measured everything their benches can give."""
         return not self.missing
+
+    def source_of(self, key: str, schema: Mapping[str, HandoffKey] | None = None,
+                  ) -> Provenance | None:
+        """The run a value came from (None when absent)."""
+        base = _base_key(key)
+        if base not in self.values:
+            return None
+        method = _schema(schema)[base].method
+        latest = self.methods.get(method)
+        if latest is None:
+            return None
+        for run in (latest, *latest.earlier):
+            if run.keys is None or base in run.keys:
+                return run
+        return latest
 
     def get(self, key: str) -> Any:
         """The value of ``key`` or None when it was not measured."""
@@ -212,21 +295,201 @@ class Calibration:
                                + (f': {reason}' if reason else '.'))
         return got
 
-    def merged_into(self, older: Calibration, schema: Mapping[str, HandoffKey]) -> Calibration:
-        """``older`` with the keys of this calibration's methods replaced by this one's.
+    def merged_into(self, older: Calibration, schema: Mapping[str, HandoffKey], *,
+                    replace: bool = False, report: list[str] | None = None) -> Calibration:
+        """``older`` (a file) updated with this run, key by key (see the module docstring).
+
+        Args:
+            older: the file's content.
+            schema: the known keys.
+            replace: take this run's values even where the file's are more precise or
+                disagree with them (the gyro was repaired, a bench setting was wrong).
+            report: one line per key of the methods that ran is appended to it: added,
+                replaced, kept (and why) or dropped.
 
         Raises:
-            HandoffError: the two are for different gyros (``gyro_id`` given and different).
+            HandoffError: the file is of another gyro; a value differs from the file's by more
+                than :data:`MAX_DISAGREEMENT_SIGMA` combined standard uncertainties (without
+                ``replace``); the result would hold a model fitted with another scale factor
+                than the file's.
         """
+        lines = report if report is not None else []
         if self.gyro_id and older.gyro_id and self.gyro_id != older.gyro_id:
             raise HandoffError(f'the file holds gyro {older.gyro_id!r}, this calibration is for '
                                f'gyro {self.gyro_id!r}; not merging them (use another --out).')
-        mine = set(self.methods)
-        kept = {k: v for k, v in older.values.items()
-                if schema.get(_base_key(k), HandoffKey(k, '', '')).method not in mine}
-        methods = {m: p for m, p in older.methods.items() if m not in mine}
-        methods.update(self.methods)
-        return Calibration({**kept, **self.values}, methods, self.gyro_id or older.gyro_id)
+        if older.gyro_id and not self.gyro_id:
+            lines.append(f'gyro_id: this run named no gyro; the file is for gyro '
+                         f'{older.gyro_id!r}, so its values are taken as that gyro\'s.')
+        elif self.gyro_id and not older.gyro_id and older.values:
+            lines.append(f'gyro_id: the file named no gyro; it is now gyro {self.gyro_id!r}.')
+        values = dict(older.values)
+        methods = dict(older.methods)
+        for method, prov in self.methods.items():
+            methods[method] = _merge_method(method, prov, self.values, older, values, schema,
+                                            replace, lines)
+        others = sorted({schema[_base_key(k)].method for k in older.values
+                         if _base_key(k) in schema} - set(self.methods))
+        if others:
+            n = len({_base_key(k) for k in older.values
+                     if schema.get(_base_key(k), HandoffKey(k, '', '')).method in others})
+            lines.append(f'unchanged: {n} key(s) of method(s) {", ".join(others)}.')
+        merged = Calibration(values, methods, self.gyro_id or older.gyro_id)
+        problem = scale_factor_inconsistency(merged, schema)
+        if problem:
+            raise HandoffError(problem)
+        return merged
+
+
+def _run_keys(prov: Provenance, method: str, values: Mapping[str, Any],
+              schema: Mapping[str, HandoffKey]) -> set[str]:
+    """The base keys of ``values`` that ``prov`` (a run of ``method``) gave."""
+    mine = {_base_key(k) for k in values
+            if schema.get(_base_key(k), HandoffKey(k, '', '')).method == method}
+    return mine if prov.keys is None else mine & set(prov.keys)
+
+
+def _lead(key: str, schema: Mapping[str, HandoffKey]) -> str:
+    spec = schema.get(key)
+    return spec.follows if spec is not None and spec.follows else key
+
+
+def _with_std(value: Any, std: Any) -> str:
+    if isinstance(value, dict):
+        return '(a mapping)'
+    return f'{value!r}' + (f' ± {std:.3g}' if std is not None else '')
+
+
+def _merge_method(method: str, prov: Provenance, new_values: Mapping[str, Any],
+                  older: Calibration, values: dict[str, Any], schema: Mapping[str, HandoffKey],
+                  replace: bool, lines: list[str]) -> Provenance:
+    """Merge one method's run into ``values`` (changed in place); its new provenance."""
+    new_keys = _run_keys(prov, method, new_values, schema)
+    old_latest = older.methods.get(method)
+    old_runs: list[Provenance] = []
+    if old_latest is not None:
+        old_runs = [dataclasses.replace(r, earlier=()) for r in (old_latest, *old_latest.earlier)]
+    old_owner: dict[str, int] = {}
+    for i, run in enumerate(old_runs):
+        for key in _run_keys(run, method, older.values, schema):
+            old_owner.setdefault(key, i)
+    groups: dict[str, list[str]] = {}
+    for key in sorted(new_keys | set(old_owner)):
+        groups.setdefault(_lead(key, schema), []).append(key)
+    taken: set[str] = set()
+    kept: set[str] = set()
+    for lead, members in groups.items():
+        if lead not in new_keys and lead not in old_owner:  # no lead either side: key by key
+            for key in members:
+                _merge_group(key, [key], key in new_keys, prov, new_values, older, values,
+                             old_runs, old_owner, new_keys, replace, lines, taken, kept,
+                             not getattr(schema.get(key), 'bench_specific', False))
+            continue
+        _merge_group(lead, members, lead in new_keys, prov, new_values, older, values,
+                     old_runs, old_owner, new_keys, replace, lines, taken, kept,
+                     not getattr(schema.get(lead), 'bench_specific', False))
+    earlier = []
+    for i, run in enumerate(old_runs):
+        mine = _ordered((k for k in kept if old_owner[k] == i), schema)
+        if mine:
+            earlier.append(dataclasses.replace(run, keys=mine))
+    return dataclasses.replace(prov, keys=_ordered(taken, schema), earlier=tuple(earlier))
+
+
+def _merge_group(lead: str, members: list[str], new_has: bool, prov: Provenance,
+                 new_values: Mapping[str, Any], older: Calibration, values: dict[str, Any],
+                 old_runs: list[Provenance], old_owner: dict[str, int], new_keys: set[str],
+                 replace: bool, lines: list[str], taken: set[str], kept: set[str],
+                 comparable: bool = True) -> None:
+    """Merge one group (a lead key and the keys that follow it): the run's or the file's."""
+    old_has = any(k in old_owner for k in members)
+    take_new = new_has
+    why = ''
+    if new_has and lead in new_keys and lead in old_owner:
+        old_run = old_runs[old_owner[lead]]
+        v_new, v_old = new_values[lead], older.values[lead]
+        u_new, u_old = new_values.get(lead + '_std'), older.values.get(lead + '_std')
+        if prov.same_run(old_run) or replace:
+            why = SAME_RUN[1:-2] if prov.same_run(old_run) else 'replace asked'
+        elif u_new is not None and u_old is not None and _numbers(v_new, v_old):
+            spread = math.hypot(u_new, u_old)
+            z = abs(v_new - v_old) / spread if spread > 0 else (
+                0.0 if v_new == v_old else math.inf)
+            if z > MAX_DISAGREEMENT_SIGMA and comparable:
+                raise HandoffError(
+                    f'{lead}: this run gives {_with_std(v_new, u_new)} ({prov.source}), the '
+                    f'file holds {_with_std(v_old, u_old)} ({old_run.source}): they differ '
+                    f'by {z:.1f} combined standard uncertainties (a changed gyro, another '
+                    f'gyro, or a wrong bench setting?); nothing written. Check, then give '
+                    f'--replace to take this run\'s values, or use another --out.')
+            take_new = u_new <= u_old
+            why = ('more precise' if u_new < u_old else 'as precise, newer') if take_new \
+                else f'this run\'s {_with_std(v_new, u_new)} is less precise (--replace ' \
+                'takes it)'
+        else:
+            why = 'newer run'
+    elif new_has and not old_has:
+        why = ''
+    elif not new_has:
+        why = 'not measured by this run'
+    for key in members:
+        std = key + '_std'
+        old_text = (f'{_with_std(older.values[key], older.values.get(std))} from '
+                    f'{old_runs[old_owner[key]].source}') if key in old_owner else ''
+        if take_new:
+            if key in new_keys:
+                verb = 'replaced' if key in old_owner else 'added'
+                was = f' — was {old_text}' if old_text else ''
+                new_text = _with_std(new_values[key], new_values.get(std))
+                lines.append(f'{verb}: {key} = {new_text} from {prov.source}{was}'
+                             + (f' ({why})' if why else '') + '.')
+                values[key] = new_values[key]
+                values.pop(std, None)
+                if std in new_values:
+                    values[std] = new_values[std]
+                taken.add(key)
+            elif key in old_owner:
+                lines.append(f'dropped: {key} = {old_text} — it goes with {lead}, now from '
+                             f'{prov.source}, which did not measure it.')
+                values.pop(key, None)
+                values.pop(std, None)
+        elif key in old_owner:
+            reason = why if key == lead or not new_has else f'goes with {lead}, kept'
+            lines.append(f'kept: {key} = {old_text} ({reason}).')
+            kept.add(key)
+
+
+def _numbers(*values: Any) -> bool:
+    return all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+
+
+def scale_factor_inconsistency(calibration: Calibration,
+                               schema: Mapping[str, HandoffKey] | None = None) -> str:
+    """Why the file is inconsistent ('' if not): a value that rests on a scale factor (a mapping
+    stating ``…scale_factor_rad_per_pulse``, e.g. a thermal model) beside the file's K (or K̃)
+    that differs from it by more than 100 ppm."""
+    sch = _schema(schema)
+    file_k = None
+    for key in ('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'):
+        if key in calibration.values:
+            file_k = key, float(calibration.values[key])
+            break
+    if file_k is None:
+        return ''
+    for key, value in calibration.values.items():
+        if not isinstance(value, dict):
+            continue
+        for inner, k in value.items():
+            if str(inner).endswith('scale_factor_rad_per_pulse') and _numbers(k) and k > 0 \
+                    and abs(file_k[1] / k - 1.0) > 1e-4:
+                run = calibration.source_of(key, sch)
+                other = calibration.source_of(file_k[0], sch)
+                return (f'the file\'s {file_k[0]} = {file_k[1]!r} rad/pulse '
+                        f'({other.source if other else "?"}) differs from the K = {k!r} '
+                        f'rad/pulse its {key} was fitted with ({run.source if run else "?"}) by '
+                        f'{abs(file_k[1] / k - 1.0) * 1e6:.0f} ppm (more than 100), and the '
+                        f'model\'s bias belongs to its K: refit it with this K (--calibration '
+                        f'FILE) or use another --out. Nothing written.')
+    return ''
 
 
 def _base_key(key: str) -> str:
@@ -254,7 +517,14 @@ def method_calibration(method: str, values: Mapping[str, Any], provenance: Prove
         if spec is None or spec.method != method:
             raise HandoffError(f'{key} is not a hand-off key of method {method}.')
     checked = _checked_values(dict(values), sch, source=f'{method} results')
-    return Calibration(checked, {method: provenance}, gyro_id)
+    keys = _ordered({_base_key(k) for k in checked}, sch)
+    return Calibration(checked, {method: dataclasses.replace(provenance, keys=keys)}, gyro_id)
+
+
+def _ordered(keys: Iterable[str], schema: Mapping[str, HandoffKey]) -> tuple[str, ...]:
+    """Keys in schema order (the order of the file)."""
+    order = {k: i for i, k in enumerate(schema)}
+    return tuple(sorted(keys, key=lambda k: (order.get(k, len(order)), k)))
 
 
 def _checked_values(values: dict[str, Any], schema: Mapping[str, HandoffKey], *,
@@ -298,25 +568,44 @@ class ProvenanceYaml(TypedDict, total=False):
     created_utc: str
     data_start_stamp_ns: int
     data_end_stamp_ns: int
-    missing: dict[str, str]
+    missing: dict[str, str]  # format 2 only (format 3: once, at the top level)
+    conditions: dict[str, Any]
+    keys: list[str]
+    earlier_runs: list[ProvenanceYaml]
 
 
 class CalibrationYaml(TypedDict):
-    """On-disk shape of the whole hand-off file, format 2 (see the module docstring)."""
+    """On-disk shape of the whole hand-off file, format 3 (see the module docstring)."""
 
     format_version: int
     gyro_calib_version: str
     gyro_id: str
+    conventions: dict[str, str]
     complete: bool
     missing: dict[str, str]
+    not_measurable: dict[str, str]
     gyro: dict[str, Any]
     methods: dict[str, ProvenanceYaml]
 
 
-_TOP_LEVEL = ('format_version', 'gyro_calib_version', 'gyro_id', 'complete', 'missing', 'gyro',
-              'methods')
+_TOP_LEVEL = ('format_version', 'gyro_calib_version', 'gyro_id', 'conventions', 'complete',
+              'missing', 'not_measurable', 'gyro', 'methods')
 _PROVENANCE_KEYS = ('source', 'created_utc', 'data_start_stamp_ns', 'data_end_stamp_ns',
-                    'missing')
+                    'missing', 'conditions', 'keys', 'earlier_runs')
+
+
+def _run_yaml(prov: Provenance, method: str, calibration: Calibration,
+              schema: Mapping[str, HandoffKey]) -> ProvenanceYaml:
+    entry = ProvenanceYaml(source=prov.source, created_utc=prov.created_utc,
+                           data_start_stamp_ns=prov.data_start_stamp_ns,
+                           data_end_stamp_ns=prov.data_end_stamp_ns,
+                           conditions={k: (float(v) if _numbers(v) and not isinstance(v, int)
+                                           else v) for k, v in prov.conditions.items()})
+    keys = prov.keys if prov.keys is not None else sorted(
+        _run_keys(prov, method, calibration.values, schema)
+        - {k for e in prov.earlier if e.keys for k in e.keys})
+    entry['keys'] = list(_ordered(keys, schema))
+    return entry
 
 
 def calibration_to_yaml_dict(calibration: Calibration,
@@ -328,18 +617,15 @@ def calibration_to_yaml_dict(calibration: Calibration,
                                                      k.endswith('_std'), k))
     methods: dict[str, ProvenanceYaml] = {}
     for name, prov in calibration.methods.items():
-        entry = ProvenanceYaml(source=prov.source, created_utc=prov.created_utc,
-                               data_start_stamp_ns=prov.data_start_stamp_ns,
-                               data_end_stamp_ns=prov.data_end_stamp_ns)
-        missing = {k: v for k, v in prov.missing.items() if k not in calibration.values}
-        if missing:
-            entry['missing'] = missing
+        entry = _run_yaml(prov, name, calibration, sch)
+        entry['earlier_runs'] = [_run_yaml(e, name, calibration, sch) for e in prov.earlier]
         methods[name] = entry
     return CalibrationYaml(
         format_version=FORMAT_VERSION, gyro_calib_version=calibration.gyro_calib_version,
-        gyro_id=calibration.gyro_id, complete=calibration.complete,
-        missing=calibration.missing, gyro={k: calibration.values[k] for k in keys},
-        methods=methods)
+        gyro_id=calibration.gyro_id, conventions=dict(CONVENTIONS),
+        complete=calibration.complete, missing=calibration.missing,
+        not_measurable=calibration.not_measurable,
+        gyro={k: calibration.values[k] for k in keys}, methods=methods)
 
 
 def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
@@ -355,9 +641,9 @@ def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
     version = data.get('format_version')
     if version == 1:
         return _from_format_1(data, source, _schema(schema))
-    if 'format_version' in data and version != FORMAT_VERSION:
+    if 'format_version' in data and version not in (2, FORMAT_VERSION):
         raise HandoffError(f'{source} has format_version {version!r}; this gyro_calib '
-                           f'({__version__}) reads format_version 1 and {FORMAT_VERSION}.')
+                           f'({__version__}) reads format_version 1, 2 and {FORMAT_VERSION}.')
     missing_top = [k for k in ('format_version', 'gyro', 'methods') if k not in data]
     if missing_top:
         raise HandoffError(f'field(s) {", ".join(missing_top)} missing in {source}.')
@@ -376,15 +662,34 @@ def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
         if owner not in provenance:
             raise HandoffError(f'gyro.{key} in {source} belongs to method {owner}, which has no '
                                'entry under methods.')
+    for field_name in ('missing', 'not_measurable'):  # format 3: once, at the top level
+        listed = data.get(field_name, {}) or {}
+        if not isinstance(listed, dict) or not all(
+                isinstance(k, str) and isinstance(v, str) for k, v in listed.items()):
+            raise HandoffError(f'field {field_name} in {source} must map keys to reasons.')
+        if version == 2:
+            continue  # format 2 repeats missing per method (read there)
+        for key, why in listed.items():
+            spec = sch.get(key)
+            if spec is None or spec.method not in provenance:
+                raise HandoffError(f'{field_name}.{key} in {source} is not a key of a method '
+                                   'under methods.')
+            prov = provenance[spec.method]
+            target = dict(getattr(prov, field_name))
+            target[key] = why
+            provenance[spec.method] = dataclasses.replace(prov, **{field_name: target})
+    conventions = data.get('conventions', {})
+    if not isinstance(conventions, dict):
+        raise HandoffError(f'field conventions in {source} must be a mapping.')
     gyro_id = data.get('gyro_id', '')
     if not isinstance(gyro_id, str):
         raise HandoffError(f'field gyro_id in {source} must be a string.')
     return Calibration(values, provenance, gyro_id, str(data.get('gyro_calib_version', '')),
-                       FORMAT_VERSION)
+                       int(version))
 
 
 def _provenance(name: str, entry: Any, source: str,
-                schema: Mapping[str, HandoffKey]) -> Provenance:
+                schema: Mapping[str, HandoffKey], *, nested: bool = False) -> Provenance:
     where = f'methods.{name} in {source}'
     if name not in {k.method for k in schema.values()}:
         raise HandoffError(f'unknown method {name!r} under methods in {source}.')
@@ -417,7 +722,20 @@ def _provenance(name: str, entry: Any, source: str,
     if not isinstance(missing_keys, dict) or not all(
             isinstance(k, str) and isinstance(v, str) for k, v in missing_keys.items()):
         raise HandoffError(f'{where}: missing must map keys to reasons.')
-    return Provenance(entry['source'], start, end, dict(missing_keys), str(created))
+    conditions = entry.get('conditions', {}) or {}
+    if not isinstance(conditions, dict):
+        raise HandoffError(f'{where}: conditions must be a mapping of bench settings.')
+    keys = entry.get('keys')
+    if keys is not None and (not isinstance(keys, list) or not all(
+            isinstance(k, str) and schema.get(k, HandoffKey(k, '', '')).method == name
+            for k in keys)):
+        raise HandoffError(f'{where}: keys must list hand-off keys of method {name}.')
+    earlier_entries = entry.get('earlier_runs', []) or []
+    if not isinstance(earlier_entries, list) or (nested and earlier_entries):
+        raise HandoffError(f'{where}: earlier_runs must be a list of runs (not nested).')
+    earlier = tuple(_provenance(name, e, source, schema, nested=True) for e in earlier_entries)
+    return Provenance(entry['source'], start, end, dict(missing_keys), str(created),
+                      dict(conditions), {}, tuple(keys) if keys is not None else None, earlier)
 
 
 _FORMAT_1_TOP = ('format_version', 'gyro_calib_version', 'created_utc', 'source',
@@ -513,21 +831,42 @@ def write_calibration(path: str | Path, calibration: Calibration,
 
 
 def update_calibration(path: str | Path, calibration: Calibration,
-                       schema: Mapping[str, HandoffKey] | None = None) -> Path:
-    """Merge ``calibration`` into the gyro's file at ``path`` (created if absent), atomically.
-
-    The keys of the methods in ``calibration`` are replaced; other methods' keys and their
-    provenance are kept, so calibrating one method never loses what another measured.
+                       schema: Mapping[str, HandoffKey] | None = None, *,
+                       replace: bool = False, report: list[str] | None = None) -> Path:
+    """Merge ``calibration`` (one run) into the gyro's file at ``path`` (created if absent),
+    atomically, key by key (:meth:`Calibration.merged_into`): nothing measured is lost
+    without a line in ``report`` saying so.
 
     Raises:
         HandoffError: the existing file is unreadable or invalid (it is left untouched: fix or
-            move it), it belongs to another gyro, or the write fails.
+            move it), it belongs to another gyro, a value disagrees with the file's (without
+            ``replace``), the result would be inconsistent, or the write fails.
     """
     sch = _schema(schema)
     target = Path(path)
+    lines: list[str] = []
     if target.exists():
-        calibration = calibration.merged_into(load_calibration(target, sch), sch)
-    return write_calibration(target, calibration, sch)
+        calibration = calibration.merged_into(load_calibration(target, sch), sch,
+                                              replace=replace, report=lines)
+    else:
+        problem = scale_factor_inconsistency(calibration, sch)
+        if problem:
+            raise HandoffError(problem)
+        lines += [f'added: {k} = {_with_std(v, calibration.values.get(k + "_std"))}.'
+                  for k, v in calibration.values.items() if not k.endswith('_std')]
+    written = write_calibration(target, calibration, sch)
+    if report is not None:
+        report.extend(lines)
+    return written
+
+
+SAME_RUN = '(same run, updated).'
+"""How a merge line ends when a live node rewrote the values of its own run."""
+
+
+def merge_lines(report: Iterable[str]) -> list[str]:
+    """The lines of a merge report worth telling (a node's rewrites of its own run left out)."""
+    return [line for line in report if not line.endswith(SAME_RUN)]
 
 
 def _fsync_directory(directory: Path) -> None:

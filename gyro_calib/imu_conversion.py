@@ -120,6 +120,15 @@ def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False,
         got = calibration.measured(key)
         k_model = model.scale_factor_rad_per_pulse
         if got is None:
+            for other in ('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'):
+                beside = calibration.measured(other)
+                if beside is not None and abs(beside[0] / k_model - 1.0) > 1e-4:
+                    raise HandoffError(
+                        f'the calibration\'s {other} = {beside[0]!r} rad/pulse differs from the '
+                        f'{k_model!r} rad/pulse its thermal_model was fitted with by '
+                        f'{abs(beside[0] / k_model - 1.0) * 1e6:.0f} ppm: the file mixes two '
+                        'scale factors (another gyro, or a model fitted with a spec-sheet K); '
+                        'refit the thermal model with this K (--calibration FILE).')
             return PulseCalibration(k_model, 0.0, 'thermal_model', 0.0, 0.0, True, arw_value,
                                     model)
         if abs(got[0] / k_model - 1.0) > 1e-4:

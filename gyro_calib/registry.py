@@ -47,6 +47,8 @@ class Method:
             (``--topic``; noise: ``sensor_msgs/Imu``), '' if none.
         node: its live node's name (the key of its ROS 2 parameter files).
         settings: 'module:Class' of its settings dataclass (node parameters, ``--config``).
+        handoff_lead: a key every other key of the method goes with when a hand-off file is
+            updated (one fit: a newer run replaces them all, or keeps them all), '' = none.
         bench_settings: the bench settings (:data:`gyro_calib.config.BENCH_SETTINGS`) it
             uses; the bench settings stored with its own bags must agree on these.
     """
@@ -63,6 +65,7 @@ class Method:
     node: str = ''
     settings: str = ''
     bench_settings: tuple[str, ...] = ()
+    handoff_lead: str = ''
 
     def make_session(self, options: CalibrationOptions) -> MethodSession:
         """A new session of this method with the user's options."""
@@ -82,7 +85,13 @@ class Method:
 
     def handoff_keys(self) -> tuple[HandoffKey, ...]:
         """The keys this method may write to the hand-off file."""
-        return tuple(importlib.import_module(self.keys).HANDOFF_KEYS)
+        import dataclasses
+
+        keys = tuple(importlib.import_module(self.keys).HANDOFF_KEYS)
+        if not self.handoff_lead:
+            return keys
+        return tuple(k if k.name == self.handoff_lead or k.follows
+                     else dataclasses.replace(k, follows=self.handoff_lead) for k in keys)
 
 
 METHODS: dict[str, Method] = {m.name: m for m in (
@@ -111,7 +120,8 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            'gyro_calib.dither.session:DitherSession', 'gyro_calib.dither.keys',
            separate_bags=True, node='dither_calibration_node',
            settings='gyro_calib.dither.settings:DitherSettings',
-           bench_settings=('scale_factor_rad_per_pulse', 'gyro_id')),
+           bench_settings=('scale_factor_rad_per_pulse', 'gyro_id'),
+           handoff_lead='dither_axis_misalignment_rad'),
     Method('thermal', 'temperature bias model: lifting-wavelet denoising, stepwise regression '
            '(docs/methods.md §D)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.GYRO_TEMPERATURE: TEMPERATURE},
@@ -120,7 +130,8 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            node='thermal_calibration_node',
            settings='gyro_calib.thermal.settings:ThermalSettings',
            bench_settings=('scale_factor_rad_per_pulse', 'latitude_deg',
-                           'sense_axis_elevation_deg', 'sense_axis_azimuth_deg', 'gyro_id')),
+                           'sense_axis_elevation_deg', 'sense_axis_azimuth_deg', 'gyro_id'),
+           handoff_lead='thermal_model'),
     Method('noise', 'noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml '
            '(docs/methods.md §E)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE},

@@ -237,15 +237,31 @@ class MethodSession(ABC):
             out[key + '_std'] = est.std_uncertainty
         return out
 
+    def conditions(self) -> dict[str, Any]:
+        """The bench settings the results rest on (latitude, heading, K used...), by name;
+        written with the run in the hand-off file."""
+        return {}
+
+    def not_measurable(self) -> dict[str, str]:
+        """Hand-off keys among :meth:`missing` that no run on such a bench could give (its
+        streams lack what they need), with why; a file is complete without them."""
+        return {}
+
     def handoff(self, source: str, *, gyro_id: str = '') -> Calibration | None:
         """This run's hand-off record, or None when nothing was measured."""
         values = self.handoff_values()
         span = self.data_span_ns()
         if not values or span is None:
             return None
-        return method_calibration(self.name, values,
-                                  Provenance(source, span[0], span[1], self.missing()),
-                                  gyro_id=gyro_id)
+        missing = self.missing()
+        cannot = {k: v for k, v in self.not_measurable().items() if k in missing}
+        conditions = {k: v for k, v in self.conditions().items() if given(v)}
+        return method_calibration(
+            self.name, values,
+            Provenance(source, span[0], span[1],
+                       {k: v for k, v in missing.items() if k not in cannot},
+                       conditions=conditions, not_measurable=cannot),
+            gyro_id=gyro_id)
 
     def summary_rows(self) -> list[tuple[str, str, str, str]]:
         """(quantity, value, standard uncertainty, n) rows of the summary table."""

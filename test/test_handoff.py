@@ -79,10 +79,10 @@ def test_calibration_round_trips_exactly_through_the_file(
 
 def test_file_layout_is_gyro_values_methods_provenance_and_completeness(tmp_path: Path) -> None:
     data = yaml.safe_load(write_calibration(tmp_path / 'g.yaml', _rbrlg()).read_text())
-    assert data['format_version'] == FORMAT_VERSION == 2
+    assert data['format_version'] == FORMAT_VERSION == 3
     assert data['gyro_calib_version'] == gyro_calib.__version__
-    assert set(data) == {'format_version', 'gyro_calib_version', 'gyro_id', 'complete', 'missing',
-                         'gyro', 'methods'}
+    assert set(data) == {'format_version', 'gyro_calib_version', 'gyro_id', 'conventions',
+                         'complete', 'missing', 'not_measurable', 'gyro', 'methods'}
     assert data['complete'] is True and data['missing'] == {}
     assert data['gyro']['fix_error_angle_rad_std'] == 0.41 * RAD_PER_ARCSEC
     assert data['gyro']['window_pairs'] == 3
@@ -151,9 +151,9 @@ def test_format_1_files_still_load_with_the_same_values(tmp_path: Path) -> None:
     assert loaded.require('bias_rad_s') == (1.2e-8, 3.0e-9)
     assert loaded.get('angle_random_walk_rad_per_sqrt_s') == 2.9e-7
     assert loaded.methods['rbrlg'].source == 'live'
-    update_calibration(tmp_path / 'v1.yaml', _rbrlg())  # rewritten as format 2, ARW kept
+    update_calibration(tmp_path / 'v1.yaml', _rbrlg())  # rewritten as format 3, ARW kept
     again = load_calibration(tmp_path / 'v1.yaml')
-    assert again.format_version == 2 and again.get('angle_random_walk_rad_per_sqrt_s') == 2.9e-7
+    assert again.format_version == 3 and again.get('angle_random_walk_rad_per_sqrt_s') == 2.9e-7
 
 
 @pytest.mark.parametrize('failing', ['fsync', 'replace'])
@@ -295,13 +295,13 @@ def test_load_raises_on_stamps_out_of_order(tmp_path: Path) -> None:
         load_calibration(path)
 
 
-@pytest.mark.parametrize('version', [3, 0, '1', None])
+@pytest.mark.parametrize('version', [4, 0, '1', None])
 def test_load_raises_on_unknown_format_version(tmp_path: Path, version: Any) -> None:
     data = _valid_dict()
     data['format_version'] = version
     path = _write_yaml(tmp_path / 'g.yaml', data)
     with pytest.raises(HandoffError, match=f'calibration file {path} has format_version '
-                                           f'{version!r}; .* reads format_version 1 and 2'):
+                                           f'{version!r}; .* reads format_version 1, 2 and 3'):
         load_calibration(path)
 
 

@@ -32,6 +32,7 @@ from gyro_calib.fog.calibrator import (
     KEY_SELF_CAL_NONLINEARITY,
     KEY_SELF_CAL_RANGE,
     KEY_SELF_CAL_SMALL_SIGNAL,
+    SELF_CAL_KEYS,
     FogCalibrator,
 )
 from gyro_calib.fog.keys import METHOD
@@ -68,8 +69,9 @@ def fog_settings(options: CalibrationOptions) -> FogSettings:
     values = dict(options.settings)
     source = 'ROS parameters'
     if options.config_file is not None:
+        names = [f.name for f in dataclasses.fields(FogSettings)]
         values.update(read_method_file(options.config_file, node_name='fog_calibration_node',
-                                       fields=[f.name for f in dataclasses.fields(FogSettings)])[0])
+                                       fields=names)[0])
         source = str(options.config_file)
     settings = fog_settings_from_mapping(values, source=source) if values else FogSettings()
     latitude = options.latitude
@@ -118,12 +120,60 @@ class FogSession(MethodSession):
         return self.calibrator.process(flush=flush or self._ended)
 
     def results(self) -> dict[str, Estimate]:
-        """By hand-off key (SI units in the names)."""
-        return self.calibrator.results()
+        """By hand-off key (SI units in the names); no full-scale nonlinearity from a table
+        that turned only at the mapping rates (:meth:`mapping_rates_only`)."""
+        out = self.calibrator.results()
+        if self.mapping_rates_only() and KEY_NONLINEARITY in out:
+            del out[KEY_NONLINEARITY]
+        return out
+
+    def mapping_rates_only(self) -> str:
+        """Why the turntable fit has no full-scale nonlinearity ('' if it has): every segment
+        was at an equivalence-mapping rate (a mapping bench, seed 001 §3: 20–21 °/s)."""
+        segments = self.calibrator.active_segments
+        settings = self.calibrator.settings
+        if not segments:
+            return ''
+        rates = [abs(math.degrees(s.rate_rad_s)) for s in segments]
+        if all(any(abs(r - m) <= settings.mapping_rate_tolerance_deg_s
+                   for m in settings.mapping_rates_deg_s) for r in rates):
+            return (f'the table turned only at the equivalence-mapping rates ({min(rates):.4g}–'
+                    f'{max(rates):.4g} °/s): a full-scale (IEEE Std 952) nonlinearity needs '
+                    'rates over the gyro\'s range, so none is given (the self-calibration '
+                    'states its own, fog_self_cal_nonlinearity_ppm).')
+        return ''
 
     def missing(self) -> dict[str, str]:
         """Why each FOG key is not measured."""
-        return self.calibrator.missing()
+        out = self.calibrator.missing()
+        why = self.mapping_rates_only()
+        if why:
+            out[KEY_NONLINEARITY] = why
+        return out
+
+    def not_measurable(self) -> dict[str, str]:
+        """Self-calibration (and mapping) keys of a bench without injection; turntable keys of
+        a bench without a rate table; the full-scale nonlinearity of a mapping-only table."""
+        seen = self.calibrator.seen_topics
+        out: dict[str, str] = {}
+        missing = self.missing()
+        if topics.FOG_INJECTION not in seen:
+            for key in (*SELF_CAL_KEYS, KEY_MAPPING):
+                out[key] = f'no {topics.FOG_INJECTION} on this bench: no self-calibration.'
+        if topics.RATE_TABLE_JOINT_STATES not in seen:
+            for key in (KEY_SCALE_FACTOR, KEY_BIAS, KEY_BIAS_PLUS_EARTH, KEY_NONLINEARITY,
+                        KEY_ASYMMETRY, KEY_QUADRATIC, KEY_CUBIC, KEY_ARW, KEY_MAPPING):
+                out[key] = f'no {topics.RATE_TABLE_JOINT_STATES} on this bench: no turntable.'
+        if self.mapping_rates_only():
+            out[KEY_NONLINEARITY] = missing[KEY_NONLINEARITY]
+            for key in (KEY_ASYMMETRY, KEY_QUADRATIC, KEY_CUBIC):
+                if key in missing:
+                    out[key] = missing[key]
+        return {k: v for k, v in out.items() if k in missing}
+
+    def conditions(self) -> dict[str, Any]:
+        """The latitude the bias rests on (NaN: the bias keeps the Earth rate)."""
+        return {'latitude_deg': self.calibrator.settings.latitude_deg}
 
     def rejections(self) -> list[Rejection]:
         """Segments, plateaus and events rejected, with reasons, in stamp order (the same

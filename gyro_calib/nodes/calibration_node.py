@@ -23,10 +23,10 @@ from std_msgs.msg import Float64
 from gyro_calib import topics
 from gyro_calib.rbrlg.calibrator import CalibrationUpdate
 from gyro_calib.rbrlg.diagnostics import calibration_status
-from gyro_calib.handoff import Provenance, method_calibration, update_calibration
+from gyro_calib.handoff import Provenance, merge_lines, method_calibration, update_calibration
 from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_values
 from gyro_calib.rbrlg.stations import Station
-from gyro_calib.config import read_method_file
+from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
@@ -66,18 +66,17 @@ class CalibrationNode(Node):
             self.config = k_tilde_config_from_mapping(values, source='ROS parameters')
         site = {name: described_parameter(self, name, default, text)
                 for name, default, text in (
-            ('position_table_revolutions', 1, 'n: position-table revolutions each way per '
-             'station.'),
-            ('latitude_deg', float('nan'), 'Site latitude, °, to separate the bias from the '
-             'Earth rate (NaN: bias not reported).'),
-            ('heading_deg', 0.0, 'Angle from East to the position-table base x axis, °.'),
+            ('position_table_revolutions', 1,
+             BENCH_SETTINGS['position_table_revolutions'].description),
+            ('latitude_deg', float('nan'), BENCH_SETTINGS['latitude_deg'].description),
+            ('heading_deg', 0.0, BENCH_SETTINGS['heading_deg'].description),
             ('nominal_tilt_deg', 45.0, 'Nominal tilt α of the rate table on the position '
              'table, °.'),
             ('tilt_tolerance_deg', 5.0, 'Largest |fitted α − nominal| before θ is refused, °.'),
             ('output_file', 'gyro_calibration.yaml', 'INS hand-off YAML, rewritten atomically '
              'with whatever is measured whenever K̃ or θ changes; other methods\' keys in it '
              'are kept ("" = do not write).'),
-            ('gyro_id', '', "The gyro's serial or name, written to the hand-off file."),
+            ('gyro_id', '', BENCH_SETTINGS['gyro_id'].description),
             ('state_dir', '', "Durable record of the data consumed, replayed on restart after "
              "a crash ('' = beside output_file as <output_file>.state)."),
             ('keep_state', False, 'Keep the state directory after a completed calibration.'))}
@@ -101,6 +100,7 @@ class CalibrationNode(Node):
         self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
         self._handoff_note = ''
+        self._merge_told: set[str] = set()
         self._station_rejections_seen = 0
         self._buffers: dict[str, _TopicBuffer] = {}
         for topic, msgtype in RBRLG_TOPICS.items():
@@ -220,12 +220,15 @@ class CalibrationNode(Node):
         span = self.bench.data_span_ns()
         if not self.output_file or not values or span is None:
             return
-        missing = self.bench.missing()
+        cannot = self.bench.not_measurable()
+        missing = {k: v for k, v in self.bench.missing().items() if k not in cannot}
+        conditions = {k: v for k, v in self.bench.conditions().items() if not math.isnan(v)}
         try:
-            record = method_calibration('rbrlg', values, Provenance('live', span[0], span[1],
-                                                                    missing),
-                                        gyro_id=self.gyro_id)
-            path = update_calibration(self.output_file, record)
+            record = method_calibration('rbrlg', values, Provenance(
+                'live', span[0], span[1], missing, conditions=conditions,
+                not_measurable=cannot), gyro_id=self.gyro_id)
+            report: list[str] = []
+            path = update_calibration(self.output_file, record, report=report)
         except GyroCalibError as exc:
             self._last_rejection = str(exc)
             self.get_logger().error(f'hand-off file not written: {exc}')
@@ -234,6 +237,10 @@ class CalibrationNode(Node):
         if note != self._handoff_note:
             self._handoff_note = note
             self.get_logger().info(f'calibration written to {path}{note}')
+        for line in merge_lines(report):
+            if line not in self._merge_told:
+                self.get_logger().info(f'hand-off {line}')
+        self._merge_told = set(merge_lines(report))
 
     def _publish_diagnostics(self) -> None:
         ok, message, values = calibration_status(self.bench, self._last_rejection)

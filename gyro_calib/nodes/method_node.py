@@ -17,27 +17,29 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+import yaml
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, Temperature
-from std_msgs.msg import Float64, Header
+from std_msgs.msg import Float64, Header, String
 
 from gyro_calib import topics
 from gyro_calib.bag import SampleBatch
-from gyro_calib.config import read_method_file
+from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.errors import GyroCalibError
-from gyro_calib.handoff import update_calibration
+from gyro_calib.handoff import merge_lines, update_calibration
 from gyro_calib.mcap_columns import FrameIds, TopicColumns
 from gyro_calib.nodes.node_state import NodeState, state_directory
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
+    SCENARIO_READER_QOS,
     SENSOR_QOS,
     described_parameter,
     run_node,
@@ -141,11 +143,11 @@ class MethodNode(Node):
             ('config_file', '', 'YAML file with the settings; its values win over parameters.'),
             ('output_file', '', 'INS hand-off YAML, updated atomically whenever the results '
              "change; other methods' keys in it are kept ('' = do not write)."),
-            ('gyro_id', '', "The gyro's serial or name (hand-off identity)."),
-            ('latitude_deg', math.nan, 'Site latitude, ° (NaN: not given).'),
-            ('heading_deg', 0.0, 'Table-base heading from East, °.'),
-            ('scale_factor_rad_per_pulse', math.nan, "A pulse gyro's scale factor K, rad/pulse "
-             '(NaN: not given).'),
+            ('gyro_id', '', BENCH_SETTINGS['gyro_id'].description),
+            ('latitude_deg', math.nan, BENCH_SETTINGS['latitude_deg'].description),
+            ('heading_deg', 0.0, BENCH_SETTINGS['heading_deg'].description),
+            ('scale_factor_rad_per_pulse', math.nan,
+             BENCH_SETTINGS['scale_factor_rad_per_pulse'].description + ' NaN: not given.'),
             ('process_period_s', 0.2, 'How often buffered samples are handed to the '
              'calibrator, s (results do not depend on it).'),
             ('state_dir', '', "Durable record of the data consumed, replayed on restart "
@@ -182,9 +184,32 @@ class MethodNode(Node):
         self._published: dict[str, float] = {}
         self._last_line = ''
         self._handoff_note = ''
+        self._merge_told: set[str] = set()
+        self._fed = False
+        self.scenario = SimScenarioBench(self, self.method.bench_settings, self._on_bench)
         self.create_timer(float(p['process_period_s']), self._process)
         self.create_timer(1.0, self._publish_diagnostics)
         self.get_logger().info(f'{method}: waiting for {", ".join(self._buffers)}')
+
+    def _on_bench(self, stored: tuple[tuple[str, Mapping[str, Any]], ...]) -> None:
+        """A simulator published its bench: report conflicts, take the gyro id, and (before
+        any sample came) rebuild the session with the bench filling what was not given."""
+        options = dataclasses.replace(self.options, stored_benches=stored)
+        gyro_id = self.scenario.check(options)
+        if gyro_id is None:
+            return
+        if not self.gyro_id and gyro_id:
+            self.gyro_id = gyro_id
+            self.get_logger().info(f'gyro_id {gyro_id!r} taken from {topics.SIM_SCENARIO} '
+                                   '(parameter gyro_id not given).')
+        if self._fed:
+            return
+        try:
+            self.session = self.method.make_session(options)
+            self.options = options
+        except GyroCalibError as exc:
+            self._last_line = f'{topics.SIM_SCENARIO}: {exc}'
+            self.get_logger().error(self._last_line)
 
     def _refuse_runtime_change(self, params: list[Any]) -> SetParametersResult:
         return SetParametersResult(successful=False, reason=(
@@ -196,10 +221,14 @@ class MethodNode(Node):
             return
         self.state.record_batch(columns)
         last = max(int(c.stamp_ns.max()) for c in columns.values())
-        self.session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+        self._session_feed(SampleBatch(columns, sum(len(c) for c in columns.values()), last))
+
+    def _session_feed(self, batch: SampleBatch) -> None:
+        self._fed = True  # the session has data now: a bench published later only informs
+        self.session.feed(batch)
 
     def _process(self) -> None:
-        self.state.resume_once(self.session.feed, self.session.process)
+        self.state.resume_once(self._session_feed, self.session.process)
         self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
         lines = self.session.process()
         for line in lines:
@@ -223,7 +252,7 @@ class MethodNode(Node):
     def finish(self) -> None:
         """End of the data (shutdown): judge what is still open, write the hand-off file;
         the state directory is removed when nothing is missing (unless ``keep_state``)."""
-        self.state.resume_once(self.session.feed, self.session.process)
+        self.state.resume_once(self._session_feed, self.session.process)
         self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
         for line in self.session.process(flush=True):
             self.get_logger().info(line)
@@ -237,7 +266,8 @@ class MethodNode(Node):
             record = self.session.handoff('live', gyro_id=self.gyro_id)
             if record is None:
                 return
-            path = update_calibration(self.output_file, record)
+            report: list[str] = []
+            path = update_calibration(self.output_file, record, report=report)
         except GyroCalibError as exc:
             self._last_line = str(exc)
             self.get_logger().error(f'hand-off file not written: {exc}')
@@ -247,6 +277,10 @@ class MethodNode(Node):
         if note != self._handoff_note:
             self._handoff_note = note
             self.get_logger().info(f'calibration written to {path}{note}')
+        for line in merge_lines(report):
+            if line not in self._merge_told:
+                self.get_logger().info(f'hand-off {line}')
+        self._merge_told = set(merge_lines(report))
 
     def _publish_diagnostics(self) -> None:
         results = self.session.results()
@@ -269,6 +303,53 @@ class MethodNode(Node):
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()
         self.diag_pub.publish(array)
+
+
+class SimScenarioBench:
+    """The bench settings simulators publish on /sim/scenario (YAML with a ``bench``
+    mapping, transient-local), for a method node that also has them as parameters.
+
+    Each part's bench is passed to ``on_bench`` as the stored benches of
+    :class:`~gyro_calib.session.CalibrationOptions`; :meth:`check` logs (once each) the
+    parameters that differ from it, and returns the gyro id the bench resolves to.
+    """
+
+    def __init__(self, node: Node, names: tuple[str, ...],
+                 on_bench: Callable[[tuple[tuple[str, Mapping[str, Any]], ...]], None]) -> None:
+        self.node, self.names, self.on_bench = node, names, on_bench
+        self.benches: dict[str, Mapping[str, Any]] = {}
+        self.told: set[str] = set()
+        node.create_subscription(String, topics.SIM_SCENARIO, self._on_message,
+                                 SCENARIO_READER_QOS)
+
+    def _on_message(self, msg: String) -> None:
+        try:
+            part = yaml.safe_load(msg.data)
+        except yaml.YAMLError:
+            return
+        if not isinstance(part, dict) or not isinstance(part.get('bench'), dict):
+            return
+        where = f'{topics.SIM_SCENARIO} ({part.get("name", "simulator")})'
+        self.benches[where] = dict(part['bench'])
+        self.on_bench(tuple(self.benches.items()))
+
+    def check(self, options: CalibrationOptions) -> str | None:
+        """Log each conflict between the node's parameters and the published bench once;
+        the gyro id (None when the published benches disagree among themselves)."""
+        try:
+            lines = options.conflicts(self.names)
+            gyro_id = str(options.setting('gyro_id', '') or '')
+        except GyroCalibError as exc:
+            line = f'{topics.SIM_SCENARIO}: {exc}'
+            if line not in self.told:
+                self.told.add(line)
+                self.node.get_logger().error(line)
+            return None
+        for line in lines:
+            if line not in self.told:
+                self.told.add(line)
+                self.node.get_logger().warning(f'bench conflict: {line}')
+        return gyro_id
 
 
 def _description(cls: type, name: str) -> str:

@@ -94,6 +94,20 @@ class RbrlgCalibrator:
     _position_table_seen: bool = False
     """Any position-table sample at all (else the rate table is taken as a plain, vertical one)."""
 
+    def conditions(self) -> dict[str, float | int]:
+        """The bench settings the results rest on (the bias: latitude and heading), for the
+        hand-off file (NaN: not given)."""
+        return {'latitude_deg': self.latitude_deg, 'heading_deg': self.heading_deg,
+                'position_table_revolutions': self.position_table_revolutions}
+
+    def not_measurable(self) -> dict[str, str]:
+        """θ and K of a bench without a position table (a plain rate table gives K̃ only),
+        with why; {} once any position-table sample came."""
+        if self._position_table_seen:
+            return {}
+        keys = ('fix_error_angle_rad', 'scale_factor_rad_per_pulse', 'stations')
+        return {k: v for k, v in self.missing().items() if k in keys}
+
     def __post_init__(self) -> None:
         """Create the K̃ and the station stages."""
         self.k_tilde = RateBiasCalibrator(self.k_config)
@@ -334,5 +348,6 @@ def handoff_values(results: RbrlgResults, calibrator: RbrlgCalibrator) -> dict[s
     put('bias_plus_earth_rate_rad_s', results.earth_plus_bias_deg_h, deg_h)
     put('bias_rad_s', results.bias_deg_h, deg_h)
     out['window_pairs'] = results.k_tilde_arcsec_per_pulse.n_used
-    out['stations'] = results.fix_error.fix_error_angle_rad.n_used if results.fix_error else 0
+    if results.fix_error:  # absent with θ: no stations measured nothing
+        out['stations'] = results.fix_error.fix_error_angle_rad.n_used
     return out

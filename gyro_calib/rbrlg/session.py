@@ -124,6 +124,14 @@ class RbrlgSession(MethodSession):
         """From the first accepted K̃ window to the last station."""
         return self.calibrator.data_span_ns()
 
+    def conditions(self) -> dict[str, Any]:
+        """Latitude, heading (the bias rests on them) and n."""
+        return self.calibrator.conditions()
+
+    def not_measurable(self) -> dict[str, str]:
+        """θ and K when the bench has no position table."""
+        return self.calibrator.not_measurable()
+
     def handoff_values(self) -> dict[str, Any]:
         """The RBRLG hand-off keys (SI) with window and station counts."""
         return handoff_values(self.rbrlg_results, self.calibrator)

@@ -383,6 +383,19 @@ def test_thermal_model_needs_the_k_it_was_fitted_with_and_replaces_the_constant_
         pulse_calibration(_thermal_handoff(other, rbrlg=_handoff()))
 
 
+def test_a_k_tilde_beside_a_model_of_another_k_is_refused() -> None:
+    """Issue 17 item 6: K̃ = 4.086e-06 beside a model fitted with K = 1.115e-05 was taken
+    without a word (the model's K was used); a file mixing two scale factors is refused."""
+    model = _thermal_model(k_rad=1.115e-05).to_dict()
+    mixed = Calibration({'k_tilde_rad_per_pulse': 4.086e-6, 'k_tilde_rad_per_pulse_std': 1e-13,
+                         'window_pairs': 3, 'thermal_model': model},
+                        {'rbrlg': Provenance('bench', 0, 1),
+                         'thermal': Provenance('chamber', 0, 1)})
+    with pytest.raises(HandoffError, match=r'k_tilde_rad_per_pulse = 4\.086e-06 rad/pulse '
+                       r'differs from the 1\.115e-05 rad/pulse its thermal_model'):
+        pulse_calibration(mixed)
+
+
 def test_converter_without_thermal_model_ignores_temperatures() -> None:
     converter = PulseRateConverter(_calibration())
     converter.add(T0_NS, 0.0)
