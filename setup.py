@@ -14,7 +14,7 @@ setup(
         ('share/' + PACKAGE + '/config', ['config/calibration.yaml']),
         ('share/' + PACKAGE + '/docs', ['docs/methods.md']),
     ],
-    package_data={PACKAGE: ['py.typed', 'schema/*.json']},
+    package_data={PACKAGE: ['py.typed', 'schema/*.json', 'report/certificate.html.j2']},
     python_requires='>=3.10',
     install_requires=['numpy', 'scipy', 'PyYAML', 'rosbags', 'mcap', 'zstandard', 'tqdm',
                       'PyWavelets', 'statsmodels', 'matplotlib', 'gtc', 'dask[distributed]',

@@ -61,7 +61,8 @@ def client() -> Iterator[Any]:
     from dask.distributed import Client, LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, \
+                      host='127.0.0.1', dashboard_address='127.0.0.1:0',
+                      silence_logs=logging.ERROR) as cluster, \
             Client(cluster) as c:
         yield c
 

@@ -160,7 +160,8 @@ def test_certificate_of_each_committed_bag_holds_the_hand_off_values_k_and_U(nam
             assert dof != '—'  # Welch–Satterthwaite over statistical + rocking
             k95 = float(scipy.stats.t.ppf(0.975, float(dof)))
         assert float(k) == pytest.approx(k95, abs=0.006)
-        assert float(expanded) == pytest.approx(float(k) * std * factor, rel=0.02, abs=2 * half_digit)
+        assert float(expanded) == pytest.approx(float(k) * std * factor, rel=0.02,
+                                                abs=2 * half_digit)
     for key, value in record.values.items():  # counts and mappings are on it too
         if key not in uncertain and not key.endswith('_std'):
             assert key in ''.join(page.text)

@@ -154,9 +154,10 @@ def fleet_html(records: Sequence[dict[str, Any]], spec_limits: dict[str, Any]) -
     n_ok = sum(r.get('status') == 'ok' for r in records)
     overall = [(r.get('certificate') or {}).get('overall', '') for r in records]
     judged = [o for o in overall if o]
+    partly = sum(r.get('status') == 'partial' for r in records)
+    failed = sum(r.get('status') == 'failed' for r in records)
     body = [f'<h1>Fleet: {len(records)} gyros</h1>',
-            (f'<p>calibrated: {n_ok}; partly: {sum(r.get("status") == "partial" for r in records)};'
-            f' failed: {sum(r.get("status") == "failed" for r in records)}.')]
+            f'<p>calibrated: {n_ok}; partly: {partly}; failed: {failed}.']
     if judged:
         body.append(f' Units PASS: {judged.count("PASS")}, CONDITIONAL: '
                     f'{judged.count("CONDITIONAL")}, FAIL: {judged.count("FAIL")}; yield '

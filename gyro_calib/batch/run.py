@@ -82,7 +82,7 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
     if scheduler:
         return Client(scheduler, timeout='20s'), None
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                           processes=True, dashboard_address=None,
+                           processes=True, host='127.0.0.1', dashboard_address='127.0.0.1:0',
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster
 

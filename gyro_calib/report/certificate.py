@@ -5,7 +5,8 @@ what the run knows (:class:`~gyro_calib.report.evidence.RunEvidence`: degrees of
 budgets, rejections, figures, input hashes, settings) and a spec (verdicts). Values are the
 hand-off's, converted to the unit a lab quotes (:mod:`gyro_calib.report.units`); k and U follow
 from the degrees of freedom (:mod:`gyro_calib.report.uncertainty`). What ISO/IEC 17025 7.8.2,
-7.8.4 and 7.8.6 ask a calibration certificate to hold is laid out in :data:`TEMPLATE`.
+7.8.4 and 7.8.6 ask a calibration certificate to hold is laid out in its template
+(:data:`TEMPLATE`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import re
 import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +37,10 @@ from gyro_calib.report.uncertainty import (
     expanded_uncertainty,
 )
 from gyro_calib.report.units import user_unit
+
+TEMPLATE = 'certificate.html.j2'
+"""The certificate's Jinja2 HTML (package data beside this module): self-contained, no
+script, no external resource, A4 print CSS."""
 
 REJECTIONS_LISTED = 40
 """Rejection lines listed per method; the rest are counted in one line."""
@@ -317,9 +323,8 @@ def render_html(cert: Certificate) -> str:
     import jinja2
 
     env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined)
-    from gyro_calib.report.template import TEMPLATE
-
-    return env.from_string(TEMPLATE).render(c=cert)
+    template = resources.files('gyro_calib.report').joinpath(TEMPLATE).read_text('utf-8')
+    return env.from_string(template).render(c=cert)
 
 
 def render_pdf(html: str) -> bytes:
