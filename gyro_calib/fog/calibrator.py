@@ -519,10 +519,10 @@ class FogCalibrator:
             t = f.turntable
             out[KEY_SCALE_FACTOR] = t.scale_factor
             out[self.bias_key] = t.bias
-            out[KEY_NONLINEARITY] = t.nonlinearity_ppm
             out[KEY_ARW] = t.angle_random_walk_rad_sqrt_s
-            for key, est in ((KEY_ASYMMETRY, t.asymmetry_ppm), (KEY_QUADRATIC,
-                                                                t.quadratic_s_per_rad),
+            for key, est in ((KEY_NONLINEARITY, t.nonlinearity_ppm),
+                             (KEY_ASYMMETRY, t.asymmetry_ppm),
+                             (KEY_QUADRATIC, t.quadratic_s_per_rad),
                              (KEY_CUBIC, t.cubic_s2_per_rad2)):
                 if est is not None:
                     out[key] = est
@@ -563,8 +563,8 @@ class FogCalibrator:
                 k = (f'K = {row.scale_factor.value:.8g} ± {row.scale_factor.std_uncertainty:.2g}'
                      if row.scale_factor is not None else f'slope {row.slope.value:.8g}')
                 mark = '  ← linear range' if row is fit.linear else ''
-                lines.append(f'  {row.plateaus:3d} plateaus: {k}, nonlinearity '
-                             f'{row.nonlinearity_ppm.value:.4g} ppm{mark}')
+                lines.append(f'  {row.plateaus:3d} plateaus: {k}, {row.nonlinearity_text()}'
+                             f'{mark}')
         lines += [f'{key}: {why}' for key, why in self.missing().items()]
         return lines
 
@@ -585,6 +585,9 @@ class FogCalibrator:
         if key == KEY_ARW and isinstance(f.turntable, TurntableFit):
             return (f'no segment was long enough for two noise blocks of min_block_s = '
                     f'{self.settings.min_block_s:g} s: no angle random walk estimate.')
+        if key == KEY_NONLINEARITY and isinstance(f.turntable, TurntableFit):
+            return next((n for n in f.turntable.notes if n.startswith('nonlinearity')),
+                        'not measured.')
         if key in (KEY_SCALE_FACTOR, self.bias_key, KEY_NONLINEARITY, KEY_ARW):
             return self._turntable_reason(f.turntable)
         if key in (KEY_ASYMMETRY, KEY_QUADRATIC, KEY_CUBIC):

@@ -57,9 +57,10 @@ def _turntable_figure(plt, fit: TurntableFit, out_dir: Path) -> Path:  # noqa: A
     ax.errorbar(rates[order], resid[order], yerr=err[order], fmt='o-', ms=4, capsize=3,
                 label='residual of N = K·ω + B (±1σ)')
     at = int(np.argmax(np.abs(resid)))
+    nl = fit.nonlinearity_ppm
     ax.plot(rates[at], resid[at], 'o', mfc='none', mec='C3', ms=12,
-            label=f'nonlinearity {fit.nonlinearity_ppm.value:.3g} ± '
-                  f'{fit.nonlinearity_ppm.std_uncertainty:.2g} ppm')
+            label=(f'nonlinearity {nl.value:.3g} ± {nl.std_uncertainty:.2g} ppm' if nl else
+                   'nonlinearity not measurable from two rates'))
     k = fit.scale_factor
     ax.set_title(f'FOG turntable fit: K = {k.value:.6f} ± {k.std_uncertainty:.2g} counts/rad '
                  f'({len(rates)} rates)')

@@ -225,6 +225,14 @@ class RangeRow:
     scale_factor: Estimate | None
     range_rad_s: float
 
+    def nonlinearity_text(self) -> str:
+        """The row's nonlinearity for summaries, or why a line through two levels has none."""
+        nl = self.nonlinearity_ppm
+        if not math.isfinite(nl.value):
+            return (f'nonlinearity not measurable from {self.plateaus} plateaus (a line through '
+                    f'two levels leaves no residual)')
+        return f'nonlinearity {nl.value:.4g} ± {nl.std_uncertainty:.2g} ppm'
+
 
 @dataclass(frozen=True, slots=True)
 class SelfCalFit:

@@ -285,8 +285,7 @@ class FogSession(MethodSession):
                  if row.scale_factor is not None else
                  f'dN/dJ = {row.slope.value:.8f} ± {row.slope.std_uncertainty:.2g}')
             mark = '   ← linear range' if i == linear_at else ''
-            lines.append(f'  {row.plateaus:3d} plateaus: {k}; nonlinearity '
-                         f'{row.nonlinearity_ppm.value:.4g} ppm{mark}')
+            lines.append(f'  {row.plateaus:3d} plateaus: {k}; {row.nonlinearity_text()}{mark}')
         return lines
 
     def info_lines(self) -> list[str]:

@@ -190,17 +190,48 @@ def measure_segment(run: SteadyRun, index_ns: npt.NDArray[np.int64], cells: Coun
         boundary_variance_counts2=float(np.mean(se2)), earth_bound_rad_s=bound)
 
 
+QUANTISATION_COUNTS2_PER_INCREMENT = 1.0
+"""Most the integer output's quantisation can add to one block increment, counts²: each
+local-fit count at a block boundary can be off by up to ½ count when the count transitions
+beat slowly against the sample rate (see FogCalibrator._steady)."""
+
+
 @dataclass(frozen=True, slots=True)
 class SegmentNoise:
     """Angle random walk pooled over segments.
 
     Attributes:
-        arw_counts2_s: N², counts²/s (≥ 0).
+        arw_counts2_s: N², counts²/s (≥ 0): the block scatter, boundary errors left in
+            (the variances of the segments' output rates use it: on the safe side).
         dof: degrees of freedom of the pooled estimate.
+        quantisation_counts2_s: the most of N² the count quantisation can account for,
+            counts²/s: QUANTISATION_COUNTS2_PER_INCREMENT / T_b pooled over the segments.
     """
 
     arw_counts2_s: float
     dof: int
+    quantisation_counts2_s: float = 0.0
+
+    def angle_random_walk(self, k_abs: float) -> tuple[float, float]:
+        """(ARW, its standard uncertainty), rad/√s: the midpoint and half the half-width of
+        the interval √N²/|K| over N² ∈ [N²_blocks − Q − 2σ, N²_blocks + 2σ] (Q the most the
+        quantisation can add, σ = N²·√(2/dof) the scatter's own), so that an output whose
+        block scatter is all quantisation gets an interval reaching down to zero."""
+        if not self.dof:
+            return math.sqrt(self.arw_counts2_s) / k_abs, math.inf
+        n2 = self.arw_counts2_s
+        sigma = n2 * math.sqrt(2.0 / self.dof)
+        lo = math.sqrt(max(n2 - self.quantisation_counts2_s - 2.0 * sigma, 0.0)) / k_abs
+        hi = math.sqrt(n2 + 2.0 * sigma) / k_abs
+        return 0.5 * (lo + hi), 0.25 * (hi - lo)
+
+    @property
+    def basis(self) -> str:
+        """What the ARW uncertainty rests on."""
+        return (f'block scatter over {self.dof} dof; the count quantisation may account for '
+                f'up to {self.quantisation_counts2_s:.3g} counts²/s of it (≤ '
+                f'{QUANTISATION_COUNTS2_PER_INCREMENT:g} count² per block increment): '
+                f'midpoint of the 2σ interval')
 
     def variances(self, segments: list[SegmentMeasurement], k_abs: float) -> FloatArray:
         """Variance of each segment's output rate, (counts/s)²."""
@@ -212,12 +243,16 @@ class SegmentNoise:
 
 def pooled_noise(segments: list[SegmentMeasurement]) -> SegmentNoise:
     """Pool the segments' block estimates of N² (weighted by their degrees of freedom)."""
-    total, dof = 0.0, 0
+    total, quantisation, dof = 0.0, 0.0, 0
     for s in segments:
         est, nu = s.arw_estimate()
         total += est * nu
+        if nu:
+            quantisation += QUANTISATION_COUNTS2_PER_INCREMENT / s.block_s * nu
         dof += nu
-    return SegmentNoise(max(total / dof, 0.0) if dof else 0.0, dof)
+    if not dof:
+        return SegmentNoise(0.0, 0)
+    return SegmentNoise(max(total / dof, 0.0), dof, quantisation / dof)
 
 
 def distinct_rates(rates_rad_s: FloatArray, settings: FogSettings) -> int:
@@ -239,7 +274,8 @@ class TurntableFit:
         scale_factor: K, counts/rad.
         bias: B/K, rad/s (Earth rate along the table axis removed when ``earth_removed``).
         earth_removed: True when a latitude was given.
-        nonlinearity_ppm: max |residual| / full-scale output, ppm.
+        nonlinearity_ppm: max |residual| / full-scale output, ppm (None with fewer than 3
+            distinct rates: a line through two rates leaves no residual to measure it by).
         asymmetry_ppm: 2(K₊ − K₋)/(K₊ + K₋), ppm (None without rates of both signs).
         quadratic_s_per_rad: k₂ = K₂/K₁ (None with fewer than 5 distinct rates).
         cubic_s2_per_rad2: k₃ = K₃/K₁ (None likewise).
@@ -254,7 +290,7 @@ class TurntableFit:
     scale_factor: Estimate
     bias: Estimate
     earth_removed: bool
-    nonlinearity_ppm: Estimate
+    nonlinearity_ppm: Estimate | None
     asymmetry_ppm: Estimate | None
     quadratic_s_per_rad: Estimate | None
     cubic_s2_per_rad2: Estimate | None
@@ -309,7 +345,14 @@ def fit_turntable(segments: list[SegmentMeasurement], noise: SegmentNoise,
     bias_std = ratio_std(b, k, line.cov[1, 1], line.cov[0, 0], line.cov[0, 1])
     bias_basis = basis
     notes: list[str] = []
-    nl = nonlinearity(line, r)
+    nl_est = None
+    if n_rates >= 3:
+        nl = nonlinearity(line, r)
+        nl_est = Estimate(nl.ppm, nl.std_ppm, n, max(n - 2, 0),
+                          basis='uncertainty of the largest residual / full scale')
+    else:
+        notes.append(f'nonlinearity is not measurable from {n_rates} distinct rates: a line '
+                     f'through two rates leaves no residual (measure three or more rates).')
     asym = None
     if np.any(w > 0) and np.any(w < 0):
         try:
@@ -341,17 +384,15 @@ def fit_turntable(segments: list[SegmentMeasurement], noise: SegmentNoise,
                                             poly.cov[0, 2]), n, dof)
     else:
         notes.append('quadratic and cubic scale-factor terms need at least 5 distinct rates.')
-    arw = math.sqrt(noise.arw_counts2_s) / k_abs
-    arw_std = arw / math.sqrt(2.0 * noise.dof) if noise.dof else math.inf
+    arw, arw_std = noise.angle_random_walk(k_abs)
     return TurntableFit(
         scale_factor=scale, bias=Estimate(bias, bias_std, n, dof, basis=bias_basis),
         earth_removed=settings.latitude_known,
-        nonlinearity_ppm=Estimate(nl.ppm, nl.std_ppm, n, max(n - 2, 0),
-                                  basis='uncertainty of the largest residual / full scale'),
+        nonlinearity_ppm=nl_est,
         asymmetry_ppm=asym, quadratic_s_per_rad=quad, cubic_s2_per_rad2=cubic,
         angle_random_walk_rad_sqrt_s=Estimate(
             arw, arw_std, n, noise.dof,
-            basis='block scatter incl. end-count quantisation (an upper estimate)'),
+            basis=noise.basis),
         segments=tuple(segments), variances=var, residuals=line.residuals, line=line,
         notes=tuple(notes))
 
