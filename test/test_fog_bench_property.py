@@ -5,8 +5,8 @@ closed-loop injection physics written for the tests; nothing from sim_nodes): K,
 asymmetry, quadratic and cubic terms, angle random walk, integer counts at 50 Hz–1 kHz, any
 latitude (known to the calibration or not) and sense-axis tilt; 2–10 turntable rates of
 either sign at 0.5–200 °/s held 6–60 s, the equivalence-mapping rates or not; a ladder of
-0–40 injected plateaus of 2–8 s, in any order, up to 95 % of the largest injection the loop
-can balance, settling with τ 0.02–0.5 s.
+0–40 injected plateaus of 2–8 s, in any order, up to 0.3–95 % of the largest injection the
+loop can balance (an equivalent 0.05–2 rad/s), settling with τ 0.02–0.5 s.
 
 "The truth" of a fitted quantity is what the estimator's documented fit gives on the
 bench's noise-free outputs over the same segments and plateaus it used (the IEEE Std 952
@@ -15,7 +15,10 @@ noise-free equivalence mapping); the angle random walk and the small-signal K ar
 generator's own parameters. Each example: every result lies within 4.5 standard
 uncertainties of its truth, every missing result has a named reason, the summary prints no
 'nan', and nothing raises. Over the examples, ±1σ and ±2σ must cover the truth about as
-often as they should (≥ 55 % and ≥ 88 %). ``GYRO_CALIB_STRESS=1`` runs 200 examples.
+often as they should: pooled, ≥ 45 % and ≥ 80 % over the CI's dozen examples (the results of
+one example share its noise); ``GYRO_CALIB_STRESS=1`` runs 200 examples and requires ±1σ to
+cover ≥ 60 % pooled and ±2σ ≥ 88 % of each result with 20 or more values (the ARW is an
+interval with a rectangular σ: its ±1σ alone covers about 40 %).
 """
 
 from __future__ import annotations
@@ -72,8 +75,10 @@ def benches(draw: st.DrawFn) -> tuple[FogBench, bool]:
         rates += list(MAPPING_RATES_DEG_S)
         holds += [draw(st.floats(10.0, 40.0), label='mapping_hold_s')] * 4
     n_plateaus = draw(st.sampled_from([0, 0, 2, 3, 5, 8, 15, 25, 40]), label='plateaus')
-    limit = draw(st.floats(200.0, 20000.0), label='injection_limit_counts_s')
-    reach = draw(st.floats(0.02, 0.95), label='ladder_reach')
+    k = draw(st.floats(2e4, 2e6), label='K')
+    # the loop balances injections up to an equivalent rate of 0.05–2 rad/s
+    limit = k * draw(st.floats(0.05, 2.0), label='injection_limit_rad_s')
+    reach = draw(st.sampled_from([0.003, 0.01, 0.05, 0.3, 0.95]), label='ladder_reach')
     step = reach * limit / max(n_plateaus // 2, 1)
     order = draw(st.sampled_from(['alternating', 'ascending', 'shuffled']), label='order')
     levels = [0.0] + [step * ((i + 1) // 2) * (1 if i % 2 else -1)
@@ -84,7 +89,7 @@ def benches(draw: st.DrawFn) -> tuple[FogBench, bool]:
         levels = draw(st.permutations(levels), label='shuffled')
     output_hz = draw(st.sampled_from([50.0, 100.0, 200.0, 500.0, 1000.0]), label='output_hz')
     bench = FogBench(
-        k_counts_per_rad=draw(st.floats(2e4, 2e6), label='K'),
+        k_counts_per_rad=k,
         bias_rad_s=draw(st.floats(-1e-4, 1e-4), label='bias_rad_s'),
         asymmetry=draw(st.sampled_from([0.0, 0.0, 1e-4, -3e-4, 1e-3]), label='asymmetry'),
         k2_s_per_rad=draw(st.sampled_from([0.0, 0.0, 2e-4, -1e-4]), label='k2'),
@@ -257,9 +262,14 @@ def test_fog_results_cover_the_generators_truth_on_any_bench() -> None:
     _every_result_covers_the_truth()
     all_z = np.concatenate([np.asarray(v) for v in Z.values()])
     within1, within2 = np.mean(all_z <= 1.0), np.mean(all_z <= 2.0)
-    per_key = {k: f'{np.mean(np.asarray(v) <= 1):.2f}/{np.mean(np.asarray(v) <= 2):.2f} '
-                  f'of {len(v)}' for k, v in Z.items()}
-    assert within1 >= 0.55 and within2 >= 0.88, (within1, within2, per_key)
+    per_key = {k: (float(np.mean(np.asarray(v) <= 1)), float(np.mean(np.asarray(v) <= 2)),
+                   len(v)) for k, v in Z.items()}
+    # the results of one example share its noise: over a dozen examples the pooled coverage
+    # is itself uncertain by several per cent; the stress run checks each result on its own
+    assert within1 >= 0.45 and within2 >= 0.80, (within1, within2, per_key)
+    if STRESS:  # pooled ±1σ, and ±2σ of every result with 20 or more values
+        short = {k: c for k, c in per_key.items() if c[2] >= 20 and c[1] < 0.88}
+        assert within1 >= 0.6 and not short, (within1, short)
 
 
 def test_two_rates_and_two_plateaus_give_no_nonlinearity_but_say_why() -> None:

@@ -35,6 +35,7 @@ from gyro_calib.fog import topics
 from gyro_calib.fog.counts import CountCells
 from gyro_calib.fog.segments import SegmentDetector, SteadyRun, rate_deg_s, stamp_text
 from gyro_calib.fog.self_cal import (
+    SETTLING_NOTE,
     PlateauMeasurement,
     SelfCalFit,
     check_response,
@@ -555,6 +556,7 @@ class FogCalibrator:
                          'given).')
         fit = self.fits().self_cal
         if isinstance(fit, SelfCalFit):
+            lines += [n for n in fit.notes if n.startswith(SETTLING_NOTE)]
             if fit.difference is not None:
                 lines.append(f'self-calibrated K differs from the turntable K by '
                              f'{fit.difference.value:+.6g} ± {fit.difference.std_uncertainty:.3g} '
@@ -603,7 +605,7 @@ class FogCalibrator:
         if key == KEY_SELF_CAL_SMALL_SIGNAL and f.self_cal.scale_factor is not None:
             return ('no range of 7 or more injection levels over which a cubic and a quintic '
                     'agree on the slope at zero (too few plateaus, or too much noise).')
-        notes = ' '.join(f.self_cal.notes)
+        notes = ' '.join(n for n in f.self_cal.notes if not n.startswith(SETTLING_NOTE))
         return notes or 'not measured.'
 
     def _turntable_reason(self, fit: TurntableFit | str) -> str:

@@ -38,6 +38,8 @@ class LocalCount:
         n_used: output samples in the fit.
         rms_residual: rms residual of the fit, counts.
         rate_counts_s: slope of the fit, counts/s.
+        window_s: width of the samples fitted, √(12·var(t)) (2 × the half-width when the
+            samples fill the window evenly), s.
     """
 
     value: float
@@ -45,6 +47,20 @@ class LocalCount:
     n_used: int
     rms_residual: float
     rate_counts_s: float
+    window_s: float = 0.0
+
+
+def random_walk_increment_s(interval_s: float, window_s: float) -> float:
+    """Effective length T_eff of an increment between two local-fit counts ``interval_s``
+    apart, each the mean over a window of ``window_s``: an angle random walk N² gives the
+    increment the variance N²·T_eff, with T_eff = T − a/3 for T ≥ a and (T²/a)(1 − T/(3a))
+    for overlapping windows (a = window_s; the variance of the difference of two boxcar
+    means of a Wiener process). Block scatter divided by T itself would read N² low by
+    up to a third."""
+    t, a = interval_s, window_s
+    if a <= 0.0:
+        return t
+    return t - a / 3.0 if t >= a else t * t / a * (1.0 - t / (3.0 * a))
 
 
 class CountCells:
@@ -130,13 +146,16 @@ class CountCells:
         """Count at ``t_ns`` from a line through the cells within ±half-width inside [lo, hi].
 
         A slow output (fewer than ``min_transitions`` count transitions in the window) gets
-        a wider window, up to ±``max_half_width_ns``, so that its quantisation averages down.
-        Returns None when the cells there hold fewer than ``min_samples`` samples, or none
-        on one side of the instant.
+        a wider window, up to ±``max_half_width_ns``, so that its quantisation averages down;
+        so does a low sample rate (fewer than ``min_samples`` samples in the window).
+        Returns None when the cells within ±``max_half_width_ns`` hold fewer than
+        ``min_samples`` samples (a gap), or none on one side of the instant.
         """
         fit = self._fit_at(t_ns, half_width_ns, lo_ns, hi_ns, min_samples)
-        if fit is None or max_half_width_ns <= half_width_ns:
+        if max_half_width_ns <= half_width_ns:
             return fit
+        if fit is None:  # a slow sample rate (or a gap): the widest window decides
+            return self._fit_at(t_ns, max_half_width_ns, lo_ns, hi_ns, min_samples)
         transitions = abs(fit.rate_counts_s) * 2.0 * half_width_ns / 1e9
         if transitions >= min_transitions:
             return fit
@@ -182,7 +201,7 @@ class CountCells:
         looks = min(n_tot, 1.0 + abs(slope) * span_s)
         se = float(np.sqrt(max(se2, 1.0 / (12.0 * looks))))
         return LocalCount(float(sums[0, 6]) + intercept, se, int(n_tot), float(np.sqrt(s2)),
-                          slope)
+                          slope, span_s)
 
     def cell_sizes(self, lo_ns: int, hi_ns: int) -> npt.NDArray[np.float64]:
         """Samples in each cell lying entirely inside [lo, hi]."""

@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gyro_calib.estimate import Estimate
+from gyro_calib.fog.counts import random_walk_increment_s
 from gyro_calib.fog.fits import (
     line_design,
     nonlinearity,
@@ -70,6 +71,11 @@ class PlateauMeasurement:
         variance_counts2_s2: Type A variance of N, (counts/s)².
         settled_s: length of the span N is measured over, s.
         drift_counts_s: change of the output rate across the settled part (trend), counts/s.
+        late_rate_counts_s: N over the second half of the settled part alone, counts/s (N
+            itself when the plateau had fewer than two noise blocks).
+        late_variance_counts2_s2: its Type A variance, (counts/s)².
+        half_difference_variance_counts2_s2: variance of (second-half − first-half rate),
+            (counts/s)² (inf without two noise blocks).
     """
 
     start_ns: int
@@ -80,6 +86,9 @@ class PlateauMeasurement:
     variance_counts2_s2: float
     settled_s: float
     drift_counts_s: float
+    late_rate_counts_s: float = math.nan
+    late_variance_counts2_s2: float = math.nan
+    half_difference_variance_counts2_s2: float = math.inf
 
     @property
     def std_counts_s(self) -> float:
@@ -145,7 +154,7 @@ def measure_plateau(start_ns: int, end_ns: int, injection_counts_s: float, cells
                              max_half_width_ns=int(settings.max_fit_half_width_s * 1e9))
         if fit is None:
             return (f'{what}: fewer than {settings.min_fit_samples} output samples within '
-                    f'±{settings.fit_half_width_s:g} s of {stamp_text(edge)} (gap in '
+                    f'±{settings.max_fit_half_width_s:g} s of {stamp_text(edge)} (gap in '
                     f'/fog/output); not used.')
         if fit.rms_residual > settings.max_fit_residual_counts:
             return (f'{what}: the output counts around {stamp_text(edge)} deviate from a '
@@ -157,10 +166,12 @@ def measure_plateau(start_ns: int, end_ns: int, injection_counts_s: float, cells
     rate = float((counts[-1] - counts[0]) / span)
     variance = float((se2[0] + se2[-1]) / span**2)
     drift = 0.0
+    late_rate, late_var, diff_var = rate, variance, math.inf
     if blocks >= 2:
         block_s = span / blocks
         ss = float(np.sum((np.diff(counts) - rate * np.diff(edges) / 1e9) ** 2))
-        arw2 = ss / ((blocks - 1) * block_s)  # boundary errors left in: on the safe side
+        t_eff = random_walk_increment_s(block_s, float(np.mean([f.window_s for f in fits])))
+        arw2 = ss / ((blocks - 1) * t_eff)  # boundary errors left in: on the safe side
         variance += arw2 / span
         # stationarity: the rate over the second half against the first, from local-fit
         # counts (cell rates would see the slow beat of the count quantisation as a trend)
@@ -168,6 +179,10 @@ def measure_plateau(start_ns: int, end_ns: int, injection_counts_s: float, cells
         half = span / 2.0
         drift = 2.0 * float(counts[-1] - 2.0 * counts[mid] + counts[0]) / half
         var_drift = 4.0 * ((se2[0] + 4.0 * se2[mid] + se2[-1]) / half**2 + 4.0 * arw2 / span)
+        late_half = (edges[-1] - edges[mid]) / 1e9
+        late_rate = float((counts[-1] - counts[mid]) / late_half)
+        late_var = float((se2[mid] + se2[-1]) / late_half**2 + arw2 / late_half)
+        diff_var = var_drift / 4.0
         z = abs(drift) / math.sqrt(var_drift) if var_drift > 0 else math.inf
         floor = settings.plateau_drift_fraction * largest_injection_counts_s
         if z > settings.plateau_drift_sigma and abs(drift) > floor:
@@ -175,7 +190,7 @@ def measure_plateau(start_ns: int, end_ns: int, injection_counts_s: float, cells
                     f'settled part ({z:.1f} σ): the loop did not hold this injection '
                     f'(front end beyond its range, or out of lock); not used.')
     return PlateauMeasurement(start_ns, end_ns, injection_counts_s, settled, rate, variance,
-                              span, drift)
+                              span, drift, late_rate, late_var, diff_var)
 
 
 def check_response(plateau: PlateauMeasurement, reference: PlateauMeasurement | None,
@@ -267,6 +282,49 @@ class SelfCalFit:
         return abs(d.value) / d.std_uncertainty
 
 
+SETTLING_NOTE = 'the loop was still settling in the first halves of the plateaus'
+"""How the note of :func:`unsettled_first_halves` begins."""
+
+SETTLING_SIGMA = 3.0
+"""Significance at which the plateaus' first halves, pooled, show the loop still settling."""
+
+
+def unsettled_first_halves(plateaus: list[PlateauMeasurement]) -> str | None:
+    """A whole sentence when the loop was still settling in the plateaus' first halves, else
+    None.
+
+    A transient too small to see in one plateau's noise still biases its mean output towards
+    the previous level (a first-order approach with time constant τ leaves (J_prev − J)·τ/T
+    in the mean over T), and with a ladder that alternates in sign it biases the slope. Over
+    all plateaus in time order, the rate difference between the second and the first half
+    d_i is regressed on the injection step ΔJ_i = J_i − J_(i−1) (no intercept, weights
+    1/var d_i): a settled loop gives a slope β consistent with 0; β > SETTLING_SIGMA·σ_β
+    means it was not, and the plateaus are then measured over their second halves only
+    (unbiased as long as the transient has died out within the first half).
+    """
+    timed = sorted((p for p in plateaus if math.isfinite(p.half_difference_variance_counts2_s2)
+                    and p.half_difference_variance_counts2_s2 > 0
+                    and math.isfinite(p.late_rate_counts_s)),
+                   key=lambda p: p.start_ns)
+    if len(timed) < 3:
+        return None
+    step = np.array([b.injection_counts_s - a.injection_counts_s
+                     for a, b in zip(timed, timed[1:])])
+    diff = np.array([p.drift_counts_s / 2.0 for p in timed[1:]])
+    w = 1.0 / np.array([p.half_difference_variance_counts2_s2 for p in timed[1:]])
+    info = float(np.sum(w * step**2))
+    if info <= 0:
+        return None
+    beta = float(np.sum(w * diff * step)) / info
+    z = beta * math.sqrt(info)
+    if z <= SETTLING_SIGMA:
+        return None
+    return (f'{SETTLING_NOTE} (their second halves exceed their first by {beta:.3g} × the '
+            f'injection step, {z:.1f} σ over {len(step)} steps, although no single plateau '
+            f'shows it): every plateau is measured over the second half of its settled part '
+            f'(longer plateaus, or a loop that settles faster, give the full precision).')
+
+
 def _scaled(slope: float, var_slope: float, k_map: Estimate | None) -> Estimate | None:
     return None if k_map is None else Estimate(
         slope * k_map.value,
@@ -282,8 +340,13 @@ def fit_self_cal(plateaus: list[PlateauMeasurement], mapping: MappingFit | None,
                    key=lambda i: (abs(plateaus[i].injection_counts_s), plateaus[i].start_ns))
     plats = [plateaus[i] for i in order]
     j = np.array([p.injection_counts_s for p in plats])
-    n_out = np.array([p.output_rate_counts_s for p in plats])
-    var = np.array([max(p.variance_counts2_s2, 0.0) for p in plats])
+    late = unsettled_first_halves(plateaus)
+    if late is None:
+        n_out = np.array([p.output_rate_counts_s for p in plats])
+        var = np.array([max(p.variance_counts2_s2, 0.0) for p in plats])
+    else:
+        n_out = np.array([p.late_rate_counts_s for p in plats])
+        var = np.array([max(p.late_variance_counts2_s2, 0.0) for p in plats])
     w = np.ones(len(plats))  # each plateau one point, as the paper and IEEE Std 952 fit
     if len(plats) < settings.min_plateaus or len(np.unique(j)) < 2:
         return (f'{len(plats)} plateau(s) at {len(np.unique(j))} injection level(s) accepted; '
@@ -313,6 +376,8 @@ def fit_self_cal(plateaus: list[PlateauMeasurement], mapping: MappingFit | None,
         if row.plateaus >= settings.min_plateaus and row.nonlinearity_ppm.value <= spec:
             linear = row
     notes: list[str] = []
+    if late is not None:
+        notes.append(late)
     if linear is None:
         notes.append(f'no range of {settings.min_plateaus} or more plateaus from zero up stays '
                      f'within self_cal_nonlinearity_spec_ppm = {spec:g} ppm.')

@@ -36,7 +36,7 @@ from gyro_calib.fog.calibrator import (
     FogCalibrator,
 )
 from gyro_calib.fog.keys import METHOD
-from gyro_calib.fog.self_cal import SelfCalFit
+from gyro_calib.fog.self_cal import SETTLING_NOTE, SelfCalFit
 from gyro_calib.fog.settings import FogSettings, fog_settings_from_mapping
 from gyro_calib.fog.turntable import MappingFit, TurntableFit, pooled_noise
 from gyro_calib.session import CalibrationOptions, MethodSession
@@ -181,8 +181,12 @@ class FogSession(MethodSession):
         return self.calibrator.all_rejections()
 
     def notices(self) -> list[str]:
-        """Source restarts and samples dropped or re-sorted (NaN/inf, bad stamps)."""
-        return list(self.calibrator.restarts) + self.calibrator.stream_notes()
+        """Source restarts, samples dropped or re-sorted (NaN/inf, bad stamps), and plateaus
+        measured over their second halves only (the loop still settling)."""
+        fit = self.calibrator.fits().self_cal
+        settling = ([n for n in fit.notes if n.startswith(SETTLING_NOTE)]
+                    if isinstance(fit, SelfCalFit) else [])
+        return list(self.calibrator.restarts) + self.calibrator.stream_notes() + settling
 
     def data_span_ns(self) -> tuple[int, int] | None:
         """From the first to the last segment or plateau measured."""

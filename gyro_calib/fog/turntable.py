@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gyro_calib.estimate import Estimate
+from gyro_calib.fog.counts import random_walk_increment_s
 from gyro_calib.fog.fits import (
     LinearFit,
     line_design,
@@ -76,6 +77,7 @@ class SegmentMeasurement:
         block_s: T_b, s.
         boundary_variance_counts2: mean se² of the block-boundary counts, counts².
         earth_bound_rad_s: half-width of the horizontal Earth-rate residual (0 with index).
+        fit_window_s: mean width of the local fits at the block boundaries, s.
     """
 
     start_ns: int
@@ -90,16 +92,21 @@ class SegmentMeasurement:
     block_s: float
     boundary_variance_counts2: float
     earth_bound_rad_s: float
+    fit_window_s: float = 0.0
 
     def arw_estimate(self) -> tuple[float, int]:
-        """(N² estimate in counts²/s, its degrees of freedom) from this segment's blocks."""
+        """(N² estimate in counts²/s, its degrees of freedom) from this segment's blocks.
+
+        Each boundary count is a local fit, the mean of the random walk over its window, so
+        an increment holds N²·T_eff (:func:`random_walk_increment_s`), not N²·T_b."""
         j = self.block_count
         if j < 2:
             return 0.0, 0
         # the block increments also carry the errors of their boundary counts; they are
         # left in (the quantisation of a steady count sequence averages far better than a
         # white-noise model says, so subtracting a modelled share biases N² low)
-        return self.block_ss_counts2 / ((j - 1) * self.block_s), j - 1
+        t_eff = random_walk_increment_s(self.block_s, self.fit_window_s)
+        return self.block_ss_counts2 / ((j - 1) * t_eff), j - 1
 
 
 def _reference_events(angles: FloatArray, tol: float) -> npt.NDArray[np.bool_]:
@@ -168,7 +175,7 @@ def measure_segment(run: SteadyRun, index_ns: npt.NDArray[np.int64], cells: Coun
         if fit is None:
             return (f'segment at {rate_deg_s(run.rate_rad_s)} {where}: fewer than '
                     f'{settings.min_fit_samples} output samples within ±'
-                    f'{settings.fit_half_width_s:g} s of {stamp_text(edge)} (gap in '
+                    f'{settings.max_fit_half_width_s:g} s of {stamp_text(edge)} (gap in '
                     f'/fog/output); not used.')
         if fit.rms_residual > settings.max_fit_residual_counts:
             return (f'segment at {rate_deg_s(run.rate_rad_s)} {where}: the output counts '
@@ -187,7 +194,8 @@ def measure_segment(run: SteadyRun, index_ns: npt.NDArray[np.int64], cells: Coun
         start_ns=t1, end_ns=t2, rate_rad_s=omega, output_rate_counts_s=rate_out,
         duration_s=duration, revolutions=revs, end_variance_counts2=float(se2[0] + se2[-1]),
         block_ss_counts2=ss, block_count=blocks, block_s=block_s,
-        boundary_variance_counts2=float(np.mean(se2)), earth_bound_rad_s=bound)
+        boundary_variance_counts2=float(np.mean(se2)), earth_bound_rad_s=bound,
+        fit_window_s=float(np.mean([f.window_s for f in fits])))
 
 
 QUANTISATION_COUNTS2_PER_INCREMENT = 1.0
@@ -213,17 +221,18 @@ class SegmentNoise:
     quantisation_counts2_s: float = 0.0
 
     def angle_random_walk(self, k_abs: float) -> tuple[float, float]:
-        """(ARW, its standard uncertainty), rad/√s: the midpoint and half the half-width of
-        the interval √N²/|K| over N² ∈ [N²_blocks − Q − 2σ, N²_blocks + 2σ] (Q the most the
-        quantisation can add, σ = N²·√(2/dof) the scatter's own), so that an output whose
-        block scatter is all quantisation gets an interval reaching down to zero."""
+        """(ARW, its standard uncertainty), rad/√s: the midpoint of the interval √N²/|K| over
+        N² ∈ [N²_blocks − Q − 2σ, N²_blocks + 2σ] (Q the most the quantisation can add,
+        σ = N²·√(2/dof) the scatter's own) and the standard deviation of a rectangular
+        distribution over it (GUM 4.3.7), so that an output whose block scatter is all
+        quantisation gets an interval reaching down to zero."""
         if not self.dof:
             return math.sqrt(self.arw_counts2_s) / k_abs, math.inf
         n2 = self.arw_counts2_s
         sigma = n2 * math.sqrt(2.0 / self.dof)
         lo = math.sqrt(max(n2 - self.quantisation_counts2_s - 2.0 * sigma, 0.0)) / k_abs
         hi = math.sqrt(n2 + 2.0 * sigma) / k_abs
-        return 0.5 * (lo + hi), 0.25 * (hi - lo)
+        return 0.5 * (lo + hi), (hi - lo) / (2.0 * math.sqrt(3.0))
 
     @property
     def basis(self) -> str:
@@ -231,7 +240,7 @@ class SegmentNoise:
         return (f'block scatter over {self.dof} dof; the count quantisation may account for '
                 f'up to {self.quantisation_counts2_s:.3g} counts²/s of it (≤ '
                 f'{QUANTISATION_COUNTS2_PER_INCREMENT:g} count² per block increment): '
-                f'midpoint of the 2σ interval')
+                f'midpoint of the 2σ interval, rectangular')
 
     def variances(self, segments: list[SegmentMeasurement], k_abs: float) -> FloatArray:
         """Variance of each segment's output rate, (counts/s)²."""
