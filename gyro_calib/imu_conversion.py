@@ -89,6 +89,17 @@ class PulseCalibration:
     thermal_model: ThermalBiasModel | None = None
 
 
+def scale_factor_line(c: PulseCalibration) -> str:
+    """'K = value ± std rad/pulse (from KEY)' for logs: the quantity is always K, with the
+    hand-off key it came from (a model-borne K: the scale factor the thermal_model was
+    fitted with, never 'thermal_model = … rad/pulse')."""
+    where = ('the scale factor the thermal_model was fitted with'
+             if c.scale_factor_key == 'thermal_model' else c.scale_factor_key)
+    name = 'K̃' if c.scale_factor_key == 'k_tilde_rad_per_pulse' else 'K'
+    return (f'{name} = {c.scale_factor_rad_per_pulse!r} ± {c.scale_factor_std!r} rad/pulse '
+            f'(from {where})')
+
+
 def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False,
                       gyro_id: str = '') -> PulseCalibration:
     """The scale factor, bias (or thermal bias model) and ARW the conversion uses.

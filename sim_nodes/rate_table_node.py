@@ -29,6 +29,7 @@ from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     SENSOR_QOS,
     declare_dataclass_parameters,
+    ProgressLog,
     StartGate,
     acknowledge_tail,
     run_node,
@@ -112,7 +113,8 @@ class RateTableNode(Node):
             data=scenario_yaml(scenario, self.config, procedure, int(k_pairs))))
         self._n_published = 0
         self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers)
+        self._start_gate = StartGate(self.wait_for_subscribers, logger=self.get_logger())
+        self._progress: ProgressLog | None = None
         self.done = False
         self.create_timer(0.005, self._tick)
 
@@ -127,8 +129,10 @@ class RateTableNode(Node):
             if not self._start_gate.open(self.all_publishers):
                 return  # readers first (see StartGate)
             self._wall_start = self._start_gate.opened_at
-            self.get_logger().info(f'simulating {master.n_samples_total / self.config.sample_rate_hz:g} '
-                                   f's at {self.real_time_factor:g}× real time')
+            total_s = master.n_samples_total / self.config.sample_rate_hz
+            self.get_logger().info(f'simulating {total_s:g} s at '
+                                   f'{self.real_time_factor:g}× real time')
+            self._progress = ProgressLog(self.get_logger(), 'rate table', total_s)
         rate = self.config.sample_rate_hz
         budget = 20 if self.real_time_factor <= 0 else None
         while not master.finished and (budget is None or budget > 0):
@@ -139,6 +143,8 @@ class RateTableNode(Node):
             else:
                 budget -= 1
             self._publish([sim.step(CHUNK_SAMPLES) for sim, *_ in self.tables])
+        if self._progress is not None:
+            self._progress.update(self._n_published / rate)
         if master.finished and not self.done:
             self.done = True
             self.get_logger().info('run finished')

@@ -31,6 +31,8 @@ from gyro_calib.bag import bag_info, iter_raw_messages
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
+    ProgressLog,
+    report_unused_parameters,
     described_parameter,
     ns_to_stamp,
     publish_paced,
@@ -79,10 +81,17 @@ class BagPlayer(Node):
         self.published = 0
 
     def wait_for_readers(self, timeout_s: float = 60.0) -> bool:
-        """Block until every played topic has a reader (or ``timeout_s``)."""
+        """Block until every played topic has a reader (or ``timeout_s``), saying which
+        topics it waits for whenever that changes."""
         deadline = time.monotonic() + timeout_s
+        waiting: set[str] | None = None
         while time.monotonic() < deadline:
-            if all(p.get_subscription_count() for p in self.publishers_by_topic.values()):
+            lacking = {t for t, p in self.publishers_by_topic.items()
+                       if not p.get_subscription_count()}
+            if lacking != waiting and lacking:
+                self.get_logger().info(f'waiting for a reader of {", ".join(sorted(lacking))}')
+            waiting = lacking
+            if not lacking:
                 time.sleep(1.0)  # let the readers' side of discovery finish too
                 return True
             time.sleep(0.05)
@@ -95,6 +104,7 @@ class BagPlayer(Node):
         first_log: int | None = None
         wall_start = time.monotonic()
         next_clock = None
+        progress = ProgressLog(self.get_logger(), 'played', self.info.duration_s)
         for topic, _, log_ns, raw in iter_raw_messages(self.path):
             if not rclpy.ok():
                 return
@@ -113,6 +123,7 @@ class BagPlayer(Node):
                 next_clock = log_ns + self.clock_period_ns
             publish_paced(pub, raw)
             self.published += 1
+            progress.update((log_ns - first_log) / 1e9)
 
     def wait_for_acknowledgements(self, timeout_s: float = 60.0) -> None:
         """Let lagging readers take the tail before the process exits."""
@@ -132,6 +143,7 @@ def main(args: list[str] | None = None) -> None:
                 print(f'bag_player: error: {exc}', file=sys.stderr)  # bad input
                 raise SystemExit(2) from None
             log = player.get_logger()
+            report_unused_parameters(player)
             if player.wait and not player.wait_for_readers():
                 log.warning('not every topic has a reader after 60 s; playing anyway.')
             log.info(f'playing {player.path} ({player.info.message_count} messages, '

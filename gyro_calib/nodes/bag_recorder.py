@@ -47,6 +47,7 @@ from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     described_parameter,
     make_executor,
+    report_unused_parameters,
     stamp_to_ns,
 )
 
@@ -179,6 +180,7 @@ def main(args: list[str] | None = None) -> None:
         except GyroCalibError as exc:
             print(f'bag_recorder: error: {exc}', file=sys.stderr)  # bad input
             raise SystemExit(2) from None
+        report_unused_parameters(recorder)
         recorder.get_logger().info(f'recording {", ".join(recorder.counts)} to '
                                    f'{recorder.path}')
         executor = make_executor()

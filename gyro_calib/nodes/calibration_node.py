@@ -40,6 +40,7 @@ from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
     SENSOR_QOS,
+    changes_line,
     declare_dataclass_parameters,
     described_parameter,
     run_node,
@@ -99,7 +100,7 @@ class CalibrationNode(Node):
             float(site['tilt_tolerance_deg']))
         self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
-        self._handoff_note = ''
+        self._handoff_missing: set[str] | None = None
         self._merge_told: set[str] = set()
         self._station_rejections_seen = 0
         self._buffers: dict[str, _TopicBuffer] = {}
@@ -233,10 +234,10 @@ class CalibrationNode(Node):
             self._last_rejection = str(exc)
             self.get_logger().error(f'hand-off file not written: {exc}')
             return
-        note = (f'; still missing: {", ".join(missing)}' if missing else ' (complete)')
-        if note != self._handoff_note:
-            self._handoff_note = note
-            self.get_logger().info(f'calibration written to {path}{note}')
+        change = changes_line(self._handoff_missing, missing)
+        self._handoff_missing = set(missing)
+        if change is not None:
+            self.get_logger().info(f'calibration written to {path}: {change}')
         for line in merge_lines(report):
             if line not in self._merge_told:
                 self.get_logger().info(f'hand-off {line}')

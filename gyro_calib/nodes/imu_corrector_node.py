@@ -38,7 +38,12 @@ from gyro_calib import topics
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import load_calibration
-from gyro_calib.imu_conversion import ImuAngularVelocity, PulseRateConverter, pulse_calibration
+from gyro_calib.imu_conversion import (
+    ImuAngularVelocity,
+    PulseRateConverter,
+    pulse_calibration,
+    scale_factor_line,
+)
 from gyro_calib.thermal.site import RAD_S_PER_DEG_H
 from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
@@ -134,8 +139,7 @@ class ImuCorrectorNode(Node):
         self._last_problem = ''
         c = calibration
         self.get_logger().info(
-            f'calibration loaded from {path}: {c.scale_factor_key} = '
-            f'{c.scale_factor_rad_per_pulse!r} ± {c.scale_factor_std!r} rad/pulse, bias = '
+            f'calibration loaded from {path}: {scale_factor_line(c)}, bias = '
             + (f'{c.bias_rad_s!r} ± {c.bias_std!r} rad/s' if c.thermal_model is None
                else 'from thermal_model') + f'; publishing {GYRO_IMU}')
         m = c.thermal_model

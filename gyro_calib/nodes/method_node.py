@@ -41,6 +41,7 @@ from gyro_calib.nodes.ros_io import (
     RESULT_QOS,
     SCENARIO_READER_QOS,
     SENSOR_QOS,
+    changes_line,
     described_parameter,
     run_node,
     stamp_to_ns,
@@ -183,13 +184,18 @@ class MethodNode(Node):
         self.diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
         self._published: dict[str, float] = {}
         self._last_line = ''
-        self._handoff_note = ''
+        self._handoff_missing: set[str] | None = None
         self._merge_told: set[str] = set()
         self._fed = False
         self.scenario = SimScenarioBench(self, self.method.bench_settings, self._on_bench)
         self.create_timer(float(p['process_period_s']), self._process)
         self.create_timer(1.0, self._publish_diagnostics)
-        self.get_logger().info(f'{method}: waiting for {", ".join(self._buffers)}')
+        self._announce_inputs()
+
+    def _announce_inputs(self) -> None:
+        """Say which topics the node waits for (a subclass that rewires its inputs says it
+        after rewiring)."""
+        self.get_logger().info(f'{self.method.name}: waiting for {", ".join(self._buffers)}')
 
     def _on_bench(self, stored: tuple[tuple[str, Mapping[str, Any]], ...]) -> None:
         """A simulator published its bench: report conflicts, take the gyro id, and (before
@@ -272,11 +278,10 @@ class MethodNode(Node):
             self._last_line = str(exc)
             self.get_logger().error(f'hand-off file not written: {exc}')
             return
-        missing = record.missing
-        note = f'; still missing: {", ".join(missing)}' if missing else ' (complete)'
-        if note != self._handoff_note:
-            self._handoff_note = note
-            self.get_logger().info(f'calibration written to {path}{note}')
+        change = changes_line(self._handoff_missing, record.missing)
+        self._handoff_missing = set(record.missing)
+        if change is not None:
+            self.get_logger().info(f'calibration written to {path}: {change}')
         for line in merge_lines(report):
             if line not in self._merge_told:
                 self.get_logger().info(f'hand-off {line}')

@@ -126,14 +126,20 @@ class NoiseNode(MethodNode):
         self._rewire()
         self._qos_warned = False
         self.create_timer(self.results_period_s, self._refresh)
+        self._last_terms = ''
         self.get_logger().info(
-            f'noise: reading {", ".join(f"{t} ({m})" for t, m in session.topics().items())}'
+            f'noise: waiting for '
+            f'{", ".join(f"{t} ({m})" for t, m in session.topics().items())}'
             + (' best effort' if best_effort else '')
             + f'; running terms every {self.results_period_s:g} s; on shutdown: '
             + (', '.join(f'{w} {p}' for w, p in (('kalibr', self.targets.kalibr),
                                                  ('plot', self.targets.plot),
                                                  ('hand-off', self.targets.handoff)) if p)
                or 'no files'))
+
+    def _announce_inputs(self) -> None:
+        """Said after the inputs are rewired (the generic node's default topics are not
+        what this node reads)."""
 
     def _qos(self, msgtype: str) -> QoSProfile:
         return BEST_EFFORT_QOS if self.best_effort and msgtype == IMU else SENSOR_QOS
@@ -172,7 +178,11 @@ class NoiseNode(MethodNode):
         started = time.monotonic()
         if not self.session.refresh():
             return
-        self.get_logger().info(self._terms_line(time.monotonic() - started))
+        line = self._terms_line(time.monotonic() - started)
+        terms = line.split(' (', 1)[0] + line.split('):', 1)[-1]  # without the compute time
+        if terms != self._last_terms:  # what changed, not the same line every period
+            self._last_terms = terms
+            self.get_logger().info(line)
         self._write_handoff()
         self._publish_diagnostics()
 

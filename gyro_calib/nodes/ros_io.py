@@ -187,6 +187,22 @@ def declare_dataclass_parameters(node: Node, cls: type, prefix: str = '') -> dic
     return values
 
 
+def unused_parameters(node: Node) -> list[str]:
+    """Parameters given to ``node`` (``-p``, ``--params-file``) that it does not declare."""
+    given = set(getattr(node, '_parameter_overrides', {}) or {})
+    return sorted(given - set(getattr(node, '_parameters', {}) or {}))
+
+
+def report_unused_parameters(node: Node) -> None:
+    """One warning naming the parameters given that the node does not have (a misspelt or
+    stale ``-p name:=...`` is otherwise silently ignored by ROS)."""
+    unused = unused_parameters(node)
+    if unused:
+        node.get_logger().warning(
+            f'parameter(s) {", ".join(unused)} given but not declared by {node.get_name()}: '
+            'ignored (its parameters: ros2 param list, or the README section of the node).')
+
+
 def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | None = None,
              *, on_stop: Callable[[Node, Executor], None] | None = None,
              done: Callable[[Node], bool] | None = None) -> None:
@@ -217,6 +233,7 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
             except (GyroCalibError, ValueError) as exc:
                 rclpy.logging.get_logger(node_name).fatal(' '.join(str(exc).split()))
                 raise SystemExit(2) from None
+            report_unused_parameters(node)
             executor = make_executor()
             executor.add_node(node)
             try:
@@ -243,20 +260,36 @@ class StartGate:
     by the gyro simulator and missed by the calibrator. After every publisher has
     ``min_readers`` readers, ``settle_s`` more let the readers' side of discovery finish.
     With ``wait`` off the gate opens at once. :attr:`opened_at` is the monotonic wall time
-    it opened (the simulators pace from it).
+    it opened (the simulators pace from it). With a ``logger`` it says what it waits for
+    ("waiting for a reader of /rate_table/zero_index"), again whenever that changes, and
+    when it opens.
     """
 
-    def __init__(self, wait: bool, *, min_readers: int = 1, settle_s: float = 1.0) -> None:
+    def __init__(self, wait: bool, *, min_readers: int = 1, settle_s: float = 1.0,
+                 logger: Any = None) -> None:
         self.wait, self.min_readers, self.settle_s = wait, min_readers, settle_s
         self.opened_at: float | None = None
         self._readers_since: float | None = None
+        self._logger = logger
+        self._waiting_for: tuple[str, ...] | None = None
 
     def open(self, publishers: list[Publisher]) -> bool:
         """True once the gate is open (it stays open)."""
         if self.opened_at is not None:
             return True
         if self.wait:
-            if not all(p.get_subscription_count() >= self.min_readers for p in publishers):
+            lacking = tuple(sorted({p.topic_name for p in publishers
+                                    if p.get_subscription_count() < self.min_readers}))
+            if lacking != self._waiting_for:
+                self._waiting_for = lacking
+                if self._logger is not None and lacking:
+                    what = 'a reader' if self.min_readers == 1 else f'{self.min_readers} readers'
+                    self._logger.info(f'waiting for {what} of {", ".join(lacking)}')
+                elif self._logger is not None:
+                    self._logger.info(f'every topic has its readers; starting in '
+                                      f'{self.settle_s:g} s')
+            if lacking:
+                self._readers_since = None
                 return False
             if self._readers_since is None:
                 self._readers_since = time.monotonic()
@@ -264,6 +297,55 @@ class StartGate:
                 return False
         self.opened_at = time.monotonic()
         return True
+
+
+class ProgressLog:
+    """Progress lines of a long run, at most one per ``period_s`` of wall time:
+    "<what>: 120 of 600 s simulated (20 %), 4.9× real time"."""
+
+    def __init__(self, logger: Any, what: str, total_s: float, *,
+                 period_s: float = 10.0) -> None:
+        self._logger, self.what, self.total_s, self.period_s = logger, what, total_s, period_s
+        self._started = time.monotonic()
+        self._last = self._started
+
+    def update(self, done_s: float) -> None:
+        """Log the progress if ``period_s`` has passed since the last line."""
+        now = time.monotonic()
+        if now - self._last < self.period_s:
+            return
+        self._last = now
+        self._logger.info(progress_line(self.what, done_s, self.total_s, now - self._started))
+
+
+def progress_line(what: str, done_s: float, total_s: float, wall_s: float) -> str:
+    """'<what>: D of T s (P %), F× real time' (T unknown: 'D s so far')."""
+    speed = f', {done_s / wall_s:.1f}× real time' if wall_s > 0 else ''
+    if total_s > 0 and math.isfinite(total_s):
+        return (f'{what}: {done_s:.0f} of {total_s:.0f} s ({100 * done_s / total_s:.0f} %)'
+                f'{speed}')
+    return f'{what}: {done_s:.0f} s so far{speed}'
+
+
+def changes_line(before: Any, after: Any) -> str | None:
+    """What changed between two sets of keys still missing, in one line; None if nothing.
+
+    A node that repeated its whole missing list on every update says instead which keys
+    are now measured and which are no longer (the first call, ``before`` None, lists all).
+    """
+    after = set(after)
+    if before is None:
+        return f'still missing: {", ".join(sorted(after))}' if after else 'complete'
+    before = set(before)
+    if before == after:
+        return None
+    parts = []
+    if before - after:
+        parts.append(f'now measured: {", ".join(sorted(before - after))}')
+    if after - before:
+        parts.append(f'no longer measured: {", ".join(sorted(after - before))}')
+    parts.append(f'{len(after)} still missing' if after else 'complete')
+    return '; '.join(parts)
 
 
 def simulation_done(node: Node) -> bool:

@@ -37,6 +37,7 @@ from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     declare_dataclass_parameters,
     described_parameter,
+    ProgressLog,
     StartGate,
     acknowledge_tail,
     run_node,
@@ -111,7 +112,8 @@ class VibrationTableNode(Node):
             data=scenario_yaml(self.gyro_config, self.table_config, self.bench)))
         self._n_published = 0
         self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers)
+        self._start_gate = StartGate(self.wait_for_subscribers, logger=self.get_logger())
+        self._progress: ProgressLog | None = None
         self.done = False
         self.create_timer(0.005, self._tick)
 
@@ -138,6 +140,10 @@ class VibrationTableNode(Node):
             else:
                 budget -= 1
             self._publish(self.sim.step(self.chunk_samples))
+        if self._progress is None:
+            self._progress = ProgressLog(self.get_logger(), 'vibration table',
+                                         self.bench.duration_s)
+        self._progress.update(self._n_published / rate)
         if self.sim.finished and not self.done:
             self.done = True
             self.get_logger().info('run finished')

@@ -40,6 +40,7 @@ from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     SCENARIO_QOS,
     SENSOR_QOS,
+    ProgressLog,
     StartGate,
     acknowledge_tail,
     described_parameter,
@@ -140,7 +141,9 @@ class FogBenchNode(Node):
         self.sample_rate_hz = table.output_rate_hz
         self._n_published = 0
         self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers, min_readers=self.min_subscribers)
+        self._start_gate = StartGate(self.wait_for_subscribers, min_readers=self.min_subscribers,
+                                     logger=self.get_logger())
+        self._progress: ProgressLog | None = None
         self.done = False
         self.create_timer(0.005, self._tick)
 
@@ -160,6 +163,8 @@ class FogBenchNode(Node):
                 f'{self.scenario.kind}: simulating {self.bench.n_samples / self.sample_rate_hz:g}'
                 f' s at ' + (f'{self.real_time_factor:g}× real time' if self.real_time_factor
                              > 0 else "the readers' pace"))
+            self._progress = ProgressLog(self.get_logger(), self.scenario.kind,
+                                         self.bench.n_samples / self.sample_rate_hz)
         budget = 5 if self.real_time_factor <= 0 else None
         while budget is None or budget > 0:
             if budget is None:
@@ -175,6 +180,8 @@ class FogBenchNode(Node):
                 self.get_logger().info(f'run finished: {self._n_published} output samples')
                 return
             self._publish(chunk)
+            if self._progress is not None:
+                self._progress.update(self._n_published / self.sample_rate_hz)
 
     def _publish_injections(self, until_ns: int | None) -> None:
         """Injection messages stamped up to ``until_ns`` (None: all that remain)."""

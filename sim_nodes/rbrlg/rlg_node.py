@@ -10,6 +10,7 @@ table's stamps jump back (the bench restarted) the gyro restarts too.
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -22,6 +23,7 @@ from gyro_calib.nodes.ros_io import (
     described_parameter,
     SCENARIO_QOS,
     SENSOR_QOS,
+    ProgressLog,
     declare_dataclass_parameters,
     ns_to_stamp,
     publish_paced,
@@ -72,6 +74,12 @@ class RingLaserGyroNode(Node):
             JointState, relative(topics.BENCH_TRUE_MOTION), self._on_truth, SENSOR_QOS)
         self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(
             String(data=scenario_yaml(self.config, self.mount)))
+        self._first_ns: int | None = None
+        self._published = 0
+        self._progress = ProgressLog(self.get_logger(), 'rlg_sim: bench time', math.nan)
+        self.get_logger().info(f'waiting for the true motion on {topics.RATE_TABLE_TRUE_MOTION} '
+                               f'(rate table alone) or {topics.BENCH_TRUE_MOTION} (two-axis '
+                               'bench)')
 
     def _on_truth(self, msg: JointState) -> None:
         t_ns = stamp_to_ns(msg.header.stamp) + np.asarray(msg.effort, dtype=np.int64)
@@ -80,6 +88,12 @@ class RingLaserGyroNode(Node):
                                       'the gyro restarts with it.')
             self.sim = None
         angles = np.asarray(msg.position, dtype=np.float64).reshape(len(msg.name), len(t_ns))
+        if self.sim is None:
+            self._first_ns = int(t_ns[0])
+            self.get_logger().info(
+                'true motion received ('
+                + ('rate table alone' if len(msg.name) == 1 else 'two-axis bench')
+                + f'); publishing {topics.GYRO_PULSES}')
         if len(msg.name) == 1:
             if not isinstance(self.sim, RingLaserGyroSimulator):
                 self.sim = RingLaserGyroSimulator(self.config)
@@ -96,6 +110,10 @@ class RingLaserGyroNode(Node):
             ns_to_stamp(t, out.header.stamp)
             out.header.frame_id = topics.GYRO_JOINT
             publish_paced(self.pub, out)
+        self._published += len(t_ns)
+        if self._first_ns is not None:
+            self._progress.what = f'rlg_sim: {self._published} pulse samples, bench time'
+            self._progress.update((int(t_ns[-1]) - self._first_ns) / 1e9)
 
     def _wait_for_a_reader(self) -> None:
         """Block until /gyro/pulses is matched (discovery may lag the table's start).

@@ -30,6 +30,7 @@ from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     declare_dataclass_parameters,
     described_parameter,
+    ProgressLog,
     StartGate,
     acknowledge_tail,
     run_node,
@@ -73,7 +74,8 @@ class ThermalChamberNode(Node):
         self._step_ns = int(round(self.chunk_s * 1e9))
         self._until_ns = self.run.simulator.start_time_ns - 1
         self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers)
+        self._start_gate = StartGate(self.wait_for_subscribers, logger=self.get_logger())
+        self._progress: ProgressLog | None = None
         self.published = 0
         self.done = False
         self.create_timer(0.005, self._tick)
@@ -94,6 +96,8 @@ class ThermalChamberNode(Node):
                 f'{(sim.end_time_ns - sim.start_time_ns) / 3.6e12:.2f} h of chamber time at '
                 + (f'{self.real_time_factor:g}× real time' if self.real_time_factor > 0
                    else 'the pace of the readers'))
+            self._progress = ProgressLog(self.get_logger(), 'chamber',
+                                         (sim.end_time_ns - sim.start_time_ns) / 1e9)
         budget = 1 if self.real_time_factor <= 0 else None
         start_ns = self.run.simulator.start_time_ns
         while not self.run.finished and (budget is None or budget > 0):
@@ -105,6 +109,8 @@ class ThermalChamberNode(Node):
                 budget -= 1
             self._until_ns += self._step_ns
             self._publish(self.run.advance(self._until_ns))
+        if self._progress is not None:
+            self._progress.update((self._until_ns - start_ns) / 1e9)
         if self.run.finished and not self.done:
             self.done = True
             self.get_logger().info(f'run finished: {self.published} messages published')

@@ -258,7 +258,7 @@ def test_node_publishes_calibrated_imu_and_follows_a_rewritten_file(
                   if bench.imu[i].angular_velocity.z != bench.imu[n_before - 1].angular_velocity.z)
     _check(bench.imu[:switch], first)
     _check(bench.imu[switch:], second)
-    assert f'scale_factor_rad_per_pulse = {K_RAD * (1 + 2e-4)!r}' in node.log()
+    assert f'K = {K_RAD * (1 + 2e-4)!r}' in node.log()
     assert 'no angle_random_walk_rad_per_sqrt_s' in node.log()
 
     path.write_text('format_version: 2\ngyro: {bias_rad_s: [\n')  # a bad file: keep `second`
