@@ -15,6 +15,8 @@ The commands are extracted from README.md itself, in order, block by block:
   by the node and fails the test), then is stopped.
 - ``./run.sh demo|test`` must be subcommands run.sh has; the ``colcon build`` line is what
   test/test_colcon_build.py builds.
+- the files the commands name (``spec.yaml``, ``fleet.yaml``) are the README's own ```yaml
+  examples (:data:`README_FILES`).
 """
 
 from __future__ import annotations
@@ -53,6 +55,21 @@ def readme_blocks() -> list[tuple[int, list[str]]]:
             if text and not text.startswith('#'):
                 current.append(text)
     return blocks
+
+
+README_FILES = {'spec.yaml': 'decision_rule:', 'fleet.yaml': 'gyros:'}
+"""Files the README's commands name, written from the README's ```yaml block holding the key."""
+
+
+def readme_files() -> dict[str, str]:
+    """File name → the text of the README's ```yaml block that defines it."""
+    blocks = re.findall(r'^```yaml\n(.*?)^```', (ROOT / 'README.md').read_text(), re.M | re.S)
+    out = {}
+    for name, key in README_FILES.items():
+        found = [b for b in blocks if key in b]
+        assert len(found) == 1, f'README: one ```yaml block with {key!r} expected for {name}'
+        out[name] = found[0]
+    return out
 
 
 def expand(command: str) -> list[str]:
@@ -108,7 +125,7 @@ def test_readme_block_runs(start: int, commands: list[str], tmp_path: Path,
         words = expand(command)
         kind = _kind(words)
         if kind == 'cli':
-            code = main(words[1:] + (['--no-progress'] if words[1] in ('calibrate', 'noise')
+            code = main(words[1:] + (['--no-progress'] if words[1] in ('calibrate', 'noise', 'batch')
                                      else []))
             out, err = capsys.readouterr()
             assert code == 0, f'README line {command!r}:\n{err}'
@@ -153,9 +170,12 @@ def test_every_readme_node_line_starts_and_uses_every_parameter_it_gives(
 
 
 def _scratch(path: Path) -> Path:
+    """A scratch directory with bags/ and config/ linked and the README's files written."""
     path.mkdir(parents=True, exist_ok=True)
     for name in ('bags', 'config'):
         (path / name).symlink_to(ROOT / name)
+    for name, text in readme_files().items():
+        (path / name).write_text(text)
     return path
 
 
