@@ -125,8 +125,11 @@ def test_readme_block_runs(start: int, commands: list[str], tmp_path: Path,
         words = expand(command)
         kind = _kind(words)
         if kind == 'cli':
-            code = main(words[1:] + (['--no-progress'] if words[1] in ('calibrate', 'noise', 'batch')
-                                     else []))
+            try:
+                code = main(words[1:] + (['--no-progress'] if words[1] in
+                                         ('calibrate', 'noise', 'batch') else []))
+            except SystemExit as exc:  # --version, as argparse ends it
+                code = int(exc.code or 0)
             out, err = capsys.readouterr()
             assert code == 0, f'README line {command!r}:\n{err}'
         elif kind == 'run.sh':
