@@ -59,6 +59,8 @@ if TYPE_CHECKING:
     FloatArray = npt.NDArray[np.float64]
 
 MAX_ITERATIONS = 40
+BAND_MARGIN_POINTS = 2
+"""Points left out beyond where the band-limited misfit stops being significant."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -290,7 +292,7 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
                     max_tau_s: float = math.inf,
                     terms: tuple[str, ...] = SYMBOLS, context: str = '',
                     eliminate_edges: bool = True, min_clusters: float = 10.0,
-                    exclude_band_limited: bool = True) -> NoiseFit:
+                    exclude_band_limited: bool = True, min_points: int = 6) -> NoiseFit:
     """Fit the five IEEE 952 terms jointly to one axis's Allan variance (module docstring).
 
     Args:
@@ -311,11 +313,14 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         eliminate_edges: take Q and R out of the model when below their thresholds.
         min_clusters: leave out τ with fewer non-overlapping clusters T/τ than this (their
             estimates are few and χ²-skewed).
+        min_points: fewest fitted τ points for any term (fewer: every term absent, with the
+            reason): below it a band-limited or otherwise unmodelled curve cannot be told
+            from the terms' slopes.
         exclude_band_limited: leave out the short-τ range where the curve departs from the
             model (a sensor's anti-alias/decimation filter bends the white-noise line):
-            while the fit's χ² exceeds its expectation by 3 standard deviations and the
-            shortest fitted τ is 3σ off the model, that τ is left out and the fit repeated
-            (at most half the points).
+            while the fit's χ² exceeds its expectation by 3 standard deviations, the
+            shortest fitted τ is left out and the fit repeated, then two more points (at
+            most half the points in all).
 
     Returns:
         The fit; ``estimates`` is empty (every key in ``missing``) when nothing resolves.
@@ -331,9 +336,10 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
                          f'{min_clusters:g} clusters (T/τ) and are left out of the term fit '
                          f'(shown in the curve).')
             used &= ~few
-    band_below = 0.0
+    band_below, band_low = 0.0, False
     if exclude_band_limited:
         used, band_below, note = _exclude_band_limited(curve, used, terms)
+        band_low = 'lies' in note and 'below it' in note
         if note:
             notes.append(note)
     keys = dict(zip(SYMBOLS, units.keys))
@@ -344,18 +350,49 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         if s not in terms:
             missing[keys[s]] = f'{units.names[SYMBOLS.index(s)]} was not asked for.'
     n_used = int(np.count_nonzero(used))
-    if n_used < 2:
-        why = ('the Allan variance has fewer than 2 usable averaging times '
-               f'({n_used} in the fitted τ range), too few to fit any noise term.')
+    if n_used < min_points:
+        why = (f'the Allan variance has {n_used} usable averaging time(s) (with at least '
+               f'{min_clusters:g} clusters, in the fitted τ range), fewer than the '
+               f'{min_points} needed to fit noise terms and still check that the model '
+               'describes the curve; a longer record gives more.')
         for s in SYMBOLS:
             missing.setdefault(keys[s], f'{units.names[SYMBOLS.index(s)]} is not reported: {why}')
         return NoiseFit({}, missing, empty.theta, empty.theta_cov, empty.alpha, empty.edf, used,
                         notes=tuple(notes))
     tau_used = curve.tau_s[used]
     active = [SYMBOLS.index(s) for s in SYMBOLS if s in terms]
-    # at most as many terms as points less one
-    while len(active) > max(n_used - 1, 1):
-        active.pop()
+    # at most as many terms as points less two: two degrees of freedom left to see whether
+    # the model describes the curve (the terms left out are named in a note)
+    cut: list[str] = []
+    model_var = np.zeros(5)
+    size = max(n_used - 2, 1)
+    if len(active) > size:
+        # the terms kept are those that describe the curve best (smallest χ²), not a fixed
+        # few: a strong random walk must not be read as bias instability
+        import itertools
+
+        best: tuple[float, list[int]] | None = None
+        trials = []
+        for combo in itertools.combinations(active, size):
+            trial = _solve(curve, used, list(combo))
+            chi2 = float(trial.z @ trial.z)
+            trials.append(trial)
+            if best is None or chi2 < best[0]:
+                best = (chi2, list(combo))
+                chosen = trial
+        assert best is not None
+        cut = [SYMBOLS[k] for k in active if k not in best[1]]
+        active = best[1]
+        # other term sets that describe the curve as well: the spread of each term over
+        # them is model uncertainty, added to its variance (the curve cannot tell them
+        # apart, so a term that only one of them needs is not claimed)
+        for trial in trials:
+            if not trial.misfit:
+                model_var = np.maximum(model_var, (trial.theta - chosen.theta) ** 2)
+    if cut:
+        notes.append(f'only {n_used} τ point(s) to fit: {", ".join(cut)} left out of the model '
+                     '(two degrees of freedom are kept to check it; the terms kept describe '
+                     'the curve best).')
     last: dict[int, tuple[float, float]] = {}
     edges = [k for k in (SYMBOLS.index('Q'), SYMBOLS.index('R')) if k in active]
     thresholds = [edge_significance, min_significance, min_significance, min_significance,
@@ -365,6 +402,9 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
     sol = None
     for _ in range(2):
         sol = _solve(curve, used, active)
+        if np.any(model_var > 0):
+            sol.cov = sol.cov + np.diag(model_var)
+            sol.cov_statistical = sol.cov_statistical + np.diag(model_var)
         # significance from the statistical covariance: a misfit widens the reported
         # uncertainty (by the χ² ratio), it does not make a term vanish
         sigma = np.sqrt(np.clip(np.diag(sol.cov_statistical), 0.0, None))
@@ -376,14 +416,50 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         drop = [k for k in edges if z[k] < thresholds[k]]
         if not drop or not eliminate_edges:
             break
-        active = [k for k in active if k not in drop]
-        edges = []
-        if not active:
+        reduced = [k for k in active if k not in drop]
+        if not reduced:
+            active = reduced
             break
+        # an edge term leaves the model only if that does not move the others: dropping
+        # a real but unresolved term would bias its neighbours (N takes Q's share)
+        trial = _solve(curve, used, reduced)
+        if any(abs(float(trial.theta[k] - sol.theta[k])) > sigma[k] for k in reduced):
+            notes.append('the edge term(s) ' + ', '.join(SYMBOLS[k] for k in drop)
+                         + ' stay in the model although not resolved: leaving them out '
+                         'moves the other terms by more than their uncertainty.')
+            break
+        active = reduced
+        edges = []
     theta_final = sol.theta if sol is not None and active else np.zeros(5)
     cov_final = sol.cov if sol is not None and active else np.zeros((5, 5))
+    if band_below > 0 and theta_final[1] > 0:
+        # the filter's departure decays as 1/τ: what it was at the longest τ left out,
+        # scaled to the first τ kept, bounds its share in N² (a systematic allowance)
+        before = np.nonzero(np.isfinite(curve.avar) & (curve.avar > 0)
+                            & (curve.tau_s < band_below))[0]
+        if len(before):
+            i = int(before[-1])
+            model = float((avar_basis(curve.tau_s[i:i + 1]) @ theta_final)[0])
+            frac = abs(float(curve.avar[i]) / model - 1.0) * float(curve.tau_s[i]) / band_below
+            cov_final = cov_final.copy()
+            cov_final[1, 1] += (frac * float(theta_final[1])) ** 2
+            notes.append(f'N² carries a band-limited allowance of ±{100 * frac:.2g} % (the '
+                         f'departure at {_fmt(float(curve.tau_s[i]))} s, decaying as 1/τ, '
+                         'at the first τ kept), added to its uncertainty.')
     in_model = len(active)
     reported = [k for k in active if theta_final[k] > 0 and z.get(k, 0.0) >= thresholds[k]]
+    q_index = SYMBOLS.index('Q')
+    if band_below > 0 and band_low and context != 'pulses' and q_index in reported:
+        # a low-pass filter's tail is a 1/τ² term too (−1.5·N²·T_c/τ² for one pole): a
+        # positive 1/τ² fitted just above the band-limited range cannot be told from it
+        reported.remove(q_index)
+        missing[units.keys[q_index]] = (
+            f'{units.names[q_index]} is not reported: the short-τ range departs from the '
+            f'model (band-limited below {_fmt(band_below)} s), and the filter tail left '
+            f'above it is a 1/τ² slope as quantisation is; the joint fit gives Q² = '
+            f'{_fmt(float(theta_final[q_index]))} ± '
+            f'{_fmt(math.sqrt(max(float(cov_final[q_index, q_index]), 0.0)))} '
+            f'({units.si_units[q_index]})², which cannot be told from the filter.')
     estimates: dict[str, Estimate] = {}
     for k in reported:
         theta, sig = float(theta_final[k]), math.sqrt(max(float(cov_final[k, k]), 0.0))
@@ -445,7 +521,7 @@ def _exclude_band_limited(curve: AllanCurve, used: npt.NDArray[np.bool_],
     z_first = 0.0
     while int(np.count_nonzero(used)) > max(n0 // 2, 5):
         sol = _solve(curve, used, active)
-        if not sol.misfit or len(sol.z) == 0 or abs(float(sol.z[0])) < 3.0:
+        if not sol.misfit or len(sol.z) == 0:
             break
         first = int(np.nonzero(used)[0][0])
         z_first = float(sol.z[0]) if not dropped else z_first
@@ -453,6 +529,14 @@ def _exclude_band_limited(curve: AllanCurve, used: npt.NDArray[np.bool_],
         used[first] = False
     if not dropped:
         return used, 0.0, ''
+    # the filter's effect decays as 1/τ: once the misfit is no longer significant it is
+    # still there at the next points, so a margin of two more points is left out as well
+    for _ in range(BAND_MARGIN_POINTS):
+        if int(np.count_nonzero(used)) <= max(n0 // 2, 5):
+            break
+        first = int(np.nonzero(used)[0][0])
+        dropped.append(float(curve.tau_s[first]))
+        used[first] = False
     kept = float(curve.tau_s[np.nonzero(used)[0][0]])
     side = 'below' if z_first < 0 else 'above'
     return used, kept, (
