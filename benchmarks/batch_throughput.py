@@ -86,8 +86,9 @@ def _peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def run(paths: list[Path], workers: int, pdf: bool) -> tuple[float, list[float], int]:
-    """Calibrate the fleet on a new local cluster; wall s, peak RSS per worker MB, failures."""
+def run(paths: list[Path], workers: int, pdf: bool) -> tuple[float, list[float], list[str]]:
+    """Calibrate the fleet on a new local cluster; wall s, peak RSS per worker MB, the
+    reasons of the gyros that failed."""
     from dask.distributed import Client, LocalCluster
 
     from gyro_calib.batch.manifest import GyroJob
@@ -103,7 +104,7 @@ def run(paths: list[Path], workers: int, pdf: bool) -> tuple[float, list[float],
         outcome = run_batch(jobs, Path(tmp) / 'out', client=client, force=True, pdf=pdf)
         wall = time.perf_counter() - t0
         rss = sorted(client.run(_peak_rss_mb).values())
-    return wall, rss, len(outcome.failed)
+    return wall, rss, [r['reason'] for r in outcome.records if r.get('status') != 'ok']
 
 
 def main() -> None:
@@ -131,8 +132,10 @@ def main() -> None:
         speed = args.gyros * args.hours * 3600.0 / wall
         print(f'{n} worker(s): wall {wall:.1f} s, {wall / args.gyros:.2f} s per gyro, '
               f'{speed:.0f}× real time, speed-up over 1 worker {base / wall:.2f}×, '
-              f'peak RSS per worker {", ".join(f"{r:.0f}" for r in rss)} MB, failed {failed}; '
-              f'load average {os.getloadavg()[0]:.1f}', flush=True)
+              f'peak RSS per worker {", ".join(f"{r:.0f}" for r in rss)} MB, failed '
+              f'{len(failed)}; load average {os.getloadavg()[0]:.1f}', flush=True)
+        for why in sorted(set(failed)):
+            print(f'  failed: {why}')
 
 
 if __name__ == '__main__':

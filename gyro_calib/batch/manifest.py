@@ -57,7 +57,10 @@ class GyroJob:
         from gyro_calib.session import CalibrationOptions
 
         s = self.settings
-        path = (lambda v: None if v is None else Path(v))
+
+        def path(value: Any) -> Path | None:
+            return None if value is None else Path(value)
+
         return CalibrationOptions(
             latitude_deg=s.get('latitude_deg'), heading_deg=s.get('heading_deg'),
             position_table_revolutions=s.get('position_table_revolutions'),

@@ -88,6 +88,9 @@ class MethodSection:
     notices: tuple[str, ...]
     summary: tuple[str, ...]
     figures: tuple[tuple[str, str, str], ...]
+    conditions: tuple[tuple[str, str], ...] = ()
+    not_measurable: tuple[tuple[str, str], ...] = ()
+    earlier: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,6 +117,7 @@ class Certificate:
     spec_missing: tuple[str, ...]
     evidence_note: str
     notes: tuple[str, ...] = field(default=())
+    conventions: tuple[tuple[str, str], ...] = field(default=())
 
 
 def _utc_now() -> str:
@@ -150,6 +154,13 @@ def _generic_values(values: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
             out[key] = {'value': value, 'std': values[key + '_std'],
                         'n': values.get(key + '_n'), 'dof': values.get(key + '_dof')}
     return out
+
+
+def _source_of(calibration: Calibration, key: str,
+               schema: Mapping[str, HandoffKey]) -> Any:
+    """The run a value came from, where the hand-off records it (format 3), else None."""
+    source_of = getattr(calibration, 'source_of', None)
+    return source_of(key, schema) if source_of is not None and key in schema else None
 
 
 def _twin(key: str, values: Mapping[str, Any]) -> bool:
@@ -222,7 +233,11 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         est_n: int | None = entry.get('n')
         budget: tuple[BudgetLine, ...] = ()
         note = ''
-        if key in estimates:
+        run = _source_of(calibration, key, sch)
+        latest = calibration.methods.get(method)
+        if run is not None and latest is not None and run is not latest:
+            note = f'kept from an earlier run: {run.source} ({run.created_utc})'
+        if key in estimates and not note:
             m, est = estimates[key]
             same = (math.isclose(est.value, value, rel_tol=1e-9, abs_tol=0.0)
                     and math.isclose(est.std_uncertainty, std, rel_tol=1e-9, abs_tol=0.0))
@@ -277,6 +292,10 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         ev: MethodEvidence | None = ev_methods.get(name)
         missing = {k: v for k, v in prov.missing.items() if k not in values}
         rejections = ev.rejections if ev else ()
+        earlier = tuple(
+            f'{run.source} ({run.created_utc}): kept for '
+            + ', '.join(k for k in (getattr(run, 'keys', None) or ()) if k in values)
+            for run in getattr(prov, 'earlier', ()) or ())
         sections.append(MethodSection(
             name=name, title=METHODS[name].title if name in METHODS else name,
             source=prov.source, created_utc=prov.created_utc,
@@ -286,7 +305,12 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
             notices=ev.notices if ev else (), summary=ev.summary if ev else (),
             figures=tuple((f.name, f.caption, 'data:image/png;base64,'
                            + base64.b64encode(f.png).decode('ascii'))
-                          for f in (ev.figures if ev else ()))))
+                          for f in (ev.figures if ev else ())),
+            conditions=tuple((str(k), str(v))
+                             for k, v in (getattr(prov, 'conditions', {}) or {}).items()),
+            not_measurable=tuple((k, v) for k, v in (getattr(prov, 'not_measurable', {})
+                                                     or {}).items() if k not in values),
+            earlier=earlier))
     bags = tuple((b.path, name, digest, f'{_span_text(b.start_ns, b.end_ns)}, {b.messages} msgs')
                  for b in (evidence.bags if evidence else ()) for name, digest in b.files)
     settings = tuple((s.method, s.name, s.value, s.origin)
@@ -310,7 +334,15 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         evidence_note='' if evidence else (
             'No bag was given: degrees of freedom, budgets, rejections, figures and input '
             'hashes are not known to this certificate; k = 2 is assumed for every quantity.'),
-        notes=tuple(notes))
+        notes=tuple(notes), conventions=_conventions())
+
+
+def _conventions() -> tuple[tuple[str, str], ...]:
+    """What every number of the hand-off file is (its ``conventions``), where the loader
+    states them."""
+    from gyro_calib import handoff
+
+    return tuple((str(k), str(v)) for k, v in getattr(handoff, 'CONVENTIONS', {}).items())
 
 
 def _file_stem(name: str) -> str:
