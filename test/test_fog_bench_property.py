@@ -17,7 +17,7 @@ uncertainties of its truth, every missing result has a named reason, the summary
 'nan', and nothing raises. Over the examples, ±1σ and ±2σ must cover the truth about as
 often as they should: pooled, ≥ 45 % and ≥ 80 % over the CI's dozen examples (the results of
 one example share its noise); ``GYRO_CALIB_STRESS=1`` runs 200 examples and requires ±1σ to
-cover ≥ 60 % pooled and ±2σ ≥ 88 % of each result with 20 or more values (the ARW is an
+cover ≥ 60 % pooled and ±2σ ≥ 85 % of each result with 20 or more values (the ARW is an
 interval with a rectangular σ: its ±1σ alone covers about 40 %).
 """
 
@@ -94,7 +94,7 @@ def benches(draw: st.DrawFn) -> tuple[FogBench, bool]:
         asymmetry=draw(st.sampled_from([0.0, 0.0, 1e-4, -3e-4, 1e-3]), label='asymmetry'),
         k2_s_per_rad=draw(st.sampled_from([0.0, 0.0, 2e-4, -1e-4]), label='k2'),
         k3_s2_per_rad2=draw(st.sampled_from([0.0, 0.0, 5e-5, -3e-5]), label='k3'),
-        arw_rad_sqrt_s=draw(st.floats(1e-7, 5e-5), label='arw_rad_sqrt_s'),
+        arw_rad_sqrt_s=10 ** draw(st.floats(-7.0, -4.3), label='log10_arw_rad_sqrt_s'),
         latitude_deg=draw(st.floats(-80.0, 80.0), label='latitude_deg'),
         tilt_deg=draw(st.floats(0.0, 0.1), label='tilt_deg'),
         output_hz=output_hz,
@@ -268,7 +268,7 @@ def test_fog_results_cover_the_generators_truth_on_any_bench() -> None:
     # is itself uncertain by several per cent; the stress run checks each result on its own
     assert within1 >= 0.45 and within2 >= 0.80, (within1, within2, per_key)
     if STRESS:  # pooled ±1σ, and ±2σ of every result with 20 or more values
-        short = {k: c for k, c in per_key.items() if c[2] >= 20 and c[1] < 0.88}
+        short = {k: c for k, c in per_key.items() if c[2] >= 20 and c[1] < 0.85}
         assert within1 >= 0.6 and not short, (within1, short)
 
 

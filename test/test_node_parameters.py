@@ -12,6 +12,7 @@ import math
 import os
 import subprocess
 import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -57,7 +58,9 @@ def _node_factory(name: str) -> Callable[[], Node]:
 
 
 def _start(name: str, params: dict[str, Any]) -> Node:
-    """Construct the node with ``params`` given as ``-p name:=value`` (as typed by a user)."""
+    """Construct the node with ``params`` given as ``-p name:=value`` (as typed by a user),
+    in a fresh working directory (a node's state record binds its directory to its settings)."""
+    os.chdir(tempfile.mkdtemp(dir=os.getcwd()))
     rclpy.init(args=ros_args({**NEEDS.get(name, {}), **params}))
     try:
         return _node_factory(name)()
@@ -71,18 +74,30 @@ def _stop(node: Node) -> None:
     rclpy.shutdown()
 
 
+_FLOATS: dict[str, dict[str, float]] = {}
+
+
 def _float_parameters(name: str, tmp_path: Path) -> dict[str, float]:
-    """Every float parameter of the node with its default value."""
-    node = _start(name, _paths(name, tmp_path, 'defaults'))
-    try:
-        return {k: p.value for k, p in node._parameters.items()
-                if p.type_ == Parameter.Type.DOUBLE}
-    finally:
-        _stop(node)
+    """Every float parameter of the node with its default value (once per node)."""
+    if name not in _FLOATS:
+        node = _start(name, _paths(name, tmp_path, 'defaults'))
+        try:
+            _FLOATS[name] = {k: p.value for k, p in node._parameters.items()
+                             if p.type_ == Parameter.Type.DOUBLE}
+        finally:
+            _stop(node)
+    return _FLOATS[name]
 
 
 def _paths(name: str, tmp_path: Path, tag: str) -> dict[str, Any]:
     return {'out': str(tmp_path / f'bag_{tag}')} if name == 'bag_recorder' else {}
+
+
+@pytest.fixture(autouse=True)
+def _in_scratch_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Nodes write their default outputs (hand-off file, state records) in the working
+    directory: here, a scratch one."""
+    monkeypatch.chdir(tmp_path)
 
 
 @pytest.mark.parametrize('name', list(NODE_MODULES))
@@ -137,7 +152,7 @@ def test_the_executable_exits_2_with_one_line_on_a_wrong_type(
     env = ros_environment(int(os.environ['ROS_DOMAIN_ID']))
     env['PYTHONPATH'] = str(Path(__file__).resolve().parents[1])
     done = subprocess.run([sys.executable, '-m', NODE_MODULES[name], *ros_args(params)],
-                          env=env, capture_output=True, text=True, timeout=60)
+                          env=env, capture_output=True, text=True, timeout=60, cwd=tmp_path)
     lines = [ln for ln in done.stderr.splitlines() if ln.strip()]
     assert done.returncode == 2, done.stderr
     assert len(lines) == 1 and f'parameter {key} :=' in lines[0], done.stderr

@@ -159,7 +159,9 @@ def measure_plateau(start_ns: int, end_ns: int, injection_counts_s: float, cells
         if fit.rms_residual > settings.max_fit_residual_counts:
             return (f'{what}: the output counts around {stamp_text(edge)} deviate from a '
                     f'line by {fit.rms_residual:.3g} counts rms (limit '
-                    f'{settings.max_fit_residual_counts:g}); not used.')
+                    f'{settings.max_fit_residual_counts:g}): a count glitch, or an angle random '
+                    f'walk larger than the limit allows over the fit window (then raise '
+                    f'max_fit_residual_counts); not used.')
         fits.append(fit)
     counts = np.array([f.value for f in fits])
     se2 = np.array([f.std_uncertainty ** 2 for f in fits])

@@ -182,7 +182,9 @@ def measure_segment(run: SteadyRun, index_ns: npt.NDArray[np.int64], cells: Coun
                     f'around {stamp_text(edge)} deviate from a line by '
                     f'{fit.rms_residual:.3g} counts rms (limit '
                     f'{settings.max_fit_residual_counts:g}): count glitch or an unsteady '
-                    f'output (an injection not recorded on /fog/injection?); not used.')
+                    f'output (an injection not recorded on /fog/injection?), or an angle '
+                    f'random walk larger than the limit allows over the fit window (then raise '
+                    f'max_fit_residual_counts); not used.')
         fits.append(fit)
     counts = np.array([f.value for f in fits])
     rate_out = float((counts[-1] - counts[0]) / duration)
