@@ -254,3 +254,21 @@ def test_calibration_without_a_scale_factor_names_the_flag(
     assert gyro_calib(['calibrate', str(bag), '--method', 'thermal', '--latitude-deg',
                        '34.26']) == 2
     assert '--scale-factor-rad-per-pulse' in capsys.readouterr().err
+
+
+def test_a_sensor_read_too_sparsely_is_refused_in_one_line_with_exit_2(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """cavity_a read every 300 s (> max_temperature_gap_s): bad input, not a failed fit."""
+    cfg = ChamberRunConfig(programme='continuous_ramp', low_c=-10.0, high_c=10.0,
+                           rate_c_per_min=1.0, dwell_s=600.0,
+                           sensor_read_intervals_s=(300.0, 2.0, 2.0))
+    bag = _bag(tmp_path / 'sparse', cfg)
+    out = tmp_path / 'model.yaml'
+    assert gyro_calib(['calibrate', str(bag), '--method', 'thermal', '--out', str(out),
+                       '--json']) == 2
+    text = capsys.readouterr()
+    assert text.out == ''
+    line, = text.err.strip().splitlines()[-1:]
+    assert 'temperature sensor cavity_a is read about every 300 s' in line
+    assert 'max_temperature_gap_s (--config) to at least 360 s' in line
+    assert not out.exists()

@@ -23,6 +23,7 @@ from typing import Any
 
 from rcl_interfaces.msg import SetParametersResult
 
+from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.method_node import MethodNode
 from gyro_calib.nodes.ros_io import described_parameter, run_node
 from gyro_calib.thermal.settings import ThermalSettings
@@ -65,7 +66,11 @@ class ThermalCalibrationNode(MethodNode):
         self.state.resume_once(self.session.feed, self.session.process)
         # messages that arrived since the last hand-over (shut-down): recorded, then fed
         self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
-        for line in self.session.process(flush=True):
+        try:
+            lines = self.session.process(flush=True)
+        except GyroCalibError as exc:  # a sensor too sparse to interpolate: say so, fit nothing
+            lines = [f'thermal model not fitted: {exc}']
+        for line in lines:
             self._last_line = line
             log = self.get_logger()
             log.warning(line) if 'not fitted' in line or 'reject' in line else log.info(line)

@@ -30,6 +30,7 @@ import numpy as np
 
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.estimate import Estimate, Rejection
+from gyro_calib.thermal.errors import SensorSamplingError
 from gyro_calib.thermal.fit import ThermalFitReport, fit_thermal
 from gyro_calib.thermal.intervals import (
     IntervalTable,
@@ -120,6 +121,10 @@ class ThermalCalibrator:
 
         Returns:
             New log lines: notices, rejections, and the fit's outcome.
+
+        Raises:
+            SensorSamplingError: at the end (``flush``), a temperature sensor read too sparsely
+                to be interpolated (``max_temperature_gap_s``): the run is refused.
         """
         lines: list[str] = []
         self._pulses.reduce(flush=flush)
@@ -137,6 +142,8 @@ class ThermalCalibrator:
         if due:
             lines += self._fit()
             self._reduced_s_at_fit = span
+            if flush and isinstance(self._error, SensorSamplingError):
+                raise self._error  # bad input, not a fit that failed on the data: refuse
         return lines
 
     def _reduced_span_s(self) -> float:

@@ -19,3 +19,8 @@ class ModelFileError(GyroCalibError):
 
 class TemperatureDataError(InsufficientDataError):
     """The temperature stream cannot support the fit (missing, stuck, too few points)."""
+
+
+class SensorSamplingError(TemperatureDataError):
+    """A temperature sensor is read so sparsely that it cannot be interpolated onto the
+    averaging intervals (bad input: the offline front door refuses the run, exit 2)."""

@@ -46,7 +46,7 @@ import numpy as np
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Estimate, Rejection
 from gyro_calib.thermal.allan import bias_stability, block_means
-from gyro_calib.thermal.errors import TemperatureDataError
+from gyro_calib.thermal.errors import SensorSamplingError, TemperatureDataError
 from gyro_calib.thermal.intervals import (
     IntervalTable,
     SensorCheck,
@@ -374,10 +374,11 @@ def _require_readable_sensors(check: SensorCheck, s: ThermalSettings) -> None:
         if smp.n_points < 2 or spacing > s.max_temperature_gap_s:
             every = (f'about every {spacing:.4g} s' if math.isfinite(spacing)
                      else f'only {smp.n_points} time(s) in the whole recording')
-            need = (f'set max_temperature_gap_s to at least {math.ceil(1.2 * spacing):g} s '
+            need = (f'set max_temperature_gap_s (--config) to at least '
+                    f'{math.ceil(1.2 * spacing):g} s '
                     '(if the temperature changes slowly enough over that span) or '
                     if math.isfinite(spacing) else '')
-            raise TemperatureDataError(
+            raise SensorSamplingError(
                 f'temperature sensor {name} is read {every}, further apart than '
                 f'max_temperature_gap_s = {s.max_temperature_gap_s:g} s: its temperature '
                 f'cannot be interpolated between readings; {need}read the sensor more often.')
