@@ -1,25 +1,31 @@
-"""Allan deviation of a day at 1 kHz: speed and memory against allantools, and accuracy.
+"""Allan deviation of a day at 1 kHz and beyond: exactness, speed and memory against
+allantools, and the coverage of the EDF error bars.
 
 Run (from the repository root, in the project's venv):
 
-    nice -n 10 python benchmarks/noise_allan.py [--quick] [--n 100000000] [--skip-allantools]
+    nice -n 10 python benchmarks/noise_allan.py [--quick] [--n 100000000] [--n-large 1000000000]
+        [--skip-allantools] [--skip-large] [--mc-trials 400]
 
-(a) Streaming. 10⁸ samples (a day at ~1 kHz) of a FOG's integrated angle (white rate
-    noise + random-walk rate, generated in 10⁶-sample chunks, integer-ns stamps) are fed
-    to :class:`gyro_calib.noise.NoiseCalibrator` in a child process, partial overlap
-    (the decimation tree), 4 τ per octave and octave τ only. Figures: time spent in the
-    calibrator (generation excluded), its rate in samples/s, and the child's peak RSS
-    (its own ``ru_maxrss`` through ``wait4``; target < 500 MB).
+(a) Streaming, exact. N samples (a day at ~1 kHz for 10⁸) of a FOG's integrated angle
+    (white rate noise + random-walk rate, generated in 10⁶-sample chunks, integer-ns
+    stamps) are fed to :class:`gyro_calib.noise.NoiseCalibrator` in a child process, full
+    overlap at every τ of the octave grid (the phase goes to a scratch file beyond 2²⁰
+    points), once for the ADEV alone and once with MDEV, HDEV and TOTDEV too. Figures:
+    time in the calibrator (generation excluded), samples/s, and the child's peak RSS
+    (its own ``ru_maxrss`` through ``wait4``; target < 500 MB). Also for ``--n-large``
+    (10⁹) unless ``--skip-large``.
 
-(b) allantools. The same samples (same generator, concatenated) in one array, then
-    ``allantools.oadev`` (which must hold them all) at octave τ, in another child: time
-    and peak RSS. Also the largest |ours/allantools − 1| at the common τ ≤ T/4.
+(b) allantools. The same samples in one array, then ``allantools.oadev`` (which must hold
+    them all; not run at 10⁹: 8 GB for the phase alone, more for its temporaries) at the
+    same τ, in another child: time, peak RSS, and the largest |ours/allantools − 1|.
 
-(c) Partial against full overlap. For white FM, flicker FM, random-walk FM, a gyro mix
-    and white PM (quantisation alone), 2²⁰ samples, 4 seeds: the largest relative
-    difference of the partial-overlap ADEV from full overlap at τ ≤ T/4.
+(c) EDF error bars. White FM, flicker FM and random-walk FM records of 4096 samples,
+    ``--mc-trials`` each: at every octave τ the fraction of trials whose ±1σ bar
+    (σ = dev/√(2·EDF), EDF by Greenhall's algorithm for OADEV, MDEV, HDEV and SP 1065
+    Table 7 for TOTDEV, the noise type known) covers the true deviation (the root mean
+    of the variance over all trials). Target 60–75 %.
 
-``--quick`` uses 10⁷ samples.
+``--quick`` uses 10⁷ samples, no 10⁹ run, 200 trials.
 """
 
 from __future__ import annotations
@@ -59,11 +65,15 @@ def _chunks(n: int, seed: int):  # type: ignore[no-untyped-def]
         done += k
 
 
-def child_ours(n: int, seed: int, taus_per_octave: int, out: str) -> None:
+def child_ours(n: int, seed: int, deviations: str, out: str) -> None:
     from gyro_calib.noise import NoiseCalibrator, NoiseSettings
 
-    cal = NoiseCalibrator(NoiseSettings(fog_scale_factor_counts_per_rad=1.0,
-                                        taus_per_octave=taus_per_octave))
+    t0 = time.perf_counter()
+    import allantools  # noqa: F401  (Greenhall's EDF; a one-off import, timed apart)
+
+    import_s = time.perf_counter() - t0
+    cal = NoiseCalibrator(NoiseSettings(fog_scale_factor_counts_per_rad=1.0, taus='octave',
+                                        deviations=deviations))
     spent = 0.0
     for t, a in _chunks(n, seed):
         t0 = time.perf_counter()
@@ -80,6 +90,7 @@ def child_ours(n: int, seed: int, taus_per_octave: int, out: str) -> None:
     assert curve is not None
     np.savez(out, tau=curve.tau_s, adev=curve.adev, m=curve.m)
     print(json.dumps({'stream_s': spent, 'flush_s': spent_curve, 'fit_s': spent_fit,
+                      'import_s': import_s,
                       'n_tau': len(curve.tau_s),
                       'terms': {k: [v.value, v.std_uncertainty] for k, v in res.items()}}))
 
@@ -116,54 +127,94 @@ def _run_child(args: list[str]) -> tuple[dict, float, float]:
     return json.loads(out.strip().splitlines()[-1]), wall, usage.ru_maxrss / 1024
 
 
-def part_c(n: int, seeds: int) -> None:
-    from gyro_calib.noise.allan import AveragingGrid, rate_to_phase
-    from gyro_calib.noise.tree import AllanTree, FullOverlapStore
-    from sim_nodes.noise import AxisNoise, NoiseTerms
+def _flicker(rng: np.random.Generator, n: int) -> np.ndarray:
+    """Flicker rate noise (two-sided PSD ∝ 1/f) shaped from white noise over 4n samples."""
+    w = np.fft.rfft(rng.standard_normal(4 * n))
+    f = np.fft.rfftfreq(4 * n)
+    h = np.zeros_like(f)
+    h[1:] = 1.0 / np.sqrt(f[1:])
+    return np.fft.irfft(w * h, 4 * n)[:n]
 
-    kinds = {
-        'white FM (N)': NoiseTerms(random_walk=1e-4),
-        'flicker FM (B)': NoiseTerms(bias_instability=1e-5),
-        'random-walk FM (K)': NoiseTerms(rate_random_walk=1e-5),
-        'gyro mix Q+N+B+K': NoiseTerms(1e-6, 1e-4, 1e-5, 1e-6),
-        'white PM alone (Q)': NoiseTerms(quantization=1e-6),
-    }
-    from gyro_calib.noise import NoiseSettings
 
-    min_m = NoiseSettings().tree_min_averaging_factor
-    grid = AveragingGrid.make(4, min_m)
-    print(f'\n(c) partial vs full overlap, {n} samples, {seeds} seeds, τ ≤ T/4, 4 τ/octave, '
-          f'tree min_m = {min_m}')
-    for name, terms in kinds.items():
-        worst = 0.0
-        for seed in range(seeds):
-            y = AxisNoise(terms, 100.0, seed).samples(n)
-            x = rate_to_phase(y - y[0], 1.0)
-            tree, store = AllanTree(grid), FullOverlapStore(grid)
-            tree.push(x)
+def part_c(n: int, trials: int) -> None:
+    from gyro_calib.noise.allan import TauGrid
+    from gyro_calib.noise.edf import edf_greenhall, edf_totdev
+    from gyro_calib.noise.exact import ExactDeviations
+
+    kinds = {'white FM (α = 0)': (0, lambda r: r.standard_normal(n)),
+             'flicker FM (α = −1)': (-1, lambda r: _flicker(r, n)),
+             'random-walk FM (α = −2)': (-2, lambda r: np.cumsum(r.standard_normal(n)))}
+    norms = {'adev': lambda m: 2.0 * m**2, 'mdev': lambda m: 2.0 * m**4,
+             'hdev': lambda m: 6.0 * m**2, 'totdev': lambda m: 2.0 * m**2}
+    print(f'\n(c) ±1σ coverage of the EDF error bars, {n} samples, {trials} trials per noise '
+          'type (target 60–75 %); per τ: m, coverage %, EDF')
+    grid = TauGrid('octave', 1.0)
+    for name, (alpha, make) in kinds.items():
+        rng = np.random.default_rng(7)
+        variances = {d: [] for d in norms}
+        ms = None
+        for _ in range(trials):
+            x = np.concatenate(([0.0], np.cumsum(make(rng))))
+            store = ExactDeviations(grid.factors_up_to, 0.25, block=4096)
             store.push(x)
-            p, f = tree.sums(), store.sums()
-            keep = p.m <= n // 4
-            idx = np.searchsorted(f.m, p.m[keep])
-            ratio = np.sqrt((p.sum_sq[keep] / p.terms[keep]) / (f.sum_sq[idx] / f.terms[idx]))
-            worst = max(worst, float(np.max(np.abs(ratio - 1))))
-        flag = '' if worst < 0.01 else '  (over 1 %: white PM at long τ, see tree.py)'
-        print(f'  {name:22s} max |partial/full − 1| = {100 * worst:.3f} %{flag}')
+            s = store.sums()
+            ms = s.m.astype(np.float64)
+            for d in norms:
+                variances[d].append(getattr(s, f'{d}_sum') / (norms[d](ms)
+                                                             * getattr(s, f'{d}_terms')))
+        assert ms is not None
+        n_points = n + 1
+        edf = {'adev': edf_greenhall(n_points, ms, alpha),
+               'mdev': edf_greenhall(n_points, ms, alpha, modified=True),
+               'hdev': edf_greenhall(n_points, ms, alpha, d=3),
+               'totdev': edf_totdev(n_points, ms, alpha)}
+        print(f'  {name}')
+        for d in norms:
+            v = np.array(variances[d])
+            ok = np.all(np.isfinite(v), axis=0)
+            truth = np.sqrt(np.mean(v[:, ok], axis=0))
+            dev = np.sqrt(v[:, ok])
+            half = dev / np.sqrt(2.0 * edf[d][ok])
+            cover = np.mean(np.abs(dev - truth) <= half, axis=0)
+            cells = '  '.join(f'{int(m)}:{100 * c:.0f}%/{e:.3g}'
+                              for m, c, e in zip(ms[ok], cover, edf[d][ok]))
+            overall = 100 * float(np.mean(cover))
+            print(f'    {d:6s} mean {overall:.1f} %, range {100 * cover.min():.0f}–'
+                  f'{100 * cover.max():.0f} %  [{cells}]')
+
+
+def _ours(n: int, seed: int, deviations: str, tmp: str, label: str) -> tuple[dict, str]:
+    out = str(Path(tmp) / f'ours_{label}.npz')
+    info, wall, rss = _run_child(['--child', 'ours', '--n', str(n), '--seed', str(seed),
+                                  '--deviations', deviations, '--out', out])
+    spent = info['stream_s'] + info['flush_s']
+    print(f'  {n:.0e} samples, {label}: {info["n_tau"]} τ; in the calibrator '
+          f'{info["stream_s"]:.1f} s streaming + {info["flush_s"]:.2f} s curve = {spent:.1f} s '
+          f'({n / spent / 1e6:.1f} M samples/s), fit {info["fit_s"]:.2f} s; child wall '
+          f'{wall:.1f} s (generation and the {info["import_s"]:.1f} s allantools import '
+          f'included); peak RSS {rss:.0f} MB')
+    for key, (value, std) in info['terms'].items():
+        truth = ARW if key.startswith('angle') else RRW
+        print(f'    {key} = {value:.5g} ± {std:.2g} (truth {truth:g})')
+    return info, out
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--n', type=int, default=100_000_000)
-    parser.add_argument('--quick', action='store_true', help='10⁷ samples, fewer seeds')
+    parser.add_argument('--n-large', type=int, default=1_000_000_000)
+    parser.add_argument('--quick', action='store_true', help='10⁷ samples, no 10⁹, 200 trials')
     parser.add_argument('--seed', type=int, default=1)
     parser.add_argument('--skip-allantools', action='store_true')
+    parser.add_argument('--skip-large', action='store_true')
+    parser.add_argument('--mc-trials', type=int, default=400)
     parser.add_argument('--child', choices=['ours', 'allantools'])
-    parser.add_argument('--taus-per-octave', type=int, default=4)
+    parser.add_argument('--deviations', default='adev')
     parser.add_argument('--out', default='')
     parser.add_argument('--m', default='')
     args = parser.parse_args()
     if args.child == 'ours':
-        child_ours(args.n, args.seed, args.taus_per_octave, args.out)
+        child_ours(args.n, args.seed, args.deviations, args.out)
         return
     if args.child == 'allantools':
         child_allantools(args.n, args.seed, args.out, args.m)
@@ -173,40 +224,34 @@ def main() -> None:
     print(f'noise ADEV benchmark on {os.cpu_count()} cores ({cores} usable), load average '
           f'{os.getloadavg()[0]:.1f}; {n:.3g} samples at 1 kHz ({n / 1000 / 3600:.2f} h)')
     with tempfile.TemporaryDirectory() as tmp:
-        print('\n(a) NoiseCalibrator, partial overlap (decimation tree), streamed in 10⁶ chunks')
-        results = {}
-        for tpo in (1, 4):
-            out = str(Path(tmp) / f'ours{tpo}.npz')
-            info, wall, rss = _run_child(['--child', 'ours', '--n', str(n), '--seed',
-                                          str(args.seed), '--taus-per-octave', str(tpo),
-                                          '--out', out])
-            results[tpo] = (info, out)
-            print(f'  {tpo} τ/octave: {info["n_tau"]} τ points; in the calibrator '
-                  f'{info["stream_s"]:.1f} s streaming + {info["flush_s"]:.2f} s curve '
-                  f'({n / (info["stream_s"] + info["flush_s"]) / 1e6:.1f} M samples/s), '
-                  f'fit {info["fit_s"]:.2f} s; child wall {wall:.1f} s (generation included); '
-                  f'peak RSS {rss:.0f} MB')
-            for key, (value, std) in info['terms'].items():
-                truth = ARW if key.startswith('angle') else RRW
-                print(f'    {key} = {value:.5g} ± {std:.2g} (truth {truth:g})')
+        print('\n(a) NoiseCalibrator, exact full overlap at every octave τ, streamed in 10⁶ '
+              'chunks')
+        adev_info, adev_out = _ours(n, args.seed, 'adev', tmp, 'ADEV only')
+        all_info, _ = _ours(n, args.seed, 'adev, mdev, hdev, totdev', tmp,
+                            'ADEV + MDEV + HDEV + TOTDEV')
+        if not (args.quick or args.skip_large):
+            _ours(args.n_large, args.seed, 'adev', tmp, 'ADEV only')
+            _ours(args.n_large, args.seed, 'adev, mdev, hdev, totdev', tmp,
+                  'ADEV + MDEV + HDEV + TOTDEV')
         if not args.skip_allantools:
-            ours = np.load(results[1][1])
-            m = ours['m'][ours['m'] <= n // 4]
+            ours = np.load(adev_out)
             out = str(Path(tmp) / 'at.npz')
-            print('\n(b) allantools.oadev on the same samples (one array), octave τ')
+            print(f'\n(b) allantools.oadev on the same {n:.0e} samples (one array), the same τ')
             info, wall, rss = _run_child(['--child', 'allantools', '--n', str(n), '--seed',
                                           str(args.seed), '--out', out, '--m',
-                                          ','.join(str(int(v)) for v in m)])
+                                          ','.join(str(int(v)) for v in ours['m'])])
             ref = np.load(out)
             common = np.isin(ours['m'], np.round(ref['tau'] * 1e9 / PERIOD_NS))
             dev = np.max(np.abs(ours['adev'][common] / ref['adev'] - 1))
-            ours_s = results[1][0]['stream_s'] + results[1][0]['flush_s']
+            a_s = adev_info['stream_s'] + adev_info['flush_s']
+            f_s = all_info['stream_s'] + all_info['flush_s']
             print(f'  allantools.oadev: {info["oadev_s"]:.1f} s for {info["n_tau"]} τ; child '
                   f'peak RSS {rss:.0f} MB')
-            print(f'  ours at the same octave τ: {ours_s:.1f} s → {info["oadev_s"] / ours_s:.1f}× '
-                  f'faster; largest |ours/allantools − 1| = {100 * dev:.3f} % '
-                  f'({int(common.sum())} τ ≤ T/4)')
-    part_c(1 << (18 if args.quick else 20), 2 if args.quick else 4)
+            print(f'  ours, ADEV: {a_s:.1f} s = {a_s / info["oadev_s"]:.3f} of allantools; '
+                  f'with MDEV, HDEV, TOTDEV too: {f_s:.1f} s = {f_s / info["oadev_s"]:.3f}')
+            print(f'  largest |ours/allantools − 1| = {dev:.2e} over {int(common.sum())} τ '
+                  f'(τ ≤ T/4, clusters down to 4)')
+    part_c(4096, 200 if args.quick else args.mc_trials)
 
 
 if __name__ == '__main__':

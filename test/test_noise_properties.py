@@ -284,7 +284,7 @@ def _check_terms(cal: NoiseCalibrator, truth: dict[str, float], flicker: bool) -
     return bad
 
 
-@settings(max_examples=200 if STRESS else 12, deadline=None, derandomize=not STRESS,
+@settings(max_examples=100 if STRESS else 12, deadline=None, derandomize=not STRESS,
           database=None, suppress_health_check=[HealthCheck.too_slow,
                                                 HealthCheck.data_too_large])
 @given(ieee952_records())
