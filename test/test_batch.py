@@ -244,3 +244,40 @@ def test_against_a_separately_started_dask_scheduler_and_worker(
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
+
+
+def test_ctrl_c_stops_cleanly_and_keeps_what_finished(tmp_path: Path) -> None:
+    """SIGINT to the whole process group (as Ctrl-C at a terminal): exit 130, one line on
+    stderr (no worker traceback), the gyros that finished are in the fleet files with their
+    files, and no process of the run is left."""
+    import signal
+
+    manifest = _manifest(tmp_path)
+    out = tmp_path / 'out'
+    env = {**os.environ, 'PYTHONPATH': os.pathsep.join(
+        [str(Path(__file__).resolve().parent.parent), os.environ.get('PYTHONPATH', '')])}
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'gyro_calib.cli', 'batch', str(manifest), '--out', str(out),
+         '--workers', '2', '--no-pdf', '--no-progress'], env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 120
+    while not list(out.glob('*/record.json')) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130
+    assert stderr.strip() == 'gyro-calib: interrupted; the gyros that finished are kept.'
+    with (out / 'fleet.csv').open(encoding='utf-8') as stream:
+        listed = {r['gyro_id'] for r in csv.DictReader(stream)}
+    assert listed and listed < set(FLEET) | {'X-1'}
+    for gid in listed - {'X-1'}:
+        assert (out / gid / f'{gid}.yaml').exists() and (out / gid / f'{gid}.html').exists()
+    assert 'interrupted' in stdout
+    left = ''
+    for _ in range(100):  # nothing of the run is left (workers, nannies, resource tracker)
+        left = subprocess.run(['ps', '-o', 'pid=,cmd=', '-g', str(proc.pid)],
+                              capture_output=True, text=True, check=False).stdout.strip()
+        if not left:
+            break
+        time.sleep(0.1)
+    assert not left

@@ -13,7 +13,9 @@ import json
 import logging
 import os
 import re
+import signal
 import sys
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -81,9 +83,18 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
 
     if scheduler:
         return Client(scheduler, timeout='20s'), None
-    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                           processes=True, host='127.0.0.1', dashboard_address='127.0.0.1:0',
-                           silence_logs=logging.ERROR)
+    # The worker processes start with SIGINT ignored (inherited through exec): Ctrl-C at the
+    # terminal reaches the whole process group, and only the parent should act on it (cancel,
+    # close the cluster, keep what finished) — not every worker with a traceback.
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    try:
+        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
+                               processes=True, host='127.0.0.1', dashboard_address='127.0.0.1:0',
+                               silence_logs=logging.ERROR)
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, previous)
     return Client(cluster), cluster
 
 
