@@ -87,15 +87,30 @@ class EmptyBagError(BagError):
 
 
 def scenario_text(scenario: Mapping[str, Any]) -> str:
-    """The scenario as stored in ``custom_data``: one line of flow-style YAML, Unicode kept.
-
-    rosbags writes metadata.yaml with ruamel, which folds long double-quoted scalars and
-    can split an escape sequence across the fold (``\\u2080`` came back as ``u2080``); a
-    single line without escapes is stored plain or single-quoted, which folds safely.
-    """
+    """The scenario as stored in ``custom_data``: one line of flow-style YAML, Unicode kept
+    (no ``\\u`` escapes; :func:`store_custom_data` writes it unfolded)."""
     text = yaml.safe_dump(dict(scenario), sort_keys=True, default_flow_style=True,
                           allow_unicode=True, width=2**31 - 1)
     return text.strip()
+
+
+def store_custom_data(bag_dir: str | Path, key: str, text: str) -> None:
+    """Write ``custom_data[key] = text`` into the bag's metadata.yaml unfolded.
+
+    rosbags dumps metadata.yaml with ruamel at 80 columns, and ruamel's folding of a
+    double-quoted scalar can split an escape (``\\\\`` came back as ``\\ \\``), so the
+    value it wrote may read back changed; the file is re-dumped here with the value as given
+    and no line folding (every other field as rosbags wrote it).
+    """
+    meta = Path(bag_dir) / 'metadata.yaml'
+    doc = yaml.safe_load(meta.read_text(encoding='utf-8'))
+    info = doc['rosbag2_bagfile_information']
+    custom = info.get('custom_data') or {}
+    custom[key] = text
+    info['custom_data'] = custom
+    meta.write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True,
+                                   default_flow_style=False, width=2**31 - 1),
+                    encoding='utf-8')
 
 
 _SPLIT_ESCAPE = re.compile(r'\\ (?=u[0-9A-Fa-f]{4}|x[0-9A-Fa-f]{2}|U[0-9A-Fa-f]{8})')
@@ -213,6 +228,10 @@ def write_bag(path: str | Path, messages: Iterable[BagMessage], *,
     (tmp / f'{tmp.name}.mcap').rename(tmp / f'{path.name}.mcap')
     meta = tmp / 'metadata.yaml'
     meta.write_text(meta.read_text().replace(f'{tmp.name}.mcap', f'{path.name}.mcap'))
+    if scenario is not None:  # unfolded: rosbags' folding can split an escape
+        store_custom_data(tmp, SCENARIO_KEY, scenario_text(scenario))
+    for ns, part in (namespace_scenarios or {}).items():
+        store_custom_data(tmp, scenario_key(ns), scenario_text(part))
     tmp.rename(path)
 
 

@@ -252,23 +252,28 @@ def _calibrate(args: argparse.Namespace) -> int:
     outcome = _run_with_progress(args, show)
     human = sys.stderr if args.json else sys.stdout
     print(summary_text(outcome), file=human)
-    if args.json:
-        print(json.dumps(json_document(outcome), indent=1, allow_nan=False,
-                         default=_json_default))
-    if plot_dir is not None and outcome.calibrated_anything:
+
+    def print_json() -> None:  # last: a command whose files failed prints nothing on stdout
+        if args.json:
+            print(json.dumps(json_document(outcome), indent=1, allow_nan=False,
+                             default=_json_default))
+    if not outcome.calibrated_anything:
+        print_json()
+        print('gyro-calib: nothing could be calibrated from the bag(s); nothing written.',
+              file=sys.stderr)
+        return EXIT_NOT_CALIBRATED
+    # the hand-off first: the measured values are kept whatever happens to a figure
+    status = _write_handoff(args, outcome, human) if args.out is not None else EXIT_OK
+    if plot_dir is not None:
         make_plot_dir(plot_dir)
         for session in outcome.sessions.values():
             for path in session.plot(plot_dir):
                 print(f'figure written: {path.resolve()}', file=human)
-    if not outcome.calibrated_anything:
-        print('gyro-calib: nothing could be calibrated from the bag(s); nothing written.',
-              file=sys.stderr)
-        return EXIT_NOT_CALIBRATED
-    status = _write_handoff(args, outcome, human) if args.out is not None else EXIT_OK
     if args.report is not None and status == EXIT_OK:
         from gyro_calib.report.cli import report_after_calibrate
 
         report_after_calibrate(args, outcome, human)
+    print_json()
     return status
 
 

@@ -39,6 +39,7 @@ from gyro_calib.bag import (
     checksum_chunks,
     scenario_key,
     scenario_text,
+    store_custom_data,
 )
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.bag_player import message_class
@@ -154,6 +155,9 @@ class BagRecorder(Node):
             if scenario:
                 self._writer.set_custom_data(scenario_key(ns), scenario_text(scenario))
         self._writer.close()
+        for ns, scenario in self.scenarios.items():  # unfolded: a fold can split an escape
+            if scenario:
+                store_custom_data(self.path, scenario_key(ns), scenario_text(scenario))
         summary = ', '.join(f'{name}: {n}' for name, n in self.counts.items())
         self.get_logger().info(f'wrote {self.path} ({summary})')
 
