@@ -12,7 +12,10 @@ ROS 2 parameter file) whose values win, ``position_table_revolutions`` (n),
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping
+from typing import Any
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -28,6 +31,8 @@ from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_values
 from gyro_calib.rbrlg.stations import Station
 from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
+from gyro_calib.nodes.method_node import SimScenarioBench
+from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.bag import SampleBatch
@@ -93,6 +98,7 @@ class CalibrationNode(Node):
         site['heading_deg'] = options.setting('heading_deg', 0.0)
         site['position_table_revolutions'] = options.setting('position_table_revolutions', 1)
         self.gyro_id = str(options.setting('gyro_id', ''))
+        self.options = options
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self.bench = RbrlgCalibrator(
             self.config, int(site['position_table_revolutions']), float(site['latitude_deg']),
@@ -116,12 +122,21 @@ class CalibrationNode(Node):
         self.theta_pub = self.create_publisher(Float64, topics.FIX_ERROR_ANGLE, RESULT_QOS)
         self.k_pub = self.create_publisher(Float64, topics.SCALE_FACTOR, RESULT_QOS)
         self.diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
+        self.scenario = SimScenarioBench(self, METHODS['rbrlg'].bench_settings, self._on_bench)
         self.create_timer(0.2, self._process)
         self.create_timer(1.0, self._publish_diagnostics)
         self.get_logger().info(
             f'calibrating K̃ over m = {self.config.revolutions_per_window} revolution windows; '
             f'waiting for {topics.GYRO_PULSES}, {topics.RATE_TABLE_JOINT_STATES}, '
             f'{topics.RATE_TABLE_ZERO_INDEX}')
+
+    def _on_bench(self, stored: tuple[tuple[str, Mapping[str, Any]], ...]) -> None:
+        """A simulator published its bench: report parameters that differ, take its gyro id."""
+        gyro_id = self.scenario.check(dataclasses.replace(self.options, stored_benches=stored))
+        if gyro_id and not self.gyro_id:
+            self.gyro_id = gyro_id
+            self.get_logger().info(f'gyro_id {gyro_id!r} taken from {topics.SIM_SCENARIO} '
+                                   '(parameter gyro_id not given).')
 
     def _refuse_runtime_change(self, params: list) -> SetParametersResult:
         return SetParametersResult(successful=False, reason=(
