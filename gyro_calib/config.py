@@ -200,3 +200,45 @@ def read_method_file(path: str | Path, *, node_name: str,
     settings = {k: v for k, v in values.items()
                 if k in names or (k not in BENCH_SETTINGS and k not in NODE_ONLY_PARAMETERS)}
     return settings, bench
+
+
+# ---------------------------------------------------------------------------------------
+# Range checks of every method's settings (one code, unit and range in every message)
+
+_UNIT_SUFFIXES = (
+    ('_rad_per_pulse', 'rad/pulse'), ('_counts_per_rad', 'counts/rad'),
+    ('_deg_sqrt_h', '°/√h'), ('_deg_s2', '°/s²'), ('_deg_s', '°/s'), ('_deg_h', '°/h'),
+    ('_rad_s', 'rad/s'), ('_arcsec_per_arcmin', '″/′'), ('_arcsec', '″'), ('_arcmin', '′'),
+    ('_deg', '°'), ('_rad', 'rad'), ('_hz', 'Hz'), ('_ppm', 'ppm'), ('_pulses', 'pulses'),
+    ('_counts', 'counts'), ('_c_per_min', '°C/min'), ('_c', '°C'), ('_s', 's'))
+"""Unit of a setting by the suffix of its name (the house naming rule: unit in the name)."""
+
+
+def unit_of(name: str) -> str:
+    """The unit a setting's name carries ('' for plain numbers, counts and text)."""
+    return next((unit for suffix, unit in _UNIT_SUFFIXES if name.endswith(suffix)), '')
+
+
+def check_ranges(settings: Any, checks: Iterable[tuple[str, bool, str]]) -> None:
+    """The one range check of a method's settings dataclass (called by its __post_init__).
+
+    The bench settings among its fields (:data:`BENCH_SETTINGS`: latitude, sense axis, scale
+    factors) are checked as the flags, node parameters and stored bench settings are; then
+    each ``(field, ok, expected)`` of ``checks``. The message names the field, its value with
+    its unit, and what it must be.
+
+    Raises:
+        ConfigError: for the first field out of range.
+    """
+    import dataclasses
+
+    for f in dataclasses.fields(settings):
+        value = getattr(settings, f.name)
+        if f.name in BENCH_SETTINGS and given(value):
+            check_bench_setting(f.name, value, 'settings')
+    for name, ok, expected in checks:
+        if not ok:
+            unit = unit_of(name)
+            value = getattr(settings, name)
+            shown = f'{value!r} {unit}' if unit and not isinstance(value, str) else repr(value)
+            raise ConfigError(f'{name} = {shown} is invalid: it must be {expected}.')

@@ -196,3 +196,27 @@ def test_conventions_of_heading_and_azimuth_are_stated() -> None:
     assert 'from North towards East' in azimuth and '90° − a heading from East' in azimuth
     assert math.isfinite(BENCH_SETTINGS['heading_deg'].high)
 
+
+
+@pytest.mark.parametrize('method, field, value, message', [
+    ('rbrlg', 'fit_half_width_s', -1.0, 'fit_half_width_s = -1.0 s is invalid: it must be '
+     'positive.'),
+    ('fog', 'min_segment_s', 0.0, 'min_segment_s = 0.0 s is invalid: it must be positive.'),
+    ('dither', 'block_s', 0.0, 'block_s = 0.0 s is invalid: it must be between 0.1 and 600 s.'),
+    ('thermal', 'max_pulse_gap_s', 0.0, 'max_pulse_gap_s = 0.0 s is invalid: it must be '
+     'positive.'),
+    ('noise', 'reorder_window_s', -1.0, 'reorder_window_s = -1.0 s is invalid: it must be zero '
+     'or positive.'),
+    ('fog', 'latitude_deg', 128.2, 'latitude_deg = 128.2 ° (settings) is invalid: it must be a '
+     'number between -90 and 90 °.'),
+    ('thermal', 'latitude_deg', -91.0, 'latitude_deg = -91.0 ° (settings) is invalid'),
+    ('noise', 'scale_factor_rad_per_pulse', 0.5, 'scale_factor_rad_per_pulse = 0.5 rad/pulse '
+     '(settings) is invalid: it must be a positive number, at most 0.01 rad/pulse.'),
+])
+def test_every_methods_settings_are_range_checked_by_the_same_code(
+        method: str, field: str, value: float, message: str) -> None:
+    """Issue 17 item 2: one check (config.check_ranges) for every method's settings, the value
+    with its unit; the bench settings among them checked as flags and parameters are."""
+    with pytest.raises(ConfigError) as err:
+        METHODS[method].settings_class()(**{field: value})
+    assert message in str(err.value)

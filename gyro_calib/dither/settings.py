@@ -8,6 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from gyro_calib.config import check_ranges
 from gyro_calib.errors import ConfigError
 
 ROCKING_TREATMENTS = ('bound', 'model', 'none')
@@ -133,10 +134,7 @@ class DitherSettings:
              and self.spectrum_samples & (self.spectrum_samples - 1) == 0,
              'a power of two ≥ 256'),
         ]
-        for name, ok, expected in checks:
-            if not ok:
-                raise ConfigError(f'{name} = {getattr(self, name)!r} is invalid: '
-                                  f'it must be {expected}.')
+        check_ranges(self, checks)  # one range check for every setting
         if self.rocking_treatment == 'model' and math.isnan(self.scale_factor_rad_per_pulse):
             raise ConfigError("rocking_treatment = 'model' needs scale_factor_rad_per_pulse: "
                               'the rocking is given in arcseconds and the dither amplitude '

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from gyro_calib.config import check_ranges
 from gyro_calib.errors import ConfigError
 
 
@@ -150,10 +151,7 @@ class FogSettings:
             ('restart_backstep_s', self.restart_backstep_s > self.reorder_margin_s,
              'greater than reorder_margin_s'),
         ]
-        for name, ok, expected in checks:
-            if not ok:
-                raise ConfigError(f'{name} = {getattr(self, name)!r} is invalid: it must be '
-                                  f'{expected}.')
+        check_ranges(self, checks)  # one range check for every setting
         mapped = sorted(self.mapping_rates_deg_s)
         if any(b - a <= 2 * self.mapping_rate_tolerance_deg_s for a, b in zip(mapped, mapped[1:])):
             raise ConfigError('mapping_rates_deg_s must be more than twice '

@@ -10,6 +10,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from gyro_calib.config import check_ranges
 from gyro_calib.errors import ConfigError
 
 
@@ -144,10 +145,7 @@ class NoiseSettings:
             ('total_deviation_points', self.total_deviation_points == 0
              or self.total_deviation_points >= 64, '0 (off) or at least 64'),
         ]
-        for name, ok, expected in checks:
-            if not ok:
-                raise ConfigError(f'{name} = {getattr(self, name)!r} is invalid: '
-                                  f'it must be {expected}.')
+        check_ranges(self, checks)  # one range check for every setting
 
     @property
     def tau_spec(self) -> str | tuple[float, ...]:

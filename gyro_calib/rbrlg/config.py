@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypedDict
 
-from gyro_calib.config import read_parameter_file
+from gyro_calib.config import check_ranges, read_parameter_file
 from gyro_calib.errors import ConfigError
 
 
@@ -130,9 +130,7 @@ class KTildeConfig:
             ('angle_random_walk_deg_sqrt_h', not self.angle_random_walk_deg_sqrt_h < 0,
              'non-negative (or NaN: unknown)'),
         ]
-        for name, ok, expected in checks:
-            if not ok:
-                raise ConfigError(f'{name} = {getattr(self, name)!r} is invalid: it must be {expected}.')
+        check_ranges(self, checks)  # one range check for every setting
 
 
 def k_tilde_config_from_mapping(values: dict[str, Any], *, source: str = 'mapping') -> KTildeConfig:

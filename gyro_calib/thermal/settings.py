@@ -13,6 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+from gyro_calib.config import check_ranges
 from gyro_calib.errors import ConfigError
 from gyro_calib.thermal.intervals import IntervalSettings
 from gyro_calib.thermal.terms import NAMED_SETS, candidate_terms
@@ -183,10 +184,7 @@ class ThermalSettings:
              'positive and finite'),
             ('refit_every_s', self.refit_every_s >= 0, 'non-negative'),
         ]
-        for name, ok, expected in checks:
-            if not ok:
-                raise ConfigError(f'{name} = {getattr(self, name)!r} is invalid: it must be '
-                                  f'{expected}.')
+        check_ranges(self, checks)  # one range check for every setting
         if self.candidate_terms.strip() not in NAMED_SETS:
             candidate_terms(self.candidate_terms)  # raises ConfigError naming a bad term
         terms = candidate_terms(self.candidate_terms, max_h_power=self.max_h_power)
