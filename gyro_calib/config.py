@@ -177,8 +177,13 @@ def given(value: Any) -> bool:
         isinstance(value, float) and math.isnan(value))
 
 
-NODE_ONLY_PARAMETERS = ('config_file', 'output_file', 'process_period_s', 'fit_after_idle_s')
-"""Node parameters a shared config file may hold that the offline front door does not use."""
+NODE_ONLY_PARAMETERS = ('config_file', 'output_file', 'process_period_s', 'fit_after_idle_s',
+                        'state_dir', 'keep_state', 'topic', 'calibration_file', 'kalibr_file',
+                        'plot_file', 'best_effort', 'results_period_s',
+                        'use_sim_time', 'start_type_description_service')
+"""Node parameters a shared config file may hold that the offline front door does not use
+(``gyro-calib`` has its own flags for the input topic, the calibration file and the outputs;
+rclpy's own parameters, as ``ros2 param dump`` writes them, too)."""
 
 
 def read_method_file(path: str | Path, *, node_name: str,
@@ -198,7 +203,8 @@ def read_method_file(path: str | Path, *, node_name: str,
     names = set(fields)
     bench = {k: v for k, v in values.items() if k in BENCH_SETTINGS}
     settings = {k: v for k, v in values.items()
-                if k in names or (k not in BENCH_SETTINGS and k not in NODE_ONLY_PARAMETERS)}
+                if k in names or (k not in BENCH_SETTINGS and k not in NODE_ONLY_PARAMETERS
+                                  and not k.startswith('qos_overrides'))}
     return settings, bench
 
 

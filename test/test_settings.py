@@ -220,3 +220,48 @@ def test_every_methods_settings_are_range_checked_by_the_same_code(
     with pytest.raises(ConfigError) as err:
         METHODS[method].settings_class()(**{field: value})
     assert message in str(err.value)
+
+
+NODES = {'rbrlg': ('gyro_calib.nodes.calibration_node', 'CalibrationNode'),
+         'fog': ('gyro_calib.nodes.fog_calibration_node', 'FogCalibrationNode'),
+         'thermal': ('gyro_calib.nodes.thermal_calibration_node', 'ThermalCalibrationNode'),
+         'noise': ('gyro_calib.nodes.noise_node', 'NoiseNode')}
+NEEDS = {'thermal': {'scale_factor_rad_per_pulse': 1.1150714665519326e-05,
+                     'latitude_deg': 34.26},
+         'noise': {'scale_factor_rad_per_pulse': 4.0860157e-06}}
+
+
+def _declared_parameters(method: str) -> dict[str, Any]:
+    """Every parameter the method's node declares, with its value (no output file)."""
+    import importlib
+
+    import rclpy
+
+    from gyro_calib.nodes.processes import ros_args
+
+    module, cls = NODES[method]
+    rclpy.init(args=ros_args({'output_file': '', **NEEDS.get(method, {})}))
+    try:
+        node = getattr(importlib.import_module(module), cls)()
+        try:
+            return {k: p.value for k, p in node._parameters.items()}  # as ros2 param dump
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
+
+
+@pytest.mark.parametrize('method', sorted(NODES))
+def test_a_nodes_own_parameter_file_is_a_valid_config(method: str, tmp_path: Path) -> None:
+    """Issue 17 item 10: one parameter schema — every parameter a node declares (as written by
+    ``ros2 param dump``) is accepted by ``--config`` / ``config_file``."""
+    declared = _declared_parameters(method)
+    assert 'latitude_deg' in declared or method in ('noise',)
+    config = tmp_path / 'params.yaml'
+    values = {k: v for k, v in declared.items()
+              if not (isinstance(v, float) and math.isnan(v))}  # NaN: not given
+    config.write_text(yaml.safe_dump({METHODS[method].node: {'ros__parameters': values}}))
+    options = CalibrationOptions(config_file=config, topic='/gyro/pulses' if method == 'noise'
+                                 else None)
+    session = METHODS[method].make_session(options)  # no "unknown field"
+    assert session.name == method

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from gyro_calib import topics
 from gyro_calib.config import read_method_file
+from gyro_calib.errors import ConfigError
 from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults, handoff_values
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
 from gyro_calib.rbrlg.keys import METHOD
@@ -32,6 +33,8 @@ TOPICS = {topics.GYRO_PULSES: 'sensor_msgs/msg/JointState',
           topics.POSITION_TABLE_ZERO_INDEX: 'std_msgs/msg/Header'}
 
 NODE_NAME = 'calibration_node'
+MOUNT_SETTINGS = ('nominal_tilt_deg', 'tilt_tolerance_deg')
+"""calibration_node parameters of the mount that are no K̃ window setting (RbrlgCalibrator)."""
 
 DEG_H = math.radians(1.0) / 3600.0
 """rad/s per °/h."""
@@ -41,15 +44,26 @@ def rbrlg_calibrator(options: CalibrationOptions) -> RbrlgCalibrator:
     """The calibrator with the user's settings: flags first, then the bench settings stored in
     the bag, then the defaults."""
     k_config = KTildeConfig()
+    mount: dict[str, float] = {}
     if options.config_file is not None:
         values, _ = read_method_file(options.config_file, node_name=NODE_NAME,
-                                     fields=[f.name for f in dataclasses.fields(KTildeConfig)])
+                                     fields=[*(f.name for f in dataclasses.fields(KTildeConfig)),
+                                             *MOUNT_SETTINGS])
+        for name in MOUNT_SETTINGS:
+            if name in values:
+                value = values.pop(name)
+                if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                        or not 0 <= value <= 90:
+                    raise ConfigError(f'{name} = {value!r} ° (config file '
+                                      f'{options.config_file}) is invalid: it must be a number '
+                                      'between 0 and 90 °.')
+                mount[name] = float(value)
         k_config = k_tilde_config_from_mapping(values, source=str(options.config_file))
     return RbrlgCalibrator(
         k_config=k_config,
         position_table_revolutions=int(options.setting('position_table_revolutions', 1)),
         latitude_deg=options.latitude,
-        heading_deg=float(options.setting('heading_deg', 0.0)))
+        heading_deg=float(options.setting('heading_deg', 0.0)), **mount)
 
 
 class RbrlgSession(MethodSession):
