@@ -372,6 +372,12 @@ def _merge_method(method: str, prov: Provenance, new_values: Mapping[str, Any],
     for i, run in enumerate(old_runs):
         for key in _run_keys(run, method, older.values, schema):
             old_owner.setdefault(key, i)
+    for key, i in list(old_owner.items()):  # a live run rewriting itself: its latest word
+        if old_runs[i].same_run(prov) and key not in new_keys:
+            lines.append(f'withdrawn: {key} {SAME_RUN}')
+            values.pop(key, None)
+            values.pop(key + '_std', None)
+            del old_owner[key]
     groups: dict[str, list[str]] = {}
     for key in sorted(new_keys | set(old_owner)):
         groups.setdefault(_lead(key, schema), []).append(key)

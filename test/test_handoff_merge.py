@@ -4,6 +4,7 @@ inconsistent is refused, the gyro id binds, and the file says what each number i
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +20,7 @@ from gyro_calib.handoff import (
     HandoffError,
     Provenance,
     load_calibration,
+    merge_lines,
     method_calibration,
     update_calibration,
 )
@@ -224,3 +226,22 @@ def test_format_2_files_still_load_and_are_rewritten_as_format_3(tmp_path: Path)
     assert again['format_version'] == 3 and again['gyro_id'] == 'A-1'
     assert again['methods']['rbrlg']['earlier_runs'][0]['source'] == 'old'
     assert 'kept: k_tilde_rad_per_pulse' in report[1]
+
+
+def test_a_live_run_withdrawing_an_interim_value_removes_it(tmp_path: Path) -> None:
+    """A node rewrites its file as its results evolve: a term it measured on the way and no
+    longer resolves at the end is not kept from its own interim write (the file equals the
+    offline calibration of the same data)."""
+    prov = Provenance('live', 100, 200)
+    interim = method_calibration('noise', {
+        'angle_random_walk_rad_per_sqrt_s': 2.9e-7, 'angle_random_walk_rad_per_sqrt_s_std': 1e-8,
+        'bias_instability_rad_s': 5.7e-5, 'bias_instability_rad_s_std': 1.3e-5}, prov)
+    final = method_calibration('noise', {
+        'angle_random_walk_rad_per_sqrt_s': 2.8e-7,
+        'angle_random_walk_rad_per_sqrt_s_std': 9e-9},
+        dataclasses.replace(prov, data_end_stamp_ns=300))
+    path = update_calibration(tmp_path / 'h.yaml', interim)
+    report: list[str] = []
+    update_calibration(path, final, report=report)
+    assert set(load_calibration(path).values) == set(final.values)
+    assert merge_lines(report) == []  # nothing a node needs to say about its own run
