@@ -13,7 +13,7 @@ Run (from the repository root, in the project's venv):
     points), once for the ADEV alone and once with MDEV, HDEV and TOTDEV too. Figures:
     time in the calibrator (generation excluded), samples/s, and the child's peak RSS
     (its own ``ru_maxrss`` through ``wait4``; target < 500 MB). Also for ``--n-large``
-    (10⁹) unless ``--skip-large``.
+    (10⁹, ADEV only; all four with ``--large-all``) unless ``--skip-large``, last.
 
 (b) allantools. The same samples in one array, then ``allantools.oadev`` (which must hold
     them all; not run at 10⁹: 8 GB for the phase alone, more for its temporaries) at the
@@ -207,6 +207,8 @@ def main() -> None:
     parser.add_argument('--seed', type=int, default=1)
     parser.add_argument('--skip-allantools', action='store_true')
     parser.add_argument('--skip-large', action='store_true')
+    parser.add_argument('--large-all', action='store_true',
+                        help='at 10⁹ also MDEV, HDEV, TOTDEV (about 4× the time)')
     parser.add_argument('--mc-trials', type=int, default=400)
     parser.add_argument('--child', choices=['ours', 'allantools'])
     parser.add_argument('--deviations', default='adev')
@@ -229,10 +231,6 @@ def main() -> None:
         adev_info, adev_out = _ours(n, args.seed, 'adev', tmp, 'ADEV only')
         all_info, _ = _ours(n, args.seed, 'adev, mdev, hdev, totdev', tmp,
                             'ADEV + MDEV + HDEV + TOTDEV')
-        if not (args.quick or args.skip_large):
-            _ours(args.n_large, args.seed, 'adev', tmp, 'ADEV only')
-            _ours(args.n_large, args.seed, 'adev, mdev, hdev, totdev', tmp,
-                  'ADEV + MDEV + HDEV + TOTDEV')
         if not args.skip_allantools:
             ours = np.load(adev_out)
             out = str(Path(tmp) / 'at.npz')
@@ -251,7 +249,13 @@ def main() -> None:
                   f'with MDEV, HDEV, TOTDEV too: {f_s:.1f} s = {f_s / info["oadev_s"]:.3f}')
             print(f'  largest |ours/allantools − 1| = {dev:.2e} over {int(common.sum())} τ '
                   f'(τ ≤ T/4, clusters down to 4)')
-    part_c(4096, 200 if args.quick else args.mc_trials)
+        part_c(4096, 200 if args.quick else args.mc_trials)
+        if not (args.quick or args.skip_large):
+            print(f'\n(d) {args.n_large:.0e} samples (allantools cannot hold them here)')
+            _ours(args.n_large, args.seed, 'adev', tmp, 'ADEV only')
+            if args.large_all:
+                _ours(args.n_large, args.seed, 'adev, mdev, hdev, totdev', tmp,
+                      'ADEV + MDEV + HDEV + TOTDEV')
 
 
 if __name__ == '__main__':

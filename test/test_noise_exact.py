@@ -146,3 +146,25 @@ def test_taus_setting_accepts_a_list_and_refuses_nonsense() -> None:
         NoiseSettings(taus='weekly')
     with pytest.raises(ConfigError, match='deviations'):
         NoiseSettings(deviations='adev, xdev')
+
+
+def test_a_snapshot_copy_shares_the_scratch_file_without_disturbing_the_stream() -> None:
+    """The live node's refresh deep-copies the calibrator and flushes the copy: the copy
+    must read the original's file, and its own new points must not reach that file."""
+    import copy
+
+    x = _record(50_000, 6)
+    grid = TauGrid('octave', 1.0)
+    ref = ExactDeviations(grid.factors_up_to, 0.25, memory_points=4096, block=1024)
+    ref.push(x)
+    live = ExactDeviations(grid.factors_up_to, 0.25, memory_points=4096, block=1024)
+    live.push(x[:30_000])
+    snap = copy.deepcopy(live)
+    snap.push(x[30_000:31_000])  # the snapshot's flush
+    snap_sums = snap.sums()
+    del snap  # closes its own descriptor only
+    live.push(x[30_000:])
+    assert np.array_equal(live.sums().adev_sum, ref.sums().adev_sum)
+    short = ExactDeviations(grid.factors_up_to, 0.25, memory_points=4096, block=1024)
+    short.push(x[:31_000])
+    assert np.array_equal(snap_sums.totdev_sum, short.sums().totdev_sum)

@@ -72,10 +72,24 @@ class ScratchPhase:
         self._len = 0  # points in _buf
         self._n = 0
         self._file: int | None = None
+        self._frozen = False  # a snapshot's copy: the file is read-only, new points stay
 
     def __len__(self) -> int:
         """Points pushed so far."""
         return self._n
+
+    def __deepcopy__(self, memo: dict[int, object]) -> ScratchPhase:
+        """A copy that shares the scratch file read-only (a duplicated descriptor, reads by
+        offset) and keeps the points pushed to it afterwards in memory: snapshots of a live
+        stream (copy, flush, fit) cost no copy of the file and leave it untouched."""
+        new = ScratchPhase.__new__(ScratchPhase)
+        new.memory_points, new.window, new.directory = (self.memory_points, self.window,
+                                                        self.directory)
+        new._buf = self._buf.copy()
+        new._start, new._len, new._n = self._start, self._len, self._n
+        new._file = os.dup(self._file) if self._file is not None else None
+        new._frozen = self._file is not None
+        return new
 
     @property
     def spilled(self) -> bool:
@@ -86,6 +100,9 @@ class ScratchPhase:
         """Append points (in order)."""
         x = np.ascontiguousarray(x, dtype=np.float64)
         if not len(x):
+            return
+        if self._frozen:  # a snapshot: keep every new point in memory, write nothing
+            self._append_in_memory(x)
             return
         if self._file is None and self._n + len(x) > self.memory_points:
             fd, name = tempfile.mkstemp(prefix='gyro_calib_phase_', suffix='.f64',
@@ -114,6 +131,16 @@ class ScratchPhase:
                 self._len = keep
         self._buf[self._len:self._len + len(x)] = x
         self._len += len(x)
+        self._n += len(x)
+
+    def _append_in_memory(self, x: FloatArray) -> None:
+        need = self._len + len(x)
+        if need > len(self._buf):
+            grow = np.empty(max(need, 2 * len(self._buf)))
+            grow[:self._len] = self._buf[:self._len]
+            self._buf = grow
+        self._buf[self._len:need] = x
+        self._len = need
         self._n += len(x)
 
     def _write(self, x: FloatArray) -> None:
