@@ -245,3 +245,45 @@ def test_a_live_run_withdrawing_an_interim_value_removes_it(tmp_path: Path) -> N
     update_calibration(path, final, report=report)
     assert set(load_calibration(path).values) == set(final.values)
     assert merge_lines(report) == []  # nothing a node needs to say about its own run
+
+
+def test_a_live_thermal_node_reports_a_bench_conflict_and_writes_the_published_gyro_id(
+        tmp_path: Path) -> None:
+    """Issue 17 items 4 and 7: the README's thermal example ran the node with latitude_deg:=45
+    against paper_soak's bench at 34.26° without a word, and the live node wrote gyro_id: ''
+    while the simulator published A-1. The node (built in-process) gets the /sim/scenario
+    message a chamber simulator publishes, then that bench's committed chamber run."""
+    import rclpy
+    from std_msgs.msg import String
+
+    from gyro_calib.bag import iter_sample_batches
+    from gyro_calib.nodes.processes import ros_args
+    from gyro_calib.nodes.thermal_calibration_node import ThermalCalibrationNode
+
+    bag = BAGS / 'thermal_validation'  # A-1's shorter run
+    scenario = bag_info(bag).scenario
+    bench = scenario['bench']
+    out = tmp_path / 'A-1.yaml'
+    rclpy.init(args=ros_args({'output_file': str(out), 'latitude_deg': 45.0,
+                              'scale_factor_rad_per_pulse': bench['scale_factor_rad_per_pulse'],
+                              'state_dir': str(tmp_path / 'state')}))
+    try:
+        node = ThermalCalibrationNode()
+        try:
+            node.scenario._on_message(String(data=yaml.safe_dump(scenario)))
+            assert node.gyro_id == 'A-1'
+            assert any(line.startswith('latitude_deg: parameter latitude_deg gives 45.0 ° but '
+                                       'the bench settings stored in /sim/scenario')
+                       and '34.26 °' in line for line in node.scenario.told)
+            assert not any('scale_factor' in line for line in node.scenario.told)  # same K
+            for batch in iter_sample_batches(bag, node.session.topics()):
+                node.session.feed(batch)
+            node.session.process(flush=True)
+            node._write_handoff()
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
+    written = load_calibration(out)
+    assert written.gyro_id == 'A-1'
+    assert written.get('thermal_model')['thermal_gyro_id'] == 'A-1'  # the model names it too
