@@ -299,8 +299,10 @@ def unsettled_first_halves(plateaus: list[PlateauMeasurement]) -> str | None:
     the previous level (a first-order approach with time constant τ leaves (J_prev − J)·τ/T
     in the mean over T), and with a ladder that alternates in sign it biases the slope. Over
     all plateaus in time order, the rate difference between the second and the first half
-    d_i is regressed on the injection step ΔJ_i = J_i − J_(i−1) (no intercept, weights
-    1/var d_i): a settled loop gives a slope β consistent with 0; β > SETTLING_SIGMA·σ_β
+    d_i is regressed on the injection step ΔJ_i = J_i − J_(i−1) (no intercept, unweighted,
+    σ_β from the scatter about the line: each plateau's own variance rests on a few blocks
+    and grows with its transient, so weights 1/var d_i would hide exactly the plateaus that
+    show it): a settled loop gives a slope β consistent with 0; β > SETTLING_SIGMA·σ_β
     means it was not, and the plateaus are then measured over their second halves only
     (unbiased as long as the transient has died out within the first half).
     """
@@ -313,12 +315,16 @@ def unsettled_first_halves(plateaus: list[PlateauMeasurement]) -> str | None:
     step = np.array([b.injection_counts_s - a.injection_counts_s
                      for a, b in zip(timed, timed[1:])])
     diff = np.array([p.drift_counts_s / 2.0 for p in timed[1:]])
-    w = 1.0 / np.array([p.half_difference_variance_counts2_s2 for p in timed[1:]])
-    info = float(np.sum(w * step**2))
+    info = float(np.sum(step**2))
     if info <= 0:
         return None
-    beta = float(np.sum(w * diff * step)) / info
-    z = beta * math.sqrt(info)
+    # unweighted, σ from the scatter about the line: a plateau's own variance comes from a
+    # few blocks and grows with its transient, so weighting by it hides the transients
+    beta = float(np.sum(diff * step)) / info
+    scatter = float(np.sum((diff - beta * step) ** 2)) / (len(step) - 1)
+    if scatter <= 0:
+        return None
+    z = beta / math.sqrt(scatter / info)
     if z <= SETTLING_SIGMA:
         return None
     return (f'{SETTLING_NOTE} (their second halves exceed their first by {beta:.3g} × the '
