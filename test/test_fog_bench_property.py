@@ -114,7 +114,7 @@ def benches(draw: st.DrawFn) -> tuple[FogBench, bool]:
 
 # -- truth: the estimator's documented fits on the noise-free bench ---------------------------
 def _ols(design: FloatArray, y: FloatArray) -> FloatArray:
-    return np.linalg.lstsq(design, y, rcond=None)[0]
+    return np.asarray(np.linalg.lstsq(design, y, rcond=None)[0], dtype=np.float64)
 
 
 def _line(x: FloatArray) -> FloatArray:
@@ -155,8 +155,8 @@ def turntable_truth(bench: FogBench, rec: Recording, fit: TurntableFit,
 
 def mapping_truth(bench: FogBench, rec: Recording, cal: FogCalibrator,
                   fit: MappingFit) -> float:
-    segs = [s for s in cal.fits().turntable.segments] if isinstance(
-        cal.fits().turntable, TurntableFit) else []
+    turntable = cal.fits().turntable
+    segs = list(turntable.segments) if isinstance(turntable, TurntableFit) else []
     used = [segs[i] for i in fit.segments]
     w = np.array([_true_rate(rec, s.start_ns, s.end_ns) for s in used])
     t = np.array([s.duration_s for s in used])

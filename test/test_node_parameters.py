@@ -48,12 +48,12 @@ def _node_factory(name: str) -> Callable[[], Node]:
     users = [m for m in list(sys.modules.values())
              if getattr(m, 'run_node', None) is ros_io.run_node]
     for m in users:
-        m.run_node = lambda _name, make, *_a, **_k: captured.update(make=make)
+        setattr(m, 'run_node', lambda _name, make, *_a, **_k: captured.update(make=make))
     try:
         module.main([])
     finally:
         for m in users:
-            m.run_node = ros_io.run_node
+            setattr(m, 'run_node', ros_io.run_node)
     return captured['make']
 
 

@@ -154,7 +154,7 @@ def number_list_parameter(node: Node, name: str, default: tuple[float, ...] | li
     Raises:
         ConfigError: naming the parameter when it is not a list of numbers.
     """
-    value = node.declare_parameter(name, list(default), ParameterDescriptor(
+    value: Any = node.declare_parameter(name, list(default), ParameterDescriptor(
         description=description, dynamic_typing=True)).value
     if value is None:  # '-p name:=[]' arrives as NOT_SET
         return []
