@@ -22,7 +22,6 @@ uncertainty (ρ ≥ 1 at small θ_d: said so, not counted).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import math
 import time
 
