@@ -283,3 +283,24 @@ def test_plots_are_written_for_a_calibrator_and_for_bare_results(
     assert all(p.stat().st_size > 10_000 for p in paths)
     only = plot_dither(cal.results(), tmp_path / 'results')
     assert [p.name for p in only] == ['dither_coning.png']
+
+
+def test_issue_16_bench_reports_a_with_a_weak_y_component_and_rejects() -> None:
+    """The issue's bench, shortened: a = 53′ with the Y component small (ψ₀ = 100°), table
+    6.2 rad/s at 8.7 Hz, the paper's rocking. Y cannot be told from zero; it is still
+    reported with its interval, a and the coning drift are formed, the verdict rejects."""
+    gyro = DitheredGyroConfig(misalignment_arcmin=53.0, ia_azimuth_deg=100.0, seed=16)
+    table = VibrationTableConfig(rate_amplitude_rad_s=6.2, frequency_hz=8.7)
+    pair = simulate_dither_pair(gyro, table, DitherBenchConfig(duration_s=60.0))
+    cal = calibrate_dither(pair['z'], pair['y'],
+                           settings=DitherSettings(scale_factor_rad_per_pulse=K))
+    res, parts, summary = cal.results(), cal.result_parts(), cal.summary()
+    assert {KEY_Z, KEY_Y, KEY_A, KEY_CONING} <= set(res)  # nothing measured is withheld
+    y = summary.components['y']
+    assert not y.significant and 'cannot be told from zero' in summary.unresolved['y']
+    low, high = parts[KEY_Y]['interval']
+    assert low <= 53.0 * ARCMIN * abs(math.cos(math.radians(100.0))) <= high
+    assert summary.verdict is not None and summary.verdict.state == 'reject'
+    low_a, high_a = parts[KEY_A]['interval']
+    assert 5 * ARCMIN < low_a <= 53.0 * ARCMIN <= high_a
+    assert cal.missing() == {}
