@@ -47,7 +47,8 @@ class DitherSettings:
     """A block whose count deviates from the fitted lines by more (rms) is rejected, pulses
     (quantisation alone gives 0.29)."""
     min_blocks: int = 5
-    """Blocks an orientation needs before its component is reported."""
+    """Blocks below which a component's note says its block-scatter check is weak (the
+    component is reported all the same, with its interval)."""
     angle_random_walk_deg_sqrt_h: float = 0.0
     """N of the gyro for the predicted floor, °/√h (0 = quantisation only; RLG ARW adds
     ~1e-5 of the variance)."""
@@ -56,8 +57,9 @@ class DitherSettings:
     verdict_coverage_factor: float = 2.0
     """k: a verdict needs |a − limit| ≥ k·u(a)."""
     rocking_treatment: str = 'bound'
-    """Transverse rocking in phase with the dither shifts each component (METHODS §C):
-    ``'bound'`` adds its bound k·a/θ_d per component as a rectangular Type B uncertainty;
+    """Transverse rocking in phase with the dither shifts each component by θ_r/θ_d (docs/
+    methods.md §C.5): ``'bound'`` carries the allowance as an interval on a,
+    a ∈ [(â − kσ)/(1 + ρ), (â + kσ)/(1 − ρ)], ρ = √2·k/θ_d (needs K; unbounded without it);
     ``'model'`` subtracts the in-phase rocking given below; ``'none'`` ignores it."""
     rocking_model: str = 'proportional'
     """Rocking amplitude model for the bound and for coning: ``'proportional'``
