@@ -15,7 +15,7 @@ noise-free equivalence mapping); the angle random walk and the small-signal K ar
 generator's own parameters. Each example: every result lies within 4.5 standard
 uncertainties of its truth, every missing result has a named reason, the summary prints no
 'nan', and nothing raises. Over the examples, ±1σ and ±2σ must cover the truth about as
-often as they should: pooled, ≥ 45 % and ≥ 80 % over the CI's dozen examples (the results of
+often as they should: pooled, ≥ 45 % and ≥ 80 % over the CI's 25 examples (the results of
 one example share its noise); ``GYRO_CALIB_STRESS=1`` runs 200 examples and requires ±1σ to
 cover ≥ 60 % pooled and ±2σ ≥ 85 % of each result with 20 or more values (the ARW is an
 interval with a rectangular σ: its ±1σ alone covers about 40 %).
@@ -53,7 +53,7 @@ from gyro_calib.fog.self_cal import SelfCalFit
 from gyro_calib.fog.turntable import MappingFit, TurntableFit
 
 STRESS = os.environ.get('GYRO_CALIB_STRESS') == '1'
-MAX_EXAMPLES = 200 if STRESS else 12
+MAX_EXAMPLES = 200 if STRESS else 25
 MAX_OUTPUT_SAMPLES = 400_000
 """Output samples per bench (bounds the test's time)."""
 Z_LIMIT = 4.5
