@@ -144,8 +144,8 @@ class StateRecord:
             if held.get(key, value) != value:
                 raise StateRecordError(
                     f'state directory {self.directory} holds the record of {key} '
-                    f'{held[key]!r}, not {value!r}: give this run its own state_dir, or call '
-                    '~/reset (or remove the directory) to start over.')
+                    f'{held[key]!r}, not {value!r}: give this run its own state_dir, or '
+                    'remove the directory to start over.')
         for i, entry in enumerate(doc.get('topics') or []):
             layout = _TopicLayout(str(entry['topic']), str(entry['msgtype']),
                                   tuple((str(n), int(w)) for n, w in entry['columns']))

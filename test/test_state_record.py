@@ -163,3 +163,35 @@ def test_a_cut_frame_name_drops_the_samples_that_use_it(tmp_path: Path) -> None:
     again = StateRecord(tmp_path, {'method': 'fog'})
     assert list(again.replay()) == []
     assert again.summary().dropped_bytes > 0
+
+
+def test_a_node_moves_a_record_of_other_parameters_aside_and_starts_anew(
+        tmp_path: Path) -> None:
+    from gyro_calib.nodes.node_state import NodeState
+
+    class _Logger:
+        def __init__(self) -> None:
+            self.lines: list[str] = []
+
+        def info(self, line: str) -> None:
+            self.lines.append(line)
+
+        warning = info
+
+    class _Node:
+        logger = _Logger()
+
+        def get_logger(self) -> _Logger:
+            return self.logger
+
+    directory = tmp_path / 'gyro.yaml.state'
+    record = NodeState(_Node(), 'rbrlg', '', directory, False, {'min_pairs': 2}).record
+    assert record is not None
+    record.append(_small_batches('fog', BAGS / CASES['fog'], 50)[0])
+    again = NodeState(_Node(), 'rbrlg', '', directory, False, {'min_pairs': 3}).record
+    assert again is not None and again.summary().messages == 0
+    aside = [p for p in tmp_path.iterdir() if p.name.startswith('gyro.yaml.state.superseded-')]
+    assert len(aside) == 1
+    assert StateRecord(aside[0], {}).summary().messages > 0  # nothing of it lost
+    assert any("parameter min_pairs '2', not '3'" in line and 'moved to' in line
+               for line in _Node.logger.lines)

@@ -9,12 +9,13 @@ once the calibration is complete (unless ``keep_state``).
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from gyro_calib.bag import SampleBatch
-from gyro_calib.state_record import StateRecord
+from gyro_calib.state_record import StateRecord, StateRecordError
 from gyro_calib.units import format_stamp
 
 if TYPE_CHECKING:
@@ -72,11 +73,25 @@ class NodeState:
         identity = {'method': method, 'gyro_id': gyro_id}
         identity.update({f'parameter {k}': repr(v) for k, v in sorted(
             (parameters or {}).items()) if k not in NOT_IDENTITY})
-        self.record = None if directory is None else StateRecord(directory, identity)
+        self.record = None if directory is None else self._open(directory, identity)
         self._resumed = False
         if self.record is not None:
             node.get_logger().info(f'state directory: {directory} (the data consumed are '
                                    'recorded there and replayed after a crash)')
+
+    def _open(self, directory: Path, identity: dict[str, str]) -> StateRecord:
+        """The record in ``directory``; one of another gyro, method or parameter set is
+        moved aside (never deleted, never mixed in) and a new one started, with a warning."""
+        try:
+            return StateRecord(directory, identity)
+        except StateRecordError as exc:
+            stamp = time.strftime('%Y%m%dT%H%M%S', time.gmtime())
+            aside = directory.with_name(f'{directory.name}.superseded-{stamp}')
+            directory.rename(aside)
+            self.node.get_logger().warning(
+                f'{" ".join(str(exc).split())} It was moved to {aside} (nothing of it is '
+                'used); this run starts a new record.')
+            return StateRecord(directory, identity)
 
     def resume_once(self, feed: Callable[[SampleBatch], None],
                     process: Callable[[], list[str]]) -> None:
