@@ -13,10 +13,12 @@ import math
 from pathlib import Path
 from typing import Any
 
+import jsonschema
 import numpy as np
 import pytest
 import yaml
 
+import gyro_calib
 from gyro_calib import topics
 from gyro_calib.bag import ContractMessages, iter_sample_batches
 from gyro_calib.bag_calibration import calibrate_bags
@@ -130,6 +132,9 @@ def test_json_document_has_results_components_floor_and_verdict(
             assert set(value) == {'value', 'std', 'n'}
     verdict = dither['verdict']
     assert verdict['state'] == 'reject' and verdict['lower_rad'] > verdict['limit_rad']
+    schema = json.loads((Path(gyro_calib.__file__).parent / 'schema' / 'result.schema.json')
+                        .read_text(encoding='utf-8'))
+    jsonschema.validate(pair_run['doc'], schema)  # the parts are in the shipped schema
     for comp in dither['components'].values():
         assert comp['reported'] is True and comp['floor_rad'] > 0
     assert dither['misalignment']['floor_rad'] > 0
