@@ -30,6 +30,8 @@ from __future__ import annotations
 
 import os
 import tempfile
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable
 
@@ -48,6 +50,33 @@ DOT_PIECE = 8192
 which on a loaded machine costs ~50× (measured: 45 ns/element at 65 536 vs 0.9 at 8192)."""
 DEVIATIONS = ('adev', 'mdev', 'hdev', 'totdev')
 """The statistics :class:`ExactDeviations` can compute."""
+THREADS = min(2, os.cpu_count() or 1)
+"""Averaging factors summed in parallel (NumPy releases the GIL in its loops; each factor's
+sums stay in one thread, in block order, so they are the same however many threads)."""
+
+_POOL: ThreadPoolExecutor | None = None
+_BUFFERS: dict[tuple[int, int], tuple[FloatArray, FloatArray]] = {}
+_LOCK = threading.Lock()
+
+
+def _pool() -> ThreadPoolExecutor:
+    global _POOL
+    with _LOCK:
+        if _POOL is None:
+            _POOL = ThreadPoolExecutor(THREADS, thread_name_prefix='gyro_calib_allan')
+        return _POOL
+
+
+def _buffers(block: int) -> tuple[FloatArray, FloatArray]:
+    """Work and read buffers of this thread for ``block`` (reused: fresh large temporaries
+    cost page faults)."""
+    key = (threading.get_ident(), block)
+    bufs = _BUFFERS.get(key)
+    if bufs is None:
+        bufs = (np.empty((3, block)), np.empty((4, 3 * block)))
+        with _LOCK:
+            _BUFFERS[key] = bufs
+    return bufs
 
 
 def _sumsq(u: FloatArray) -> float:
@@ -244,8 +273,6 @@ class ExactDeviations:
         self.phase = ScratchPhase(memory_points, 4 * block, scratch_dir)
         self._factors: dict[int, _Factor] = {}
         self._processed_to = 0
-        self._work = np.empty((3, block))  # reused: fresh large temporaries cost page faults
-        self._reads = np.empty((4, 3 * block))
 
     @property
     def n_samples(self) -> int:
@@ -254,7 +281,7 @@ class ExactDeviations:
 
     def nbytes(self) -> int:
         """Bytes of sample storage in memory (bounded once the scratch file is in use)."""
-        return self.phase.nbytes() + int(self._work.nbytes + self._reads.nbytes)
+        return self.phase.nbytes() + (THREADS + 1) * 15 * 8 * self.block  # + work buffers
 
     def close(self) -> None:
         """Free the scratch file (the sums already computed stay valid in copies)."""
@@ -281,40 +308,50 @@ class ExactDeviations:
 
     def _advance(self) -> None:
         n = len(self.phase)
-        b = self.block
-        for f in self._active():
-            while f.adev_done + b + 2 * f.m <= n:
-                f.adev_sum += self._adev(f.m, f.adev_done, f.adev_done + b)
-                f.adev_done += b
-            if self._third and 3 * f.m < n:
-                if not f.mdev_started:
-                    f.mdev_carry = self._first_cluster(f.m)
-                    f.mdev_sum = f.mdev_carry * f.mdev_carry
-                    f.mdev_started = True
-                while f.third_done + b + 3 * f.m <= n:
-                    h, s, c = self._third_block(f.m, f.third_done, f.third_done + b,
-                                                f.mdev_carry)
-                    f.hdev_sum += h
-                    f.mdev_sum += s
-                    f.mdev_carry = c
-                    f.third_done += b
+        facs = self._active()
+        if THREADS > 1 and len(facs) > 1:
+            list(_pool().map(lambda f: self._advance_factor(f, n), facs))
+        else:
+            for f in facs:
+                self._advance_factor(f, n)
         self._processed_to = n
+
+    def _advance_factor(self, f: _Factor, n: int) -> None:
+        """Commit every complete block of one factor (one thread per factor)."""
+        b = self.block
+        while f.adev_done + b + 2 * f.m <= n:
+            f.adev_sum += self._adev(f.m, f.adev_done, f.adev_done + b)
+            f.adev_done += b
+        if self._third and 3 * f.m < n:
+            if not f.mdev_started:
+                f.mdev_carry = self._first_cluster(f.m)
+                f.mdev_sum = f.mdev_carry * f.mdev_carry
+                f.mdev_started = True
+            while f.third_done + b + 3 * f.m <= n:
+                h, s, c = self._third_block(f.m, f.third_done, f.third_done + b,
+                                            f.mdev_carry)
+                f.hdev_sum += h
+                f.mdev_sum += s
+                f.mdev_carry = c
+                f.third_done += b
 
     def _slices(self, m: int, lo: int, hi: int, k: int) -> list[FloatArray]:
         """x[lo + q·m : hi + q·m] for q = 0..k (hi − lo ≤ block)."""
+        reads = _buffers(self.block)[1]
         if k * m <= 2 * self.block:
-            x = self.phase.read(lo, hi + k * m, self._reads[0])
+            x = self.phase.read(lo, hi + k * m, reads[0])
             return [x[q * m:q * m + hi - lo] for q in range(k + 1)]
-        return [self.phase.read(lo + q * m, hi + q * m, self._reads[q]) for q in range(k + 1)]
+        return [self.phase.read(lo + q * m, hi + q * m, reads[q]) for q in range(k + 1)]
 
     def _adev(self, m: int, lo: int, hi: int) -> float:
         """Σ_{lo ≤ i < hi} u_i², u_i = (x_{i+2m} − x_{i+m}) − (x_{i+m} − x_i)."""
         total = 0.0
+        work = _buffers(self.block)[0]
         for a in range(lo, hi, self.block):
             e = min(a + self.block, hi)
             x0, x1, x2 = self._slices(m, a, e, 2)
-            u = np.subtract(x2, x1, out=self._work[0, :e - a])
-            u -= np.subtract(x1, x0, out=self._work[1, :e - a])
+            u = np.subtract(x2, x1, out=work[0, :e - a])
+            u -= np.subtract(x1, x0, out=work[1, :e - a])
             total += _sumsq(u)
         return total
 
@@ -330,10 +367,11 @@ class ExactDeviations:
     def _third_block(self, m: int, lo: int, hi: int, carry: float) -> tuple[float, float, float]:
         """ΣT_j², Σv_{j+1}² and the new carry over lo ≤ j < hi (see module docstring)."""
         hsum = msum = 0.0
+        work = _buffers(self.block)[0]
         for a in range(lo, hi, self.block):
             e = min(a + self.block, hi)
             x0, x1, x2, x3 = self._slices(m, a, e, 3)
-            w = self._work[:, :e - a]
+            w = work[:, :e - a]
             t = np.multiply(x2, 3.0, out=w[0])  # x3 − 3x2 + 3x1 − x0, allantools' order
             np.subtract(x3, t, out=t)
             t += np.multiply(x1, 3.0, out=w[1])
@@ -384,21 +422,33 @@ class ExactDeviations:
         k = len(facs)
         out = {name: np.full(k, np.nan) for name in ('a', 'm', 'h', 't')}
         terms = {name: np.zeros(k, dtype=np.int64) for name in ('a', 'm', 'h', 't')}
-        for i, f in enumerate(facs):
+        def partial(f: _Factor) -> tuple[float, float, float, float]:
             m = f.m
             a_sum = f.adev_sum + self._adev(m, f.adev_done, n - 2 * m)
-            out['a'][i] = a_sum
-            terms['a'][i] = n - 2 * m
+            h_sum = m_sum = t_sum = np.nan
             if self._third and 3 * m < n and f.mdev_started:
                 h, s, _ = self._third_block(m, f.third_done, n - 3 * m, f.mdev_carry)
-                if 'hdev' in self.deviations:
-                    out['h'][i] = f.hdev_sum + h
-                    terms['h'][i] = n - 3 * m
-                if 'mdev' in self.deviations:
-                    out['m'][i] = f.mdev_sum + s
-                    terms['m'][i] = n - 3 * m + 1
+                h_sum, m_sum = f.hdev_sum + h, f.mdev_sum + s
             if 'totdev' in self.deviations and m <= n - 2:
-                out['t'][i] = a_sum + self._edges(f)
+                t_sum = a_sum + self._edges(f)
+            return a_sum, m_sum, h_sum, t_sum
+
+        if THREADS > 1 and k > 1:
+            parts = list(_pool().map(partial, facs))
+        else:
+            parts = [partial(f) for f in facs]
+        for i, (f, (a_sum, m_sum, h_sum, t_sum)) in enumerate(zip(facs, parts)):
+            m = f.m
+            out['a'][i] = a_sum
+            terms['a'][i] = n - 2 * m
+            if 'hdev' in self.deviations and np.isfinite(h_sum):
+                out['h'][i] = h_sum
+                terms['h'][i] = n - 3 * m
+            if 'mdev' in self.deviations and np.isfinite(m_sum):
+                out['m'][i] = m_sum
+                terms['m'][i] = n - 3 * m + 1
+            if np.isfinite(t_sum):
+                out['t'][i] = t_sum
                 terms['t'][i] = n - 2
         ms = np.array([f.m for f in facs], dtype=np.int64)
         return DeviationSums(ms, out['a'], terms['a'], out['m'], terms['m'], out['h'],
