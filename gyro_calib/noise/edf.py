@@ -17,7 +17,9 @@ not an approximation). Estimates pooled from several segments (weights n_i, the 
 terms) have EDF = (Σ n_i)² / Σ (n_i²/EDF_i).
 
 Total deviation: NIST SP 1065 §5.3 Table 7, EDF = b·(T/τ) − c with (b, c) = (1.50, 0) white
-FM, (1.17, 0.22) flicker FM, (0.93, 0.36) random-walk FM; white PM uses the Table 5 form.
+FM, (1.17, 0.22) flicker FM, (0.93, 0.36) random-walk FM; white PM uses the Table 5 form; at
+m = 1 (no reflected term: the overlapping Allan estimator) Greenhall's ADEV EDF (Table 7
+claims twice that there, and its ±1σ covered 51 % in ``benchmarks/noise_allan.py`` (c)).
 
 The noise type at each τ is the one whose term dominates the fitted model there (its
 local log-log slope μ = d ln AVAR/d ln τ: μ ≤ −1.5 → α = 2, ≤ −0.5 → 0, ≤ 0.5 → −1,
@@ -80,6 +82,9 @@ def edf_totdev(n_points: npt.ArrayLike, m: npt.ArrayLike, alpha: npt.ArrayLike) 
     c = np.select([a == 0, a == -1, a <= -2], [0.0, 0.22, 0.36], 0.0)
     out = b * (n - 1) / mm - c  # T/τ = (N−1)·τ0 / (m·τ0)
     out = np.where(a >= 1, edf_oadev(n, mm, a), out)
+    one = mm == 1  # no reflected term at m = 1: the estimator is the overlapping ADEV's
+    if np.any(one):
+        out = np.where(one, edf_greenhall(n, np.maximum(mm, 1), a), out)
     return np.maximum(out, MIN_EDF)
 
 
