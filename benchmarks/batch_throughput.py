@@ -80,15 +80,37 @@ def bags(cache: Path, gyros: int, hours: float, distinct: int | None = None) -> 
     return out
 
 
-def _peak_rss_mb() -> float:
+def _peak_rss_mb_and_cpu_s() -> tuple[float, float]:
     import resource
 
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    use = resource.getrusage(resource.RUSAGE_SELF)
+    return use.ru_maxrss / 1024, use.ru_utime + use.ru_stime
 
 
-def run(paths: list[Path], workers: int, pdf: bool) -> tuple[float, list[float], list[str]]:
-    """Calibrate the fleet on a new local cluster; wall s, peak RSS per worker MB, the
-    reasons of the gyros that failed."""
+SPIN = 'import time\nt = time.process_time()\nx = 0\nfor i in range(20_000_000): x += i\n'
+
+
+def cores_available() -> float:
+    """How many cores this machine gives now: CPU-bound loops run alone and two at once; the
+    ratio of their total throughput (2.0 on an idle 2-core machine, ~1 when other jobs take
+    the second core)."""
+    def one() -> float:
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, '-c', SPIN], check=True)
+        return time.perf_counter() - t0
+
+    alone = one()
+    with ThreadPoolExecutor(2) as pool:
+        t0 = time.perf_counter()
+        list(pool.map(lambda _: one(), range(2)))
+        both = time.perf_counter() - t0
+    return 2.0 * alone / both
+
+
+def run(paths: list[Path], workers: int, pdf: bool,
+        ) -> tuple[float, list[tuple[float, float]], list[str]]:
+    """Calibrate the fleet on a new local cluster; wall s, (peak RSS MB, CPU s) per worker,
+    the reasons of the gyros that failed."""
     from dask.distributed import Client, LocalCluster
 
     from gyro_calib.batch.manifest import GyroJob
@@ -97,13 +119,13 @@ def run(paths: list[Path], workers: int, pdf: bool) -> tuple[float, list[float],
     jobs = [GyroJob(f'RLG-{i:03d}', (str(p),)) for i, p in enumerate(paths)]
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                       host='127.0.0.1', dashboard_address='127.0.0.1:0',
-                      silence_logs=logging.ERROR) as cluster, \
+                      silence_logs=logging.CRITICAL) as cluster, \
             Client(cluster) as client, tempfile.TemporaryDirectory() as tmp:
         client.run(lambda: __import__('gyro_calib.bag_calibration'))  # warm imports, both runs
         t0 = time.perf_counter()
         outcome = run_batch(jobs, Path(tmp) / 'out', client=client, force=True, pdf=pdf)
         wall = time.perf_counter() - t0
-        rss = sorted(client.run(_peak_rss_mb).values())
+        rss = sorted(client.run(_peak_rss_mb_and_cpu_s).values())
     return wall, rss, [r['reason'] for r in outcome.records if r.get('status') != 'ok']
 
 
@@ -125,6 +147,8 @@ def main() -> None:
           f'({len({(p / "metadata.yaml").resolve() for p in paths})} distinct bags); '
           f'cores {os.cpu_count()}; '
           f'load average {os.getloadavg()[0]:.1f}; PDF {"on" if args.pdf else "off"}')
+    print(f'cores this machine gives now (CPU-bound loops alone vs two at once): '
+          f'{cores_available():.2f}', flush=True)
     base = None
     for n in args.workers:
         wall, rss, failed = run(paths, n, args.pdf)
@@ -132,7 +156,8 @@ def main() -> None:
         speed = args.gyros * args.hours * 3600.0 / wall
         print(f'{n} worker(s): wall {wall:.1f} s, {wall / args.gyros:.2f} s per gyro, '
               f'{speed:.0f}× real time, speed-up over 1 worker {base / wall:.2f}×, '
-              f'peak RSS per worker {", ".join(f"{r:.0f}" for r in rss)} MB, failed '
+              f'peak RSS per worker {", ".join(f"{r:.0f}" for r, _ in rss)} MB, CPU per worker '
+              f'{", ".join(f"{c:.0f}" for _, c in rss)} s, failed '
               f'{len(failed)}; load average {os.getloadavg()[0]:.1f}', flush=True)
         for why in sorted(set(failed)):
             print(f'  failed: {why}')

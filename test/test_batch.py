@@ -62,7 +62,7 @@ def client() -> Iterator[Any]:
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       host='127.0.0.1', dashboard_address='127.0.0.1:0',
-                      silence_logs=logging.ERROR) as cluster, \
+                      silence_logs=logging.CRITICAL) as cluster, \
             Client(cluster) as c:
         yield c
 

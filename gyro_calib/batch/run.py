@@ -91,7 +91,7 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
     try:
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                                processes=True, host='127.0.0.1', dashboard_address='127.0.0.1:0',
-                               silence_logs=logging.ERROR)
+                               silence_logs=logging.CRITICAL)
     finally:
         if main_thread:
             signal.signal(signal.SIGINT, previous)
