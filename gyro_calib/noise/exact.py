@@ -73,7 +73,7 @@ def _buffers(block: int) -> tuple[FloatArray, FloatArray]:
     key = (threading.get_ident(), block)
     bufs = _BUFFERS.get(key)
     if bufs is None:
-        bufs = (np.empty((3, block)), np.empty((4, 3 * block)))
+        bufs = (np.empty((3, 2 * block)), np.empty((4, 3 * block)))
         with _LOCK:
             _BUFFERS[key] = bufs
     return bufs
@@ -281,7 +281,7 @@ class ExactDeviations:
 
     def nbytes(self) -> int:
         """Bytes of sample storage in memory (bounded once the scratch file is in use)."""
-        return self.phase.nbytes() + (THREADS + 1) * 15 * 8 * self.block  # + work buffers
+        return self.phase.nbytes() + (THREADS + 1) * 18 * 8 * self.block  # + work buffers
 
     def close(self) -> None:
         """Free the scratch file (the sums already computed stay valid in copies)."""
@@ -349,9 +349,14 @@ class ExactDeviations:
         work = _buffers(self.block)[0]
         for a in range(lo, hi, self.block):
             e = min(a + self.block, hi)
-            x0, x1, x2 = self._slices(m, a, e, 2)
-            u = np.subtract(x2, x1, out=work[0, :e - a])
-            u -= np.subtract(x1, x0, out=work[1, :e - a])
+            if m <= self.block:  # D_j = x_{j+m} − x_j once, u_i = D_{i+m} − D_i: two passes
+                x = self.phase.read(a, e + 2 * m, _buffers(self.block)[1][0])
+                d = np.subtract(x[m:], x[:-m], out=work[0, :e - a + m])
+                u = np.subtract(d[m:], d[:e - a], out=work[1, :e - a])
+            else:
+                x0, x1, x2 = self._slices(m, a, e, 2)
+                u = np.subtract(x2, x1, out=work[0, :e - a])
+                u -= np.subtract(x1, x0, out=work[1, :e - a])
             total += _sumsq(u)
         return total
 
