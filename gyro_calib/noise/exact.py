@@ -375,15 +375,22 @@ class ExactDeviations:
         work = _buffers(self.block)[0]
         for a in range(lo, hi, self.block):
             e = min(a + self.block, hi)
-            x0, x1, x2, x3 = self._slices(m, a, e, 3)
-            w = work[:, :e - a]
-            t = np.multiply(x2, 3.0, out=w[0])  # x3 − 3x2 + 3x1 − x0, allantools' order
-            np.subtract(x3, t, out=t)
-            t += np.multiply(x1, 3.0, out=w[1])
-            t -= x0
+            k = e - a
+            if m <= self.block // 2:  # nested differences of one read: three passes
+                x = self.phase.read(a, e + 3 * m, _buffers(self.block)[1][0])
+                d = np.subtract(x[m:], x[:-m], out=work[0, :k + 2 * m])
+                u = np.subtract(d[m:], d[:-m], out=work[1, :k + m])
+                t = np.subtract(u[m:], u[:k], out=work[2, :k])
+            else:
+                x0, x1, x2, x3 = self._slices(m, a, e, 3)
+                w = work[:, :k]
+                t = np.multiply(x2, 3.0, out=w[0])  # x3 − 3x2 + 3x1 − x0
+                np.subtract(x3, t, out=t)
+                t += np.multiply(x1, 3.0, out=w[1])
+                t -= x0
             hsum += _sumsq(t)
             if 'mdev' in self.deviations:
-                v = np.cumsum(t, out=w[2])
+                v = np.cumsum(t, out=_buffers(self.block)[1][1, :k])
                 v += carry
                 msum += _sumsq(v)
                 carry = float(v[-1])
