@@ -8,7 +8,7 @@
     gyro-calib batch MANIFEST --out DIR [--workers N | --scheduler URL] [--spec SPEC]
 
 BAG is a rosbag2 directory, the .mcap file inside one or a lone .mcap file (read with its
-own summary), or a CSV/text table of a static record (:mod:`gyro_calib.table_input`). Every
+own summary), or a CSV/text table of a static record (:mod:`gyro_calib.bagio.tables`). Every
 output path is checked before any work (:mod:`gyro_calib.outputs`). Abbreviated flags are
 not accepted (``--lat`` is an error, not ``--latitude-deg``). A flag that no method run
 uses is refused (exit 2), naming the methods it applies to.
@@ -392,7 +392,7 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
 def bag_description(info: Any) -> dict[str, Any]:
     """One bag for ``info``: span, topics with counts and rates from the header stamps
     (the sample instants; log times only for types without a decodable header)."""
-    from gyro_calib.bag import header_stamp_spans
+    from gyro_calib.bagio.reader import header_stamp_spans
 
     spans = header_stamp_spans(info.path, info) if info.message_count else {}
     topics = []

@@ -38,7 +38,7 @@ import numpy.typing as npt
 import yaml
 
 from gyro_calib.errors import GyroCalibError
-from gyro_calib.mcap_columns import FrameIds, TopicColumns
+from gyro_calib.bagio.columns import FrameIds, TopicColumns
 
 FORMAT = 1
 STATE_FILE = 'state.yaml'

@@ -1,4 +1,4 @@
-"""Columnar MCAP decoding (gyro_calib.mcap_columns) is bit for bit rosbags' reading.
+"""Columnar MCAP decoding (gyro_calib.bagio.columns) is bit for bit rosbags' reading.
 
 The reference everywhere is rosbags: its Reader yields (connection, log time, CDR bytes),
 its typestore's ``deserialize_cdr`` decodes them, and the columns are pulled out of the
@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from gyro_calib.bag import CONTRACT_TYPES, BagMessage, CorruptBagError, write_bag
-from gyro_calib.mcap_columns import (
+from gyro_calib.bagio.reader import CONTRACT_TYPES, BagMessage, CorruptBagError, write_bag
+from gyro_calib.bagio.columns import (
     HEADER,
     IMU,
     JOINT_STATE,
@@ -196,7 +196,7 @@ def cdr() -> Cdr:
 
 def write_test_bag(path: Path, messages: list[tuple[str, int, bytes]],
                    types: dict[str, str]) -> Path:
-    """A rosbags-written bag (zstd chunks, as gyro_calib.bag.write_bag makes them)."""
+    """A rosbags-written bag (zstd chunks, as gyro_calib.bagio.reader.write_bag makes them)."""
     write_bag(path, [BagMessage(topic, t, raw) for topic, t, raw in messages], types=types)
     return path
 

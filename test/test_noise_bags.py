@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import yaml
 
-from gyro_calib.bag import ContractMessages, bag_info, iter_raw_messages
+from gyro_calib.bagio.reader import ContractMessages, bag_info, iter_raw_messages
 from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.cli import main
 from gyro_calib.noise.session import NoiseSession
@@ -155,7 +155,7 @@ def test_message_templates_are_byte_for_byte_rosbags_serialisation() -> None:
 def test_imu_bag_columns_are_bit_identical_to_rosbags_decoding() -> None:
     """The Imu topic is no contract topic (test_mcap_columns.py checks those): a window of
     it decoded both ways, values compared as bits."""
-    from gyro_calib.mcap_columns import iter_column_batches
+    from gyro_calib.bagio.columns import iter_column_batches
 
     bag, types = BAGS / 'noise_imu_static', {'/imu/data': 'sensor_msgs/msg/Imu'}
     start = bag_info(bag).start_ns

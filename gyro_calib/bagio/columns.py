@@ -79,8 +79,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from gyro_calib import bag
-from gyro_calib.bag import BagError, CorruptBagError, _typestore
+from gyro_calib.bagio import reader as bag
+from gyro_calib.bagio.reader import BagError, CorruptBagError, _typestore
 from gyro_calib.errors import GyroCalibError
 
 if TYPE_CHECKING:
@@ -481,9 +481,9 @@ class ReadPlan:
 
 
 def _open_reader(path: Path) -> Any:
-    """rosbags' Reader, opened by gyro_calib.bag for a bag directory (or a .mcap file in
+    """rosbags' Reader, opened by gyro_calib.bagio.reader for a bag directory (or a .mcap file in
     one), or on the file alone for a .mcap file without metadata.yaml beside it; the
-    failures gyro_calib.bag lets through (a damaged record length makes rosbags allocate
+    failures gyro_calib.bagio.reader lets through (a damaged record length makes rosbags allocate
     without bound: MemoryError; struct.error, OverflowError) are CorruptBagError too."""
     try:
         if path.suffix == '.mcap' and path.is_file() and not bag._usable_metadata(
@@ -507,7 +507,7 @@ def _check_types(topic_types: Mapping[str, str]) -> dict[str, str]:
     if unknown:
         raise UnsupportedMessageTypeError(
             f'no columns are defined for {unknown}; the columnar decoder reads '
-            f'{", ".join(sorted(CODECS))}. Read these topics with gyro_calib.bag instead.')
+            f'{", ".join(sorted(CODECS))}. Read these topics with gyro_calib.bagio.reader instead.')
     return dict(topic_types)
 
 
@@ -515,7 +515,7 @@ def plan_bag(path: str | Path, topic_types: Mapping[str, str]) -> ReadPlan:
     """The plan :func:`iter_column_batches` follows for ``topic_types`` (topic → type).
 
     Raises:
-        BagError (subclass): as :func:`gyro_calib.bag.bag_info`; CountMismatchError or
+        BagError (subclass): as :func:`gyro_calib.bagio.reader.bag_info`; CountMismatchError or
             IndexMismatchError when the summary contradicts itself.
     """
     path = Path(path)
@@ -1101,7 +1101,7 @@ def iter_column_batches(path: str | Path, topic_types: Mapping[str, str], *,
 
     Raises:
         UnsupportedMessageTypeError: a type outside :data:`KNOWN_TYPES` was asked for.
-        BagError (subclass): as :func:`gyro_calib.bag.bag_info`; DamagedChunkError,
+        BagError (subclass): as :func:`gyro_calib.bagio.reader.bag_info`; DamagedChunkError,
             IndexMismatchError, CountMismatchError, MessageDecodeError (all
             CorruptBagError) for a damaged bag.
     """

@@ -408,7 +408,7 @@ def bag_info(path: str | Path) -> BagInfo:
     Raises:
         BagError (subclass): the path is missing, not a bag, or the bag is damaged.
     """
-    from gyro_calib import table_input
+    from gyro_calib.bagio import tables as table_input
 
     path = Path(path)
     if table_input.is_table(path):
@@ -449,7 +449,7 @@ def header_stamp_spans(path: str | Path, info: BagInfo) -> dict[str, tuple[int, 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
     """
-    from gyro_calib import mcap_columns
+    from gyro_calib.bagio import columns as mcap_columns
 
     types = {t.name: t.msgtype for t in info.topics.values()
              if t.msgtype in mcap_columns.CODECS and t.count}
@@ -515,7 +515,7 @@ class SampleBatch:
     """Decoded samples of a stretch of the bag(s), per topic, in log-time order per topic.
 
     Attributes:
-        columns: topic → its columns (:class:`gyro_calib.mcap_columns.TopicColumns`: header
+        columns: topic → its columns (:class:`gyro_calib.bagio.columns.TopicColumns`: header
             stamps, frame_ids, the message type's values).
         messages: how many messages this batch decoded.
         last_log_time_ns: log time of the batch's last message.
@@ -545,7 +545,7 @@ def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None 
                         namespace: str = '') -> Iterator[SampleBatch]:
     """Stream the given topics of a bag as :class:`SampleBatch` es.
 
-    Decoded by :mod:`gyro_calib.mcap_columns`: whole chunks at a time with NumPy,
+    Decoded by :mod:`gyro_calib.bagio.columns`: whole chunks at a time with NumPy,
     bit-identical to rosbags' CDR deserialiser, which decodes any message of another
     layout (and whole bags the columnar path does not read itself). Memory is bounded by
     ``batch_messages`` plus one group of chunks; stamps are the header stamps (never the
@@ -555,7 +555,7 @@ def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
     """
-    from gyro_calib import mcap_columns, table_input
+    from gyro_calib.bagio import columns as mcap_columns, tables as table_input
 
     if table_input.is_table(path):
         yield from table_input.iter_table_batches(path, topic_types, batch_messages)

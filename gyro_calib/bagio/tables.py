@@ -2,8 +2,8 @@
 
 Users of allan_variance_ros and MATLAB often keep a static record as a table: one row per
 sample, a stamp column and rate (or pulse count) columns. ``gyro-calib`` reads such a file
-wherever it takes a BAG: :func:`gyro_calib.bag.bag_info` and
-:func:`gyro_calib.bag.iter_sample_batches` hand it here, so the noise analysis (and
+wherever it takes a BAG: :func:`gyro_calib.bagio.reader.bag_info` and
+:func:`gyro_calib.bagio.reader.iter_sample_batches` hand it here, so the noise analysis (and
 ``info``) see the same columns a bag would give.
 
 Layout: a header row names the columns (comma, semicolon, tab or blank separated; lines
@@ -119,8 +119,8 @@ def read_table(path: str | Path) -> tuple[str, str, np.ndarray, dict[str, np.nda
 
 
 def table_info(path: str | Path) -> Any:
-    """The :class:`gyro_calib.bag.BagInfo` of a table (one topic)."""
-    from gyro_calib.bag import BagInfo, TopicInfo
+    """The :class:`gyro_calib.bagio.reader.BagInfo` of a table (one topic)."""
+    from gyro_calib.bagio.reader import BagInfo, TopicInfo
 
     topic, msgtype, stamps, _ = read_table(path)
     return BagInfo(Path(path), {topic: TopicInfo(topic, msgtype, len(stamps))},
@@ -129,9 +129,9 @@ def table_info(path: str | Path) -> Any:
 
 def iter_table_batches(path: str | Path, topic_types: Mapping[str, str] | None,
                        batch_messages: int = 50_000) -> Iterator[Any]:
-    """The table as :class:`gyro_calib.bag.SampleBatch` es (log time = stamp)."""
-    from gyro_calib.bag import SampleBatch
-    from gyro_calib.mcap_columns import FrameIds, TopicColumns
+    """The table as :class:`gyro_calib.bagio.reader.SampleBatch` es (log time = stamp)."""
+    from gyro_calib.bagio.reader import SampleBatch
+    from gyro_calib.bagio.columns import FrameIds, TopicColumns
 
     topic, msgtype, stamps, values = read_table(path)
     if topic_types is not None and topic_types.get(topic) != msgtype:

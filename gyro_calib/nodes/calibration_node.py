@@ -35,8 +35,8 @@ from gyro_calib.nodes.method_node import SimScenarioBench
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
-from gyro_calib.bag import SampleBatch
-from gyro_calib.mcap_columns import TopicColumns
+from gyro_calib.bagio.reader import SampleBatch
+from gyro_calib.bagio.columns import TopicColumns
 from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, _TopicBuffer
 from gyro_calib.nodes.node_state import NodeState, feed_columns, state_directory
 from gyro_calib.rbrlg.session import TOPICS as RBRLG_TOPICS

@@ -2,7 +2,7 @@
 hand-off file out, through the same session the bag calibration uses.
 
 Messages are buffered per topic as they arrive (stamp, values, frame_id) and handed to the
-session as one :class:`~gyro_calib.bag.SampleBatch` every ``process_period_s``; the
+session as one :class:`~gyro_calib.bagio.reader.SampleBatch` every ``process_period_s``; the
 calibrators give the same result however the data are chunked, so a bag replayed into the
 node gives bit for bit the numbers ``gyro-calib calibrate`` gives offline.
 
@@ -30,11 +30,11 @@ from sensor_msgs.msg import Imu, JointState, Temperature
 from std_msgs.msg import Float64, Header, String
 
 from gyro_calib import topics
-from gyro_calib.bag import SampleBatch
+from gyro_calib.bagio.reader import SampleBatch
 from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
-from gyro_calib.mcap_columns import FrameIds, TopicColumns
+from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.nodes.node_state import NodeState, state_directory
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
@@ -60,7 +60,7 @@ _MESSAGE_CLASSES = {JOINT_STATE: JointState, HEADER: Header, IMU: Imu, TEMPERATU
 
 
 def _values(msgtype: str, msg: Any) -> tuple[float, ...]:
-    """The columns :mod:`gyro_calib.mcap_columns` decodes, from one live message."""
+    """The columns :mod:`gyro_calib.bagio.columns` decodes, from one live message."""
     if msgtype == JOINT_STATE:
         return (float(msg.position[0]) if len(msg.position) else math.nan,
                 float(msg.velocity[0]) if len(msg.velocity) else math.nan)

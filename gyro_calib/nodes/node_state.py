@@ -14,14 +14,14 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gyro_calib.bag import SampleBatch
+from gyro_calib.bagio.reader import SampleBatch
 from gyro_calib.state_record import StateRecord, StateRecordError
 from gyro_calib.units import format_stamp
 
 if TYPE_CHECKING:
     from rclpy.node import Node
 
-    from gyro_calib.mcap_columns import TopicColumns
+    from gyro_calib.bagio.columns import TopicColumns
 
 
 NOT_IDENTITY = frozenset({'output_file', 'state_dir', 'keep_state', 'process_period_s',
