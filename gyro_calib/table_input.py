@@ -1,4 +1,4 @@
 """Old import path of :mod:`gyro_calib.bagio.tables` (CSV/text tables read wherever a bag is),
 kept for compatibility: it only re-exports; new code imports :mod:`gyro_calib.bagio.tables`."""
 
-from gyro_calib.bagio.tables import *  # noqa: F401,F403
+from gyro_calib.bagio.tables import *  # noqa: F403

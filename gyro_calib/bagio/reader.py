@@ -555,7 +555,8 @@ def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
     """
-    from gyro_calib.bagio import columns as mcap_columns, tables as table_input
+    from gyro_calib.bagio import columns as mcap_columns
+    from gyro_calib.bagio import tables as table_input
 
     if table_input.is_table(path):
         yield from table_input.iter_table_batches(path, topic_types, batch_messages)

@@ -130,8 +130,8 @@ def table_info(path: str | Path) -> Any:
 def iter_table_batches(path: str | Path, topic_types: Mapping[str, str] | None,
                        batch_messages: int = 50_000) -> Iterator[Any]:
     """The table as :class:`gyro_calib.bagio.reader.SampleBatch` es (log time = stamp)."""
-    from gyro_calib.bagio.reader import SampleBatch
     from gyro_calib.bagio.columns import FrameIds, TopicColumns
+    from gyro_calib.bagio.reader import SampleBatch
 
     topic, msgtype, stamps, values = read_table(path)
     if topic_types is not None and topic_types.get(topic) != msgtype:
