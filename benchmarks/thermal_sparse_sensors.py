@@ -13,9 +13,12 @@ model; ``compensate`` applies it to the validation run. Printed per bench and su
 - comp/floor: compensated stability over the ARW + quantisation floor of 100 s means;
 - rms error: rms of (model − hidden law) along the validation run's true trajectory, °/h;
 - coverage: share of those points where the law lies within ±1σ / ±2σ of the model (σ: the
-  model's stated standard uncertainty) — stepwise selection's covariance ignores the
-  selection, so it undercovers; the property test (test/test_thermal_bench_property.py)
-  checks coverage with the law's own terms.
+  model's stated standard uncertainty, covariance and model error u_m in quadrature,
+  METHODS §D.3 (17g)); ``cov only``: the same with the covariance alone (u_m = 0, as stated
+  before u_m existed: it ignores the selection and the terms no candidate holds). The
+  validation run is another programme (soaks after ramp-only calibrations), so part of its
+  model error is extrapolation in the (Ḣ, gradient) plane the held-out check cannot see;
+- terms: the model's terms (a first power stays while a higher power of it does).
 
     python benchmarks/thermal_sparse_sensors.py [--benches N] [--quick]
 """
@@ -90,11 +93,17 @@ def _run_one(seed: int, kind: str, hot: bool, sparse: bool) -> dict[str, float]:
                                   tr.dtcs_c[sel][inside], check=False)
     err = value - tr.law_bias_rad_s[sel][inside]
     z = np.abs(err / std)
+    _, std_cov = dataclasses.replace(model, model_error_rad_s=0.0).bias_rad_s(
+        h[inside], tr.hdot_c_s[sel][inside], tr.dtab_c[sel][inside], tr.dtcs_c[sel][inside],
+        check=False)
+    z_cov = np.abs(err / std_cov)
     raw, comp = rep.bias_stability_raw.value, rep.bias_stability_compensated.value
     return {'improvement': 1 - comp / raw, 'comp_floor': comp / rep.noise_floor.floor.value,
             'rms_deg_h': float(np.sqrt(np.mean(err**2))) / RAD_S_PER_DEG_H,
             'cover1': float(np.mean(z < 1)), 'cover2': float(np.mean(z < 2)),
-            'terms': len(model.terms)}
+            'cover1_cov': float(np.mean(z_cov < 1)), 'cover2_cov': float(np.mean(z_cov < 2)),
+            'u_m_deg_h': model.model_error_rad_s / RAD_S_PER_DEG_H,
+            'terms': ','.join(model.terms)}  # type: ignore[dict-item]
 
 
 def main() -> None:
@@ -109,7 +118,8 @@ def main() -> None:
     refused: dict[str, list[str]] = {'sparse': [], 'dense': []}
     t0 = time.perf_counter()
     print(f'{"bench":>5s} {"programme":>17s} {"start":>5s} {"sensors":>7s} {"improv":>7s} '
-          f'{"comp/floor":>10s} {"rms °/h":>8s} {"±1σ":>5s} {"±2σ":>5s}')
+          f'{"comp/floor":>10s} {"rms °/h":>8s} {"u_m °/h":>8s} {"±1σ":>5s} {"±2σ":>5s} '
+          f'{"cov only ±1σ/±2σ":>17s}  terms')
     for i in range(n):
         seed = 500 + i
         kind, hot = kinds[i % 3], bool((i // 3) % 2)
@@ -124,7 +134,8 @@ def main() -> None:
             rows[mode].append(r)
             print(f'{seed:5d} {kind:>17s} {"hot" if hot else "cold":>5s} {mode:>7s} '
                   f'{r["improvement"]:7.1%} {r["comp_floor"]:10.2f} {r["rms_deg_h"]:8.4f} '
-                  f'{r["cover1"]:5.0%} {r["cover2"]:5.0%}')
+                  f'{r["u_m_deg_h"]:8.4f} {r["cover1"]:5.0%} {r["cover2"]:5.0%} '
+                  f'{r["cover1_cov"]:8.0%} {r["cover2_cov"]:8.0%}  {r["terms"]}')
     print()
     for mode, rs in rows.items():
         if not rs:
@@ -137,7 +148,9 @@ def main() -> None:
               f'compensated/floor median {np.median(cf):.2f}; rms model error median '
               f'{np.median(rms):.4f} °/h (max {rms.max():.4f}); law within ±1σ '
               f'{np.mean([r["cover1"] for r in rs]):.0%}, ±2σ '
-              f'{np.mean([r["cover2"] for r in rs]):.0%} of the trajectory points')
+              f'{np.mean([r["cover2"] for r in rs]):.0%} of the trajectory points '
+              f'(covariance only: {np.mean([r["cover1_cov"] for r in rs]):.0%}, '
+              f'{np.mean([r["cover2_cov"] for r in rs]):.0%})')
     print(f'{n} benches × 2 sensor modes in {time.perf_counter() - t0:.0f} s')
 
 

@@ -4,6 +4,7 @@ results and hand-off."""
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -181,11 +182,17 @@ def test_model_dict_round_trips_exactly(paper_cal: ThermalCalibrator) -> None:
 
 
 def test_model_uncertainty_grows_outside_the_data(paper_cal: ThermalCalibrator) -> None:
+    """The coefficient part x·C·xᵀ grows beyond the data; the model error u_m (METHODS
+    (17g)) is the same everywhere, in quadrature."""
     model = paper_cal.model()
     inside = np.linspace(*model.h_range_c, 9)
     _, std_in = model.bias_rad_s(inside, 0.0)
     _, std_out = model.bias_rad_s(np.array([model.h_range_c[1] + 10.0]), 0.0, check=False)
-    assert np.all(std_in > 0) and std_out[0] > 3 * std_in.max()
+    u_m = model.model_error_rad_s
+    coef_in = np.sqrt(std_in**2 - u_m**2)
+    coef_out = math.sqrt(std_out[0] ** 2 - u_m**2)
+    assert np.all(coef_in > 0) and coef_out > 3 * coef_in.max()
+    assert np.all(std_in >= u_m) and std_out[0] > std_in.max()
 
 
 def test_denoising_changes_the_fitted_model_by_less_than_its_uncertainty(

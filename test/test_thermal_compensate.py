@@ -73,7 +73,11 @@ def test_mean_compensated_rate_is_the_earth_rate_along_the_axis(
     earth = validation.scenario['truth']['earth_rate_along_axis_rad_s']
     assert rep.earth_rate_along_axis_rad_s == pytest.approx(earth, rel=1e-12)
     assert abs(m.value - earth) < 3.5 * m.std_uncertainty
-    assert m.std_uncertainty < 0.005 * DEG_H
+    # noise and coefficients: below 0.005 °/h; the model error u_m (METHODS (17g)), which
+    # a run's mean need not average out, is added in quadrature
+    u_m = model.model_error_rad_s
+    assert m.std_uncertainty >= u_m
+    assert math.sqrt(m.std_uncertainty**2 - u_m**2) < 0.005 * DEG_H
 
 
 def test_noise_floor_equals_arw_and_quantisation_on_a_static_run() -> None:

@@ -16,6 +16,7 @@ from gyro_calib.thermal.terms import (
     candidate_terms,
     design_columns,
     distinct_levels,
+    main_effects,
     min_levels_for,
     parse_term,
     scaling_from_data,
@@ -90,6 +91,28 @@ def test_stepwise_picks_different_terms_for_a1_and_a2() -> None:
     assert a1.terms == ('H', 'H^3', 'H^4')
     assert a2.terms == ('H', 'H^2', 'H^3')
     assert [s.term for s in a1.steps if s.action == 'remove'] == ['H^2']
+    # the calibrator's marginality rule (H stays while a higher power does) keeps both
+    keep = {t: main_effects(parse_term(t)) for t in cols}
+    assert stepwise(PAPER_A1, cols, list(cols), keep_while=keep).terms == a1.terms
+    assert stepwise(PAPER_A2, cols, list(cols), keep_while=keep).terms == a2.terms
+
+
+def test_stepwise_keeps_a_first_power_while_a_higher_power_of_it_stays() -> None:
+    """A curve in H³ alone (no H): plain stepwise removes H and keeps H³; with the main
+    effects kept (METHODS §D.3), H stays beside H³; a term nothing needs still leaves."""
+    rng = np.random.default_rng(1)
+    x = np.linspace(-1.0, 1.0, 60)
+    r = rng.uniform(-1.0, 1.0, 60)
+    y = 0.8 * x**3 + 0.01 * rng.standard_normal(60)
+    cols = {'H': x, 'H^3': x**3, 'Hdot': r}
+    plain = stepwise(y, cols, list(cols))
+    assert plain.terms == ('H^3',)
+    keep = {t: main_effects(parse_term(t)) for t in cols}
+    assert main_effects(parse_term('H^3')) == ('H',)
+    assert main_effects(parse_term('H*Hdot')) == ('H', 'Hdot')
+    assert main_effects(parse_term('Hdot')) == ()
+    kept = stepwise(y, cols, list(cols), keep_while=keep)
+    assert kept.terms == ('H', 'H^3')
 
 
 def test_forward_stepwise_from_constant_misses_the_non_monotonic_a1() -> None:

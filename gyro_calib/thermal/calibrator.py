@@ -185,6 +185,12 @@ class ThermalCalibrator:
                or ' (constant only)')
             + f'; residual std {m.residual_std_rad_s / _RAD_S_PER_DEG_H:.4f} °/h; calibrated '
             f'H {m.h_range_c[0]:.2f}…{m.h_range_c[1]:.2f} °C.')
+        if m.model_error_n:
+            lines.append(f'model error (held-out scatter beyond noise and covariance, added in '
+                         f'quadrature to every prediction): '
+                         f'{m.model_error_rad_s / _RAD_S_PER_DEG_H:.4f} °/h from '
+                         f'{m.model_error_n} held-out blocks of '
+                         f'{self.settings.stability_block_s:g} s.')
         if report.holdout_stability_raw is not None and report.holdout_stability_compensated:
             r, c = report.holdout_stability_raw, report.holdout_stability_compensated
             lines.append(f'held-out data: bias stability {r.value / _RAD_S_PER_DEG_H:.4f} → '

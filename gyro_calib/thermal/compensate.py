@@ -332,7 +332,8 @@ def compensate_reduced(reducer: CompensationReducer, *, gyro_id: str = '',
     x_mean = model.design_rows({'H': variables['H'][idx], 'Hdot': variables['Hdot'][idx],
                           'dTab': variables['dTab'][idx],
                           'dTcs': variables['dTcs'][idx]}).mean(axis=0)
-    model_var = float(x_mean @ np.asarray(model.covariance_rad2_s2) @ x_mean)
+    model_var = float(x_mean @ np.asarray(model.covariance_rad2_s2) @ x_mean) \
+        + model.model_error_rad_s**2  # the model error may not average out (METHODS (17g))
     # noise part of the mean's uncertainty: the long-run variance of the compensated
     # interval rates (Allan estimate, so correlated noise such as bias instability counts)
     comp_series = (rate - bias)[valid]

@@ -19,11 +19,17 @@
 6. held-out split (continuous): every n-th ``validation_block_s`` segment is left out;
 7. stepwise selection on the fit rows (:func:`gyro_calib.thermal.regression.stepwise`):
    Allan-variance long-run variance up to ``noise_max_span_s`` for block rows,
-   Birge-scaled WLS for points;
+   Birge-scaled WLS for points; a variable's first power is not removed while a term of
+   higher order in it stays (marginality, METHODS §D.3);
 8. held-out check: a chosen term is dropped while dropping it does not increase the
    held-out mean square of ``stability_block_s`` residual means (the terms must predict
-   data they were not fitted to);
-9. final coefficients from all rows with the chosen terms, and the model.
+   data they were not fitted to), under the same marginality rule; a first power missing
+   beside its higher terms is added back;
+9. final coefficients from all rows with the chosen terms, and the model;
+10. model error u_m (METHODS §D.3 eq. (17g)): the mean square of the held-out residual
+   block means beyond that of the fit rows' own residual block means and beyond the
+   coefficient covariance, stated as a standard uncertainty added in quadrature to every
+   prediction of the model.
 
 Uncertainty of the coefficients (continuous style, 1 s intervals): residuals of block
 means are autocorrelated (bias instability, quantisation, model misfit, wavelet
@@ -55,7 +61,13 @@ from gyro_calib.thermal.intervals import (
     true_runs,
 )
 from gyro_calib.thermal.model import ThermalBiasModel
-from gyro_calib.thermal.regression import LinearFit, StepwiseResult, fit_linear, stepwise
+from gyro_calib.thermal.regression import (
+    LinearFit,
+    StepwiseResult,
+    fit_linear,
+    full_rank,
+    stepwise,
+)
 from gyro_calib.thermal.settings import ThermalSettings
 from gyro_calib.thermal.site import earth_rate_along_axis_rad_s
 from gyro_calib.thermal.soak import Plateau, find_plateaus
@@ -64,6 +76,7 @@ from gyro_calib.thermal.terms import (
     candidate_terms,
     design_columns,
     distinct_levels,
+    main_effects,
     min_levels_for,
     required_variables,
     scaling_from_data,
@@ -285,9 +298,11 @@ def fit_thermal(table: IntervalTable, settings: ThermalSettings, *,
     lrv_rows = int(round(s.noise_max_span_s / s.fit_block_s)) \
         if s.calibration_style == 'continuous' else 0
     sigma = rows.sigma_rad_s
+    keep_while = {t.name: main_effects(t) for t in terms}
     sel = stepwise(rows.y_rad_s[fit_mask], {n: c[fit_mask] for n, c in rows.columns.items()},
                    names, p_enter=s.p_enter, p_remove=s.p_remove, start=s.stepwise_start,
-                   sigma=None if sigma is None else sigma[fit_mask], lrv_max_rows=lrv_rows)
+                   sigma=None if sigma is None else sigma[fit_mask], lrv_max_rows=lrv_rows,
+                   keep_while=keep_while)
     for step in sel.steps:
         if step.action == 'skip':
             notes.append(f'term {step.term} is collinear with the others on these data and was '
@@ -296,14 +311,27 @@ def fit_thermal(table: IntervalTable, settings: ThermalSettings, *,
     pruned: list[str] = []
     holdout_fit = None
     if n_hold:
-        chosen, pruned = _prune_on_held_out(rows, chosen, table, s)
-        holdout_fit = fit_linear(rows.y_rad_s[fit_mask],
-                                 {n: c[fit_mask] for n, c in rows.columns.items()}, chosen,
-                                 lrv_max_rows=lrv_rows)
+        chosen, pruned = _prune_on_held_out(rows, chosen, keep_while, s)
         if pruned:
             notes.append(f'held-out check removed {", ".join(pruned)} (no better prediction of '
                          'the held-out data with them).')
+    added = _complete_main_effects(rows, chosen, keep_while, fit_mask)
+    if added:
+        notes.append(f'{", ".join(added)} added back beside the higher-order terms in '
+                     'them (a first power stays while its higher powers do).')
+    if n_hold:
+        holdout_fit = fit_linear(rows.y_rad_s[fit_mask],
+                                 {n: c[fit_mask] for n, c in rows.columns.items()}, chosen,
+                                 lrv_max_rows=lrv_rows)
     final = fit_linear(rows.y_rad_s, rows.columns, chosen, sigma=sigma, lrv_max_rows=lrv_rows)
+    if holdout_fit is not None:
+        model_error, model_error_n = _model_error(rows, holdout_fit, chosen, s)
+    else:
+        model_error, model_error_n = 0.0, 0
+        notes.append('no held-out data (validation_fraction 0, a short recording or soak '
+                     'points): the model error beyond the coefficient covariance is not '
+                     'estimated (thermal_model_error_rad_s 0); check the model on another run '
+                     'with compensate.')
     col_index = {n: i for i, n in enumerate(names)}
     x_int = np.column_stack([np.ones(len(table))] + [cols[:, col_index[n]] for n in chosen])
     model_int = np.where(valid, x_int @ final.coefficients, np.nan)
@@ -325,7 +353,8 @@ def fit_thermal(table: IntervalTable, settings: ThermalSettings, *,
         residual_std_rad_s=final.residual_std,
         fit_block_s=s.fit_block_s if s.calibration_style == 'continuous' else math.nan,
         calibration_style=s.calibration_style, covariance_kind=final.covariance_kind,
-        n_used=final.n, dof=final.dof, max_temperature_gap_s=s.max_temperature_gap_s)
+        n_used=final.n, dof=final.dof, max_temperature_gap_s=s.max_temperature_gap_s,
+        model_error_rad_s=model_error, model_error_n=model_error_n)
     hold_raw = hold_comp = None
     if holdout_fit is not None:
         hold_mask = _held_intervals(table, rows, s) & valid
@@ -491,9 +520,11 @@ def _check_levels(rows: FitRows, terms: tuple[Term, ...], s: ThermalSettings) ->
             'Add set points or a wider ramp, or lower max_h_power / drop the higher powers.')
 
 
-def _prune_on_held_out(rows: FitRows, chosen: list[str], table: IntervalTable,
+def _prune_on_held_out(rows: FitRows, chosen: list[str],
+                       keep_while: dict[str, tuple[str, ...]],
                        s: ThermalSettings) -> tuple[list[str], list[str]]:
-    """Drop terms while dropping one does not raise the held-out mean-square residual."""
+    """Drop terms while dropping one does not raise the held-out mean-square residual; a
+    term another kept term needs (``keep_while``: its main effects) is not dropped."""
     fit_mask = ~rows.held_out
     y_fit = rows.y_rad_s[fit_mask]
     cols_fit = {n: c[fit_mask] for n, c in rows.columns.items()}
@@ -513,7 +544,11 @@ def _prune_on_held_out(rows: FitRows, chosen: list[str], table: IntervalTable,
     pruned: list[str] = []
     base = score(current)
     while current:
-        trials = [(score([t for t in current if t != drop]), drop) for drop in current]
+        needed = {n for t in current for n in keep_while.get(t, ()) if n != t}
+        trials = [(score([t for t in current if t != drop]), drop) for drop in current
+                  if drop not in needed]
+        if not trials:
+            break
         best, drop = min(trials)
         if best > base:
             break
@@ -521,6 +556,57 @@ def _prune_on_held_out(rows: FitRows, chosen: list[str], table: IntervalTable,
         pruned.append(drop)
         base = best
     return current, pruned
+
+
+def _complete_main_effects(rows: FitRows, chosen: list[str],
+                           keep_while: dict[str, tuple[str, ...]],
+                           fit_mask: npt.NDArray[np.bool_]) -> list[str]:
+    """Add (in place) the candidate first powers a chosen term needs and the model lacks
+    (a constant-start selection can enter H³ without H); returns the names added."""
+    added: list[str] = []
+    for t in list(chosen):
+        for n in keep_while.get(t, ()):
+            if n in chosen or n not in rows.columns:
+                continue
+            trial = [*chosen, n]
+            if full_rank({c: rows.columns[c][fit_mask] for c in trial}, trial,
+                         int(np.count_nonzero(fit_mask))) \
+                    and np.count_nonzero(fit_mask) - len(trial) - 1 >= 1:
+                chosen.append(n)
+                added.append(n)
+    return added
+
+
+def _model_error(rows: FitRows, holdout_fit: LinearFit, chosen: list[str],
+                 s: ThermalSettings) -> tuple[float, int]:
+    """Model error u_m, rad/s, and the held-out blocks it rests on (METHODS §D.3 (17g)).
+
+    The model fitted on the fit rows (after selection on them) predicts the held-out rows.
+    Averaged over ``stability_block_s`` blocks g, the held-out residuals r̄_g carry the
+    noise of a block mean, the coefficient error x̄_g·C·x̄_gᵀ the covariance states, and
+    the error the covariance does not state (the selection's: a term dropped or a spurious
+    one kept; a law the terms follow only in the fitted span). The noise of a block mean is
+    read from the fit rows' own residuals, averaged over blocks of the same length: they
+    hold the noise (bias instability included, whatever its correlation time) and the
+    misfit the fit could not absorb, so what remains is how much worse the model predicts
+    data it was not selected and fitted on than the data it was:
+
+        u_m² = max(0, mean_g r̄_g² − mean_f r̄_f² − mean_g x̄_g·C·x̄_gᵀ)
+    """
+    block_ns = int(round(s.stability_block_s * NS_PER_S))
+    hold = rows.held_out
+    y = rows.y_rad_s[hold]
+    x = np.column_stack([np.ones(len(y))] + [rows.columns[t][hold] for t in chosen])
+    r = y - x @ holdout_fit.coefficients
+    _, g = np.unique(rows.t_ns[hold] // block_ns, return_inverse=True)
+    cnt = np.bincount(g).astype(np.float64)
+    r_bar = np.bincount(g, weights=r) / cnt
+    x_bar = np.column_stack([np.bincount(g, weights=x[:, j]) / cnt for j in range(x.shape[1])])
+    coef_var = np.einsum('gi,ij,gj->g', x_bar, holdout_fit.covariance, x_bar)
+    _, gf = np.unique(rows.t_ns[~hold] // block_ns, return_inverse=True)
+    r_fit = np.bincount(gf, weights=holdout_fit.residuals) / np.bincount(gf)
+    excess = float(np.mean(r_bar**2) - np.mean(r_fit**2) - np.mean(coef_var))
+    return math.sqrt(max(excess, 0.0)), len(cnt)
 
 
 def _point_snr(table: IntervalTable, plateaus: list[Plateau], valid: npt.NDArray[np.bool_],

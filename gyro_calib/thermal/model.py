@@ -1,8 +1,9 @@
 """The thermal bias model an INS applies: terms, coefficients, covariance, validity.
 
 A :class:`ThermalBiasModel` evaluates bias(H, Ḣ, ΔT_ab, ΔT_cs) in rad/s with its standard
-uncertainty (from the coefficient covariance), refuses to extrapolate beyond the
-calibrated temperature range by more than a margin, and carries everything
+uncertainty (the coefficient covariance and the model error u_m in quadrature, METHODS §D.3
+(17d), (17g)), refuses to extrapolate beyond the calibrated temperature range by more than
+a margin, and carries everything
 ``compensate`` needs: the scale factor it was fitted with, the site latitude and sense
 axis (so the Earth rate is known), how the variables were formed (averaging interval,
 Ḣ window) and the gyro it belongs to.
@@ -34,6 +35,10 @@ in the names, coefficients in the *scaled* variables ((x − centre)/scale)::
     thermal_calibration_style: 'continuous'        # or 'soak'
     thermal_covariance_kind: 'allan'               # 'wls', 'ols'
     thermal_n_used / thermal_dof
+    thermal_max_temperature_gap_s
+    thermal_model_error_rad_s                      # u_m, added in quadrature to every
+    thermal_model_error_n                          #   prediction; held-out blocks it rests on
+                                                   # (files without them: 0, not estimated)
 """
 
 from __future__ import annotations
@@ -91,6 +96,10 @@ class ThermalBiasModel:
         n_used, dof: rows in the fit and its degrees of freedom.
         max_temperature_gap_s: the largest gap between a sensor's readings interpolated
             across in the fit, s (models written before it was stored: 120 s, the default).
+        model_error_rad_s: model error u_m (METHODS §D.3 (17g)): the held-out scatter
+            beyond noise and covariance — misfit and selection error — added in quadrature
+            to every prediction, rad/s (0: not estimated, e.g. models written before it).
+        model_error_n: held-out ``stability_block_s`` blocks u_m rests on (0: none).
     """
 
     gyro_id: str
@@ -117,6 +126,8 @@ class ThermalBiasModel:
     n_used: int
     dof: int
     max_temperature_gap_s: float = 120.0
+    model_error_rad_s: float = 0.0
+    model_error_n: int = 0
 
     @property
     def variables(self) -> tuple[str, ...]:
@@ -165,7 +176,8 @@ class ThermalBiasModel:
     def bias_rad_s(self, h_c: ArrayLike, hdot_c_s: ArrayLike = 0.0, dtab_c: ArrayLike = 0.0,
                    dtcs_c: ArrayLike = 0.0, *, check: bool = True
                    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """Bias and its standard uncertainty (coefficients only), rad/s, per input value.
+        """Bias and its standard uncertainty, rad/s, per input value: u² = x·C·xᵀ + u_m²
+        (METHODS §D.3 (17d), (17g)).
 
         Args:
             h_c: H, °C. hdot_c_s: Ḣ, °C/s. dtab_c: T_a − T_b, °C. dtcs_c: H − T_shell, °C.
@@ -191,7 +203,7 @@ class ThermalBiasModel:
         for j, row in enumerate(self.covariance_rad2_s2):
             for k, c in enumerate(row):
                 var = var + c * x[:, j] * x[:, k]
-        return value, np.sqrt(np.maximum(var, 0.0))
+        return value, np.sqrt(np.maximum(var, 0.0) + self.model_error_rad_s**2)
 
     def check_sensors(self, sensors: tuple[str, ...]) -> None:
         """Raise :class:`ModelMismatchError` if a variable the model needs has no sensor."""
@@ -246,6 +258,8 @@ class ThermalBiasModel:
             'thermal_n_used': int(self.n_used),
             'thermal_dof': int(self.dof),
             'thermal_max_temperature_gap_s': float(self.max_temperature_gap_s),
+            'thermal_model_error_rad_s': float(self.model_error_rad_s),
+            'thermal_model_error_n': int(self.model_error_n),
         })
         return d
 
@@ -287,6 +301,11 @@ class ThermalBiasModel:
                 f'{source}: {len(terms)} term(s) need {p} coefficients and a {p}×{p} '
                 f'covariance; found {len(coef)} and {len(cov_rows)} row(s).')
         cov = tuple(tuple(float(c) for c in row) for row in cov_rows)
+        model_error = get('thermal_model_error_rad_s', float) \
+            if 'thermal_model_error_rad_s' in d else 0.0
+        if not (math.isfinite(model_error) and model_error >= 0):
+            raise ModelFileError(f'thermal_model_error_rad_s in {source} must be a finite '
+                                 f'number ≥ 0, got {model_error!r}.')
         if not all(math.isfinite(c) for c in coef):
             raise ModelFileError(f'{source}: a coefficient is not finite.')
         centre, scale = {}, {}
@@ -326,4 +345,7 @@ class ThermalBiasModel:
             covariance_kind=str(get('thermal_covariance_kind', str)),
             n_used=int(get('thermal_n_used', int)), dof=int(get('thermal_dof', int)),
             max_temperature_gap_s=(get('thermal_max_temperature_gap_s', float)
-                                   if 'thermal_max_temperature_gap_s' in d else 120.0))
+                                   if 'thermal_max_temperature_gap_s' in d else 120.0),
+            model_error_rad_s=model_error,
+            model_error_n=(int(get('thermal_model_error_n', int))
+                           if 'thermal_model_error_n' in d else 0))

@@ -32,14 +32,18 @@ applies. For a single term the partial F-test and the t-test give the same p-val
 (F = t²). Starting from the full model (``start='full'``) lets terms that only matter
 together (a cubic's H and H³ for a non-monotonic curve) survive, which forward entry
 from a constant cannot find. Terms that would make the design rank-deficient (exact
-collinearity) are never entered. p-values after selection are optimistic (the usual
-post-selection caveat); the held-out check in the calibrator guards the choice.
+collinearity) are never entered. With ``keep_while`` (term → the terms it needs), a term
+is not removed while a model term needs it (the marginality principle on main effects: H
+stays while H³ or H·Ḣ does; a higher power alone describes a curve pinned flat at the
+centre, which no physics asks for). p-values after selection are optimistic (the usual
+post-selection caveat); the held-out check and the model error term in the calibrator
+(METHODS §D.3, eq. (17g)) account for it.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -197,7 +201,8 @@ class StepwiseResult:
 def stepwise(y: npt.ArrayLike, columns: dict[str, npt.NDArray[np.float64]],
              candidates: Sequence[str], *, p_enter: float = 0.05, p_remove: float = 0.10,
              start: str = 'full', sigma: npt.ArrayLike | None = None,
-             lrv_max_rows: int = 0, max_steps: int = 100) -> StepwiseResult:
+             lrv_max_rows: int = 0, max_steps: int = 100,
+             keep_while: Mapping[str, Sequence[str]] | None = None) -> StepwiseResult:
     """Stepwise multiple linear regression with F-test entry and removal.
 
     Args:
@@ -207,6 +212,8 @@ def stepwise(y: npt.ArrayLike, columns: dict[str, npt.NDArray[np.float64]],
         p_remove: a term leaves if its p-value is above this (must be ≥ p_enter).
         start: ``full`` (all candidates, collinear ones skipped) or ``constant``.
         max_steps: safety limit.
+        keep_while: term → terms that are not removed while it is in the model (its main
+            effects); the removal step then takes the largest p-value among the others.
 
     Raises:
         ConfigError: on p_enter > p_remove or an unknown start.
@@ -246,8 +253,10 @@ def stepwise(y: npt.ArrayLike, columns: dict[str, npt.NDArray[np.float64]],
             steps.append(StepwiseStep('enter', best[1], best[0]))
             seen.add(frozenset(model))
             continue
-        if model:
-            i = int(np.argmax(fit.p_values))
+        needed = {n for t in model for n in (keep_while or {}).get(t, ()) if n != t}
+        removable = [j for j, t in enumerate(model) if t not in needed]
+        if removable:
+            i = max(removable, key=lambda j: float(fit.p_values[j]))
             p = float(fit.p_values[i])
             reduced = [t for t in model if t != model[i]]
             if p > p_remove and frozenset(reduced) not in seen:
