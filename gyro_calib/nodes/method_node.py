@@ -36,6 +36,7 @@ from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.nodes.node_state import NodeState, state_directory
+from gyro_calib.nodes.adaptive_qos import AdaptiveSubscription
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
@@ -48,6 +49,7 @@ from gyro_calib.nodes.ros_io import (
 )
 from gyro_calib.registry import HEADER, IMU, JOINT_STATE, METHODS, TEMPERATURE
 from gyro_calib.session import CalibrationOptions, MethodSession
+from gyro_calib.topics import relative
 from gyro_calib.units import format_stamp
 
 GENERIC_PARAMETERS = ('config_file', 'output_file', 'gyro_id', 'latitude_deg', 'heading_deg',
@@ -175,13 +177,13 @@ class MethodNode(Node):
         self.session: MethodSession = self.method.make_session(options)
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self._buffers: dict[str, _TopicBuffer] = {}
-        for topic, msgtype in self.session.topics().items():
-            buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
-            qos = EVENT_QOS if msgtype == HEADER else SENSOR_QOS
-            self.create_subscription(_MESSAGE_CLASSES[msgtype], topic, buf.add, qos)
-        self._result_pubs = {key: self.create_publisher(Float64, topic, RESULT_QOS)
+        self._inputs: list[AdaptiveSubscription] = []
+        self._subscribe_inputs()
+        self.create_timer(0.5, self._adapt_qos)
+        # relative names: '-r __ns:=/bench2' moves inputs, results and diagnostics together
+        self._result_pubs = {key: self.create_publisher(Float64, relative(topic), RESULT_QOS)
                              for key, topic in result_topics.items()}
-        self.diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
+        self.diag_pub = self.create_publisher(DiagnosticArray, relative(topics.DIAGNOSTICS), 10)
         self._published: dict[str, float] = {}
         self._last_line = ''
         self._handoff_missing: set[str] | None = None
@@ -216,6 +218,26 @@ class MethodNode(Node):
         except GyroCalibError as exc:
             self._last_line = f'{topics.SIM_SCENARIO}: {exc}'
             self.get_logger().error(self._last_line)
+
+    def _subscribe_inputs(self, *, best_effort: tuple[str, ...] = (),
+                          as_given: tuple[str, ...] = ()) -> None:
+        """Subscribe the session's topics, each into its buffer and adapting to its
+        publishers' QoS (those of ``best_effort`` always best effort); by their names
+        relative to the node's namespace, except those of ``as_given`` (a user's topic)."""
+        for sub in self._inputs:
+            sub.destroy()
+        self._buffers, self._inputs = {}, []
+        for topic, msgtype in self.session.topics().items():
+            buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
+            qos = EVENT_QOS if msgtype == HEADER else SENSOR_QOS
+            self._inputs.append(AdaptiveSubscription(
+                self, _MESSAGE_CLASSES[msgtype], topic if topic in as_given else relative(topic),
+                buf.add, qos,
+                forced_best_effort=topic in best_effort))
+
+    def _adapt_qos(self) -> None:
+        for sub in self._inputs:
+            sub.adapt()
 
     def _refuse_runtime_change(self, params: list[Any]) -> SetParametersResult:
         return SetParametersResult(successful=False, reason=(
@@ -324,7 +346,7 @@ class SimScenarioBench:
         self.node, self.names, self.on_bench = node, names, on_bench
         self.benches: dict[str, Mapping[str, Any]] = {}
         self.told: set[str] = set()
-        node.create_subscription(String, topics.SIM_SCENARIO, self._on_message,
+        node.create_subscription(String, relative(topics.SIM_SCENARIO), self._on_message,
                                  SCENARIO_READER_QOS)
 
     def _on_message(self, msg: String) -> None:

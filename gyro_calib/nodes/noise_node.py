@@ -34,26 +34,16 @@ import time
 from pathlib import Path
 from typing import Any
 
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-
 from gyro_calib.errors import ConfigError, GyroCalibError
 from gyro_calib.noise.keys import METHOD
 from gyro_calib.noise.outputs import resolve_targets, write_outputs
 from gyro_calib.noise.session import IMU, NoiseSession, check_scale_factor
 from gyro_calib.noise.settings import NoiseSettings
-from gyro_calib.nodes.method_node import (
-    _MESSAGE_CLASSES,
-    GENERIC_PARAMETERS,
-    MethodNode,
-    _TopicBuffer,
-)
-from gyro_calib.nodes.ros_io import SENSOR_QOS, described_parameter, run_node
+from gyro_calib.nodes.method_node import GENERIC_PARAMETERS, MethodNode
+from gyro_calib.nodes.ros_io import described_parameter, run_node
 from gyro_calib.session import CalibrationOptions
 
 NODE_NAME = 'noise_node'
-
-BEST_EFFORT_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.BEST_EFFORT)
-"""For IMU drivers that publish with the sensor-data QoS (best effort)."""
 
 
 class NoiseNode(MethodNode):
@@ -86,8 +76,8 @@ class NoiseNode(MethodNode):
         plot = str(param('plot_file', '', "Allan-deviation figure (PNG) written on shutdown "
                          "('' = none; a directory gets noise_adev.png)."))
         best_effort = bool(param('best_effort', False, 'Subscribe the Imu topic best effort '
-                                 '(most IMU drivers publish with the sensor-data QoS; a '
-                                 'reliable reader never matches them).'))
+                                 'whatever its publishers offer (without it the node reads '
+                                 'best effort as soon as one publisher does).'))
         self.results_period_s = float(param(
             'results_period_s', 5.0, 'How often the running terms are recomputed, s (a copy '
             'and a fit per axis; the numbers do not depend on it).'))
@@ -123,8 +113,7 @@ class NoiseNode(MethodNode):
         session.auto_refresh = False
         self.session = session
         self.best_effort = best_effort
-        self._rewire()
-        self._qos_warned = False
+        self._rewire(topic)
         self.create_timer(self.results_period_s, self._refresh)
         self._last_terms = ''
         self.get_logger().info(
@@ -141,20 +130,13 @@ class NoiseNode(MethodNode):
         """Said after the inputs are rewired (the generic node's default topics are not
         what this node reads)."""
 
-    def _qos(self, msgtype: str) -> QoSProfile:
-        return BEST_EFFORT_QOS if self.best_effort and msgtype == IMU else SENSOR_QOS
-
-    def _rewire(self) -> None:
-        """Subscribe exactly the session's topics (the generic node subscribed its default)."""
-        wanted = self.session.topics()
-        for sub in list(self.subscriptions):
-            if sub.topic_name in self._buffers:
-                self.destroy_subscription(sub)
-        self._buffers = {}
-        for topic, msgtype in wanted.items():
-            buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
-            self.create_subscription(_MESSAGE_CLASSES[msgtype], topic, buf.add,
-                                     self._qos(msgtype))
+    def _rewire(self, topic: str) -> None:
+        """Subscribe exactly the session's topics (the generic node subscribed its default);
+        ``topic`` (the user's Imu topic) by the name given, the contract's relative to the
+        namespace."""
+        imu = tuple(t for t, m in self.session.topics().items() if m == IMU)
+        self._subscribe_inputs(best_effort=imu if self.best_effort else (),
+                               as_given=(topic,) if topic else ())
 
     def _process(self) -> None:
         """Hand the buffered samples to the session (results come from :meth:`_refresh`)."""
@@ -173,7 +155,6 @@ class NoiseNode(MethodNode):
         """Recompute the running terms if samples arrived; publish and update the hand-off."""
         self._process()
         if not self.session.calibrator.axes():
-            self._check_qos()
             return
         started = time.monotonic()
         if not self.session.refresh():
@@ -201,18 +182,6 @@ class NoiseNode(MethodNode):
         span = f' over {(n[1] - n[0]) / 1e9:.1f} s' if n else ''
         return (f'running terms{span} ({seconds:.2f} s to compute): '
                 + ('; '.join(parts) if parts else 'none resolved yet'))
-
-    def _check_qos(self) -> None:
-        """Warn once when the input's publishers are best effort and we are reliable."""
-        if self._qos_warned or self.best_effort:
-            return
-        for topic in self._buffers:
-            infos = self.get_publishers_info_by_topic(topic)
-            if any(i.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for i in infos):
-                self._qos_warned = True
-                self.get_logger().warning(
-                    f'{topic} is published best effort and this node reads reliable: no '
-                    'sample can arrive. Restart with -p best_effort:=true.')
 
     def drain(self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 30.0) -> None:
         """Spin until no sample has arrived for ``quiet_s`` (at most ``limit_s``): the
