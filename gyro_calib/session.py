@@ -187,6 +187,24 @@ class CalibrationOptions:
         return float(self.setting('latitude_deg', math.nan))
 
 
+@dataclass(frozen=True, slots=True)
+class Progress:
+    """A session's progress at a glance (a node's /diagnostics status).
+
+    Attributes:
+        level: 'OK' (everything measured), 'WARN' (something still missing), 'ERROR'
+            (something is wrong: :meth:`MethodSession.problems`).
+        message: one line: what is measured, then the first thing wrong or still needed.
+        needs: quantity → what it still needs, roughly how much more data.
+        problems: what is wrong, each a sentence.
+    """
+
+    level: str
+    message: str
+    needs: dict[str, str]
+    problems: tuple[str, ...] = ()
+
+
 class MethodSession(ABC):
     """A method's calibrator behind the shared front door (see the module docstring)."""
 
@@ -224,6 +242,43 @@ class MethodSession(ABC):
     def notices(self) -> list[str]:
         """Stream events worth reporting (restarts, dropped samples)."""
         return []
+
+    def needs(self) -> dict[str, str]:
+        """What each quantity not yet measured still needs, roughly how much more data.
+
+        By default the reason each is missing, once per distinct reason (the reasons name
+        the counts the data gave and the counts needed); methods say it in amounts.
+        """
+        out: dict[str, str] = {}
+        for key, why in self.missing().items():
+            if why not in out.values():
+                out[key] = why
+        return out
+
+    def problems(self) -> list[str]:
+        """What is wrong rather than merely incomplete (a node reports it as ERROR).
+
+        By default: data arrived and all of it was rejected.
+        """
+        rejections = self.rejections()
+        if rejections and not self.results():
+            return [f'nothing accepted yet; {len(rejections)} rejected, the last: '
+                    f'{rejections[-1].reason}']
+        return []
+
+    def progress(self) -> Progress:
+        """What is measured, what is still needed and how much more, and a level."""
+        results, needs, problems = self.results(), self.needs(), self.problems()
+        shown = [f'{k} n={e.n_used}' for k, e in results.items()]
+        measured = (f'{len(results)} measured ({", ".join(shown[:3])}'
+                    + (', …)' if len(shown) > 3 else ')') if results else 'nothing measured yet')
+        if problems:
+            return Progress('ERROR', f'{measured}; wrong: {problems[0]}', needs,
+                            tuple(problems))
+        if not needs:
+            return Progress('OK', f'complete: {measured}', needs)
+        return Progress('WARN', f'{measured}; still needed: {next(iter(needs.values()))}',
+                        needs)
 
     def start_bag(self, index: int, path: Path) -> None:
         """The next batches come from bag ``index`` at ``path`` (methods whose bags are

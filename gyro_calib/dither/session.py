@@ -25,6 +25,7 @@ from gyro_calib.config import read_method_file
 from gyro_calib.dither import topics
 from gyro_calib.dither.calibrator import (
     AXES,
+    COMPONENT_KEYS,
     KEY_A,
     KEY_AMPLITUDE,
     KEY_AMPLITUDE_PULSES,
@@ -191,6 +192,25 @@ class DitherSession(MethodSession):
                                        and math.isfinite(est.std_uncertainty)):
                 out[key] = (f'only {est.n_used} accepted block: its uncertainty needs the '
                             'scatter of at least two.')
+        return out
+
+    def needs(self) -> dict[str, str]:
+        """Per orientation without a component: how many more accepted blocks (and seconds
+        of table motion along it); then the other reasons, once each."""
+        cal, s = self.calibrator, self.calibrator.settings
+        components = cal.summary().components
+        out: dict[str, str] = {}
+        for axis, rec in cal.orientations.items():
+            if axis in components:
+                continue
+            more = s.min_blocks - len(rec.blocks)
+            if more > 0:  # else withheld for another reason, said by missing()
+                out[COMPONENT_KEYS[axis]] = (
+                    f'the {axis.upper()} orientation needs {more} more accepted block(s) of '
+                    f'{s.block_s:g} s (about {more * s.block_s:g} s with the table along '
+                    f'{axis.upper()}); {len(rec.blocks)} of {s.min_blocks} so far')
+        for key, why in super().needs().items():
+            out.setdefault(key, why)
         return out
 
     def rejections(self) -> list[Rejection]:

@@ -35,8 +35,8 @@ from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
+from gyro_calib.nodes.adaptive_qos import RELIABLE, AdaptiveSubscription
 from gyro_calib.nodes.node_state import NodeState, state_directory
-from gyro_calib.nodes.adaptive_qos import AdaptiveSubscription
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
@@ -322,14 +322,25 @@ class MethodNode(Node):
         if rejections:
             r = rejections[-1]
             values['last_rejection'] = f'{format_stamp(r.stamp_ns)}: {r.reason}'
+        progress = self.session.progress()
+        for key, need in progress.needs.items():
+            values['needs: ' + key] = need
+        for i, problem in enumerate(progress.problems):
+            values[f'problem {i + 1}'] = problem
+        for sub in self._inputs:
+            values['input ' + sub.topic] = ('reliable' if sub.reliability == RELIABLE
+                                            else 'best effort')
         status = DiagnosticStatus(
-            name=f'gyro_calib: {self.method.name}', hardware_id='gyro',
-            message=f'{len(results)} quantities measured',
-            level=DiagnosticStatus.OK if results else DiagnosticStatus.WARN,
+            name=f'gyro_calib: {self.method.name}', hardware_id=self.gyro_id or 'gyro',
+            message=progress.message, level=_LEVELS[progress.level],
             values=[KeyValue(key=k, value=v) for k, v in values.items()])
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()
         self.diag_pub.publish(array)
+
+
+_LEVELS = {'OK': DiagnosticStatus.OK, 'WARN': DiagnosticStatus.WARN,
+           'ERROR': DiagnosticStatus.ERROR}
 
 
 class SimScenarioBench:

@@ -210,6 +210,11 @@ class RbrlgCalibrator:
             return fix_error.tilt_rad.value
         return None if self._position_table_seen else 0.0
 
+    @property
+    def position_table_seen(self) -> bool:
+        """True once a position-table sample or mark arrived (the four-position procedure)."""
+        return self._position_table_seen
+
     def missing(self) -> dict[str, str]:
         """Hand-off key → why it is not measured (yet), for every RBRLG quantity."""
         res = self.results()

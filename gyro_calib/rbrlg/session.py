@@ -126,6 +126,40 @@ class RbrlgSession(MethodSession):
         """Why each RBRLG key is not measured (yet)."""
         return self.calibrator.missing()
 
+    def needs(self) -> dict[str, str]:
+        """K̃: how many more window pairs (and about how long); θ: how many more stations."""
+        cal, res = self.calibrator, self.rbrlg_results
+        k = cal.k_tilde
+        out: dict[str, str] = {}
+        if res.k_tilde_arcsec_per_pulse is None:
+            more = max(k.config.min_pairs - len(k.pairs), 1)
+            m = k.config.revolutions_per_window
+            spent = [w.duration_s for w in k.windows]
+            took = (f', about {2 * more * sum(spent) / len(spent):.0f} s of table motion'
+                    if spent else '')
+            out['k_tilde_rad_per_pulse'] = (
+                f'K̃ needs {more} more forward/reverse window pair(s) ({m} revolutions each '
+                f'way{took}); {len(k.pairs)} of {k.config.min_pairs} accepted')
+        if res.fix_error is None:
+            n = len(cal.stations.stations)
+            if res.fix_error_problem:
+                pass  # wrong, not merely incomplete: see problems()
+            elif n == 0 and not cal.position_table_seen:
+                out['fix_error_angle_rad'] = ('θ needs 3 position-table stations of the '
+                                              'four-position procedure; none seen yet')
+            else:
+                out['fix_error_angle_rad'] = (f'θ needs {max(3 - n, 1)} more station(s) '
+                                              f'({n} measured, 3 spread in β needed)')
+        if res.bias_deg_h is None and not math.isfinite(cal.latitude_deg):
+            out['bias_rad_s'] = 'the bias needs latitude_deg (the Earth rate)'
+        return out
+
+    def problems(self) -> list[str]:
+        """θ refused by the stations (tilt out of tolerance, stations not spread), and the
+        default (everything rejected)."""
+        problem = self.rbrlg_results.fix_error_problem
+        return ([problem] if problem else []) + super().problems()
+
     def rejections(self) -> list[Rejection]:
         """Windows, events, pairs and stations rejected, with reasons."""
         return list(self._rejections)
