@@ -140,25 +140,29 @@ class RbrlgSession(MethodSession):
             out['k_tilde_rad_per_pulse'] = (
                 f'K̃ needs {more} more forward/reverse window pair(s) ({m} revolutions each '
                 f'way{took}); {len(k.pairs)} of {k.config.min_pairs} accepted')
-        if res.fix_error is None:
+        if res.fix_error is None and not self._theta_refused():
             n = len(cal.stations.stations)
-            if res.fix_error_problem:
-                pass  # wrong, not merely incomplete: see problems()
-            elif n == 0 and not cal.position_table_seen:
+            if n == 0 and not cal.position_table_seen:
                 out['fix_error_angle_rad'] = ('θ needs 3 position-table stations of the '
                                               'four-position procedure; none seen yet')
-            else:
-                out['fix_error_angle_rad'] = (f'θ needs {max(3 - n, 1)} more station(s) '
-                                              f'({n} measured, 3 spread in β needed)')
+            elif n < 3:
+                out['fix_error_angle_rad'] = (f'θ needs {3 - n} more station(s) ({n} '
+                                              'measured, 3 spread in β needed)')
+            else:  # waits for K̃, or the stations are not spread in β yet
+                out['fix_error_angle_rad'] = res.fix_error_problem
         if res.bias_deg_h is None and not math.isfinite(cal.latitude_deg):
             out['bias_rad_s'] = 'the bias needs latitude_deg (the Earth rate)'
         return out
 
+    def _theta_refused(self) -> bool:
+        """θ refused because the fitted tilt α is far from the mount's (a wrong set-up)."""
+        return 'fitted tilt' in self.rbrlg_results.fix_error_problem
+
     def problems(self) -> list[str]:
-        """θ refused by the stations (tilt out of tolerance, stations not spread), and the
+        """θ refused by the stations' tilt (a wrong set-up: more data will not help), and the
         default (everything rejected)."""
-        problem = self.rbrlg_results.fix_error_problem
-        return ([problem] if problem else []) + super().problems()
+        refused = [self.rbrlg_results.fix_error_problem] if self._theta_refused() else []
+        return refused + super().problems()
 
     def rejections(self) -> list[Rejection]:
         """Windows, events, pairs and stations rejected, with reasons."""
