@@ -38,7 +38,7 @@ class Graph:
         self.executor.add_node(node)
         return node
 
-    def spin_until(self, done: Callable[[], bool], timeout_s: float = 10.0) -> bool:
+    def spin_until(self, done: Callable[[], bool], timeout_s: float = 30.0) -> bool:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             self.executor.spin_once(timeout_sec=0.05)
