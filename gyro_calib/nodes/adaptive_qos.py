@@ -68,9 +68,10 @@ class AdaptiveSubscription:
 
     def _subscribe(self, topic: str) -> Subscription:
         qos = BEST_EFFORT_QOS if self.reliability == BEST_EFFORT else self.reliable_qos
-        # our own incompatible-QoS handler: rclpy's default one warns that nothing can
-        # arrive, which is no longer true once adapt() has run
-        events = SubscriptionEventCallbacks(incompatible_qos=lambda _event: None)
+        # no QoS event handlers: rclpy's default one warns that nothing can arrive, which
+        # adapt() makes untrue, and a handler's pending event outlives the subscription a
+        # switch destroys (the EventsExecutor then fails on the destroyed handle: seen here)
+        events = SubscriptionEventCallbacks(use_default_callbacks=False)
         return self.node.create_subscription(self.msg_class, topic, self.callback, qos,
                                              event_callbacks=events)
 

@@ -20,7 +20,6 @@ from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.node import Node
 from std_msgs.msg import Float64
 
 from gyro_calib import topics
@@ -37,9 +36,11 @@ from gyro_calib.session import CalibrationOptions
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.bagio.reader import SampleBatch
 from gyro_calib.bagio.columns import TopicColumns
+from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, _TopicBuffer
 from gyro_calib.nodes.node_state import NodeState, feed_columns, state_directory
 from gyro_calib.rbrlg.session import TOPICS as RBRLG_TOPICS
+from gyro_calib.rbrlg.session import RbrlgSession
 from gyro_calib.registry import HEADER
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
@@ -50,10 +51,11 @@ from gyro_calib.nodes.ros_io import (
     described_parameter,
     run_node,
 )
+from gyro_calib.topics import relative
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
 
-class CalibrationNode(Node):
+class CalibrationNode(CalibrationNodeBase):
     """Translates the topic contract to core calls and results to topics and logs."""
 
     def __init__(self) -> None:
@@ -100,28 +102,33 @@ class CalibrationNode(Node):
         self.gyro_id = str(options.setting('gyro_id', ''))
         self.options = options
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
-        self.bench = RbrlgCalibrator(
-            self.config, int(site['position_table_revolutions']), float(site['latitude_deg']),
-            float(site['heading_deg']), float(site['nominal_tilt_deg']),
-            float(site['tilt_tolerance_deg']))
+        bench_args = (self.config, int(site['position_table_revolutions']),
+                      float(site['latitude_deg']), float(site['heading_deg']),
+                      float(site['nominal_tilt_deg']), float(site['tilt_tolerance_deg']))
+        self._new_bench = lambda: RbrlgCalibrator(*bench_args)
+        self.bench = self._new_bench()
         self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
         self._handoff_missing: set[str] | None = None
         self._merge_told: set[str] = set()
         self._station_rejections_seen = 0
         self._buffers: dict[str, _TopicBuffer] = {}
+        specs = []
         for topic, msgtype in RBRLG_TOPICS.items():
             buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
-            self.create_subscription(_MESSAGE_CLASSES[msgtype], topic, buf.add,
-                                     EVENT_QOS if msgtype == HEADER else SENSOR_QOS)
+            specs.append(InputSpec(_MESSAGE_CLASSES[msgtype], relative(topic), buf.add,
+                                   EVENT_QOS if msgtype == HEADER else SENSOR_QOS))
+        self.set_inputs(specs)
         self.state = NodeState(self, 'rbrlg', self.gyro_id,
                                state_directory(str(site.pop('state_dir')), self.output_file),
                                bool(site.pop('keep_state')),
                                parameters={**values, **site, 'config_file': path})
-        self.k_tilde_pub = self.create_publisher(Float64, topics.K_TILDE, RESULT_QOS)
-        self.theta_pub = self.create_publisher(Float64, topics.FIX_ERROR_ANGLE, RESULT_QOS)
-        self.k_pub = self.create_publisher(Float64, topics.SCALE_FACTOR, RESULT_QOS)
-        self.diag_pub = self.create_publisher(DiagnosticArray, topics.DIAGNOSTICS, 10)
+        # relative names: '-r __ns:=/bench2' moves inputs, results and diagnostics together
+        pub = self.create_publisher
+        self.k_tilde_pub = pub(Float64, relative(topics.K_TILDE), RESULT_QOS)
+        self.theta_pub = pub(Float64, relative(topics.FIX_ERROR_ANGLE), RESULT_QOS)
+        self.k_pub = pub(Float64, relative(topics.SCALE_FACTOR), RESULT_QOS)
+        self.diag_pub = pub(DiagnosticArray, relative(topics.DIAGNOSTICS), 10)
         self.scenario = SimScenarioBench(self, METHODS['rbrlg'].bench_settings, self._on_bench)
         self.create_timer(0.2, self._process)
         self.create_timer(1.0, self._publish_diagnostics)
@@ -141,6 +148,38 @@ class CalibrationNode(Node):
     def _refuse_runtime_change(self, params: list) -> SetParametersResult:
         return SetParametersResult(successful=False, reason=(
             'calibration parameters are read at start-up; restart the node to change them.'))
+
+    def reset_calibration(self) -> str:
+        """Start over: buffered samples dropped, a new calibrator, the state record emptied."""
+        dropped = sum(len(b.stamps) for b in self._buffers.values())
+        for buf in self._buffers.values():
+            buf.take()
+        pairs, stations = len(self.bench.k_tilde.pairs), len(self.bench.stations.stations)
+        self.bench = self._new_bench()
+        self.calibrator = self.bench.k_tilde
+        self._last_rejection, self._handoff_note = '', ''
+        self._station_rejections_seen = 0
+        self.state.reset()
+        return (f'new session: {pairs} window pair(s), {stations} station(s) and {dropped} '
+                'buffered samples discarded, state record emptied (the hand-off file is '
+                'kept).')
+
+    def consume_now(self) -> None:
+        """Hand the buffered samples to the calibrator and do what they allow."""
+        self._process()
+
+    def save_calibration(self) -> tuple[bool, str]:
+        """Write the hand-off file now with what is measured."""
+        if not self.output_file:
+            return False, "output_file is '': nothing to write to."
+        values = handoff_values(self.bench.results(), self.bench)
+        if not values or self.bench.data_span_ns() is None:
+            return False, f'nothing measured yet: {self.output_file} not written.'
+        self._handoff_note = ''
+        self._write_handoff(self.bench.results())
+        missing = self.bench.missing()
+        return True, (f'{self.output_file} written'
+                      + (f'; still missing: {", ".join(missing)}' if missing else ' (complete)'))
 
     def _feed(self, columns: dict[str, TopicColumns]) -> None:
         """Record a batch (state directory), then hand it to the calibrator as the offline
@@ -259,10 +298,16 @@ class CalibrationNode(Node):
         self._merge_told = set(merge_lines(report))
 
     def _publish_diagnostics(self) -> None:
-        ok, message, values = calibration_status(self.bench, self._last_rejection)
+        _, _, values = calibration_status(self.bench, self._last_rejection)
+        progress = RbrlgSession.around(self.bench).progress()
+        for key, need in progress.needs.items():
+            values['needs: ' + key] = need
+        for i, problem in enumerate(progress.problems):
+            values[f'problem {i + 1}'] = problem
+        values.update(self.input_values())
         status = DiagnosticStatus(
-            name='gyro_calib: k_tilde', hardware_id='gyro', message=message,
-            level=DiagnosticStatus.OK if ok else DiagnosticStatus.WARN,
+            name='gyro_calib: k_tilde', hardware_id=self.gyro_id or 'gyro',
+            message=progress.message, level=LEVELS[progress.level],
             values=[KeyValue(key=k, value=v) for k, v in values.items()])
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()

@@ -35,7 +35,7 @@ from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
-from gyro_calib.nodes.adaptive_qos import RELIABLE, AdaptiveSubscription
+from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.node_state import NodeState, state_directory
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
@@ -115,7 +115,7 @@ class _TopicBuffer:
         return cols
 
 
-class MethodNode(Node):
+class MethodNode(CalibrationNodeBase):
     """Feeds a method's session from the topic contract; publishes what it measures."""
 
     def __init__(self, method: str, node_name: str, result_topics: Mapping[str, str],
@@ -177,9 +177,8 @@ class MethodNode(Node):
         self.session: MethodSession = self.method.make_session(options)
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self._buffers: dict[str, _TopicBuffer] = {}
-        self._inputs: list[AdaptiveSubscription] = []
+        self._inputs_as_given: tuple[str, ...] = ()
         self._subscribe_inputs()
-        self.create_timer(0.5, self._adapt_qos)
         # relative names: '-r __ns:=/bench2' moves inputs, results and diagnostics together
         self._result_pubs = {key: self.create_publisher(Float64, relative(topic), RESULT_QOS)
                              for key, topic in result_topics.items()}
@@ -224,20 +223,49 @@ class MethodNode(Node):
         """Subscribe the session's topics, each into its buffer and adapting to its
         publishers' QoS (those of ``best_effort`` always best effort); by their names
         relative to the node's namespace, except those of ``as_given`` (a user's topic)."""
-        for sub in self._inputs:
-            sub.destroy()
-        self._buffers, self._inputs = {}, []
+        self._buffers, specs = {}, []
+        self._inputs_as_given = as_given
         for topic, msgtype in self.session.topics().items():
             buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
-            qos = EVENT_QOS if msgtype == HEADER else SENSOR_QOS
-            self._inputs.append(AdaptiveSubscription(
-                self, _MESSAGE_CLASSES[msgtype], topic if topic in as_given else relative(topic),
-                buf.add, qos,
-                forced_best_effort=topic in best_effort))
+            specs.append(InputSpec(_MESSAGE_CLASSES[msgtype],
+                                   topic if topic in as_given else relative(topic), buf.add,
+                                   EVENT_QOS if msgtype == HEADER else SENSOR_QOS,
+                                   topic in best_effort))
+        self.set_inputs(specs)
 
-    def _adapt_qos(self) -> None:
-        for sub in self._inputs:
-            sub.adapt()
+    def new_session(self) -> MethodSession:
+        """A fresh session with the node's options (``~/reset``, cleanup)."""
+        return self.method.make_session(self.options)
+
+    def reset_calibration(self) -> str:
+        """Start over: buffered samples dropped, a new session, the state record emptied."""
+        dropped = sum(len(b.stamps) for b in self._buffers.values())
+        for buf in self._buffers.values():
+            buf.take()
+        measured = len(self.session.results())
+        self.session = self.new_session()
+        self._published, self._last_line, self._handoff_note = {}, '', ''
+        self.state.reset()
+        return (f'new session: {measured} measured quantities and {dropped} buffered '
+                'samples discarded, state record emptied (the hand-off file is kept).')
+
+    def consume_now(self) -> None:
+        """Hand the buffered samples to the session and do what they allow."""
+        self._process()
+
+    def save_calibration(self) -> tuple[bool, str]:
+        """Write the hand-off file now with what is measured."""
+        if not self.output_file:
+            return False, "output_file is '': nothing to write to."
+        record = self.session.handoff('live', gyro_id=self.gyro_id)
+        if record is None:
+            return False, f'nothing measured yet: {self.output_file} not written.'
+        self._handoff_note = ''
+        self._write_handoff()
+        missing = record.missing
+        return True, (f'{self.output_file} written with {len(self.session.results())} '
+                      'measured quantities' + (f'; still missing: {", ".join(missing)}'
+                                               if missing else ' (complete)'))
 
     def _refuse_runtime_change(self, params: list[Any]) -> SetParametersResult:
         return SetParametersResult(successful=False, reason=(
@@ -327,20 +355,14 @@ class MethodNode(Node):
             values['needs: ' + key] = need
         for i, problem in enumerate(progress.problems):
             values[f'problem {i + 1}'] = problem
-        for sub in self._inputs:
-            values['input ' + sub.topic] = ('reliable' if sub.reliability == RELIABLE
-                                            else 'best effort')
+        values.update(self.input_values())
         status = DiagnosticStatus(
             name=f'gyro_calib: {self.method.name}', hardware_id=self.gyro_id or 'gyro',
-            message=progress.message, level=_LEVELS[progress.level],
+            message=progress.message, level=LEVELS[progress.level],
             values=[KeyValue(key=k, value=v) for k, v in values.items()])
         array = DiagnosticArray(status=[status])
         array.header.stamp = self.get_clock().now().to_msg()
         self.diag_pub.publish(array)
-
-
-_LEVELS = {'OK': DiagnosticStatus.OK, 'WARN': DiagnosticStatus.WARN,
-           'ERROR': DiagnosticStatus.ERROR}
 
 
 class SimScenarioBench:

@@ -111,7 +111,7 @@ class NoiseNode(MethodNode):
                               f"{topic or '/gyro/pulses or /fog/output'} is a single-axis "
                               'gyro (set topic to an Imu topic, or kalibr_file to "").')
         session.auto_refresh = False
-        self.session = session
+        self.session, self._noise_options = session, options
         self.best_effort = best_effort
         self._rewire(topic)
         self.create_timer(self.results_period_s, self._refresh)
@@ -129,6 +129,16 @@ class NoiseNode(MethodNode):
     def _announce_inputs(self) -> None:
         """Said after the inputs are rewired (the generic node's default topics are not
         what this node reads)."""
+
+    def new_session(self) -> NoiseSession:
+        """A fresh noise session with the node's input and settings (``~/reset``)."""
+        session = NoiseSession(self._noise_options)
+        session.auto_refresh = False
+        return session
+
+    def consume_now(self) -> None:
+        """Take in the buffered samples and recompute the running terms (``~/save``)."""
+        self._refresh()
 
     def _rewire(self, topic: str) -> None:
         """Subscribe exactly the session's topics (the generic node subscribed its default);

@@ -60,6 +60,13 @@ class ThermalCalibrationNode(MethodNode):
             self.finish()
             super()._process()  # publishes the new results, hand-off and diagnostics
 
+    def consume_now(self) -> None:
+        """Take in the buffered samples and fit the model on what came (``~/save``)."""
+        super().consume_now()
+        if self.unfitted:
+            self.finish()
+            super()._process()
+
     def finish(self) -> None:
         """Fit on everything received so far (the end of the recording)."""
         self.unfitted = False

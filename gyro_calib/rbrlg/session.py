@@ -77,6 +77,14 @@ class RbrlgSession(MethodSession):
         self._rejections: list[Rejection] = []
         self._notices: list[str] = []
 
+    @classmethod
+    def around(cls, calibrator: RbrlgCalibrator) -> RbrlgSession:
+        """A session view of a calibrator fed elsewhere (calibration_node's progress)."""
+        session = cls.__new__(cls)
+        session.calibrator = calibrator
+        session._rejections, session._notices = [], []
+        return session
+
     def topics(self) -> dict[str, str]:
         """The two-axis bench's streams."""
         return dict(TOPICS)
