@@ -77,8 +77,10 @@ def ros_args(params: dict[str, Any]) -> list[str]:
     return args
 
 
-def start_node(name: str, params: dict[str, Any], env: dict[str, str],
-               **popen: Any) -> subprocess.Popen[bytes]:
-    """Start node ``name`` (a key of NODE_MODULES) with ``params`` in a child process."""
-    cmd = [sys.executable, '-m', NODE_MODULES[name], *ros_args(params)]
+def start_node(name: str, params: dict[str, Any], env: dict[str, str], *,
+               namespace: str = '', **popen: Any) -> subprocess.Popen[bytes]:
+    """Start node ``name`` (a key of NODE_MODULES) with ``params`` in a child process, in
+    ``namespace`` ('' = the root; ``-r __ns:=...``)."""
+    remap = ['-r', f'__ns:={namespace}'] if namespace else []
+    cmd = [sys.executable, '-m', NODE_MODULES[name], *ros_args(params), *remap]
     return subprocess.Popen(cmd, env=env, **popen)

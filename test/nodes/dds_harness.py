@@ -58,10 +58,10 @@ def _scratch_dir() -> str:
     return path
 
 
-def launch(name: str, params: dict[str, Any]) -> NodeProcess:
+def launch(name: str, params: dict[str, Any], namespace: str = '') -> NodeProcess:
     env = ros_environment(int(os.environ['ROS_DOMAIN_ID']))
-    proc = start_node(name, params, env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                      cwd=_scratch_dir())
+    proc = start_node(name, params, env, namespace=namespace, stdout=subprocess.DEVNULL,
+                      stderr=subprocess.PIPE, cwd=_scratch_dir())
     return NodeProcess(name, proc)
 
 
