@@ -157,7 +157,7 @@ class CalibrationNode(CalibrationNodeBase):
         pairs, stations = len(self.bench.k_tilde.pairs), len(self.bench.stations.stations)
         self.bench = self._new_bench()
         self.calibrator = self.bench.k_tilde
-        self._last_rejection, self._handoff_note = '', ''
+        self._last_rejection, self._handoff_missing = '', None
         self._station_rejections_seen = 0
         self.state.reset()
         return (f'new session: {pairs} window pair(s), {stations} station(s) and {dropped} '
@@ -175,7 +175,7 @@ class CalibrationNode(CalibrationNodeBase):
         values = handoff_values(self.bench.results(), self.bench)
         if not values or self.bench.data_span_ns() is None:
             return False, f'nothing measured yet: {self.output_file} not written.'
-        self._handoff_note = ''
+        self._handoff_missing = None  # say the state of the file once more
         self._write_handoff(self.bench.results())
         missing = self.bench.missing()
         return True, (f'{self.output_file} written'

@@ -244,7 +244,7 @@ class MethodNode(CalibrationNodeBase):
             buf.take()
         measured = len(self.session.results())
         self.session = self.new_session()
-        self._published, self._last_line, self._handoff_note = {}, '', ''
+        self._published, self._last_line, self._handoff_missing = {}, '', None
         self.state.reset()
         return (f'new session: {measured} measured quantities and {dropped} buffered '
                 'samples discarded, state record emptied (the hand-off file is kept).')
@@ -260,7 +260,7 @@ class MethodNode(CalibrationNodeBase):
         record = self.session.handoff('live', gyro_id=self.gyro_id)
         if record is None:
             return False, f'nothing measured yet: {self.output_file} not written.'
-        self._handoff_note = ''
+        self._handoff_missing = None  # say the state of the file once more
         self._write_handoff()
         missing = record.missing
         return True, (f'{self.output_file} written with {len(self.session.results())} '
