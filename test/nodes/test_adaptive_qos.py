@@ -17,18 +17,14 @@ from gyro_calib.nodes.ros_io import SENSOR_QOS, make_executor
 
 class Graph:
     """rclpy's default context (the nodes under test make their nodes in it) with an
-    executor, for nodes made in this process (destroyed afterwards; the default context
-    cannot be initialised twice in a process, so it stays up until the process exits)."""
+    executor, for nodes made in this process; shut down afterwards (``rclpy.shutdown()``
+    without a context also gives the next test a fresh default context)."""
 
     def __init__(self) -> None:
-        import atexit
-
         import rclpy
 
         self.rclpy = rclpy
-        if not rclpy.ok():
-            rclpy.init()
-            atexit.register(rclpy.try_shutdown)
+        rclpy.init()
         self.context = rclpy.get_default_context()
         self.executor = make_executor(self.context)
         self.nodes: list[Any] = []
@@ -56,6 +52,7 @@ class Graph:
             self.executor.remove_node(node)
             node.destroy_node()
         self.executor.shutdown()
+        self.rclpy.shutdown()
 
 
 @pytest.fixture
