@@ -78,7 +78,8 @@ def test_dither_says_how_much_of_the_other_orientation_it_needs() -> None:
 
 
 def test_every_method_reports_progress_from_its_missing_reasons() -> None:
-    for method, bag in (('fog', 'fog_fault_short_plateau'), ('thermal', 'thermal_fault_stuck_sensor')):
+    for method, bag in (('fog', 'fog_fault_short_plateau'),
+                        ('thermal', 'thermal_fault_stuck_sensor')):
         session = _session(method, bag)
         assert session.progress().message.startswith('nothing measured yet; still needed: ')
         _stream(session, bag)
