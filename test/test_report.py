@@ -347,3 +347,32 @@ def test_spec_file_loads_with_units_and_rule(tmp_path: Path) -> None:
     spec = load_spec(path)
     assert spec.rule == 'simple'
     assert spec.limits['dither_axis_misalignment_rad'].text() == '≤ 5 ′'
+
+
+def test_report_and_batch_are_front_doors_nothing_below_imports_them() -> None:
+    """Data flows one way: bag I/O → sessions → methods → registry → front doors. Only the CLI
+    (a front door too) and the two packages themselves import gyro_calib.report / .batch, and
+    the certificate never imports the fleet."""
+    import ast
+
+    root = Path(__file__).resolve().parent.parent
+    offenders = []
+    for path in sorted((root / 'gyro_calib').rglob('*.py')) + sorted(
+            (root / 'sim_nodes').rglob('*.py')):
+        rel = path.relative_to(root).as_posix()
+        imported: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
+            if isinstance(node, ast.ImportFrom) and node.module:
+                imported.add(node.module)
+            elif isinstance(node, ast.Import):
+                imported.update(a.name for a in node.names)
+        text = path.read_text(encoding='utf-8')
+        uses = {m for m in ('gyro_calib.report', 'gyro_calib.batch')
+                if any(i == m or i.startswith(m + '.') for i in imported) or f"'{m}." in text}
+        if rel.startswith('gyro_calib/batch/') or rel == 'gyro_calib/cli.py':
+            continue
+        if rel.startswith('gyro_calib/report/'):
+            uses.discard('gyro_calib.report')
+        if uses:
+            offenders.append(f'{rel}: {sorted(uses)}')
+    assert offenders == []
