@@ -258,7 +258,7 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_finished(tmp_path: Path) -> None:
         [str(Path(__file__).resolve().parent.parent), os.environ.get('PYTHONPATH', '')])}
     proc = subprocess.Popen(
         [sys.executable, '-m', 'gyro_calib.cli', 'batch', str(manifest), '--out', str(out),
-         '--workers', '2', '--no-pdf', '--no-progress'], env=env, stdout=subprocess.PIPE,
+         '--workers', '1', '--no-pdf', '--no-progress'], env=env, stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, text=True, start_new_session=True)
     deadline = time.monotonic() + 120
     while not list(out.glob('*/record.json')) and time.monotonic() < deadline:
