@@ -178,6 +178,7 @@ def test_reported_terms_are_covered_by_their_uncertainty(p: dict[str, float]) ->
 
 # -- issue 18: IEEE 952 sums, band-limited white noise, quantisation, defects -------------
 STRESS = os.environ.get('GYRO_CALIB_STRESS', '') == '1'
+STRESS_EXAMPLES = int(os.environ.get('GYRO_CALIB_STRESS_EXAMPLES', '100'))
 B_KEY, R_KEY = 'bias_instability_rad_s', 'rate_ramp_rad_per_s2'
 
 
@@ -284,7 +285,8 @@ def _check_terms(cal: NoiseCalibrator, truth: dict[str, float], flicker: bool) -
     return bad
 
 
-@settings(max_examples=100 if STRESS else 12, deadline=None, derandomize=not STRESS,
+@settings(max_examples=STRESS_EXAMPLES if STRESS else 12, deadline=None,
+          derandomize=not STRESS,
           database=None, suppress_health_check=[HealthCheck.too_slow,
                                                 HealthCheck.data_too_large])
 @given(ieee952_records())
@@ -303,4 +305,7 @@ def test_ieee952_sums_give_allantools_adev_and_terms_within_their_uncertainty(
         assert math.isclose(tau, ref_tau, rel_tol=1e-12)
         assert math.isclose(avar, ref_avar, rel_tol=1e-9)  # exact at every τ
     bad = _check_terms(cal, rec['truth'], bool(rec['flicker']))  # type: ignore[arg-type]
+    if STRESS:  # one line per example, for the record of a stress run (pytest -s)
+        print(f"stress example: n={rec['n']} filter={rec['filt']} lsb={rec['lsb']:.3g} "
+              f"terms={sorted(cal.results().get('gyro_x', {}))} bad={bad}", flush=True)
     assert not bad, (bad, {k: rec[k] for k in ('n', 'filt', 'lsb', 'truth')})
