@@ -65,7 +65,7 @@ def _bag(cache: Path, name: str, duration_s: float) -> Path:
 
 
 def offline(cache: Path, hours: float) -> None:
-    from gyro_calib.bagio.reader import bag_info
+    from gyro_calib.bagio import bag_info
 
     bag = _bag(cache, f'k_tilde_{hours:g}h', hours * 3600.0)
     info = bag_info(bag)
@@ -101,7 +101,7 @@ def reader_floor(cache: Path, hours: float) -> None:
     from rosbags.rosbag2 import Reader
     from rosbags.typesys import Stores, get_typestore
 
-    from gyro_calib.bagio.reader import bag_info
+    from gyro_calib.bagio import bag_info
 
     bag = _bag(cache, f'k_tilde_{hours:g}h', hours * 3600.0)
     info = bag_info(bag)
@@ -134,7 +134,7 @@ def reader_floor(cache: Path, hours: float) -> None:
 
 
 def replay(cache: Path, duration_s: float) -> None:
-    from gyro_calib.bagio.reader import bag_info
+    from gyro_calib.bagio import bag_info
     from gyro_calib.bag_calibration import calibrate_bags
     from gyro_calib.nodes.processes import ros_environment, start_node
 

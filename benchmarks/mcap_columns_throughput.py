@@ -13,7 +13,7 @@ Two bags, generated once into ``--cache`` (each in a child process):
 * an IMU bag of the same length: ``sensor_msgs/Imu`` at 400 Hz (a static IMU: white gyro
   and accelerometer noise, a random-walk gyro bias, gravity on z) and
   ``sensor_msgs/Temperature`` of three sensors (cavity_a, cavity_b, shell) at 1 Hz each on
-  one topic, written by gyro_calib.bagio.reader.write_bag (rosbags' Writer, zstd chunks).
+  one topic, written by gyro_calib.bagio.write_bag (rosbags' Writer, zstd chunks).
 
 For each bag:
 
@@ -75,7 +75,8 @@ def generate_imu_bag(path: Path, hours: float, seed: int = 11) -> None:
     """
     import numpy as np
 
-    from gyro_calib.bagio.reader import BagMessage, _typestore, write_bag
+    from gyro_calib.bagio import BagMessage, write_bag
+    from gyro_calib.bagio import typestore as _typestore
     from gyro_calib.bagio.columns import IMU, TEMPERATURE
 
     store = _typestore()
@@ -122,7 +123,7 @@ def generate_imu_bag(path: Path, hours: float, seed: int = 11) -> None:
 
 def topic_types(bag: Path) -> dict[str, str]:
     """Every topic of the bag whose type the columnar decoder knows."""
-    from gyro_calib.bagio.reader import bag_info
+    from gyro_calib.bagio import bag_info
     from gyro_calib.bagio.columns import KNOWN_TYPES
 
     return {t.name: t.msgtype for t in bag_info(bag).topics.values()
@@ -168,7 +169,7 @@ def decode_only(bag: Path, duration_s: float) -> None:
 def exactness(bag: Path, windows: int) -> None:
     import numpy as np
 
-    from gyro_calib.bagio.reader import bag_info
+    from gyro_calib.bagio import bag_info
     from gyro_calib.bagio.columns import iter_column_batches, plan_bag
 
     types = topic_types(bag)
@@ -205,7 +206,7 @@ def exactness(bag: Path, windows: int) -> None:
 
 
 def bench(label: str, bag: Path, windows: int) -> None:
-    from gyro_calib.bagio.reader import bag_info
+    from gyro_calib.bagio import bag_info
 
     info = bag_info(bag)
     size = sum(f.stat().st_size for f in bag.iterdir()) / 1e6

@@ -76,7 +76,7 @@ def run_once(argv: list[str]) -> tuple[int, float, float, float, str]:
 
 def bench(label: str, bag: Path, topic: str, flags: list[str], repeat: int, *,
           ok_exits: tuple[int, ...] = (0,), files: bool = True) -> None:
-    from gyro_calib.bagio.reader import bag_info
+    from gyro_calib.bagio import bag_info
 
     info = bag_info(bag)
     size = sum(f.stat().st_size for f in bag.iterdir()) / 1e6

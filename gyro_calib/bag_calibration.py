@@ -2,7 +2,7 @@
 
 :func:`calibrate_bags` opens one or more bags, picks the methods (those asked for, or every
 method whose topics the bags hold; :mod:`gyro_calib.registry`), and feeds each method's
-session batch by batch in stamp order (:func:`gyro_calib.bagio.reader.iter_bags`), so a bag gives the
+session batch by batch in stamp order (:func:`gyro_calib.bagio.iter_bags`), so a bag gives the
 same numbers offline as when it is replayed into a method's node.
 """
 
@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import (
+from gyro_calib.bagio import (
     CONTRACT_TYPES,
     BagInfo,
     MissingTopicError,
@@ -109,7 +109,7 @@ def bag_infos(paths: Sequence[str | Path], namespace: str | None = None
     note saying the namespace was found in the bags ('' when given or the root).
 
     Raises:
-        BagError (subclass): as :func:`gyro_calib.bagio.reader.bag_info`.
+        BagError (subclass): as :func:`gyro_calib.bagio.bag_info`.
         ConfigError: as :func:`resolve_namespace`.
     """
     infos = [bag_info(p) for p in paths]

@@ -392,7 +392,7 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
 def bag_description(info: Any) -> dict[str, Any]:
     """One bag for ``info``: span, topics with counts and rates from the header stamps
     (the sample instants; log times only for types without a decodable header)."""
-    from gyro_calib.bagio.reader import header_stamp_spans
+    from gyro_calib.bagio import header_stamp_spans
 
     spans = header_stamp_spans(info.path, info) if info.message_count else {}
     topics = []

@@ -1,7 +1,7 @@
 """One calibration run of one method: the shape every method's session follows.
 
 A session wraps a method's streaming calibrator for the shared front door: the bag
-calibration feeds it :class:`~gyro_calib.bagio.reader.SampleBatch` es, ``gyro-calib calibrate`` and
+calibration feeds it :class:`~gyro_calib.bagio.SampleBatch` es, ``gyro-calib calibrate`` and
 ``info`` print its summary and rejections, ``--json`` its results, ``--plot`` its figures,
 ``--out`` its hand-off record, and its node its diagnostics. Each method's session lives in
 its own subpackage (``gyro_calib/<method>/session.py``) and is named in
@@ -23,7 +23,7 @@ from gyro_calib.handoff import Calibration, Provenance, method_calibration
 from gyro_calib.units import format_stamp
 
 if TYPE_CHECKING:
-    from gyro_calib.bagio.reader import SampleBatch
+    from gyro_calib.bagio import SampleBatch
     from gyro_calib.estimate import Estimate, Rejection
 
 

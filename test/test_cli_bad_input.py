@@ -35,7 +35,7 @@ from pathlib import Path
 import pytest
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import (
+from gyro_calib.bagio import (
     CONTRACT_TYPES,
     HEADER,
     JOINT_STATE,

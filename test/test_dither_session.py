@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import JOINT_STATE, SampleBatch
+from gyro_calib.bagio import JOINT_STATE, SampleBatch
 from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.dither.calibrator import KEY_A, KEY_FREQUENCY, KEY_Z, calibrate_dither
 from gyro_calib.dither.session import DitherSession

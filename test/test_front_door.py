@@ -32,7 +32,7 @@ import yaml
 
 import gyro_calib
 from gyro_calib import cli
-from gyro_calib.bagio.reader import BagMessage, ContractMessages, bag_info, write_bag
+from gyro_calib.bagio import BagMessage, ContractMessages, bag_info, write_bag
 from gyro_calib.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 import yaml
 
-from gyro_calib.bagio.reader import bag_info
+from gyro_calib.bagio import bag_info
 from gyro_calib.bag_calibration import method_options
 from gyro_calib.cli import main as gyro_calib_main
 from gyro_calib.handoff import (
@@ -256,7 +256,7 @@ def test_a_live_thermal_node_reports_a_bench_conflict_and_writes_the_published_g
     import rclpy
     from std_msgs.msg import String
 
-    from gyro_calib.bagio.reader import iter_sample_batches
+    from gyro_calib.bagio import iter_sample_batches
     from gyro_calib.nodes.processes import ros_args
     from gyro_calib.nodes.thermal_calibration_node import ThermalCalibrationNode
 

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from gyro_calib.bagio.reader import CONTRACT_TYPES, BagMessage, CorruptBagError, write_bag
+from gyro_calib.bagio import CONTRACT_TYPES, BagMessage, CorruptBagError, write_bag
 from gyro_calib.bagio.columns import (
     HEADER,
     IMU,
@@ -196,7 +196,7 @@ def cdr() -> Cdr:
 
 def write_test_bag(path: Path, messages: list[tuple[str, int, bytes]],
                    types: dict[str, str]) -> Path:
-    """A rosbags-written bag (zstd chunks, as gyro_calib.bagio.reader.write_bag makes them)."""
+    """A rosbags-written bag (zstd chunks, as gyro_calib.bagio.write_bag makes them)."""
     write_bag(path, [BagMessage(topic, t, raw) for topic, t, raw in messages], types=types)
     return path
 

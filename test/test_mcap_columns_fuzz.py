@@ -28,7 +28,7 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from gyro_calib.bagio.reader import CONTRACT_TYPES, BagError
+from gyro_calib.bagio import CONTRACT_TYPES, BagError
 from test_mcap_columns import BAGS, assert_bit_identical, columnar_columns, rosbags_columns
 
 PREFIX_NS = 6_000_000_000

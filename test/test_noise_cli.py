@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
-from gyro_calib.bagio.reader import BagMessage, ContractMessages, write_bag
+from gyro_calib.bagio import BagMessage, ContractMessages, write_bag
 from gyro_calib.cli import main
 from sim_nodes.noise.bag_scenarios import imu_template
 

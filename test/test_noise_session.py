@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from gyro_calib.bagio.reader import MissingTopicError, SampleBatch, WrongMessageTypeError
+from gyro_calib.bagio import MissingTopicError, SampleBatch, WrongMessageTypeError
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Provenance, method_calibration, write_calibration
 from gyro_calib.bagio.columns import FrameIds, TopicColumns

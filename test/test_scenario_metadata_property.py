@@ -5,7 +5,7 @@ escapes, and the ruamel emitter rosbags writes metadata with folded the long dou
 line inside an escape. The property: any scenario (nested mappings of the kinds the
 simulators store: Unicode descriptions with Greek letters, subscripts, primes and combining
 marks, quotes and backslashes, long lines, numbers, lists, null) written into a bag by
-:func:`gyro_calib.bagio.reader.write_bag` reads back equal through :func:`gyro_calib.bagio.reader.bag_info`.
+:func:`gyro_calib.bagio.write_bag` reads back equal through :func:`gyro_calib.bagio.bag_info`.
 Scenarios are generated here (not from sim_nodes). Derandomized with 25 examples;
 ``GYRO_CALIB_STRESS=1`` runs 400 random ones.
 """
@@ -21,7 +21,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from gyro_calib.bagio.reader import (
+from gyro_calib.bagio import (
     SCENARIO_KEY,
     BagMessage,
     ContractMessages,

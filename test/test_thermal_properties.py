@@ -132,7 +132,7 @@ ROS_PACKAGES = {'rclpy', 'std_msgs', 'sensor_msgs', 'diagnostic_msgs', 'builtin_
                 'rosbags'}
 SHARED_CORE = {'gyro_calib.errors', 'gyro_calib.estimate', 'gyro_calib.streams',
                'gyro_calib.units', 'gyro_calib.handoff', 'gyro_calib.topics',
-               'gyro_calib.session', 'gyro_calib.config', 'gyro_calib.bagio.reader',
+               'gyro_calib.session', 'gyro_calib.config', 'gyro_calib.bagio',
                'gyro_calib.rate_table', 'sim_nodes.motion', 'sim_nodes.rate_table',
                'gyro_calib.registry', 'gyro_calib.bag_calibration', 'gyro_calib.imu_conversion',
                'gyro_calib.outputs', 'gyro_calib.bag', 'gyro_calib.bagio',

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gyro_calib.bagio.reader import SampleBatch
+from gyro_calib.bagio import SampleBatch
 from gyro_calib.cli import main as gyro_calib
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import (

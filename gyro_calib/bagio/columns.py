@@ -79,19 +79,15 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from gyro_calib.bagio import reader as bag
-from gyro_calib.bagio.reader import BagError, CorruptBagError, _typestore
+from gyro_calib.bagio import storage
+from gyro_calib.bagio.errors import BagError, CorruptBagError
+from gyro_calib.bagio.messages import HEADER, IMU, JOINT_STATE, TEMPERATURE, typestore
 from gyro_calib.errors import GyroCalibError
 
 if TYPE_CHECKING:
     from typing import BinaryIO
 
     import numpy.typing as npt
-
-JOINT_STATE = 'sensor_msgs/msg/JointState'
-HEADER = 'std_msgs/msg/Header'
-IMU = 'sensor_msgs/msg/Imu'
-TEMPERATURE = 'sensor_msgs/msg/Temperature'
 
 MAX_GROUP_CHUNKS = 64
 """Chunks overlapping in log time are decoded together; more than this → rosbags whole."""
@@ -481,19 +477,20 @@ class ReadPlan:
 
 
 def _open_reader(path: Path) -> Any:
-    """rosbags' Reader, opened by gyro_calib.bagio.reader for a bag directory (or a .mcap file in
-    one), or on the file alone for a .mcap file without metadata.yaml beside it; the
-    failures gyro_calib.bagio.reader lets through (a damaged record length makes rosbags allocate
-    without bound: MemoryError; struct.error, OverflowError) are CorruptBagError too."""
+    """rosbags' Reader, opened by :func:`gyro_calib.bagio.storage.open_reader` for a bag
+    directory (or a .mcap file in one), or on the file alone for a .mcap file without
+    metadata.yaml beside it; the failures open_reader lets through (a damaged record length
+    makes rosbags allocate without bound: MemoryError; struct.error, OverflowError) are
+    CorruptBagError too."""
     try:
-        if path.suffix == '.mcap' and path.is_file() and not bag._usable_metadata(
+        if path.suffix == '.mcap' and path.is_file() and not storage.usable_metadata(
                 path.parent / 'metadata.yaml'):
             from rosbags.rosbag2 import Reader
 
             reader = Reader(path)
             reader.open()
             return reader
-        return bag._open_reader(path)
+        return storage.open_reader(path)
     except GyroCalibError:
         raise
     except Exception as exc:  # noqa: BLE001 -- rosbags raises many kinds on a damaged file
@@ -507,7 +504,7 @@ def _check_types(topic_types: Mapping[str, str]) -> dict[str, str]:
     if unknown:
         raise UnsupportedMessageTypeError(
             f'no columns are defined for {unknown}; the columnar decoder reads '
-            f'{", ".join(sorted(CODECS))}. Read these topics with gyro_calib.bagio.reader instead.')
+            f'{", ".join(sorted(CODECS))}. Read these topics with gyro_calib.bagio instead.')
     return dict(topic_types)
 
 
@@ -515,7 +512,7 @@ def plan_bag(path: str | Path, topic_types: Mapping[str, str]) -> ReadPlan:
     """The plan :func:`iter_column_batches` follows for ``topic_types`` (topic → type).
 
     Raises:
-        BagError (subclass): as :func:`gyro_calib.bagio.reader.bag_info`; CountMismatchError or
+        BagError (subclass): as :func:`gyro_calib.bagio.bag_info`; CountMismatchError or
             IndexMismatchError when the summary contradicts itself.
     """
     path = Path(path)
@@ -657,7 +654,7 @@ def _overlap_groups(chunks: list[ChunkPlan]) -> tuple[tuple[ChunkPlan, ...], ...
 @functools.cache
 def _store() -> Any:
     """One rosbags typestore (each new one compiles its (de)serialisers again on first use)."""
-    return _typestore()
+    return typestore()
 
 
 def _deserialize(payload: bytes, msgtype: str) -> Any:
@@ -1101,7 +1098,7 @@ def iter_column_batches(path: str | Path, topic_types: Mapping[str, str], *,
 
     Raises:
         UnsupportedMessageTypeError: a type outside :data:`KNOWN_TYPES` was asked for.
-        BagError (subclass): as :func:`gyro_calib.bagio.reader.bag_info`; DamagedChunkError,
+        BagError (subclass): as :func:`gyro_calib.bagio.bag_info`; DamagedChunkError,
             IndexMismatchError, CountMismatchError, MessageDecodeError (all
             CorruptBagError) for a damaged bag.
     """

@@ -2,8 +2,8 @@
 
 Users of allan_variance_ros and MATLAB often keep a static record as a table: one row per
 sample, a stamp column and rate (or pulse count) columns. ``gyro-calib`` reads such a file
-wherever it takes a BAG: :func:`gyro_calib.bagio.reader.bag_info` and
-:func:`gyro_calib.bagio.reader.iter_sample_batches` hand it here, so the noise analysis (and
+wherever it takes a BAG: :func:`gyro_calib.bagio.bag_info` and
+:func:`gyro_calib.bagio.iter_sample_batches` hand it here, so the noise analysis (and
 ``info``) see the same columns a bag would give.
 
 Layout: a header row names the columns (comma, semicolon, tab or blank separated; lines
@@ -24,10 +24,12 @@ from __future__ import annotations
 import re
 from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
+from gyro_calib.bagio.columns import FrameIds, TopicColumns
+from gyro_calib.bagio.messages import IMU, JOINT_STATE
+from gyro_calib.bagio.records import BagInfo, SampleBatch, TopicInfo
 from gyro_calib.errors import ConfigError
 
 TABLE_SUFFIXES = frozenset({'.csv', '.tsv', '.txt', '.dat'})
@@ -60,8 +62,6 @@ def read_table(path: str | Path) -> tuple[str, str, np.ndarray, dict[str, np.nda
         ConfigError: no header, an unknown or missing column, a value that is not a number,
             stamps that are not finite.
     """
-    from gyro_calib.registry import IMU, JOINT_STATE
-
     p = Path(path)
     try:
         lines = [ln for ln in p.read_text(encoding='utf-8').splitlines()
@@ -118,21 +118,16 @@ def read_table(path: str | Path) -> tuple[str, str, np.ndarray, dict[str, np.nda
                       'or fog_counts.')
 
 
-def table_info(path: str | Path) -> Any:
-    """The :class:`gyro_calib.bagio.reader.BagInfo` of a table (one topic)."""
-    from gyro_calib.bagio.reader import BagInfo, TopicInfo
-
+def table_info(path: str | Path) -> BagInfo:
+    """The :class:`gyro_calib.bagio.records.BagInfo` of a table (one topic)."""
     topic, msgtype, stamps, _ = read_table(path)
     return BagInfo(Path(path), {topic: TopicInfo(topic, msgtype, len(stamps))},
                    int(stamps.min()), int(stamps.max()), len(stamps), {})
 
 
 def iter_table_batches(path: str | Path, topic_types: Mapping[str, str] | None,
-                       batch_messages: int = 50_000) -> Iterator[Any]:
-    """The table as :class:`gyro_calib.bagio.reader.SampleBatch` es (log time = stamp)."""
-    from gyro_calib.bagio.columns import FrameIds, TopicColumns
-    from gyro_calib.bagio.reader import SampleBatch
-
+                       batch_messages: int = 50_000) -> Iterator[SampleBatch]:
+    """The table as :class:`gyro_calib.bagio.records.SampleBatch` es (log time = stamp)."""
     topic, msgtype, stamps, values = read_table(path)
     if topic_types is not None and topic_types.get(topic) != msgtype:
         return

@@ -57,7 +57,7 @@ from gyro_calib.units import NS_PER_S, RAD_PER_ARCSEC
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from gyro_calib.bagio.reader import SampleBatch
+    from gyro_calib.bagio import SampleBatch
     from gyro_calib.estimate import Estimate, Rejection
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'

@@ -45,7 +45,7 @@ from gyro_calib.units import format_stamp
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from gyro_calib.bagio.reader import SampleBatch
+    from gyro_calib.bagio import SampleBatch
     from gyro_calib.estimate import Estimate, Rejection
 
 TOPICS = {topics.FOG_OUTPUT: 'sensor_msgs/msg/JointState',

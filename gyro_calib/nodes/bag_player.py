@@ -27,7 +27,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
-from gyro_calib.bagio.reader import bag_info, iter_raw_messages
+from gyro_calib.bagio import bag_info, iter_raw_messages
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,

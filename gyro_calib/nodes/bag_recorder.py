@@ -11,7 +11,7 @@ Parameters: ``out`` (bag directory to create, required), ``topics`` (default: th
 calibration inputs of the topic contract), ``namespaces`` (the benches whose contract topics
 are recorded, e.g. ``['/bench1', '/bench2']``; default the root: one bench), ``duration_s``
 (0 = until stopped), ``log_time`` (``receive`` | ``header``). Each namespaced bench's
-scenario is stored under its own key (:func:`gyro_calib.bagio.reader.scenario_key`).
+scenario is stored under its own key (:func:`gyro_calib.bagio.scenario_key`).
 
     bag_recorder --ros-args -p out:=my_run
     bag_recorder --ros-args -p out:=lab -p "namespaces:=['/bench1', '/bench2']"
@@ -33,7 +33,7 @@ from rclpy.serialization import deserialize_message
 from std_msgs.msg import String
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import (
+from gyro_calib.bagio import (
     CONTRACT_TYPES,
     BagError,
     checksum_chunks,

@@ -34,7 +34,7 @@ from gyro_calib.nodes.method_node import SimScenarioBench
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
-from gyro_calib.bagio.reader import SampleBatch
+from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import TopicColumns
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, _TopicBuffer

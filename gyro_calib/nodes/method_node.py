@@ -2,7 +2,7 @@
 hand-off file out, through the same session the bag calibration uses.
 
 Messages are buffered per topic as they arrive (stamp, values, frame_id) and handed to the
-session as one :class:`~gyro_calib.bagio.reader.SampleBatch` every ``process_period_s``; the
+session as one :class:`~gyro_calib.bagio.SampleBatch` every ``process_period_s``; the
 calibrators give the same result however the data are chunked, so a bag replayed into the
 node gives bit for bit the numbers ``gyro-calib calibrate`` gives offline.
 
@@ -30,7 +30,7 @@ from sensor_msgs.msg import Imu, JointState, Temperature
 from std_msgs.msg import Float64, Header, String
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import SampleBatch
+from gyro_calib.bagio import SampleBatch
 from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration

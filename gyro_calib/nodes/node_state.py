@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gyro_calib.bagio.reader import SampleBatch
+from gyro_calib.bagio import SampleBatch
 from gyro_calib.state_record import StateRecord, StateRecordError
 from gyro_calib.units import format_stamp
 

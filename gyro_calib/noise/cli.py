@@ -81,7 +81,7 @@ def add_commands(subparsers: Any) -> None:
 
 def run_noise(args: argparse.Namespace) -> int:
     """Check the input, calibrate the bags, print, write the files asked for."""
-    from gyro_calib.bagio.reader import topics_present
+    from gyro_calib.bagio import topics_present
     from gyro_calib.bag_calibration import bag_infos, json_document, merged_topics
     from gyro_calib.cli import _json_default, options_from_args, summary_text
     from gyro_calib.noise.outputs import resolve_targets, write_outputs

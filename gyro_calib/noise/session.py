@@ -53,7 +53,7 @@ from gyro_calib.session import CalibrationOptions, MethodSession
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from gyro_calib.bagio.reader import SampleBatch
+    from gyro_calib.bagio import SampleBatch
     from gyro_calib.estimate import Estimate, Rejection
     from gyro_calib.noise.calibrator import AxisResult
 
@@ -241,7 +241,7 @@ def select_input(present: Mapping[str, tuple[str, int]], options: CalibrationOpt
         WrongMessageTypeError: the topic asked for carries another message type.
         ConfigError: several candidates and none asked for.
     """
-    from gyro_calib.bagio.reader import MissingTopicError, WrongMessageTypeError
+    from gyro_calib.bagio import MissingTopicError, WrongMessageTypeError
 
     asked = options.topic
     if asked:

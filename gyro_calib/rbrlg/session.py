@@ -23,7 +23,7 @@ from gyro_calib.units import RAD_PER_ARCSEC
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from gyro_calib.bagio.reader import SampleBatch
+    from gyro_calib.bagio import SampleBatch
     from gyro_calib.estimate import Estimate, Rejection
 
 TOPICS = {topics.GYRO_PULSES: 'sensor_msgs/msg/JointState',

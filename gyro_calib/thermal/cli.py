@@ -118,7 +118,7 @@ def compensate_bags(paths: Sequence[Path], calibration_file: Path, *, gyro_id: s
             ExtrapolationError, InsufficientDataError: as
             :func:`gyro_calib.thermal.compensate.compensate`.
     """
-    from gyro_calib.bagio.reader import bag_info, check_topics, iter_bags
+    from gyro_calib.bagio import bag_info, check_topics, iter_bags
     from gyro_calib.bag_calibration import merged_topics
     from gyro_calib.handoff import load_calibration
     from gyro_calib.imu_conversion import pulse_calibration, thermal_model
@@ -168,7 +168,7 @@ def compensate_bags(paths: Sequence[Path], calibration_file: Path, *, gyro_id: s
 
 
 def _pulse_samples(path: Path) -> Iterator[tuple[int, float]]:
-    from gyro_calib.bagio.reader import iter_sample_batches
+    from gyro_calib.bagio import iter_sample_batches
 
     for batch in iter_sample_batches(path, {GYRO_PULSES: JOINT_STATE}):
         js = batch.joint_state(GYRO_PULSES)
@@ -181,7 +181,7 @@ class _ImuMessages:
     no acceleration)."""
 
     def __init__(self, frame_id: str) -> None:
-        from gyro_calib.bagio.reader import ContractMessages
+        from gyro_calib.bagio import ContractMessages
 
         self.store = ContractMessages().store
         t = self.store.types
@@ -217,7 +217,7 @@ def write_compensated_bag(result: BagCompensation, out: Path, *, calibration_fil
         ConfigError: more than one input bag. BagError: ``out`` exists, or the bag's pulse
             stream does not read back as it did.
     """
-    from gyro_calib.bagio.reader import BagError, BagMessage, bag_info, iter_raw_messages, write_bag
+    from gyro_calib.bagio import BagError, BagMessage, bag_info, iter_raw_messages, write_bag
     from gyro_calib.imu_conversion import angular_velocity_from_pulses
 
     if len(result.bags) != 1:
@@ -352,7 +352,7 @@ def summary_text(result: BagCompensation, calibration_file: Path) -> str:
 
 def run_compensate(args: argparse.Namespace) -> int:
     """``gyro-calib compensate``: exit status 0, or a GyroCalibError for main() to print."""
-    from gyro_calib.bagio.reader import BagError
+    from gyro_calib.bagio import BagError
 
     from gyro_calib.outputs import check_new_directory, check_plot_dir, make_plot_dir
 

@@ -47,7 +47,7 @@ from gyro_calib.thermal.topics import GYRO_PULSES, GYRO_TEMPERATURE
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from gyro_calib.bagio.reader import SampleBatch
+    from gyro_calib.bagio import SampleBatch
     from gyro_calib.estimate import Estimate, Rejection
     from gyro_calib.thermal.allan import NoiseFloor
     from gyro_calib.thermal.fit import ThermalFitReport

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import BagMessage, ContractMessages, topic_sort_key, write_bag
+from gyro_calib.bagio import BagMessage, ContractMessages, topic_sort_key, write_bag
 from gyro_calib.dither.coning import coning_drift
 from gyro_calib.dither.floor import detection_floor
 from gyro_calib.units import NS_PER_S

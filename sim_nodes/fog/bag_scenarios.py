@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import BagMessage, ContractMessages, topic_sort_key, write_bag
+from gyro_calib.bagio import BagMessage, ContractMessages, topic_sort_key, write_bag
 from sim_nodes.fog.config import FogConfig
 from sim_nodes.fog.front_end import FrontEnd
 from sim_nodes.fog.scenarios import (

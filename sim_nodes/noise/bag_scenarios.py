@@ -112,7 +112,7 @@ class _Template:
 
 
 def _store() -> Any:
-    from gyro_calib.bagio.reader import _typestore
+    from gyro_calib.bagio import typestore as _typestore
 
     return _typestore()
 
@@ -159,7 +159,7 @@ def imu_message(t_ns: int, frame_id: str, gyro: Any, accel: Any) -> bytes:
 
 def pulse_template() -> _Template:
     """Template of the contract's /gyro/pulses JointState (one joint, position only)."""
-    from gyro_calib.bagio.reader import ContractMessages
+    from gyro_calib.bagio import ContractMessages
 
     cdr = ContractMessages().joint_state(0, GYRO_JOINT, 1234.5)
     return _Template(cdr, 4, cdr.index(np.array([1234.5], '<f8').tobytes()), 1)
@@ -445,7 +445,7 @@ SCENARIOS: dict[str, ImuBagScenario | RlgBagScenario] = {s.name: s for s in (
 def write_scenario_bag(scenario: ImuBagScenario | RlgBagScenario | str,
                        path: str | Path) -> Path:
     """Simulate ``scenario`` and write its bag at ``path`` (which must not exist)."""
-    from gyro_calib.bagio.reader import BagMessage, write_bag
+    from gyro_calib.bagio import BagMessage, write_bag
 
     if isinstance(scenario, str):
         scenario = SCENARIOS[scenario]

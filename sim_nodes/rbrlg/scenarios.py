@@ -26,7 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import BagMessage, ContractMessages, topic_sort_key, write_bag
+from gyro_calib.bagio import BagMessage, ContractMessages, topic_sort_key, write_bag
 from gyro_calib.units import RAD_PER_ARCSEC
 from sim_nodes.rbrlg.bench import (
     TwoAxisRecording,

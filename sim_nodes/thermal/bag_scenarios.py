@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from gyro_calib.bagio.reader import TEMPERATURE, BagMessage, ContractMessages, write_bag
+from gyro_calib.bagio import TEMPERATURE, BagMessage, ContractMessages, write_bag
 from gyro_calib.topics import GYRO_JOINT, GYRO_PULSES, GYRO_TEMPERATURE
 from sim_nodes.thermal.scenarios import ChamberRunConfig, ThermalRun
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from gyro_calib.bagio.reader import SampleBatch, bag_info
+from gyro_calib.bagio import SampleBatch, bag_info
 from gyro_calib.handoff import load_calibration
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions

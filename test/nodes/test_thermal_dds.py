@@ -14,7 +14,7 @@ import pytest
 import yaml
 
 from gyro_calib import topics
-from gyro_calib.bagio.reader import SampleBatch, bag_info
+from gyro_calib.bagio import SampleBatch, bag_info
 from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.handoff import load_calibration, write_calibration
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
