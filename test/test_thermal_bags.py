@@ -272,3 +272,14 @@ def test_a_sensor_read_too_sparsely_is_refused_in_one_line_with_exit_2(
     assert 'temperature sensor cavity_a is read about every 300 s' in line
     assert 'max_temperature_gap_s (--config) to at least 360 s' in line
     assert not out.exists()
+
+
+def test_figures_of_a_bench_with_a_stuck_sensor_are_drawn(tmp_path: Path) -> None:
+    """The model is NaN where the sensor stuck: raw and compensated means are drawn on their
+    own blocks (the figure crashed on 123 against 87 blocks after a finished calibration)."""
+    from gyro_calib.cli import main as gyro_calib_main
+
+    out = tmp_path / 'figures'
+    assert gyro_calib_main(['calibrate', str(BAGS / 'thermal_fault_stuck_sensor'), '--plot',
+                            str(out), '--no-progress']) == 0
+    assert {p.name for p in out.iterdir()} >= {'thermal_bias_vs_h.png', 'thermal_residuals.png'}

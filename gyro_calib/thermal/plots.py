@@ -98,11 +98,13 @@ def plot_thermal(calibrator_or_report: ThermalCalibrator | ThermalFitReport, out
     n_ax = 2 if validation is not None else 1
     fig, axes = plt.subplots(n_ax, 1, figsize=(9, 4 * n_ax), squeeze=False)
     tm = rep.t_mid_ns
+    # each series on its own blocks: the model is NaN where a sensor failed or H left the
+    # calibrated range, so the compensated series may have fewer blocks than the raw one
     tb, raw = _block_series(tm, rep.bias_raw_rad_s, 100.0)
-    _, comp = _block_series(tm, rep.bias_raw_rad_s - rep.bias_model_rad_s, 100.0)
+    tc, comp = _block_series(tm, rep.bias_raw_rad_s - rep.bias_model_rad_s, 100.0)
     ax = axes[0, 0]
     ax.plot((tb - t0) / 3600, raw / DEG_H, '.', ms=3, label='raw')
-    ax.plot((tb - t0) / 3600, comp / DEG_H, '.', ms=3, label='raw − model')
+    ax.plot((tc - t0) / 3600, comp / DEG_H, '.', ms=3, label='raw − model')
     ax.set_title('calibration run: 100 s means of the bias')
     ax.set_ylabel('°/h')
     ax.legend()
@@ -111,12 +113,12 @@ def plot_thermal(calibrator_or_report: ThermalCalibrator | ThermalFitReport, out
         vt0 = float(v.t_mid_ns[0]) / NS_PER_S
         e = v.earth_rate_along_axis_rad_s
         tb, raw = _block_series(v.t_mid_ns, v.rate_raw_rad_s - e, v.block_s)
-        _, comp = _block_series(v.t_mid_ns, v.rate_raw_rad_s - e - v.bias_model_rad_s,
-                                v.block_s)
+        tc, comp = _block_series(v.t_mid_ns, v.rate_raw_rad_s - e - v.bias_model_rad_s,
+                                 v.block_s)
         ax = axes[1, 0]
         ax.plot((tb - vt0) / 3600, raw / DEG_H, '.', ms=3,
                 label=f'raw: {v.bias_stability_raw.value / DEG_H:.4f} °/h')
-        ax.plot((tb - vt0) / 3600, comp / DEG_H, '.', ms=3,
+        ax.plot((tc - vt0) / 3600, comp / DEG_H, '.', ms=3,
                 label=f'raw − model: {v.bias_stability_compensated.value / DEG_H:.4f} °/h')
         f = v.noise_floor.floor.value / DEG_H
         ax.axhspan(-f, f, color='g', alpha=0.15, label=f'± noise floor {f:.4f} °/h')
@@ -163,10 +165,10 @@ def plot_compensation(report: CompensationReport, out_dir: Path) -> list[Path]:
     e = v.earth_rate_along_axis_rad_s
     fig, (ax, ax2) = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
     tb, raw = _block_series(v.t_mid_ns, v.rate_raw_rad_s - e, v.block_s)
-    _, comp = _block_series(v.t_mid_ns, v.rate_raw_rad_s - e - v.bias_model_rad_s, v.block_s)
+    tc, comp = _block_series(v.t_mid_ns, v.rate_raw_rad_s - e - v.bias_model_rad_s, v.block_s)
     ax.plot((tb - t0) / 3600, raw / DEG_H, '.', ms=3,
             label=f'raw − Earth rate: {v.bias_stability_raw.value / DEG_H:.4f} °/h')
-    ax.plot((tb - t0) / 3600, comp / DEG_H, '.', ms=3,
+    ax.plot((tc - t0) / 3600, comp / DEG_H, '.', ms=3,
             label=f'raw − Earth rate − model: {v.bias_stability_compensated.value / DEG_H:.4f} °/h')
     f = v.noise_floor.floor.value / DEG_H
     ax.axhspan(-f, f, color='g', alpha=0.15, label=f'± noise floor {f:.4f} °/h')
