@@ -376,3 +376,13 @@ def test_report_and_batch_are_front_doors_nothing_below_imports_them() -> None:
         if uses:
             offenders.append(f'{rel}: {sorted(uses)}')
     assert offenders == []
+
+
+def test_every_dither_angle_of_the_hand_off_is_quoted_in_arcminutes() -> None:
+    """The dither limit is stated in ′: a, its components and a's interval and limit alike."""
+    from gyro_calib.dither import keys as dither_keys
+    from gyro_calib.report.units import user_unit
+
+    for key in (dither_keys.KEY_A, dither_keys.KEY_Z, dither_keys.KEY_Y, dither_keys.KEY_LOWER,
+                dither_keys.KEY_UPPER, dither_keys.KEY_LIMIT):
+        assert user_unit(key).label == '′', key

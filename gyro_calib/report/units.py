@@ -59,6 +59,9 @@ _OVERRIDES = {
     'dither_axis_misalignment_rad': _ARCMIN,
     'dither_misalignment_z_rad': _ARCMIN,
     'dither_misalignment_y_rad': _ARCMIN,
+    'dither_axis_misalignment_lower_rad': _ARCMIN,
+    'dither_axis_misalignment_upper_rad': _ARCMIN,
+    'dither_misalignment_limit_rad': _ARCMIN,
 }
 
 
