@@ -281,3 +281,14 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_finished(tmp_path: Path) -> None:
             break
         time.sleep(0.1)
     assert not left
+
+
+def test_fleet_page_says_a_lone_units_spread_is_not_defined() -> None:
+    """A quantity measured on one unit has no spread: the page says so, not 'nan'."""
+    from gyro_calib.batch.fleet import fleet_html
+
+    record = {'gyro_id': 'G-1', 'stem': 'G-1', 'status': 'ok',
+              'certificate': {'overall': '', 'quantities': [
+                  {'key': 'fog_bias_rad_s', 'value': 0.5, 'unit': '°/h'}]}}
+    page = fleet_html([record], {})
+    assert '— (one unit)' in page and '>nan<' not in page

@@ -180,6 +180,8 @@ def fleet_html(records: Sequence[dict[str, Any]], spec_limits: dict[str, Any]) -
                       f'({verdicts.count("CONDITIONAL")} conditional, {verdicts.count("FAIL")} '
                       'fail)' if verdicts else 'no limits')
         cpk = '—' if stats['cpk'] is None else f'{stats["cpk"]:.2f}'
+        spread = (f'{stats["std"]:.3g}' if math.isfinite(stats['std'])
+                  else '— (one unit)')
         outliers = [e for e, o in zip(entries, stats['outliers']) if o]
         links = ', '.join(f'<a href="{esc(s)}/{esc(s)}.html">{esc(g)}</a> ({q["value"]:.6g})'
                           for g, s, q in outliers) or 'none'
@@ -189,7 +191,7 @@ def fleet_html(records: Sequence[dict[str, Any]], spec_limits: dict[str, Any]) -
             + _svg_strip(values, [e[0] for e in entries], low, high, unit, stats['outliers'])
             + f'<table><tr><th>n</th><th>mean</th><th>spread (σ)</th><th>limits</th>'
             f'<th>yield</th><th>Cpk</th><th>outliers</th></tr><tr><td>{stats["n"]}</td>'
-            f'<td>{stats["mean"]:.6g}</td><td>{stats["std"]:.3g}</td>'
+            f'<td>{stats["mean"]:.6g}</td><td>{spread}</td>'
             f'<td>{esc(lim.text()) if lim is not None else "—"}</td><td>{yield_text}</td>'
             f'<td>{cpk}</td><td class="outliers">{links}</td></tr></table></section>')
     style = ('body{font-family:"DejaVu Sans",Arial,sans-serif;font-size:10pt;max-width:1000px;'
