@@ -262,3 +262,36 @@ def test_fast_message_template_is_byte_for_byte_rosbags_serialisation(t_ns: int,
     table = JointStateTemplate(topics.VIBRATION_TABLE_JOINT, 'y', velocity=True)
     sec, nsec = divmod(t_ns, 10**9)
     assert table.cdr(t_ns, value, -value / 3) == table.serialise(sec, nsec, value, -value / 3)
+
+
+def test_issue_16_bench_reports_a_with_its_interval_and_rejects_from_it() -> None:
+    """Issue 16's bench (a = 53′, 6.2 rad/s at 8.7 Hz, no rocking, 30 s per orientation): a, both
+    components and the coning drift are reported with their intervals, however wide, and the
+    verdict is reject because the interval's lower end is above the 5′ limit."""
+    exp = _expected('dither_53arcmin_z')
+    truth = exp['truth']
+    session = calibrate_bags(
+        [BAGS / 'dither_53arcmin_z', BAGS / 'dither_53arcmin_y'],
+        options=CalibrationOptions(scale_factor_rad_per_pulse=truth['scale_factor_rad_per_pulse'])
+    ).sessions['dither']
+    assert isinstance(session, DitherSession)
+    doc = session.json_section()
+    res = doc['results']
+    assert doc['rejections'] == [] and doc['missing'] == {}
+    for key in (KEY_A, KEY_Z, KEY_Y, KEY_CONING):
+        assert key in session.results(), key  # nothing measured is withheld
+    for axis in ('z', 'y'):
+        assert session.calibrator.orientations[axis].equations.n_blocks == \
+            _expected(f'dither_53arcmin_{axis}')['blocks_accepted']
+        key = KEY_Z if axis == 'z' else KEY_Y
+        assert abs(res[key]['value'] - truth[f'misalignment_{axis}_rad']) \
+            < exp['tolerance']['component_rad']
+    a = res[KEY_A]
+    low, high = a['interval']
+    assert low < truth['misalignment_rad'] < high
+    assert abs(a['value'] - truth['misalignment_rad']) < 2 * a['std']
+    verdict = doc['verdict']
+    assert exp['with_pair']['verdict'] == 'reject'
+    assert verdict['state'] == 'reject' and verdict['lower_rad'] > verdict['limit_rad']
+    assert verdict['limit_rad'] == pytest.approx(5 * ARCMIN)
+    assert verdict['lower_rad'] == pytest.approx(low)

@@ -176,6 +176,18 @@ _BENCH = DitherBenchConfig(sample_rate_hz=2000.0, table_decimation=10, duration_
 _Y_START_NS = int(round(_BENCH.duration_s * NS_PER_S)) + 1_000_000_000
 _SHORT = dataclasses.replace(_BENCH, duration_s=20.0)
 
+# Issue 16's bench (odd but legal): a = 53′ (ten times the 5′ limit), no transverse rocking
+# (k = 0), a small slow table (6.2 rad/s at 8.7 Hz: 229.9 table periods per 2000 samples, near
+# enough a divisor that the estimator widens σ as clock-locked), 2 kHz. The issue's records
+# were 5 min; 30 s keep each bag under 2 MB, with a floor of 9.3′ per component: the Z
+# component (a·|sin ψ₀| = 45.9′) alone proves a ≫ 5′ (a ≥ |z|), so the verdict is reject
+# from the interval, even with the paper's rocking allowance the estimator assumes by default.
+_GYRO_53 = DitheredGyroConfig(misalignment_arcmin=53.0, ia_azimuth_deg=120.0,
+                              rocking_arcsec_per_arcmin=0.0, seed=71)
+_TABLE_53 = VibrationTableConfig(rate_amplitude_rad_s=6.2, frequency_hz=8.7)
+_BENCH_53 = DitherBenchConfig(sample_rate_hz=2000.0, table_decimation=10, duration_s=30.0)
+_Y_START_53_NS = int(round(_BENCH_53.duration_s * NS_PER_S)) + 1_000_000_000
+
 SCENARIOS: dict[str, DitherScenario] = {s.name: s for s in (
     DitherScenario(
         'dither_z', 'Dithered RLG (a = 60′, ψ₀ = 120°, θ_d = 6′, 407.3 Hz, paper rocking) on a '
@@ -189,6 +201,20 @@ SCENARIOS: dict[str, DitherScenario] = {s.name: s for s in (
         dataclasses.replace(_GYRO, seed=_GYRO.seed + 1), dataclasses.replace(_TABLE, axis='y'),
         dataclasses.replace(_BENCH, start_time_ns=_Y_START_NS), pair='dither_z',
         expected={'blocks_accepted': 20, 'rejections': 0,
+                  'with_pair': {'verdict': 'reject'}}),
+    DitherScenario(
+        'dither_53arcmin_z', 'Issue 16\'s bench: another gyro (a = 53′, ψ₀ = 120°, no transverse '
+        'rocking) on a vibration table along case Z: 6.2 rad/s at 8.7 Hz, 30 s at 2 kHz.',
+        _GYRO_53, dataclasses.replace(_TABLE_53, axis='z'), _BENCH_53, pair='dither_53arcmin_y',
+        expected={'blocks_accepted': 15, 'rejections': 0,
+                  'with_pair': {'verdict': 'reject'}}),
+    DitherScenario(
+        'dither_53arcmin_y', 'The same 53′ gyro with the table along case Y (starts 1 s after '
+        'dither_53arcmin_z ended).',
+        dataclasses.replace(_GYRO_53, seed=_GYRO_53.seed + 1),
+        dataclasses.replace(_TABLE_53, axis='y'),
+        dataclasses.replace(_BENCH_53, start_time_ns=_Y_START_53_NS), pair='dither_53arcmin_z',
+        expected={'blocks_accepted': 15, 'rejections': 0,
                   'with_pair': {'verdict': 'reject'}}),
     DitherScenario(
         'dither_stripped', 'The Z run of a dither-stripped output: the electronics subtract '
