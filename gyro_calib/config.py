@@ -8,9 +8,9 @@ is the single source of the parameter description its node declares.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from collections.abc import Iterable
 from typing import Any
 
 import yaml
@@ -225,13 +225,20 @@ def unit_of(name: str) -> str:
     return next((unit for suffix, unit in _UNIT_SUFFIXES if name.endswith(suffix)), '')
 
 
-def check_ranges(settings: Any, checks: Iterable[tuple[str, bool, str]]) -> None:
+RangeCheck = tuple[str, 'bool | Callable[[], bool]', str]
+"""``(field, ok, expected)``: ``ok`` a bool, or a callable evaluated only after every earlier
+check passed (for a check that divides by, or takes the log of, a field checked before it)."""
+
+
+def check_ranges(settings: Any, checks: Iterable[RangeCheck]) -> None:
     """The one range check of a method's settings dataclass (called by its __post_init__).
 
     The bench settings among its fields (:data:`BENCH_SETTINGS`: latitude, sense axis, scale
     factors) are checked as the flags, node parameters and stored bench settings are; then
-    each ``(field, ok, expected)`` of ``checks``. The message names the field, its value with
-    its unit, and what it must be.
+    each ``(field, ok, expected)`` of ``checks``, in order. A callable ``ok`` runs only once
+    the checks before it passed, and an arithmetic error in it (a division by zero, the log
+    of a negative, a NaN rounded) counts as the field being invalid — never a bare exception.
+    The message names the field, its value with its unit, and what it must be.
 
     Raises:
         ConfigError: for the first field out of range.
@@ -242,7 +249,14 @@ def check_ranges(settings: Any, checks: Iterable[tuple[str, bool, str]]) -> None
         value = getattr(settings, f.name)
         if f.name in BENCH_SETTINGS and given(value):
             check_bench_setting(f.name, value, 'settings')
-    for name, ok, expected in checks:
+    for name, check, expected in checks:
+        if callable(check):
+            try:
+                ok = bool(check())
+            except (ArithmeticError, ValueError):
+                ok = False
+        else:
+            ok = check
         if not ok:
             unit = unit_of(name)
             value = getattr(settings, name)

@@ -13,7 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from gyro_calib.config import check_ranges
+from gyro_calib.config import RangeCheck, check_ranges
 from gyro_calib.errors import ConfigError
 from gyro_calib.thermal.intervals import IntervalSettings
 from gyro_calib.thermal.terms import NAMED_SETS, candidate_terms
@@ -133,7 +133,7 @@ class ThermalSettings:
             if not ok:
                 raise ConfigError(f'{f.name} = {value!r} is invalid: it must be a {kind}.')
         t = self.averaging_interval_s
-        checks: list[tuple[str, bool, str]] = [
+        checks: list[RangeCheck] = [
             ('scale_factor_rad_per_pulse', math.isnan(self.scale_factor_rad_per_pulse) or (
                 math.isfinite(self.scale_factor_rad_per_pulse)
                 and self.scale_factor_rad_per_pulse > 0), _K_EXPECTED),
@@ -145,7 +145,7 @@ class ThermalSettings:
             ('earth_rate_deg_h', self.earth_rate_deg_h >= 0, 'non-negative'),
             ('averaging_interval_s', 0 < t <= 60, 'between 0 and 60'),
             ('hdot_window_s', self.hdot_window_s >= 2 * t, 'at least 2 averaging intervals'),
-            ('fit_block_s', self.fit_block_s >= t and _multiple(self.fit_block_s, t),
+            ('fit_block_s', lambda: self.fit_block_s >= t and _multiple(self.fit_block_s, t),
              'a whole number of averaging intervals'),
             ('calibration_style', self.calibration_style in STYLES, ' or '.join(STYLES)),
             ('max_h_power', 1 <= self.max_h_power <= 6, 'between 1 and 6'),
@@ -163,7 +163,7 @@ class ThermalSettings:
             ('validation_fraction', 0 <= self.validation_fraction <= 0.5, 'between 0 and 0.5'),
             ('validation_block_s', self.validation_block_s >= self.stability_block_s,
              'at least stability_block_s'),
-            ('stability_block_s', self.stability_block_s >= t
+            ('stability_block_s', lambda: self.stability_block_s >= t
              and _multiple(self.stability_block_s, t), 'a whole number of averaging intervals'),
             ('extrapolation_margin_c', self.extrapolation_margin_c >= 0, 'non-negative'),
             ('hdot_margin_fraction', self.hdot_margin_fraction >= 0, 'non-negative'),
@@ -219,6 +219,9 @@ class ThermalSettings:
 
 
 def _multiple(x: float, t: float) -> bool:
+    """x is a whole number of t (t > 0 and finite: checked before, see check_ranges)."""
+    if not (0 < t < math.inf and math.isfinite(x)):
+        return False
     r = x / t
     return abs(r - round(r)) < 1e-9 * max(r, 1.0)
 
