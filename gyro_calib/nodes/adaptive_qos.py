@@ -61,12 +61,12 @@ class AdaptiveSubscription:
         self.reliability = BEST_EFFORT if forced_best_effort else RELIABLE
         self.switches = 0
         self._told = ''
-        self.subscription: Subscription = self._subscribe(topic)
+        self.subscription: Subscription[Any] = self._subscribe(topic)
         self.topic = self.subscription.topic_name  # resolved: /bench2/gyro/pulses
         if forced_best_effort:
             node.get_logger().info(f'{self.topic}: reading best effort (forced by parameter)')
 
-    def _subscribe(self, topic: str) -> Subscription:
+    def _subscribe(self, topic: str) -> Subscription[Any]:
         qos = BEST_EFFORT_QOS if self.reliability == BEST_EFFORT else self.reliable_qos
         # no QoS event handlers: rclpy's default one warns that nothing can arrive, which
         # adapt() makes untrue, and a handler's pending event outlives the subscription a

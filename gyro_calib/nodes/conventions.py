@@ -49,7 +49,7 @@ class InputSpec:
     forced_best_effort: bool = False
 
 
-class CalibrationNodeBase(LifecycleNodeMixin, Node):  # type: ignore[misc]
+class CalibrationNodeBase(LifecycleNodeMixin, Node):
     """A calibration node: adaptive inputs, ``~/reset`` and ``~/save``, optional lifecycle.
 
     Subclasses give their inputs with :meth:`set_inputs` and implement
