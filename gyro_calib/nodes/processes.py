@@ -71,6 +71,8 @@ def ros_args(params: dict[str, Any]) -> list[str]:
                 text = f'{mantissa}.0e{exponent}'
         elif isinstance(value, str):
             text = _yaml_string(value)
+        elif isinstance(value, tuple):  # a dataclass field's tuple is a ROS list
+            text = str(list(value))
         else:
             text = str(value)
         args += ['-p', f'{name}:={text}']
