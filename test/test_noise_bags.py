@@ -174,3 +174,24 @@ def test_imu_bag_columns_are_bit_identical_to_rosbags_decoding() -> None:
     assert mine.keys() == reference.keys()
     for name in mine:
         assert np.array_equal(mine[name], reference[name]), name
+
+
+def test_imu_with_its_own_decimation_filter_gives_b_with_its_tau_range(
+        sessions: dict[str, NoiseSession]) -> None:
+    """noise_imu_band_limited: the IMU's 20 Hz low-pass bends the short-τ curve; the fit leaves
+    those τ out (and says why), and B of every gyro axis comes out with the τ range it rests
+    on, above the cut and inside the fitted range."""
+    exp = expected('noise_imu_band_limited')
+    axes = sessions['noise_imu_band_limited'].json_section()['axes']
+    for axis in ('gyro_x', 'gyro_y', 'gyro_z'):
+        fit = axes[axis]['fit']
+        b = axes[axis]['results']['bias_instability_rad_s']
+        assert abs(b['value'] - exp['truth'][axis]['bias_instability_rad_s']) \
+            <= exp['coverage_factor'] * b['std']
+        cut = fit['band_limited_below_s']
+        assert cut is not None and cut > 0.01  # the 100 Hz τ0 is left out
+        assert any('low-pass filter' in note for note in fit['notes'])
+        tau_b = fit['term_tau_ranges_s']['bias_instability_rad_s']
+        assert cut <= fit['tau_min_s'] <= tau_b['tau_min_s'] < tau_b['tau_max_s'] \
+            <= fit['tau_max_s']
+        assert tau_b['tau_min_s'] > 1.0  # B rests on the plateau, not on the bent short τ

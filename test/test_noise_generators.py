@@ -161,3 +161,27 @@ def test_fog_output_is_angle_times_scale_factor() -> None:
                              rotation_rate_rad_s=1e-3, sample_rate_hz=100.0)
     _, counts = fog.chunk(101)
     assert counts[-1] - counts[0] == pytest.approx(1e-3 * 1.0 * 1e6, rel=1e-9)
+
+
+def test_imu_decimation_filter_bends_short_tau_keeps_n_and_is_chunk_independent() -> None:
+    """A MEMS IMU's own low-pass (core at D× the output rate, Butterworth at f_c, every D-th
+    sample out): the per-sample scatter falls well below N/√τ0 (white noise band-limited to
+    f_c ≪ f_s/2), the 1 s means keep N/√τ (DC gain 1), and chunking changes no bit."""
+    n_rw = 1e-3
+    terms = NoiseTerms(random_walk=n_rw, bias=0.01)
+    def imu() -> ImuNoiseGenerator:
+        return ImuNoiseGenerator(terms, terms, sample_rate_hz=100.0, seed=5, decimation=4,
+                                 lowpass_cutoff_hz=10.0)
+
+    gen = imu()
+    _, g, _ = gen.chunk(60_000)
+    x = g[:, 0]
+    assert 0.99 < gen.filtered_random_walk_factor() < 1.01
+    assert abs(x[:100].mean() - 0.01) < 5 * n_rw  # started at the bias: no transient
+    assert np.std(x) < 0.6 * n_rw * math.sqrt(100.0)  # bent at τ0 = 0.01 s
+    means = x.reshape(-1, 100).mean(axis=1)  # τ = 1 s
+    adev_1s = math.sqrt(0.5 * np.mean(np.diff(means) ** 2))
+    assert abs(adev_1s / n_rw - 1) < 0.1  # 600 clusters: ADEV scatter ≈ 3 %
+    parts = imu()
+    chunks = [parts.chunk(k) for k in _split(60_000, 3)]
+    assert np.array_equal(g, np.concatenate([c[1] for c in chunks]))

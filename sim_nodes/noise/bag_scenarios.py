@@ -181,6 +181,9 @@ class ImuBagScenario:
         duplicates: messages published twice (same stamp and values).
         topic, frame_id: where and as what the IMU publishes.
         seed: generator seed.
+        decimation, lowpass_cutoff_hz: the IMU's own decimation filter (D× internal rate,
+            2nd-order Butterworth at f_c; 1 and 0 = none, as :class:`ImuNoiseGenerator`).
+        must_resolve_gyro: the gyro terms every axis must resolve.
     """
 
     name: str
@@ -198,6 +201,9 @@ class ImuBagScenario:
     frame_id: str = 'imu_link'
     seed: int = 11
     coverage_factor: float = 3.5
+    decimation: int = 1
+    lowpass_cutoff_hz: float = 0.0
+    must_resolve_gyro: tuple[str, ...] = (GYRO_KEYS[1], GYRO_KEYS[2])
 
     @property
     def n_samples(self) -> int:
@@ -210,12 +216,16 @@ class ImuBagScenario:
                                  sample_rate_hz=self.sample_rate_hz, seed=self.seed,
                                  start_ns=START_NS, stamp_jitter_s=self.stamp_jitter_s,
                                  gyro_lsb_rad_s=self.gyro_lsb_rad_s,
-                                 accel_lsb_m_s2=self.accel_lsb_m_s2)
+                                 accel_lsb_m_s2=self.accel_lsb_m_s2,
+                                 decimation=self.decimation,
+                                 lowpass_cutoff_hz=self.lowpass_cutoff_hz)
 
     def truth(self) -> dict[str, dict[str, float]]:
         """The noise terms the recorded samples carry, per axis (term key → SI value):
-        the generator's terms, the ADC rounding added to the random walk."""
+        the generator's terms, the random walk times the decimation filter's alias factor
+        (1 without a filter) with the ADC rounding added."""
         gen = self.generator()
+        alias = gen.filtered_random_walk_factor()
         out: dict[str, dict[str, float]] = {}
         for prefix, terms, keys, lsb in (('gyro', self.gyro_terms, GYRO_KEYS,
                                           self.gyro_lsb_rad_s),
@@ -224,7 +234,8 @@ class ImuBagScenario:
             for axis, t in zip('xyz', terms):
                 n_adc = gen.quantisation_random_walk(lsb)
                 out[f'{prefix}_{axis}'] = dict(zip(keys, (
-                    t.quantization, math.hypot(t.random_walk, n_adc), t.bias_instability,
+                    t.quantization, math.hypot(t.random_walk * alias, n_adc),
+                    t.bias_instability,
                     t.rate_random_walk, t.rate_ramp)))
         return out
 
@@ -286,15 +297,20 @@ class ImuBagScenario:
             'truth': self.truth(), 'coverage_factor': self.coverage_factor,
             'coverage_note': COVERAGE_NOTE,
             'must_resolve': {
-                **{f'gyro_{a}': [GYRO_KEYS[1], GYRO_KEYS[2]] for a in 'xyz'},
+                **{f'gyro_{a}': list(self.must_resolve_gyro) for a in 'xyz'},
                 **{f'accel_{a}': [ACCEL_KEYS[1]] for a in 'xyz'}},
             'counts': self.expected_counts(),
             'kalibr': {'rostopic': self.topic, 'update_rate_hz': self.sample_rate_hz},
         }
 
     def description_dict(self) -> dict[str, Any]:
-        """Stored in the bag: generator parameters, seed, faults, bench settings, truth."""
+        """Stored in the bag: generator parameters, seed, faults, bench settings, truth (the
+        decimation filter only where there is one)."""
+        band = ({'decimation': self.decimation, 'lowpass_cutoff_hz': self.lowpass_cutoff_hz,
+                 'lowpass': 'Butterworth, order 2, at decimation × sample_rate_hz'}
+                if self.decimation > 1 or self.lowpass_cutoff_hz else {})
         return {
+            **band,
             'name': self.name, 'description': self.description, 'kind': 'imu',
             'sample_rate_hz': self.sample_rate_hz, 'duration_s': self.duration_s,
             'gyro_terms': [_terms_dict(t) for t in self.gyro_terms],
@@ -433,6 +449,16 @@ SCENARIOS: dict[str, ImuBagScenario | RlgBagScenario] = {s.name: s for s in (
         accel_terms=(_mems_accel(80.0, 60.0, 1.0e-5, 0.05),
                      _mems_accel(85.0, 55.0, 1.1e-5, -0.08),
                      _mems_accel(100.0, 70.0, 1.2e-5, 0.12))),
+    ImuBagScenario(
+        'noise_imu_band_limited', 'A MEMS IMU lying still whose own decimation filter bends '
+        'the short-τ curve (100 Hz output of a 400 Hz core through a 2nd-order Butterworth '
+        'at 20 Hz; ±250 °/s 16-bit LSB; 600 s): B of every gyro axis resolves, with its τ range.',
+        gyro_terms=(_mems_gyro(0.17, 11.0, 0.0, 0.004), _mems_gyro(0.18, 12.0, 0.0, -0.002),
+                    _mems_gyro(0.16, 10.0, 0.0, 0.001)),
+        accel_terms=(_mems_accel(70.0, 40.0, 0.0, 0.05), _mems_accel(75.0, 45.0, 0.0, -0.08),
+                     _mems_accel(90.0, 50.0, 0.0, 0.12)),
+        sample_rate_hz=100.0, duration_s=600.0, swapped_pairs=0, duplicates=0, seed=13,
+        decimation=4, lowpass_cutoff_hz=20.0, must_resolve_gyro=(GYRO_KEYS[2],)),
     RlgBagScenario(
         'noise_rlg_static', 'A dithered RLG at rest (/gyro/pulses, 500 Hz, 280 s, dither '
         'stripped, a 2 s gap): Q = K/√12 and N resolve; a locked-in RLG would show neither.',

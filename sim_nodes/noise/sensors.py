@@ -136,6 +136,15 @@ class ImuNoiseGenerator:
     (0 = off: full float output). While the noise spans several steps the rounding error
     is white and uniform, so it adds white rate noise — angle (velocity) random walk
     N² += LSB²·τ0/12 (:meth:`quantisation_random_walk`), not a −1 slope.
+
+    Decimation filter (``decimation`` D > 1, ``lowpass_cutoff_hz`` f_c > 0): as a MEMS IMU's
+    digital low-pass, every axis (bias and all noise processes) is generated at D times the
+    output rate, passed through a Butterworth low-pass of order ``lowpass_order`` and cutoff
+    f_c (unity gain at DC, state kept across chunks, started at the bias: no transient), and
+    every D-th filtered sample is output (then rounded to the LSB). Below f_c the rate PSD is
+    unchanged (N, B, K stay what the terms say, plus the small alias of the filter's stop
+    band, :meth:`filtered_random_walk_factor`); above it the short-τ Allan deviation bends
+    below N/√τ.
     """
 
     def __init__(self, gyro_terms: NoiseTerms | tuple[NoiseTerms, NoiseTerms, NoiseTerms],
@@ -144,7 +153,8 @@ class ImuNoiseGenerator:
                  start_ns: int = 1_700_000_000 * NS_PER_S,
                  gravity_m_s2: float = STANDARD_GRAVITY_M_S2,
                  stamp_jitter_s: float = 0.0, gyro_lsb_rad_s: float = 0.0,
-                 accel_lsb_m_s2: float = 0.0) -> None:
+                 accel_lsb_m_s2: float = 0.0, decimation: int = 1,
+                 lowpass_cutoff_hz: float = 0.0, lowpass_order: int = 2) -> None:
         """Create six independent axes on child streams of ``seed``."""
         g = gyro_terms if isinstance(gyro_terms, tuple) else (gyro_terms,) * 3
         a = accel_terms if isinstance(accel_terms, tuple) else (accel_terms,) * 3
@@ -152,8 +162,21 @@ class ImuNoiseGenerator:
         self.sample_rate_hz = sample_rate_hz
         self.period_ns = period_ns_for(sample_rate_hz)
         rate = NS_PER_S / self.period_ns  # the rate the integer-ns stamps really have
-        self.gyro = tuple(AxisNoise(t, rate, s) for t, s in zip(g, ss[:3]))
-        self.accel = tuple(AxisNoise(t, rate, s) for t, s in zip(a, ss[3:6]))
+        if decimation < 1 or lowpass_cutoff_hz < 0 or lowpass_order < 1:
+            raise ValueError('decimation and lowpass_order must be ≥ 1, lowpass_cutoff_hz ≥ 0')
+        if lowpass_cutoff_hz >= rate * decimation / 2.0:
+            raise ValueError(f'lowpass_cutoff_hz = {lowpass_cutoff_hz!r} must lie below the '
+                             f'internal Nyquist frequency {rate * decimation / 2.0!r} Hz')
+        self.decimation, self.lowpass_cutoff_hz = decimation, lowpass_cutoff_hz
+        self._sos = None
+        if lowpass_cutoff_hz:
+            from scipy.signal import butter
+
+            self._sos = butter(lowpass_order, lowpass_cutoff_hz, fs=rate * decimation,
+                               output='sos')
+        self.gyro = tuple(AxisNoise(t, rate * decimation, s) for t, s in zip(g, ss[:3]))
+        self.accel = tuple(AxisNoise(t, rate * decimation, s) for t, s in zip(a, ss[3:6]))
+        self._zi: list[FloatArray | None] = [None] * 6
         self._jitter_rng = np.random.default_rng(ss[6])
         self.start_ns = start_ns
         self.gravity_m_s2, self.stamp_jitter_s = gravity_m_s2, stamp_jitter_s
@@ -166,6 +189,30 @@ class ImuNoiseGenerator:
         """Random walk the output rounding to ``lsb`` adds: √(LSB²·τ0/12), rate unit·√s."""
         return math.sqrt(lsb * lsb * (self.period_ns / NS_PER_S) / 12.0)
 
+    def filtered_random_walk_factor(self) -> float:
+        """N_out/N of white rate noise through the decimation filter: √(Σ_k |H(k·f_out)|²),
+        k = 0 … D − 1 (the filter's response at DC and at the frequencies the decimation
+        aliases onto DC); 1 without a filter."""
+        if self._sos is None:
+            return 1.0
+        from scipy.signal import sosfreqz
+
+        w = 2.0 * math.pi * np.arange(self.decimation) / self.decimation
+        _, h = sosfreqz(self._sos, worN=w)
+        return math.sqrt(float(np.sum(np.abs(h) ** 2)))
+
+    def _axis_samples(self, k: int, axis: AxisNoise, n: int) -> FloatArray:
+        """``n`` output samples of axis ``k``: generated at D× the rate, low-passed, decimated."""
+        raw = axis.samples(n * self.decimation)
+        if self._sos is not None:
+            from scipy.signal import sosfilt, sosfilt_zi
+
+            zi = self._zi[k]
+            if zi is None:
+                zi = sosfilt_zi(self._sos) * axis.terms.bias
+            raw, self._zi[k] = sosfilt(self._sos, raw, zi=zi)
+        return raw[self.decimation - 1::self.decimation]
+
     def chunk(self, n: int) -> tuple[IntArray, FloatArray, FloatArray]:
         """The next ``n`` samples: stamps (int ns), gyro (n × 3, rad/s), accel (n × 3, m/s²)."""
         t = _stamps(self.start_ns, self._index, n, self.period_ns)
@@ -173,8 +220,9 @@ class ImuNoiseGenerator:
             jitter = self._jitter_rng.uniform(-self.stamp_jitter_s, self.stamp_jitter_s, n)
             t = t + np.round(jitter * NS_PER_S).astype(np.int64)
         self._index += n
-        gyro = np.column_stack([ax.samples(n) for ax in self.gyro])
-        accel = np.column_stack([ax.samples(n) for ax in self.accel])
+        gyro = np.column_stack([self._axis_samples(k, ax, n) for k, ax in enumerate(self.gyro)])
+        accel = np.column_stack([self._axis_samples(3 + k, ax, n)
+                                 for k, ax in enumerate(self.accel)])
         accel[:, 2] += self.gravity_m_s2
         if self.gyro_lsb_rad_s:
             gyro = np.round(gyro / self.gyro_lsb_rad_s) * self.gyro_lsb_rad_s
