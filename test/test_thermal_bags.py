@@ -283,3 +283,43 @@ def test_figures_of_a_bench_with_a_stuck_sensor_are_drawn(tmp_path: Path) -> Non
     assert gyro_calib_main(['calibrate', str(BAGS / 'thermal_fault_stuck_sensor'), '--plot',
                             str(out), '--no-progress']) == 0
     assert {p.name for p in out.iterdir()} >= {'thermal_bias_vs_h.png', 'thermal_residuals.png'}
+
+
+def _copy_bag(src: Path, dst: Path, **bench: Any) -> Path:
+    """A copy of a committed bag whose stored bench settings differ by ``bench``."""
+    dst.mkdir()
+    for f in src.iterdir():
+        (dst / f.name).symlink_to(f) if f.suffix == '.mcap' else None
+    meta = (src / 'metadata.yaml').read_text()
+    for key, value in bench.items():
+        meta = meta.replace(f'{{bench: {{{key}: A-1', f'{{bench: {{{key}: {value}')
+    (dst / 'metadata.yaml').write_text(meta)
+    return dst
+
+
+def test_compensate_takes_the_bench_of_the_chamber_runs_bags_not_the_first_bag(
+        model_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 17 §1 for compensate: a bag of another method given first lent its stored bench
+    (K 4.09e-06 of noise_rlg_static) to the chamber run, which was then refused as fitted with
+    another K. Such a bag is now refused in one line naming it; the chamber run alone reads
+    its own stored gyro id and K (accepted, the model's own)."""
+    assert gyro_calib(['compensate', str(BAGS / 'noise_rlg_static'),
+                       str(BAGS / 'thermal_validation'), '--calibration',
+                       str(model_file)]) == 2
+    out, err = capsys.readouterr()
+    assert out == ''
+    assert err.count('\n') == 1
+    assert 'noise_rlg_static: not part of the chamber run' in err
+    assert 'fitted with' not in err
+
+
+def test_compensate_refuses_bags_that_store_different_gyro_ids(
+        model_file: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    a = _copy_bag(BAGS / 'thermal_validation', tmp_path / 'a')
+    b = _copy_bag(BAGS / 'thermal_validation', tmp_path / 'b', gyro_id='A-2')
+    assert bag_info(b).scenario['bench']['gyro_id'] == 'A-2'
+    assert gyro_calib(['compensate', str(a), str(b), '--calibration', str(model_file)]) == 2
+    out, err = capsys.readouterr()
+    assert out == ''
+    assert err.count('\n') == 1
+    assert 'gyro_id' in err and str(a) in err and str(b) in err and '--gyro-id' in err

@@ -139,10 +139,7 @@ def compensate_bags(paths: Sequence[Path], calibration_file: Path, *, gyro_id: s
         message_count=sum(i.message_count for i in infos))
     merged_topics(infos)
     check_topics(where, TOPICS, tuple(TOPICS), what='gyro-calib compensate')
-    bench = next((i.scenario.get('bench') for i in infos
-                  if isinstance(i.scenario.get('bench'), dict)), {})
-    recorded = gyro_id or str(bench.get('gyro_id', '') or '')
-    k_bag = bench.get('scale_factor_rad_per_pulse')
+    recorded, k_bag = _stored_identity(infos, gyro_id)
     check_identity(model, gyro_id=recorded,
                    scale_factor_rad_per_pulse=float(k_bag) if k_bag is not None else None)
     pcal = pulse_calibration(calibration, gyro_id=recorded)
@@ -162,6 +159,45 @@ def compensate_bags(paths: Sequence[Path], calibration_file: Path, *, gyro_id: s
     report = compensate_reduced(reducer, gyro_id=recorded, block_s=block_s,
                                 out_of_range=out_of_range)
     return BagCompensation(report, model, pcal, recorded, tuple(i.path for i in infos))
+
+
+def _stored_identity(infos: Sequence[Any], gyro_id: str) -> tuple[str, Any]:
+    """(the recording's gyro id, its stored K or None) from the bench settings stored with the
+    chamber run's own bags (those holding its pulses and temperatures), never another bag's.
+
+    Raises:
+        ConfigError: a bag that is not the chamber run's (it lacks the thermal topics while
+            another holds them); the bags store different gyro ids (``--gyro-id`` decides) or
+            different K (compensate them separately), naming the setting and the bags.
+    """
+    from gyro_calib.bag_calibration import own_bags
+    from gyro_calib.registry import METHODS
+    from gyro_calib.session import CalibrationOptions
+
+    own = own_bags(METHODS['thermal'], infos)
+    mine = {id(i) for i in own}
+    others = [str(i.path) for i in infos if id(i) not in mine]
+    if others:
+        raise ConfigError(f'{", ".join(others)}: not part of the chamber run (no '
+                          f'{" and ".join(TOPICS)} in it, while {own[0].path} holds them); '
+                          'gyro-calib compensate reads the pulses and temperatures of one run: '
+                          'give its bags only.')
+    benches: list[tuple[str, dict[str, Any]]] = []
+    for info in own:
+        bench = info.scenario.get('bench')
+        benches.append((str(info.path), bench if isinstance(bench, dict) else {}))
+    options = CalibrationOptions(stored_benches=tuple(benches))
+    try:
+        if not gyro_id:
+            gyro_id = str(options.bench('gyro_id', '') or '')
+        k_bag = options.bench('scale_factor_rad_per_pulse', None)
+    except ConfigError as exc:  # compensate has no K flag: the model's K decides
+        raise ConfigError(str(exc).replace(
+            'give --scale-factor-rad-per-pulse (or calibrate the bags separately)',
+            'compensate the bags separately').replace(
+            '(or calibrate the bags separately)', '(or compensate the bags separately)')
+        ) from None
+    return gyro_id, k_bag
 
 
 # ----------------------------------------------------------------------------- --out
