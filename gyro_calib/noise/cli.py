@@ -24,6 +24,7 @@ import argparse
 import dataclasses
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -114,11 +115,15 @@ def run_noise(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise ConfigError(f'--taus: {exc}. Nothing was read.') from None
         options = dataclasses.replace(options, settings={**options.settings, 'taus': args.taus})
-    stored = next((i.scenario for i in infos if i.scenario), {})
-    options = dataclasses.replace(options, topic=args.topic, scenario=stored)
+    # the input topic a bag stores (bench.topic) may come from any bag; every other stored
+    # bench setting from the bags that hold the input read, never from another bag
+    options = dataclasses.replace(options, topic=args.topic, scenario=next(
+        (i.scenario for i in infos if i.scenario), {}), stored_benches=_benches(infos))
     topic = select_input({t: (m, counts.get(t, 0)) for t, m in present.items()}, options,
                          where=where, listing=listing)
-    options = dataclasses.replace(options, topic=topic)
+    own = [i for i in infos if topic in i.topics and i.topics[topic].count > 0]
+    options = dataclasses.replace(options, topic=topic, stored_benches=_benches(own),
+                                  scenario=next((i.scenario for i in own if i.scenario), {}))
     _refuse_scale_flag_of_another_input(args, input_kind(topic), topic)
     check_scale_factor(options)
     if targets.kalibr is not None and input_kind(topic) != 'imu':
@@ -165,6 +170,16 @@ def run_noise(args: argparse.Namespace) -> int:
               'not written.', file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_OK
+
+
+def _benches(infos: Sequence[Any]) -> tuple[tuple[str, dict[str, Any]], ...]:
+    """(bag, its stored bench settings or {}) of each bag: a bag storing none still counts,
+    so another bag's settings never stand in for it."""
+    out = []
+    for info in infos:
+        bench = info.scenario.get('bench')
+        out.append((str(info.path), bench if isinstance(bench, dict) else {}))
+    return tuple(out)
 
 
 def _refuse_scale_flag_of_another_input(args: argparse.Namespace, kind: str,
