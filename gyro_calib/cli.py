@@ -36,7 +36,7 @@ from typing import Any
 from gyro_calib.bag_calibration import BagCalibration, calibrate_bags, json_document
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import load_calibration, update_calibration
-from gyro_calib.registry import METHODS
+from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.units import format_stamp
 
@@ -105,7 +105,7 @@ def check_calibration_file(path: Path | None) -> None:
         return
     from gyro_calib.handoff import load_calibration
 
-    load_calibration(path)
+    load_calibration(path, handoff_schema())
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -239,7 +239,8 @@ def _calibrate(args: argparse.Namespace) -> int:
         if args.out.exists():
             from gyro_calib.handoff import load_calibration
 
-            load_calibration(args.out)  # a file that cannot be updated: refused before work
+            # a file that cannot be updated: refused before work
+            load_calibration(args.out, handoff_schema())
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     check_calibration_file(args.calibration)
     infos, _ = bag_infos(args.bags, args.namespace)
@@ -283,19 +284,19 @@ def _write_handoff(args: argparse.Namespace, outcome: BagCalibration, human: Any
         part = session.handoff(outcome.source, gyro_id=outcome.gyro_id(session.name))
         if part is None:
             continue
-        from gyro_calib.registry import handoff_schema
-
         record = part if record is None else part.merged_into(record, handoff_schema())
     if record is None:
         print(f'gyro-calib: {args.out} not written: no method measured a hand-off value.',
               file=sys.stderr)
         return EXIT_NOT_CALIBRATED
     report: list[str] = []
-    path = update_calibration(args.out, record, replace=args.replace, report=report)
+    path = update_calibration(args.out, record, handoff_schema(), replace=args.replace,
+                              report=report)
     print(f'hand-off written: {path}', file=human)
     for line in report:
         print(f'  {line}', file=human)
-    written = load_calibration(path)  # the file's state, with what earlier runs gave
+    # the file's state, with what earlier runs gave
+    written = load_calibration(path, handoff_schema())
     if written.missing:
         print(f'hand-off incomplete ({len(written.missing)} missing):', file=human)
         for key, why in written.missing.items():

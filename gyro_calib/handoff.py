@@ -166,12 +166,29 @@ def _problem(key: HandoffKey, value: Any) -> str:
     return key.check(value) if key.check is not None else ''
 
 
+_DEFAULT_SCHEMA: list[Callable[[], Mapping[str, HandoffKey]]] = []
+"""The schema used when a caller passes none: installed by the method registry above
+(:func:`install_default_schema`); this module never imports the registry (issue 19 §5)."""
+
+
+def install_default_schema(provider: Callable[[], Mapping[str, HandoffKey]]) -> None:
+    """Make ``provider()`` the schema of every call that passes ``schema=None``.
+
+    The method registry installs its :func:`~gyro_calib.registry.handoff_schema` when it is
+    imported, so the sessions below it (which never import the registry) read and write
+    hand-off files with every method's keys; the front doors pass the schema explicitly.
+    """
+    _DEFAULT_SCHEMA[:] = [provider]
+
+
 def _schema(schema: Mapping[str, HandoffKey] | None) -> Mapping[str, HandoffKey]:
     if schema is not None:
         return schema
-    from gyro_calib.registry import handoff_schema  # the methods' keys
-
-    return handoff_schema()
+    if not _DEFAULT_SCHEMA:
+        raise RuntimeError('no hand-off schema: pass schema= (the method registry\'s '
+                           'gyro_calib.registry.handoff_schema()), or import gyro_calib.registry '
+                           'first, which installs it as the default.')
+    return _DEFAULT_SCHEMA[0]()
 
 
 # ---------------------------------------------------------------------------------------
@@ -512,7 +529,7 @@ def method_calibration(method: str, values: Mapping[str, Any], provenance: Prove
         values: hand-off key → value, with ``<key>_std`` beside each uncertain value.
         provenance: source, data span, missing keys with reasons.
         gyro_id: the gyro's serial or name, if known.
-        schema: the known keys (default: every registered method's).
+        schema: the known keys (default: the installed schema, every registered method's).
 
     Raises:
         HandoffError: a key unknown or of another method, a value invalid, a ``_std`` missing.

@@ -15,16 +15,15 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from gyro_calib import topics
+from gyro_calib import handoff, topics
+from gyro_calib.bagio.messages import HEADER, IMU, JOINT_STATE, TEMPERATURE
 
 if TYPE_CHECKING:
     from gyro_calib.handoff import HandoffKey
     from gyro_calib.session import CalibrationOptions, MethodSession
 
-JOINT_STATE = 'sensor_msgs/msg/JointState'
-HEADER = 'std_msgs/msg/Header'
-IMU = 'sensor_msgs/msg/Imu'
-TEMPERATURE = 'sensor_msgs/msg/Temperature'
+__all__ = ['HEADER', 'IMU', 'JOINT_STATE', 'METHODS', 'TEMPERATURE', 'Method', 'handoff_schema',
+           'methods_revealed', 'topic_types']
 
 
 @dataclass(frozen=True, slots=True)
@@ -155,6 +154,9 @@ def handoff_schema() -> dict[str, HandoffKey]:
                                    f'and {key.method}')
             out[key.name] = key
     return out
+
+
+handoff.install_default_schema(handoff_schema)  # the loader's default, handed down
 
 
 def methods_revealed(topic_types: Mapping[str, str]) -> list[Method]:

@@ -31,7 +31,7 @@ from gyro_calib.rbrlg.stations import Station
 from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
 from gyro_calib.nodes.method_node import SimScenarioBench
-from gyro_calib.registry import METHODS
+from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.bagio import SampleBatch
@@ -281,9 +281,10 @@ class CalibrationNode(CalibrationNodeBase):
         try:
             record = method_calibration('rbrlg', values, Provenance(
                 'live', span[0], span[1], missing, conditions=conditions,
-                not_measurable=cannot), gyro_id=self.gyro_id)
+                not_measurable=cannot), gyro_id=self.gyro_id, schema=handoff_schema())
             report: list[str] = []
-            path = update_calibration(self.output_file, record, report=report)
+            path = update_calibration(self.output_file, record, handoff_schema(),
+                                      report=report)
         except GyroCalibError as exc:
             self._last_rejection = str(exc)
             self.get_logger().error(f'hand-off file not written: {exc}')

@@ -44,7 +44,6 @@ from gyro_calib.imu_conversion import (
     pulse_calibration,
     scale_factor_line,
 )
-from gyro_calib.thermal.site import RAD_S_PER_DEG_H
 from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     declare_parameter_value,
@@ -52,6 +51,8 @@ from gyro_calib.nodes.ros_io import (
     run_node,
     stamp_to_ns,
 )
+from gyro_calib.registry import handoff_schema
+from gyro_calib.thermal.site import RAD_S_PER_DEG_H
 from gyro_calib.topics import relative
 
 GYRO_IMU = '/gyro/imu'
@@ -126,8 +127,8 @@ class ImuCorrectorNode(Node):
             return
         self._file_key = key
         try:
-            calibration = pulse_calibration(load_calibration(path), use_k_tilde=self.use_k_tilde,
-                                            gyro_id=self.gyro_id)
+            calibration = pulse_calibration(load_calibration(path, handoff_schema()),
+                                            use_k_tilde=self.use_k_tilde, gyro_id=self.gyro_id)
         except GyroCalibError as exc:
             self._problem(str(exc))
             return

@@ -31,10 +31,10 @@ from std_msgs.msg import Float64, Header, String
 
 from gyro_calib import topics
 from gyro_calib.bagio import SampleBatch
+from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.config import BENCH_SETTINGS, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
-from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.node_state import NodeState, state_directory
 from gyro_calib.nodes.ros_io import (
@@ -47,7 +47,14 @@ from gyro_calib.nodes.ros_io import (
     run_node,
     stamp_to_ns,
 )
-from gyro_calib.registry import HEADER, IMU, JOINT_STATE, METHODS, TEMPERATURE
+from gyro_calib.registry import (
+    HEADER,
+    IMU,
+    JOINT_STATE,
+    METHODS,
+    TEMPERATURE,
+    handoff_schema,
+)
 from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.topics import relative
 from gyro_calib.units import format_stamp
@@ -323,7 +330,8 @@ class MethodNode(CalibrationNodeBase):
             if record is None:
                 return
             report: list[str] = []
-            path = update_calibration(self.output_file, record, report=report)
+            path = update_calibration(self.output_file, record, handoff_schema(),
+                                      report=report)
         except GyroCalibError as exc:
             self._last_line = str(exc)
             self.get_logger().error(f'hand-off file not written: {exc}')

@@ -92,7 +92,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             raise InsufficientDataError(f'no noise term was measured: the hand-off file '
                                         f'{targets.handoff} is not written.')
         if targets.handoff.exists():  # refuse before writing anything (other gyro, invalid)
-            record.merged_into(load_calibration(targets.handoff), handoff_schema())
+            record.merged_into(load_calibration(targets.handoff, handoff_schema()),
+                               handoff_schema())
     figure_tmp = None
     if targets.plot is not None:
         view = session.view
@@ -118,7 +119,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             figure_tmp = None
             written.append(('figure', targets.plot))
         if record is not None and targets.handoff is not None:
-            written.append(('hand-off', update_calibration(targets.handoff, record)))
+            written.append(('hand-off', update_calibration(targets.handoff, record,
+                                                           handoff_schema())))
     finally:
         if figure_tmp is not None:
             figure_tmp.unlink(missing_ok=True)

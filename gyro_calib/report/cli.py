@@ -83,10 +83,11 @@ def run_report(args: argparse.Namespace) -> int:
     """``gyro-calib report``: load, (re-)run the bags, build and write the certificate."""
     from gyro_calib.cli import options_from_args
     from gyro_calib.handoff import load_calibration
+    from gyro_calib.registry import handoff_schema
 
     check_output_dir(args.out)
     spec = load_spec_arg(args.spec)
-    calibration = load_calibration(args.handoff)
+    calibration = load_calibration(args.handoff, handoff_schema())
     evidence = None
     if args.bags:
         options = options_from_args(args)
@@ -146,7 +147,7 @@ def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
     from gyro_calib.report.evidence import evidence_from_outcome
 
     if args.out is not None and Path(args.out).exists():
-        record = load_calibration(args.out)
+        record = load_calibration(args.out, handoff_schema())
         where = str(args.out)
     else:
         record = None

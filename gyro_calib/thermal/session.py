@@ -33,9 +33,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from gyro_calib.bagio.messages import JOINT_STATE, TEMPERATURE
 from gyro_calib.config import read_method_file
 from gyro_calib.errors import ConfigError, GyroCalibError
-from gyro_calib.registry import JOINT_STATE, TEMPERATURE
 from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.thermal.calibrator import COEFFICIENT_PREFIX, ThermalCalibrator
 from gyro_calib.thermal.keys import METHOD

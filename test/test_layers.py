@@ -1,0 +1,168 @@
+"""The shared core's data flow one way (issue 19 §5): no module imports a higher layer.
+
+The layer order below is the specification (README "Layout"): a module may import modules
+of its own layer or of a lower one, never of a higher one. Imports are read statically
+(``ast``), module-level and function-level alike, ``TYPE_CHECKING`` ones included.
+
+0 base        gyro_calib (the package), errors, units, topics (names only)
+1 bag I/O     gyro_calib.bagio.* (and the old paths bag, mcap_columns, table_input,
+              kept as re-exports only); inside it, one direction too (:data:`BAGIO_ORDER`)
+2 core        config, estimate, outputs, streams, handoff, state_record and any other
+              top-level module not named here
+3 session     gyro_calib.session (the shared session interface)
+4 methods     gyro_calib.{rbrlg,fog,dither,thermal,noise}.* (no method imports another:
+              test_*_imports, test_thermal_properties)
+5 registry    gyro_calib.registry, and imu_conversion (applies several methods' results)
+6 drivers     bag_calibration (the offline driver), noise.outputs (a noise run's files)
+7 front doors cli, the methods' cli modules, nodes.*, report.*, batch.*, and sim_nodes.*
+              (simulators and scenario bags); they may import one another
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+METHODS = ('rbrlg', 'fog', 'dither', 'thermal', 'noise')
+LAYERS = ('base', 'bag I/O', 'core', 'session', 'methods', 'registry', 'drivers',
+          'front doors')
+BASE = {'gyro_calib', 'gyro_calib.errors', 'gyro_calib.units', 'gyro_calib.topics'}
+SHIMS = {'gyro_calib.bag': 'gyro_calib.bagio', 'gyro_calib.mcap_columns': 'gyro_calib.bagio',
+         'gyro_calib.table_input': 'gyro_calib.bagio'}
+"""Old import paths of the bag layer: each may only re-export its target package's names."""
+BAGIO_ORDER = ('errors', 'messages', 'metadata', 'storage', 'columns', 'records', 'tables',
+               'writer', 'reader')
+"""Inside the bag layer: each module imports only those before it (the package re-exports)."""
+
+
+def layer(module: str) -> int:
+    """The layer (index into :data:`LAYERS`) of a gyro_calib or sim_nodes module."""
+    parts = module.split('.')
+    sub = parts[1] if len(parts) > 1 else ''
+    if parts[0] == 'sim_nodes':
+        return 7
+    if module in BASE:
+        return 0
+    if sub == 'bagio' or module in SHIMS:
+        return 1
+    if module == 'gyro_calib.session':
+        return 3
+    if sub in METHODS:
+        if len(parts) > 2 and parts[2] == 'cli':
+            return 7
+        if module == 'gyro_calib.noise.outputs':
+            return 6
+        return 4
+    if module in ('gyro_calib.registry', 'gyro_calib.imu_conversion'):
+        return 5
+    if module == 'gyro_calib.bag_calibration':
+        return 6
+    if module == 'gyro_calib.cli' or sub in ('nodes', 'report', 'batch'):
+        return 7
+    return 2
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for package in ('gyro_calib', 'sim_nodes'):
+        for path in sorted((ROOT / package).rglob('*.py')):
+            parts = list(path.relative_to(ROOT).with_suffix('').parts)
+            if parts[-1] == '__init__':
+                parts.pop()
+            out['.'.join(parts)] = path
+    return out
+
+
+MODULES = _modules()
+
+
+def imports(module: str) -> list[tuple[str, int]]:
+    """(imported gyro_calib/sim_nodes module, line) of every import in ``module``; a name
+    imported from a package is the submodule when there is one."""
+    path = MODULES[module]
+    package = module if path.name == '__init__.py' else module.rpartition('.')[0]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding='utf-8'))):
+        if isinstance(node, ast.Import):
+            out += [(a.name, node.lineno) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ''
+            if node.level:
+                up = package.split('.')[:len(package.split('.')) - node.level + 1]
+                base = '.'.join(up + ([base] if base else []))
+            for alias in node.names:
+                full = f'{base}.{alias.name}'
+                out.append((full if full in MODULES else base, node.lineno))
+    return [(name, line) for name, line in out if name.split('.')[0] in ('gyro_calib',
+                                                                         'sim_nodes')]
+
+
+def test_the_scan_sees_every_layer() -> None:
+    """The specification covers the tree: every layer holds modules, and the imports read
+    include function-level ones (bag_calibration's, cli's)."""
+    assert {layer(m) for m in MODULES} == set(range(len(LAYERS)))
+    assert any(name == 'gyro_calib.registry' for name, _ in imports('gyro_calib.bag_calibration'))
+    nested = [name for name, line in imports('gyro_calib.cli') if name == 'sim_nodes.scenarios']
+    assert nested, 'the function-level imports of gyro_calib.cli were not read'
+
+
+def test_no_module_imports_a_higher_layer() -> None:
+    """Bag I/O → core → session → methods → registry → drivers → front doors, never back."""
+    wrong = [f'{module} ({LAYERS[layer(module)]}) imports {name} ({LAYERS[layer(name)]}) '
+             f'at line {line}'
+             for module in MODULES for name, line in imports(module)
+             if layer(name) > layer(module)]
+    assert not wrong, '\n'.join(wrong)
+
+
+def test_the_bag_layer_flows_one_way_inside() -> None:
+    """Inside gyro_calib.bagio each module imports only the modules before it (no circle
+    such as the former bag ↔ mcap_columns), and never the package (which re-exports)."""
+    assert sorted(BAGIO_ORDER) == sorted(
+        m.rpartition('.')[2] for m in MODULES if m.startswith('gyro_calib.bagio.'))
+    rank = {f'gyro_calib.bagio.{name}': i for i, name in enumerate(BAGIO_ORDER)}
+    wrong = [f'{module} imports {name} at line {line}'
+             for module in rank for name, line in imports(module)
+             if name == 'gyro_calib.bagio'
+             or (name in rank and rank[name] >= rank[module])]
+    assert not wrong, '\n'.join(wrong)
+
+
+def test_old_bag_paths_only_re_export() -> None:
+    """gyro_calib.bag, .mcap_columns and .table_input hold a docstring and imports from the
+    bag layer, nothing else (kept for code written against the old paths)."""
+    for module, target in SHIMS.items():
+        tree = ast.parse(MODULES[module].read_text(encoding='utf-8'))
+        body = tree.body[1:] if isinstance(tree.body[0], ast.Expr) else tree.body
+        assert body and all(isinstance(node, ast.ImportFrom) for node in body), module
+        assert all(node.module is not None and node.module.startswith(target)
+                   for node in body if isinstance(node, ast.ImportFrom)), module
+
+
+def test_registry_topics_are_the_bag_layers_contract() -> None:
+    """The bag layer's topic → type table (its default when no topics are handed down) is
+    exactly what the registered methods read, in the same order."""
+    from gyro_calib.bagio.messages import CONTRACT_TYPES
+    from gyro_calib.registry import METHODS as REGISTERED
+    from gyro_calib.registry import topic_types
+
+    assert list(topic_types(REGISTERED.values()).items()) == list(CONTRACT_TYPES.items())
+
+
+def test_the_hand_off_schema_is_handed_down(monkeypatch: pytest.MonkeyPatch) -> None:
+    """gyro_calib.handoff never imports the registry: its schema is a parameter, defaulting
+    to the one the registry installs; with none installed, a call without one says what to
+    pass."""
+    from gyro_calib import handoff
+    from gyro_calib.registry import handoff_schema
+
+    values = {'k_tilde_rad_per_pulse': 1e-6, 'k_tilde_rad_per_pulse_std': 1e-12}
+    prov = handoff.Provenance('live', 0, 1, {})
+    monkeypatch.setattr(handoff, '_DEFAULT_SCHEMA', [])
+    with pytest.raises(RuntimeError, match='pass schema='):
+        handoff.method_calibration('rbrlg', values, prov)
+    record = handoff.method_calibration('rbrlg', values, prov, schema=handoff_schema())
+    assert record.values['k_tilde_rad_per_pulse'] == 1e-6
