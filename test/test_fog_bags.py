@@ -5,6 +5,7 @@ uncertainties (which may not exceed the predicted floor), counts, rejection reas
 from __future__ import annotations
 
 import functools
+import itertools
 import json
 import math
 from pathlib import Path
@@ -163,3 +164,26 @@ def test_cli_info_lists_segments_mapping_plateaus_and_what_limits(capsys) -> Non
     last = text.splitlines()[-1]
     assert last.startswith('limits the result: the self-calibrated K differs from the '
                            'turntable K')
+
+
+def test_slow_loop_read_at_a_low_rate_is_measured_only_after_it_settled() -> None:
+    """fog_slow_loop_low_rate (loop τ ≈ 0.074 s at null, 50 Hz output, 4 s plateaus): after
+    every injection step the calibration finds the transient in the data and measures the
+    plateau from where the output had settled (a few τ on), still over most of the plateau;
+    the ladder's K and its small-signal K then cover the truth within 2 stated σ."""
+    exp, session = _expected('fog_slow_loop_low_rate'), _session('fog_slow_loop_low_rate')
+    tau_s = exp['loop_time_constant_at_null_s']
+    plateaus = sorted(session.calibrator.plateaus, key=lambda p: p.start_ns)
+    assert len(plateaus) == exp['plateaus']
+    for prev, plat in itertools.pairwise(plateaus):
+        assert plat.injection_counts_s != prev.injection_counts_s  # a step before each
+        waited_s = (plat.settled_ns - plat.start_ns) / 1e9
+        assert waited_s >= 2.0 * tau_s, (plat.injection_counts_s, waited_s)  # settling seen
+        assert plat.settled_s >= 0.5 * (plat.end_ns - plat.start_ns) / 1e9
+    results, truth = session.results(), exp['truth']
+    for key, true_key in (('fog_self_cal_scale_factor_counts_per_rad',
+                           'self_cal_k_counts_per_rad'),
+                          ('fog_self_cal_small_signal_scale_factor_counts_per_rad',
+                           'self_cal_small_signal_k_counts_per_rad')):
+        est = results[key]
+        assert abs(est.value - truth[true_key]) <= 2.0 * est.std_uncertainty, (key, est)

@@ -279,6 +279,17 @@ _TABLE = TableSettings(output_rate_hz=200.0)
 # still averages in the ±0.1 s local fits (≥ 40 samples) and the ARW floor is unchanged.
 _SHORT_MAPPING = {'mapping_hold_s': 15.0}
 
+def _null_time_constant_s(config: FogConfig) -> float:
+    """The loop's first-order time constant about the null balance, s (front-end physics)."""
+    fe = FrontEnd(config)
+    return float(fe.loop_time_constant_s(fe.error_word_slope(0.0)))
+
+
+# A slow loop read slowly (odd but legal): integrator gain 7e-4 (τ ≈ 0.074 s at null, 180 ×
+# the default loop's), 50 Hz output. Each injection step leaves a transient of a few τ at the
+# start of its plateau, which the calibration must find and skip.
+_SLOW_LOOP = dataclasses.replace(FogConfig(), integrator_gain=7e-4, seed=101)
+
 SCENARIOS: dict[str, FogScenario] = {s.name: s for s in (
     FogScenario(
         'fog_turntable', 'IEEE Std 952 multi-rate turntable calibration: ±1, ±5, ±20, ±50, '
@@ -343,6 +354,21 @@ SCENARIOS: dict[str, FogScenario] = {s.name: s for s in (
                                         'did not return to the same state'],
                   'linear_range_levels': [0, 1, 2],
                   'results': ['fog_self_cal_scale_factor_counts_per_rad']}),
+    FogScenario(
+        'fog_slow_loop_low_rate', 'A slow closed loop (integrator gain 7e-4: τ ≈ 0.074 s at '
+        'null) read at 50 Hz: mapping (30 s per rate), then 16 plateaus of 4 s, the loop still '
+        'settling for the first few tenths of a second of each.',
+        'mapping_self_cal', _SLOW_LOOP,
+        dataclasses.replace(_TABLE, output_rate_hz=50.0, joint_state_decimation=1, seed=102),
+        mapping_hold_s=30.0, ladder=SelfCalLadder(plateau_count=16, plateau_s=4.0),
+        expected={'segments': 4, 'plateaus': 17, 'rejections': 1,
+                  'rejection_reasons': ['overlaps a self-calibration injection'],
+                  'linear_range_levels': [0, 0, 1],
+                  'loop_time_constant_at_null_s': _null_time_constant_s(_SLOW_LOOP),
+                  'results': ['fog_scale_factor_counts_per_rad',
+                              'fog_mapping_scale_factor_counts_per_rad',
+                              'fog_self_cal_scale_factor_counts_per_rad',
+                              'fog_self_cal_small_signal_scale_factor_counts_per_rad']}),
 )}
 """The committed FOG scenarios (``bags/<name>``)."""
 
