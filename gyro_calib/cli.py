@@ -89,9 +89,16 @@ def refuse_unused_flags(args: argparse.Namespace, methods: Sequence[str]) -> Non
     for dest, users in FLAG_METHODS.items():
         if getattr(args, dest, None) is None or any(m in users for m in methods):
             continue
-        raise ConfigError(f'{_flag(dest)} does not apply to the method(s) run here '
-                          f'({", ".join(methods)}); it is used by {", ".join(users)}. Drop it, '
-                          'or choose the method with --method. Nothing was read.')
+        run = (f' to the method(s) run here ({", ".join(methods)})' if methods else
+               ': no method runs on these bags')
+        raise ConfigError(f'{_flag(dest)} does not apply{run}; it is used by '
+                          f'{", ".join(users)}. Drop it, or choose the method with --method. '
+                          'Nothing was read.')
+    if not methods:  # the flags that serve every method serve none here
+        for dest, flag in (('config', '--config'), ('gyro_id', '--gyro-id')):
+            if getattr(args, dest, None):
+                raise ConfigError(f'{flag} does not apply: no method runs on these bags. Drop '
+                                  'it, or choose the method with --method. Nothing was read.')
 
 
 def check_calibration_file(path: Path | None) -> None:
@@ -443,19 +450,19 @@ def _info(args: argparse.Namespace) -> int:
     if namespace_note:
         print(f'note: {namespace_note}', file=human)
     descriptions = [bag_description(i) for i in infos]
+    prospects = method_prospects(infos)
+    names = list(args.method or [n for n, p in prospects.items()
+                                 if p['runs'] and METHODS[n].auto])
+    refuse_unused_flags(args, names)  # also when no method runs: before anything is printed
     for desc in descriptions:
         _print_bag(desc, human)
-    prospects = method_prospects(infos)
     print('what each method could do with the bag(s):', file=human)
     for name, p in prospects.items():
         print(f'  {name:8} {"yes" if p["runs"] else "no ":3}  {p["how"]}', file=human)
-    names = list(args.method or [n for n, p in prospects.items()
-                                 if p['runs'] and METHODS[n].auto])
     doc: dict[str, Any] = {'command': 'info', 'methods': {},
                            'bags': [str(i.path) for i in infos], 'messages': 0,
                            'bag_info': descriptions}
     if names:
-        refuse_unused_flags(args, names)
         outcome = calibrate_bags(args.bags, methods=names, options=_options(args),
                                  namespace=args.namespace)
         doc = {**json_document(outcome, 'info'), 'bag_info': descriptions}
