@@ -26,8 +26,8 @@ def scenario_key(namespace: str) -> str:
 def scenario_text(scenario: Mapping[str, Any]) -> str:
     """The scenario as stored in ``custom_data``: one line of flow-style YAML, Unicode kept
     (no ``\\u`` escapes; :func:`store_custom_data` writes it unfolded)."""
-    text = yaml.safe_dump(dict(scenario), sort_keys=True, default_flow_style=True,
-                          allow_unicode=True, width=2**31 - 1)
+    text: str = yaml.safe_dump(dict(scenario), sort_keys=True, default_flow_style=True,
+                               allow_unicode=True, width=2**31 - 1)
     return text.strip()
 
 
