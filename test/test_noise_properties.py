@@ -246,7 +246,10 @@ def ieee952_records(draw: st.DrawFn) -> dict[str, object]:
         truth[R_KEY] = r
     lsb = 0.0
     if draw(st.booleans()):  # output LSB below the per-sample noise: adds LSB²τ0/12 to N²
-        lsb = scale * draw(st.floats(0.05, 0.5))
+        # (white only while the LSB is small against the signal it quantises: the filtered
+        # white noise, not the white noise before the filter — a stress example with the
+        # LSB at half the unfiltered σ behind a 0.1·fs filter read a spurious B)
+        lsb = float(np.std(white)) * draw(st.floats(0.05, 0.5))
         rate = np.round(rate / lsb) * lsb
         truth[N_KEY] = math.sqrt(arw**2 + lsb**2 * tau0 / 12.0)
     index = np.arange(n, dtype=np.int64)

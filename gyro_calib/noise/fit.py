@@ -292,7 +292,7 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
                     max_tau_s: float = math.inf,
                     terms: tuple[str, ...] = SYMBOLS, context: str = '',
                     eliminate_edges: bool = True, min_clusters: float = 10.0,
-                    exclude_band_limited: bool = True, min_points: int = 6) -> NoiseFit:
+                    exclude_band_limited: bool = True, min_points: int = 8) -> NoiseFit:
     """Fit the five IEEE 952 terms jointly to one axis's Allan variance (module docstring).
 
     Args:
