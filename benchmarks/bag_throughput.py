@@ -134,8 +134,8 @@ def reader_floor(cache: Path, hours: float) -> None:
 
 
 def replay(cache: Path, duration_s: float) -> None:
-    from gyro_calib.bagio import bag_info
     from gyro_calib.bag_calibration import calibrate_bags
+    from gyro_calib.bagio import bag_info
     from gyro_calib.nodes.processes import ros_environment, start_node
 
     bag = _bag(cache, f'k_tilde_{duration_s:g}s', duration_s)

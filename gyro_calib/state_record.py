@@ -37,8 +37,8 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
-from gyro_calib.errors import GyroCalibError
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
+from gyro_calib.errors import GyroCalibError
 
 FORMAT = 1
 STATE_FILE = 'state.yaml'

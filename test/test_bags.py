@@ -10,8 +10,8 @@ import pytest
 import yaml
 
 from gyro_calib import topics
-from gyro_calib.bagio import CONTRACT_TYPES, bag_info, iter_raw_messages
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import CONTRACT_TYPES, bag_info, iter_raw_messages
 from gyro_calib.cli import main as gyro_calib_main
 from gyro_calib.rbrlg.session import RbrlgSession
 from gyro_calib.units import RAD_PER_ARCSEC

@@ -20,8 +20,8 @@ import yaml
 
 import gyro_calib
 from gyro_calib import topics
-from gyro_calib.bagio import ContractMessages, iter_sample_batches
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import ContractMessages, iter_sample_batches
 from gyro_calib.cli import main as gyro_calib_main
 from gyro_calib.cli import summary_text
 from gyro_calib.dither.calibrator import (

@@ -13,13 +13,13 @@ import pytest
 import yaml
 
 from gyro_calib import topics
-from gyro_calib.bagio import JOINT_STATE, SampleBatch
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import JOINT_STATE, SampleBatch
+from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.dither.calibrator import KEY_A, KEY_FREQUENCY, KEY_Z, calibrate_dither
 from gyro_calib.dither.session import DitherSession
 from gyro_calib.dither.settings import DitherSettings
 from gyro_calib.errors import ConfigError
-from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.session import CalibrationOptions
 from sim_nodes.dither.bag_scenarios import SCENARIOS, simulate_scenario
 from sim_nodes.dither.scenarios import DitherRecording

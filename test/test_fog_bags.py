@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from gyro_calib.bagio import bag_info
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import bag_info
 from gyro_calib.cli import main as gyro_calib_main
 from gyro_calib.fog.self_cal import SelfCalFit
 from gyro_calib.fog.session import FogSession

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gyro_calib.bagio import iter_sample_batches
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import iter_sample_batches
 from gyro_calib.fog import FogSettings, calibrate_fog
 from gyro_calib.fog.calibrator import KEY_BIAS, KEY_SCALE_FACTOR
 from gyro_calib.fog.session import TOPICS, FogSession

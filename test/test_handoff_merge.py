@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 import yaml
 
-from gyro_calib.bagio import bag_info
 from gyro_calib.bag_calibration import method_options
+from gyro_calib.bagio import bag_info
 from gyro_calib.cli import main as gyro_calib_main
 from gyro_calib.handoff import (
     CONVENTIONS,

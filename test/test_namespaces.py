@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 from gyro_calib import topics
-from gyro_calib.bagio import BagMessage, bag_info, iter_raw_messages, write_bag
 from gyro_calib.bag_calibration import calibrate_bags, resolve_namespace
+from gyro_calib.bagio import BagMessage, bag_info, iter_raw_messages, write_bag
 from gyro_calib.cli import main
 from gyro_calib.errors import ConfigError
 

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from gyro_calib.bagio import ContractMessages, bag_info, iter_raw_messages
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import ContractMessages, bag_info, iter_raw_messages
 from gyro_calib.cli import main
 from gyro_calib.noise.session import NoiseSession
 from sim_nodes.noise.bag_scenarios import SCENARIOS, imu_message, imu_template, pulse_template

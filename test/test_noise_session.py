@@ -17,9 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gyro_calib.bagio import MissingTopicError, SampleBatch, WrongMessageTypeError
+from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Provenance, method_calibration, write_calibration
-from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.noise.keys import HANDOFF_KEYS, IMU_AXES, IMU_KEYS, SINGLE_GYRO_KEYS, imu_key
 from gyro_calib.noise.session import (
     GYRO_PULSES,

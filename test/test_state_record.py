@@ -18,8 +18,8 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from gyro_calib.bagio import SampleBatch, bag_info, iter_bags
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import SampleBatch, bag_info, iter_bags
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions, MethodSession

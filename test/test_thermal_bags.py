@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 import yaml
 
-from gyro_calib.bagio import BagMessage, bag_info, iter_sample_batches, write_bag
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import BagMessage, bag_info, iter_sample_batches, write_bag
 from gyro_calib.cli import main as gyro_calib
 from gyro_calib.handoff import load_calibration
 from gyro_calib.registry import IMU

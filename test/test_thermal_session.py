@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from gyro_calib.bagio import SampleBatch
+from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.cli import main as gyro_calib
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import (
@@ -21,7 +22,6 @@ from gyro_calib.handoff import (
     update_calibration,
     write_calibration,
 )
-from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.registry import JOINT_STATE, METHODS, TEMPERATURE
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.thermal.model import ThermalBiasModel

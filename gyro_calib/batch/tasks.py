@@ -73,8 +73,8 @@ def reason(exc: BaseException) -> str:
 def plan_gyro(job: GyroJob, previous_fingerprint: str, spec_digest: str, force: bool) -> Plan:
     """Hash the gyro's bags, decide whether it must run, and pick its methods."""
     try:
-        from gyro_calib.bagio import bag_info
         from gyro_calib.bag_calibration import select_methods
+        from gyro_calib.bagio import bag_info
         from gyro_calib.report.evidence import sha256_files
 
         inputs = {}

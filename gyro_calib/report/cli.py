@@ -109,8 +109,8 @@ def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
         BagError, ConfigError: as ``calibrate`` does; also when the bags hold none of the
             hand-off's methods' topics.
     """
-    from gyro_calib.bagio import bag_info
     from gyro_calib.bag_calibration import calibrate_bags, merged_topics
+    from gyro_calib.bagio import bag_info
     from gyro_calib.registry import METHODS
     from gyro_calib.report.evidence import evidence_from_outcome
 

@@ -25,8 +25,8 @@ from gyro_calib.report.uncertainty import BudgetLine
 from gyro_calib.units import format_stamp
 
 if TYPE_CHECKING:
-    from gyro_calib.bagio import BagInfo
     from gyro_calib.bag_calibration import BagCalibration
+    from gyro_calib.bagio import BagInfo
     from gyro_calib.session import CalibrationOptions, MethodSession
 
 FIGURE_CAPTIONS = {

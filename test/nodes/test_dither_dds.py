@@ -12,8 +12,8 @@ import pytest
 import yaml
 
 from gyro_calib import topics
-from gyro_calib.bagio import bag_info
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import bag_info
 from gyro_calib.dither.calibrator import KEY_A, calibrate_dither
 from gyro_calib.dither.settings import DitherSettings
 from gyro_calib.estimate import Estimate

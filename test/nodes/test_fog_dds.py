@@ -13,8 +13,8 @@ import pytest
 import yaml
 
 from gyro_calib import topics
-from gyro_calib.bagio import bag_info, iter_sample_batches
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import bag_info, iter_sample_batches
 from gyro_calib.session import MethodSession
 from gyro_calib.units import format_stamp
 from sim_nodes.fog.bag_scenarios import scenario_from_parameters, write_recording_bag

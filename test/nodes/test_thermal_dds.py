@@ -14,10 +14,10 @@ import pytest
 import yaml
 
 from gyro_calib import topics
-from gyro_calib.bagio import SampleBatch, bag_info
 from gyro_calib.bag_calibration import calibrate_bags
-from gyro_calib.handoff import load_calibration, write_calibration
+from gyro_calib.bagio import SampleBatch, bag_info
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
+from gyro_calib.handoff import load_calibration, write_calibration
 from gyro_calib.registry import JOINT_STATE, TEMPERATURE
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.thermal.compensate import ThermalBiasTracker
