@@ -36,6 +36,7 @@ from gyro_calib.nodes.ros_io import (
     simulation_done,
     ns_to_stamp,
     publish_paced,
+    stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative
 from sim_nodes.rbrlg.bench import CHUNK_SAMPLES, two_axis_simulators
@@ -116,6 +117,7 @@ class RateTableNode(Node):
         self._start_gate = StartGate(self.wait_for_subscribers, logger=self.get_logger())
         self._progress: ProgressLog | None = None
         self.done = False
+        self.stalled = ''  # why publishing stopped before the end ('' = it did not)
         self.create_timer(0.005, self._tick)
 
     @property
@@ -123,6 +125,7 @@ class RateTableNode(Node):
         """Every publisher of the node (for the final acknowledgement wait)."""
         return [self.truth_pub] + [p for _, js, ix, _ in self.tables for p in (js, ix)]
 
+    @stops_on_stalled_readers
     def _tick(self) -> None:
         master = self.tables[0][0]
         if self._wall_start is None:

@@ -203,6 +203,12 @@ def report_unused_parameters(node: Node) -> None:
             'ignored (its parameters: ros2 param list, or the README section of the node).')
 
 
+EXIT_READERS_STALLED = 3
+"""Exit status of a simulator stopped because its readers stopped acknowledging
+(:class:`ReadersStalled`): the run was not delivered whole (bad input exits 2, a stop by
+signal or a finished run 0)."""
+
+
 def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | None = None,
              *, on_stop: Callable[[Node, Executor], None] | None = None,
              done: Callable[[Node], bool] | None = None) -> None:
@@ -215,7 +221,9 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
     EventsExecutor, and the teardown afterwards crashed with SIGSEGV once in CI.
     A :class:`~gyro_calib.errors.GyroCalibError` or ``ValueError`` from ``make_node``
     (bad parameters) is logged as fatal in one line and exits with status 2 (bad input, as
-    the command line); a stop by signal exits 0.
+    the command line); a stop by signal exits 0. A simulator whose readers stopped
+    acknowledging (:class:`ReadersStalled` from :func:`publish_paced`) logs one line saying
+    so and exits with :data:`EXIT_READERS_STALLED`, without a traceback.
     """
     import rclpy
     from rclpy.executors import ExternalShutdownException
@@ -224,6 +232,7 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
     from gyro_calib.errors import GyroCalibError
 
     stop = threading.Event()
+    stalled = False
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
@@ -236,6 +245,7 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
             report_unused_parameters(node)
             executor = make_executor()
             executor.add_node(node)
+            reason = ''  # why a simulator stopped before the end of its run
             try:
                 while not stop.is_set() and rclpy.ok() and not (done and done(node)):
                     executor.spin_once(timeout_sec=0.1)
@@ -243,7 +253,13 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
                     on_stop(node, executor)
             except ExternalShutdownException:
                 pass
+            except ReadersStalled as exc:  # a callback not guarded by stops_on_stalled_readers
+                reason = str(exc)
             finally:
+                reason = reason or str(getattr(node, 'stalled', '') or '')
+                if reason:  # one line, no traceback, no wait for that reader
+                    stalled = True
+                    node.get_logger().error(f'{reason}; stopping before the end of the run.')
                 executor.remove_node(node)
                 executor.shutdown()
                 node.destroy_node()
@@ -251,6 +267,8 @@ def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | No
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+    if stalled:
+        raise SystemExit(EXIT_READERS_STALLED)
 
 
 class StartGate:
@@ -349,8 +367,9 @@ def changes_line(before: Any, after: Any) -> str | None:
 
 
 def simulation_done(node: Node) -> bool:
-    """A simulator node has published its whole run and is asked to exit then."""
-    return bool(node.done and node.exit_when_done)
+    """A simulator node has published its whole run and is asked to exit then, or its
+    readers stalled (``node.stalled``: :func:`stops_on_stalled_readers`)."""
+    return bool(getattr(node, 'stalled', '')) or bool(node.done and node.exit_when_done)
 
 
 def acknowledge_tail(node: Node, _executor: Executor | None = None, *,
@@ -388,6 +407,30 @@ def make_executor(context: Context | None = None) -> Executor:
     return EventsExecutor(context=context)
 
 
+class ReadersStalled(Exception):
+    """The readers of a reliable topic acknowledged nothing for the publisher's patience: a
+    reader stopped reading (hung, paused, or still shutting down) while it is still
+    connected. :func:`run_node` ends the node on it with one line saying so, no traceback."""
+
+
+def stops_on_stalled_readers(callback: Callable[..., None]) -> Callable[..., None]:
+    """Decorate a simulator's publishing callback: :class:`ReadersStalled` from it records
+    the reason on the node (``node.stalled``) instead of escaping into the executor (which
+    logs it as a fatal exception with a stack); :func:`simulation_done` then ends the spin
+    and :func:`run_node` says why in one line."""
+    import functools
+
+    @functools.wraps(callback)
+    def guarded(node: Any, *args: Any, **kwargs: Any) -> None:
+        if getattr(node, 'stalled', ''):
+            return
+        try:
+            callback(node, *args, **kwargs)
+        except ReadersStalled as exc:
+            node.stalled = str(exc)
+    return guarded
+
+
 def publish_paced(publisher: Publisher, msg: object, *, patience_s: float = 30.0) -> None:
     """Publish on a reliable topic; if the reader lags so far that DDS refuses, wait and retry.
 
@@ -397,7 +440,8 @@ def publish_paced(publisher: Publisher, msg: object, *, patience_s: float = 30.0
     whole simulated bench to the pace of its slowest reader.
 
     Raises:
-        RCLError: if the readers acknowledge nothing for ``patience_s``.
+        ReadersStalled: if the readers acknowledge nothing for ``patience_s`` (naming the
+            topic and its readers).
     """
     from rclpy.duration import Duration
     from rclpy._rclpy_pybind11 import RCLError  # the error rclpy's publish() raises
@@ -409,5 +453,10 @@ def publish_paced(publisher: Publisher, msg: object, *, patience_s: float = 30.0
             return
         except RCLError:
             if time.monotonic() > deadline:
-                raise
+                readers = publisher.get_subscription_count()
+                raise ReadersStalled(
+                    f'the reader(s) of {publisher.topic_name} ({readers} connected) '
+                    f'acknowledged nothing for {patience_s:g} s: a reader stopped reading '
+                    'while still connected (hung, paused or ending), so the rest of the run '
+                    'cannot be delivered') from None
             publisher.wait_for_all_acked(Duration(seconds=1.0))

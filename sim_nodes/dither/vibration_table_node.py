@@ -44,6 +44,7 @@ from gyro_calib.nodes.ros_io import (
     simulation_done,
     ns_to_stamp,
     publish_paced,
+    stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative
 from sim_nodes.dither.bench import DitherBenchConfig, DitherBenchSimulator, DitherChunk
@@ -115,6 +116,7 @@ class VibrationTableNode(Node):
         self._start_gate = StartGate(self.wait_for_subscribers, logger=self.get_logger())
         self._progress: ProgressLog | None = None
         self.done = False
+        self.stalled = ''  # why publishing stopped before the end ('' = it did not)
         self.create_timer(0.005, self._tick)
 
     @property
@@ -122,6 +124,7 @@ class VibrationTableNode(Node):
         """The sensor publishers (for the final acknowledgement wait)."""
         return [self.pulse_pub, self.table_pub]
 
+    @stops_on_stalled_readers
     def _tick(self) -> None:
         if self._wall_start is None:
             if not self._start_gate.open(self.all_publishers):

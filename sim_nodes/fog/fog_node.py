@@ -49,6 +49,7 @@ from gyro_calib.nodes.ros_io import (
     publish_paced,
     run_node,
     simulation_done,
+    stops_on_stalled_readers,
 )
 from gyro_calib.topics import RATE_TABLE_JOINT, SIM_SCENARIO, relative
 from sim_nodes.fog.bag_scenarios import KINDS, FogScenario, scenario_from_parameters
@@ -145,6 +146,7 @@ class FogBenchNode(Node):
                                      logger=self.get_logger())
         self._progress: ProgressLog | None = None
         self.done = False
+        self.stalled = ''  # why publishing stopped before the end ('' = it did not)
         self.create_timer(0.005, self._tick)
 
     @property
@@ -152,6 +154,7 @@ class FogBenchNode(Node):
         """The stream publishers (for the start and the final acknowledgement waits)."""
         return [self.output_pub, self.injection_pub, self.table_pub, self.index_pub]
 
+    @stops_on_stalled_readers
     def _tick(self) -> None:
         if self.done:
             return

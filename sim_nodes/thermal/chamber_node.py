@@ -37,6 +37,7 @@ from gyro_calib.nodes.ros_io import (
     simulation_done,
     ns_to_stamp,
     publish_paced,
+    stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative
 from sim_nodes.thermal.gyro import ThermalChunk
@@ -78,6 +79,8 @@ class ThermalChamberNode(Node):
         self._progress: ProgressLog | None = None
         self.published = 0
         self.done = False
+        self.stalled = ''
+        """Why publishing stopped before the end of the run ('' = it did not)."""
         self.create_timer(0.005, self._tick)
 
     @property
@@ -85,6 +88,7 @@ class ThermalChamberNode(Node):
         """The sensor publishers (for the final acknowledgement wait)."""
         return [self.pulse_pub, self.temp_pub]
 
+    @stops_on_stalled_readers
     def _tick(self) -> None:
         if self._wall_start is None:
             if not self._start_gate.open(self.all_publishers):
