@@ -16,12 +16,14 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from pathlib import Path
 from typing import Any
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gyro_calib.cli import main as gyro_calib
 from gyro_calib.dither.settings import DitherSettings
 from gyro_calib.errors import ConfigError
 from gyro_calib.fog.settings import FogSettings
@@ -29,6 +31,7 @@ from gyro_calib.noise.settings import NoiseSettings
 from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.thermal.settings import ThermalSettings
 
+BAGS = Path(__file__).resolve().parents[1] / 'bags'
 STRESS = os.environ.get('GYRO_CALIB_STRESS', '') not in ('', '0')
 CLASSES = (KTildeConfig, FogSettings, DitherSettings, ThermalSettings, NoiseSettings)
 
@@ -96,3 +99,19 @@ def test_nan_is_refused_unless_it_means_not_given(cls: type) -> None:
             continue
         with pytest.raises(ConfigError, match=f.name):
             cls(**{f.name: math.nan})
+
+
+@pytest.mark.parametrize('value', ['0.0', '.nan', '-1.0'])
+def test_cli_refuses_a_zero_averaging_interval_in_one_line(
+        value: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The reported case end to end: `--config` with averaging_interval_s 0 (or NaN) was a
+    ZeroDivisionError traceback; now one line naming the field, exit 2, nothing on stdout."""
+    config = tmp_path / 'thermal.yaml'
+    config.write_text(f'averaging_interval_s: {value}\n')
+    out_file = tmp_path / 'h.yaml'
+    assert gyro_calib(['calibrate', str(BAGS / 'thermal_calibration'), '--method', 'thermal',
+                       '--config', str(config), '--out', str(out_file),
+                       '--no-progress']) == 2
+    out, err = capsys.readouterr()
+    assert out == '' and err.count('\n') == 1 and 'averaging_interval_s' in err
+    assert not out_file.exists()
