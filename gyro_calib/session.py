@@ -121,7 +121,8 @@ class CalibrationOptions:
             listing = ', '.join(f'{src} stores {v!r}' for src, v in found)
             spec = BENCH_SETTINGS.get(key)
             unit = f' {spec.unit}' if spec is not None and spec.unit else ''
-            decide = (f'give {spec.flag} (or calibrate the bags separately)' if spec is not None
+            flag = spec.flag if spec is not None else STORED_ONLY_FLAGS.get(key)
+            decide = (f'give {flag} (or calibrate the bags separately)' if flag is not None
                       else 'calibrate the bags separately')
             raise ConfigError(f'the bags store different bench settings {key}{unit} '
                               f'({listing}); {decide}.')
@@ -185,6 +186,11 @@ class CalibrationOptions:
     def latitude(self) -> float:
         """Latitude, ° (NaN when unknown)."""
         return float(self.setting('latitude_deg', math.nan))
+
+
+STORED_ONLY_FLAGS = {'topic': '--topic'}
+"""Stored bench settings outside :data:`BENCH_SETTINGS` and the flag that decides when the
+bags store different values (noise's input topic)."""
 
 
 @dataclass(frozen=True, slots=True)

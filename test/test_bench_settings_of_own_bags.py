@@ -58,3 +58,14 @@ def test_noise_refuses_bags_that_store_different_scale_factors(
     # the flag decides
     assert gyro_calib(['noise', str(a), str(b), '--no-progress',
                        '--scale-factor-rad-per-pulse', '4.0860157e-06']) == 0
+
+
+def test_noise_refuses_bags_that_store_different_inputs_naming_topic(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The first bag's stored input topic used to win silently."""
+    assert gyro_calib(['noise', str(BAGS / 'noise_rlg_static'), str(BAGS / 'noise_imu_static'),
+                       '--no-progress']) == 2
+    out, err = capsys.readouterr()
+    assert out == '' and err.count('\n') == 1
+    assert 'topic' in err and 'noise_rlg_static' in err and 'noise_imu_static' in err
+    assert 'give --topic' in err
