@@ -49,7 +49,8 @@ def bags(cache: Path, gyros: int, hours: float, distinct: int | None = None) -> 
     """One bag per gyro, generated once (two child processes at a time). With ``distinct``,
     only that many are generated and the gyros take them in turn, each through its own
     directory of symbolic links (calibration cost does not depend on the seed; generating is
-    what is slow)."""
+    what is slow).
+    """
     cache.mkdir(parents=True, exist_ok=True)
     made = gyros if distinct is None else min(distinct, gyros)
     paths = [cache / f'rbrlg_{hours:g}h_seed{100 + i}' for i in range(made)]
@@ -93,7 +94,8 @@ SPIN = 'import time\nt = time.process_time()\nx = 0\nfor i in range(20_000_000):
 def cores_available() -> float:
     """How many cores this machine gives now: CPU-bound loops run alone and two at once; the
     ratio of their total throughput (2.0 on an idle 2-core machine, ~1 when other jobs take
-    the second core)."""
+    the second core).
+    """
     def one() -> float:
         t0 = time.perf_counter()
         subprocess.run([sys.executable, '-c', SPIN], check=True)
@@ -110,7 +112,8 @@ def cores_available() -> float:
 def run(paths: list[Path], workers: int, pdf: bool,
         ) -> tuple[float, list[tuple[float, float]], list[str]]:
     """Calibrate the fleet on a new local cluster; wall s, (peak RSS MB, CPU s) per worker,
-    the reasons of the gyros that failed."""
+    the reasons of the gyros that failed.
+    """
     from dask.distributed import Client, LocalCluster
 
     from gyro_calib.batch.manifest import GyroJob

@@ -26,8 +26,8 @@ import math
 import time
 
 import numpy as np
-
 from dither_rocking_allowance import LeadingRockingGyro
+
 from gyro_calib.dither.calibrator import KEY_A, KEY_Y, KEY_Z, calibrate_dither
 from gyro_calib.dither.settings import DitherSettings
 from sim_nodes.dither.bench import DitherBenchConfig

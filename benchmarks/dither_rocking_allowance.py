@@ -39,7 +39,8 @@ K = ARCMIN / 60
 @dataclasses.dataclass(frozen=True, slots=True)
 class LeadingRockingGyro(DitheredGyroConfig):
     """The simulator's gyro with both transverse rockings advanced by ``rocking_lead_rad``
-    relative to the dither (π/2: in quadrature)."""
+    relative to the dither (π/2: in quadrature).
+    """
 
     rocking_lead_rad: float = 0.0
 

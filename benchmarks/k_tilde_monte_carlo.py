@@ -50,8 +50,8 @@ from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
 from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.rbrlg.scale_factor import mean_estimate
 from gyro_calib.units import ARCSEC_PER_REV, ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H
-from sim_nodes.rbrlg.bench import simulate_rate_bias_bench, true_k_tilde_arcsec_per_pulse
 from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.rbrlg.bench import simulate_rate_bias_bench, true_k_tilde_arcsec_per_pulse
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 TARGET_REL_STD = 2e-8

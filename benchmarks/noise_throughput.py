@@ -46,7 +46,8 @@ K_RAD_PER_PULSE = 0.84279066 * 3.141592653589793 / 648_000.0
 
 def static_rlg_bag(cache: Path, hours: float) -> Path:
     """A dithered RLG at rest, 1 kHz /gyro/pulses (the noise_rlg_static scenario run for
-    ``hours`` without its gap), generated once in a child process."""
+    ``hours`` without its gap), generated once in a child process.
+    """
     path = cache / f'rlg_static_1khz_{hours:g}h'
     if not (path / 'metadata.yaml').exists():
         code = ('import dataclasses, sys\n'

@@ -20,8 +20,6 @@ import sys
 import time
 from pathlib import Path
 
-
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gyro_calib.thermal.calibrator import ThermalCalibrator, ThermalSettings  # noqa: E402

@@ -69,6 +69,7 @@ from unittest import mock
 
 import numpy as np
 
+import sim_nodes.rbrlg.bench as bench
 from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
 from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.rbrlg.error_budget import (
@@ -78,14 +79,13 @@ from gyro_calib.rbrlg.error_budget import (
 from gyro_calib.rbrlg.fix_error_angle import fix_error_angle_multi_station
 from gyro_calib.rbrlg.stations import calibrate_fix_error_angle
 from gyro_calib.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, RAD_PER_ARCSEC
-import sim_nodes.rbrlg.bench as bench
+from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.bench import (
     simulate_rate_bias_bench,
     simulate_theta_procedure,
     true_k_tilde_arcsec_per_pulse,
 )
 from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
-from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 

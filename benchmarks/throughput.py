@@ -71,12 +71,12 @@ import tracemalloc
 from dataclasses import dataclass, field
 from typing import Any
 
-from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.nodes.processes import ros_environment, start_node
+from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
-from sim_nodes.rbrlg.bench import simulate_rate_bias_bench, true_k_tilde_arcsec_per_pulse
 from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.rbrlg.bench import simulate_rate_bias_bench, true_k_tilde_arcsec_per_pulse
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 TARGET_OFFLINE_X = 50.0

@@ -1,5 +1,6 @@
 """Old import path of :mod:`gyro_calib.bagio` (bag reading, writing and inspection), kept
-for compatibility: it only re-exports; new code imports :mod:`gyro_calib.bagio`."""
+for compatibility: it only re-exports; new code imports :mod:`gyro_calib.bagio`.
+"""
 
 from gyro_calib.bagio import *  # noqa: F403
 from gyro_calib.bagio.messages import typestore as _typestore  # noqa: F401

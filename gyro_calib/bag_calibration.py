@@ -134,7 +134,8 @@ def merged_topics(infos: Sequence[BagInfo]) -> dict[str, str]:
 
 def own_bags(method: Method, infos: Sequence[BagInfo]) -> list[BagInfo]:
     """The bags that are the method's own: those holding all its revealing topics (with their
-    types); when none does (or it has none), those holding any of its topics."""
+    types); when none does (or it has none), those holding any of its topics.
+    """
     def holds(info: BagInfo, topic: str) -> bool:
         t = info.topics.get(topic)
         return t is not None and t.msgtype == method.topics[topic]
@@ -283,7 +284,8 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
 def json_document(outcome: BagCalibration, command: str = 'calibrate') -> dict[str, Any]:
     """The ``--json`` document every command shares (``gyro_calib/schema/result.schema.json``):
     ``{"command", "methods": {NAME: {"results", "missing", "rejections", ...}}, "bags",
-    "messages"}``."""
+    "messages"}``.
+    """
     return {'command': command,
             'methods': {name: s.json_section() for name, s in outcome.sessions.items()},
             'bags': [str(i.path) for i in outcome.infos], 'messages': outcome.messages}

@@ -341,7 +341,8 @@ def _run_with_progress(args: argparse.Namespace, show: bool) -> BagCalibration:
 
 def summary_text(outcome: BagCalibration) -> str:
     """The human summary: per method a table of each quantity with its uncertainty and count,
-    then counts, what is missing, and every rejection with its reason."""
+    then counts, what is missing, and every rejection with its reason.
+    """
     lines = []
     for name, session in outcome.sessions.items():
         lines.append(f'== {name}: {METHODS[name].title}')
@@ -399,7 +400,8 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
 
 def bag_description(info: Any) -> dict[str, Any]:
     """One bag for ``info``: span, topics with counts and rates from the header stamps
-    (the sample instants; log times only for types without a decodable header)."""
+    (the sample instants; log times only for types without a decodable header).
+    """
     from gyro_calib.bagio import header_stamp_spans
 
     spans = header_stamp_spans(info.path, info) if info.message_count else {}

@@ -117,7 +117,8 @@ class BenchSetting:
 
     def check(self, value: Any, where: str) -> Any:
         """``value`` as ``kind`` if it is valid, else ConfigError naming the setting, where it
-        came from (``where``: a flag, a file, a bag), its unit and its range."""
+        came from (``where``: a flag, a file, a bag), its unit and its range.
+        """
         ok = True
         if self.kind is str:
             ok = isinstance(value, str)

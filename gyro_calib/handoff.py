@@ -254,7 +254,8 @@ class Calibration:
     @property
     def missing(self) -> dict[str, str]:
         """Every key the latest run of a method could measure from its bench but did not (and
-        no earlier run gave), with its reason."""
+        no earlier run gave), with its reason.
+        """
         out: dict[str, str] = {}
         for prov in self.methods.values():
             out.update({k: v for k, v in prov.missing.items()
@@ -489,7 +490,8 @@ def scale_factor_inconsistency(calibration: Calibration,
                                schema: Mapping[str, HandoffKey] | None = None) -> str:
     """Why the file is inconsistent ('' if not): a value that rests on a scale factor (a mapping
     stating ``…scale_factor_rad_per_pulse``, e.g. a thermal model) beside the file's K (or K̃)
-    that differs from it by more than 100 ppm."""
+    that differs from it by more than 100 ppm.
+    """
     sch = _schema(schema)
     file_k = None
     for key in ('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'):

@@ -92,7 +92,8 @@ class PulseCalibration:
 def scale_factor_line(c: PulseCalibration) -> str:
     """'K = value ± std rad/pulse (from KEY)' for logs: the quantity is always K, with the
     hand-off key it came from (a model-borne K: the scale factor the thermal_model was
-    fitted with, never 'thermal_model = … rad/pulse')."""
+    fitted with, never 'thermal_model = … rad/pulse').
+    """
     where = ('the scale factor the thermal_model was fitted with'
              if c.scale_factor_key == 'thermal_model' else c.scale_factor_key)
     name = 'K̃' if c.scale_factor_key == 'k_tilde_rad_per_pulse' else 'K'
@@ -289,7 +290,8 @@ class PulseRateConverter:
 
     def thermal_bias(self, t_ns: int) -> tuple[float, float] | Rejection:
         """The thermal model's bias and its standard uncertainty for a sample at ``t_ns``,
-        or a Rejection saying why there is none (rad/s)."""
+        or a Rejection saying why there is none (rad/s).
+        """
         if self._tracker is None:
             return Rejection(t_ns, 'no thermal model.')
         if self._bias is None:

@@ -1,4 +1,5 @@
 """Old import path of :mod:`gyro_calib.bagio.columns` (the columnar MCAP decoder), kept for
-compatibility: it only re-exports; new code imports :mod:`gyro_calib.bagio.columns`."""
+compatibility: it only re-exports; new code imports :mod:`gyro_calib.bagio.columns`.
+"""
 
 from gyro_calib.bagio.columns import *  # noqa: F403

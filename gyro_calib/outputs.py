@@ -36,7 +36,8 @@ def current_umask() -> int:
 
 def new_file_mode(target: Path) -> int:
     """The mode a file written at ``target`` gets: the mode of the file it replaces, else
-    0666 & ~umask (what ``open()`` would create)."""
+    0666 & ~umask (what ``open()`` would create).
+    """
     try:
         return os.stat(target).st_mode & 0o7777
     except FileNotFoundError:
@@ -129,7 +130,8 @@ def write_text_atomically(path: str | Path, text: str) -> Path:
 
 def temporary_beside(target: Path, suffix: str = '') -> Path:
     """An empty temporary file beside ``target`` with the mode ``target`` will get (for
-    writers that need a path, e.g. matplotlib); the caller renames or removes it."""
+    writers that need a path, e.g. matplotlib); the caller renames or removes it.
+    """
     fd, name = tempfile.mkstemp(prefix=f'.{target.stem}.', suffix=suffix or target.suffix,
                                 dir=target.parent)
     try:

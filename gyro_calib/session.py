@@ -144,7 +144,8 @@ class CalibrationOptions:
 
     def setting_with_origin(self, name: str, default: Any = None) -> tuple[Any, str]:
         """A bench setting and where it came from: flag or node parameter, else the config
-        file, else the bench settings stored with the method's bags, else ``default``."""
+        file, else the bench settings stored with the method's bags, else ``default``.
+        """
         value = getattr(self, _OPTION_OF.get(name, name), None)
         if given(value):
             return check_bench_setting(name, value, self.origin_of_given(name)), \
@@ -163,7 +164,8 @@ class CalibrationOptions:
 
     def conflicts(self, names: Iterable[str]) -> list[str]:
         """One line per bench setting given (flag, parameter, config file) that differs from
-        the bench settings stored with the bags (or published on /sim/scenario)."""
+        the bench settings stored with the bags (or published on /sim/scenario).
+        """
         lines = []
         for name in names:
             value, origin = self.setting_with_origin(name)
@@ -288,7 +290,8 @@ class MethodSession(ABC):
 
     def start_bag(self, index: int, path: Path) -> None:
         """The next batches come from bag ``index`` at ``path`` (methods whose bags are
-        separate runs: :attr:`gyro_calib.registry.Method.separate_bags`). No-op by default."""
+        separate runs: :attr:`gyro_calib.registry.Method.separate_bags`). No-op by default.
+        """
 
     def handoff_values(self) -> dict[str, Any]:
         """The hand-off keys and values (``_std`` twins beside the uncertain ones)."""
@@ -300,12 +303,14 @@ class MethodSession(ABC):
 
     def conditions(self) -> dict[str, Any]:
         """The bench settings the results rest on (latitude, heading, K used...), by name;
-        written with the run in the hand-off file."""
+        written with the run in the hand-off file.
+        """
         return {}
 
     def not_measurable(self) -> dict[str, str]:
         """Hand-off keys among :meth:`missing` that no run on such a bench could give (its
-        streams lack what they need), with why; a file is complete without them."""
+        streams lack what they need), with why; a file is complete without them.
+        """
         return {}
 
     def handoff(self, source: str, *, gyro_id: str = '') -> Calibration | None:

@@ -24,28 +24,28 @@ from std_msgs.msg import Header, String
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
-    described_parameter,
-    SCENARIO_QOS,
     EVENT_QOS,
+    SCENARIO_QOS,
     SENSOR_QOS,
-    declare_dataclass_parameters,
     ProgressLog,
     StartGate,
     acknowledge_tail,
-    run_node,
-    simulation_done,
+    declare_dataclass_parameters,
+    described_parameter,
     ns_to_stamp,
     publish_paced,
+    run_node,
+    simulation_done,
     stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative
+from sim_nodes.rate_table import RateTableConfig, RateTableSimulator, TableChunk
 from sim_nodes.rbrlg.bench import CHUNK_SAMPLES, two_axis_simulators
 from sim_nodes.rbrlg.procedure import (
     ThetaProcedureConfig,
     full_procedure_profiles,
     theta_procedure_profiles,
 )
-from sim_nodes.rate_table import RateTableConfig, RateTableSimulator, TableChunk
 
 SCENARIOS = ('rate_bias', 'theta', 'full')
 

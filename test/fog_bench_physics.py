@@ -157,7 +157,8 @@ START_NS = 1_000_000_000_000
 
 def programme(bench: FogBench) -> Profile:
     """Rest, then each rate for its hold (constant-acceleration transitions), then rest for
-    the ladder."""
+    the ladder.
+    """
     prof = Profile()
     prof.add(bench.lead_s, 0.0, 0.0)
     alpha = math.radians(bench.accel_deg_s2)
@@ -234,7 +235,8 @@ def record(bench: FogBench) -> Recording:
 def _injected(bench: FogBench, plateaus_s: list[tuple[float, float, float]],
               t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
     """Output-rate change from the injections at times t: a first-order approach to each new
-    balanced level, counts/s."""
+    balanced level, counts/s.
+    """
     out = np.zeros_like(t)
     level = 0.0
     for start, end, j in plateaus_s:

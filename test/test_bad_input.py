@@ -22,17 +22,17 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pytest
 
+from gyro_calib.errors import ConfigError, InsufficientDataError
 from gyro_calib.rbrlg.calibrator import CalibrationUpdate, RateBiasCalibrator, calibrate_k_tilde
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping, load_k_tilde_config
-from gyro_calib.errors import ConfigError, InsufficientDataError
 from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S
+from sim_nodes.motion import MotionProfile
+from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
 from sim_nodes.rbrlg.bench import (
     BenchRecording,
     simulate_rate_bias_bench,
     true_k_tilde_arcsec_per_pulse,
 )
-from sim_nodes.motion import MotionProfile
-from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 
 if TYPE_CHECKING:
@@ -88,7 +88,8 @@ def _s(t_s: float) -> int:
 
 def _arrival_order(*stamps: np.ndarray) -> list[tuple[int, int]]:
     """(stream, index) in the order a subscriber would see them: each stream in array order,
-    the streams interleaved by the newest stamp each has reached."""
+    the streams interleaved by the newest stamp each has reached.
+    """
     keys = np.concatenate([np.maximum.accumulate(t) for t in stamps])
     which = np.concatenate([np.full(len(t), k) for k, t in enumerate(stamps)])
     index = np.concatenate([np.arange(len(t)) for t in stamps])

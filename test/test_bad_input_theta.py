@@ -27,20 +27,20 @@ import pytest
 
 from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults, calibrate_rbrlg
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
+from sim_nodes.motion import MotionProfile
+from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.bench import (
     TwoAxisRecording,
     simulate_full_procedure,
     simulate_theta_procedure,
     simulate_two_axis_bench,
 )
-from sim_nodes.motion import MotionProfile
 from sim_nodes.rbrlg.procedure import (
     ThetaProcedureConfig,
     _move,
     full_procedure_profiles,
     theta_procedure_profiles,
 )
-from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 
@@ -251,7 +251,8 @@ def clean_n2() -> Run:
 def test_station_is_skipped_with_reason_when_fewer_than_n_revolutions_between_marks(
         clean_n2: Run) -> None:
     """n = 2, but the spoiled station turns 1.5 revolutions each way: its index marks
-    are 1 revolution apart, so no 2-revolution window fits."""
+    are 1 revolution apart, so no 2-revolution window fits.
+    """
     run = _run(2, Fault(forward_revolutions=1.5, reverse_revolutions=1.5))
     rec, res, cal = run.rec, run.res, run.cal
     _assert_no_wrong_number(res, cal, clean_n2)
@@ -266,7 +267,8 @@ def test_station_is_skipped_with_reason_when_fewer_than_n_revolutions_between_ma
 def test_station_is_skipped_with_reason_when_under_one_revolution_between_marks(
         clean_n1: Run) -> None:
     """n = 1, but the spoiled station turns half a revolution each way: it passes the
-    index mark once per direction, so no window at all can be cut from it."""
+    index mark once per direction, so no window at all can be cut from it.
+    """
     run = _run(1, Fault(forward_revolutions=0.5, reverse_revolutions=0.5))
     rec, res, cal = run.rec, run.res, run.cal
     _assert_no_wrong_number(res, cal, clean_n1)
@@ -297,7 +299,8 @@ def test_station_is_skipped_with_reason_when_position_table_reverses_inside_wind
     """The position table passes its index mark (37°), turns half a revolution more and
     reverses; the reverse run is the normal one (2 revolutions). The forward window is
     cut by the reversal; the lone reverse window must not be paired with a window of
-    another station, and the later stations must still count."""
+    another station, and the later stations must still count.
+    """
     half_past_mark = (37.0 + 180.0 - 9.0) / 360.0  # − the 4.5° each of speed-up and reversal
     run = _run(1, Fault(forward_revolutions=half_past_mark))
     rec, res, cal = run.rec, run.res, run.cal

@@ -1,5 +1,6 @@
 """The committed scenario bags: reproducible, readable by rosbags and mcap, and calibrated
-offline to their expected results (truth within tolerance, counts, rejection reasons)."""
+offline to their expected results (truth within tolerance, counts, rejection reasons).
+"""
 
 from __future__ import annotations
 

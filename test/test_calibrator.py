@@ -8,8 +8,12 @@ import numpy as np
 import pytest
 
 from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
-from sim_nodes.rbrlg.bench import BenchRecording, simulate_rate_bias_bench, true_k_tilde_arcsec_per_pulse
 from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.rbrlg.bench import (
+    BenchRecording,
+    simulate_rate_bias_bench,
+    true_k_tilde_arcsec_per_pulse,
+)
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 NOISE_OFF_TABLE = RateTableConfig(duration_s=600.0, zero_index_jitter_arcsec=0.0)

@@ -96,7 +96,8 @@ def the_one_error_line(run: Run) -> str:
 def assert_names(line: str, patterns: Sequence[str], path: Path | None = None) -> None:
     """Every regex of ``patterns`` occurs in ``line`` (case-insensitive) -- outside the
     text of ``path``, which the line must name, so that a directory called "truncated"
-    cannot pass for the word."""
+    cannot pass for the word.
+    """
     problem = line
     if path is not None:
         assert str(path) in line, f'the error line should name the path {path}: {line!r}'
@@ -132,7 +133,8 @@ def _cdr(msgtype: str, t_ns: int, label: str) -> bytes:
 def synthetic_bag(path: Path, present: Sequence[str],
                   types: dict[str, str] | None = None, samples: int = 50) -> Path:
     """A small bag with ``samples`` messages (1 kHz) on each topic of ``present``;
-    ``types`` overrides the contract type of a topic (the bytes follow the type)."""
+    ``types`` overrides the contract type of a topic (the bytes follow the type).
+    """
     types = types or {}
     msgs = [BagMessage(topic, t_ns, _cdr(types.get(topic, CONTRACT_TYPES[topic]), t_ns,
                                          topic.strip('/').split('/')[0]))

@@ -1,6 +1,7 @@
 """The dither session: two bags, a live stream and whole arrays give the same numbers bit for
 bit; K is taken from the flag, the settings or a hand-off file, or its absence is said; bad
-settings are refused naming the field; reports never carry NaN."""
+settings are refused naming the field; reports never carry NaN.
+"""
 
 from __future__ import annotations
 
@@ -32,7 +33,8 @@ def _live_batches(recs: list[DitherRecording], piece_s: float, table_lag: int
                   ) -> list[SampleBatch]:
     """The recordings one after the other, as a live node hands them over: pieces of
     ``piece_s`` of stamps, the table ``table_lag`` pieces behind the pulses, the frame_id
-    codes numbered in order of first appearance over the whole stream."""
+    codes numbered in order of first appearance over the whole stream.
+    """
     p_t = np.concatenate([r.pulse_t_ns for r in recs])
     p_n = np.concatenate([r.pulse_counts for r in recs])
     t_t = np.concatenate([r.table_t_ns for r in recs])

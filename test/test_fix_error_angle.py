@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from gyro_calib.errors import InsufficientDataError
 from gyro_calib.rbrlg.error_budget import (
     fix_error_angle_error_bound_arcsec,
     scale_factor_relative_error_bound,
 )
-from gyro_calib.errors import InsufficientDataError
 from gyro_calib.rbrlg.fix_error_angle import (
     fix_error_angle_four_position,
     fix_error_angle_multi_station,

@@ -1,6 +1,7 @@
 """The committed FOG scenario bags calibrate offline to their expected results, through the
 shared front door (``calibrate_bags`` and ``gyro-calib calibrate``): truth within the stated
-uncertainties (which may not exceed the predicted floor), counts, rejection reasons."""
+uncertainties (which may not exceed the predicted floor), counts, rejection reasons.
+"""
 
 from __future__ import annotations
 
@@ -170,7 +171,8 @@ def test_slow_loop_read_at_a_low_rate_is_measured_only_after_it_settled() -> Non
     """fog_slow_loop_low_rate (loop τ ≈ 0.074 s at null, 50 Hz output, 4 s plateaus): after
     every injection step the calibration finds the transient in the data and measures the
     plateau from where the output had settled (a few τ on), still over most of the plateau;
-    the ladder's K and its small-signal K then cover the truth within 2 stated σ."""
+    the ladder's K and its small-signal K then cover the truth within 2 stated σ.
+    """
     exp, session = _expected('fog_slow_loop_low_rate'), _session('fog_slow_loop_low_rate')
     tau_s = exp['loop_time_constant_at_null_s']
     plateaus = sorted(session.calibrator.plateaus, key=lambda p: p.start_ns)

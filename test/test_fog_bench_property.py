@@ -274,7 +274,8 @@ def test_fog_results_cover_the_generators_truth_on_any_bench() -> None:
 
 def test_two_rates_and_two_plateaus_give_no_nonlinearity_but_say_why() -> None:
     """A line through two rates (or two injection levels) leaves no residual: the
-    nonlinearity is not measurable, and the summary says so instead of 'nan ppm'."""
+    nonlinearity is not measurable, and the summary says so instead of 'nan ppm'.
+    """
     bench = FogBench(k_counts_per_rad=44277.0, bias_rad_s=1e-6, asymmetry=0.0,
                      k2_s_per_rad=0.0, k3_s2_per_rad2=0.0, arw_rad_sqrt_s=1.5e-6,
                      latitude_deg=45.0, tilt_deg=0.0, output_hz=200.0, table_hz=100.0,
@@ -298,7 +299,8 @@ def test_a_loop_settling_unseen_in_each_plateau_is_found_over_the_ladder() -> No
     """A noisy output (20 counts/√s) and a loop settling with τ = 0.25 s on 2.8 s plateaus of
     ±41…830 counts/s: no single plateau shows its transient, but over the alternating ladder
     the first halves lag; measured over their second halves the small-signal K covers the
-    truth (it was 13 % low, 3.5 σ, with the transients in)."""
+    truth (it was 13 % low, 3.5 σ, with the transients in).
+    """
     step = 41.480897728718084
     levels = (0.0,) + tuple(step * ((i + 1) // 2) * (1 if i % 2 else -1) for i in range(1, 40))
     bench = FogBench(

@@ -1,6 +1,7 @@
 """The FOG through ``gyro-calib calibrate`` and ``info`` (issue 10 "Bad input"): each bad input
 gets a clear reason, never a wrong number, and what was measured is kept; the summary speaks
-a FOG laboratory's units."""
+a FOG laboratory's units.
+"""
 
 from __future__ import annotations
 
@@ -99,7 +100,8 @@ def test_cli_without_injection_topic_gives_turntable_results_and_a_line_for_self
         ladder_without_mapping: FogRecording, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
     """The ladder ran but /fog/injection was not recorded: the static segment under it has a
-    jumping output, which is rejected rather than fitted as a 0 °/s point."""
+    jumping output, which is rejected rather than fitted as a 0 °/s point.
+    """
     bag = write_recording_bag(ladder_without_mapping, tmp_path / 'bag', scenario=BENCH,
                               omit=(topics.FOG_INJECTION,))
     fog, text = _calibrate(bag, capsys)

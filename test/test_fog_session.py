@@ -1,6 +1,7 @@
 """The FOG session behind the front door: streamed like a live node it gives the offline
 numbers once the recording ends; unsteady segments are left out with a reason; the summary
-says what limits the result; the bench streams the same samples in any chunk size."""
+says what limits the result; the bench streams the same samples in any chunk size.
+"""
 
 from __future__ import annotations
 
@@ -57,7 +58,8 @@ def test_session_rejections_are_in_stamp_order_whatever_the_batches() -> None:
 
 def test_unsteady_segment_is_left_out_of_the_fits_with_its_reason() -> None:
     """The ladder ran on the stopped table but its injection messages were not recorded:
-    the static segment's output jumps from plateau to plateau."""
+    the static segment's output jumps from plateau to plateau.
+    """
     rec = simulate_mapping_and_self_cal(
         mapping_rates_deg_s=(5.0, -5.0, 20.0, 20.01, 20.1, 21.0, -40.0), mapping_hold_s=12.0,
         ladder=SelfCalLadder(plateau_count=8, plateau_s=6.0), table=TABLE)
@@ -79,7 +81,8 @@ def test_unsteady_segment_is_left_out_of_the_fits_with_its_reason() -> None:
 @pytest.mark.parametrize('name', ['fog_turntable', 'fog_mapping_self_cal'])
 def test_steady_segments_are_never_called_unsteady(name: str) -> None:
     """Even where the integer output beats against the sample rate (−100 °/s at 200 Hz:
-    0.504 count per sample over 383) and inflates a segment's block scatter sevenfold."""
+    0.504 count per sample over 383) and inflates a segment's block scatter sevenfold.
+    """
     session = calibrate_bags([BAGS / name]).sessions['fog']
     assert isinstance(session, FogSession)
     assert session.calibrator.fits().rejections == ()
@@ -104,7 +107,8 @@ def test_limiting_for_a_gyro_whose_injection_gain_is_right(mapping_hold_s: float
     """No mapping error: the noise limits (short mapping and plateaus), or the front end's
     bend inside the linear range shows once mapping and plateaus are long enough (the
     zero-amplitude K agrees). (With 4 s plateaus the bend is 2.9 σ: the plateaus' angle
-    random walk is no longer read low by the local fits' smoothing.)"""
+    random walk is no longer read low by the local fits' smoothing.)
+    """
     rec = simulate_mapping_and_self_cal(FogConfig(injection_gain_error=0.0),
                                         mapping_hold_s=mapping_hold_s,
                                         ladder=SelfCalLadder(plateau_count=8,

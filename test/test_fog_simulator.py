@@ -1,5 +1,6 @@
 """The FOG simulator is physics: its output follows from the coil, the loop and the error
-sources alone; its two loop models agree; chunking never changes a sample."""
+sources alone; its two loop models agree; chunking never changes a sample.
+"""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
 """Turntable scale factor of the FOG (IEEE Std 952 style; METHODS §B, §E): K, bias,
-nonlinearity, asymmetry and polynomial terms, each within its stated uncertainty."""
+nonlinearity, asymmetry and polynomial terms, each within its stated uncertainty.
+"""
 
 from __future__ import annotations
 

@@ -81,7 +81,8 @@ MODULES = _modules()
 
 def imports(module: str) -> list[tuple[str, int]]:
     """(imported gyro_calib/sim_nodes module, line) of every import in ``module``; a name
-    imported from a package is the submodule when there is one."""
+    imported from a package is the submodule when there is one.
+    """
     path = MODULES[module]
     package = module if path.name == '__init__.py' else module.rpartition('.')[0]
     out = []
@@ -102,7 +103,8 @@ def imports(module: str) -> list[tuple[str, int]]:
 
 def test_the_scan_sees_every_layer() -> None:
     """The specification covers the tree: every layer holds modules, and the imports read
-    include function-level ones (bag_calibration's, cli's)."""
+    include function-level ones (bag_calibration's, cli's).
+    """
     assert {layer(m) for m in MODULES} == set(range(len(LAYERS)))
     assert any(name == 'gyro_calib.registry' for name, _ in imports('gyro_calib.bag_calibration'))
     nested = [name for name, line in imports('gyro_calib.cli') if name == 'sim_nodes.scenarios']
@@ -120,7 +122,8 @@ def test_no_module_imports_a_higher_layer() -> None:
 
 def test_the_bag_layer_flows_one_way_inside() -> None:
     """Inside gyro_calib.bagio each module imports only the modules before it (no circle
-    such as the former bag ↔ mcap_columns), and never the package (which re-exports)."""
+    such as the former bag ↔ mcap_columns), and never the package (which re-exports).
+    """
     assert sorted(BAGIO_ORDER) == sorted(
         m.rpartition('.')[2] for m in MODULES if m.startswith('gyro_calib.bagio.'))
     rank = {f'gyro_calib.bagio.{name}': i for i, name in enumerate(BAGIO_ORDER)}
@@ -133,7 +136,8 @@ def test_the_bag_layer_flows_one_way_inside() -> None:
 
 def test_old_bag_paths_only_re_export() -> None:
     """gyro_calib.bag, .mcap_columns and .table_input hold a docstring and imports from the
-    bag layer, nothing else (kept for code written against the old paths)."""
+    bag layer, nothing else (kept for code written against the old paths).
+    """
     for module, target in SHIMS.items():
         tree = ast.parse(MODULES[module].read_text(encoding='utf-8'))
         body = tree.body[1:] if isinstance(tree.body[0], ast.Expr) else tree.body
@@ -144,7 +148,8 @@ def test_old_bag_paths_only_re_export() -> None:
 
 def test_registry_topics_are_the_bag_layers_contract() -> None:
     """The bag layer's topic → type table (its default when no topics are handed down) is
-    exactly what the registered methods read, in the same order."""
+    exactly what the registered methods read, in the same order.
+    """
     from gyro_calib.bagio.messages import CONTRACT_TYPES
     from gyro_calib.registry import METHODS as REGISTERED
     from gyro_calib.registry import topic_types
@@ -155,7 +160,8 @@ def test_registry_topics_are_the_bag_layers_contract() -> None:
 def test_the_hand_off_schema_is_handed_down(monkeypatch: pytest.MonkeyPatch) -> None:
     """gyro_calib.handoff never imports the registry: its schema is a parameter, defaulting
     to the one the registry installs; with none installed, a call without one says what to
-    pass."""
+    pass.
+    """
     from gyro_calib import handoff
     from gyro_calib.registry import handoff_schema
 

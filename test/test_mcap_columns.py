@@ -205,7 +205,8 @@ def rewrite_mcap(bag: Path, out: Path, *, reorder: random.Random | None = None,
                  **writer: Any) -> Path:
     """Copy of ``bag`` whose .mcap the mcap library's Writer rewrote (same channels and
     messages; ``writer`` chooses chunking, compression, indexes, statistics, CRCs);
-    ``reorder`` shuffles the messages in windows of 40, so chunks overlap in log time."""
+    ``reorder`` shuffles the messages in windows of 40, so chunks overlap in log time.
+    """
     from mcap.reader import make_reader
     from mcap.writer import Writer
 
@@ -276,7 +277,8 @@ IMU_TYPES = {'/imu/data': IMU, '/cavity/temperature': TEMPERATURE,
 
 def imu_bag(path: Path, cdr: Cdr, *, seconds: float = 2.0, seed: int = 3) -> Path:
     """400 Hz Imu (special floats sprinkled in), 3 temperature sensors on one topic at 10 Hz
-    each, vibration-table zero-index events with frame_id z or y."""
+    each, vibration-table zero-index events with frame_id z or y.
+    """
     rng = np.random.default_rng(np.random.SeedSequence(seed))
     messages = []
     for k in range(int(seconds * 400)):
@@ -334,7 +336,8 @@ ODD_TYPES = {'/gyro/pulses': JOINT_STATE, '/vibration_table/zero_index': HEADER}
 
 def odd_layout_bag(path: Path, cdr: Cdr) -> tuple[Path, int]:
     """Pulses of the contract layout with, mid-stream, messages of other layouts; returns the
-    bag and how many of them no fixed layout covers (rosbags must decode those)."""
+    bag and how many of them no fixed layout covers (rosbags must decode those).
+    """
     def pulse(t: int, **kw: Any) -> bytes:
         return cdr.joint_state(t, kw.pop('frame', 'gyro'), position=kw.pop('position', (t,)),
                                **kw)

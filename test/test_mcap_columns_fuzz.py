@@ -27,9 +27,9 @@ from typing import Any
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
+from test_mcap_columns import BAGS, assert_bit_identical, columnar_columns, rosbags_columns
 
 from gyro_calib.bagio import CONTRACT_TYPES, BagError
-from test_mcap_columns import BAGS, assert_bit_identical, columnar_columns, rosbags_columns
 
 PREFIX_NS = 6_000_000_000
 """Messages the fuzzed copy keeps from the committed bag: log time below this."""
@@ -44,7 +44,8 @@ def truncated_copy(out: Path, *, ending_before_ns: int, compression: str = 'NONE
     ``ending_before_ns``, written by the mcap library in chunks of ``chunk_size`` bytes
     without CRCs, as a lone .mcap file (no metadata.yaml to parse: both readers open it in
     milliseconds); returns its path, bytes and the file offset of every Message record
-    (uncompressed chunks only)."""
+    (uncompressed chunks only).
+    """
     from mcap.reader import make_reader
     from mcap.writer import CompressionType, Writer
 
@@ -163,7 +164,8 @@ def check_mutant(bag: Path, data: bytes, messages: list[int],
                  mutations: list[tuple[Any, ...]],
                  note: Callable[[str], object] = event) -> None:
     """The mutant's columns are rosbags' columns, or it raises a BagError; ``note`` hears
-    which."""
+    which.
+    """
     mutant = mutate(data, messages, mutations)
     with tempfile.TemporaryDirectory() as tmp:
         copy = Path(tmp) / 'mutant.mcap'
@@ -214,7 +216,8 @@ def test_every_byte_of_a_message_flipped_gives_rosbags_columns_or_a_named_error(
         tmp_path: Path, topic: str) -> None:
     """Exhaustive where the fuzz is sparse: each byte of one Message record of each layout
     (head and CDR payload; a record that does not fix its chunk's layout), flipped in its
-    lowest bit and in all bits, in a one-chunk copy."""
+    lowest bit and in all bits, in a one-chunk copy.
+    """
     from mcap.reader import make_reader
 
     bag, data, offsets = truncated_copy(tmp_path, ending_before_ns=TINY_NS, chunk_size=1 << 20)

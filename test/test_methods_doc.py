@@ -158,7 +158,8 @@ def test_every_bare_equation_in_a_method_package_resolves(where: str, section: s
 
 def test_every_file_and_name_the_document_points_to_exists() -> None:
     """A path or a setting/function name in backticks is a pointer into the code: it must
-    not outlive a rename."""
+    not outlive a rename.
+    """
     text = DOC.read_text(encoding='utf-8')
     paths = set(re.findall(r'`((?:gyro_calib|sim_nodes|benchmarks|test)/[\w/]*(?:\.py)?)`', text))
     assert len(paths) > 10

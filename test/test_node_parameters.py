@@ -59,7 +59,8 @@ def _node_factory(name: str) -> Callable[[], Node]:
 
 def _start(name: str, params: dict[str, Any]) -> Node:
     """Construct the node with ``params`` given as ``-p name:=value`` (as typed by a user),
-    in a fresh working directory (a node's state record binds its directory to its settings)."""
+    in a fresh working directory (a node's state record binds its directory to its settings).
+    """
     os.chdir(tempfile.mkdtemp(dir=os.getcwd()))
     rclpy.init(args=ros_args({**NEEDS.get(name, {}), **params}))
     try:
@@ -96,7 +97,8 @@ def _paths(name: str, tmp_path: Path, tag: str) -> dict[str, Any]:
 @pytest.fixture(autouse=True)
 def _in_scratch_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Nodes write their default outputs (hand-off file, state records) in the working
-    directory: here, a scratch one."""
+    directory: here, a scratch one.
+    """
     monkeypatch.chdir(tmp_path)
 
 

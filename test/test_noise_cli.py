@@ -1,5 +1,6 @@
 """``gyro-calib noise`` through main(): the bad-input list of issue 11, each a one-line error
-with exit status 2 and nothing written or overwritten; and what a good run writes."""
+with exit status 2 and nothing written or overwritten; and what a good run writes.
+"""
 
 from __future__ import annotations
 
@@ -88,7 +89,8 @@ def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
 @pytest.fixture
 def outputs(tmp_path: Path) -> dict[str, Path]:
     """Files that exist before the run: a failing run must leave them as they are (the
-    figure is noise_adev.png in the --plot directory)."""
+    figure is noise_adev.png in the --plot directory).
+    """
     (tmp_path / 'figs').mkdir()
     files = {'kalibr': tmp_path / 'imu.yaml', 'plot': tmp_path / 'figs' / 'noise_adev.png',
              'out': tmp_path / 'handoff.yaml'}

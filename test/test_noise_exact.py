@@ -1,5 +1,6 @@
 """Specification of the exact deviations: allantools and the published NBS-14 values at every
-τ, long τ with few clusters included, with the phase in the scratch file and in memory."""
+τ, long τ with few clusters included, with the phase in the scratch file and in memory.
+"""
 
 from __future__ import annotations
 
@@ -19,7 +20,8 @@ REFERENCE = {'adev': allantools.oadev, 'mdev': allantools.mdev, 'hdev': allantoo
 
 def _nbs14_1000() -> np.ndarray:
     """The NBS-14 1000-point fractional-frequency set (NIST SP 1065 §12.3): the minimal
-    standard generator n_{i+1} = 16807·n_i mod (2³¹ − 1), n_0 = 1234567890, y = n/(2³¹ − 1)."""
+    standard generator n_{i+1} = 16807·n_i mod (2³¹ − 1), n_0 = 1234567890, y = n/(2³¹ − 1).
+    """
     n = [1234567890]
     for _ in range(999):
         n.append(16807 * n[-1] % 2147483647)
@@ -37,7 +39,8 @@ def _devs(store: ExactDeviations) -> dict[str, np.ndarray]:
 
 def test_nbs14_1000_point_set_gives_the_published_deviations() -> None:
     """SP 1065 Table 31 (τ = 1, 10, 100 s): OADEV, MDEV, TOTDEV, OHDEV to their 7 digits,
-    through the whole calibrator (a FOG output stream, 1 count/rad, 1 Hz)."""
+    through the whole calibrator (a FOG output stream, 1 count/rad, 1 Hz).
+    """
     y = _nbs14_1000()
     phase = np.concatenate(([0.0], np.cumsum(y)))
     t = 1_700_000_000_000_000_000 + np.arange(len(phase), dtype=np.int64) * 1_000_000_000
@@ -78,7 +81,8 @@ def _record(n: int, seed: int) -> np.ndarray:
 def test_every_deviation_equals_allantools_at_every_tau_including_few_clusters(
         memory_points: int) -> None:
     """Long τ (m ≥ 1024, down to 4 clusters) exactly, with the phase in memory and in the
-    scratch file, fed in uneven chunks."""
+    scratch file, fed in uneven chunks.
+    """
     x = _record(60_000, 4)
     grid = TauGrid((1.0, 3.0, 1000.0, 1024.0, 4097.0, 9999.0, 15000.0), 1.0)
     store = ExactDeviations(grid.factors_up_to, 0.25, memory_points=memory_points,
@@ -151,7 +155,8 @@ def test_taus_setting_accepts_a_list_and_refuses_nonsense() -> None:
 
 def test_a_snapshot_copy_shares_the_scratch_file_without_disturbing_the_stream() -> None:
     """The live node's refresh deep-copies the calibrator and flushes the copy: the copy
-    must read the original's file, and its own new points must not reach that file."""
+    must read the original's file, and its own new points must not reach that file.
+    """
     import copy
 
     x = _record(50_000, 6)

@@ -157,7 +157,8 @@ def test_model_misfit_scales_the_uncertainty_up() -> None:
 
 def test_band_limited_short_tau_is_found_from_the_data_and_left_out() -> None:
     """The same filtered record with defaults: the bent short-τ range is left out by itself,
-    the note says from where and why, and N is right within its uncertainty."""
+    the note says from where and why, and N is right within its uncertainty.
+    """
     rng = np.random.default_rng(7)
     white = rng.standard_normal(200_000) * 1e-3
     filtered = np.convolve(white, np.ones(8) / 8, mode='same')

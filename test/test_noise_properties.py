@@ -185,7 +185,8 @@ B_KEY, R_KEY = 'bias_instability_rad_s', 'rate_ramp_rad_per_s2'
 def _flicker_rate(rng: np.random.Generator, n: int, tau0: float, b: float) -> np.ndarray:
     """Flicker rate noise of bias instability B (IEEE 952 C.1.3: two-sided PSD B²/(2πf),
     AVAR → (2 ln 2/π)·B²), shaped in the frequency domain from white noise over 4n samples
-    (the first n kept, so the periodic wrap stays out of the record)."""
+    (the first n kept, so the periodic wrap stays out of the record).
+    """
     big = 4 * n
     w = np.fft.rfft(rng.standard_normal(big))
     f = np.fft.rfftfreq(big, tau0)
@@ -199,7 +200,8 @@ def _flicker_rate(rng: np.random.Generator, n: int, tau0: float, b: float) -> np
 def _low_pass(rng: np.random.Generator, white: np.ndarray, order: int,
               cutoff_fraction: float) -> np.ndarray:
     """White rate noise through a Butterworth low-pass (a MEMS decimation filter), unit DC
-    gain so the white level below the cutoff — the ARW N — is unchanged."""
+    gain so the white level below the cutoff — the ARW N — is unchanged.
+    """
     from scipy.signal import butter, sosfilt
 
     sos = butter(order, 2.0 * cutoff_fraction, output='sos')  # cutoff as a fraction of fs
@@ -211,7 +213,8 @@ def _low_pass(rng: np.random.Generator, white: np.ndarray, order: int,
 def ieee952_records(draw: st.DrawFn) -> dict[str, object]:
     """One IMU record: gyro_x a sum of IEEE 952 processes with known coefficients, white
     noise possibly through a 1st–4th order low-pass at 0.1–0.45·fs, quantised; gaps,
-    stamp jitter and duplicate messages; 10² to 10⁵ samples (10⁷ with GYRO_CALIB_STRESS=1)."""
+    stamp jitter and duplicate messages; 10² to 10⁵ samples (10⁷ with GYRO_CALIB_STRESS=1).
+    """
     rate_hz = draw(st.sampled_from([64.0, 100.0, 200.0, 400.0, 1000.0]))
     tau0 = 1.0 / rate_hz
     top = 7.0 if STRESS else 5.0
@@ -271,7 +274,8 @@ def ieee952_records(draw: st.DrawFn) -> dict[str, object]:
 
 def _check_terms(cal: NoiseCalibrator, truth: dict[str, float], flicker: bool) -> list[str]:
     """Each reported term within 3 standard uncertainties of the truth (the flicker
-    generator's own ±5 % allowance added for B), every other term absent with a reason."""
+    generator's own ±5 % allowance added for B), every other term absent with a reason.
+    """
     bad = []
     res = cal.axis_result('gyro_x')
     if res.fit is None:

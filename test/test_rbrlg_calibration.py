@@ -8,9 +8,9 @@ import pytest
 
 from gyro_calib.rbrlg.calibration import calibrate_rbrlg, earth_rate_along_table_axis_deg_h
 from gyro_calib.units import ARCSEC_PER_RAD
+from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.bench import simulate_full_procedure
 from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
-from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
-from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.motion import rate_bias_profile
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
+from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 
 QUIET_TABLE = RateTableConfig(duration_s=40.0, zero_index_jitter_arcsec=0.0,

@@ -9,9 +9,13 @@ import pytest
 
 from gyro_calib.rbrlg.stations import calibrate_fix_error_angle
 from gyro_calib.units import ARCSEC_PER_RAD
-from sim_nodes.rbrlg.bench import ThetaRecording, simulate_theta_procedure, true_k_tilde_arcsec_per_pulse
-from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
 from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.rbrlg.bench import (
+    ThetaRecording,
+    simulate_theta_procedure,
+    true_k_tilde_arcsec_per_pulse,
+)
+from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 

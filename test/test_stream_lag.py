@@ -6,8 +6,8 @@ import numpy as np
 
 from gyro_calib.rbrlg.calibrator import RateBiasCalibrator
 from gyro_calib.rbrlg.config import KTildeConfig
-from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 

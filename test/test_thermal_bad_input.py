@@ -282,7 +282,8 @@ def test_live_tracker_refuses_a_stuck_cavity_sensor(model: ThermalBiasModel) -> 
 
 def test_temperatures_sparser_than_the_averaging_interval_are_interpolated() -> None:
     """Sensors read every 2 s (all together) still give a model on 1 s intervals, close to
-    the one from the same run read every second."""
+    the one from the same run read every second.
+    """
     sparse, dense = _ramp(temperature_rate_hz=0.5), _ramp()
     rep = _calibrate(sparse).report
     assert any('read about every 2 s: interpolated' in n for n in rep.notes)

@@ -1,6 +1,7 @@
 """The committed thermal bags through the front door: ``gyro-calib calibrate --method thermal``
 writes the model, ``gyro-calib compensate`` proves it on a run it never saw, and bad input
-gets a clear reason, no number, and nothing overwritten."""
+gets a clear reason, no number, and nothing overwritten.
+"""
 
 from __future__ import annotations
 
@@ -276,7 +277,8 @@ def test_a_sensor_read_too_sparsely_is_refused_in_one_line_with_exit_2(
 
 def test_figures_of_a_bench_with_a_stuck_sensor_are_drawn(tmp_path: Path) -> None:
     """The model is NaN where the sensor stuck: raw and compensated means are drawn on their
-    own blocks (the figure crashed on 123 against 87 blocks after a finished calibration)."""
+    own blocks (the figure crashed on 123 against 87 blocks after a finished calibration).
+    """
     from gyro_calib.cli import main as gyro_calib_main
 
     out = tmp_path / 'figures'
@@ -302,7 +304,8 @@ def test_compensate_takes_the_bench_of_the_chamber_runs_bags_not_the_first_bag(
     """Issue 17 §1 for compensate: a bag of another method given first lent its stored bench
     (K 4.09e-06 of noise_rlg_static) to the chamber run, which was then refused as fitted with
     another K. Such a bag is now refused in one line naming it; the chamber run alone reads
-    its own stored gyro id and K (accepted, the model's own)."""
+    its own stored gyro id and K (accepted, the model's own).
+    """
     assert gyro_calib(['compensate', str(BAGS / 'noise_rlg_static'),
                        str(BAGS / 'thermal_validation'), '--calibration',
                        str(model_file)]) == 2

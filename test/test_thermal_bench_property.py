@@ -39,11 +39,6 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
-from gyro_calib.errors import GyroCalibError
-from gyro_calib.thermal.calibrator import ThermalCalibrator, ThermalSettings
-from gyro_calib.thermal.compensate import CompensationReducer, compensate_reduced
-from gyro_calib.thermal.terms import main_effects, parse_term
 from thermal_bench_physics import (
     DEG_H,
     K_RAD,
@@ -55,6 +50,11 @@ from thermal_bench_physics import (
     temperatures,
     truth,
 )
+
+from gyro_calib.errors import GyroCalibError
+from gyro_calib.thermal.calibrator import ThermalCalibrator, ThermalSettings
+from gyro_calib.thermal.compensate import CompensationReducer, compensate_reduced
+from gyro_calib.thermal.terms import main_effects, parse_term
 
 STRESS = os.environ.get('GYRO_CALIB_STRESS') == '1'
 MAX_PULSE_HZ = 10_000.0 if STRESS else 200.0
@@ -98,7 +98,8 @@ def _settings(**kw: object) -> ThermalSettings:
 
 def _z_on_the_trajectory(bench: Bench, tr, variables, cal) -> np.ndarray:  # type: ignore[no-untyped-def]  # noqa: ANN001
     """(model − law)/σ_model every 300 s along the true trajectory, where the fit used the
-    data and H lies in the calibrated range (model and law at the same true H, Ḣ, ΔT)."""
+    data and H lies in the calibrated range (model and law at the same true H, Ḣ, ΔT).
+    """
     model, rep = cal.model(), cal.report
     t_mid = (rep.t_mid_ns - T0_NS) / 1e9
     used = np.isfinite(rep.bias_model_rad_s).astype(float)
@@ -120,7 +121,8 @@ def _with_true_terms(bench: Bench, record: tuple) -> np.ndarray:  # type: ignore
 def _assert_coverage(zs: list[np.ndarray]) -> None:
     """±1σ in 60–80 %, ±2σ ≥ 90 % of the pooled points, each bound widened by twice the
     binomial standard deviation for as many independent trials as benches (the points of
-    one run share its model: a bench counts once)."""
+    one run share its model: a bench counts once).
+    """
     n = len(zs)
     z = np.abs(np.concatenate(zs))
     c1, c2 = float(np.mean(z < 1)), float(np.mean(z < 2))
@@ -154,7 +156,8 @@ def test_any_bench_gives_the_hidden_law_within_its_uncertainty_or_one_line_why_n
 
 def _check_bench(bench: Bench) -> np.ndarray | None:
     """One example; returns (model − law)/σ of the default model along the trajectory, or
-    None when the calibration was refused (for a named sensor fault)."""
+    None when the calibration was refused (for a named sensor fault).
+    """
     record = _record(bench)
     tr, variables, (tt, tv, ti) = record
     try:
@@ -204,7 +207,8 @@ def test_default_model_uncertainty_covers_the_hidden_law_over_benches() -> None:
     """Default settings (stepwise selection, held-out check) over 24 benches (72 with
     GYRO_CALIB_STRESS=1): the covariance and the model error u_m together cover the law
     (:func:`_assert_coverage`; measured 66 % / 90 % on these 24, 70 % / 91 % on 72;
-    the covariance alone: 52 % / 84 %)."""
+    the covariance alone: 52 % / 84 %).
+    """
     zs = []
     for i in range(72 if STRESS else 24):
         bench = _fixed_bench(i)
@@ -217,7 +221,8 @@ def test_default_model_uncertainty_covers_the_hidden_law_over_benches() -> None:
 def test_held_out_check_keeps_h_beside_its_higher_powers_on_ramp_only_benches() -> None:
     """Two ramp-only benches where the held-out check used to drop H and keep H², H³
     (and Ḣ, Ḣ², dTab): a curve pinned flat at the centre of the range. H stays now, and
-    the model covers the law along the run."""
+    the model covers the law along the run.
+    """
     for i, sensor_hz in ((8, 0.03996850924495578), (34, 0.027252954819273107)):
         bench = draw_bench(1000 + i, kind='ramps', hot=False, pulse_rate_hz=1.0,
                            sensor_rate_hz=sensor_hz, shell=True, dropout=False, stuck=False)
@@ -233,7 +238,8 @@ def test_held_out_check_keeps_h_beside_its_higher_powers_on_ramp_only_benches() 
 def test_stated_uncertainty_covers_the_hidden_law_over_benches() -> None:
     """Coverage over 12 benches (soaks, ramps, mixes; hot and cold; sparse sensors with LSB,
     drop-outs, stuck sensors): the law inside ±1σ about 68 %, ±2σ about 95 % of the time
-    (the points of one run are correlated: bounds allow for ~12 independent runs)."""
+    (the points of one run are correlated: bounds allow for ~12 independent runs).
+    """
     zs = []
     for i in range(36 if STRESS else 12):
         bench = _fixed_bench(i)
@@ -245,7 +251,8 @@ def test_stated_uncertainty_covers_the_hidden_law_over_benches() -> None:
 
 def test_the_generator_is_the_physics_it_claims() -> None:
     """A settled gyro in a soak: H = air + rises, Ḣ = 0, gradients = the rises' difference;
-    the law is evaluated on those."""
+    the law is evaluated on those.
+    """
     bench = draw_bench(3, kind='soaks', hot=False, pulse_rate_hz=2.0, sensor_rate_hz=1.0,
                        shell=True, dropout=False, stuck=False)
     tr, variables = truth(bench)

@@ -1,5 +1,6 @@
 """The streaming ThermalCalibrator: paper-like runs, chunking invariance, bounded memory,
-results and hand-off."""
+results and hand-off.
+"""
 
 from __future__ import annotations
 
@@ -52,7 +53,8 @@ def short_ramp() -> ThermalRecording:
 
 def test_paper_run_recovers_the_quartic_of_gyro_a1(paper_cal: ThermalCalibrator) -> None:
     """A-1's hidden law is the quartic through the paper's points plus a small Ḣ term and
-    a periodic term no model holds: stepwise keeps every power of H up to 4."""
+    a periodic term no model holds: stepwise keeps every power of H up to 4.
+    """
     rep = paper_cal.report
     assert {'H', 'H^2', 'H^3', 'H^4'} <= set(rep.model.terms)
     assert rep.model.h_range_c[0] == pytest.approx(-35.0, abs=0.5)
@@ -66,7 +68,8 @@ def test_paper_run_recovers_the_quartic_of_gyro_a1(paper_cal: ThermalCalibrator)
 def test_paper_run_model_predicts_the_true_static_law(paper_cal: ThermalCalibrator,
                                                       paper_run: ThermalRecording) -> None:
     """At settled temperatures the model bias is the law within its stated uncertainty
-    plus the periodic term (0.002 °/h) and bias instability averaged over the run."""
+    plus the periodic term (0.002 °/h) and bias instability averaged over the run.
+    """
     model = paper_cal.model()
     law = gyro_config('A-1').law
     h = np.linspace(-30.0, 35.0, 14)
@@ -183,7 +186,8 @@ def test_model_dict_round_trips_exactly(paper_cal: ThermalCalibrator) -> None:
 
 def test_model_uncertainty_grows_outside_the_data(paper_cal: ThermalCalibrator) -> None:
     """The coefficient part x·C·xᵀ grows beyond the data; the model error u_m (METHODS
-    (17g)) is the same everywhere, in quadrature."""
+    (17g)) is the same everywhere, in quadrature.
+    """
     model = paper_cal.model()
     inside = np.linspace(*model.h_range_c, 9)
     _, std_in = model.bias_rad_s(inside, 0.0)

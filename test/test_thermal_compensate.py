@@ -1,6 +1,7 @@
 """Compensation on a run the model never saw (METHODS §D.4, §E): bias stability raw and
 compensated on the unfiltered rate, the noise floor, the mean rate, Allan deviation, and
-the live tracker."""
+the live tracker.
+"""
 
 from __future__ import annotations
 
@@ -51,7 +52,8 @@ def _compensate(model: ThermalBiasModel, rec: ThermalRecording, **kw):  # noqa: 
 def test_validation_run_bias_stability_is_at_least_77_percent_better(
         model: ThermalBiasModel, validation: ThermalRecording) -> None:
     """The paper's target, on a run with other set points and another seed, computed on
-    the unfiltered rate: raw − model reaches the ARW + quantisation floor."""
+    the unfiltered rate: raw − model reaches the ARW + quantisation floor.
+    """
     rep = _compensate(model, validation)
     raw = rep.bias_stability_raw.value
     comp = rep.bias_stability_compensated.value
@@ -82,7 +84,8 @@ def test_mean_compensated_rate_is_the_earth_rate_along_the_axis(
 
 def test_noise_floor_equals_arw_and_quantisation_on_a_static_run() -> None:
     """No thermal change and no bias instability: the raw bias stability *is* the floor;
-    the floor estimated from the record matches it and the theory N²/T + K²/(6T²)."""
+    the floor estimated from the record matches it and the theory N²/T + K²/(6T²).
+    """
     gyro = ThermalGyroConfig(law=ThermalBiasLaw(bias_deg_h=0.3), bias_instability_deg_h=0.0,
                              warm_start=True, seed=12)
     rec = simulate_thermal_run(gyro, ChamberProfile(20.0, ((8 * 3600.0, 20.0),)))
@@ -158,7 +161,8 @@ def test_live_tracker_with_sensors_on_their_own_clocks_matches_the_offline_compe
         model: ThermalBiasModel) -> None:
     """Sensors read every ~2 s, each on its own clock (METHODS §D.5): the tracker interpolates
     up to the latest reading every sensor has reached, and subtracts exactly what the offline
-    compensation subtracts for that interval."""
+    compensation subtracts for that interval.
+    """
     import dataclasses
 
     from sim_nodes.thermal.scenarios import gyro_config

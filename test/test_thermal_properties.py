@@ -1,6 +1,7 @@
 """Property tests on inputs our simulator did not make: a small generator written here from
 the physics (first-order thermal lag, random polynomial bias in H, Ḣ term, angle random
-walk, whole pulses), never importing sim_nodes."""
+walk, whole pulses), never importing sim_nodes.
+"""
 
 from __future__ import annotations
 
@@ -31,7 +32,8 @@ def _bias_deg_h(h: np.ndarray, hdot: np.ndarray, poly: tuple[float, ...],
 def _run(seed: int, poly: tuple[float, ...], hdot_coef: float, set_points: list[float],
          *, tau_s: float = 500.0, soak_s: float = 1500.0, arw: float = 0.003) -> dict:
     """Chamber soaks at set points joined by 1 °C/min ramps; H lags it (τ); two cavity
-    sensors at H ± 0.3 °C; 2 Hz cumulative pulses; 1 Hz temperatures."""
+    sensors at H ± 0.3 °C; 2 Hz cumulative pulses; 1 Hz temperatures.
+    """
     rng = np.random.default_rng(seed)
     knots_t, knots_c = [0.0], [set_points[0]]
     for p in set_points:
@@ -87,7 +89,8 @@ def test_model_predicts_the_true_bias_within_its_stated_uncertainty(
         seed: int, poly: tuple[float, ...], hdot_coef: float, points: list[float]) -> None:
     """With the true term set among the candidates, the fitted model's bias over the
     calibrated range is within 4 of its standard uncertainties of the truth (plus 0.004 °/h
-    for the sensors' rounding and the causal Ḣ window)."""
+    for the sensors' rounding and the causal Ḣ window).
+    """
     run = _run(seed, poly, hdot_coef, sorted(points))
     model = _calibrate(run, candidate_terms='H,H^2,H^3,Hdot', validation_fraction=0.0).model()
     h = np.linspace(*model.h_range_c, 9)
@@ -101,7 +104,8 @@ def test_model_predicts_the_true_bias_within_its_stated_uncertainty(
 def test_compensation_is_never_worse_than_raw_beyond_noise(
         seed: int, poly: tuple[float, ...], hdot_coef: float) -> None:
     """Property: on an independent run inside the calibrated range, the compensated bias
-    stability does not exceed the raw one by more than their joint uncertainty."""
+    stability does not exceed the raw one by more than their joint uncertainty.
+    """
     cal_run = _run(seed, poly, hdot_coef, [-30.0, -15.0, 0.0, 15.0, 30.0])
     model = _calibrate(cal_run, candidate_terms='dynamic').model()
     val_run = _run(seed + 1, poly, hdot_coef, [-25.0, -5.0, 10.0, 25.0], soak_s=1200.0)
@@ -115,7 +119,8 @@ def test_compensation_is_never_worse_than_raw_beyond_noise(
 
 def test_stepwise_finds_the_true_polynomial_order_often_enough() -> None:
     """Six random gyros, orders 1–3 in H: the selection (stepwise + held-out check) keeps
-    exactly the true powers in at least four."""
+    exactly the true powers in at least four.
+    """
     rng = np.random.default_rng(2024)
     hits = 0
     for i in range(6):
@@ -155,7 +160,8 @@ def _imports(path: Path) -> set[str]:
 @pytest.mark.parametrize('package', ['gyro_calib/thermal', 'sim_nodes/thermal'])
 def test_thermal_core_imports_no_ros_and_no_other_method(package: str) -> None:
     """Statically: no module imports a ROS package, and the only gyro_calib modules used
-    outside the thermal packages are the shared core (errors, estimate, streams, units)."""
+    outside the thermal packages are the shared core (errors, estimate, streams, units).
+    """
     root = Path(__file__).resolve().parents[1]
     files = sorted(f for f in (root / package).glob('*.py')
                    if not f.stem.endswith('_node'))  # ROS shells (chamber_node)

@@ -1,5 +1,6 @@
 """ThermalSession, the thermal method behind the front door: where K, the site and the gyro
-id come from, the hand-off record, the summary, and results independent of batching."""
+id come from, the hand-off record, the summary, and results independent of batching.
+"""
 
 from __future__ import annotations
 

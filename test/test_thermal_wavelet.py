@@ -1,5 +1,6 @@
 """Lifting wavelet (METHODS §D.1): equals PyWavelets' bior2.2/bior4.4; denoising keeps the
-slow (model-band) content; SNR definition."""
+slow (model-band) content; SNR definition.
+"""
 
 from __future__ import annotations
 
@@ -50,7 +51,8 @@ def test_denoising_changes_no_model_band_content(rule: str) -> None:
     """The thermal model is fitted to content slower than ~30 min. With 6 levels (64
     samples) the denoised series keeps it: 1800-sample means move by < 0.2 of their own
     noise (the change falls as √(2^levels / block): only wavelets straddling a block edge
-    reach a block mean), and a slow fit moves by < 0.25σ."""
+    reach a block mean), and a slow fit moves by < 0.25σ.
+    """
     rng = np.random.default_rng(11)
     n = 28800
     slow = _thermal_curve(n)
@@ -71,7 +73,8 @@ def test_denoising_changes_no_model_band_content(rule: str) -> None:
 
 def test_slow_fit_to_denoised_data_is_unbiased_and_no_worse() -> None:
     """Over 10 noise draws the fit to the denoised series errs (vs the truth) as the raw
-    fit does: denoising removes noise, not slow signal."""
+    fit does: denoising removes noise, not slow signal.
+    """
     n = 28800
     t = (np.arange(n) - n / 2) / (n / 2)
     cols = {f't{j}': t**j for j in range(1, 4)}
@@ -123,7 +126,8 @@ def test_denoising_keeps_the_slow_fit_for_any_noise_level(amplitude: float, offs
                                                           seed: int, levels: int) -> None:
     """Property: for any white noise level and offset, and depths up to 6 levels on 8192
     samples, a slow (cubic) fit to the denoised series equals the raw fit within 0.6σ
-    (deeper levels on short records do distort the ends: keep 2^levels ≪ record)."""
+    (deeper levels on short records do distort the ends: keep 2^levels ≪ record).
+    """
     rng = np.random.default_rng(seed)
     n = 8192
     x = offset + _thermal_curve(n) + amplitude * rng.standard_normal(n)

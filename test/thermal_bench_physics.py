@@ -108,7 +108,8 @@ class Bench:
 def programme(rng: np.random.Generator, kind: str, hot: bool) -> tuple[list[float],
                                                                       list[float]]:
     """Chamber knots (s, °C): 'soaks' (set points joined by ramps), 'ramps' (back and forth at
-    changing rates, never dwelling) or 'mix'; starting at the hot or the cold end."""
+    changing rates, never dwelling) or 'mix'; starting at the hot or the cold end.
+    """
     low = float(rng.uniform(-35, -5))
     high = float(rng.uniform(max(low + 30, 15), 45))
     t, c = [0.0], [high if hot else low]
@@ -200,7 +201,8 @@ def pulse_chunks(bench: Bench, tr: Truth, chunk_s: float = 600.0
                  ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """/gyro/pulses in chunks of ``chunk_s``: stamps (ns) at the pulse rate and cumulative
     whole pulses (the random draws continue from chunk to chunk, so 10 kHz for hours stays
-    in bounded memory)."""
+    in bounded memory).
+    """
     rng = np.random.default_rng([bench.seed, 2])
     period_ns = int(round(1e9 / bench.pulse_rate_hz))
     n_total = int(bench.duration_s * 1e9) // period_ns + 1

@@ -137,7 +137,8 @@ class UnsupportedMessageTypeError(ColumnDecodeError):
 
 class UnindexedChunksError(ColumnDecodeError):
     """The file's chunks have no Message Index records (valid MCAP, but rosbags' reader
-    returns no message from them and the columnar decoder needs them)."""
+    returns no message from them and the columnar decoder needs them).
+    """
 
 
 class DamagedChunkError(ColumnDecodeError, CorruptBagError):
@@ -338,7 +339,8 @@ def _header_layout(payload: bytes) -> _Layout:
 
 def _imu_layout(payload: bytes) -> _Layout:
     """Imu: header, then 37 float64 from an 8-aligned offset (quaternion, 3 × (matrix 9,
-    vector 3) interleaved as orientation, cov, angular velocity, cov, acceleration, cov)."""
+    vector 3) interleaved as orientation, cov, angular velocity, cov, acceleration, cov).
+    """
     c = _Cursor(payload)
     c.header()
     c.align(8)
@@ -481,7 +483,8 @@ def _open_reader(path: Path) -> Any:
     directory (or a .mcap file in one), or on the file alone for a .mcap file without
     metadata.yaml beside it; the failures open_reader lets through (a damaged record length
     makes rosbags allocate without bound: MemoryError; struct.error, OverflowError) are
-    CorruptBagError too."""
+    CorruptBagError too.
+    """
     try:
         if path.suffix == '.mcap' and path.is_file() and not storage.usable_metadata(
                 path.parent / 'metadata.yaml'):
@@ -527,7 +530,8 @@ def plan_bag(path: str | Path, topic_types: Mapping[str, str]) -> ReadPlan:
 def _wanted_channels(connections: list[Any], storage_connections: list[Any],
                      types: dict[str, str]) -> dict[int, tuple[str, str]]:
     """Channels rosbags' rosbag2 Reader.messages() yields for the topics (its matching rule:
-    same topic, type and QoS/format, digests equal when both known)."""
+    same topic, type and QoS/format, digests equal when both known).
+    """
     wanted = [c for c in connections if types.get(c.topic) == c.msgtype]
     return {x.id: (x.topic, x.msgtype) for x in storage_connections
             if any(y.topic == x.topic and y.msgtype == x.msgtype and y.ext == x.ext
@@ -537,7 +541,8 @@ def _wanted_channels(connections: list[Any], storage_connections: list[Any],
 
 def _chunk_counts(index: Any, path: Path) -> dict[int, int]:
     """Messages per channel from a Chunk Index's Message Index offsets: each record is
-    15 + 16·n bytes and they follow each other to the end of ``message_index_length``."""
+    15 + 16·n bytes and they follow each other to the end of ``message_index_length``.
+    """
     by_offset = sorted((off, ch) for ch, off in index.message_index_offsets.items())
     if not by_offset:
         return {}
@@ -634,7 +639,8 @@ def _check_counts(path: Path, channels: dict[int, tuple[str, str]],
 def _overlap_groups(chunks: list[ChunkPlan]) -> tuple[tuple[ChunkPlan, ...], ...]:
     """Chunks in rosbags' order, grouped so that every message of a group comes after
     every message of the groups before it in that order: key (log time, chunk offset,
-    record offset)."""
+    record offset).
+    """
     groups: list[list[ChunkPlan]] = []
     last: tuple[int, int] | None = None
     for c in sorted(chunks, key=lambda c: (c.start_ns, c.offset)):
@@ -714,7 +720,8 @@ def _read_chunk(f: BinaryIO, chunk: ChunkPlan, path: Path,
 
 def _message_index(span: bytes, chunk: ChunkPlan, path: Path) -> dict[int, npt.NDArray[Any]]:
     """Entries (log_time, offset) of each Message Index record behind the chunk (MCAP spec,
-    "Message Index": channel_id u16, then uint32-length-prefixed (u64, u64) pairs)."""
+    "Message Index": channel_id u16, then uint32-length-prefixed (u64, u64) pairs).
+    """
     entries: dict[int, npt.NDArray[Any]] = {}
     pos, end = chunk.length, len(span)
     while pos < end:
@@ -807,7 +814,8 @@ def _check_records(raw: bytes, data: npt.NDArray[np.uint8],
 def _walk_gap(raw: bytes, pos: int, stop: int,
               mismatch: Callable[[str], IndexMismatchError]) -> None:
     """Records between indexed messages (Schema, Channel...) must tile the gap and not be
-    Message records (rosbags would read those; the index does not list them)."""
+    Message records (rosbags would read those; the index does not list them).
+    """
     while pos < stop:
         if pos + 9 > stop:
             raise mismatch(f'the records at offset {pos} do not fit between indexed messages')
@@ -1022,7 +1030,8 @@ def _extract(rows: npt.NDArray[np.uint8], layout: _Layout,
              dest: npt.NDArray[np.intp] | slice, codes: npt.NDArray[np.int32] | int,
              piece: _Piece) -> None:
     """Stamp (int32 sec, uint32 nanosec at payload 4 and 8), frame code and float64 fields
-    of rows of one layout into ``piece`` at ``dest``."""
+    of rows of one layout into ``piece`` at ``dest``.
+    """
     sec = rows[:, 4:8].view('<i4')[:, 0].astype(np.int64)
     piece.stamp[dest] = sec * _NS_PER_S + rows[:, 8:12].view('<u4')[:, 0]
     piece.codes[dest] = codes
@@ -1144,7 +1153,8 @@ def _prefetched(plan: ReadPlan, groups: list[list[ChunkPlan]]
                 ) -> Iterator[list[Future[_Loaded]]]:
     """Each group's chunks, read and decompressed by one worker thread up to PREFETCH
     chunks ahead (file reads and zstd release the GIL: on two cores this overlaps the
-    NumPy work). Errors come out where the chunk would have been read."""
+    NumPy work). Errors come out where the chunk would have been read.
+    """
     assert plan.mcap_path is not None
     decompress = _decompressor()
     pending: deque[Future[_Loaded]] = deque()
@@ -1204,7 +1214,8 @@ def _add_in_order(batcher: _Batcher, topic: str, parts: list[tuple[int, _Piece]]
                   window: tuple[int, int] | None) -> None:
     """Sort a group's pieces of one topic by (log time, chunk offset, record offset), the
     order rosbags' reader yields them in, keep start <= log time < stop of ``window``, and
-    add them to the batch."""
+    add them to the batch.
+    """
     if len(parts) == 1:
         piece = parts[0][1]
         log, offset, stamp, codes = piece.log_time, piece.offset, piece.stamp, piece.codes

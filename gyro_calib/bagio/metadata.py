@@ -1,5 +1,6 @@
 """The scenario stored in a bag's metadata.yaml ``custom_data`` (simulator parameters, seed
-and truth), per bench namespace."""
+and truth), per bench namespace.
+"""
 
 from __future__ import annotations
 
@@ -25,7 +26,8 @@ def scenario_key(namespace: str) -> str:
 
 def scenario_text(scenario: Mapping[str, Any]) -> str:
     """The scenario as stored in ``custom_data``: one line of flow-style YAML, Unicode kept
-    (no ``\\u`` escapes; :func:`store_custom_data` writes it unfolded)."""
+    (no ``\\u`` escapes; :func:`store_custom_data` writes it unfolded).
+    """
     text: str = yaml.safe_dump(dict(scenario), sort_keys=True, default_flow_style=True,
                                allow_unicode=True, width=2**31 - 1)
     return text.strip()
@@ -55,5 +57,6 @@ _SPLIT_ESCAPE = re.compile(r'\\ (?=u[0-9A-Fa-f]{4}|x[0-9A-Fa-f]{2}|U[0-9A-Fa-f]{
 
 def parse_scenario_text(text: str) -> Any:
     """The stored scenario; repairs an escape split by the ruamel line fold of bags written
-    before :func:`scenario_text` (``\\ u2080`` → ``\\u2080`` inside a quoted scalar)."""
+    before :func:`scenario_text` (``\\ u2080`` → ``\\u2080`` inside a quoted scalar).
+    """
     return yaml.safe_load(_SPLIT_ESCAPE.sub(lambda m: '\\', text))

@@ -45,7 +45,6 @@ def bag_info(path: str | Path) -> BagInfo:
     Raises:
         BagError (subclass): the path is missing, not a bag, or the bag is damaged.
     """
-
     path = Path(path)
     if table_input.is_table(path):
         return table_input.table_info(path)
@@ -85,7 +84,6 @@ def header_stamp_spans(path: str | Path, info: BagInfo) -> dict[str, tuple[int, 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
     """
-
     types = {t.name: t.msgtype for t in info.topics.values()
              if t.msgtype in mcap_columns.CODECS and t.count}
     spans: dict[str, tuple[int, int, int]] = {}
@@ -160,7 +158,6 @@ def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
     """
-
     if table_input.is_table(path):
         yield from table_input.iter_table_batches(path, topic_types, batch_messages)
         return

@@ -1,5 +1,6 @@
 """What a bag holds (:class:`BagInfo`) and the decoded samples read from it
-(:class:`SampleBatch`)."""
+(:class:`SampleBatch`).
+"""
 
 from __future__ import annotations
 
@@ -56,7 +57,8 @@ class BagInfo:
     def in_namespace(self, namespace: str) -> BagInfo:
         """The bag as the bench in ``namespace`` sees it: the topics under it, named without
         the namespace ('/bench2/gyro/pulses' → '/gyro/pulses'), the others left out, and that
-        bench's scenario. The root namespace ('' or '/') gives the bag as it is."""
+        bench's scenario. The root namespace ('' or '/') gives the bag as it is.
+        """
         ns = topics.normalized_namespace(namespace)
         if not ns:
             return self
@@ -85,7 +87,8 @@ class SampleBatch:
     def joint_state(self, topic: str) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                                npt.NDArray[np.float64]] | None:
         """(header stamp ns, position, velocity) of a JointState topic; NaN where a message
-        had no position (or velocity), which the calibrators drop and count."""
+        had no position (or velocity), which the calibrators drop and count.
+        """
         c = self.columns.get(topic)
         if c is None or c.msgtype != JOINT_STATE:
             return None

@@ -38,7 +38,8 @@ def checksum_chunks(writer: Any) -> None:
 
 def usable_metadata(meta: Path) -> bool:
     """True when ``meta`` is a readable rosbag2 metadata.yaml (a mapping with
-    ``rosbag2_bagfile_information``)."""
+    ``rosbag2_bagfile_information``).
+    """
     try:
         document = yaml.safe_load(meta.read_text(encoding='utf-8'))
     except (OSError, UnicodeDecodeError, yaml.YAMLError):
@@ -49,7 +50,8 @@ def usable_metadata(meta: Path) -> bool:
 
 def open_lone_mcap(path: Path) -> Any:
     """rosbags' Reader on a .mcap file without its bag's metadata.yaml (counts and span
-    from the file's own summary)."""
+    from the file's own summary).
+    """
     from rosbags.rosbag2 import Reader
 
     try:

@@ -78,7 +78,8 @@ def _previous(out_dir: Path, stem: str) -> dict[str, Any] | None:
 
 def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
     """A Dask client: to ``scheduler``, or to a new local cluster of ``workers`` processes
-    (one thread each; default: the machine's cores). Returns (client, cluster or None)."""
+    (one thread each; default: the machine's cores). Returns (client, cluster or None).
+    """
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
@@ -102,7 +103,8 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
               spec_path: Path | None = None, force: bool = False, pdf: bool = True,
               progress: Callable[[int, int], None] | None = None) -> BatchOutcome:
     """Calibrate every gyro of ``jobs`` on ``client``'s cluster; write per-gyro and fleet
-    files into ``out_dir`` (what finished is kept when interrupted)."""
+    files into ``out_dir`` (what finished is kept when interrupted).
+    """
     from dask.distributed import as_completed
 
     out_dir.mkdir(exist_ok=True)  # checked before any work; parents are never created
@@ -175,7 +177,8 @@ def _failed(job: GyroJob, stem: str, why: str, plan: Plan | None = None) -> dict
 
 def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
     """Write a finished gyro's files (each atomically), then its record (last: a record means
-    the files are there)."""
+    the files are there).
+    """
     record = dict(result.record)
     folder = out_dir / record['stem']
     folder.mkdir(exist_ok=True)

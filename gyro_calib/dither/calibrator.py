@@ -406,7 +406,8 @@ class DitherCalibrator:
     def add_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float,
                         frame_id: str) -> None:
         """One /vibration_table/joint_states sample: stamp (ns), angle (rad), rate (rad/s),
-        header.frame_id (``'z'`` or ``'y'``)."""
+        header.frame_id (``'z'`` or ``'y'``).
+        """
         code = self._frame_code(frame_id, 1)
         if code is not None and self.table.append(t_ns, angle_rad, rate_rad_s, code):
             self._restart(topics.VIBRATION_TABLE_JOINT_STATES)
@@ -544,7 +545,8 @@ class DitherCalibrator:
     def _orientation_boundary(self, end: int, flush: bool) -> int | None:
         """Stamp b of the first joint_states sample of a new orientation, if the current
         recording's last block is the one ending at ``end`` and the pulses before b are all
-        in (or the data ends); else None."""
+        in (or the data ends); else None.
+        """
         t_t, t_v = self.table.arrays()
         if not len(t_t):
             return None
@@ -565,7 +567,8 @@ class DitherCalibrator:
 
     def _end_orientation(self, start: int, end: int, boundary: int) -> str | None:
         """Judge the old recording's last block on the samples before ``boundary`` (as
-        ``process(flush=True)`` judges a last block), then start the next recording there."""
+        ``process(flush=True)`` judges a last block), then start the next recording there.
+        """
         block_ns = end - start
         stop = min(end, boundary)
         p_t, p_v = self.pulses.arrays()
@@ -906,7 +909,8 @@ class DitherCalibrator:
 
     def _resolution_note(self, c: Component) -> str | None:
         """What a component rests on when it is weak: few blocks, or not told from zero
-        (then the table amplitude or record that would resolve half the limit)."""
+        (then the table amplitude or record that would resolve half the limit).
+        """
         s = self.settings
         rec = self.orientations[c.axis]
         notes = []

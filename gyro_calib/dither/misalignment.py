@@ -200,7 +200,8 @@ class Misalignment:
 
 def allowance_half_width(value_rad: float, ratio: float, rho: float) -> float:
     """ratio·â/(1 − ρ): the rocking allowance's upper half-width at â, rad (inf if ρ ≥ 1 or
-    unsized; 0 when ratio is 0)."""
+    unsized; 0 when ratio is 0).
+    """
     if ratio == 0.0:
         return 0.0
     if not (math.isfinite(rho) and rho < 1.0):
@@ -247,7 +248,8 @@ def misalignment_interval(misalignment: Misalignment | None, components: dict[st
                           rocking: RockingAllowance, coverage_factor: float) -> Interval:
     """a's k-interval: [(â − kσ)/(1 + ρ), (â + kσ)/(1 − ρ)], and a ≥ (|ŝ| − kσ)/(1 + κ) per
     component (a ≥ |component|, each component shifted by ≤ κ·a). Unsized rocking (no K) bounds
-    nothing: a ≥ 0 only and no upper end."""
+    nothing: a ≥ 0 only and no upper end.
+    """
     k = coverage_factor
     rho, kappa = rocking.rho, rocking.kappa
     lower, source, upper = 0.0, 'nothing', math.inf
@@ -307,7 +309,8 @@ def interval_verdict(interval: Interval, misalignment: Misalignment | None,
                      missing_axes: tuple[str, ...] = ()) -> Verdict:
     """Reject when the interval's lower end is above the limit, accept when its upper end is
     below; otherwise undecidable, with the record, sample rate or table amplitude that would
-    decide it if â stayed where it is (σ ∝ 1/√(f_s·T), ∝ 1/A), or why none would."""
+    decide it if â stayed where it is (σ ∝ 1/√(f_s·T), ∝ 1/A), or why none would.
+    """
     am = RAD_PER_ARCMIN
     k = interval.coverage_factor
     lim = f'{limit_rad / am:g}′'

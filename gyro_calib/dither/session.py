@@ -105,7 +105,8 @@ def _scale_factor_from_file(path: Path) -> tuple[float, str]:
 
 def dither_settings(options: CalibrationOptions) -> tuple[DitherSettings, str]:
     """The settings (node parameters, then the config file's values) with K resolved, and a
-    sentence saying where K came from (or that it is unknown)."""
+    sentence saying where K came from (or that it is unknown).
+    """
     values = dict(options.settings)
     source = 'ROS parameters'
     if options.config_file is not None:
@@ -196,7 +197,8 @@ class DitherSession(MethodSession):
 
     def needs(self) -> dict[str, str]:
         """Per orientation without a component: how many more accepted blocks (and seconds
-        of table motion along it); then the other reasons, once each."""
+        of table motion along it); then the other reasons, once each.
+        """
         cal, s = self.calibrator, self.calibrator.settings
         components = cal.summary().components
         out: dict[str, str] = {}
@@ -265,7 +267,8 @@ class DitherSession(MethodSession):
 
     def summary_lines(self) -> list[str]:
         """Each component and a with the floor beside it, the verdict (only when the record
-        decides it; else what record would), the coning, K's source and what is missing."""
+        decides it; else what record would), the coning, K's source and what is missing.
+        """
         cal = self.calibrator
         n = {axis: rec.equations.n_blocks for axis, rec in cal.orientations.items()}
         lines = [f'blocks accepted: {n["z"]} with the table along Z, {n["y"]} along Y; '
@@ -297,7 +300,8 @@ class DitherSession(MethodSession):
 
     def info_lines(self) -> list[str]:
         """Per orientation: the record, its detection floor, and the record length, sample
-        rate or table amplitude a target σ per component needs; then a and the verdict."""
+        rate or table amplitude a target σ per component needs; then a and the verdict.
+        """
         cal = self.calibrator
         s = cal.settings
         comps, why_not = cal.components()
@@ -406,7 +410,8 @@ class DitherSession(MethodSession):
 
     def handoff_values(self) -> dict[str, Any]:
         """The measured keys with their ``_std`` (finite ones), then the verdict, a's interval
-        ends and the limit they were judged against."""
+        ends and the limit they were judged against.
+        """
         out = super().handoff_values()
         summary = self.calibrator.summary()
         if summary.verdict is not None and summary.interval is not None:

@@ -424,7 +424,8 @@ class FogCalibrator:
 
     def stream_notes(self) -> list[str]:
         """One line per input stream that had samples dropped or re-sorted (NaN/inf,
-        duplicate or out-of-order stamps, restarts), naming what happened."""
+        duplicate or out-of-order stamps, restarts), naming what happened.
+        """
         notes = []
         for topic, buf in ((topics.FOG_OUTPUT, self._out), (topics.FOG_INJECTION,
                                                               self._injection),
@@ -478,7 +479,8 @@ class FogCalibrator:
         The integer output's quantisation can beat slowly against the sample rate and leave
         up to ½ count in each local-fit count, so up to 1 count² in a block increment: that
         much (1/T_b counts²/s) is allowed beyond the ratio before a segment is called
-        unsteady."""
+        unsteady.
+        """
         if len(segments) < 3:
             return segments, ()
         n2 = [s.arw_estimate()[0] if s.block_count >= 2 else math.nan for s in segments]
@@ -503,7 +505,8 @@ class FogCalibrator:
 
     def all_rejections(self) -> list[Rejection]:
         """Everything rejected, in stamp order: while streaming (segments, plateaus) and by
-        the fits (unsteady segments)."""
+        the fits (unsteady segments).
+        """
         return sorted([*self.rejections, *self.fits().rejections],
                       key=lambda r: (r.stamp_ns, r.reason))
 
@@ -547,7 +550,8 @@ class FogCalibrator:
 
     def summary(self) -> list[str]:
         """Whole-sentence lines: each measured figure with its uncertainty and count, and the
-        self-calibration table (K against the plateaus used) with the linear range marked."""
+        self-calibration table (K against the plateaus used) with the linear range marked.
+        """
         res = self.results()
         lines = [f'{key} = {e.value:.10g} ± {e.std_uncertainty:.3g} (k = 1, from {e.n_used})'
                  for key, e in res.items()]

@@ -56,7 +56,8 @@ def random_walk_increment_s(interval_s: float, window_s: float) -> float:
     increment the variance N²·T_eff, with T_eff = T − a/3 for T ≥ a and (T²/a)(1 − T/(3a))
     for overlapping windows (a = window_s; the variance of the difference of two boxcar
     means of a Wiener process). Block scatter divided by T itself would read N² low by
-    up to a third."""
+    up to a third.
+    """
     t, a = interval_s, window_s
     if a <= 0.0:
         return t

@@ -65,7 +65,8 @@ PAPER_ROWS = (6, 10, 15, 25, 35, 45, 55)
 
 def fog_settings(options: CalibrationOptions) -> FogSettings:
     """The FOG settings: the node's parameters, then the config file's values, then the
-    latitude from the flags or the bag."""
+    latitude from the flags or the bag.
+    """
     values = dict(options.settings)
     source = 'ROS parameters'
     if options.config_file is not None:
@@ -112,7 +113,8 @@ class FogSession(MethodSession):
 
     def end_of_recording(self) -> None:
         """The recording ended (a live node stops): the next :meth:`process` flushes, so the
-        last open segment and plateau are measured as offline at the end of a bag."""
+        last open segment and plateau are measured as offline at the end of a bag.
+        """
         self._ended = True
 
     def process(self, *, flush: bool = False) -> list[str]:
@@ -121,7 +123,8 @@ class FogSession(MethodSession):
 
     def results(self) -> dict[str, Estimate]:
         """By hand-off key (SI units in the names); no full-scale nonlinearity from a table
-        that turned only at the mapping rates (:meth:`mapping_rates_only`)."""
+        that turned only at the mapping rates (:meth:`mapping_rates_only`).
+        """
         out = self.calibrator.results()
         if self.mapping_rates_only() and KEY_NONLINEARITY in out:
             del out[KEY_NONLINEARITY]
@@ -129,7 +132,8 @@ class FogSession(MethodSession):
 
     def mapping_rates_only(self) -> str:
         """Why the turntable fit has no full-scale nonlinearity ('' if it has): every segment
-        was at an equivalence-mapping rate (a mapping bench, seed 001 §3: 20–21 °/s)."""
+        was at an equivalence-mapping rate (a mapping bench, seed 001 §3: 20–21 °/s).
+        """
         segments = self.calibrator.active_segments
         settings = self.calibrator.settings
         if not segments:
@@ -153,7 +157,8 @@ class FogSession(MethodSession):
 
     def not_measurable(self) -> dict[str, str]:
         """Self-calibration (and mapping) keys of a bench without injection; turntable keys of
-        a bench without a rate table; the full-scale nonlinearity of a mapping-only table."""
+        a bench without a rate table; the full-scale nonlinearity of a mapping-only table.
+        """
         seen = self.calibrator.seen_topics
         out: dict[str, str] = {}
         missing = self.missing()
@@ -177,12 +182,14 @@ class FogSession(MethodSession):
 
     def rejections(self) -> list[Rejection]:
         """Segments, plateaus and events rejected, with reasons, in stamp order (the same
-        however the streams were chunked, so a node's last rejection is the offline one)."""
+        however the streams were chunked, so a node's last rejection is the offline one).
+        """
         return self.calibrator.all_rejections()
 
     def notices(self) -> list[str]:
         """Source restarts, samples dropped or re-sorted (NaN/inf, bad stamps), and plateaus
-        measured over their second halves only (the loop still settling)."""
+        measured over their second halves only (the loop still settling).
+        """
         fit = self.calibrator.fits().self_cal
         settling = ([n for n in fit.notes if n.startswith(SETTLING_NOTE)]
                     if isinstance(fit, SelfCalFit) else [])
@@ -236,7 +243,8 @@ class FogSession(MethodSession):
 
     def summary_lines(self) -> list[str]:
         """Counts, the uncertainty bases, the self-calibration table (K against the plateaus
-        used, as the paper's Table 1, the linear range marked), and what is missing."""
+        used, as the paper's Table 1, the linear range marked), and what is missing.
+        """
         cal = self.calibrator
         fits = cal.fits()
         rejected = self.rejections()

@@ -98,7 +98,8 @@ class SegmentMeasurement:
         """(N² estimate in counts²/s, its degrees of freedom) from this segment's blocks.
 
         Each boundary count is a local fit, the mean of the random walk over its window, so
-        an increment holds N²·T_eff (:func:`random_walk_increment_s`), not N²·T_b."""
+        an increment holds N²·T_eff (:func:`random_walk_increment_s`), not N²·T_b.
+        """
         j = self.block_count
         if j < 2:
             return 0.0, 0
@@ -227,7 +228,8 @@ class SegmentNoise:
         N² ∈ [N²_blocks − Q − 2σ, N²_blocks + 2σ] (Q the most the quantisation can add,
         σ = N²·√(2/dof) the scatter's own) and the standard deviation of a rectangular
         distribution over it (GUM 4.3.7), so that an output whose block scatter is all
-        quantisation gets an interval reaching down to zero."""
+        quantisation gets an interval reaching down to zero.
+        """
         if not self.dof:
             return math.sqrt(self.arw_counts2_s) / k_abs, math.inf
         n2 = self.arw_counts2_s

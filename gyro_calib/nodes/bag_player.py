@@ -32,10 +32,10 @@ from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     ProgressLog,
-    report_unused_parameters,
     described_parameter,
     ns_to_stamp,
     publish_paced,
+    report_unused_parameters,
 )
 from gyro_calib.topics import relative
 
@@ -82,7 +82,8 @@ class BagPlayer(Node):
 
     def wait_for_readers(self, timeout_s: float = 60.0) -> bool:
         """Block until every played topic has a reader (or ``timeout_s``), saying which
-        topics it waits for whenever that changes."""
+        topics it waits for whenever that changes.
+        """
         deadline = time.monotonic() + timeout_s
         waiting: set[str] | None = None
         while time.monotonic() < deadline:

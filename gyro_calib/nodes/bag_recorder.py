@@ -99,7 +99,8 @@ class BagRecorder(Node):
 
     def _type_of(self, name: str, timeout_s: float = 10.0) -> str:
         """Contract topics (in any recorded namespace) have fixed types; others are looked up
-        in the ROS graph."""
+        in the ROS graph.
+        """
         for ns in self.namespaces:
             if name.startswith(ns + '/') and name[len(ns):] in CONTRACT_TYPES:
                 return CONTRACT_TYPES[name[len(ns):]]

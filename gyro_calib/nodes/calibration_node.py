@@ -15,33 +15,22 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping
-from typing import Any
 from pathlib import Path
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
 from std_msgs.msg import Float64
 
 from gyro_calib import topics
-from gyro_calib.rbrlg.calibrator import CalibrationUpdate
-from gyro_calib.rbrlg.diagnostics import calibration_status
-from gyro_calib.handoff import Provenance, merge_lines, method_calibration, update_calibration
-from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_values
-from gyro_calib.rbrlg.stations import Station
-from gyro_calib.config import BENCH_SETTINGS, read_method_file
-from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
-from gyro_calib.nodes.method_node import SimScenarioBench
-from gyro_calib.registry import METHODS, handoff_schema
-from gyro_calib.session import CalibrationOptions
-from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import TopicColumns
+from gyro_calib.config import BENCH_SETTINGS, read_method_file
+from gyro_calib.errors import GyroCalibError, InsufficientDataError
+from gyro_calib.handoff import Provenance, merge_lines, method_calibration, update_calibration
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
-from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, _TopicBuffer
+from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, SimScenarioBench, _TopicBuffer
 from gyro_calib.nodes.node_state import NodeState, feed_columns, state_directory
-from gyro_calib.rbrlg.session import TOPICS as RBRLG_TOPICS
-from gyro_calib.rbrlg.session import RbrlgSession
-from gyro_calib.registry import HEADER
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
@@ -51,6 +40,15 @@ from gyro_calib.nodes.ros_io import (
     described_parameter,
     run_node,
 )
+from gyro_calib.rbrlg.calibration import RbrlgCalibrator, handoff_values
+from gyro_calib.rbrlg.calibrator import CalibrationUpdate
+from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
+from gyro_calib.rbrlg.diagnostics import calibration_status
+from gyro_calib.rbrlg.session import TOPICS as RBRLG_TOPICS
+from gyro_calib.rbrlg.session import RbrlgSession
+from gyro_calib.rbrlg.stations import Station
+from gyro_calib.registry import HEADER, METHODS, handoff_schema
+from gyro_calib.session import CalibrationOptions
 from gyro_calib.topics import relative
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
@@ -183,7 +181,8 @@ class CalibrationNode(CalibrationNodeBase):
 
     def _feed(self, columns: dict[str, TopicColumns]) -> None:
         """Record a batch (state directory), then hand it to the calibrator as the offline
-        session does (:meth:`gyro_calib.rbrlg.session.RbrlgSession.feed`)."""
+        session does (:meth:`gyro_calib.rbrlg.session.RbrlgSession.feed`).
+        """
         if not columns:
             return
         self.state.record_batch(columns)
@@ -209,7 +208,8 @@ class CalibrationNode(CalibrationNodeBase):
 
     def finish(self) -> None:
         """Shutdown: take in what is buffered, write the hand-off; the state directory is
-        removed once θ, K and the bias are all measured (unless ``keep_state``)."""
+        removed once θ, K and the bias are all measured (unless ``keep_state``).
+        """
         self._process()
         self._publish_results()
         self.state.finish(complete=not self.bench.missing())

@@ -40,7 +40,8 @@ LEVELS = {'OK': DiagnosticStatus.OK, 'WARN': DiagnosticStatus.WARN,
 @dataclass(frozen=True, slots=True)
 class InputSpec:
     """One input: message class, topic (relative resolves in the namespace), callback, the
-    profile while reliable, and whether best effort is forced."""
+    profile while reliable, and whether best effort is forced.
+    """
 
     msg_class: type
     topic: str

@@ -202,12 +202,14 @@ class MethodNode(CalibrationNodeBase):
 
     def _announce_inputs(self) -> None:
         """Say which topics the node waits for (a subclass that rewires its inputs says it
-        after rewiring)."""
+        after rewiring).
+        """
         self.get_logger().info(f'{self.method.name}: waiting for {", ".join(self._buffers)}')
 
     def _on_bench(self, stored: tuple[tuple[str, Mapping[str, Any]], ...]) -> None:
         """A simulator published its bench: report conflicts, take the gyro id, and (before
-        any sample came) rebuild the session with the bench filling what was not given."""
+        any sample came) rebuild the session with the bench filling what was not given.
+        """
         options = dataclasses.replace(self.options, stored_benches=stored)
         gyro_id = self.scenario.check(options)
         if gyro_id is None:
@@ -229,7 +231,8 @@ class MethodNode(CalibrationNodeBase):
                           as_given: tuple[str, ...] = ()) -> None:
         """Subscribe the session's topics, each into its buffer and adapting to its
         publishers' QoS (those of ``best_effort`` always best effort); by their names
-        relative to the node's namespace, except those of ``as_given`` (a user's topic)."""
+        relative to the node's namespace, except those of ``as_given`` (a user's topic).
+        """
         self._buffers, specs = {}, []
         self._inputs_as_given = as_given
         for topic, msgtype in self.session.topics().items():
@@ -314,7 +317,8 @@ class MethodNode(CalibrationNodeBase):
 
     def finish(self) -> None:
         """End of the data (shutdown): judge what is still open, write the hand-off file;
-        the state directory is removed when nothing is missing (unless ``keep_state``)."""
+        the state directory is removed when nothing is missing (unless ``keep_state``).
+        """
         self.state.resume_once(self._session_feed, self.session.process)
         self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
         for line in self.session.process(flush=True):
@@ -403,7 +407,8 @@ class SimScenarioBench:
 
     def check(self, options: CalibrationOptions) -> str | None:
         """Log each conflict between the node's parameters and the published bench once;
-        the gyro id (None when the published benches disagree among themselves)."""
+        the gyro id (None when the published benches disagree among themselves).
+        """
         try:
             lines = options.conflicts(self.names)
             gyro_id = str(options.setting('gyro_id', '') or '')

@@ -32,7 +32,8 @@ NOT_IDENTITY = frozenset({'output_file', 'state_dir', 'keep_state', 'process_per
 
 def state_directory(state_dir: str, output_file: str) -> Path | None:
     """``state_dir`` as given, else ``<output_file>.state`` beside the hand-off file, else
-    None (a node that writes no file keeps no record unless asked to)."""
+    None (a node that writes no file keeps no record unless asked to).
+    """
     if state_dir:
         return Path(state_dir)
     if output_file:
@@ -81,7 +82,8 @@ class NodeState:
 
     def _open(self, directory: Path, identity: dict[str, str]) -> StateRecord:
         """The record in ``directory``; one of another gyro, method or parameter set is
-        moved aside (never deleted, never mixed in) and a new one started, with a warning."""
+        moved aside (never deleted, never mixed in) and a new one started, with a warning.
+        """
         try:
             return StateRecord(directory, identity)
         except StateRecordError as exc:

@@ -35,12 +35,12 @@ from pathlib import Path
 from typing import Any
 
 from gyro_calib.errors import ConfigError, GyroCalibError
+from gyro_calib.nodes.method_node import GENERIC_PARAMETERS, MethodNode
+from gyro_calib.nodes.ros_io import described_parameter, run_node
 from gyro_calib.noise.keys import METHOD
 from gyro_calib.noise.outputs import resolve_targets, write_outputs
 from gyro_calib.noise.session import IMU, NoiseSession, check_scale_factor
 from gyro_calib.noise.settings import NoiseSettings
-from gyro_calib.nodes.method_node import GENERIC_PARAMETERS, MethodNode
-from gyro_calib.nodes.ros_io import described_parameter, run_node
 from gyro_calib.session import CalibrationOptions
 
 NODE_NAME = 'noise_node'
@@ -128,7 +128,8 @@ class NoiseNode(MethodNode):
 
     def _announce_inputs(self) -> None:
         """Said after the inputs are rewired (the generic node's default topics are not
-        what this node reads)."""
+        what this node reads).
+        """
 
     def new_session(self) -> NoiseSession:
         """A fresh noise session with the node's input and settings (``~/reset``)."""
@@ -143,7 +144,8 @@ class NoiseNode(MethodNode):
     def _rewire(self, topic: str) -> None:
         """Subscribe exactly the session's topics (the generic node subscribed its default);
         ``topic`` (the user's Imu topic) by the name given, the contract's relative to the
-        namespace."""
+        namespace.
+        """
         imu = tuple(t for t, m in self.session.topics().items() if m == IMU)
         self._subscribe_inputs(best_effort=imu if self.best_effort else (),
                                as_given=(topic,) if topic else ())
@@ -195,7 +197,8 @@ class NoiseNode(MethodNode):
 
     def drain(self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 30.0) -> None:
         """Spin until no sample has arrived for ``quiet_s`` (at most ``limit_s``): the
-        samples DDS already acknowledged to the publisher are taken in before the end."""
+        samples DDS already acknowledged to the publisher are taken in before the end.
+        """
         deadline = time.monotonic() + limit_s
         seen, quiet_since = self.received(), time.monotonic()
         while time.monotonic() - quiet_since < quiet_s and time.monotonic() < deadline:

@@ -195,7 +195,8 @@ def unused_parameters(node: Node) -> list[str]:
 
 def report_unused_parameters(node: Node) -> None:
     """One warning naming the parameters given that the node does not have (a misspelt or
-    stale ``-p name:=...`` is otherwise silently ignored by ROS)."""
+    stale ``-p name:=...`` is otherwise silently ignored by ROS).
+    """
     unused = unused_parameters(node)
     if unused:
         node.get_logger().warning(
@@ -319,7 +320,8 @@ class StartGate:
 
 class ProgressLog:
     """Progress lines of a long run, at most one per ``period_s`` of wall time:
-    "<what>: 120 of 600 s simulated (20 %), 4.9× real time"."""
+    "<what>: 120 of 600 s simulated (20 %), 4.9× real time".
+    """
 
     def __init__(self, logger: Any, what: str, total_s: float, *,
                  period_s: float = 10.0) -> None:
@@ -368,7 +370,8 @@ def changes_line(before: Any, after: Any) -> str | None:
 
 def simulation_done(node: Node) -> bool:
     """A simulator node has published its whole run and is asked to exit then, or its
-    readers stalled (``node.stalled``: :func:`stops_on_stalled_readers`)."""
+    readers stalled (``node.stalled``: :func:`stops_on_stalled_readers`).
+    """
     return bool(getattr(node, 'stalled', '')) or bool(node.done and node.exit_when_done)
 
 
@@ -410,14 +413,16 @@ def make_executor(context: Context | None = None) -> Executor:
 class ReadersStalled(Exception):
     """The readers of a reliable topic acknowledged nothing for the publisher's patience: a
     reader stopped reading (hung, paused, or still shutting down) while it is still
-    connected. :func:`run_node` ends the node on it with one line saying so, no traceback."""
+    connected. :func:`run_node` ends the node on it with one line saying so, no traceback.
+    """
 
 
 def stops_on_stalled_readers(callback: Callable[..., None]) -> Callable[..., None]:
     """Decorate a simulator's publishing callback: :class:`ReadersStalled` from it records
     the reason on the node (``node.stalled``) instead of escaping into the executor (which
     logs it as a fatal exception with a stack); :func:`simulation_done` then ends the spin
-    and :func:`run_node` says why in one line."""
+    and :func:`run_node` says why in one line.
+    """
     import functools
 
     @functools.wraps(callback)
@@ -443,8 +448,8 @@ def publish_paced(publisher: Publisher, msg: object, *, patience_s: float = 30.0
         ReadersStalled: if the readers acknowledge nothing for ``patience_s`` (naming the
             topic and its readers).
     """
-    from rclpy.duration import Duration
     from rclpy._rclpy_pybind11 import RCLError  # the error rclpy's publish() raises
+    from rclpy.duration import Duration
 
     deadline = time.monotonic() + patience_s
     while True:

@@ -17,10 +17,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gyro_calib.rbrlg.calibrator import CalibrationUpdate, RateBiasCalibrator
-from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Estimate
+from gyro_calib.rbrlg.calibrator import CalibrationUpdate, RateBiasCalibrator
+from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.rbrlg.scale_factor import scale_factor
 from gyro_calib.rbrlg.stations import Station, StationCalibrator
 from gyro_calib.units import EARTH_RATE_DEG_H, RAD_PER_ARCSEC
@@ -96,13 +96,15 @@ class RbrlgCalibrator:
 
     def conditions(self) -> dict[str, float | int]:
         """The bench settings the results rest on (the bias: latitude and heading), for the
-        hand-off file (NaN: not given)."""
+        hand-off file (NaN: not given).
+        """
         return {'latitude_deg': self.latitude_deg, 'heading_deg': self.heading_deg,
                 'position_table_revolutions': self.position_table_revolutions}
 
     def not_measurable(self) -> dict[str, str]:
         """θ and K of a bench without a position table (a plain rate table gives K̃ only),
-        with why; {} once any position-table sample came."""
+        with why; {} once any position-table sample came.
+        """
         if self._position_table_seen:
             return {}
         keys = ('fix_error_angle_rad', 'scale_factor_rad_per_pulse', 'stations')
@@ -145,7 +147,8 @@ class RbrlgCalibrator:
                position_table: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
                position_zero_index_ns: ArrayLike | None = None) -> None:
         """Many samples of any streams at once (batch or bag replay); same as adding them
-        one by one. Joint states are (t_ns, angle rad, rate rad/s); pulses (t_ns, count)."""
+        one by one. Joint states are (t_ns, angle rad, rate rad/s); pulses (t_ns, count).
+        """
         empty3 = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
         pulses = pulses if pulses is not None else empty3[:2]
         rate_table = rate_table if rate_table is not None else empty3
@@ -205,7 +208,8 @@ class RbrlgCalibrator:
 
     def _table_axis_tilt_rad(self, fix_error: FixErrorAngleResult | None) -> float | None:
         """Tilt of the rate-table axis from the vertical: α from the stations, 0 for a plain
-        rate table (no position table in the data), None while a two-axis bench has no α."""
+        rate table (no position table in the data), None while a two-axis bench has no α.
+        """
         if fix_error is not None:
             return fix_error.tilt_rad.value
         return None if self._position_table_seen else 0.0
@@ -259,7 +263,8 @@ class RbrlgCalibrator:
 
     def limiting_factor(self) -> str:
         """One line saying what limits the result most, as something the user can change
-        (issue 9 part 5)."""
+        (issue 9 part 5).
+        """
         cal = self.k_tilde
         m = cal.config.revolutions_per_window
         reasons = [r.reason for r in cal.rejections]
@@ -321,7 +326,8 @@ def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
                     heading_deg: float = 0.0, position_table_revolutions: int = 1,
                     k_config: KTildeConfig | None = None) -> tuple[RbrlgResults, RbrlgCalibrator]:
     """Batch calibration of a two-axis recording (``sim_nodes.rbrlg.bench.TwoAxisRecording``
-    or anything with the same array attributes)."""
+    or anything with the same array attributes).
+    """
     cal = RbrlgCalibrator(k_config or KTildeConfig(), position_table_revolutions,
                           latitude_deg, heading_deg)
     rec: Any = recording
@@ -335,7 +341,8 @@ def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
 
 def handoff_values(results: RbrlgResults, calibrator: RbrlgCalibrator) -> dict[str, Any]:
     """The RBRLG hand-off keys of whatever was measured, in SI (rad/pulse, rad, rad/s), each
-    with its ``_std``, plus the window-pair and station counts; {} when K̃ is not measured."""
+    with its ``_std``, plus the window-pair and station counts; {} when K̃ is not measured.
+    """
     if results.k_tilde_arcsec_per_pulse is None:
         return {}
     deg_h = math.radians(1.0) / 3600.0  # rad/s per °/h

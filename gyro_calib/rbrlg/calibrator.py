@@ -46,7 +46,8 @@ MAX_FIT_HALF_WIDTH_S = 2.0
 
 def _period_near(t_ns: np.ndarray, t_event: int, half_ns: int) -> float:
     """Median sample period (the upper median for an even count) of the stamps within
-    ±``half_ns`` of ``t_event`` (0 if fewer than 2), ns."""
+    ±``half_ns`` of ``t_event`` (0 if fewer than 2), ns.
+    """
     lo = int(np.searchsorted(t_ns, t_event - half_ns, 'left'))
     hi = int(np.searchsorted(t_ns, t_event + half_ns, 'right'))
     if hi - lo < 2:
@@ -237,7 +238,8 @@ class RateBiasCalibrator:
     def _resolve(self, t_event: int, p_t: np.ndarray, counts: np.ndarray,
                  s_t: np.ndarray, s_v: np.ndarray) -> IndexEvent:
         """The table and the gyro at an event: encoder angle and pulse count by the same
-        local fit, the table rate and how much it varies over the fit span."""
+        local fit, the table rate and how much it varies over the fit span.
+        """
         cfg = self.config
         nominal_ns = int(cfg.fit_half_width_s * NS_PER_S)
         pulse_period = _period_near(p_t, t_event, nominal_ns)

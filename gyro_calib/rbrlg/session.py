@@ -42,7 +42,8 @@ DEG_H = math.radians(1.0) / 3600.0
 
 def rbrlg_calibrator(options: CalibrationOptions) -> RbrlgCalibrator:
     """The calibrator with the user's settings: flags first, then the bench settings stored in
-    the bag, then the defaults."""
+    the bag, then the defaults.
+    """
     k_config = KTildeConfig()
     mount: dict[str, float] = {}
     if options.config_file is not None:
@@ -168,7 +169,8 @@ class RbrlgSession(MethodSession):
 
     def problems(self) -> list[str]:
         """θ refused by the stations' tilt (a wrong set-up: more data will not help), and the
-        default (everything rejected)."""
+        default (everything rejected).
+        """
         refused = [self.rbrlg_results.fix_error_problem] if self._theta_refused() else []
         return refused + super().problems()
 

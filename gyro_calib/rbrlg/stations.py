@@ -17,10 +17,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gyro_calib.rbrlg.calibrator import RateBiasCalibrator
-from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Rejection
+from gyro_calib.rbrlg.calibrator import RateBiasCalibrator
+from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.rbrlg.fix_error_angle import FixErrorAngleResult, fix_error_angle_multi_station
 from gyro_calib.streams import StampedBuffer
 from gyro_calib.units import (
@@ -171,7 +171,8 @@ class StationCalibrator:
     def _trim_rate_table(self) -> None:
         """Bound the rate-table history: a station spans one forward and one reverse window
         (each ≤ max_window_s) and the pulses deciding it may lag by stall_timeout_s, so
-        older samples can never be asked for. Trims at 1.25 × that span (amortised)."""
+        older samples can never be asked for. Trims at 1.25 × that span (amortised).
+        """
         cfg = self.config
         keep_ns = int((2 * cfg.max_window_s + cfg.stall_timeout_s + 60.0) * NS_PER_S)
         newest = self._rate_table.newest_ns
@@ -249,7 +250,8 @@ class StationCalibrator:
 
 def _whole_turns(window: RevolutionWindow) -> tuple[float, float]:
     """The window's count scaled to exactly n whole turns by its encoder angle, and its
-    standard uncertainty (counts and angle), pulses (φ_ON of eq. 10 is then exact)."""
+    standard uncertainty (counts and angle), pulses (φ_ON of eq. 10 is then exact).
+    """
     nominal = 2 * math.pi * window.revolutions
     if not math.isfinite(window.angle_rad):
         return window.pulses, window.pulses_std

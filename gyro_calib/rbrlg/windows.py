@@ -228,7 +228,8 @@ class _Run:
     @property
     def cruise_rad_s(self) -> float | None:
         """Median rate at the usable events (the cruise), once two were seen (two usable
-        events are a whole revolution apart: this is a rate-bias run, not a positioning move)."""
+        events are a whole revolution apart: this is a rate-bias run, not a positioning move).
+        """
         return float(np.median(self.usable_rates)) if len(self.usable_rates) >= 2 else None
 
 
@@ -424,7 +425,8 @@ class WholeRevolutionWindows:
 
     def _missing_at_cruise_ends(self, run: _Run, cruise: float) -> str:
         """Why a cruise gave too few events, if the encoder shows it held its rate for a whole
-        revolution beyond its first or last event: a zero-index event is missing."""
+        revolution beyond its first or last event: a zero-index event is missing.
+        """
         t, angle, rate = self._table
         if len(t) < 2:
             return ''

@@ -145,7 +145,8 @@ def format_number(value: float, std: float) -> str:
 def _generic_values(values: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """Key → {'value', 'std', 'n', 'dof'} of every uncertain quantity of the hand-off, read
     generically: scalar keys with ``_std`` (and ``_n``, ``_dof`` where present) twins, or a
-    mapping with 'value' and 'std'."""
+    mapping with 'value' and 'std'.
+    """
     out: dict[str, dict[str, Any]] = {}
     for key, value in values.items():
         if isinstance(value, Mapping) and 'value' in value and 'std' in value:
@@ -339,7 +340,8 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
 
 def _conventions() -> tuple[tuple[str, str], ...]:
     """What every number of the hand-off file is (its ``conventions``), where the loader
-    states them."""
+    states them.
+    """
     from gyro_calib import handoff
 
     return tuple((str(k), str(v)) for k, v in getattr(handoff, 'CONVENTIONS', {}).items())
@@ -373,7 +375,8 @@ def render_pdf(html: str) -> bytes:
 def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> list[Path]:
     """Write ``<out_dir>/<stem>.html`` (and ``.pdf``); each replaces its file atomically.
 
-    Both documents are rendered before anything is written."""
+    Both documents are rendered before anything is written.
+    """
     html = render_html(cert)
     documents = [(out_dir / f'{cert.file_stem}.html', html.encode('utf-8'))]
     if pdf:
@@ -384,7 +387,8 @@ def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> 
 
 def write_bytes_atomically(path: Path, data: bytes) -> Path:
     """Write ``data`` to ``path``: temporary file beside it, fsync, rename; the mode of
-    :func:`gyro_calib.outputs.new_file_mode` (the user's umask, or the replaced file's)."""
+    :func:`gyro_calib.outputs.new_file_mode` (the user's umask, or the replaced file's).
+    """
     from gyro_calib.outputs import new_file_mode
 
     target = Path(path).absolute()

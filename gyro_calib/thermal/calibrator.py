@@ -96,7 +96,8 @@ class ThermalCalibrator:
                             frame_id: ArrayLike | str,
                             variance_c2: ArrayLike | None = None) -> None:
         """Many /gyro/temperature messages: stamps (int ns), °C, frame_id per message (or
-        one for all), variance (°C², accepted and not used)."""
+        one for all), variance (°C², accepted and not used).
+        """
         t = np.asarray(t_ns, np.int64)
         v = np.asarray(celsius, np.float64)
         ids = split_frame_ids(frame_id, len(t))

@@ -118,8 +118,8 @@ def compensate_bags(paths: Sequence[Path], calibration_file: Path, *, gyro_id: s
             ExtrapolationError, InsufficientDataError: as
             :func:`gyro_calib.thermal.compensate.compensate`.
     """
-    from gyro_calib.bagio import bag_info, check_topics, iter_bags
     from gyro_calib.bag_calibration import merged_topics
+    from gyro_calib.bagio import bag_info, check_topics, iter_bags
     from gyro_calib.handoff import load_calibration
     from gyro_calib.imu_conversion import pulse_calibration, thermal_model
 
@@ -214,7 +214,8 @@ def _pulse_samples(path: Path) -> Iterator[tuple[int, float]]:
 
 class _ImuMessages:
     """sensor_msgs/Imu CDR as imu_corrector publishes it (x, y unknown; no orientation,
-    no acceleration)."""
+    no acceleration).
+    """
 
     def __init__(self, frame_id: str) -> None:
         from gyro_calib.bagio import ContractMessages
@@ -318,7 +319,8 @@ def _est(e: Estimate) -> dict[str, Any]:
 def json_document(result: BagCompensation) -> dict[str, Any]:
     """The ``--json`` document, in the shape every command shares (README, ``gyro_calib/
     schema/result.schema.json``): ``methods.thermal.{results, missing, rejections}`` plus
-    the compensation's figures, model and notes (rates in rad/s; NaN → null)."""
+    the compensation's figures, model and notes (rates in rad/s; NaN → null).
+    """
     from gyro_calib.thermal.session import finite_json
 
     r = result.report
@@ -389,7 +391,6 @@ def summary_text(result: BagCompensation, calibration_file: Path) -> str:
 def run_compensate(args: argparse.Namespace) -> int:
     """``gyro-calib compensate``: exit status 0, or a GyroCalibError for main() to print."""
     from gyro_calib.bagio import BagError
-
     from gyro_calib.outputs import check_new_directory, check_plot_dir, make_plot_dir
 
     if args.out is not None and args.out.exists():

@@ -119,7 +119,8 @@ class CompensationReport:
 
 def model_interval_settings(model: ThermalBiasModel) -> IntervalSettings:
     """The reduction the model was fitted with: its interval, Ḣ window and largest
-    interpolated gap between a sensor's readings."""
+    interpolated gap between a sensor's readings.
+    """
     return IntervalSettings(averaging_interval_s=model.averaging_interval_s,
                             hdot_window_s=model.hdot_window_s,
                             max_temperature_gap_s=model.max_temperature_gap_s)
@@ -391,7 +392,8 @@ class ThermalBiasTracker:
     def __init__(self, model: ThermalBiasModel, *,
                  interval_settings: IntervalSettings | None = None) -> None:
         """Create per-sensor reducers using the model's interval, Ḣ window and largest
-        interpolated gap."""
+        interpolated gap.
+        """
         self.model = model
         self.settings = interval_settings or model_interval_settings(model)
         self._temps = {s: TemperatureIntervals(s, self.settings) for s in SENSORS}

@@ -23,4 +23,5 @@ class TemperatureDataError(InsufficientDataError):
 
 class SensorSamplingError(TemperatureDataError):
     """A temperature sensor is read so sparsely that it cannot be interpolated onto the
-    averaging intervals (bad input: the offline front door refuses the run, exit 2)."""
+    averaging intervals (bad input: the offline front door refuses the run, exit 2).
+    """

@@ -395,7 +395,8 @@ def _require_cavity_sensors(table: IntervalTable, frame_ids_seen: tuple[str, ...
 
 def _require_readable_sensors(check: SensorCheck, s: ThermalSettings) -> None:
     """Refuse a sensor read so sparsely that it cannot be interpolated onto the intervals:
-    its readings lie further apart than ``max_temperature_gap_s`` almost everywhere."""
+    its readings lie further apart than ``max_temperature_gap_s`` almost everywhere.
+    """
     for name, smp in check.sampling.items():
         if smp.n_points == 0:
             continue
@@ -524,7 +525,8 @@ def _prune_on_held_out(rows: FitRows, chosen: list[str],
                        keep_while: dict[str, tuple[str, ...]],
                        s: ThermalSettings) -> tuple[list[str], list[str]]:
     """Drop terms while dropping one does not raise the held-out mean-square residual; a
-    term another kept term needs (``keep_while``: its main effects) is not dropped."""
+    term another kept term needs (``keep_while``: its main effects) is not dropped.
+    """
     fit_mask = ~rows.held_out
     y_fit = rows.y_rad_s[fit_mask]
     cols_fit = {n: c[fit_mask] for n, c in rows.columns.items()}
@@ -562,7 +564,8 @@ def _complete_main_effects(rows: FitRows, chosen: list[str],
                            keep_while: dict[str, tuple[str, ...]],
                            fit_mask: npt.NDArray[np.bool_]) -> list[str]:
     """Add (in place) the candidate first powers a chosen term needs and the model lacks
-    (a constant-start selection can enter H³ without H); returns the names added."""
+    (a constant-start selection can enter H³ without H); returns the names added.
+    """
     added: list[str] = []
     for t in list(chosen):
         for n in keep_while.get(t, ()):

@@ -295,7 +295,8 @@ class TemperatureIntervals:
     def stamped_arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                       npt.NDArray[np.float64]]:
         """k, mean reading (°C, NaN where silent) and the mean stamp of those readings as
-        an offset from the interval start (ns, NaN where silent)."""
+        an offset from the interval start (ns, NaN where silent).
+        """
         k, m, _, off = self._rows.arrays(4)
         return k.astype(np.int64), m.astype(np.float64), off.astype(np.float64)
 

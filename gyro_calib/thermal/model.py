@@ -145,7 +145,8 @@ class ThermalBiasModel:
     def check_range(self, h_c: ArrayLike, hdot_c_s: ArrayLike | None = None,
                     t_ns: ArrayLike | None = None) -> None:
         """Raise :class:`ExtrapolationError` if any H (or Ḣ, if the model uses it) is outside
-        the calibrated range plus margin; the message names the value, stamp and range."""
+        the calibrated range plus margin; the message names the value, stamp and range.
+        """
         h = np.atleast_1d(np.asarray(h_c, np.float64))
         lo, hi = self.h_range_c
         m = self.extrapolation_margin_c

@@ -144,7 +144,8 @@ def thermal_settings(options: CalibrationOptions) -> tuple[ThermalSettings, dict
 
 def provenance(origin: dict[str, str], short: dict[str, str] | None = None) -> str:
     """Where settings came from, each source named once: ``K and latitude from the bag's
-    bench settings; gyro_id from --gyro-id`` (``short`` renames fields)."""
+    bench settings; gyro_id from --gyro-id`` (``short`` renames fields).
+    """
     by_source: dict[str, list[str]] = {}
     for name, source in origin.items():
         by_source.setdefault(source, []).append((short or {}).get(name, name))
@@ -197,7 +198,8 @@ class ThermalSession(MethodSession):
 
     def process(self, *, flush: bool = False) -> list[str]:
         """Reduce what the streams allow; fit at the end (``flush``) or every
-        ``refit_every_s``."""
+        ``refit_every_s``.
+        """
         lines = self.calibrator.process(flush=flush)
         self._lines += lines
         return lines
@@ -217,7 +219,8 @@ class ThermalSession(MethodSession):
 
     def missing(self) -> dict[str, str]:
         """Hand-off keys not measured, with the reason (the held-out figures only when the
-        settings ask for a held-out check)."""
+        settings ask for a held-out check).
+        """
         rep = self.report
         if rep is None:
             why = self.calibrator.missing().get(f'{COEFFICIENT_PREFIX}const_rad_s',
@@ -303,7 +306,8 @@ class ThermalSession(MethodSession):
 
     def summary_lines(self) -> list[str]:
         """The chosen terms, the inputs used, the SNR per temperature point, the held-out
-        check, the floor, and what is missing."""
+        check, the floor, and what is missing.
+        """
         rep = self.report
         s = self.settings
         lines = [f'{key}: not measured — {why}' for key, why in self.missing().items()]

@@ -88,14 +88,16 @@ class DitherScenario:
 
     def truth(self) -> dict[str, Any]:
         """The simulator's truth (:func:`sim_nodes.dither.scenarios.dither_truth`) and the
-        worst-case eq. (24) the estimator reports at the true components."""
+        worst-case eq. (24) the estimator reports at the true components.
+        """
         truth = dither_truth(self.gyro, self.table)
         truth['coning_eq24_worst_case_rad_s'] = self._coning(truth['misalignment_rad'])
         return truth
 
     def _coning(self, misalignment_rad: float) -> float:
         """Eq. (24), worst case sin φ = 1, proportional rocking, at this a (what the estimator
-        reports when the rocking phase is not given)."""
+        reports when the rocking phase is not given).
+        """
         scale = misalignment_rad / self.gyro.geometry.misalignment_rad
         truth = dither_truth(self.gyro, self.table)
         return coning_drift(truth['misalignment_z_rad'] * scale,
@@ -119,7 +121,8 @@ class DitherScenario:
 
     def rocking_shift_rad(self) -> float:
         """Largest shift of one component the in-phase rocking causes: θ_rock,max/θ_d with
-        θ_rock,max = k·a (METHODS §C), rad."""
+        θ_rock,max = k·a (METHODS §C), rad.
+        """
         a = self.gyro.geometry.misalignment_rad
         return self.gyro.rocking_per_misalignment * a / self.gyro.dither_amplitude_rad
 
@@ -127,7 +130,8 @@ class DitherScenario:
         """How far from the truth a correct calibration may land: 4 σ_c of the record for the
         rocking-shifted (effective) components the output carries; plus the rocking shift
         for the true components and a (the estimator bounds, not removes, it); the coning at
-        a ± that tolerance; θ_d and f_d to 1e-3."""
+        a ± that tolerance; θ_d and f_d to 1e-3.
+        """
         floor, shift = self.predicted_floor_rad(), self.rocking_shift_rad()
         a = self.gyro.geometry.misalignment_rad
         tol_a = 4.0 * floor + math.sqrt(2.0) * shift
@@ -295,7 +299,8 @@ class JointStateTemplate:
 
 def stream_messages(rec: DitherRecording) -> Iterator[BagMessage]:
     """The recording as bag messages in publication order (log time = stamp; ties in contract
-    topic order)."""
+    topic order).
+    """
     stamps = np.concatenate((rec.pulse_t_ns, rec.table_t_ns))
     prio = np.concatenate((np.full(len(rec.pulse_t_ns), topic_sort_key(topics.GYRO_PULSES)),
                            np.full(len(rec.table_t_ns),

@@ -144,7 +144,8 @@ class FogScenario:
 
     def max_std(self) -> dict[str, float]:
         """Largest stated uncertainties a correct calibration gives: 1.5 × the floor
-        predicted from ARW and quantisation for the procedure's shortest possible spans."""
+        predicted from ARW and quantisation for the procedure's shortest possible spans.
+        """
         hz = self.table.output_rate_hz
         if self.kind == 'turntable':
             k_std, bias_std = predicted_line_std(self.gyro, self.rates_deg_s, self.hold_s, hz,
@@ -215,7 +216,8 @@ def turntable_fit_truth(config: FogConfig, rates_deg_s: Sequence[float]) -> dict
 def self_cal_truth(config: FogConfig, levels_counts_s: Sequence[float],
                    mapping_counts_per_rad: float) -> float:
     """Noise-free self-calibrated K over plateaus at these injection levels (counts/rad):
-    the LS slope of the balanced static outputs against J, times the true mapping."""
+    the LS slope of the balanced static outputs against J, times the true mapping.
+    """
     fe = FrontEnd(config)
     j = np.asarray(levels_counts_s, dtype=np.float64)
     a, _ = fe.balance(0.0, fe.injection_word(j))
@@ -226,7 +228,8 @@ def self_cal_truth(config: FogConfig, levels_counts_s: Sequence[float],
 def shortest_span_s(rate_deg_s: float, hold_s: float) -> float:
     """The shortest span a segment at this rate can be measured over (s): whole revolutions
     between zero-index events (one fewer than fit when the mark may fall late), else the hold
-    less the guards."""
+    less the guards.
+    """
     usable = hold_s - 2.0 * GUARD_S
     rev_s = 360.0 / abs(rate_deg_s) if rate_deg_s else math.inf
     whole = math.floor(usable / rev_s) if math.isfinite(rev_s) else 0
@@ -245,7 +248,8 @@ def predicted_line_std(config: FogConfig, rates_deg_s: Sequence[float], hold_s: 
     local fit window, at most one per sample), T_i the shortest span (:func:`shortest_span_s`).
     ``weighted``: segments weighted by T_i (the mapping fit), else one point each. With rates
     of both signs the bias is the intercept of the two-slope (asymmetry) fit, as the
-    calibration takes it."""
+    calibration takes it.
+    """
     k = config.scale_factor_counts_per_rad
     n_c2 = (config.angle_random_walk_rad_sqrt_s * k) ** 2
     w = np.radians(np.asarray(rates_deg_s, dtype=np.float64))
@@ -382,7 +386,8 @@ _JOINTS = {topics.FOG_OUTPUT: topics.FOG_JOINT, topics.FOG_INJECTION: topics.FOG
 def recording_messages(rec: FogRecording) -> Iterator[BagMessage]:
     """A recording's streams as bag messages: log time = header stamp, in stamp order (ties in
     contract topic order). Samples out of stamp order in the arrays (a data fault) keep the
-    log time of their slot: they arrived then."""
+    log time of their slot: they arrived then.
+    """
     streams: list[tuple[str, np.ndarray, np.ndarray | None, np.ndarray | None]] = [
         (topics.FOG_OUTPUT, rec.output_t_ns, rec.output_counts, None),
         (topics.FOG_INJECTION, rec.injection_t_ns, rec.injection_counts_s, None),

@@ -15,8 +15,8 @@ stamps. Both are streamed in chunks of ``chunk_samples``; the result does not de
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from collections.abc import Iterator
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -251,7 +251,8 @@ class FogBench:
 
     def chunks(self, chunk_samples: int | None = None) -> Iterator[BenchChunk]:
         """Stream the run in chunks of ``chunk_samples`` output samples (default: the table
-        settings'); the samples do not depend on the chunk size."""
+        settings'); the samples do not depend on the chunk size.
+        """
         size = int(chunk_samples or self.table.chunk_samples)
         if size < 1:
             raise ValueError('chunk_samples must be at least 1')
@@ -289,7 +290,8 @@ def turntable_bench(config: FogConfig | None = None, *,
                     table: TableSettings | None = None,
                     model: str = 'equivalent') -> FogBench:
     """The bench of scenario (a), IEEE Std 952 multi-rate (arguments as
-    :func:`simulate_turntable`)."""
+    :func:`simulate_turntable`).
+    """
     config = config or FogConfig()
     table = table or TableSettings()
     profile, _ = multi_rate_profile(rates_deg_s, hold_s, table.acceleration_deg_s2,
@@ -370,7 +372,8 @@ def mapping_self_cal_bench(
         mapping_hold_s: float = 60.0, ladder: SelfCalLadder | None = None,
         table: TableSettings | None = None, model: str = 'equivalent') -> FogBench:
     """The bench of scenario (b), mapping then ladder (arguments as
-    :func:`simulate_mapping_and_self_cal`)."""
+    :func:`simulate_mapping_and_self_cal`).
+    """
     config = config or FogConfig()
     ladder = ladder or SelfCalLadder()
     table = table or TableSettings()

@@ -119,7 +119,8 @@ def _store() -> Any:
 
 def imu_template(frame_id: str) -> tuple[_Template, int]:
     """Template of a sensor_msgs/Imu (orientation unknown: covariance[0] = −1, REP 145) and
-    the offset of linear_acceleration relative to angular_velocity."""
+    the offset of linear_acceleration relative to angular_velocity.
+    """
     store = _store()
     t = store.types
     header = t['std_msgs/msg/Header'](stamp=t['builtin_interfaces/msg/Time'](sec=0, nanosec=0),
@@ -223,7 +224,8 @@ class ImuBagScenario:
     def truth(self) -> dict[str, dict[str, float]]:
         """The noise terms the recorded samples carry, per axis (term key → SI value):
         the generator's terms, the random walk times the decimation filter's alias factor
-        (1 without a filter) with the ADC rounding added."""
+        (1 without a filter) with the ADC rounding added.
+        """
         gen = self.generator()
         alias = gen.filtered_random_walk_factor()
         out: dict[str, dict[str, float]] = {}
@@ -252,7 +254,8 @@ class ImuBagScenario:
 
     def messages(self) -> Iterator[tuple[str, int, bytes]]:
         """(topic, log time ns, CDR) in publication order; log time = the stamp of the slot
-        a message went out in (a swapped message keeps its slot's)."""
+        a message went out in (a swapped message keeps its slot's).
+        """
         template, accel_offset = imu_template(self.frame_id)
         accel_at = template.value_at + accel_offset
         gen = self.generator()
@@ -305,7 +308,8 @@ class ImuBagScenario:
 
     def description_dict(self) -> dict[str, Any]:
         """Stored in the bag: generator parameters, seed, faults, bench settings, truth (the
-        decimation filter only where there is one)."""
+        decimation filter only where there is one).
+        """
         band = ({'decimation': self.decimation, 'lowpass_cutoff_hz': self.lowpass_cutoff_hz,
                  'lowpass': 'Butterworth, order 2, at decimation × sample_rate_hz'}
                 if self.decimation > 1 or self.lowpass_cutoff_hz else {})
@@ -367,7 +371,8 @@ class RlgBagScenario:
 
     def truth(self) -> dict[str, dict[str, float]]:
         """The noise terms of the pulse record: Q = K/√12 (dither-randomised rounding to
-        whole pulses), the rate noise's N, B, K, R."""
+        whole pulses), the rate noise's N, B, K, R.
+        """
         t = self.terms
         return {'gyro': dict(zip(GYRO_KEYS, (
             self.generator().quantization_noise_rad(), t.random_walk, t.bias_instability,

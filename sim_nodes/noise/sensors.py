@@ -192,7 +192,8 @@ class ImuNoiseGenerator:
     def filtered_random_walk_factor(self) -> float:
         """N_out/N of white rate noise through the decimation filter: √(Σ_k |H(k·f_out)|²),
         k = 0 … D − 1 (the filter's response at DC and at the frequencies the decimation
-        aliases onto DC); 1 without a filter."""
+        aliases onto DC); 1 without a filter.
+        """
         if self._sos is None:
             return 1.0
         from scipy.signal import sosfreqz

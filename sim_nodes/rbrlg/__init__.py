@@ -1,2 +1,3 @@
 """Simulators of the rate-biased RLG bench: the RLG, the tilted two-axis mount, the θ procedure,
-offline bench runs and the committed scenario definitions."""
+offline bench runs and the committed scenario definitions.
+"""

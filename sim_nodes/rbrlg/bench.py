@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
 from sim_nodes.motion import MotionProfile
+from sim_nodes.rate_table import RateTableConfig, RateTableSimulator
 from sim_nodes.rbrlg.procedure import (
     ThetaProcedureConfig,
     full_procedure_profiles,
@@ -120,7 +120,8 @@ def two_axis_simulators(rate_profile: MotionProfile, position_profile: MotionPro
                         ) -> tuple[RateTableSimulator, RateTableSimulator]:
     """Both tables of the two-axis bench on one clock; they share ``table``'s encoder and
     sample settings. The position table's index jitter (its Δφ_ON) is
-    ``position_index_jitter_arcsec``, or the rate table's when negative."""
+    ``position_index_jitter_arcsec``, or the rate table's when negative.
+    """
     import dataclasses
 
     cfg = dataclasses.replace(table, duration_s=position_profile.duration_s)

@@ -114,7 +114,8 @@ def full_procedure_profiles(
 ) -> tuple[MotionProfile, MotionProfile, list[tuple[float, float]]]:
     """The whole calibration: K̃ phase (rate table spinning ``k_tilde_pairs`` times each
     way, position table still), then the θ phase of ``procedure``. Returns the rate-table
-    and position-table profiles and the θ stations' (start, end) times, s."""
+    and position-table profiles and the θ stations' (start, end) times, s.
+    """
     rate_k = _rate_bias_pieces(math.radians(rate_deg_s), math.radians(acceleration_deg_s2),
                                revolutions_per_segment, k_tilde_pairs)
     k_phase_s = sum(rate_k[0])

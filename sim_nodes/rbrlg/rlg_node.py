@@ -20,11 +20,11 @@ from std_msgs.msg import String
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
-    described_parameter,
     SCENARIO_QOS,
     SENSOR_QOS,
     ProgressLog,
     declare_dataclass_parameters,
+    described_parameter,
     ns_to_stamp,
     publish_paced,
     run_node,

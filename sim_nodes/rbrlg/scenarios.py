@@ -28,6 +28,7 @@ import numpy.typing as npt
 from gyro_calib import topics
 from gyro_calib.bagio import BagMessage, ContractMessages, topic_sort_key, write_bag
 from gyro_calib.units import RAD_PER_ARCSEC
+from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.bench import (
     TwoAxisRecording,
     simulate_full_procedure,
@@ -35,7 +36,6 @@ from sim_nodes.rbrlg.bench import (
     true_k_tilde_arcsec_per_pulse,
 )
 from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
-from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 
@@ -106,7 +106,8 @@ class Scenario:
 
     def tolerances(self) -> dict[str, float]:
         """How far from the truth a correct calibration of this run may land (≈ 5 σ of
-        the noise the run carries: index jitter, ARW, and the θ-phase error sources)."""
+        the noise the run carries: index jitter, ARW, and the θ-phase error sources).
+        """
         tol = {'k_tilde_relative': 7e-8}
         if self.kind == 'full':
             tol.update({'scale_factor_relative': 7e-8, 'fix_error_angle_arcsec': 0.5,

@@ -93,7 +93,8 @@ class TemperatureMessages:
 
 def run_messages(run: ThermalRun, *, chunk_s: float = CHUNK_S) -> Iterator[BagMessage]:
     """The run's messages in publication order: by stamp (= log time); at equal stamps the
-    pulse sample first, then the sensors in the order the simulator emits them."""
+    pulse sample first, then the sensors in the order the simulator emits them.
+    """
     cdr = TemperatureMessages()
     for chunk in run.chunks(chunk_s):
         t = np.concatenate((chunk.pulse_t_ns, chunk.temperature_t_ns))

@@ -28,15 +28,15 @@ from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
     SCENARIO_QOS,
     SENSOR_QOS,
-    declare_dataclass_parameters,
-    described_parameter,
     ProgressLog,
     StartGate,
     acknowledge_tail,
-    run_node,
-    simulation_done,
+    declare_dataclass_parameters,
+    described_parameter,
     ns_to_stamp,
     publish_paced,
+    run_node,
+    simulation_done,
     stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative

@@ -513,7 +513,8 @@ class ThermalGyroSimulator:
 
     def _read(self, true_c: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], float]:
         """Sensor readings of true sensor temperatures: white noise (drawn in message
-        order), rounded to the resolution (LSB); and the variance each message carries."""
+        order), rounded to the resolution (LSB); and the variance each message carries.
+        """
         cfg = self.config
         readings = true_c + self._rng_sensor.standard_normal(len(true_c)) \
             * cfg.temperature_noise_c
@@ -526,7 +527,8 @@ class ThermalGyroSimulator:
                          until_ns: int) -> ThermalChunk:
         """Temperatures of sensors each read on its own clock (period and first reading of
         its own); messages in stamp order, at equal stamps in sensor order; truth at every
-        instant any sensor is read."""
+        instant any sensor is read.
+        """
         t0 = self.start_time_ns
         names = self.config.sensors
         stamps, which = [], []

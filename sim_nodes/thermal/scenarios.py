@@ -242,7 +242,8 @@ def apply_faults(chunk_t: npt.NDArray[np.int64], values: npt.NDArray[np.float64]
                  start_time_ns: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                               npt.NDArray[np.bool_]]:
     """Apply ``faults`` to a whole recording's temperature messages; return stamps, values
-    and a keep mask (:class:`FaultApplier` in one call)."""
+    and a keep mask (:class:`FaultApplier` in one call).
+    """
     values, keep = FaultApplier(faults, start_time_ns).apply(chunk_t, values, frame_id)
     return chunk_t, values, keep
 
@@ -275,7 +276,8 @@ class ThermalRun:
 
     def advance(self, until_ns: int) -> ThermalChunk:
         """Every sample stamped ≤ ``until_ns``, with the faults applied to the temperatures
-        (truth untouched)."""
+        (truth untouched).
+        """
         c = self.simulator.advance(until_ns)
         values, keep = self._faults.apply(c.temperature_t_ns, c.temperature_c,
                                           c.temperature_frame_id)
@@ -371,7 +373,8 @@ SENSOR_NAMES = ('', 'cavity_a', 'cavity_b', 'shell')
 class ChamberRunConfig:
     """One chamber run of a named gyro, as plain fields: the ``thermal_chamber_sim`` node's
     parameters and the committed bags' recipes (:meth:`run` streams it, :meth:`recording`
-    simulates it whole; both give the same samples)."""
+    simulates it whole; both give the same samples).
+    """
 
     programme: str = 'paper_soak'
     """'paper_soak' (−35…35 °C, 7 set points), 'continuous_ramp' (low → high → low),

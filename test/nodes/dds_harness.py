@@ -52,7 +52,8 @@ class NodeProcess:
 
 def _scratch_dir() -> str:
     """A fresh directory per node process: a default output (and the state directory beside
-    it) of one test is never resumed by another."""
+    it) of one test is never resumed by another.
+    """
     path = tempfile.mkdtemp(prefix='gyro_calib_dds_')
     atexit.register(shutil.rmtree, path, ignore_errors=True)
     return path
@@ -96,7 +97,8 @@ class ResultListener:
     def spin_until(self, done: Any, timeout_s: float, *, source: NodeProcess | None = None,
                    grace_s: float = 600.0) -> bool:
         """Spin until ``done()``; give up after ``timeout_s``, or ``grace_s`` after the
-        ``source`` process (the simulator feeding the bench) has exited."""
+        ``source`` process (the simulator feeding the bench) has exited.
+        """
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             self.executor.spin_once(timeout_sec=0.1)

@@ -1,5 +1,6 @@
 """Any sensor driver's QoS (issue 19 part 3): a calibration node hears best-effort and reliable
-publishers, as ``ros2 bag record`` does, and adapts again when publishers come and go."""
+publishers, as ``ros2 bag record`` does, and adapts again when publishers come and go.
+"""
 
 from __future__ import annotations
 
@@ -18,7 +19,8 @@ from gyro_calib.nodes.ros_io import SENSOR_QOS, make_executor
 class Graph:
     """rclpy's default context (the nodes under test make their nodes in it) with an
     executor, for nodes made in this process; shut down afterwards (``rclpy.shutdown()``
-    without a context also gives the next test a fresh default context)."""
+    without a context also gives the next test a fresh default context).
+    """
 
     def __init__(self) -> None:
         import rclpy
@@ -78,7 +80,8 @@ def test_reliability_follows_the_publishers_as_ros2_bag_record() -> None:
 def test_a_best_effort_driver_and_a_reliable_one_are_both_heard(graph: Graph) -> None:
     """The dither node's two inputs: pulses from a best-effort driver (sensor-data QoS),
     the vibration table reliable; both reach the node's buffers, the choice is logged, and
-    the pulses go back to reliable when the best-effort driver leaves."""
+    the pulses go back to reliable when the best-effort driver leaves.
+    """
     from gyro_calib.dither import topics
     from gyro_calib.dither.settings import DitherSettings
     from gyro_calib.nodes.method_node import MethodNode

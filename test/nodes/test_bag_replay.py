@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from gyro_calib import topics
-from gyro_calib.bagio import bag_info, iter_sample_batches
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import bag_info, iter_sample_batches
 from gyro_calib.rbrlg.diagnostics import calibration_status
-from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 from .dds_harness import NodeProcess, ResultListener, launch

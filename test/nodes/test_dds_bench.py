@@ -7,8 +7,8 @@ from pathlib import Path
 from gyro_calib.handoff import load_calibration
 from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
 from gyro_calib.units import RAD_PER_ARCSEC
-from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.rbrlg.bench import simulate_rate_bias_bench
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 from .dds_harness import NodeProcess, ResultListener, launch

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from gyro_calib.rbrlg.calibration import calibrate_rbrlg
 from gyro_calib.units import RAD_PER_ARCSEC
+from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.bench import simulate_full_procedure
 from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
-from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
 

@@ -1,5 +1,6 @@
 """noise_node over DDS: a replayed IMU bag gives the offline ``gyro-calib noise`` terms bit for
-bit on /diagnostics, and SIGINT leaves complete files (Kalibr imu.yaml, figure, hand-off)."""
+bit on /diagnostics, and SIGINT leaves complete files (Kalibr imu.yaml, figure, hand-off).
+"""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
 """The thermal method over DDS: a live chamber run and a replayed bag calibrate exactly as
-offline; imu_corrector subtracts the thermal model's bias live and refuses to extrapolate."""
+offline; imu_corrector subtracts the thermal model's bias live and refuses to extrapolate.
+"""
 
 from __future__ import annotations
 
@@ -68,7 +69,8 @@ def expected_diagnostics(session: ThermalSession) -> dict[str, str]:
 
 class ThermalListener:
     """/diagnostics (status 'gyro_calib: thermal') and /gyro/imu, in this test process;
-    publishes /gyro/pulses and /gyro/temperature when asked."""
+    publishes /gyro/pulses and /gyro/temperature when asked.
+    """
 
     def __init__(self) -> None:
         import rclpy
@@ -135,7 +137,8 @@ def thermal_listener() -> Any:
 def _wait_for_numbers(lst: ThermalListener, expected: dict[str, str], nodes: list[NodeProcess],
                       timeout_s: float) -> None:
     """Until the node's diagnostics carry ``expected`` (the calibration node, nodes[0], must
-    stay up meanwhile)."""
+    stay up meanwhile).
+    """
     done = lst.spin_until(lambda: all(lst.diagnostics.get(k) == v for k, v in expected.items())
                           or nodes[0].proc.poll() is not None, timeout_s)
     done = done and nodes[0].proc.poll() is None
