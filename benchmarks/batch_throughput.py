@@ -46,7 +46,9 @@ write_scenario_bag(sc, sys.argv[1])
 
 
 def bags(cache: Path, gyros: int, hours: float, distinct: int | None = None) -> list[Path]:
-    """One bag per gyro, generated once (two child processes at a time). With ``distinct``,
+    """One bag per gyro, generated once.
+
+    One bag per gyro, generated once (two child processes at a time). With ``distinct``,
     only that many are generated and the gyros take them in turn, each through its own
     directory of symbolic links (calibration cost does not depend on the seed; generating is
     what is slow).
@@ -92,7 +94,9 @@ SPIN = 'import time\nt = time.process_time()\nx = 0\nfor i in range(20_000_000):
 
 
 def cores_available() -> float:
-    """How many cores this machine gives now: CPU-bound loops run alone and two at once; the
+    """Cores this machine gives now, measured.
+
+    How many cores this machine gives now: CPU-bound loops run alone and two at once; the
     ratio of their total throughput (2.0 on an idle 2-core machine, ~1 when other jobs take
     the second core).
     """
@@ -111,7 +115,9 @@ def cores_available() -> float:
 
 def run(paths: list[Path], workers: int, pdf: bool,
         ) -> tuple[float, list[tuple[float, float]], list[str]]:
-    """Calibrate the fleet on a new local cluster; wall s, (peak RSS MB, CPU s) per worker,
+    """Calibrate the fleet on a new local cluster.
+
+    Calibrate the fleet on a new local cluster; wall s, (peak RSS MB, CPU s) per worker,
     the reasons of the gyros that failed.
     """
     from dask.distributed import Client, LocalCluster

@@ -38,7 +38,9 @@ K = ARCMIN / 60
 
 @dataclasses.dataclass(frozen=True, slots=True)
 class LeadingRockingGyro(DitheredGyroConfig):
-    """The simulator's gyro with both transverse rockings advanced by ``rocking_lead_rad``
+    """The simulator's gyro with its rockings led against the dither.
+
+    The simulator's gyro with both transverse rockings advanced by ``rocking_lead_rad``
     relative to the dither (π/2: in quadrature).
     """
 

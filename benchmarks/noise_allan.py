@@ -1,4 +1,6 @@
-"""Allan deviation of a day at 1 kHz and beyond: exactness, speed and memory against
+"""Allan deviation of a day at 1 kHz and beyond.
+
+Allan deviation of a day at 1 kHz and beyond: exactness, speed and memory against
 allantools, and the coverage of the EDF error bars.
 
 Run (from the repository root, in the project's venv):

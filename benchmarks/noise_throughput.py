@@ -45,7 +45,9 @@ K_RAD_PER_PULSE = 0.84279066 * 3.141592653589793 / 648_000.0
 
 
 def static_rlg_bag(cache: Path, hours: float) -> Path:
-    """A dithered RLG at rest, 1 kHz /gyro/pulses (the noise_rlg_static scenario run for
+    """A dithered RLG at rest, 1 kHz pulses, generated once.
+
+    A dithered RLG at rest, 1 kHz /gyro/pulses (the noise_rlg_static scenario run for
     ``hours`` without its gap), generated once in a child process.
     """
     path = cache / f'rlg_static_1khz_{hours:g}h'

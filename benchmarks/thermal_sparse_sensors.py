@@ -1,4 +1,6 @@
-"""Thermal compensation on random benches with sparse, unsynchronised temperature sensors
+"""Thermal compensation with sparse, unsynchronised sensors.
+
+Thermal compensation on random benches with sparse, unsynchronised temperature sensors
 (issue 16; METHODS §D.5).
 
 For each of N random gyros (``random_gyro``: random hidden law and time constants) a

@@ -1,4 +1,6 @@
-"""Old import path of :mod:`gyro_calib.bagio` (bag reading, writing and inspection), kept
+"""Old import path of gyro_calib.bagio, kept for compatibility.
+
+Old import path of :mod:`gyro_calib.bagio` (bag reading, writing and inspection), kept
 for compatibility: it only re-exports; new code imports :mod:`gyro_calib.bagio`.
 """
 

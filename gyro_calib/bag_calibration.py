@@ -105,7 +105,9 @@ def resolve_namespace(infos: Sequence[BagInfo], namespace: str | None) -> tuple[
 
 def bag_infos(paths: Sequence[str | Path], namespace: str | None = None
               ) -> tuple[list[BagInfo], str]:
-    """Each bag's info as seen from the namespace read (:func:`resolve_namespace`), and the
+    """Each bag's info as seen from the namespace read.
+
+    Each bag's info as seen from the namespace read (:func:`resolve_namespace`), and the
     note saying the namespace was found in the bags ('' when given or the root).
 
     Raises:
@@ -133,7 +135,9 @@ def merged_topics(infos: Sequence[BagInfo]) -> dict[str, str]:
 
 
 def own_bags(method: Method, infos: Sequence[BagInfo]) -> list[BagInfo]:
-    """The bags that are the method's own: those holding all its revealing topics (with their
+    """The bags that are the method's own.
+
+    The bags that are the method's own: those holding all its revealing topics (with their
     types); when none does (or it has none), those holding any of its topics.
     """
     def holds(info: BagInfo, topic: str) -> bool:
@@ -147,7 +151,9 @@ def own_bags(method: Method, infos: Sequence[BagInfo]) -> list[BagInfo]:
 
 def method_options(options: CalibrationOptions, method: Method,
                    infos: Sequence[BagInfo]) -> CalibrationOptions:
-    """``options`` for one method: the bench settings stored with its own bags (never another
+    """Options for one method, with its bags' bench settings.
+
+    ``options`` for one method: the bench settings stored with its own bags (never another
     method's bags) and the bench settings in its config file.
 
     Raises:
@@ -282,7 +288,9 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
 
 
 def json_document(outcome: BagCalibration, command: str = 'calibrate') -> dict[str, Any]:
-    """The ``--json`` document every command shares (``gyro_calib/schema/result.schema.json``):
+    """The ``--json`` document every command shares.
+
+    The ``--json`` document every command shares (``gyro_calib/schema/result.schema.json``):
     ``{"command", "methods": {NAME: {"results", "missing", "rejections", ...}}, "bags",
     "messages"}``.
     """

@@ -102,7 +102,9 @@ def refuse_unused_flags(args: argparse.Namespace, methods: Sequence[str]) -> Non
 
 
 def check_calibration_file(path: Path | None) -> None:
-    """Load a ``--calibration`` hand-off file before any work, whether or not the methods
+    """Load a ``--calibration`` hand-off file before any work.
+
+    Load a ``--calibration`` hand-off file before any work, whether or not the methods
     run use it, so a wrong file is never silently ignored.
 
     Raises:
@@ -340,7 +342,9 @@ def _run_with_progress(args: argparse.Namespace, show: bool) -> BagCalibration:
 
 
 def summary_text(outcome: BagCalibration) -> str:
-    """The human summary: per method a table of each quantity with its uncertainty and count,
+    """The human summary of a calibration.
+
+    The human summary: per method a table of each quantity with its uncertainty and count,
     then counts, what is missing, and every rejection with its reason.
     """
     lines = []
@@ -399,7 +403,9 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
 
 
 def bag_description(info: Any) -> dict[str, Any]:
-    """One bag for ``info``: span, topics with counts and rates from the header stamps
+    """One bag's description for ``info``.
+
+    One bag for ``info``: span, topics with counts and rates from the header stamps
     (the sample instants; log times only for types without a decodable header).
     """
     from gyro_calib.bagio import header_stamp_spans

@@ -19,7 +19,9 @@ from gyro_calib.errors import ConfigError
 
 
 def read_parameter_file(path: str | Path, *, node_name: str) -> dict[str, Any]:
-    """The settings in a YAML file: a plain mapping, or a ROS 2 parameter file
+    """The settings in a YAML file.
+
+    The settings in a YAML file: a plain mapping, or a ROS 2 parameter file
     (``<node_name>:`` or ``/**:`` → ``ros__parameters:``).
 
     Raises:
@@ -116,7 +118,9 @@ class BenchSetting:
         return f'{what} between {self.low:g} and {self.high:g}{unit}'
 
     def check(self, value: Any, where: str) -> Any:
-        """``value`` as ``kind`` if it is valid, else ConfigError naming the setting, where it
+        """``value`` checked against the setting's kind and range.
+
+        ``value`` as ``kind`` if it is valid, else ConfigError naming the setting, where it
         came from (``where``: a flag, a file, a bag), its unit and its range.
         """
         ok = True
@@ -189,7 +193,9 @@ rclpy's own parameters, as ``ros2 param dump`` writes them, too)."""
 
 def read_method_file(path: str | Path, *, node_name: str,
                      fields: Iterable[str]) -> tuple[dict[str, Any], dict[str, Any]]:
-    """A method's config file (``--config``, a node's ``config_file`` or ``--params-file``
+    """A method's config file: (method settings, bench settings).
+
+    A method's config file (``--config``, a node's ``config_file`` or ``--params-file``
     parameter file): (its method settings, its bench settings).
 
     The file may hold every parameter of the method's node: the settings fields

@@ -253,7 +253,9 @@ class Calibration:
 
     @property
     def missing(self) -> dict[str, str]:
-        """Every key the latest run of a method could measure from its bench but did not (and
+        """Every measurable key not measured, with its reason.
+
+        Every key the latest run of a method could measure from its bench but did not (and
         no earlier run gave), with its reason.
         """
         out: dict[str, str] = {}
@@ -488,7 +490,9 @@ def _numbers(*values: Any) -> bool:
 
 def scale_factor_inconsistency(calibration: Calibration,
                                schema: Mapping[str, HandoffKey] | None = None) -> str:
-    """Why the file is inconsistent ('' if not): a value that rests on a scale factor (a mapping
+    """Why the file is inconsistent ('' if not).
+
+    Why the file is inconsistent ('' if not): a value that rests on a scale factor (a mapping
     stating ``…scale_factor_rad_per_pulse``, e.g. a thermal model) beside the file's K (or K̃)
     that differs from it by more than 100 ppm.
     """
@@ -858,7 +862,9 @@ def write_calibration(path: str | Path, calibration: Calibration,
 def update_calibration(path: str | Path, calibration: Calibration,
                        schema: Mapping[str, HandoffKey] | None = None, *,
                        replace: bool = False, report: list[str] | None = None) -> Path:
-    """Merge ``calibration`` (one run) into the gyro's file at ``path`` (created if absent),
+    """Merge one run's calibration into the gyro's file.
+
+    Merge ``calibration`` (one run) into the gyro's file at ``path`` (created if absent),
     atomically, key by key (:meth:`Calibration.merged_into`): nothing measured is lost
     without a line in ``report`` saying so.
 

@@ -90,7 +90,9 @@ class PulseCalibration:
 
 
 def scale_factor_line(c: PulseCalibration) -> str:
-    """'K = value ± std rad/pulse (from KEY)' for logs: the quantity is always K, with the
+    """'K = value ± std rad/pulse (from KEY)' for logs.
+
+    'K = value ± std rad/pulse (from KEY)' for logs: the quantity is always K, with the
     hand-off key it came from (a model-borne K: the scale factor the thermal_model was
     fitted with, never 'thermal_model = … rad/pulse').
     """
@@ -289,7 +291,9 @@ class PulseRateConverter:
             self._bias = None  # recomputed at the next pulse sample
 
     def thermal_bias(self, t_ns: int) -> tuple[float, float] | Rejection:
-        """The thermal model's bias and its standard uncertainty for a sample at ``t_ns``,
+        """The thermal model's bias and its uncertainty at ``t_ns``.
+
+        The thermal model's bias and its standard uncertainty for a sample at ``t_ns``,
         or a Rejection saying why there is none (rad/s).
         """
         if self._tracker is None:

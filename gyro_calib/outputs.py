@@ -35,7 +35,9 @@ def current_umask() -> int:
 
 
 def new_file_mode(target: Path) -> int:
-    """The mode a file written at ``target`` gets: the mode of the file it replaces, else
+    """The mode a file written at ``target`` gets.
+
+    The mode a file written at ``target`` gets: the mode of the file it replaces, else
     0666 & ~umask (what ``open()`` would create).
     """
     try:
@@ -78,7 +80,9 @@ def check_new_directory(path: str | Path, what: str) -> Path:
 
 
 def check_plot_dir(path: str | Path, what: str = '--plot') -> Path:
-    """The figure directory's absolute path, checked before any work (created later, by
+    """The figure directory's absolute path, checked before any work.
+
+    The figure directory's absolute path, checked before any work (created later, by
     :func:`make_plot_dir`, when the figures are drawn).
 
     Raises:
@@ -129,7 +133,9 @@ def write_text_atomically(path: str | Path, text: str) -> Path:
 
 
 def temporary_beside(target: Path, suffix: str = '') -> Path:
-    """An empty temporary file beside ``target`` with the mode ``target`` will get (for
+    """An empty temporary file beside ``target``.
+
+    An empty temporary file beside ``target`` with the mode ``target`` will get (for
     writers that need a path, e.g. matplotlib); the caller renames or removes it.
     """
     fd, name = tempfile.mkstemp(prefix=f'.{target.stem}.', suffix=suffix or target.suffix,

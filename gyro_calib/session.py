@@ -105,7 +105,9 @@ class CalibrationOptions:
         return (('the bag',  stored),) if isinstance(stored, dict) and stored else ()
 
     def stored(self, key: str) -> tuple[Any, str] | None:
-        """The bench setting ``key`` stored with the method's bags and which bag(s) hold it,
+        """The stored bench setting ``key`` and the bags holding it.
+
+        The bench setting ``key`` stored with the method's bags and which bag(s) hold it,
         or None when none does.
 
         Raises:
@@ -143,7 +145,9 @@ class CalibrationOptions:
         return given_value if given(given_value) else self.bench(key, default)
 
     def setting_with_origin(self, name: str, default: Any = None) -> tuple[Any, str]:
-        """A bench setting and where it came from: flag or node parameter, else the config
+        """A bench setting and where it came from.
+
+        A bench setting and where it came from: flag or node parameter, else the config
         file, else the bench settings stored with the method's bags, else ``default``.
         """
         value = getattr(self, _OPTION_OF.get(name, name), None)
@@ -163,7 +167,9 @@ class CalibrationOptions:
         return self.setting_with_origin(name, default)[0]
 
     def conflicts(self, names: Iterable[str]) -> list[str]:
-        """One line per bench setting given (flag, parameter, config file) that differs from
+        """Bench settings given that differ from the stored ones.
+
+        One line per bench setting given (flag, parameter, config file) that differs from
         the bench settings stored with the bags (or published on /sim/scenario).
         """
         lines = []
@@ -289,7 +295,9 @@ class MethodSession(ABC):
                         needs)
 
     def start_bag(self, index: int, path: Path) -> None:
-        """The next batches come from bag ``index`` at ``path`` (methods whose bags are
+        """The next batches come from bag ``index``.
+
+        The next batches come from bag ``index`` at ``path`` (methods whose bags are
         separate runs: :attr:`gyro_calib.registry.Method.separate_bags`). No-op by default.
         """
 
@@ -302,13 +310,17 @@ class MethodSession(ABC):
         return out
 
     def conditions(self) -> dict[str, Any]:
-        """The bench settings the results rest on (latitude, heading, K used...), by name;
+        """The bench settings the results rest on, by name.
+
+        The bench settings the results rest on (latitude, heading, K used...), by name;
         written with the run in the hand-off file.
         """
         return {}
 
     def not_measurable(self) -> dict[str, str]:
-        """Hand-off keys among :meth:`missing` that no run on such a bench could give (its
+        """Missing keys no run on such a bench could give, with why.
+
+        Hand-off keys among :meth:`missing` that no run on such a bench could give (its
         streams lack what they need), with why; a file is complete without them.
         """
         return {}

@@ -293,7 +293,9 @@ class StateRecord:
         return ResumeSummary(messages, batches, last, dropped, by_topic)
 
     def replay(self, *, batch_messages: int = 50_000) -> Iterator[dict[str, TopicColumns]]:
-        """The recorded batches in their recorded order, consecutive ones merged up to
+        """The recorded batches in their recorded order.
+
+        The recorded batches in their recorded order, consecutive ones merged up to
         ``batch_messages`` samples, as topic → columns (the record's cut tail dropped).
 
         Appending goes on after the replay: the next batch number follows the last read.

@@ -81,7 +81,9 @@ def _replace_path(obj: Any, path: list[str], value: Any) -> Any:
 
 
 def with_overrides(name: str, overrides: dict[str, Any]) -> Any:
-    """Scenario ``name`` with parameters changed: ``seed`` (each seed of the scenario gets
+    """Scenario ``name`` with parameters changed.
+
+    Scenario ``name`` with parameters changed: ``seed`` (each seed of the scenario gets
     ``seed + k``, k its order, so the sources stay independent), ``duration_s``, a sample
     rate (``sample_rate_hz``, or ``output_rate_hz`` where the scenario names it so).
 

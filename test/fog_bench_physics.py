@@ -156,7 +156,9 @@ START_NS = 1_000_000_000_000
 
 
 def programme(bench: FogBench) -> Profile:
-    """Rest, then each rate for its hold (constant-acceleration transitions), then rest for
+    """Rest, the rates, then rest for the ladder.
+
+    Rest, then each rate for its hold (constant-acceleration transitions), then rest for
     the ladder.
     """
     prof = Profile()
@@ -234,7 +236,9 @@ def record(bench: FogBench) -> Recording:
 
 def _injected(bench: FogBench, plateaus_s: list[tuple[float, float, float]],
               t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-    """Output-rate change from the injections at times t: a first-order approach to each new
+    """Output-rate change from the injections at times t, counts/s.
+
+    Output-rate change from the injections at times t: a first-order approach to each new
     balanced level, counts/s.
     """
     out = np.zeros_like(t)

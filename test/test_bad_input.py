@@ -87,7 +87,9 @@ def _s(t_s: float) -> int:
 
 
 def _arrival_order(*stamps: np.ndarray) -> list[tuple[int, int]]:
-    """(stream, index) in the order a subscriber would see them: each stream in array order,
+    """(stream, index) in the order a subscriber would see them.
+
+    (stream, index) in the order a subscriber would see them: each stream in array order,
     the streams interleaved by the newest stamp each has reached.
     """
     keys = np.concatenate([np.maximum.accumulate(t) for t in stamps])

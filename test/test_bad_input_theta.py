@@ -250,7 +250,9 @@ def clean_n2() -> Run:
 # -- 1. too few position-table revolutions ---------------------------------------------------
 def test_station_is_skipped_with_reason_when_fewer_than_n_revolutions_between_marks(
         clean_n2: Run) -> None:
-    """n = 2, but the spoiled station turns 1.5 revolutions each way: its index marks
+    """A spoiled station that fits no 2-revolution window.
+
+    n = 2, but the spoiled station turns 1.5 revolutions each way: its index marks
     are 1 revolution apart, so no 2-revolution window fits.
     """
     run = _run(2, Fault(forward_revolutions=1.5, reverse_revolutions=1.5))
@@ -266,7 +268,9 @@ def test_station_is_skipped_with_reason_when_fewer_than_n_revolutions_between_ma
 
 def test_station_is_skipped_with_reason_when_under_one_revolution_between_marks(
         clean_n1: Run) -> None:
-    """n = 1, but the spoiled station turns half a revolution each way: it passes the
+    """A spoiled station that fits no window at all.
+
+    n = 1, but the spoiled station turns half a revolution each way: it passes the
     index mark once per direction, so no window at all can be cut from it.
     """
     run = _run(1, Fault(forward_revolutions=0.5, reverse_revolutions=0.5))
@@ -296,7 +300,9 @@ def test_station_is_skipped_as_beta_drift_when_rate_table_creeps(clean_n1: Run) 
 # -- 3. position table reverses inside a window -----------------------------------------------
 def test_station_is_skipped_with_reason_when_position_table_reverses_inside_window(
         clean_n1: Run) -> None:
-    """The position table passes its index mark (37°), turns half a revolution more and
+    """A station reversing half a revolution past its index mark.
+
+    The position table passes its index mark (37°), turns half a revolution more and
     reverses; the reverse run is the normal one (2 revolutions). The forward window is
     cut by the reversal; the lone reverse window must not be paired with a window of
     another station, and the later stations must still count.

@@ -1,4 +1,6 @@
-"""The committed scenario bags: reproducible, readable by rosbags and mcap, and calibrated
+"""The committed scenario bags.
+
+The committed scenario bags: reproducible, readable by rosbags and mcap, and calibrated
 offline to their expected results (truth within tolerance, counts, rejection reasons).
 """
 

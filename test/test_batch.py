@@ -247,7 +247,9 @@ def test_against_a_separately_started_dask_scheduler_and_worker(
 
 
 def test_ctrl_c_stops_cleanly_and_keeps_what_finished(tmp_path: Path) -> None:
-    """SIGINT to the whole process group (as Ctrl-C at a terminal): exit 130, one line on
+    """Ctrl-C stops cleanly and keeps what finished.
+
+    SIGINT to the whole process group (as Ctrl-C at a terminal): exit 130, one line on
     stderr (no worker traceback), the gyros that finished are in the fleet files with their
     files, and no process of the run is left.
     """

@@ -33,7 +33,9 @@ def _copy_bag(src: Path, dst: Path, old: str, new: str) -> Path:
 
 def test_noise_takes_k_from_the_bag_it_reads_not_the_first_bag(
         capsys: pytest.CaptureFixture[str]) -> None:
-    """fog_turntable (first, no /gyro/pulses, no stored K) used to hide the K stored with
+    """A bag without K first no longer hides another bag's stored K.
+
+    fog_turntable (first, no /gyro/pulses, no stored K) used to hide the K stored with
     noise_rlg_static: 'needs a scale factor', exit 2.
     """
     assert gyro_calib(['noise', str(BAGS / 'fog_turntable'), str(BAGS / 'noise_rlg_static'),

@@ -94,7 +94,9 @@ def the_one_error_line(run: Run) -> str:
 
 
 def assert_names(line: str, patterns: Sequence[str], path: Path | None = None) -> None:
-    """Every regex of ``patterns`` occurs in ``line`` (case-insensitive) -- outside the
+    """Every regex of ``patterns`` occurs in ``line`` outside ``path``.
+
+    Every regex of ``patterns`` occurs in ``line`` (case-insensitive) -- outside the
     text of ``path``, which the line must name, so that a directory called "truncated"
     cannot pass for the word.
     """
@@ -132,7 +134,9 @@ def _cdr(msgtype: str, t_ns: int, label: str) -> bytes:
 
 def synthetic_bag(path: Path, present: Sequence[str],
                   types: dict[str, str] | None = None, samples: int = 50) -> Path:
-    """A small bag with ``samples`` messages (1 kHz) on each topic of ``present``;
+    """A small bag with ``samples`` messages on each topic of ``present``.
+
+    A small bag with ``samples`` messages (1 kHz) on each topic of ``present``;
     ``types`` overrides the contract type of a topic (the bytes follow the type).
     """
     types = types or {}

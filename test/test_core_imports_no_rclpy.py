@@ -1,4 +1,6 @@
-"""The core (estimators, physics, bags, hand-off, CLI) imports no ROS package: it runs on bag
+"""The core imports no ROS package.
+
+The core (estimators, physics, bags, hand-off, CLI) imports no ROS package: it runs on bag
 files offline. Every module of gyro_calib and sim_nodes is core except the ROS shells:
 ``gyro_calib.nodes.*`` and the simulator nodes ``sim_nodes.**.*_node``.
 

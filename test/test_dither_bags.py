@@ -1,4 +1,6 @@
-"""The committed dither bags through the front door: ``gyro-calib calibrate`` of the Z and Y bags
+"""The committed dither bags through the front door.
+
+The committed dither bags through the front door: ``gyro-calib calibrate`` of the Z and Y bags
 gives a, both components, θ_d and the coning drift within the expectations written beside
 them; one orientation gives its component and says a needs the other; the fault bags give
 their reasons and no number; ``--json``, ``--plot``, ``--out`` and ``info`` say what a bench
@@ -266,7 +268,9 @@ def test_fast_message_template_is_byte_for_byte_rosbags_serialisation(t_ns: int,
 
 
 def test_issue_16_bench_reports_a_with_its_interval_and_rejects_from_it() -> None:
-    """Issue 16's bench (a = 53′, 6.2 rad/s at 8.7 Hz, no rocking, 30 s per orientation): a, both
+    """Issue 16's bench: a with its interval, rejected.
+
+    Issue 16's bench (a = 53′, 6.2 rad/s at 8.7 Hz, no rocking, 30 s per orientation): a, both
     components and the coning drift are reported with their intervals, however wide, and the
     verdict is reject because the interval's lower end is above the 5′ limit.
     """

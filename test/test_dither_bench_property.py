@@ -1,4 +1,6 @@
-"""Property: on any dither bench a user may have, every measured quantity comes out within its
+"""Property: dither results within their stated uncertainty.
+
+Property: on any dither bench a user may have, every measured quantity comes out within its
 stated uncertainty of the truth, or with a named reason; never a traceback (issue 16).
 
 The benches are generated HERE from the physics, sharing nothing with ``sim_nodes``: a gyro

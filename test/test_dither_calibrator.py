@@ -286,7 +286,9 @@ def test_plots_are_written_for_a_calibrator_and_for_bare_results(
 
 
 def test_issue_16_bench_reports_a_with_a_weak_y_component_and_rejects() -> None:
-    """The issue's bench, shortened: a = 53′ with the Y component small (ψ₀ = 100°), table
+    """Issue 16's bench with a weak Y component.
+
+    The issue's bench, shortened: a = 53′ with the Y component small (ψ₀ = 100°), table
     6.2 rad/s at 8.7 Hz, the paper's rocking. Y cannot be told from zero; it is still
     reported with its interval, a and the coning drift are formed, the verdict rejects.
     """

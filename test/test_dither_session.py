@@ -1,4 +1,6 @@
-"""The dither session: two bags, a live stream and whole arrays give the same numbers bit for
+"""The dither session.
+
+The dither session: two bags, a live stream and whole arrays give the same numbers bit for
 bit; K is taken from the flag, the settings or a hand-off file, or its absence is said; bad
 settings are refused naming the field; reports never carry NaN.
 """
@@ -31,7 +33,9 @@ K = SCENARIOS['dither_z'].gyro.scale_factor_rad_per_pulse
 
 def _live_batches(recs: list[DitherRecording], piece_s: float, table_lag: int
                   ) -> list[SampleBatch]:
-    """The recordings one after the other, as a live node hands them over: pieces of
+    """The recordings one after the other, as a live node hands them.
+
+    The recordings one after the other, as a live node hands them over: pieces of
     ``piece_s`` of stamps, the table ``table_lag`` pieces behind the pulses, the frame_id
     codes numbered in order of first appearance over the whole stream.
     """

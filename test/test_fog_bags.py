@@ -1,4 +1,6 @@
-"""The committed FOG scenario bags calibrate offline to their expected results, through the
+"""The committed FOG scenario bags calibrate offline.
+
+The committed FOG scenario bags calibrate offline to their expected results, through the
 shared front door (``calibrate_bags`` and ``gyro-calib calibrate``): truth within the stated
 uncertainties (which may not exceed the predicted floor), counts, rejection reasons.
 """
@@ -168,7 +170,9 @@ def test_cli_info_lists_segments_mapping_plateaus_and_what_limits(capsys) -> Non
 
 
 def test_slow_loop_read_at_a_low_rate_is_measured_only_after_it_settled() -> None:
-    """fog_slow_loop_low_rate (loop τ ≈ 0.074 s at null, 50 Hz output, 4 s plateaus): after
+    """A slow loop read at a low rate is measured after it settles.
+
+    fog_slow_loop_low_rate (loop τ ≈ 0.074 s at null, 50 Hz output, 4 s plateaus): after
     every injection step the calibration finds the transient in the data and measures the
     plateau from where the output had settled (a few τ on), still over most of the plateau;
     the ladder's K and its small-signal K then cover the truth within 2 stated σ.

@@ -273,7 +273,9 @@ def test_fog_results_cover_the_generators_truth_on_any_bench() -> None:
 
 
 def test_two_rates_and_two_plateaus_give_no_nonlinearity_but_say_why() -> None:
-    """A line through two rates (or two injection levels) leaves no residual: the
+    """Two rates and two plateaus give no nonlinearity.
+
+    A line through two rates (or two injection levels) leaves no residual: the
     nonlinearity is not measurable, and the summary says so instead of 'nan ppm'.
     """
     bench = FogBench(k_counts_per_rad=44277.0, bias_rad_s=1e-6, asymmetry=0.0,
@@ -296,7 +298,9 @@ def test_two_rates_and_two_plateaus_give_no_nonlinearity_but_say_why() -> None:
 
 
 def test_a_loop_settling_unseen_in_each_plateau_is_found_over_the_ladder() -> None:
-    """A noisy output (20 counts/√s) and a loop settling with τ = 0.25 s on 2.8 s plateaus of
+    """A loop settling unseen in each plateau is found over all.
+
+    A noisy output (20 counts/√s) and a loop settling with τ = 0.25 s on 2.8 s plateaus of
     ±41…830 counts/s: no single plateau shows its transient, but over the alternating ladder
     the first halves lag; measured over their second halves the small-signal K covers the
     truth (it was 13 % low, 3.5 σ, with the transients in).

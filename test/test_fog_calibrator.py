@@ -1,4 +1,6 @@
-"""The streaming FOG calibrator: chunking never changes a result; bad input gets a reason,
+"""The streaming FOG calibrator.
+
+The streaming FOG calibrator: chunking never changes a result; bad input gets a reason,
 never a wrong number, and what was measured before is kept (issue 10 "Bad input").
 """
 

@@ -1,4 +1,6 @@
-"""The FOG through ``gyro-calib calibrate`` and ``info`` (issue 10 "Bad input"): each bad input
+"""The FOG through ``gyro-calib calibrate`` and ``info``.
+
+The FOG through ``gyro-calib calibrate`` and ``info`` (issue 10 "Bad input"): each bad input
 gets a clear reason, never a wrong number, and what was measured is kept; the summary speaks
 a FOG laboratory's units.
 """
@@ -99,7 +101,9 @@ def test_cli_without_mapping_phase_keeps_turntable_k_and_says_why_no_self_cal(
 def test_cli_without_injection_topic_gives_turntable_results_and_a_line_for_self_cal(
         ladder_without_mapping: FogRecording, tmp_path: Path,
         capsys: pytest.CaptureFixture[str]) -> None:
-    """The ladder ran but /fog/injection was not recorded: the static segment under it has a
+    """An unrecorded injection ladder is rejected, not fitted.
+
+    The ladder ran but /fog/injection was not recorded: the static segment under it has a
     jumping output, which is rejected rather than fitted as a 0 °/s point.
     """
     bag = write_recording_bag(ladder_without_mapping, tmp_path / 'bag', scenario=BENCH,

@@ -1,4 +1,6 @@
-"""The FOG session behind the front door: streamed like a live node it gives the offline
+"""The FOG session behind the front door.
+
+The FOG session behind the front door: streamed like a live node it gives the offline
 numbers once the recording ends; unsteady segments are left out with a reason; the summary
 says what limits the result; the bench streams the same samples in any chunk size.
 """
@@ -57,7 +59,9 @@ def test_session_rejections_are_in_stamp_order_whatever_the_batches() -> None:
 
 
 def test_unsteady_segment_is_left_out_of_the_fits_with_its_reason() -> None:
-    """The ladder ran on the stopped table but its injection messages were not recorded:
+    """An unsteady segment is left out of the fits, with its reason.
+
+    The ladder ran on the stopped table but its injection messages were not recorded:
     the static segment's output jumps from plateau to plateau.
     """
     rec = simulate_mapping_and_self_cal(
@@ -80,7 +84,9 @@ def test_unsteady_segment_is_left_out_of_the_fits_with_its_reason() -> None:
 
 @pytest.mark.parametrize('name', ['fog_turntable', 'fog_mapping_self_cal'])
 def test_steady_segments_are_never_called_unsteady(name: str) -> None:
-    """Even where the integer output beats against the sample rate (−100 °/s at 200 Hz:
+    """Steady segments are never called unsteady.
+
+    Even where the integer output beats against the sample rate (−100 °/s at 200 Hz:
     0.504 count per sample over 383) and inflates a segment's block scatter sevenfold.
     """
     session = calibrate_bags([BAGS / name]).sessions['fog']
@@ -104,7 +110,9 @@ def test_limiting_says_what_to_do(name: str, start: str) -> None:
 def test_limiting_for_a_gyro_whose_injection_gain_is_right(mapping_hold_s: float,
                                                             plateau_s: float,
                                                             words: str) -> None:
-    """No mapping error: the noise limits (short mapping and plateaus), or the front end's
+    """What limits the mapping error is named.
+
+    No mapping error: the noise limits (short mapping and plateaus), or the front end's
     bend inside the linear range shows once mapping and plateaus are long enough (the
     zero-amplitude K agrees). (With 4 s plateaus the bend is 2.9 σ: the plateaus' angle
     random walk is no longer read low by the local fits' smoothing.)

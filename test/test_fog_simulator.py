@@ -1,4 +1,6 @@
-"""The FOG simulator is physics: its output follows from the coil, the loop and the error
+"""The FOG simulator is physics.
+
+The FOG simulator is physics: its output follows from the coil, the loop and the error
 sources alone; its two loop models agree; chunking never changes a sample.
 """
 

@@ -1,4 +1,6 @@
-"""Turntable scale factor of the FOG (IEEE Std 952 style; METHODS §B, §E): K, bias,
+"""Turntable scale factor of the FOG.
+
+Turntable scale factor of the FOG (IEEE Std 952 style; METHODS §B, §E): K, bias,
 nonlinearity, asymmetry and polynomial terms, each within its stated uncertainty.
 """
 

@@ -1,4 +1,6 @@
-"""The INS hand-off file: exact round trip, atomic replacement, whatever was measured and what
+"""The INS hand-off file.
+
+The INS hand-off file: exact round trip, atomic replacement, whatever was measured and what
 is missing, methods merged into one file per gyro, format 1 still read, a clear error for
 every bad file.
 """

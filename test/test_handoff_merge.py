@@ -1,4 +1,6 @@
-"""Updating a hand-off file (issue 17 items 5, 6, 7): nothing measured is lost without a line,
+"""Updating a hand-off file (issue 17 items 5, 6, 7).
+
+Updating a hand-off file (issue 17 items 5, 6, 7): nothing measured is lost without a line,
 each quantity is kept from the run that measured it best, what would make the file
 inconsistent is refused, the gyro id binds, and the file says what each number is.
 """
@@ -76,7 +78,9 @@ def test_theta_then_k_tilde_bench_keeps_k_and_theta_and_says_so(
 
 def test_fog_turntable_then_mapping_keeps_the_turntable_k_and_its_terms(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Issue repro: the 10-rate K (± 0.0058) was replaced by the mapping bag's (± 1.01) and the
+    """A less certain K no longer replaces a better one.
+
+    Issue repro: the 10-rate K (± 0.0058) was replaced by the mapping bag's (± 1.01) and the
     asymmetry and higher-order terms were dropped.
     """
     path = tmp_path / 'h.yaml'
@@ -158,7 +162,9 @@ def _thermal_record(k_rad: float) -> Calibration:
 
 
 def test_a_thermal_model_fitted_with_another_scale_factor_is_refused(tmp_path: Path) -> None:
-    """Issue repro: a file held K = 4.086e-06 beside a model fitted with 1.115e-05 (the
+    """A thermal model fitted with another scale factor is refused.
+
+    Issue repro: a file held K = 4.086e-06 beside a model fitted with 1.115e-05 (the
     imu_corrector side: test/nodes/test_imu_corrector.py).
     """
     path = update_calibration(tmp_path / 'h.yaml', _k_tilde_run(4.086e-6, 1e-13))
@@ -232,7 +238,9 @@ def test_format_2_files_still_load_and_are_rewritten_as_format_3(tmp_path: Path)
 
 
 def test_a_live_run_withdrawing_an_interim_value_removes_it(tmp_path: Path) -> None:
-    """A node rewrites its file as its results evolve: a term it measured on the way and no
+    """A live run withdrawing an interim value removes it.
+
+    A node rewrites its file as its results evolve: a term it measured on the way and no
     longer resolves at the end is not kept from its own interim write (the file equals the
     offline calibration of the same data).
     """
@@ -253,7 +261,9 @@ def test_a_live_run_withdrawing_an_interim_value_removes_it(tmp_path: Path) -> N
 
 def test_a_live_thermal_node_reports_a_bench_conflict_and_writes_the_published_gyro_id(
         tmp_path: Path) -> None:
-    """Issue 17 items 4 and 7: the README's thermal example ran the node with latitude_deg:=45
+    """A node setting differing from the bag's bench is said.
+
+    Issue 17 items 4 and 7: the README's thermal example ran the node with latitude_deg:=45
     against paper_soak's bench at 34.26° without a word, and the live node wrote gyro_id: ''
     while the simulator published A-1. The node (built in-process) gets the /sim/scenario
     message a chamber simulator publishes, then that bench's committed chamber run.

@@ -1,4 +1,6 @@
-"""Property (issue 17 item 5): whatever runs of one gyro are merged into its hand-off file, in
+"""Property: merging runs into a hand-off file loses nothing.
+
+Property (issue 17 item 5): whatever runs of one gyro are merged into its hand-off file, in
 whatever order, nothing measured is lost, each quantity is the most precise measurement of it,
 the keys that go together come from one run, and the file names that run truthfully.
 

@@ -1,4 +1,6 @@
-"""Issue 17 §10 for ``gyro-calib info``: a settings flag no method run uses is refused there
+"""Unused settings flags are refused by ``gyro-calib info``.
+
+Issue 17 §10 for ``gyro-calib info``: a settings flag no method run uses is refused there
 as in ``calibrate`` — also when no method runs at all (it used to be ignored silently) —
 in one line, exit 2, before anything is printed on stdout.
 """

@@ -80,7 +80,9 @@ MODULES = _modules()
 
 
 def imports(module: str) -> list[tuple[str, int]]:
-    """(imported gyro_calib/sim_nodes module, line) of every import in ``module``; a name
+    """Every gyro_calib/sim_nodes import in ``module``, with its line.
+
+    (imported gyro_calib/sim_nodes module, line) of every import in ``module``; a name
     imported from a package is the submodule when there is one.
     """
     path = MODULES[module]
@@ -102,7 +104,9 @@ def imports(module: str) -> list[tuple[str, int]]:
 
 
 def test_the_scan_sees_every_layer() -> None:
-    """The specification covers the tree: every layer holds modules, and the imports read
+    """The specification covers the tree.
+
+    The specification covers the tree: every layer holds modules, and the imports read
     include function-level ones (bag_calibration's, cli's).
     """
     assert {layer(m) for m in MODULES} == set(range(len(LAYERS)))
@@ -121,7 +125,9 @@ def test_no_module_imports_a_higher_layer() -> None:
 
 
 def test_the_bag_layer_flows_one_way_inside() -> None:
-    """Inside gyro_calib.bagio each module imports only the modules before it (no circle
+    """Inside gyro_calib.bagio the imports flow one way.
+
+    Inside gyro_calib.bagio each module imports only the modules before it (no circle
     such as the former bag ↔ mcap_columns), and never the package (which re-exports).
     """
     assert sorted(BAGIO_ORDER) == sorted(
@@ -135,7 +141,9 @@ def test_the_bag_layer_flows_one_way_inside() -> None:
 
 
 def test_old_bag_paths_only_re_export() -> None:
-    """gyro_calib.bag, .mcap_columns and .table_input hold a docstring and imports from the
+    """The old bag paths only re-export.
+
+    gyro_calib.bag, .mcap_columns and .table_input hold a docstring and imports from the
     bag layer, nothing else (kept for code written against the old paths).
     """
     for module, target in SHIMS.items():
@@ -147,7 +155,9 @@ def test_old_bag_paths_only_re_export() -> None:
 
 
 def test_registry_topics_are_the_bag_layers_contract() -> None:
-    """The bag layer's topic → type table (its default when no topics are handed down) is
+    """The registry's topics are the bag layer's contract.
+
+    The bag layer's topic → type table (its default when no topics are handed down) is
     exactly what the registered methods read, in the same order.
     """
     from gyro_calib.bagio.messages import CONTRACT_TYPES
@@ -158,7 +168,9 @@ def test_registry_topics_are_the_bag_layers_contract() -> None:
 
 
 def test_the_hand_off_schema_is_handed_down(monkeypatch: pytest.MonkeyPatch) -> None:
-    """gyro_calib.handoff never imports the registry: its schema is a parameter, defaulting
+    """The hand-off schema is handed down.
+
+    gyro_calib.handoff never imports the registry: its schema is a parameter, defaulting
     to the one the registry installs; with none installed, a call without one says what to
     pass.
     """

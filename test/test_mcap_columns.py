@@ -203,7 +203,9 @@ def write_test_bag(path: Path, messages: list[tuple[str, int, bytes]],
 
 def rewrite_mcap(bag: Path, out: Path, *, reorder: random.Random | None = None,
                  **writer: Any) -> Path:
-    """Copy of ``bag`` whose .mcap the mcap library's Writer rewrote (same channels and
+    """Copy of ``bag`` rewritten by the mcap library's Writer.
+
+    Copy of ``bag`` whose .mcap the mcap library's Writer rewrote (same channels and
     messages; ``writer`` chooses chunking, compression, indexes, statistics, CRCs);
     ``reorder`` shuffles the messages in windows of 40, so chunks overlap in log time.
     """
@@ -276,7 +278,9 @@ IMU_TYPES = {'/imu/data': IMU, '/cavity/temperature': TEMPERATURE,
 
 
 def imu_bag(path: Path, cdr: Cdr, *, seconds: float = 2.0, seed: int = 3) -> Path:
-    """400 Hz Imu (special floats sprinkled in), 3 temperature sensors on one topic at 10 Hz
+    """An Imu, temperature and zero-index bag.
+
+    400 Hz Imu (special floats sprinkled in), 3 temperature sensors on one topic at 10 Hz
     each, vibration-table zero-index events with frame_id z or y.
     """
     rng = np.random.default_rng(np.random.SeedSequence(seed))
@@ -335,7 +339,9 @@ ODD_TYPES = {'/gyro/pulses': JOINT_STATE, '/vibration_table/zero_index': HEADER}
 
 
 def odd_layout_bag(path: Path, cdr: Cdr) -> tuple[Path, int]:
-    """Pulses of the contract layout with, mid-stream, messages of other layouts; returns the
+    """Pulses with messages of other layouts mid-stream.
+
+    Pulses of the contract layout with, mid-stream, messages of other layouts; returns the
     bag and how many of them no fixed layout covers (rosbags must decode those).
     """
     def pulse(t: int, **kw: Any) -> bytes:

@@ -40,7 +40,9 @@ TINY_NS = 330_000_000
 
 def truncated_copy(out: Path, *, ending_before_ns: int, compression: str = 'NONE',
                    chunk_size: int = 8192) -> tuple[Path, bytes, list[int]]:
-    """The committed ``theta_four_position`` bag's .mcap cut to its messages logged before
+    """The theta_four_position bag cut and rewritten in chunks.
+
+    The committed ``theta_four_position`` bag's .mcap cut to its messages logged before
     ``ending_before_ns``, written by the mcap library in chunks of ``chunk_size`` bytes
     without CRCs, as a lone .mcap file (no metadata.yaml to parse: both readers open it in
     milliseconds); returns its path, bytes and the file offset of every Message record
@@ -163,7 +165,9 @@ def mutate(data: bytes, messages: list[int], mutations: list[tuple[Any, ...]]) -
 def check_mutant(bag: Path, data: bytes, messages: list[int],
                  mutations: list[tuple[Any, ...]],
                  note: Callable[[str], object] = event) -> None:
-    """The mutant's columns are rosbags' columns, or it raises a BagError; ``note`` hears
+    """The mutant decodes as rosbags does, or raises a BagError.
+
+    The mutant's columns are rosbags' columns, or it raises a BagError; ``note`` hears
     which.
     """
     mutant = mutate(data, messages, mutations)
@@ -214,7 +218,9 @@ def test_the_undamaged_copies_decode_to_rosbags_columns(
                                    '/position_table/joint_states', '/rate_table/zero_index'])
 def test_every_byte_of_a_message_flipped_gives_rosbags_columns_or_a_named_error(
         tmp_path: Path, topic: str) -> None:
-    """Exhaustive where the fuzz is sparse: each byte of one Message record of each layout
+    """Each byte of one Message record of each layout, mutated.
+
+    Exhaustive where the fuzz is sparse: each byte of one Message record of each layout
     (head and CDR payload; a record that does not fix its chunk's layout), flipped in its
     lowest bit and in all bits, in a one-chunk copy.
     """

@@ -157,7 +157,9 @@ def test_every_bare_equation_in_a_method_package_resolves(where: str, section: s
 
 
 def test_every_file_and_name_the_document_points_to_exists() -> None:
-    """A path or a setting/function name in backticks is a pointer into the code: it must
+    """Every file and name the document points to exists.
+
+    A path or a setting/function name in backticks is a pointer into the code: it must
     not outlive a rename.
     """
     text = DOC.read_text(encoding='utf-8')

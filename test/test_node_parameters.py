@@ -58,7 +58,9 @@ def _node_factory(name: str) -> Callable[[], Node]:
 
 
 def _start(name: str, params: dict[str, Any]) -> Node:
-    """Construct the node with ``params`` given as ``-p name:=value`` (as typed by a user),
+    """Construct the node with ``params`` as a user types them.
+
+    Construct the node with ``params`` given as ``-p name:=value`` (as typed by a user),
     in a fresh working directory (a node's state record binds its directory to its settings).
     """
     os.chdir(tempfile.mkdtemp(dir=os.getcwd()))
@@ -96,7 +98,9 @@ def _paths(name: str, tmp_path: Path, tag: str) -> dict[str, Any]:
 
 @pytest.fixture(autouse=True)
 def _in_scratch_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Nodes write their default outputs (hand-off file, state records) in the working
+    """Run the nodes in a scratch working directory.
+
+    Nodes write their default outputs (hand-off file, state records) in the working
     directory: here, a scratch one.
     """
     monkeypatch.chdir(tmp_path)

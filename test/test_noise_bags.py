@@ -1,4 +1,6 @@
-"""The committed noise bags (noise_imu_static, noise_rlg_static) calibrated offline through the
+"""The committed noise bags calibrated offline.
+
+The committed noise bags (noise_imu_static, noise_rlg_static) calibrated offline through the
 front door: terms within their stated uncertainties of the generators' truth, the ordering
 and gap counts, Kalibr keys and units, the JSON shape, the figure; and the messages' bytes
 equal rosbags' own serialisation. (Regeneration and size: test/test_bags.py.)
@@ -154,7 +156,9 @@ def test_message_templates_are_byte_for_byte_rosbags_serialisation() -> None:
 
 
 def test_imu_bag_columns_are_bit_identical_to_rosbags_decoding() -> None:
-    """The Imu topic is no contract topic (test_mcap_columns.py checks those): a window of
+    """The Imu topic decodes bit-identically to rosbags.
+
+    The Imu topic is no contract topic (test_mcap_columns.py checks those): a window of
     it decoded both ways, values compared as bits.
     """
     from gyro_calib.bagio.columns import iter_column_batches
@@ -180,7 +184,9 @@ def test_imu_bag_columns_are_bit_identical_to_rosbags_decoding() -> None:
 
 def test_imu_with_its_own_decimation_filter_gives_b_with_its_tau_range(
         sessions: dict[str, NoiseSession]) -> None:
-    """noise_imu_band_limited: the IMU's 20 Hz low-pass bends the short-τ curve; the fit leaves
+    """noise_imu_band_limited: the bent short-τ range is left out.
+
+    noise_imu_band_limited: the IMU's 20 Hz low-pass bends the short-τ curve; the fit leaves
     those τ out (and says why), and B of every gyro axis comes out with the τ range it rests
     on, above the cut and inside the fitted range.
     """

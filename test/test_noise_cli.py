@@ -1,4 +1,6 @@
-"""``gyro-calib noise`` through main(): the bad-input list of issue 11, each a one-line error
+"""``gyro-calib noise`` bad input through main().
+
+``gyro-calib noise`` through main(): the bad-input list of issue 11, each a one-line error
 with exit status 2 and nothing written or overwritten; and what a good run writes.
 """
 
@@ -88,7 +90,9 @@ def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
 
 @pytest.fixture
 def outputs(tmp_path: Path) -> dict[str, Path]:
-    """Files that exist before the run: a failing run must leave them as they are (the
+    """Files that exist before the run.
+
+    Files that exist before the run: a failing run must leave them as they are (the
     figure is noise_adev.png in the --plot directory).
     """
     (tmp_path / 'figs').mkdir()

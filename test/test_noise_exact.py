@@ -1,4 +1,6 @@
-"""Specification of the exact deviations: allantools and the published NBS-14 values at every
+"""Specification of the exact deviations.
+
+Specification of the exact deviations: allantools and the published NBS-14 values at every
 τ, long τ with few clusters included, with the phase in the scratch file and in memory.
 """
 
@@ -19,7 +21,9 @@ REFERENCE = {'adev': allantools.oadev, 'mdev': allantools.mdev, 'hdev': allantoo
 
 
 def _nbs14_1000() -> np.ndarray:
-    """The NBS-14 1000-point fractional-frequency set (NIST SP 1065 §12.3): the minimal
+    """The NBS-14 1000-point fractional-frequency set.
+
+    The NBS-14 1000-point fractional-frequency set (NIST SP 1065 §12.3): the minimal
     standard generator n_{i+1} = 16807·n_i mod (2³¹ − 1), n_0 = 1234567890, y = n/(2³¹ − 1).
     """
     n = [1234567890]
@@ -38,7 +42,9 @@ def _devs(store: ExactDeviations) -> dict[str, np.ndarray]:
 
 
 def test_nbs14_1000_point_set_gives_the_published_deviations() -> None:
-    """SP 1065 Table 31 (τ = 1, 10, 100 s): OADEV, MDEV, TOTDEV, OHDEV to their 7 digits,
+    """The NBS-14 set gives the published deviations.
+
+    SP 1065 Table 31 (τ = 1, 10, 100 s): OADEV, MDEV, TOTDEV, OHDEV to their 7 digits,
     through the whole calibrator (a FOG output stream, 1 count/rad, 1 Hz).
     """
     y = _nbs14_1000()
@@ -80,7 +86,9 @@ def _record(n: int, seed: int) -> np.ndarray:
 @pytest.mark.parametrize('memory_points', [1 << 22, 4096])
 def test_every_deviation_equals_allantools_at_every_tau_including_few_clusters(
         memory_points: int) -> None:
-    """Long τ (m ≥ 1024, down to 4 clusters) exactly, with the phase in memory and in the
+    """Long τ exactly, in memory and in the scratch file.
+
+    Long τ (m ≥ 1024, down to 4 clusters) exactly, with the phase in memory and in the
     scratch file, fed in uneven chunks.
     """
     x = _record(60_000, 4)
@@ -154,7 +162,9 @@ def test_taus_setting_accepts_a_list_and_refuses_nonsense() -> None:
 
 
 def test_a_snapshot_copy_shares_the_scratch_file_without_disturbing_the_stream() -> None:
-    """The live node's refresh deep-copies the calibrator and flushes the copy: the copy
+    """A snapshot copy shares the scratch file without disturbing it.
+
+    The live node's refresh deep-copies the calibrator and flushes the copy: the copy
     must read the original's file, and its own new points must not reach that file.
     """
     import copy

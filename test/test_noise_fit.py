@@ -156,7 +156,9 @@ def test_model_misfit_scales_the_uncertainty_up() -> None:
 
 
 def test_band_limited_short_tau_is_found_from_the_data_and_left_out() -> None:
-    """The same filtered record with defaults: the bent short-τ range is left out by itself,
+    """A band-limited short-τ range is found from the data.
+
+    The same filtered record with defaults: the bent short-τ range is left out by itself,
     the note says from where and why, and N is right within its uncertainty.
     """
     rng = np.random.default_rng(7)

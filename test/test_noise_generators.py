@@ -164,7 +164,9 @@ def test_fog_output_is_angle_times_scale_factor() -> None:
 
 
 def test_imu_decimation_filter_bends_short_tau_keeps_n_and_is_chunk_independent() -> None:
-    """A MEMS IMU's own low-pass (core at D× the output rate, Butterworth at f_c, every D-th
+    """An IMU's decimation filter bends short τ and keeps N.
+
+    A MEMS IMU's own low-pass (core at D× the output rate, Butterworth at f_c, every D-th
     sample out): the per-sample scatter falls well below N/√τ0 (white noise band-limited to
     f_c ≪ f_s/2), the 1 s means keep N/√τ (DC gain 1), and chunking changes no bit.
     """

@@ -183,7 +183,9 @@ B_KEY, R_KEY = 'bias_instability_rad_s', 'rate_ramp_rad_per_s2'
 
 
 def _flicker_rate(rng: np.random.Generator, n: int, tau0: float, b: float) -> np.ndarray:
-    """Flicker rate noise of bias instability B (IEEE 952 C.1.3: two-sided PSD B²/(2πf),
+    """Flicker rate noise of bias instability B.
+
+    Flicker rate noise of bias instability B (IEEE 952 C.1.3: two-sided PSD B²/(2πf),
     AVAR → (2 ln 2/π)·B²), shaped in the frequency domain from white noise over 4n samples
     (the first n kept, so the periodic wrap stays out of the record).
     """
@@ -199,7 +201,9 @@ def _flicker_rate(rng: np.random.Generator, n: int, tau0: float, b: float) -> np
 
 def _low_pass(rng: np.random.Generator, white: np.ndarray, order: int,
               cutoff_fraction: float) -> np.ndarray:
-    """White rate noise through a Butterworth low-pass (a MEMS decimation filter), unit DC
+    """White rate noise through a Butterworth low-pass.
+
+    White rate noise through a Butterworth low-pass (a MEMS decimation filter), unit DC
     gain so the white level below the cutoff — the ARW N — is unchanged.
     """
     from scipy.signal import butter, sosfilt
@@ -211,7 +215,9 @@ def _low_pass(rng: np.random.Generator, white: np.ndarray, order: int,
 
 @st.composite
 def ieee952_records(draw: st.DrawFn) -> dict[str, object]:
-    """One IMU record: gyro_x a sum of IEEE 952 processes with known coefficients, white
+    """One IMU record of IEEE 952 processes.
+
+    One IMU record: gyro_x a sum of IEEE 952 processes with known coefficients, white
     noise possibly through a 1st–4th order low-pass at 0.1–0.45·fs, quantised; gaps,
     stamp jitter and duplicate messages; 10² to 10⁵ samples (10⁷ with GYRO_CALIB_STRESS=1).
     """
@@ -273,7 +279,9 @@ def ieee952_records(draw: st.DrawFn) -> dict[str, object]:
 
 
 def _check_terms(cal: NoiseCalibrator, truth: dict[str, float], flicker: bool) -> list[str]:
-    """Each reported term within 3 standard uncertainties of the truth (the flicker
+    """Each reported term within 3 standard uncertainties of the truth.
+
+    Each reported term within 3 standard uncertainties of the truth (the flicker
     generator's own ±5 % allowance added for B), every other term absent with a reason.
     """
     bad = []

@@ -1,4 +1,6 @@
-"""Specification of the noise method behind the front door: NoiseSession's inputs, flattened
+"""Specification of the noise method behind the front door.
+
+Specification of the noise method behind the front door: NoiseSession's inputs, flattened
 hand-off keys, snapshots (running results), JSON shape, summary, scale factors, input choice.
 
 The records are written here from the physics (white rate noise, integrated to pulses for

@@ -1,4 +1,6 @@
-"""Progress at a glance (issue 19 part 4): what is measured, what is still needed and how much
+"""Progress at a glance (issue 19 part 4).
+
+Progress at a glance (issue 19 part 4): what is measured, what is still needed and how much
 more data, and a level — what every calibration node puts on /diagnostics.
 """
 

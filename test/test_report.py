@@ -350,7 +350,9 @@ def test_spec_file_loads_with_units_and_rule(tmp_path: Path) -> None:
 
 
 def test_report_and_batch_are_front_doors_nothing_below_imports_them() -> None:
-    """Data flows one way: bag I/O → sessions → methods → registry → front doors. Only the CLI
+    """Report and batch are front doors: nothing below imports them.
+
+    Data flows one way: bag I/O → sessions → methods → registry → front doors. Only the CLI
     (a front door too) and the two packages themselves import gyro_calib.report / .batch, and
     the certificate never imports the fleet.
     """

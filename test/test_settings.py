@@ -1,4 +1,6 @@
-"""Bench settings (issue 17 items 1, 2, 10): each method takes the settings stored with its own
+"""Bench settings (issue 17 items 1, 2, 10).
+
+Bench settings (issue 17 items 1, 2, 10): each method takes the settings stored with its own
 bags, bags that disagree are refused naming the flag that decides, and every bench setting —
 flag, ``--config`` field, node parameter, stored bench setting — is range-checked by the same
 code, its unit and range in the message.
@@ -34,7 +36,9 @@ physics: |φ| ≤ 90°, a heading or azimuth within a turn each way, n ≥ 1, K 
 
 
 def restamped_copy(bag: Path, where: Path, **bench: Any) -> Path:
-    """A copy of ``bag`` (its MCAP linked, not copied) whose stored bench settings are
+    """A copy of ``bag`` with changed bench settings.
+
+    A copy of ``bag`` (its MCAP linked, not copied) whose stored bench settings are
     changed to ``bench``.
     """
     where.mkdir(parents=True)
@@ -58,7 +62,9 @@ def _bias(outcome: Any, method: str, key: str) -> float:
 
 
 def test_each_method_takes_the_bench_settings_stored_with_its_own_bags() -> None:
-    """Issue repro: k_tilde_bench (28.2°) beside fog_turntable (45.75°) changed the FOG bias
+    """Each method takes the bench settings stored with its bags.
+
+    Issue repro: k_tilde_bench (28.2°) beside fog_turntable (45.75°) changed the FOG bias
     from 0.4965 to 4.1627 °/h; in the other order it spoiled the RBRLG bias.
     """
     alone_fog = calibrate_bags([BAGS / 'fog_turntable'])
@@ -158,7 +164,9 @@ def test_every_method_declares_only_known_bench_settings() -> None:
 def test_a_config_file_takes_every_parameter_of_the_node(tmp_path: Path,
                                                          capsys: pytest.CaptureFixture[str],
                                                          ) -> None:
-    """Issue repro: ``latitude_deg`` in a ``--config`` file was an "unknown field" (RBRLG).
+    """``latitude_deg`` in a ``--config`` file is accepted.
+
+    Issue repro: ``latitude_deg`` in a ``--config`` file was an "unknown field" (RBRLG).
     The file may be the node's ROS 2 parameter file with its bench and node-only parameters.
     """
     config = tmp_path / 'rbrlg.yaml'
@@ -192,7 +200,9 @@ def test_an_unknown_config_field_is_still_refused_listing_the_fields(tmp_path: P
 
 
 def test_conventions_of_heading_and_azimuth_are_stated() -> None:
-    """Issue 17 item 15: --heading-deg 'from East' beside --sense-axis-azimuth-deg 'from
+    """The conventions of heading and azimuth are stated.
+
+    Issue 17 item 15: --heading-deg 'from East' beside --sense-axis-azimuth-deg 'from
     North'; both now state their zero, their positive sense and how they relate.
     """
     heading = BENCH_SETTINGS['heading_deg'].description
@@ -220,7 +230,9 @@ def test_conventions_of_heading_and_azimuth_are_stated() -> None:
 ])
 def test_every_methods_settings_are_range_checked_by_the_same_code(
         method: str, field: str, value: float, message: str) -> None:
-    """Issue 17 item 2: one check (config.check_ranges) for every method's settings, the value
+    """One range check for every method's settings.
+
+    Issue 17 item 2: one check (config.check_ranges) for every method's settings, the value
     with its unit; the bench settings among them checked as flags and parameters are.
     """
     with pytest.raises(ConfigError) as err:
@@ -259,7 +271,9 @@ def _declared_parameters(method: str) -> dict[str, Any]:
 
 @pytest.mark.parametrize('method', sorted(NODES))
 def test_a_nodes_own_parameter_file_is_a_valid_config(method: str, tmp_path: Path) -> None:
-    """Issue 17 item 10: one parameter schema — every parameter a node declares (as written by
+    """A node's own parameter file is a valid config.
+
+    Issue 17 item 10: one parameter schema — every parameter a node declares (as written by
     ``ros2 param dump``) is accepted by ``--config`` / ``config_file``.
     """
     declared = _declared_parameters(method)

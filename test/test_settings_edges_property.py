@@ -104,7 +104,9 @@ def test_nan_is_refused_unless_it_means_not_given(cls: type) -> None:
 @pytest.mark.parametrize('value', ['0.0', '.nan', '-1.0'])
 def test_cli_refuses_a_zero_averaging_interval_in_one_line(
         value: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """The reported case end to end: `--config` with averaging_interval_s 0 (or NaN) was a
+    """A zero or NaN averaging interval is one line, exit 2.
+
+    The reported case end to end: `--config` with averaging_interval_s 0 (or NaN) was a
     ZeroDivisionError traceback; now one line naming the field, exit 2, nothing on stdout.
     """
     config = tmp_path / 'thermal.yaml'

@@ -1,4 +1,6 @@
-"""The state directory: a node killed at any instant resumes to the numbers of an
+"""The state directory resumes bit for bit.
+
+The state directory: a node killed at any instant resumes to the numbers of an
 uninterrupted run, bit for bit (issue 19, part 1).
 
 A live node appends every batch to its :class:`~gyro_calib.state_record.StateRecord` before

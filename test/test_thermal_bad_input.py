@@ -281,7 +281,9 @@ def test_live_tracker_refuses_a_stuck_cavity_sensor(model: ThermalBiasModel) -> 
 
 
 def test_temperatures_sparser_than_the_averaging_interval_are_interpolated() -> None:
-    """Sensors read every 2 s (all together) still give a model on 1 s intervals, close to
+    """Temperatures sparser than the averaging interval are used.
+
+    Sensors read every 2 s (all together) still give a model on 1 s intervals, close to
     the one from the same run read every second.
     """
     sparse, dense = _ramp(temperature_rate_hz=0.5), _ramp()

@@ -1,4 +1,6 @@
-"""The committed thermal bags through the front door: ``gyro-calib calibrate --method thermal``
+"""The committed thermal bags through the front door.
+
+The committed thermal bags through the front door: ``gyro-calib calibrate --method thermal``
 writes the model, ``gyro-calib compensate`` proves it on a run it never saw, and bad input
 gets a clear reason, no number, and nothing overwritten.
 """
@@ -276,7 +278,9 @@ def test_a_sensor_read_too_sparsely_is_refused_in_one_line_with_exit_2(
 
 
 def test_figures_of_a_bench_with_a_stuck_sensor_are_drawn(tmp_path: Path) -> None:
-    """The model is NaN where the sensor stuck: raw and compensated means are drawn on their
+    """Figures of a bench with a stuck sensor are drawn.
+
+    The model is NaN where the sensor stuck: raw and compensated means are drawn on their
     own blocks (the figure crashed on 123 against 87 blocks after a finished calibration).
     """
     from gyro_calib.cli import main as gyro_calib_main
@@ -301,7 +305,9 @@ def _copy_bag(src: Path, dst: Path, **bench: Any) -> Path:
 
 def test_compensate_takes_the_bench_of_the_chamber_runs_bags_not_the_first_bag(
         model_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Issue 17 §1 for compensate: a bag of another method given first lent its stored bench
+    """compensate uses the chamber run's own bench settings.
+
+    Issue 17 §1 for compensate: a bag of another method given first lent its stored bench
     (K 4.09e-06 of noise_rlg_static) to the chamber run, which was then refused as fitted with
     another K. Such a bag is now refused in one line naming it; the chamber run alone reads
     its own stored gyro id and K (accepted, the model's own).

@@ -1,4 +1,6 @@
-"""Property: on any chamber bench a user may have, the thermal calibration gives a model whose
+"""Property: the thermal model covers the hidden law.
+
+Property: on any chamber bench a user may have, the thermal calibration gives a model whose
 bias is the generator's hidden law within its stated uncertainty, or one line saying why not;
 never a traceback (issue 16).
 
@@ -97,7 +99,9 @@ def _settings(**kw: object) -> ThermalSettings:
 
 
 def _z_on_the_trajectory(bench: Bench, tr, variables, cal) -> np.ndarray:  # type: ignore[no-untyped-def]  # noqa: ANN001
-    """(model − law)/σ_model every 300 s along the true trajectory, where the fit used the
+    """(model − law)/σ_model along the true trajectory.
+
+    (model − law)/σ_model every 300 s along the true trajectory, where the fit used the
     data and H lies in the calibrated range (model and law at the same true H, Ḣ, ΔT).
     """
     model, rep = cal.model(), cal.report
@@ -119,7 +123,9 @@ def _with_true_terms(bench: Bench, record: tuple) -> np.ndarray:  # type: ignore
 
 
 def _assert_coverage(zs: list[np.ndarray]) -> None:
-    """±1σ in 60–80 %, ±2σ ≥ 90 % of the pooled points, each bound widened by twice the
+    """The pooled z cover ±1σ and ±2σ as they should.
+
+    ±1σ in 60–80 %, ±2σ ≥ 90 % of the pooled points, each bound widened by twice the
     binomial standard deviation for as many independent trials as benches (the points of
     one run share its model: a bench counts once).
     """
@@ -155,7 +161,9 @@ def test_any_bench_gives_the_hidden_law_within_its_uncertainty_or_one_line_why_n
 
 
 def _check_bench(bench: Bench) -> np.ndarray | None:
-    """One example; returns (model − law)/σ of the default model along the trajectory, or
+    """One example: (model − law)/σ, or None when refused.
+
+    One example; returns (model − law)/σ of the default model along the trajectory, or
     None when the calibration was refused (for a named sensor fault).
     """
     record = _record(bench)
@@ -204,7 +212,9 @@ def _fixed_bench(i: int) -> Bench:
 
 
 def test_default_model_uncertainty_covers_the_hidden_law_over_benches() -> None:
-    """Default settings (stepwise selection, held-out check) over 24 benches (72 with
+    """The default model's uncertainty covers the hidden law.
+
+    Default settings (stepwise selection, held-out check) over 24 benches (72 with
     GYRO_CALIB_STRESS=1): the covariance and the model error u_m together cover the law
     (:func:`_assert_coverage`; measured 66 % / 90 % on these 24, 70 % / 91 % on 72;
     the covariance alone: 52 % / 84 %).
@@ -219,7 +229,9 @@ def test_default_model_uncertainty_covers_the_hidden_law_over_benches() -> None:
 
 
 def test_held_out_check_keeps_h_beside_its_higher_powers_on_ramp_only_benches() -> None:
-    """Two ramp-only benches where the held-out check used to drop H and keep H², H³
+    """The held-out check keeps H beside its higher powers.
+
+    Two ramp-only benches where the held-out check used to drop H and keep H², H³
     (and Ḣ, Ḣ², dTab): a curve pinned flat at the centre of the range. H stays now, and
     the model covers the law along the run.
     """
@@ -236,7 +248,9 @@ def test_held_out_check_keeps_h_beside_its_higher_powers_on_ramp_only_benches() 
 
 
 def test_stated_uncertainty_covers_the_hidden_law_over_benches() -> None:
-    """Coverage over 12 benches (soaks, ramps, mixes; hot and cold; sparse sensors with LSB,
+    """The stated uncertainty covers the hidden law over benches.
+
+    Coverage over 12 benches (soaks, ramps, mixes; hot and cold; sparse sensors with LSB,
     drop-outs, stuck sensors): the law inside ±1σ about 68 %, ±2σ about 95 % of the time
     (the points of one run are correlated: bounds allow for ~12 independent runs).
     """
@@ -250,7 +264,9 @@ def test_stated_uncertainty_covers_the_hidden_law_over_benches() -> None:
 
 
 def test_the_generator_is_the_physics_it_claims() -> None:
-    """A settled gyro in a soak: H = air + rises, Ḣ = 0, gradients = the rises' difference;
+    """The generator is the physics it claims.
+
+    A settled gyro in a soak: H = air + rises, Ḣ = 0, gradients = the rises' difference;
     the law is evaluated on those.
     """
     bench = draw_bench(3, kind='soaks', hot=False, pulse_rate_hz=2.0, sensor_rate_hz=1.0,

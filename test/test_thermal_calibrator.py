@@ -1,4 +1,6 @@
-"""The streaming ThermalCalibrator: paper-like runs, chunking invariance, bounded memory,
+"""The streaming ThermalCalibrator.
+
+The streaming ThermalCalibrator: paper-like runs, chunking invariance, bounded memory,
 results and hand-off.
 """
 
@@ -52,7 +54,9 @@ def short_ramp() -> ThermalRecording:
 
 
 def test_paper_run_recovers_the_quartic_of_gyro_a1(paper_cal: ThermalCalibrator) -> None:
-    """A-1's hidden law is the quartic through the paper's points plus a small Ḣ term and
+    """The paper run recovers the quartic of gyro A-1.
+
+    A-1's hidden law is the quartic through the paper's points plus a small Ḣ term and
     a periodic term no model holds: stepwise keeps every power of H up to 4.
     """
     rep = paper_cal.report
@@ -67,7 +71,9 @@ def test_paper_run_recovers_the_quartic_of_gyro_a1(paper_cal: ThermalCalibrator)
 
 def test_paper_run_model_predicts_the_true_static_law(paper_cal: ThermalCalibrator,
                                                       paper_run: ThermalRecording) -> None:
-    """At settled temperatures the model bias is the law within its stated uncertainty
+    """At settled temperatures the model bias is the law.
+
+    At settled temperatures the model bias is the law within its stated uncertainty
     plus the periodic term (0.002 °/h) and bias instability averaged over the run.
     """
     model = paper_cal.model()
@@ -185,7 +191,9 @@ def test_model_dict_round_trips_exactly(paper_cal: ThermalCalibrator) -> None:
 
 
 def test_model_uncertainty_grows_outside_the_data(paper_cal: ThermalCalibrator) -> None:
-    """The coefficient part x·C·xᵀ grows beyond the data; the model error u_m (METHODS
+    """The model uncertainty grows outside the data.
+
+    The coefficient part x·C·xᵀ grows beyond the data; the model error u_m (METHODS
     (17g)) is the same everywhere, in quadrature.
     """
     model = paper_cal.model()

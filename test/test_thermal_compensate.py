@@ -1,4 +1,6 @@
-"""Compensation on a run the model never saw (METHODS §D.4, §E): bias stability raw and
+"""Compensation on a run the model never saw.
+
+Compensation on a run the model never saw (METHODS §D.4, §E): bias stability raw and
 compensated on the unfiltered rate, the noise floor, the mean rate, Allan deviation, and
 the live tracker.
 """
@@ -51,7 +53,9 @@ def _compensate(model: ThermalBiasModel, rec: ThermalRecording, **kw):  # noqa: 
 
 def test_validation_run_bias_stability_is_at_least_77_percent_better(
         model: ThermalBiasModel, validation: ThermalRecording) -> None:
-    """The paper's target, on a run with other set points and another seed, computed on
+    """The paper's target on an unseen run.
+
+    The paper's target, on a run with other set points and another seed, computed on
     the unfiltered rate: raw − model reaches the ARW + quantisation floor.
     """
     rep = _compensate(model, validation)
@@ -83,7 +87,9 @@ def test_mean_compensated_rate_is_the_earth_rate_along_the_axis(
 
 
 def test_noise_floor_equals_arw_and_quantisation_on_a_static_run() -> None:
-    """No thermal change and no bias instability: the raw bias stability *is* the floor;
+    """The noise floor equals ARW and quantisation on a static run.
+
+    No thermal change and no bias instability: the raw bias stability *is* the floor;
     the floor estimated from the record matches it and the theory N²/T + K²/(6T²).
     """
     gyro = ThermalGyroConfig(law=ThermalBiasLaw(bias_deg_h=0.3), bias_instability_deg_h=0.0,
@@ -159,7 +165,9 @@ def test_live_tracker_subtracts_what_the_offline_compensation_subtracts(
 
 def test_live_tracker_with_sensors_on_their_own_clocks_matches_the_offline_compensation(
         model: ThermalBiasModel) -> None:
-    """Sensors read every ~2 s, each on its own clock (METHODS §D.5): the tracker interpolates
+    """Sparse sensors on their own clocks.
+
+    Sensors read every ~2 s, each on its own clock (METHODS §D.5): the tracker interpolates
     up to the latest reading every sensor has reached, and subtracts exactly what the offline
     compensation subtracts for that interval.
     """

@@ -1,4 +1,6 @@
-"""Property tests on inputs our simulator did not make: a small generator written here from
+"""Property tests on inputs our simulator did not make.
+
+Property tests on inputs our simulator did not make: a small generator written here from
 the physics (first-order thermal lag, random polynomial bias in H, Ḣ term, angle random
 walk, whole pulses), never importing sim_nodes.
 """
@@ -31,7 +33,9 @@ def _bias_deg_h(h: np.ndarray, hdot: np.ndarray, poly: tuple[float, ...],
 
 def _run(seed: int, poly: tuple[float, ...], hdot_coef: float, set_points: list[float],
          *, tau_s: float = 500.0, soak_s: float = 1500.0, arw: float = 0.003) -> dict:
-    """Chamber soaks at set points joined by 1 °C/min ramps; H lags it (τ); two cavity
+    """Chamber soaks joined by ramps, with H lagging.
+
+    Chamber soaks at set points joined by 1 °C/min ramps; H lags it (τ); two cavity
     sensors at H ± 0.3 °C; 2 Hz cumulative pulses; 1 Hz temperatures.
     """
     rng = np.random.default_rng(seed)
@@ -87,7 +91,9 @@ POINTS = st.lists(st.sampled_from([-30.0, -20.0, -10.0, 0.0, 10.0, 20.0, 30.0]),
 @given(seed=st.integers(0, 2**20), poly=POLY, hdot_coef=st.floats(-0.1, 0.1), points=POINTS)
 def test_model_predicts_the_true_bias_within_its_stated_uncertainty(
         seed: int, poly: tuple[float, ...], hdot_coef: float, points: list[float]) -> None:
-    """With the true term set among the candidates, the fitted model's bias over the
+    """The fitted bias is within its uncertainty of the truth.
+
+    With the true term set among the candidates, the fitted model's bias over the
     calibrated range is within 4 of its standard uncertainties of the truth (plus 0.004 °/h
     for the sensors' rounding and the causal Ḣ window).
     """
@@ -103,7 +109,9 @@ def test_model_predicts_the_true_bias_within_its_stated_uncertainty(
 @given(seed=st.integers(0, 2**20), poly=POLY, hdot_coef=st.floats(-0.1, 0.1))
 def test_compensation_is_never_worse_than_raw_beyond_noise(
         seed: int, poly: tuple[float, ...], hdot_coef: float) -> None:
-    """Property: on an independent run inside the calibrated range, the compensated bias
+    """Property: compensation does not worsen bias stability.
+
+    Property: on an independent run inside the calibrated range, the compensated bias
     stability does not exceed the raw one by more than their joint uncertainty.
     """
     cal_run = _run(seed, poly, hdot_coef, [-30.0, -15.0, 0.0, 15.0, 30.0])
@@ -118,7 +126,9 @@ def test_compensation_is_never_worse_than_raw_beyond_noise(
 
 
 def test_stepwise_finds_the_true_polynomial_order_often_enough() -> None:
-    """Six random gyros, orders 1–3 in H: the selection (stepwise + held-out check) keeps
+    """Stepwise finds the true polynomial order often enough.
+
+    Six random gyros, orders 1–3 in H: the selection (stepwise + held-out check) keeps
     exactly the true powers in at least four.
     """
     rng = np.random.default_rng(2024)
@@ -159,7 +169,9 @@ def _imports(path: Path) -> set[str]:
 
 @pytest.mark.parametrize('package', ['gyro_calib/thermal', 'sim_nodes/thermal'])
 def test_thermal_core_imports_no_ros_and_no_other_method(package: str) -> None:
-    """Statically: no module imports a ROS package, and the only gyro_calib modules used
+    """The thermal core imports no ROS and no other method.
+
+    Statically: no module imports a ROS package, and the only gyro_calib modules used
     outside the thermal packages are the shared core (errors, estimate, streams, units).
     """
     root = Path(__file__).resolve().parents[1]

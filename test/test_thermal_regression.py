@@ -1,4 +1,6 @@
-"""Candidate terms, fits with honest covariance, stepwise selection (METHODS §D.2–4),
+"""Candidate terms, fits and stepwise selection.
+
+Candidate terms, fits with honest covariance, stepwise selection (METHODS §D.2–4),
 with the paper's own bias tables of gyros A-1 and A-2 as regression data.
 """
 
@@ -70,7 +72,9 @@ def test_scaling_maps_h_onto_minus_one_to_one() -> None:
 
 
 def test_paper_static_models_fit_a1_and_a2() -> None:
-    """Eq. 14 with m = 3 on the published points: A-2 (near-linear) is fitted to 0.017 °/h
+    """The paper's static models fit A-1 and A-2.
+
+    Eq. 14 with m = 3 on the published points: A-2 (near-linear) is fitted to 0.017 °/h
     rms; the strongly non-monotonic A-1 leaves 0.1 °/h (a cubic cannot follow its drop
     from 25 to 35 °C), m = 4 brings it to 0.06 °/h.
     """
@@ -85,7 +89,9 @@ def test_paper_static_models_fit_a1_and_a2() -> None:
 
 
 def test_stepwise_picks_different_terms_for_a1_and_a2() -> None:
-    """MATLAB-style stepwise (enter p < 0.05, remove p > 0.10) from the full model, over
+    """Stepwise picks different terms for A-1 and A-2.
+
+    MATLAB-style stepwise (enter p < 0.05, remove p > 0.10) from the full model, over
     H…H⁴: the non-monotonic A-1 keeps H, H³, H⁴, the near-linear A-2 keeps H, H², H³.
     """
     cols = _static_columns(4)
@@ -101,7 +107,9 @@ def test_stepwise_picks_different_terms_for_a1_and_a2() -> None:
 
 
 def test_stepwise_keeps_a_first_power_while_a_higher_power_of_it_stays() -> None:
-    """A curve in H³ alone (no H): plain stepwise removes H and keeps H³; with the main
+    """Stepwise keeps a first power while a higher power is in.
+
+    A curve in H³ alone (no H): plain stepwise removes H and keeps H³; with the main
     effects kept (METHODS §D.3), H stays beside H³; a term nothing needs still leaves.
     """
     rng = np.random.default_rng(1)
@@ -120,7 +128,9 @@ def test_stepwise_keeps_a_first_power_while_a_higher_power_of_it_stays() -> None
 
 
 def test_forward_stepwise_from_constant_misses_the_non_monotonic_a1() -> None:
-    """Forward entry cannot find terms that only matter together: no single power of H is
+    """Forward stepwise from a constant misses the non-monotonic A-1.
+
+    Forward entry cannot find terms that only matter together: no single power of H is
     significant for A-1 (its best, H², has p = 0.12), while A-2 gets H. Why the default
     start is the full model.
     """
@@ -167,7 +177,9 @@ def test_wls_birge_ratio_inflates_but_never_shrinks_the_covariance() -> None:
 
 
 def test_allan_covariance_covers_the_truth_where_naive_ols_does_not() -> None:
-    """Residuals = AR(1) (φ = 0.9, like bias instability between fit blocks) + white, with
+    """The Allan covariance covers the truth where naive OLS does not.
+
+    Residuals = AR(1) (φ = 0.9, like bias instability between fit blocks) + white, with
     a slowly varying regressor: the naive OLS standard error is ~4× too small; the one
     from the Allan long-run variance is honest.
     """
@@ -203,7 +215,9 @@ def test_distinct_levels_and_the_levels_a_power_needs() -> None:
 
 def _random_poly_case(seed: int, order: int) -> tuple[np.ndarray, dict[str, np.ndarray],
                                                        np.ndarray, set[str]]:
-    """Small generator from the physics: a gyro soaked at random temperatures, H lagging
+    """Small generator from the physics: a soaked gyro.
+
+    Small generator from the physics: a gyro soaked at random temperatures, H lagging
     each set point, bias a random polynomial in H, white noise on the block means.
     """
     rng = np.random.default_rng(seed)
@@ -230,7 +244,9 @@ def test_stepwise_recovers_the_true_polynomial_order_most_of_the_time() -> None:
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 2**20), order=st.integers(1, 3))
 def test_coefficients_lie_within_their_stated_uncertainty(seed: int, order: int) -> None:
-    """Property: with the true terms, every coefficient is within 4.5 standard
+    """Property: every coefficient is within its stated uncertainty.
+
+    Property: with the true terms, every coefficient is within 4.5 standard
     uncertainties of the truth (white noise: OLS uncertainty is honest).
     """
     y, cols, coef, truth = _random_poly_case(seed, order)

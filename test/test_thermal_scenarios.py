@@ -1,4 +1,6 @@
-"""Chamber runs as node parameters and bags: streamed in chunks they give the offline samples
+"""Chamber runs as node parameters and bags.
+
+Chamber runs as node parameters and bags: streamed in chunks they give the offline samples
 (faults included), and the bag bytes are what rosbags would write.
 """
 

@@ -1,4 +1,6 @@
-"""ThermalSession, the thermal method behind the front door: where K, the site and the gyro
+"""ThermalSession, the thermal method behind the front door.
+
+ThermalSession, the thermal method behind the front door: where K, the site and the gyro
 id come from, the hand-off record, the summary, and results independent of batching.
 """
 

@@ -1,4 +1,6 @@
-"""Lifting wavelet (METHODS §D.1): equals PyWavelets' bior2.2/bior4.4; denoising keeps the
+"""Lifting wavelet (METHODS §D.1).
+
+Lifting wavelet (METHODS §D.1): equals PyWavelets' bior2.2/bior4.4; denoising keeps the
 slow (model-band) content; SNR definition.
 """
 
@@ -48,7 +50,9 @@ def test_denoising_passes_a_noise_free_slow_signal_unchanged(wavelet: str) -> No
 
 @pytest.mark.parametrize('rule', ['universal', 'minimax', 'bayes'])
 def test_denoising_changes_no_model_band_content(rule: str) -> None:
-    """The thermal model is fitted to content slower than ~30 min. With 6 levels (64
+    """Denoising changes no model-band content.
+
+    The thermal model is fitted to content slower than ~30 min. With 6 levels (64
     samples) the denoised series keeps it: 1800-sample means move by < 0.2 of their own
     noise (the change falls as √(2^levels / block): only wavelets straddling a block edge
     reach a block mean), and a slow fit moves by < 0.25σ.
@@ -72,7 +76,9 @@ def test_denoising_changes_no_model_band_content(rule: str) -> None:
 
 
 def test_slow_fit_to_denoised_data_is_unbiased_and_no_worse() -> None:
-    """Over 10 noise draws the fit to the denoised series errs (vs the truth) as the raw
+    """A slow fit to denoised data is unbiased and no worse.
+
+    Over 10 noise draws the fit to the denoised series errs (vs the truth) as the raw
     fit does: denoising removes noise, not slow signal.
     """
     n = 28800
@@ -124,7 +130,9 @@ def test_denoise_caps_levels_for_short_series_and_rejects_bad_names() -> None:
        seed=st.integers(0, 2**16), levels=st.integers(3, 6))
 def test_denoising_keeps_the_slow_fit_for_any_noise_level(amplitude: float, offset: float,
                                                           seed: int, levels: int) -> None:
-    """Property: for any white noise level and offset, and depths up to 6 levels on 8192
+    """Property: denoising keeps a slow fit unchanged.
+
+    Property: for any white noise level and offset, and depths up to 6 levels on 8192
     samples, a slow (cubic) fit to the denoised series equals the raw fit within 0.6σ
     (deeper levels on short records do distort the ends: keep 2^levels ≪ record).
     """

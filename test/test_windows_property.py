@@ -57,7 +57,9 @@ def benches(draw: st.DrawFn) -> tuple[Bench, int]:
 
 
 def _fit_half_width_s(pulse_rate_hz: float, config: KTildeConfig) -> float:
-    """The fit span the calibrator documents: fit_half_width_s, widened to hold
+    """The fit span the calibrator documents.
+
+    The fit span the calibrator documents: fit_half_width_s, widened to hold
     min_fit_samples_per_side samples of a slow pulse stream.
     """
     period = round(1e9 / pulse_rate_hz) / 1e9
@@ -116,7 +118,9 @@ def test_every_window_the_geometry_allows_is_found_and_k_tilde_is_exact(
 
 
 def _k_tilde_floor(bench: Bench, config: KTildeConfig, m: int, pairs: int) -> float:
-    """Relative standard deviation of K̃ from ``pairs`` pairs that this bench's physics allows:
+    """Relative standard deviation of K̃ this bench allows.
+
+    Relative standard deviation of K̃ from ``pairs`` pairs that this bench's physics allows:
     angle random walk over a window, whole pulses and encoder steps at the window-end fits.
     """
     angle = 1_296_000.0 * m

@@ -1,4 +1,6 @@
-"""Chamber benches for the thermal property test, written from the physics for the tests
+"""Chamber benches for the thermal property test.
+
+Chamber benches for the thermal property test, written from the physics for the tests
 (sharing nothing with sim_nodes): a chamber programme, a lumped thermal network with
 self-heating, lagging temperature sensors read on their own clocks, and a gyro whose bias
 follows a hidden law of H, Ḣ and the gradients (METHODS §D.2–3, §D.5).
@@ -107,7 +109,9 @@ class Bench:
 
 def programme(rng: np.random.Generator, kind: str, hot: bool) -> tuple[list[float],
                                                                       list[float]]:
-    """Chamber knots (s, °C): 'soaks' (set points joined by ramps), 'ramps' (back and forth at
+    """Chamber knots (s, °C) of a programme.
+
+    Chamber knots (s, °C): 'soaks' (set points joined by ramps), 'ramps' (back and forth at
     changing rates, never dwelling) or 'mix'; starting at the hot or the cold end.
     """
     low = float(rng.uniform(-35, -5))
@@ -199,7 +203,9 @@ def truth(bench: Bench) -> tuple[Truth, dict[str, np.ndarray]]:
 
 def pulse_chunks(bench: Bench, tr: Truth, chunk_s: float = 600.0
                  ) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """/gyro/pulses in chunks of ``chunk_s``: stamps (ns) at the pulse rate and cumulative
+    """/gyro/pulses in chunks of ``chunk_s``.
+
+    /gyro/pulses in chunks of ``chunk_s``: stamps (ns) at the pulse rate and cumulative
     whole pulses (the random draws continue from chunk to chunk, so 10 kHz for hours stays
     in bounded memory).
     """

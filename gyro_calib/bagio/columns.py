@@ -136,7 +136,9 @@ class UnsupportedMessageTypeError(ColumnDecodeError):
 
 
 class UnindexedChunksError(ColumnDecodeError):
-    """The file's chunks have no Message Index records (valid MCAP, but rosbags' reader
+    """The file's chunks have no Message Index records.
+
+    The file's chunks have no Message Index records (valid MCAP, but rosbags' reader
     returns no message from them and the columnar decoder needs them).
     """
 
@@ -338,7 +340,9 @@ def _header_layout(payload: bytes) -> _Layout:
 
 
 def _imu_layout(payload: bytes) -> _Layout:
-    """Imu: header, then 37 float64 from an 8-aligned offset (quaternion, 3 × (matrix 9,
+    """Imu layout: header, then 37 float64.
+
+    Imu: header, then 37 float64 from an 8-aligned offset (quaternion, 3 × (matrix 9,
     vector 3) interleaved as orientation, cov, angular velocity, cov, acceleration, cov).
     """
     c = _Cursor(payload)
@@ -479,7 +483,9 @@ class ReadPlan:
 
 
 def _open_reader(path: Path) -> Any:
-    """rosbags' Reader, opened by :func:`gyro_calib.bagio.storage.open_reader` for a bag
+    """Open rosbags' Reader on a bag or a lone .mcap file.
+
+    rosbags' Reader, opened by :func:`gyro_calib.bagio.storage.open_reader` for a bag
     directory (or a .mcap file in one), or on the file alone for a .mcap file without
     metadata.yaml beside it; the failures open_reader lets through (a damaged record length
     makes rosbags allocate without bound: MemoryError; struct.error, OverflowError) are
@@ -529,7 +535,9 @@ def plan_bag(path: str | Path, topic_types: Mapping[str, str]) -> ReadPlan:
 
 def _wanted_channels(connections: list[Any], storage_connections: list[Any],
                      types: dict[str, str]) -> dict[int, tuple[str, str]]:
-    """Channels rosbags' rosbag2 Reader.messages() yields for the topics (its matching rule:
+    """Channels rosbags' rosbag2 reader yields for the topics.
+
+    Channels rosbags' rosbag2 Reader.messages() yields for the topics (its matching rule:
     same topic, type and QoS/format, digests equal when both known).
     """
     wanted = [c for c in connections if types.get(c.topic) == c.msgtype]
@@ -540,7 +548,9 @@ def _wanted_channels(connections: list[Any], storage_connections: list[Any],
 
 
 def _chunk_counts(index: Any, path: Path) -> dict[int, int]:
-    """Messages per channel from a Chunk Index's Message Index offsets: each record is
+    """Messages per channel from a Chunk Index.
+
+    Messages per channel from a Chunk Index's Message Index offsets: each record is
     15 + 16·n bytes and they follow each other to the end of ``message_index_length``.
     """
     by_offset = sorted((off, ch) for ch, off in index.message_index_offsets.items())
@@ -637,7 +647,9 @@ def _check_counts(path: Path, channels: dict[int, tuple[str, str]],
 
 
 def _overlap_groups(chunks: list[ChunkPlan]) -> tuple[tuple[ChunkPlan, ...], ...]:
-    """Chunks in rosbags' order, grouped so that every message of a group comes after
+    """Chunks in rosbags' order, grouped by message order.
+
+    Chunks in rosbags' order, grouped so that every message of a group comes after
     every message of the groups before it in that order: key (log time, chunk offset,
     record offset).
     """
@@ -719,7 +731,9 @@ def _read_chunk(f: BinaryIO, chunk: ChunkPlan, path: Path,
 
 
 def _message_index(span: bytes, chunk: ChunkPlan, path: Path) -> dict[int, npt.NDArray[Any]]:
-    """Entries (log_time, offset) of each Message Index record behind the chunk (MCAP spec,
+    """Entries (log_time, offset) of the chunk's Message Index records.
+
+    Entries (log_time, offset) of each Message Index record behind the chunk (MCAP spec,
     "Message Index": channel_id u16, then uint32-length-prefixed (u64, u64) pairs).
     """
     entries: dict[int, npt.NDArray[Any]] = {}
@@ -758,7 +772,9 @@ class _Records:
 def _check_records(raw: bytes, data: npt.NDArray[np.uint8],
                    entries: dict[int, npt.NDArray[Any]], chunk: ChunkPlan,
                    path: Path) -> dict[int, _Records]:
-    """Check every indexed Message record against its entry and that the records tile the
+    """Check the indexed Message records of a chunk.
+
+    Check every indexed Message record against its entry and that the records tile the
     chunk; return each channel's records. ``data`` is ``raw`` followed by _PAD zero bytes.
 
     Raises:
@@ -813,7 +829,9 @@ def _check_records(raw: bytes, data: npt.NDArray[np.uint8],
 
 def _walk_gap(raw: bytes, pos: int, stop: int,
               mismatch: Callable[[str], IndexMismatchError]) -> None:
-    """Records between indexed messages (Schema, Channel...) must tile the gap and not be
+    """Check the records between indexed messages.
+
+    Records between indexed messages (Schema, Channel...) must tile the gap and not be
     Message records (rosbags would read those; the index does not list them).
     """
     while pos < stop:
@@ -876,7 +894,9 @@ _Checks = tuple[tuple[int, int, int], ...]
 
 
 def _checks(layout: _Layout, template: bytes) -> tuple[_Checks, _Checks]:
-    """Word checks for rows of ``layout``: of the layout alone (CDR little-endian, counts,
+    """Word checks for rows of a layout.
+
+    Word checks for rows of ``layout``: of the layout alone (CDR little-endian, counts,
     string lengths, terminators), and of the layout with the strings of ``template``.
 
     Counts sit on 4-aligned body offsets, so on whole words of the payload; string bytes
@@ -964,7 +984,9 @@ def _decode_channel(raw: bytes, data: npt.NDArray[np.uint8], rec: _Records, msgt
 def _decode_rows(data: npt.NDArray[np.uint8], starts: npt.NDArray[np.int64], length: int,
                  idx: npt.NDArray[np.intp], n: int, codec: _Codec, cats: _Categories,
                  piece: _Piece) -> npt.NDArray[np.intp]:
-    """Decode the payloads of one length (messages ``idx`` of the ``n`` in ``piece``);
+    """Decode the payloads of one length.
+
+    Decode the payloads of one length (messages ``idx`` of the ``n`` in ``piece``);
     return the indices left to rosbags (not a fixed layout, or beyond MAX_LAYOUTS).
 
     Rows are gathered in whole words; a layout is taken from the first row left and
@@ -1029,7 +1051,9 @@ def _strings(rows: npt.NDArray[np.uint8], layout: _Layout, cats: _Categories
 def _extract(rows: npt.NDArray[np.uint8], layout: _Layout,
              dest: npt.NDArray[np.intp] | slice, codes: npt.NDArray[np.int32] | int,
              piece: _Piece) -> None:
-    """Stamp (int32 sec, uint32 nanosec at payload 4 and 8), frame code and float64 fields
+    """Stamp, frame code and float64 fields of rows of one layout.
+
+    Stamp (int32 sec, uint32 nanosec at payload 4 and 8), frame code and float64 fields
     of rows of one layout into ``piece`` at ``dest``.
     """
     sec = rows[:, 4:8].view('<i4')[:, 0].astype(np.int64)
@@ -1151,7 +1175,9 @@ def _load(f: BinaryIO, chunk: ChunkPlan, path: Path,
 
 def _prefetched(plan: ReadPlan, groups: list[list[ChunkPlan]]
                 ) -> Iterator[list[Future[_Loaded]]]:
-    """Each group's chunks, read and decompressed by one worker thread up to PREFETCH
+    """Each group's chunks, read ahead by one worker thread.
+
+    Each group's chunks, read and decompressed by one worker thread up to PREFETCH
     chunks ahead (file reads and zstd release the GIL: on two cores this overlaps the
     NumPy work). Errors come out where the chunk would have been read.
     """
@@ -1212,7 +1238,9 @@ def _iter_columnar(plan: ReadPlan, types: dict[str, str], batch_messages: int,
 
 def _add_in_order(batcher: _Batcher, topic: str, parts: list[tuple[int, _Piece]],
                   window: tuple[int, int] | None) -> None:
-    """Sort a group's pieces of one topic by (log time, chunk offset, record offset), the
+    """Sort a group's pieces of one topic into rosbags' order.
+
+    Sort a group's pieces of one topic by (log time, chunk offset, record offset), the
     order rosbags' reader yields them in, keep start <= log time < stop of ``window``, and
     add them to the batch.
     """

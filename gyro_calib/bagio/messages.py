@@ -1,4 +1,6 @@
-"""Message types of the topic contract, the contract's topic → type table, and the ROS 2
+"""Message types of the topic contract and their typestore.
+
+Message types of the topic contract, the contract's topic → type table, and the ROS 2
 Kilted typestore that (de)serialises them (message layouts only: no method knowledge).
 """
 

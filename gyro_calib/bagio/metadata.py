@@ -1,4 +1,6 @@
-"""The scenario stored in a bag's metadata.yaml ``custom_data`` (simulator parameters, seed
+"""The scenario stored in a bag's metadata.yaml.
+
+The scenario stored in a bag's metadata.yaml ``custom_data`` (simulator parameters, seed
 and truth), per bench namespace.
 """
 
@@ -25,7 +27,9 @@ def scenario_key(namespace: str) -> str:
 
 
 def scenario_text(scenario: Mapping[str, Any]) -> str:
-    """The scenario as stored in ``custom_data``: one line of flow-style YAML, Unicode kept
+    """The scenario as stored in ``custom_data``.
+
+    The scenario as stored in ``custom_data``: one line of flow-style YAML, Unicode kept
     (no ``\\u`` escapes; :func:`store_custom_data` writes it unfolded).
     """
     text: str = yaml.safe_dump(dict(scenario), sort_keys=True, default_flow_style=True,
@@ -56,7 +60,9 @@ _SPLIT_ESCAPE = re.compile(r'\\ (?=u[0-9A-Fa-f]{4}|x[0-9A-Fa-f]{2}|U[0-9A-Fa-f]{
 
 
 def parse_scenario_text(text: str) -> Any:
-    """The stored scenario; repairs an escape split by the ruamel line fold of bags written
+    """The stored scenario, parsed.
+
+    The stored scenario; repairs an escape split by the ruamel line fold of bags written
     before :func:`scenario_text` (``\\ u2080`` → ``\\u2080`` inside a quoted scalar).
     """
     return yaml.safe_load(_SPLIT_ESCAPE.sub(lambda m: '\\', text))

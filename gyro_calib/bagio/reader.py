@@ -75,7 +75,9 @@ def bag_info(path: str | Path) -> BagInfo:
 
 def header_stamp_spans(path: str | Path, info: BagInfo) -> dict[str, tuple[int, int, int,
                                                                          float]]:
-    """Topic → (messages, earliest and latest header stamp ns, typical sample interval ns)
+    """Per stamped topic: messages, stamp span and sample interval.
+
+    Topic → (messages, earliest and latest header stamp ns, typical sample interval ns)
     of every topic whose type carries a header stamp the columnar decoder reads (JointState,
     Header, Imu, Temperature): rates from the sample instants, not the receive (log) times.
     The typical interval is the median over batches of each batch's median positive stamp

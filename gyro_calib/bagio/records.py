@@ -1,4 +1,6 @@
-"""What a bag holds (:class:`BagInfo`) and the decoded samples read from it
+"""What a bag holds and the samples read from it.
+
+What a bag holds (:class:`BagInfo`) and the decoded samples read from it
 (:class:`SampleBatch`).
 """
 
@@ -55,7 +57,9 @@ class BagInfo:
         return (self.end_ns - self.start_ns) / 1e9 if self.message_count else 0.0
 
     def in_namespace(self, namespace: str) -> BagInfo:
-        """The bag as the bench in ``namespace`` sees it: the topics under it, named without
+        """The bag as the bench in ``namespace`` sees it.
+
+        The bag as the bench in ``namespace`` sees it: the topics under it, named without
         the namespace ('/bench2/gyro/pulses' → '/gyro/pulses'), the others left out, and that
         bench's scenario. The root namespace ('' or '/') gives the bag as it is.
         """
@@ -86,7 +90,9 @@ class SampleBatch:
 
     def joint_state(self, topic: str) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                                npt.NDArray[np.float64]] | None:
-        """(header stamp ns, position, velocity) of a JointState topic; NaN where a message
+        """(header stamp ns, position, velocity) of a JointState topic.
+
+        (header stamp ns, position, velocity) of a JointState topic; NaN where a message
         had no position (or velocity), which the calibrators drop and count.
         """
         c = self.columns.get(topic)

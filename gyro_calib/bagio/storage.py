@@ -37,7 +37,9 @@ def checksum_chunks(writer: Any) -> None:
 
 
 def usable_metadata(meta: Path) -> bool:
-    """True when ``meta`` is a readable rosbag2 metadata.yaml (a mapping with
+    """True when ``meta`` is a readable rosbag2 metadata.yaml.
+
+    True when ``meta`` is a readable rosbag2 metadata.yaml (a mapping with
     ``rosbag2_bagfile_information``).
     """
     try:
@@ -49,7 +51,9 @@ def usable_metadata(meta: Path) -> bool:
 
 
 def open_lone_mcap(path: Path) -> Any:
-    """rosbags' Reader on a .mcap file without its bag's metadata.yaml (counts and span
+    """Rosbags' Reader on a .mcap file without metadata.yaml.
+
+    rosbags' Reader on a .mcap file without its bag's metadata.yaml (counts and span
     from the file's own summary).
     """
     from rosbags.rosbag2 import Reader

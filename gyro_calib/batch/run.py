@@ -77,7 +77,9 @@ def _previous(out_dir: Path, stem: str) -> dict[str, Any] | None:
 
 
 def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
-    """A Dask client: to ``scheduler``, or to a new local cluster of ``workers`` processes
+    """A Dask client, to a scheduler or a new local cluster.
+
+    A Dask client: to ``scheduler``, or to a new local cluster of ``workers`` processes
     (one thread each; default: the machine's cores). Returns (client, cluster or None).
     """
     from dask.distributed import Client, LocalCluster
@@ -102,7 +104,9 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
 def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any = None,
               spec_path: Path | None = None, force: bool = False, pdf: bool = True,
               progress: Callable[[int, int], None] | None = None) -> BatchOutcome:
-    """Calibrate every gyro of ``jobs`` on ``client``'s cluster; write per-gyro and fleet
+    """Calibrate every gyro of ``jobs`` on the cluster.
+
+    Calibrate every gyro of ``jobs`` on ``client``'s cluster; write per-gyro and fleet
     files into ``out_dir`` (what finished is kept when interrupted).
     """
     from dask.distributed import as_completed
@@ -176,7 +180,9 @@ def _failed(job: GyroJob, stem: str, why: str, plan: Plan | None = None) -> dict
 
 
 def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
-    """Write a finished gyro's files (each atomically), then its record (last: a record means
+    """Write a finished gyro's files, then its record.
+
+    Write a finished gyro's files (each atomically), then its record (last: a record means
     the files are there).
     """
     record = dict(result.record)

@@ -405,7 +405,9 @@ class DitherCalibrator:
 
     def add_table_state(self, t_ns: int, angle_rad: float, rate_rad_s: float,
                         frame_id: str) -> None:
-        """One /vibration_table/joint_states sample: stamp (ns), angle (rad), rate (rad/s),
+        """One /vibration_table/joint_states sample.
+
+        One /vibration_table/joint_states sample: stamp (ns), angle (rad), rate (rad/s),
         header.frame_id (``'z'`` or ``'y'``).
         """
         code = self._frame_code(frame_id, 1)
@@ -543,7 +545,9 @@ class DitherCalibrator:
                 self._anchor_ns = int(p_t[0])
 
     def _orientation_boundary(self, end: int, flush: bool) -> int | None:
-        """Stamp b of the first joint_states sample of a new orientation, if the current
+        """Stamp of the first joint_states sample of a new orientation.
+
+        Stamp b of the first joint_states sample of a new orientation, if the current
         recording's last block is the one ending at ``end`` and the pulses before b are all
         in (or the data ends); else None.
         """
@@ -566,7 +570,9 @@ class DitherCalibrator:
         return b
 
     def _end_orientation(self, start: int, end: int, boundary: int) -> str | None:
-        """Judge the old recording's last block on the samples before ``boundary`` (as
+        """Judge the old recording's last block, then start the next.
+
+        Judge the old recording's last block on the samples before ``boundary`` (as
         ``process(flush=True)`` judges a last block), then start the next recording there.
         """
         block_ns = end - start
@@ -908,7 +914,9 @@ class DitherCalibrator:
         return allowance_half_width(value, rocking.kappa, rocking.rho), ''
 
     def _resolution_note(self, c: Component) -> str | None:
-        """What a component rests on when it is weak: few blocks, or not told from zero
+        """What a weak component rests on.
+
+        What a component rests on when it is weak: few blocks, or not told from zero
         (then the table amplitude or record that would resolve half the limit).
         """
         s = self.settings

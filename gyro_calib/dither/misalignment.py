@@ -199,7 +199,9 @@ class Misalignment:
 
 
 def allowance_half_width(value_rad: float, ratio: float, rho: float) -> float:
-    """ratio·â/(1 − ρ): the rocking allowance's upper half-width at â, rad (inf if ρ ≥ 1 or
+    """Upper half-width of the rocking allowance at â, rad.
+
+    ratio·â/(1 − ρ): the rocking allowance's upper half-width at â, rad (inf if ρ ≥ 1 or
     unsized; 0 when ratio is 0).
     """
     if ratio == 0.0:
@@ -246,7 +248,9 @@ class Interval:
 
 def misalignment_interval(misalignment: Misalignment | None, components: dict[str, Component],
                           rocking: RockingAllowance, coverage_factor: float) -> Interval:
-    """a's k-interval: [(â − kσ)/(1 + ρ), (â + kσ)/(1 − ρ)], and a ≥ (|ŝ| − kσ)/(1 + κ) per
+    """The k-interval of the misalignment a.
+
+    a's k-interval: [(â − kσ)/(1 + ρ), (â + kσ)/(1 − ρ)], and a ≥ (|ŝ| − kσ)/(1 + κ) per
     component (a ≥ |component|, each component shifted by ≤ κ·a). Unsized rocking (no K) bounds
     nothing: a ≥ 0 only and no upper end.
     """
@@ -307,7 +311,9 @@ def interval_verdict(interval: Interval, misalignment: Misalignment | None,
                      rocking: RockingAllowance, *, limit_rad: float, record_s: float,
                      sample_rate_hz: float, table_rate_amplitude_rad_s: float,
                      missing_axes: tuple[str, ...] = ()) -> Verdict:
-    """Reject when the interval's lower end is above the limit, accept when its upper end is
+    """The verdict from the interval against the limit.
+
+    Reject when the interval's lower end is above the limit, accept when its upper end is
     below; otherwise undecidable, with the record, sample rate or table amplitude that would
     decide it if â stayed where it is (σ ∝ 1/√(f_s·T), ∝ 1/A), or why none would.
     """

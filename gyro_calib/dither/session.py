@@ -104,7 +104,9 @@ def _scale_factor_from_file(path: Path) -> tuple[float, str]:
 
 
 def dither_settings(options: CalibrationOptions) -> tuple[DitherSettings, str]:
-    """The settings (node parameters, then the config file's values) with K resolved, and a
+    """The dither settings with K resolved, and where K came from.
+
+    The settings (node parameters, then the config file's values) with K resolved, and a
     sentence saying where K came from (or that it is unknown).
     """
     values = dict(options.settings)
@@ -196,7 +198,9 @@ class DitherSession(MethodSession):
         return out
 
     def needs(self) -> dict[str, str]:
-        """Per orientation without a component: how many more accepted blocks (and seconds
+        """What each orientation still needs.
+
+        Per orientation without a component: how many more accepted blocks (and seconds
         of table motion along it); then the other reasons, once each.
         """
         cal, s = self.calibrator, self.calibrator.settings
@@ -266,7 +270,9 @@ class DitherSession(MethodSession):
         return rows
 
     def summary_lines(self) -> list[str]:
-        """Each component and a with the floor beside it, the verdict (only when the record
+        """The summary lines of a dither run.
+
+        Each component and a with the floor beside it, the verdict (only when the record
         decides it; else what record would), the coning, K's source and what is missing.
         """
         cal = self.calibrator
@@ -299,7 +305,9 @@ class DitherSession(MethodSession):
         return 'ignored (rocking_treatment = none): a may be biased by the in-phase rocking.'
 
     def info_lines(self) -> list[str]:
-        """Per orientation: the record, its detection floor, and the record length, sample
+        """The info lines of a dither record.
+
+        Per orientation: the record, its detection floor, and the record length, sample
         rate or table amplitude a target σ per component needs; then a and the verdict.
         """
         cal = self.calibrator
@@ -409,7 +417,9 @@ class DitherSession(MethodSession):
         return 'every quantity measured.'
 
     def handoff_values(self) -> dict[str, Any]:
-        """The measured keys with their ``_std`` (finite ones), then the verdict, a's interval
+        """The hand-off values of a dither run.
+
+        The measured keys with their ``_std`` (finite ones), then the verdict, a's interval
         ends and the limit they were judged against.
         """
         out = super().handoff_values()

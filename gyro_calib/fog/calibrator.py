@@ -423,7 +423,9 @@ class FogCalibrator:
         self._index.discard_before(cut)
 
     def stream_notes(self) -> list[str]:
-        """One line per input stream that had samples dropped or re-sorted (NaN/inf,
+        """One line per input stream with samples dropped or re-sorted.
+
+        One line per input stream that had samples dropped or re-sorted (NaN/inf,
         duplicate or out-of-order stamps, restarts), naming what happened.
         """
         notes = []
@@ -472,7 +474,9 @@ class FogCalibrator:
 
     def _steady(self, segments: list[SegmentMeasurement]) -> tuple[
             list[SegmentMeasurement], tuple[Rejection, ...]]:
-        """Leave out segments whose output was not steady: block scatter far beyond the
+        """Leave out segments whose output was not steady.
+
+        Leave out segments whose output was not steady: block scatter far beyond the
         other segments' (the ARW does not depend on the rate; an unrecorded injection or a
         loop disturbance makes the output rate jump within the segment).
 
@@ -504,7 +508,9 @@ class FogCalibrator:
         return keep, tuple(rejected)
 
     def all_rejections(self) -> list[Rejection]:
-        """Everything rejected, in stamp order: while streaming (segments, plateaus) and by
+        """Everything rejected, in stamp order.
+
+        Everything rejected, in stamp order: while streaming (segments, plateaus) and by
         the fits (unsteady segments).
         """
         return sorted([*self.rejections, *self.fits().rejections],
@@ -549,7 +555,9 @@ class FogCalibrator:
                 if math.isfinite(e.value) and math.isfinite(e.std_uncertainty)}
 
     def summary(self) -> list[str]:
-        """Whole-sentence lines: each measured figure with its uncertainty and count, and the
+        """Whole-sentence summary lines of the FOG run.
+
+        Whole-sentence lines: each measured figure with its uncertainty and count, and the
         self-calibration table (K against the plateaus used) with the linear range marked.
         """
         res = self.results()

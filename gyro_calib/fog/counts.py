@@ -51,7 +51,9 @@ class LocalCount:
 
 
 def random_walk_increment_s(interval_s: float, window_s: float) -> float:
-    """Effective length T_eff of an increment between two local-fit counts ``interval_s``
+    """Effective length T_eff of an increment between local-fit counts.
+
+    Effective length T_eff of an increment between two local-fit counts ``interval_s``
     apart, each the mean over a window of ``window_s``: an angle random walk N² gives the
     increment the variance N²·T_eff, with T_eff = T − a/3 for T ≥ a and (T²/a)(1 − T/(3a))
     for overlapping windows (a = window_s; the variance of the difference of two boxcar

@@ -292,7 +292,9 @@ SETTLING_SIGMA = 3.0
 
 
 def unsettled_first_halves(plateaus: list[PlateauMeasurement]) -> str | None:
-    """A whole sentence when the loop was still settling in the plateaus' first halves, else
+    """A sentence when the loop was still settling, else None.
+
+    A whole sentence when the loop was still settling in the plateaus' first halves, else
     None.
 
     A transient too small to see in one plateau's noise still biases its mean output towards

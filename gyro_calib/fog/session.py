@@ -64,7 +64,9 @@ PAPER_ROWS = (6, 10, 15, 25, 35, 45, 55)
 
 
 def fog_settings(options: CalibrationOptions) -> FogSettings:
-    """The FOG settings: the node's parameters, then the config file's values, then the
+    """The FOG settings from parameters, config file and flags.
+
+    The FOG settings: the node's parameters, then the config file's values, then the
     latitude from the flags or the bag.
     """
     values = dict(options.settings)
@@ -112,7 +114,9 @@ class FogSession(MethodSession):
             cal.extend_zero_index(index)
 
     def end_of_recording(self) -> None:
-        """The recording ended (a live node stops): the next :meth:`process` flushes, so the
+        """The recording ended: the next process() flushes.
+
+        The recording ended (a live node stops): the next :meth:`process` flushes, so the
         last open segment and plateau are measured as offline at the end of a bag.
         """
         self._ended = True
@@ -122,7 +126,9 @@ class FogSession(MethodSession):
         return self.calibrator.process(flush=flush or self._ended)
 
     def results(self) -> dict[str, Estimate]:
-        """By hand-off key (SI units in the names); no full-scale nonlinearity from a table
+        """The FOG results by hand-off key.
+
+        By hand-off key (SI units in the names); no full-scale nonlinearity from a table
         that turned only at the mapping rates (:meth:`mapping_rates_only`).
         """
         out = self.calibrator.results()
@@ -131,7 +137,9 @@ class FogSession(MethodSession):
         return out
 
     def mapping_rates_only(self) -> str:
-        """Why the turntable fit has no full-scale nonlinearity ('' if it has): every segment
+        """Why the turntable fit has no full-scale nonlinearity.
+
+        Why the turntable fit has no full-scale nonlinearity ('' if it has): every segment
         was at an equivalence-mapping rate (a mapping bench, seed 001 §3: 20–21 °/s).
         """
         segments = self.calibrator.active_segments
@@ -156,7 +164,9 @@ class FogSession(MethodSession):
         return out
 
     def not_measurable(self) -> dict[str, str]:
-        """Self-calibration (and mapping) keys of a bench without injection; turntable keys of
+        """Keys a bench of this kind cannot measure, with why.
+
+        Self-calibration (and mapping) keys of a bench without injection; turntable keys of
         a bench without a rate table; the full-scale nonlinearity of a mapping-only table.
         """
         seen = self.calibrator.seen_topics
@@ -181,13 +191,17 @@ class FogSession(MethodSession):
         return {'latitude_deg': self.calibrator.settings.latitude_deg}
 
     def rejections(self) -> list[Rejection]:
-        """Segments, plateaus and events rejected, with reasons, in stamp order (the same
+        """Segments, plateaus and events rejected, in stamp order.
+
+        Segments, plateaus and events rejected, with reasons, in stamp order (the same
         however the streams were chunked, so a node's last rejection is the offline one).
         """
         return self.calibrator.all_rejections()
 
     def notices(self) -> list[str]:
-        """Source restarts, samples dropped or re-sorted (NaN/inf, bad stamps), and plateaus
+        """Source restarts, dropped samples and settling plateaus.
+
+        Source restarts, samples dropped or re-sorted (NaN/inf, bad stamps), and plateaus
         measured over their second halves only (the loop still settling).
         """
         fit = self.calibrator.fits().self_cal
@@ -242,7 +256,9 @@ class FogSession(MethodSession):
         return rows
 
     def summary_lines(self) -> list[str]:
-        """Counts, the uncertainty bases, the self-calibration table (K against the plateaus
+        """The summary lines of a FOG run.
+
+        Counts, the uncertainty bases, the self-calibration table (K against the plateaus
         used, as the paper's Table 1, the linear range marked), and what is missing.
         """
         cal = self.calibrator

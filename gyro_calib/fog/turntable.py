@@ -224,7 +224,9 @@ class SegmentNoise:
     quantisation_counts2_s: float = 0.0
 
     def angle_random_walk(self, k_abs: float) -> tuple[float, float]:
-        """(ARW, its standard uncertainty), rad/√s: the midpoint of the interval √N²/|K| over
+        """(ARW, its standard uncertainty), rad/√s.
+
+        (ARW, its standard uncertainty), rad/√s: the midpoint of the interval √N²/|K| over
         N² ∈ [N²_blocks − Q − 2σ, N²_blocks + 2σ] (Q the most the quantisation can add,
         σ = N²·√(2/dof) the scatter's own) and the standard deviation of a rectangular
         distribution over it (GUM 4.3.7), so that an output whose block scatter is all

@@ -31,7 +31,9 @@ RELIABLE, BEST_EFFORT = ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFOR
 
 
 def reliability_for(offered: list[ReliabilityPolicy]) -> ReliabilityPolicy | None:
-    """The reader's reliability for publishers offering ``offered``: best effort when any
+    """The reader's reliability for publishers offering ``offered``.
+
+    The reader's reliability for publishers offering ``offered``: best effort when any
     offers best effort, reliable when all offer reliable, None (keep) when there is none.
     """
     if not offered:

@@ -81,7 +81,9 @@ class BagPlayer(Node):
         self.published = 0
 
     def wait_for_readers(self, timeout_s: float = 60.0) -> bool:
-        """Block until every played topic has a reader (or ``timeout_s``), saying which
+        """Block until every played topic has a reader.
+
+        Block until every played topic has a reader (or ``timeout_s``), saying which
         topics it waits for whenever that changes.
         """
         deadline = time.monotonic() + timeout_s

@@ -98,7 +98,9 @@ class BagRecorder(Node):
         self.started = time.monotonic()
 
     def _type_of(self, name: str, timeout_s: float = 10.0) -> str:
-        """Contract topics (in any recorded namespace) have fixed types; others are looked up
+        """The type of a topic to record.
+
+        Contract topics (in any recorded namespace) have fixed types; others are looked up
         in the ROS graph.
         """
         for ns in self.namespaces:

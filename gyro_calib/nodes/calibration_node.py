@@ -180,7 +180,9 @@ class CalibrationNode(CalibrationNodeBase):
                       + (f'; still missing: {", ".join(missing)}' if missing else ' (complete)'))
 
     def _feed(self, columns: dict[str, TopicColumns]) -> None:
-        """Record a batch (state directory), then hand it to the calibrator as the offline
+        """Record a batch, then hand it to the calibrator.
+
+        Record a batch (state directory), then hand it to the calibrator as the offline
         session does (:meth:`gyro_calib.rbrlg.session.RbrlgSession.feed`).
         """
         if not columns:
@@ -207,7 +209,9 @@ class CalibrationNode(CalibrationNodeBase):
         self._consume(*self.bench.process())
 
     def finish(self) -> None:
-        """Shutdown: take in what is buffered, write the hand-off; the state directory is
+        """Shutdown: take in what is buffered, write the hand-off.
+
+        Shutdown: take in what is buffered, write the hand-off; the state directory is
         removed once θ, K and the bias are all measured (unless ``keep_state``).
         """
         self._process()

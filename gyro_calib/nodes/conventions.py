@@ -39,7 +39,9 @@ LEVELS = {'OK': DiagnosticStatus.OK, 'WARN': DiagnosticStatus.WARN,
 
 @dataclass(frozen=True, slots=True)
 class InputSpec:
-    """One input: message class, topic (relative resolves in the namespace), callback, the
+    """One input of a calibration node.
+
+    One input: message class, topic (relative resolves in the namespace), callback, the
     profile while reliable, and whether best effort is forced.
     """
 

@@ -1,4 +1,6 @@
-"""The live node of any registered method: topic contract in, results, diagnostics and the
+"""The live node of any registered method.
+
+The live node of any registered method: topic contract in, results, diagnostics and the
 hand-off file out, through the same session the bag calibration uses.
 
 Messages are buffered per topic as they arrive (stamp, values, frame_id) and handed to the
@@ -201,13 +203,17 @@ class MethodNode(CalibrationNodeBase):
         self._announce_inputs()
 
     def _announce_inputs(self) -> None:
-        """Say which topics the node waits for (a subclass that rewires its inputs says it
+        """Say which topics the node waits for.
+
+        Say which topics the node waits for (a subclass that rewires its inputs says it
         after rewiring).
         """
         self.get_logger().info(f'{self.method.name}: waiting for {", ".join(self._buffers)}')
 
     def _on_bench(self, stored: tuple[tuple[str, Mapping[str, Any]], ...]) -> None:
-        """A simulator published its bench: report conflicts, take the gyro id, and (before
+        """A simulator published its bench.
+
+        A simulator published its bench: report conflicts, take the gyro id, and (before
         any sample came) rebuild the session with the bench filling what was not given.
         """
         options = dataclasses.replace(self.options, stored_benches=stored)
@@ -229,7 +235,9 @@ class MethodNode(CalibrationNodeBase):
 
     def _subscribe_inputs(self, *, best_effort: tuple[str, ...] = (),
                           as_given: tuple[str, ...] = ()) -> None:
-        """Subscribe the session's topics, each into its buffer and adapting to its
+        """Subscribe the session's topics.
+
+        Subscribe the session's topics, each into its buffer and adapting to its
         publishers' QoS (those of ``best_effort`` always best effort); by their names
         relative to the node's namespace, except those of ``as_given`` (a user's topic).
         """
@@ -316,7 +324,9 @@ class MethodNode(CalibrationNodeBase):
         self._publish_diagnostics()
 
     def finish(self) -> None:
-        """End of the data (shutdown): judge what is still open, write the hand-off file;
+        """End of the data: judge what is open, write the hand-off file.
+
+        End of the data (shutdown): judge what is still open, write the hand-off file;
         the state directory is removed when nothing is missing (unless ``keep_state``).
         """
         self.state.resume_once(self._session_feed, self.session.process)
@@ -378,7 +388,9 @@ class MethodNode(CalibrationNodeBase):
 
 
 class SimScenarioBench:
-    """The bench settings simulators publish on /sim/scenario (YAML with a ``bench``
+    """The bench settings simulators publish on /sim/scenario.
+
+    The bench settings simulators publish on /sim/scenario (YAML with a ``bench``
     mapping, transient-local), for a method node that also has them as parameters.
 
     Each part's bench is passed to ``on_bench`` as the stored benches of
@@ -406,7 +418,9 @@ class SimScenarioBench:
         self.on_bench(tuple(self.benches.items()))
 
     def check(self, options: CalibrationOptions) -> str | None:
-        """Log each conflict between the node's parameters and the published bench once;
+        """Log conflicts with the published bench; return the gyro id.
+
+        Log each conflict between the node's parameters and the published bench once;
         the gyro id (None when the published benches disagree among themselves).
         """
         try:

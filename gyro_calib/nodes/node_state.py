@@ -31,7 +31,9 @@ NOT_IDENTITY = frozenset({'output_file', 'state_dir', 'keep_state', 'process_per
 
 
 def state_directory(state_dir: str, output_file: str) -> Path | None:
-    """``state_dir`` as given, else ``<output_file>.state`` beside the hand-off file, else
+    """The node's state directory, or None.
+
+    ``state_dir`` as given, else ``<output_file>.state`` beside the hand-off file, else
     None (a node that writes no file keeps no record unless asked to).
     """
     if state_dir:
@@ -81,7 +83,9 @@ class NodeState:
                                    'recorded there and replayed after a crash)')
 
     def _open(self, directory: Path, identity: dict[str, str]) -> StateRecord:
-        """The record in ``directory``; one of another gyro, method or parameter set is
+        """The record in ``directory``, or a new one.
+
+        The record in ``directory``; one of another gyro, method or parameter set is
         moved aside (never deleted, never mixed in) and a new one started, with a warning.
         """
         try:

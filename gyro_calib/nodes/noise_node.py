@@ -127,7 +127,9 @@ class NoiseNode(MethodNode):
                or 'no files'))
 
     def _announce_inputs(self) -> None:
-        """Said after the inputs are rewired (the generic node's default topics are not
+        """Said after the inputs are rewired.
+
+        Said after the inputs are rewired (the generic node's default topics are not
         what this node reads).
         """
 
@@ -142,7 +144,9 @@ class NoiseNode(MethodNode):
         self._refresh()
 
     def _rewire(self, topic: str) -> None:
-        """Subscribe exactly the session's topics (the generic node subscribed its default);
+        """Subscribe exactly the session's topics.
+
+        Subscribe exactly the session's topics (the generic node subscribed its default);
         ``topic`` (the user's Imu topic) by the name given, the contract's relative to the
         namespace.
         """
@@ -196,7 +200,9 @@ class NoiseNode(MethodNode):
                 + ('; '.join(parts) if parts else 'none resolved yet'))
 
     def drain(self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 30.0) -> None:
-        """Spin until no sample has arrived for ``quiet_s`` (at most ``limit_s``): the
+        """Spin until no sample has arrived for ``quiet_s``.
+
+        Spin until no sample has arrived for ``quiet_s`` (at most ``limit_s``): the
         samples DDS already acknowledged to the publisher are taken in before the end.
         """
         deadline = time.monotonic() + limit_s

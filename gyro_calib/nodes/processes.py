@@ -48,7 +48,9 @@ def ros_environment(domain_id: int) -> dict[str, str]:
 
 
 def _yaml_string(value: str) -> str:
-    """``value`` as rcl reads it back as the same string: rcl parses ``-p`` values as YAML,
+    """``value`` quoted so that rcl reads it back as the same string.
+
+    ``value`` as rcl reads it back as the same string: rcl parses ``-p`` values as YAML,
     so '' (rejected outright), 'true', '1.5' or 'a: b' must be quoted.
     """
     try:  # rcl's YAML 1.1 also reads y/n/yes/no/on/off as booleans; PyYAML reads y/n as text
@@ -59,7 +61,9 @@ def _yaml_string(value: str) -> str:
 
 
 def ros_args(params: dict[str, Any]) -> list[str]:
-    """``--ros-args -p name:=value ...`` for a parameter mapping (floats keep their dot,
+    """``--ros-args -p name:=value ...`` for a parameter mapping.
+
+    ``--ros-args -p name:=value ...`` for a parameter mapping (floats keep their dot,
     strings stay strings).
     """
     args = ['--ros-args']
@@ -83,7 +87,9 @@ def ros_args(params: dict[str, Any]) -> list[str]:
 
 def start_node(name: str, params: dict[str, Any], env: dict[str, str], *,
                namespace: str = '', **popen: Any) -> subprocess.Popen[bytes]:
-    """Start node ``name`` (a key of NODE_MODULES) with ``params`` in a child process, in
+    """Start node ``name`` in a child process.
+
+    Start node ``name`` (a key of NODE_MODULES) with ``params`` in a child process, in
     ``namespace`` ('' = the root; ``-r __ns:=...``).
     """
     remap = ['-r', f'__ns:={namespace}'] if namespace else []

@@ -82,7 +82,9 @@ def _takes(default: Any) -> tuple[str, str]:
 
 
 def _coerced(name: str, default: Any, given: Any) -> Any:
-    """``given`` as the type of ``default``: an integer (or a list of integers) where a float
+    """``given`` as the type of ``default``.
+
+    ``given`` as the type of ``default``: an integer (or a list of integers) where a float
     (a list of numbers) is declared becomes a float; anything else is refused.
 
     Raises:
@@ -194,7 +196,9 @@ def unused_parameters(node: Node) -> list[str]:
 
 
 def report_unused_parameters(node: Node) -> None:
-    """One warning naming the parameters given that the node does not have (a misspelt or
+    """One warning naming the given parameters the node lacks.
+
+    One warning naming the parameters given that the node does not have (a misspelt or
     stale ``-p name:=...`` is otherwise silently ignored by ROS).
     """
     unused = unused_parameters(node)
@@ -319,7 +323,9 @@ class StartGate:
 
 
 class ProgressLog:
-    """Progress lines of a long run, at most one per ``period_s`` of wall time:
+    """Progress lines of a long run, rate-limited.
+
+    Progress lines of a long run, at most one per ``period_s`` of wall time:
     "<what>: 120 of 600 s simulated (20 %), 4.9× real time".
     """
 
@@ -369,7 +375,9 @@ def changes_line(before: Any, after: Any) -> str | None:
 
 
 def simulation_done(node: Node) -> bool:
-    """A simulator node has published its whole run and is asked to exit then, or its
+    """True when a simulator node's run is over.
+
+    A simulator node has published its whole run and is asked to exit then, or its
     readers stalled (``node.stalled``: :func:`stops_on_stalled_readers`).
     """
     return bool(getattr(node, 'stalled', '')) or bool(node.done and node.exit_when_done)
@@ -411,14 +419,18 @@ def make_executor(context: Context | None = None) -> Executor:
 
 
 class ReadersStalled(Exception):
-    """The readers of a reliable topic acknowledged nothing for the publisher's patience: a
+    """The readers of a reliable topic stalled.
+
+    The readers of a reliable topic acknowledged nothing for the publisher's patience: a
     reader stopped reading (hung, paused, or still shutting down) while it is still
     connected. :func:`run_node` ends the node on it with one line saying so, no traceback.
     """
 
 
 def stops_on_stalled_readers(callback: Callable[..., None]) -> Callable[..., None]:
-    """Decorate a simulator's publishing callback: :class:`ReadersStalled` from it records
+    """Decorate a simulator's publishing callback against stalled readers.
+
+    Decorate a simulator's publishing callback: :class:`ReadersStalled` from it records
     the reason on the node (``node.stalled``) instead of escaping into the executor (which
     logs it as a fatal exception with a stack); :func:`simulation_done` then ends the spin
     and :func:`run_node` says why in one line.

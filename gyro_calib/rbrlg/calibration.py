@@ -95,14 +95,18 @@ class RbrlgCalibrator:
     """Any position-table sample at all (else the rate table is taken as a plain, vertical one)."""
 
     def conditions(self) -> dict[str, float | int]:
-        """The bench settings the results rest on (the bias: latitude and heading), for the
+        """The bench settings the results rest on.
+
+        The bench settings the results rest on (the bias: latitude and heading), for the
         hand-off file (NaN: not given).
         """
         return {'latitude_deg': self.latitude_deg, 'heading_deg': self.heading_deg,
                 'position_table_revolutions': self.position_table_revolutions}
 
     def not_measurable(self) -> dict[str, str]:
-        """θ and K of a bench without a position table (a plain rate table gives K̃ only),
+        """θ and K of a bench without a position table, with why.
+
+        θ and K of a bench without a position table (a plain rate table gives K̃ only),
         with why; {} once any position-table sample came.
         """
         if self._position_table_seen:
@@ -146,7 +150,9 @@ class RbrlgCalibrator:
                rate_zero_index_ns: ArrayLike | None = None,
                position_table: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
                position_zero_index_ns: ArrayLike | None = None) -> None:
-        """Many samples of any streams at once (batch or bag replay); same as adding them
+        """Many samples of any streams at once.
+
+        Many samples of any streams at once (batch or bag replay); same as adding them
         one by one. Joint states are (t_ns, angle rad, rate rad/s); pulses (t_ns, count).
         """
         empty3 = (np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
@@ -207,7 +213,9 @@ class RbrlgCalibrator:
         return RbrlgResults(k_tilde, fix_error, k, earth_bias, bias, problem)
 
     def _table_axis_tilt_rad(self, fix_error: FixErrorAngleResult | None) -> float | None:
-        """Tilt of the rate-table axis from the vertical: α from the stations, 0 for a plain
+        """Tilt of the rate-table axis from the vertical, rad.
+
+        Tilt of the rate-table axis from the vertical: α from the stations, 0 for a plain
         rate table (no position table in the data), None while a two-axis bench has no α.
         """
         if fix_error is not None:
@@ -262,7 +270,9 @@ class RbrlgCalibrator:
         return (min(stamps), max(stamps)) if stamps else None
 
     def limiting_factor(self) -> str:
-        """One line saying what limits the result most, as something the user can change
+        """One line saying what limits the result most.
+
+        One line saying what limits the result most, as something the user can change
         (issue 9 part 5).
         """
         cal = self.k_tilde
@@ -325,7 +335,9 @@ def _windows_per_run(windows: list[Any]) -> list[int]:
 def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
                     heading_deg: float = 0.0, position_table_revolutions: int = 1,
                     k_config: KTildeConfig | None = None) -> tuple[RbrlgResults, RbrlgCalibrator]:
-    """Batch calibration of a two-axis recording (``sim_nodes.rbrlg.bench.TwoAxisRecording``
+    """Batch calibration of a two-axis recording.
+
+    Batch calibration of a two-axis recording (``sim_nodes.rbrlg.bench.TwoAxisRecording``
     or anything with the same array attributes).
     """
     cal = RbrlgCalibrator(k_config or KTildeConfig(), position_table_revolutions,
@@ -340,7 +352,9 @@ def calibrate_rbrlg(recording: object, *, latitude_deg: float = math.nan,
 
 
 def handoff_values(results: RbrlgResults, calibrator: RbrlgCalibrator) -> dict[str, Any]:
-    """The RBRLG hand-off keys of whatever was measured, in SI (rad/pulse, rad, rad/s), each
+    """The RBRLG hand-off keys of whatever was measured.
+
+    The RBRLG hand-off keys of whatever was measured, in SI (rad/pulse, rad, rad/s), each
     with its ``_std``, plus the window-pair and station counts; {} when K̃ is not measured.
     """
     if results.k_tilde_arcsec_per_pulse is None:

@@ -45,7 +45,9 @@ MAX_FIT_HALF_WIDTH_S = 2.0
 
 
 def _period_near(t_ns: np.ndarray, t_event: int, half_ns: int) -> float:
-    """Median sample period (the upper median for an even count) of the stamps within
+    """Median sample period near an event, ns.
+
+    Median sample period (the upper median for an even count) of the stamps within
     ±``half_ns`` of ``t_event`` (0 if fewer than 2), ns.
     """
     lo = int(np.searchsorted(t_ns, t_event - half_ns, 'left'))
@@ -209,7 +211,9 @@ class RateBiasCalibrator:
 
     def _fit_half_width_ns(self, t_event: int, p_t: np.ndarray,
                            period_ns: float | None = None) -> int:
-        """Half-width of the fits around an event: ``fit_half_width_s``, widened so that a
+        """Half-width of the fits around an event.
+
+        Half-width of the fits around an event: ``fit_half_width_s``, widened so that a
         slow pulse stream still gives ``min_fit_samples_per_side`` samples each side (its
         period read from the samples within ±``fit_half_width_s``), at most MAX_FIT_HALF_WIDTH_S.
         """
@@ -237,7 +241,9 @@ class RateBiasCalibrator:
 
     def _resolve(self, t_event: int, p_t: np.ndarray, counts: np.ndarray,
                  s_t: np.ndarray, s_v: np.ndarray) -> IndexEvent:
-        """The table and the gyro at an event: encoder angle and pulse count by the same
+        """The table and the gyro at an event.
+
+        The table and the gyro at an event: encoder angle and pulse count by the same
         local fit, the table rate and how much it varies over the fit span.
         """
         cfg = self.config
@@ -302,7 +308,9 @@ class RateBiasCalibrator:
         self.table.discard_before(keep_from - int(TABLE_HISTORY_S * NS_PER_S))
 
     def _trim_idle(self) -> None:
-        """With no index events pending, keep only what an event still to come may need: a
+        """Keep only what an event still to come may need.
+
+        With no index events pending, keep only what an event still to come may need: a
         lagging event stream is waited for at most ``stall_timeout_s``, so the data older
         than that (plus the widest fit span) can no longer be asked for.
 

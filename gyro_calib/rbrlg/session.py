@@ -41,7 +41,9 @@ DEG_H = math.radians(1.0) / 3600.0
 
 
 def rbrlg_calibrator(options: CalibrationOptions) -> RbrlgCalibrator:
-    """The calibrator with the user's settings: flags first, then the bench settings stored in
+    """The RBRLG calibrator with the user's settings.
+
+    The calibrator with the user's settings: flags first, then the bench settings stored in
     the bag, then the defaults.
     """
     k_config = KTildeConfig()
@@ -168,7 +170,9 @@ class RbrlgSession(MethodSession):
         return 'fitted tilt' in self.rbrlg_results.fix_error_problem
 
     def problems(self) -> list[str]:
-        """θ refused by the stations' tilt (a wrong set-up: more data will not help), and the
+        """Problems more data will not fix.
+
+        θ refused by the stations' tilt (a wrong set-up: more data will not help), and the
         default (everything rejected).
         """
         refused = [self.rbrlg_results.fix_error_problem] if self._theta_refused() else []

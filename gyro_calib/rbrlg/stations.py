@@ -169,7 +169,9 @@ class StationCalibrator:
         return new
 
     def _trim_rate_table(self) -> None:
-        """Bound the rate-table history: a station spans one forward and one reverse window
+        """Bound the rate-table history.
+
+        Bound the rate-table history: a station spans one forward and one reverse window
         (each ≤ max_window_s) and the pulses deciding it may lag by stall_timeout_s, so
         older samples can never be asked for. Trims at 1.25 × that span (amortised).
         """
@@ -249,7 +251,9 @@ class StationCalibrator:
 
 
 def _whole_turns(window: RevolutionWindow) -> tuple[float, float]:
-    """The window's count scaled to exactly n whole turns by its encoder angle, and its
+    """The window's count scaled to whole turns, with its uncertainty.
+
+    The window's count scaled to exactly n whole turns by its encoder angle, and its
     standard uncertainty (counts and angle), pulses (φ_ON of eq. 10 is then exact).
     """
     nominal = 2 * math.pi * window.revolutions

@@ -227,7 +227,9 @@ class _Run:
 
     @property
     def cruise_rad_s(self) -> float | None:
-        """Median rate at the usable events (the cruise), once two were seen (two usable
+        """Median rate at the usable events (the cruise).
+
+        Median rate at the usable events (the cruise), once two were seen (two usable
         events are a whole revolution apart: this is a rate-bias run, not a positioning move).
         """
         return float(np.median(self.usable_rates)) if len(self.usable_rates) >= 2 else None
@@ -389,7 +391,9 @@ class WholeRevolutionWindows:
             'lower revolutions_per_window).'))
 
     def _cruise_extent(self, run: _Run) -> tuple[float, float, int, int] | None:
-        """(revolutions held, cruise rate rad/s, first stamp, last stamp) of the run's
+        """The run's constant-rate stretch, or None.
+
+        (revolutions held, cruise rate rad/s, first stamp, last stamp) of the run's
         constant-rate stretch by the encoder, or None when the table data cannot say.
 
         The cruise is the median rate at the usable events; with none (every event fell in
@@ -424,7 +428,9 @@ class WholeRevolutionWindows:
         return held, cruise, int(t[first]), int(t[last])
 
     def _missing_at_cruise_ends(self, run: _Run, cruise: float) -> str:
-        """Why a cruise gave too few events, if the encoder shows it held its rate for a whole
+        """Why a cruise gave too few events, if known.
+
+        Why a cruise gave too few events, if the encoder shows it held its rate for a whole
         revolution beyond its first or last event: a zero-index event is missing.
         """
         t, angle, rate = self._table

@@ -143,7 +143,9 @@ def format_number(value: float, std: float) -> str:
 
 
 def _generic_values(values: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
-    """Key → {'value', 'std', 'n', 'dof'} of every uncertain quantity of the hand-off, read
+    """Every uncertain quantity of the hand-off, read generically.
+
+    Key → {'value', 'std', 'n', 'dof'} of every uncertain quantity of the hand-off, read
     generically: scalar keys with ``_std`` (and ``_n``, ``_dof`` where present) twins, or a
     mapping with 'value' and 'std'.
     """
@@ -339,7 +341,9 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
 
 
 def _conventions() -> tuple[tuple[str, str], ...]:
-    """What every number of the hand-off file is (its ``conventions``), where the loader
+    """What every number of the hand-off file is.
+
+    What every number of the hand-off file is (its ``conventions``), where the loader
     states them.
     """
     from gyro_calib import handoff
@@ -386,7 +390,9 @@ def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> 
 
 
 def write_bytes_atomically(path: Path, data: bytes) -> Path:
-    """Write ``data`` to ``path``: temporary file beside it, fsync, rename; the mode of
+    """Write ``data`` to ``path`` atomically.
+
+    Write ``data`` to ``path``: temporary file beside it, fsync, rename; the mode of
     :func:`gyro_calib.outputs.new_file_mode` (the user's umask, or the replaced file's).
     """
     from gyro_calib.outputs import new_file_mode

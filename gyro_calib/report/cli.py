@@ -55,7 +55,9 @@ def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def check_output_dir(path: Path, what: str = '--out') -> Path:
-    """The output directory, checked before any work (the rule of :mod:`gyro_calib.outputs`:
+    """The output directory, checked before any work.
+
+    The output directory, checked before any work (the rule of :mod:`gyro_calib.outputs`:
     created when absent, in an existing parent; a file is refused).
     """
     from gyro_calib.outputs import check_plot_dir
@@ -140,7 +142,9 @@ def write_report(calibration: Calibration, evidence: RunEvidence | None, spec: S
 
 def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
                            human: Any = None) -> None:
-    """``calibrate --report DIR``: the certificate of the run just made (the hand-off file of
+    """``calibrate --report DIR``: the certificate of the run.
+
+    ``calibrate --report DIR``: the certificate of the run just made (the hand-off file of
     ``--out`` as merged, else this run's record).
     """
     from gyro_calib.cli import options_from_args

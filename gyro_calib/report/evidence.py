@@ -148,7 +148,9 @@ def bag_input(info: BagInfo) -> BagInput:
 
 
 def settings_used(options: CalibrationOptions, method: str = '') -> tuple[Setting, ...]:
-    """Each bench setting (:data:`gyro_calib.config.BENCH_SETTINGS`) with its value and where it
+    """Each bench setting with its value and origin.
+
+    Each bench setting (:data:`gyro_calib.config.BENCH_SETTINGS`) with its value and where it
     came from (flag or node parameter, config file, the bench settings stored with the
     method's bags, or the default), as the method's session took it; then its config file.
     """
@@ -177,7 +179,9 @@ def settings_used(options: CalibrationOptions, method: str = '') -> tuple[Settin
 
 def _budgets(session: MethodSession,
              estimates: Mapping[str, Estimate]) -> dict[str, tuple[BudgetLine, ...]]:
-    """The sources of each estimate's u: what the estimator states, split where it knows the
+    """The sources of each estimate's uncertainty.
+
+    The sources of each estimate's u: what the estimator states, split where it knows the
     parts (dither: statistical and the rocking Type B allowance).
     """
     out: dict[str, tuple[BudgetLine, ...]] = {}

@@ -173,7 +173,9 @@ def noise_floor(rate: npt.NDArray[np.float64], tau0_s: float, block_s: float, *,
 
 def allan_long_run_variance(residuals: npt.NDArray[np.float64],
                             max_rows: int) -> tuple[float, int]:
-    """Long-run variance of a residual series from its Allan variance (see
+    """Long-run variance of a residual series from its Allan variance.
+
+    Long-run variance of a residual series from its Allan variance (see
     :mod:`gyro_calib.thermal.regression` for why not a lag-window/HAC estimate).
 
     m·σ²_A(m) is evaluated at the octaves m = 1, 2, 4 … ≤ ``max_rows`` (and ≤ n/3); the

@@ -95,7 +95,9 @@ class ThermalCalibrator:
     def extend_temperatures(self, t_ns: ArrayLike, celsius: ArrayLike,
                             frame_id: ArrayLike | str,
                             variance_c2: ArrayLike | None = None) -> None:
-        """Many /gyro/temperature messages: stamps (int ns), °C, frame_id per message (or
+        """Many /gyro/temperature messages.
+
+        Many /gyro/temperature messages: stamps (int ns), °C, frame_id per message (or
         one for all), variance (°C², accepted and not used).
         """
         t = np.asarray(t_ns, np.int64)

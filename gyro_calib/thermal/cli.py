@@ -162,7 +162,9 @@ def compensate_bags(paths: Sequence[Path], calibration_file: Path, *, gyro_id: s
 
 
 def _stored_identity(infos: Sequence[Any], gyro_id: str) -> tuple[str, Any]:
-    """(the recording's gyro id, its stored K or None) from the bench settings stored with the
+    """The recording's gyro id and stored K.
+
+    (the recording's gyro id, its stored K or None) from the bench settings stored with the
     chamber run's own bags (those holding its pulses and temperatures), never another bag's.
 
     Raises:
@@ -213,7 +215,9 @@ def _pulse_samples(path: Path) -> Iterator[tuple[int, float]]:
 
 
 class _ImuMessages:
-    """sensor_msgs/Imu CDR as imu_corrector publishes it (x, y unknown; no orientation,
+    """sensor_msgs/Imu CDR as imu_corrector publishes it.
+
+    sensor_msgs/Imu CDR as imu_corrector publishes it (x, y unknown; no orientation,
     no acceleration).
     """
 
@@ -317,7 +321,9 @@ def _est(e: Estimate) -> dict[str, Any]:
 
 
 def json_document(result: BagCompensation) -> dict[str, Any]:
-    """The ``--json`` document, in the shape every command shares (README, ``gyro_calib/
+    """The ``--json`` document of ``compensate``.
+
+    The ``--json`` document, in the shape every command shares (README, ``gyro_calib/
     schema/result.schema.json``): ``methods.thermal.{results, missing, rejections}`` plus
     the compensation's figures, model and notes (rates in rad/s; NaN → null).
     """

@@ -118,7 +118,9 @@ class CompensationReport:
 
 
 def model_interval_settings(model: ThermalBiasModel) -> IntervalSettings:
-    """The reduction the model was fitted with: its interval, Ḣ window and largest
+    """The reduction the model was fitted with.
+
+    The reduction the model was fitted with: its interval, Ḣ window and largest
     interpolated gap between a sensor's readings.
     """
     return IntervalSettings(averaging_interval_s=model.averaging_interval_s,
@@ -127,7 +129,9 @@ def model_interval_settings(model: ThermalBiasModel) -> IntervalSettings:
 
 
 class CompensationReducer:
-    """Reduces a recording stream by stream, chunk by chunk, exactly as the calibrator does
+    """Reduces a recording stream by stream, as the calibrator does.
+
+    Reduces a recording stream by stream, chunk by chunk, exactly as the calibrator does
     (the model's averaging interval and Ḣ window), for :func:`compensate_reduced`.
 
     Memory: about one interval of samples per stream plus a few numbers per interval, so a
@@ -247,7 +251,9 @@ def check_identity(model: ThermalBiasModel, *, gyro_id: str = '',
 def compensate_reduced(reducer: CompensationReducer, *, gyro_id: str = '',
                        block_s: float = 100.0, out_of_range: str = 'raise'
                        ) -> CompensationReport:
-    """The figures of a reduced recording (see :func:`compensate`, which calls it; call
+    """The figures of a reduced recording.
+
+    The figures of a reduced recording (see :func:`compensate`, which calls it; call
     :func:`check_identity` before reducing).
 
     Raises:
@@ -391,7 +397,9 @@ class ThermalBiasTracker:
 
     def __init__(self, model: ThermalBiasModel, *,
                  interval_settings: IntervalSettings | None = None) -> None:
-        """Create per-sensor reducers using the model's interval, Ḣ window and largest
+        """Create per-sensor reducers.
+
+        Create per-sensor reducers using the model's interval, Ḣ window and largest
         interpolated gap.
         """
         self.model = model

@@ -22,6 +22,8 @@ class TemperatureDataError(InsufficientDataError):
 
 
 class SensorSamplingError(TemperatureDataError):
-    """A temperature sensor is read so sparsely that it cannot be interpolated onto the
+    """A temperature sensor is read too sparsely to interpolate.
+
+    A temperature sensor is read so sparsely that it cannot be interpolated onto the
     averaging intervals (bad input: the offline front door refuses the run, exit 2).
     """

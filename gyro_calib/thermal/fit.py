@@ -394,7 +394,9 @@ def _require_cavity_sensors(table: IntervalTable, frame_ids_seen: tuple[str, ...
 
 
 def _require_readable_sensors(check: SensorCheck, s: ThermalSettings) -> None:
-    """Refuse a sensor read so sparsely that it cannot be interpolated onto the intervals:
+    """Refuse a sensor read too sparsely to interpolate.
+
+    Refuse a sensor read so sparsely that it cannot be interpolated onto the intervals:
     its readings lie further apart than ``max_temperature_gap_s`` almost everywhere.
     """
     for name, smp in check.sampling.items():
@@ -524,7 +526,9 @@ def _check_levels(rows: FitRows, terms: tuple[Term, ...], s: ThermalSettings) ->
 def _prune_on_held_out(rows: FitRows, chosen: list[str],
                        keep_while: dict[str, tuple[str, ...]],
                        s: ThermalSettings) -> tuple[list[str], list[str]]:
-    """Drop terms while dropping one does not raise the held-out mean-square residual; a
+    """Backward elimination of terms on the held-out residual.
+
+    Drop terms while dropping one does not raise the held-out mean-square residual; a
     term another kept term needs (``keep_while``: its main effects) is not dropped.
     """
     fit_mask = ~rows.held_out
@@ -563,7 +567,9 @@ def _prune_on_held_out(rows: FitRows, chosen: list[str],
 def _complete_main_effects(rows: FitRows, chosen: list[str],
                            keep_while: dict[str, tuple[str, ...]],
                            fit_mask: npt.NDArray[np.bool_]) -> list[str]:
-    """Add (in place) the candidate first powers a chosen term needs and the model lacks
+    """Add the first powers a chosen term needs.
+
+    Add (in place) the candidate first powers a chosen term needs and the model lacks
     (a constant-start selection can enter H³ without H); returns the names added.
     """
     added: list[str] = []

@@ -294,7 +294,9 @@ class TemperatureIntervals:
 
     def stamped_arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                       npt.NDArray[np.float64]]:
-        """k, mean reading (°C, NaN where silent) and the mean stamp of those readings as
+        """Per interval: count, mean reading and mean stamp offset.
+
+        k, mean reading (°C, NaN where silent) and the mean stamp of those readings as
         an offset from the interval start (ns, NaN where silent).
         """
         k, m, _, off = self._rows.arrays(4)
@@ -430,7 +432,9 @@ class SensorSampling:
 def interpolate_sensor(col: npt.NDArray[np.float64], offsets_ns: npt.NDArray[np.float64] | None,
                        interval_s: float, max_gap_s: float, sensor: str = ''
                        ) -> tuple[npt.NDArray[np.float64], SensorSampling]:
-    """Give each interval without a reading the sensor's value at the interval centre,
+    """Interpolate a sensor onto the intervals without a reading.
+
+    Give each interval without a reading the sensor's value at the interval centre,
     linearly interpolated between the two readings around it when they lie at most
     ``max_gap_s`` apart (METHODS §D.5); intervals holding readings keep their mean.
 
@@ -499,7 +503,9 @@ def true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
 
 
 def check_sensors(table: IntervalTable, settings: IntervalSettings) -> SensorCheck:
-    """Interpolate each sensor onto the intervals it has no reading in
+    """Interpolate each sensor, then find stuck and silent spans.
+
+    Interpolate each sensor onto the intervals it has no reading in
     (:func:`interpolate_sensor`), then find stuck and silent spans; blank the stuck ones.
 
     A sensor is stuck over a run of intervals in which its value is exactly the same for

@@ -144,7 +144,9 @@ class ThermalBiasModel:
 
     def check_range(self, h_c: ArrayLike, hdot_c_s: ArrayLike | None = None,
                     t_ns: ArrayLike | None = None) -> None:
-        """Raise :class:`ExtrapolationError` if any H (or Ḣ, if the model uses it) is outside
+        """Raise ExtrapolationError outside the calibrated range.
+
+        Raise :class:`ExtrapolationError` if any H (or Ḣ, if the model uses it) is outside
         the calibrated range plus margin; the message names the value, stamp and range.
         """
         h = np.atleast_1d(np.asarray(h_c, np.float64))
@@ -177,7 +179,9 @@ class ThermalBiasModel:
     def bias_rad_s(self, h_c: ArrayLike, hdot_c_s: ArrayLike = 0.0, dtab_c: ArrayLike = 0.0,
                    dtcs_c: ArrayLike = 0.0, *, check: bool = True
                    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """Bias and its standard uncertainty, rad/s, per input value: u² = x·C·xᵀ + u_m²
+        """Bias and its standard uncertainty, rad/s, per input value.
+
+        Bias and its standard uncertainty, rad/s, per input value: u² = x·C·xᵀ + u_m²
         (METHODS §D.3 (17d), (17g)).
 
         Args:

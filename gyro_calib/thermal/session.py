@@ -1,4 +1,6 @@
-"""The thermal method behind the shared front door (registry, CLI, bag calibration, hand-off,
+"""The thermal method behind the shared front door.
+
+The thermal method behind the shared front door (registry, CLI, bag calibration, hand-off,
 ``thermal_calibration_node``).
 
 Feeds :class:`~gyro_calib.thermal.calibrator.ThermalCalibrator` from /gyro/pulses and
@@ -143,7 +145,9 @@ def thermal_settings(options: CalibrationOptions) -> tuple[ThermalSettings, dict
 
 
 def provenance(origin: dict[str, str], short: dict[str, str] | None = None) -> str:
-    """Where settings came from, each source named once: ``K and latitude from the bag's
+    """Where settings came from, each source named once.
+
+    Where settings came from, each source named once: ``K and latitude from the bag's
     bench settings; gyro_id from --gyro-id`` (``short`` renames fields).
     """
     by_source: dict[str, list[str]] = {}
@@ -197,7 +201,9 @@ class ThermalSession(MethodSession):
                                                 temps.values['variance_degc2'])
 
     def process(self, *, flush: bool = False) -> list[str]:
-        """Reduce what the streams allow; fit at the end (``flush``) or every
+        """Reduce what the streams allow; fit when due.
+
+        Reduce what the streams allow; fit at the end (``flush``) or every
         ``refit_every_s``.
         """
         lines = self.calibrator.process(flush=flush)
@@ -218,7 +224,9 @@ class ThermalSession(MethodSession):
         return self.calibrator.results()
 
     def missing(self) -> dict[str, str]:
-        """Hand-off keys not measured, with the reason (the held-out figures only when the
+        """Hand-off keys not measured, with the reason.
+
+        Hand-off keys not measured, with the reason (the held-out figures only when the
         settings ask for a held-out check).
         """
         rep = self.report
@@ -305,7 +313,9 @@ class ThermalSession(MethodSession):
         return rows
 
     def summary_lines(self) -> list[str]:
-        """The chosen terms, the inputs used, the SNR per temperature point, the held-out
+        """The summary lines of a thermal run.
+
+        The chosen terms, the inputs used, the SNR per temperature point, the held-out
         check, the floor, and what is missing.
         """
         rep = self.report

@@ -83,7 +83,9 @@ class Term:
 
 
 def main_effects(term: Term) -> tuple[str, ...]:
-    """Names of the first powers of the term's variables, the term itself excluded: the
+    """Names of the first powers of the term's variables.
+
+    Names of the first powers of the term's variables, the term itself excluded: the
     terms kept while it is in a model (METHODS §D.3): ``H^3`` → ``H``; ``H*Hdot`` → ``H``,
     ``Hdot``; ``Hdot`` → none.
     """

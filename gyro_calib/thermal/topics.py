@@ -1,4 +1,6 @@
-"""Topic-contract names of the thermal method: the shared ones of :mod:`gyro_calib.topics`,
+"""Topic-contract names of the thermal method.
+
+Topic-contract names of the thermal method: the shared ones of :mod:`gyro_calib.topics`,
 re-exported, plus the sensor names by role and the corrected-rate topic.
 """
 

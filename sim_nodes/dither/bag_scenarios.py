@@ -87,7 +87,9 @@ class DitherScenario:
         return self.table.axis
 
     def truth(self) -> dict[str, Any]:
-        """The simulator's truth (:func:`sim_nodes.dither.scenarios.dither_truth`) and the
+        """The simulator's truth and the coning the estimator reports.
+
+        The simulator's truth (:func:`sim_nodes.dither.scenarios.dither_truth`) and the
         worst-case eq. (24) the estimator reports at the true components.
         """
         truth = dither_truth(self.gyro, self.table)
@@ -95,7 +97,9 @@ class DitherScenario:
         return truth
 
     def _coning(self, misalignment_rad: float) -> float:
-        """Eq. (24), worst case sin φ = 1, proportional rocking, at this a (what the estimator
+        """Eq. (24) at this a, worst case.
+
+        Eq. (24), worst case sin φ = 1, proportional rocking, at this a (what the estimator
         reports when the rocking phase is not given).
         """
         scale = misalignment_rad / self.gyro.geometry.misalignment_rad
@@ -120,14 +124,18 @@ class DitherScenario:
             table_frequency_hz=self.table.frequency_hz).component_std_rad
 
     def rocking_shift_rad(self) -> float:
-        """Largest shift of one component the in-phase rocking causes: θ_rock,max/θ_d with
+        """Largest shift of one component the rocking causes, rad.
+
+        Largest shift of one component the in-phase rocking causes: θ_rock,max/θ_d with
         θ_rock,max = k·a (METHODS §C), rad.
         """
         a = self.gyro.geometry.misalignment_rad
         return self.gyro.rocking_per_misalignment * a / self.gyro.dither_amplitude_rad
 
     def tolerances(self) -> dict[str, float]:
-        """How far from the truth a correct calibration may land: 4 σ_c of the record for the
+        """How far from the truth a correct calibration may land.
+
+        How far from the truth a correct calibration may land: 4 σ_c of the record for the
         rocking-shifted (effective) components the output carries; plus the rocking shift
         for the true components and a (the estimator bounds, not removes, it); the coning at
         a ± that tolerance; θ_d and f_d to 1e-3.
@@ -298,7 +306,9 @@ class JointStateTemplate:
 
 
 def stream_messages(rec: DitherRecording) -> Iterator[BagMessage]:
-    """The recording as bag messages in publication order (log time = stamp; ties in contract
+    """The recording as bag messages in publication order.
+
+    The recording as bag messages in publication order (log time = stamp; ties in contract
     topic order).
     """
     stamps = np.concatenate((rec.pulse_t_ns, rec.table_t_ns))

@@ -143,7 +143,9 @@ class FogScenario:
         return {k: float(v) for k, v in truth.items()}
 
     def max_std(self) -> dict[str, float]:
-        """Largest stated uncertainties a correct calibration gives: 1.5 × the floor
+        """Largest stated uncertainties a correct calibration gives.
+
+        Largest stated uncertainties a correct calibration gives: 1.5 × the floor
         predicted from ARW and quantisation for the procedure's shortest possible spans.
         """
         hz = self.table.output_rate_hz
@@ -215,7 +217,9 @@ def turntable_fit_truth(config: FogConfig, rates_deg_s: Sequence[float]) -> dict
 
 def self_cal_truth(config: FogConfig, levels_counts_s: Sequence[float],
                    mapping_counts_per_rad: float) -> float:
-    """Noise-free self-calibrated K over plateaus at these injection levels (counts/rad):
+    """Noise-free self-calibrated K over plateaus, counts/rad.
+
+    Noise-free self-calibrated K over plateaus at these injection levels (counts/rad):
     the LS slope of the balanced static outputs against J, times the true mapping.
     """
     fe = FrontEnd(config)
@@ -226,7 +230,9 @@ def self_cal_truth(config: FogConfig, levels_counts_s: Sequence[float],
 
 
 def shortest_span_s(rate_deg_s: float, hold_s: float) -> float:
-    """The shortest span a segment at this rate can be measured over (s): whole revolutions
+    """The shortest span a segment at this rate is measured over, s.
+
+    The shortest span a segment at this rate can be measured over (s): whole revolutions
     between zero-index events (one fewer than fit when the mark may fall late), else the hold
     less the guards.
     """
@@ -242,7 +248,9 @@ def shortest_span_s(rate_deg_s: float, hold_s: float) -> float:
 
 def predicted_line_std(config: FogConfig, rates_deg_s: Sequence[float], hold_s: float,
                        output_hz: float, *, weighted: bool) -> tuple[float, float]:
-    """Standard uncertainties of K (counts/rad) and of the bias (rad/s) of the line fit over
+    """Standard uncertainties of K and of the bias of the line fit.
+
+    Standard uncertainties of K (counts/rad) and of the bias (rad/s) of the line fit over
     segments at these rates, from the angle random walk and the output quantisation alone:
     var(R_i) = N²/T_i + 2·q²/T_i², q² = 1/(12·looks) (one look per count transition in a
     local fit window, at most one per sample), T_i the shortest span (:func:`shortest_span_s`).
@@ -384,7 +392,9 @@ _JOINTS = {topics.FOG_OUTPUT: topics.FOG_JOINT, topics.FOG_INJECTION: topics.FOG
 
 
 def recording_messages(rec: FogRecording) -> Iterator[BagMessage]:
-    """A recording's streams as bag messages: log time = header stamp, in stamp order (ties in
+    """A recording's streams as bag messages.
+
+    A recording's streams as bag messages: log time = header stamp, in stamp order (ties in
     contract topic order). Samples out of stamp order in the arrays (a data fault) keep the
     log time of their slot: they arrived then.
     """

@@ -250,7 +250,9 @@ class FogBench:
         return self.published.messages
 
     def chunks(self, chunk_samples: int | None = None) -> Iterator[BenchChunk]:
-        """Stream the run in chunks of ``chunk_samples`` output samples (default: the table
+        """Stream the run in chunks.
+
+        Stream the run in chunks of ``chunk_samples`` output samples (default: the table
         settings'); the samples do not depend on the chunk size.
         """
         size = int(chunk_samples or self.table.chunk_samples)
@@ -289,7 +291,9 @@ def turntable_bench(config: FogConfig | None = None, *,
                     hold_s: float | tuple[float, ...] = 60.0,
                     table: TableSettings | None = None,
                     model: str = 'equivalent') -> FogBench:
-    """The bench of scenario (a), IEEE Std 952 multi-rate (arguments as
+    """The bench of scenario (a), IEEE Std 952 multi-rate.
+
+    The bench of scenario (a), IEEE Std 952 multi-rate (arguments as
     :func:`simulate_turntable`).
     """
     config = config or FogConfig()
@@ -371,7 +375,9 @@ def mapping_self_cal_bench(
         mapping_rates_deg_s: tuple[float, ...] | None = MAPPING_RATES_DEG_S,
         mapping_hold_s: float = 60.0, ladder: SelfCalLadder | None = None,
         table: TableSettings | None = None, model: str = 'equivalent') -> FogBench:
-    """The bench of scenario (b), mapping then ladder (arguments as
+    """The bench of scenario (b), mapping then ladder.
+
+    The bench of scenario (b), mapping then ladder (arguments as
     :func:`simulate_mapping_and_self_cal`).
     """
     config = config or FogConfig()

@@ -118,7 +118,9 @@ def _store() -> Any:
 
 
 def imu_template(frame_id: str) -> tuple[_Template, int]:
-    """Template of a sensor_msgs/Imu (orientation unknown: covariance[0] = −1, REP 145) and
+    """Template of a sensor_msgs/Imu and its acceleration offset.
+
+    Template of a sensor_msgs/Imu (orientation unknown: covariance[0] = −1, REP 145) and
     the offset of linear_acceleration relative to angular_velocity.
     """
     store = _store()
@@ -222,7 +224,9 @@ class ImuBagScenario:
                                  lowpass_cutoff_hz=self.lowpass_cutoff_hz)
 
     def truth(self) -> dict[str, dict[str, float]]:
-        """The noise terms the recorded samples carry, per axis (term key → SI value):
+        """The noise terms the recorded samples carry, per axis.
+
+        The noise terms the recorded samples carry, per axis (term key → SI value):
         the generator's terms, the random walk times the decimation filter's alias factor
         (1 without a filter) with the ADC rounding added.
         """
@@ -253,7 +257,9 @@ class ImuBagScenario:
         return swapped.astype(np.int64), duplicated.astype(np.int64)
 
     def messages(self) -> Iterator[tuple[str, int, bytes]]:
-        """(topic, log time ns, CDR) in publication order; log time = the stamp of the slot
+        """(topic, log time ns, CDR) in publication order.
+
+        (topic, log time ns, CDR) in publication order; log time = the stamp of the slot
         a message went out in (a swapped message keeps its slot's).
         """
         template, accel_offset = imu_template(self.frame_id)
@@ -307,7 +313,9 @@ class ImuBagScenario:
         }
 
     def description_dict(self) -> dict[str, Any]:
-        """Stored in the bag: generator parameters, seed, faults, bench settings, truth (the
+        """Stored in the bag: parameters, seed, faults, settings, truth.
+
+        Stored in the bag: generator parameters, seed, faults, bench settings, truth (the
         decimation filter only where there is one).
         """
         band = ({'decimation': self.decimation, 'lowpass_cutoff_hz': self.lowpass_cutoff_hz,
@@ -370,7 +378,9 @@ class RlgBagScenario:
             dither_frequency_hz=self.dither_frequency_hz, dither_stripped=True)
 
     def truth(self) -> dict[str, dict[str, float]]:
-        """The noise terms of the pulse record: Q = K/√12 (dither-randomised rounding to
+        """The noise terms of the pulse record.
+
+        The noise terms of the pulse record: Q = K/√12 (dither-randomised rounding to
         whole pulses), the rate noise's N, B, K, R.
         """
         t = self.terms

@@ -190,7 +190,9 @@ class ImuNoiseGenerator:
         return math.sqrt(lsb * lsb * (self.period_ns / NS_PER_S) / 12.0)
 
     def filtered_random_walk_factor(self) -> float:
-        """N_out/N of white rate noise through the decimation filter: √(Σ_k |H(k·f_out)|²),
+        """N_out/N of white rate noise through the decimation filter.
+
+        N_out/N of white rate noise through the decimation filter: √(Σ_k |H(k·f_out)|²),
         k = 0 … D − 1 (the filter's response at DC and at the frequencies the decimation
         aliases onto DC); 1 without a filter.
         """

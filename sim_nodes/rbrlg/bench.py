@@ -118,7 +118,9 @@ ThetaRecording = TwoAxisRecording
 def two_axis_simulators(rate_profile: MotionProfile, position_profile: MotionProfile,
                         table: RateTableConfig, position_index_jitter_arcsec: float = -1.0,
                         ) -> tuple[RateTableSimulator, RateTableSimulator]:
-    """Both tables of the two-axis bench on one clock; they share ``table``'s encoder and
+    """Both tables of the two-axis bench on one clock.
+
+    Both tables of the two-axis bench on one clock; they share ``table``'s encoder and
     sample settings. The position table's index jitter (its Δφ_ON) is
     ``position_index_jitter_arcsec``, or the rate table's when negative.
     """

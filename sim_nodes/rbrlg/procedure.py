@@ -112,7 +112,9 @@ def full_procedure_profiles(
     procedure: ThetaProcedureConfig, *, k_tilde_pairs: int, rate_deg_s: float = 150.0,
     acceleration_deg_s2: float = 1000.0, revolutions_per_segment: float = 6.0,
 ) -> tuple[MotionProfile, MotionProfile, list[tuple[float, float]]]:
-    """The whole calibration: K̃ phase (rate table spinning ``k_tilde_pairs`` times each
+    """The whole calibration: K̃ phase, then the θ phase.
+
+    The whole calibration: K̃ phase (rate table spinning ``k_tilde_pairs`` times each
     way, position table still), then the θ phase of ``procedure``. Returns the rate-table
     and position-table profiles and the θ stations' (start, end) times, s.
     """

@@ -105,7 +105,9 @@ class Scenario:
         return truth
 
     def tolerances(self) -> dict[str, float]:
-        """How far from the truth a correct calibration of this run may land (≈ 5 σ of
+        """How far from the truth a correct calibration may land.
+
+        How far from the truth a correct calibration of this run may land (≈ 5 σ of
         the noise the run carries: index jitter, ARW, and the θ-phase error sources).
         """
         tol = {'k_tilde_relative': 7e-8}

@@ -1,4 +1,6 @@
-"""The thermal method's committed scenario bags (``bags/thermal_*``) and how any chamber run
+"""The thermal method's committed scenario bags.
+
+The thermal method's committed scenario bags (``bags/thermal_*``) and how any chamber run
 becomes a bag.
 
 A :class:`ThermalScenario` is a chamber run (:class:`~sim_nodes.thermal.scenarios.
@@ -92,7 +94,9 @@ class TemperatureMessages:
 
 
 def run_messages(run: ThermalRun, *, chunk_s: float = CHUNK_S) -> Iterator[BagMessage]:
-    """The run's messages in publication order: by stamp (= log time); at equal stamps the
+    """The run's messages in publication order.
+
+    The run's messages in publication order: by stamp (= log time); at equal stamps the
     pulse sample first, then the sensors in the order the simulator emits them.
     """
     cdr = TemperatureMessages()

@@ -137,7 +137,9 @@ def ramp_programme(low_c: float, high_c: float, *, rate_c_per_min: float, cycles
 
 def ramp_only_programme(low_c: float, high_c: float, *, rates_c_per_min: Sequence[float],
                         duration_s: float, start_hot: bool = False) -> ChamberProfile:
-    """Ramps between ``low_c`` and ``high_c`` and back, never dwelling, the k-th leg at the
+    """Ramps between ``low_c`` and ``high_c`` and back.
+
+    Ramps between ``low_c`` and ``high_c`` and back, never dwelling, the k-th leg at the
     k-th rate of ``rates_c_per_min`` (cycled), until ``duration_s``; the chamber starts at
     ``low_c`` (``high_c`` with ``start_hot``), the gyro already at the chamber temperature.
     """

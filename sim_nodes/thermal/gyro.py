@@ -512,7 +512,9 @@ class ThermalGyroSimulator:
             temperature_frame_id=np.tile(np.array(names), n_t), truth=truth)
 
     def _read(self, true_c: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64], float]:
-        """Sensor readings of true sensor temperatures: white noise (drawn in message
+        """Sensor readings of true sensor temperatures.
+
+        Sensor readings of true sensor temperatures: white noise (drawn in message
         order), rounded to the resolution (LSB); and the variance each message carries.
         """
         cfg = self.config
@@ -525,7 +527,9 @@ class ThermalGyroSimulator:
 
     def _own_clock_chunk(self, p_t: npt.NDArray[np.int64], counts: npt.NDArray[np.float64],
                          until_ns: int) -> ThermalChunk:
-        """Temperatures of sensors each read on its own clock (period and first reading of
+        """Temperatures of sensors each read on its own clock.
+
+        Temperatures of sensors each read on its own clock (period and first reading of
         its own); messages in stamp order, at equal stamps in sensor order; truth at every
         instant any sensor is read.
         """

@@ -241,7 +241,9 @@ def apply_faults(chunk_t: npt.NDArray[np.int64], values: npt.NDArray[np.float64]
                  frame_id: npt.NDArray[np.str_], faults: ThermalFaults,
                  start_time_ns: int) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                               npt.NDArray[np.bool_]]:
-    """Apply ``faults`` to a whole recording's temperature messages; return stamps, values
+    """Apply ``faults`` to a whole recording's temperature messages.
+
+    Apply ``faults`` to a whole recording's temperature messages; return stamps, values
     and a keep mask (:class:`FaultApplier` in one call).
     """
     values, keep = FaultApplier(faults, start_time_ns).apply(chunk_t, values, frame_id)
@@ -249,7 +251,9 @@ def apply_faults(chunk_t: npt.NDArray[np.int64], values: npt.NDArray[np.float64]
 
 
 class ThermalRun:
-    """One chamber run of one gyro, faults applied, streamed in chunks (simulator nodes,
+    """One chamber run of one gyro, faults applied, in chunks.
+
+    One chamber run of one gyro, faults applied, streamed in chunks (simulator nodes,
     bag writers); :func:`simulate_thermal_run` concatenates the same chunks.
 
     Attributes:
@@ -275,7 +279,9 @@ class ThermalRun:
         return self.simulator.finished
 
     def advance(self, until_ns: int) -> ThermalChunk:
-        """Every sample stamped ≤ ``until_ns``, with the faults applied to the temperatures
+        """Every sample stamped ≤ ``until_ns``, faults applied.
+
+        Every sample stamped ≤ ``until_ns``, with the faults applied to the temperatures
         (truth untouched).
         """
         c = self.simulator.advance(until_ns)
@@ -371,7 +377,9 @@ SENSOR_NAMES = ('', 'cavity_a', 'cavity_b', 'shell')
 
 @dataclass(frozen=True, slots=True)
 class ChamberRunConfig:
-    """One chamber run of a named gyro, as plain fields: the ``thermal_chamber_sim`` node's
+    """One chamber run of a named gyro, as plain fields.
+
+    One chamber run of a named gyro, as plain fields: the ``thermal_chamber_sim`` node's
     parameters and the committed bags' recipes (:meth:`run` streams it, :meth:`recording`
     simulates it whole; both give the same samples).
     """

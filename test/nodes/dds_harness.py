@@ -51,7 +51,9 @@ class NodeProcess:
 
 
 def _scratch_dir() -> str:
-    """A fresh directory per node process: a default output (and the state directory beside
+    """A fresh directory per node process.
+
+    A fresh directory per node process: a default output (and the state directory beside
     it) of one test is never resumed by another.
     """
     path = tempfile.mkdtemp(prefix='gyro_calib_dds_')
@@ -96,7 +98,9 @@ class ResultListener:
 
     def spin_until(self, done: Any, timeout_s: float, *, source: NodeProcess | None = None,
                    grace_s: float = 600.0) -> bool:
-        """Spin until ``done()``; give up after ``timeout_s``, or ``grace_s`` after the
+        """Spin until ``done()`` or a timeout.
+
+        Spin until ``done()``; give up after ``timeout_s``, or ``grace_s`` after the
         ``source`` process (the simulator feeding the bench) has exited.
         """
         deadline = time.monotonic() + timeout_s

@@ -1,4 +1,6 @@
-"""Any sensor driver's QoS (issue 19 part 3): a calibration node hears best-effort and reliable
+"""Any sensor driver's QoS (issue 19 part 3).
+
+Any sensor driver's QoS (issue 19 part 3): a calibration node hears best-effort and reliable
 publishers, as ``ros2 bag record`` does, and adapts again when publishers come and go.
 """
 
@@ -17,7 +19,9 @@ from gyro_calib.nodes.ros_io import SENSOR_QOS, make_executor
 
 
 class Graph:
-    """rclpy's default context (the nodes under test make their nodes in it) with an
+    """rclpy's default context with an executor, for this process's nodes.
+
+    rclpy's default context (the nodes under test make their nodes in it) with an
     executor, for nodes made in this process; shut down afterwards (``rclpy.shutdown()``
     without a context also gives the next test a fresh default context).
     """
@@ -78,7 +82,9 @@ def test_reliability_follows_the_publishers_as_ros2_bag_record() -> None:
 
 
 def test_a_best_effort_driver_and_a_reliable_one_are_both_heard(graph: Graph) -> None:
-    """The dither node's two inputs: pulses from a best-effort driver (sensor-data QoS),
+    """Both a best-effort driver and a reliable one are heard.
+
+    The dither node's two inputs: pulses from a best-effort driver (sensor-data QoS),
     the vibration table reliable; both reach the node's buffers, the choice is logged, and
     the pulses go back to reliable when the best-effort driver leaves.
     """

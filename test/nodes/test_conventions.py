@@ -1,4 +1,6 @@
-"""The ROS conventions a lab expects (issue 19 part 4): ``~/reset`` and ``~/save``
+"""The ROS conventions a lab expects (issue 19 part 4).
+
+The ROS conventions a lab expects (issue 19 part 4): ``~/reset`` and ``~/save``
 (std_srvs/Trigger) on every calibration node, and the opt-in managed (lifecycle) mode.
 """
 
@@ -36,7 +38,9 @@ def _call(graph: Graph, client: Any, request: Any, timeout_s: float = 30.0) -> A
 
 def test_save_writes_what_is_measured_and_reset_starts_over(
         graph: Graph, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Every calibration node offers both services; the FOG node is fed a bag's data, saved
+    """Every calibration node offers ``~/save`` and ``~/reset``.
+
+    Every calibration node offers both services; the FOG node is fed a bag's data, saved
     on request (not only at shutdown), then reset to an empty session and state record.
     """
     from std_srvs.srv import Trigger
@@ -79,7 +83,9 @@ def test_save_writes_what_is_measured_and_reset_starts_over(
 
 def test_managed_node_consumes_only_while_active(graph: Graph,
                                                  nodes: list[NodeProcess]) -> None:
-    """managed:=true: unconfigured at start with no input subscribed; configure → inactive;
+    """The managed-node lifecycle transitions.
+
+    managed:=true: unconfigured at start with no input subscribed; configure → inactive;
     activate → the inputs are subscribed; deactivate pauses; cleanup starts over.
     """
     from lifecycle_msgs.msg import Transition

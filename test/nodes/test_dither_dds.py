@@ -1,4 +1,6 @@
-"""The dither method over DDS: the live bench (vibration_table_sim, Z then Y) and a replay of
+"""The dither method over DDS.
+
+The dither method over DDS: the live bench (vibration_table_sim, Z then Y) and a replay of
 the committed bags into dither_calibration_node give the offline numbers bit for bit,
 publish a on /gyro_calib/dither/misalignment and write the hand-off file.
 """

@@ -1,4 +1,6 @@
-"""The FOG over DDS: fog_sim → fog_calibration_node live, and committed bags replayed into the
+"""The FOG over DDS.
+
+The FOG over DDS: fog_sim → fog_calibration_node live, and committed bags replayed into the
 node, give the offline numbers bit for bit; the live bench publishes the offline samples.
 """
 

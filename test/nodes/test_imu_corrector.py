@@ -1,4 +1,6 @@
-"""imu_corrector: pulse counts become K·Δn/Δt − bias with the documented variance, and a new
+"""imu_corrector over DDS.
+
+imu_corrector: pulse counts become K·Δn/Δt − bias with the documented variance, and a new
 hand-off file is picked up while running.
 """
 
@@ -385,7 +387,9 @@ def test_thermal_model_needs_the_k_it_was_fitted_with_and_replaces_the_constant_
 
 
 def test_a_k_tilde_beside_a_model_of_another_k_is_refused() -> None:
-    """Issue 17 item 6: K̃ = 4.086e-06 beside a model fitted with K = 1.115e-05 was taken
+    """A K̃ beside a model of another K is refused.
+
+    Issue 17 item 6: K̃ = 4.086e-06 beside a model fitted with K = 1.115e-05 was taken
     without a word (the model's K was used); a file mixing two scale factors is refused.
     """
     model = _thermal_model(k_rad=1.115e-05).to_dict()

@@ -1,4 +1,6 @@
-"""Many benches on one graph (issue 19 part 2): two benches with different gyros, each in its
+"""Many benches on one graph (issue 19 part 2).
+
+Many benches on one graph (issue 19 part 2): two benches with different gyros, each in its
 own namespace (``-r __ns:=/benchN``), run at once on one DDS domain; each calibration node
 measures its own gyro, and one bag recorded from both is calibrated per namespace.
 """

@@ -1,4 +1,6 @@
-"""noise_node over DDS: a replayed IMU bag gives the offline ``gyro-calib noise`` terms bit for
+"""noise_node over DDS.
+
+noise_node over DDS: a replayed IMU bag gives the offline ``gyro-calib noise`` terms bit for
 bit on /diagnostics, and SIGINT leaves complete files (Kalibr imu.yaml, figure, hand-off).
 """
 

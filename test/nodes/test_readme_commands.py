@@ -1,4 +1,6 @@
-"""Every command in the README's ```bash blocks is run, so the README cannot drift from the
+"""Every command in the README's bash blocks is run.
+
+Every command in the README's ```bash blocks is run, so the README cannot drift from the
 tools (issue 17 item 4).
 
 The commands are extracted from README.md itself, in order, block by block:

@@ -1,4 +1,6 @@
-"""A calibration node killed (SIGKILL) mid-run and started again loses nothing it had
+"""A calibration node killed mid-run resumes losing nothing.
+
+A calibration node killed (SIGKILL) mid-run and started again loses nothing it had
 consumed: its final hand-off equals the offline calibration of the data it saw, bit for bit
 (issue 19, part 1).
 

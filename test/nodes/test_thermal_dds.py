@@ -1,4 +1,6 @@
-"""The thermal method over DDS: a live chamber run and a replayed bag calibrate exactly as
+"""The thermal method over DDS.
+
+The thermal method over DDS: a live chamber run and a replayed bag calibrate exactly as
 offline; imu_corrector subtracts the thermal model's bias live and refuses to extrapolate.
 """
 
@@ -68,7 +70,9 @@ def expected_diagnostics(session: ThermalSession) -> dict[str, str]:
 
 
 class ThermalListener:
-    """/diagnostics (status 'gyro_calib: thermal') and /gyro/imu, in this test process;
+    """Listens to the thermal node's outputs in this test process.
+
+    /diagnostics (status 'gyro_calib: thermal') and /gyro/imu, in this test process;
     publishes /gyro/pulses and /gyro/temperature when asked.
     """
 
@@ -136,7 +140,9 @@ def thermal_listener() -> Any:
 
 def _wait_for_numbers(lst: ThermalListener, expected: dict[str, str], nodes: list[NodeProcess],
                       timeout_s: float) -> None:
-    """Until the node's diagnostics carry ``expected`` (the calibration node, nodes[0], must
+    """Wait until the node's diagnostics carry ``expected``.
+
+    Until the node's diagnostics carry ``expected`` (the calibration node, nodes[0], must
     stay up meanwhile).
     """
     done = lst.spin_until(lambda: all(lst.diagnostics.get(k) == v for k, v in expected.items())
