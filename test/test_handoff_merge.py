@@ -302,3 +302,32 @@ def test_a_live_thermal_node_reports_a_bench_conflict_and_writes_the_published_g
     written = load_calibration(out)
     assert written.gyro_id == 'A-1'
     assert written.get('thermal_model')['thermal_gyro_id'] == 'A-1'  # the model names it too
+
+
+def test_a_published_bench_never_changes_a_nodes_session_it_names_what_it_would_give(
+        tmp_path: Path) -> None:
+    """Stamps, not wall clocks: whether /sim/scenario arrives before or after the first
+    samples is timing, so it never fills a setting the parameters left unset (it did before
+    the first sample, which made a live run's numbers depend on arrival order)."""
+    import rclpy
+    from std_msgs.msg import String
+
+    from gyro_calib.nodes.fog_calibration_node import FogCalibrationNode
+    from gyro_calib.nodes.processes import ros_args
+
+    scenario = bag_info(BAGS / 'fog_turntable').scenario
+    rclpy.init(args=ros_args({'output_file': str(tmp_path / 'fog.yaml')}))
+    try:
+        node = FogCalibrationNode()
+        try:
+            before = node.session
+            node.scenario._on_message(String(data=yaml.safe_dump(scenario)))
+            assert node.session is before
+            latitude = scenario['bench']['latitude_deg']
+            assert any('latitude_deg' in line and 'not taken' in line
+                       and f'-p latitude_deg:={latitude!r}' in line
+                       for line in node.scenario.told)
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()

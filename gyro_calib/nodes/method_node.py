@@ -34,7 +34,7 @@ from std_msgs.msg import Float64, Header, String
 from gyro_calib import topics
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
-from gyro_calib.config import BENCH_SETTINGS, read_method_file
+from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
@@ -211,27 +211,22 @@ class MethodNode(CalibrationNodeBase):
         self.get_logger().info(f'{self.method.name}: waiting for {", ".join(self._buffers)}')
 
     def _on_bench(self, stored: tuple[tuple[str, Mapping[str, Any]], ...]) -> None:
-        """A simulator published its bench.
+        """A simulator published its bench: report conflicts, unset settings, the gyro id.
 
-        A simulator published its bench: report conflicts, take the gyro id, and (before
-        any sample came) rebuild the session with the bench filling what was not given.
+        The published bench never changes the session: when it arrives (before or after
+        the first samples) is a matter of timing, and the numbers depend only on the data
+        and the parameters (stamps, not wall clocks). The gyro id (the hand-off identity)
+        is taken when the parameters give none.
         """
         options = dataclasses.replace(self.options, stored_benches=stored)
         gyro_id = self.scenario.check(options)
         if gyro_id is None:
             return
+        self.scenario.tell_unset(options)
         if not self.gyro_id and gyro_id:
             self.gyro_id = gyro_id
             self.get_logger().info(f'gyro_id {gyro_id!r} taken from {topics.SIM_SCENARIO} '
                                    '(parameter gyro_id not given).')
-        if self._fed:
-            return
-        try:
-            self.session = self.method.make_session(options)
-            self.options = options
-        except GyroCalibError as exc:
-            self._last_line = f'{topics.SIM_SCENARIO}: {exc}'
-            self.get_logger().error(self._last_line)
 
     def _subscribe_inputs(self, *, best_effort: tuple[str, ...] = (),
                           as_given: tuple[str, ...] = ()) -> None:
@@ -437,6 +432,22 @@ class SimScenarioBench:
                 self.told.add(line)
                 self.node.get_logger().warning(f'bench conflict: {line}')
         return gyro_id
+
+    def tell_unset(self, options: CalibrationOptions) -> None:
+        """Log once each bench setting the parameters left unset that the published bench
+        gives: it is not taken (the numbers must not depend on when it arrived)."""
+        for name in self.names:
+            if name == 'gyro_id':
+                continue
+            value, origin = options.setting_with_origin(name)
+            if not origin.startswith('the bench settings') or not given(value):
+                continue
+            line = (f'{topics.SIM_SCENARIO} gives {name} = {value!r}, which the parameters '
+                    f'leave unset; not taken (results depend only on the data and the '
+                    f'parameters): pass -p {name}:={value!r} to use it.')
+            if line not in self.told:
+                self.told.add(line)
+                self.node.get_logger().warning(line)
 
 
 def _description(cls: type, name: str) -> str:

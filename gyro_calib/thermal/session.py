@@ -179,6 +179,7 @@ class ThermalSession(MethodSession):
         """
         self.settings, self.origin = thermal_settings(options)
         self.calibrator = ThermalCalibrator(self.settings)
+        self._record_gyro_id = ''  # the gyro id of the hand-off being written
         self._lines: list[str] = []
 
     # -- input ------------------------------------------------------------------------------
@@ -270,7 +271,10 @@ class ThermalSession(MethodSession):
         rep = self.report
         if rep is None:
             return {}
-        out: dict[str, Any] = {'thermal_model': rep.model.to_dict(),
+        model = rep.model.to_dict()
+        if not model.get('thermal_gyro_id') and self._record_gyro_id:
+            model['thermal_gyro_id'] = self._record_gyro_id
+        out: dict[str, Any] = {'thermal_model': model,
                                'thermal_residual_std_rad_s': float(rep.model.residual_std_rad_s)}
         for key in HOLDOUT_KEYS:
             est = self.results().get(key)
@@ -280,7 +284,10 @@ class ThermalSession(MethodSession):
         return out
 
     def handoff(self, source: str, *, gyro_id: str = '') -> Any:
-        """The hand-off record, under the gyro id the model was fitted for."""
+        """The hand-off record, under the gyro id the model was fitted for; a model fitted
+        without an id takes the record's (a live node learns it from /sim/scenario after the
+        session was built: identity, not numbers)."""
+        self._record_gyro_id = gyro_id
         return super().handoff(source, gyro_id=gyro_id or self.settings.gyro_id)
 
     # -- human output -----------------------------------------------------------------------
