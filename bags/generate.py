@@ -23,7 +23,8 @@ from sim_nodes.scenarios import SCENARIOS, write_scenario_files  # noqa: E402
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    parser.add_argument('names', nargs='*', help=f'scenarios (default all: {", ".join(SCENARIOS)})')
+    parser.add_argument('names', nargs='*',
+                        help=f'scenarios (default all: {", ".join(SCENARIOS)})')
     parser.add_argument('--out', type=Path, default=Path(__file__).resolve().parent)
     args = parser.parse_args()
     for name in args.names or list(SCENARIOS):

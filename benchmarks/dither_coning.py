@@ -61,7 +61,8 @@ def main() -> None:
     for f in (400.0, 450.0):
         e60 = coning_eq24_from_misalignment_rad_s(60 * ARCMIN, dither_frequency_hz=f) / DEG_H
         e5 = coning_eq24_from_misalignment_rad_s(5 * ARCMIN, dither_frequency_hz=f) / DEG_H
-        print(f'  Ω_d/2π = {f:.0f} Hz: ε(60′) = {e60:.4f} °/h (paper ≈ 0.02), ε(5′) = {e5:.5f} °/h '
+        print(f'  Ω_d/2π = {f:.0f} Hz: ε(60′) = {e60:.4f} °/h (paper ≈ 0.02), '
+              f'ε(5′) = {e5:.5f} °/h '
               f'(paper < 0.0005)')
     print('Part 3 — simulator static run (table still, no noise, no Earth), a = 60′, ψ₀ = 40°')
     duration = 10.0 if args.quick else 60.0

@@ -112,10 +112,12 @@ def summarise(name: str, rows: list[dict], floor: float) -> None:
     cov2 = float(np.mean(np.abs(err) <= 2 * sig))
     a_err = np.array([r['a_err'] for r in rows])
     a_u = np.array([r['a_u'] for r in rows])
-    print(f'{name:34s} n={len(err):3d} floor {floor / ARCMIN:5.2f}′  measured {std / ARCMIN:5.2f}′ '
+    print(f'{name:34s} n={len(err):3d} floor {floor / ARCMIN:5.2f}′  '
+          f'measured {std / ARCMIN:5.2f}′ '
           f'(ratio {std / floor:4.2f}, ±{std / floor / math.sqrt(2 * len(err)):.2f})  '
           f'reported {np.mean(sig) / floor:4.2f}×  cover ±1σ {cov1:4.0%} ±2σ {cov2:4.0%}  '
-          f'a: bias {np.mean(a_err) / ARCMIN:+5.2f}′ cover ±1u {np.mean(np.abs(a_err) <= a_u):4.0%}'
+          f'a: bias {np.mean(a_err) / ARCMIN:+5.2f}′ '
+          f'cover ±1u {np.mean(np.abs(a_err) <= a_u):4.0%}'
           f' ±2u {np.mean(np.abs(a_err) <= 2 * a_u):4.0%}')
 
 

@@ -42,7 +42,8 @@ def main() -> None:
     args = parser.parse_args()
     duration = 600.0 if args.quick else 3600.0
     gyro = DitheredGyroConfig(misalignment_arcmin=10.0)
-    sim = DitherBenchSimulator(gyro, VibrationTableConfig(), DitherBenchConfig(duration_s=duration))
+    sim = DitherBenchSimulator(gyro, VibrationTableConfig(),
+                               DitherBenchConfig(duration_s=duration))
     cal = DitherCalibrator(DitherSettings(
         scale_factor_rad_per_pulse=gyro.scale_factor_rad_per_pulse))
     print(f'dither throughput: {duration / 60:.0f} min record at 2 kHz on {os.cpu_count()} cores')

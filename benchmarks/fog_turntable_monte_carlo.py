@@ -62,7 +62,8 @@ def main() -> None:
     hold = 20.0 if args.quick else 60.0
     output_hz = 200.0 if args.quick else 1000.0
     settings = FogSettings(latitude_deg=FogConfig().latitude_deg)
-    print(f'FOG turntable Monte Carlo: {runs} runs, rates {IEEE_RATES_DEG_S} °/s, hold {hold:g} s, '
+    print(f'FOG turntable Monte Carlo: {runs} runs, rates {IEEE_RATES_DEG_S} °/s, '
+          f'hold {hold:g} s, '
           f'output {output_hz:g} Hz; {os.cpu_count()} cores')
     z, rel_err, ratio_arw, sigmas, floors = [], [], [], [], []
     truth = None

@@ -188,13 +188,15 @@ def report(case: CaseResult, bias_target: float, check_std: bool,
     lo, hi = chi2_ratio_range(n)
     est = mean_estimate(case.k_tilde.tolist())
     outcomes = [n >= MIN_PAIRS, abs(bias) < bias_target]
-    print(f'\n== {case.name} ==  window angles: {case.source}; jitter σ_j = {pred["_sigma_j"]:g}″, '
+    print(f'\n== {case.name} ==  window angles: {case.source}; '
+          f'jitter σ_j = {pred["_sigma_j"]:g}″, '
           f'ARW = {case.gyro.angle_random_walk_deg_sqrt_h:g} °/√h '
           f'(N_arw = {pred["_n_arw"]:.4g} ″/√s), quantise = {case.gyro.quantise}, '
           f'Earth {case.gyro.earth_rate_deg_h:g} °/h, bias {case.gyro.bias_deg_h:g} °/h, '
           f'drift {case.gyro.bias_drift_deg_h_per_h:g} °/h/h')
     print(f'  {"figure":<34} {"value":>24}   target')
-    print(f'  {"pairs (windows, rejections)":<34} {f"{n} ({case.n_windows}, {case.n_rejected})":>24}'
+    counts = f'{n} ({case.n_windows}, {case.n_rejected})'
+    print(f'  {"pairs (windows, rejections)":<34} {counts:>24}'
           f'   ≥ {MIN_PAIRS}  {mark(outcomes[0])}')
     print(f'  {"mean window T [s]":<34} {float(np.mean(case.window_s)):>24.6f}'
           f'   (nominal m·360/rate = {pred["_t_window"]:g})')

@@ -352,7 +352,8 @@ def part1(runs: list[ThetaRun], jitter: float) -> tuple[list[bool], float]:
         ok = bool(np.mean(np.abs(d)) < TARGET_ABS)
         outcomes.append(ok)
         print(f'  {name:<10} {float(np.mean(np.abs(d))):>9.4f} '
-              f'{f"{float(np.mean(d)):+.4f} ± {se:.4f}":>18} {float(np.sqrt(np.mean(d * d))):>8.4f}'
+              f'{f"{float(np.mean(d)):+.4f} ± {se:.4f}":>18} '
+              f'{float(np.sqrt(np.mean(d * d))):>8.4f}'
               f'   mean|dθ| < {TARGET_ABS:g}″  {mark(ok)}')
     verdict = 'n/a (needs ≥ 2 runs)'
     if nr > 1:

@@ -93,13 +93,15 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument('--offline-duration', type=float, default=600.0,
                    help='simulated seconds of the offline run (600)')
     p.add_argument('--repeat', type=int, default=3,
-                   help='offline repetitions; the fastest is reported, as others load the machine (3)')
+                    help='offline repetitions; the fastest is reported, as others load '
+                    'the machine (3)')
     p.add_argument('--no-tracemalloc', action='store_true',
                    help='skip the traced second offline pass')
     p.add_argument('--duration', type=float, default=150.0,
                    help='simulated seconds of each live run (150)')
     p.add_argument('--speeds', default='5,8,10,0',
-                   help='comma-separated real-time factors of the live runs, 0 = unpaced (5,8,10,0)')
+                    help='comma-separated real-time factors of the live runs, '
+                    '0 = unpaced (5,8,10,0)')
     p.add_argument('--seed', type=int, default=1, help='simulator seed (1)')
     p.add_argument('--domain', type=int, default=101 + os.getpid() % 100,
                    help='DDS domain id for the live runs (101 + pid %% 100)')
@@ -449,8 +451,10 @@ def live_benchmark(opts: argparse.Namespace) -> bool:
             for child in children:
                 child.stop()
         results.append(res)
-    print(f'  {"speed":>7} {"table×RT":>8} {"e2e×RT":>6} {"done×RT":>7} {"pulses rx":>9} {"lost":>5} '
-          f'{"exit s":>6} {"pairs live/off (rej)":>20} {"K̃ live ″/pulse":>14} {"bit-identical":>13} '
+    print(f'  {"speed":>7} {"table×RT":>8} {"e2e×RT":>6} {"done×RT":>7} {"pulses rx":>9} '
+          f'{"lost":>5} '
+          f'{"exit s":>6} {"pairs live/off (rej)":>20} {"K̃ live ″/pulse":>14} '
+          f'{"bit-identical":>13} '
           f'{"CPU s cal/rlg/table/here":>24}  target ≥ {TARGET_LIVE_X:g}× (−2 %), 0 lost, '
           f'identical')
     for r in results:

@@ -547,7 +547,7 @@ def _simulate(args: argparse.Namespace) -> int:
 
 
 def console_main() -> None:
-    """setuptools console-script wrapper."""
+    """Console-script wrapper for setuptools."""
     sys.exit(main())
 
 

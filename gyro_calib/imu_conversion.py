@@ -6,7 +6,8 @@ gyro's sense axis is
     ω = K·(n₁ − n₀)/(t₁ − t₀) − b                                              (1)
 
 with K the scale factor (rad/pulse) and b the bias (rad/s) of the hand-off file
-(:mod:`gyro_calib.handoff`, taken by :func:`pulse_calibration`). Its variance sums independent terms (GUM, first order):
+(:mod:`gyro_calib.handoff`, taken by :func:`pulse_calibration`). Its variance sums
+independent terms (GUM, first order):
 
     u²(ω) = N²/Δt                angle random walk N (rad/√s) over Δt: white rate noise
           + K²/(6·Δt²)           quantisation: each count is the true angle/K rounded to

@@ -111,6 +111,7 @@ class StateRecord:
 
     def __init__(self, directory: str | Path, identity: Mapping[str, str], *,
                  fsync_period_s: float = 5.0) -> None:
+        """Open (or start) the record in ``directory`` for ``identity``."""
         self.directory = Path(directory)
         self.identity = dict(identity)
         self.fsync_period_s = fsync_period_s

@@ -1,0 +1,1 @@
+"""Physics simulators of the calibration benches (nodes and offline runs)."""

@@ -119,7 +119,8 @@ class RateTableSimulator:
         return self._next_index >= self.n_samples_total
 
     def _mark_cycles(self, angle_rad: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-        return np.floor((angle_rad - math.radians(self.config.zero_index_angle_deg)) / (2 * math.pi))
+        zero_rad = math.radians(self.config.zero_index_angle_deg)
+        return np.floor((angle_rad - zero_rad) / (2 * math.pi))
 
     def _crossings(self, t_prev_s: float, t_s: npt.NDArray[np.float64]) -> list[float]:
         """Exact instants (s) where the table angle passes the reference mark."""

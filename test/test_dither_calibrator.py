@@ -1,4 +1,7 @@
-"""The dither calibrator recovers a, its components and θ_d, chunk-invariantly; refuses bad input."""
+"""The dither calibrator recovers a, its components and θ_d; refuses bad input.
+
+Its results do not depend on how the streams are chunked.
+"""
 
 from __future__ import annotations
 

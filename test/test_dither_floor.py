@@ -29,7 +29,8 @@ PAPER = dict(dither_amplitude_rad=6 * ARCMIN, record_s=300.0, sample_rate_hz=200
 
 
 @pytest.mark.parametrize(('amplitude_rad_s', 'floor_arcmin'), [(1.0, 18), (5.0, 3.6), (7.5, 2.4)])
-def test_floor_reproduces_the_methods_examples(amplitude_rad_s: float, floor_arcmin: float) -> None:
+def test_floor_reproduces_the_methods_examples(amplitude_rad_s: float,
+                                               floor_arcmin: float) -> None:
     f = detection_floor(table_rate_amplitude_rad_s=amplitude_rad_s, **PAPER)
     assert f.component_std_rad / ARCMIN == pytest.approx(floor_arcmin, rel=0.02)
 

@@ -102,7 +102,8 @@ def test_fog_bag_linear_range_holds_the_expected_injection_levels(name: str) -> 
 
 def test_fog_bag_stores_its_scenario_and_bench_settings() -> None:
     scenario = bag_info(BAGS / 'fog_mapping_self_cal').scenario
-    assert scenario['name'] == 'fog_mapping_self_cal' and scenario['kind'] == 'fog_mapping_self_cal'
+    assert scenario['name'] == 'fog_mapping_self_cal'
+    assert scenario['kind'] == 'fog_mapping_self_cal'
     assert scenario['bench']['latitude_deg'] == 45.75
     assert scenario['fog']['seed'] == 61 and scenario['fog_table']['output_rate_hz'] == 200.0
     assert len(scenario['fog_procedure']['mapping_rates_deg_s']) == 4

@@ -187,7 +187,8 @@ def test_write_keeps_the_mode_of_the_file_it_replaces(tmp_path: Path) -> None:
     assert target.stat().st_mode & 0o777 == 0o640
 
 
-@pytest.mark.parametrize('where', ['missing_directory', 'parent_is_a_file', 'target_is_a_directory'])
+@pytest.mark.parametrize('where', ['missing_directory', 'parent_is_a_file',
+                                   'target_is_a_directory'])
 def test_unwritable_directory_raises_handoff_error_naming_the_path(
         tmp_path: Path, where: str) -> None:
     if where == 'missing_directory':

@@ -75,7 +75,7 @@ def _reference_row(msgtype: str, msg: Any) -> tuple[int, str, tuple[Any, ...]]:
 
 @functools.cache
 def typestore() -> Any:
-    """rosbags' ROS 2 Kilted typestore, one for the run (each new one compiles anew)."""
+    """The ROS 2 Kilted typestore of rosbags, one for the run (each new one compiles anew)."""
     from rosbags.typesys import Stores, get_typestore
 
     return get_typestore(Stores.ROS2_KILTED)
@@ -83,7 +83,7 @@ def typestore() -> Any:
 
 def rosbags_columns(bag: Path, topic_types: Mapping[str, str], *, start: int | None = None,
                     stop: int | None = None) -> dict[str, dict[str, Any]]:
-    """topic → {'log', 'stamp', 'frame', value names...} read by rosbags alone."""
+    """Each topic → {'log', 'stamp', 'frame', value names...} read by rosbags alone."""
     from rosbags.rosbag2 import Reader
 
     deserialize = typestore().deserialize_cdr

@@ -90,7 +90,8 @@ def test_kalibr_yaml_takes_the_largest_axis_in_kalibr_units(imu_cal: NoiseCalibr
                          'gyroscope_noise_density', 'gyroscope_random_walk', 'rostopic',
                          'update_rate'}
     res = imu_cal.results()
-    arw = [res[a]['angle_random_walk_rad_per_sqrt_s'].value for a in ('gyro_x', 'gyro_y', 'gyro_z')]
+    arw = [res[a]['angle_random_walk_rad_per_sqrt_s'].value
+           for a in ('gyro_x', 'gyro_y', 'gyro_z')]
     assert data['gyroscope_noise_density'] == pytest.approx(max(arw), rel=1e-6)
     assert data['gyroscope_noise_density'] == pytest.approx(3e-4, rel=0.05)  # gyro_y: 1.5×
     assert data['accelerometer_noise_density'] == pytest.approx(1e-3, rel=0.05)
@@ -261,7 +262,8 @@ def test_partial_overlap_memory_is_bounded(imu_record: tuple[np.ndarray, ...]) -
     for n in (len(t) // 8, len(t)):
         cal = NoiseCalibrator(s)
         cal.extend_imu(t[:n], g[:n], a[:n])
-        levels = max(1, int(math.log2(n / TREE_BLOCK)) + 2)  # the tree grows one level per doubling
+        # the tree grows one level per doubling
+        levels = max(1, int(math.log2(n / TREE_BLOCK)) + 2)
         per_axis = (levels * (TREE_BLOCK + 4 * s.tree_min_averaging_factor)
                     + 2 * (2 * s.total_deviation_points + 1)) * 8
         assert cal.sample_storage_bytes() <= 6 * per_axis

@@ -33,7 +33,8 @@ def _curve(rate: np.ndarray, tau0: float) -> AllanCurve:
     return curve
 
 
-def _simulate(terms: NoiseTerms, rate_hz: float, n: int, seed: int) -> tuple[AllanCurve, AxisNoise]:
+def _simulate(terms: NoiseTerms, rate_hz: float, n: int,
+              seed: int) -> tuple[AllanCurve, AxisNoise]:
     gen = AxisNoise(terms, rate_hz, seed)
     return _curve(gen.samples(n), 1.0 / rate_hz), gen
 

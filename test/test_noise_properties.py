@@ -33,7 +33,7 @@ def _rates(rng: np.random.Generator, n: int, tau0: float, q: float, arw: float,
 
 
 def _reference(t: np.ndarray, v: np.ndarray, cfg: NoiseSettings) -> dict[int, tuple[float, float]]:
-    """m → (τ, AVAR) pooled over the clean segments, from allantools.oadev per segment."""
+    """Each m → (τ, AVAR) pooled over the clean segments, from allantools.oadev per segment."""
     order = np.argsort(t, kind='stable')  # arrival order kept among equal stamps
     t, v = t[order], v[order]
     keep = np.concatenate(([True], t[1:] != t[:-1]))  # the first arrival of a stamp wins

@@ -1,6 +1,6 @@
-"""A bag's stored scenario reads back exactly, whatever text it holds (issue 17 item 15).
+r"""A bag's stored scenario reads back exactly, whatever text it holds (issue 17 item 15).
 
-``info th4`` showed ``β u2080``: the scenario YAML stored in ``metadata.yaml`` had ``\\u2080``
+``info th4`` showed ``β u2080``: the scenario YAML stored in ``metadata.yaml`` had ``\u2080``
 escapes, and the ruamel emitter rosbags writes metadata with folded the long double-quoted
 line inside an escape. The property: any scenario (nested mappings of the kinds the
 simulators store: Unicode descriptions with Greek letters, subscripts, primes and combining

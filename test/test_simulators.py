@@ -19,7 +19,8 @@ QUIET_TABLE = RateTableConfig(duration_s=40.0, zero_index_jitter_arcsec=0.0,
 
 
 def test_rate_bias_profile_reverses_through_same_constant_rate_angles() -> None:
-    profile = rate_bias_profile(rate_rad_s=math.radians(150), acceleration_rad_s2=math.radians(1000),
+    profile = rate_bias_profile(rate_rad_s=math.radians(150),
+                                acceleration_rad_s2=math.radians(1000),
                                 revolutions_per_segment=6, duration_s=100)
     t = np.linspace(0, 100, 100001)
     rate = profile.rate_rad_s(t)

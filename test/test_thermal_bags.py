@@ -305,7 +305,7 @@ def _copy_bag(src: Path, dst: Path, **bench: Any) -> Path:
 
 def test_compensate_takes_the_bench_of_the_chamber_runs_bags_not_the_first_bag(
         model_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """compensate uses the chamber run's own bench settings.
+    """``compensate`` uses the chamber run's own bench settings.
 
     Issue 17 §1 for compensate: a bag of another method given first lent its stored bench
     (K 4.09e-06 of noise_rlg_static) to the chamber run, which was then refused as fitted with

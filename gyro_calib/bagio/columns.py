@@ -676,7 +676,7 @@ def _store() -> Any:
 
 
 def _deserialize(payload: bytes, msgtype: str) -> Any:
-    """rosbags' CDR deserialiser (its typestore loads on the first message that needs it)."""
+    """The CDR deserialiser of rosbags (its typestore loads on the first message that needs it)."""
     return _store().deserialize_cdr(payload, msgtype)
 
 
@@ -1125,8 +1125,9 @@ def iter_column_batches(path: str | Path, topic_types: Mapping[str, str], *,
             metadata.yaml beside it: its channels are the topics).
         topic_types: topic → one of :data:`KNOWN_TYPES`.
         batch_messages: messages per batch, at least.
-        start_ns, stop_ns: only messages with ``start_ns <= log time < stop_ns`` (rosbags'
+        start_ns: only messages with ``start_ns <= log time`` (rosbags'
             ``Reader.messages(start, stop)``).
+        stop_ns: only messages with ``log time < stop_ns``.
         decoder: 'rosbags' reads the whole bag with rosbags (the reference path).
 
     Raises:

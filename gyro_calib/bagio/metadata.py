@@ -27,10 +27,10 @@ def scenario_key(namespace: str) -> str:
 
 
 def scenario_text(scenario: Mapping[str, Any]) -> str:
-    """The scenario as stored in ``custom_data``.
+    r"""The scenario as stored in ``custom_data``.
 
     The scenario as stored in ``custom_data``: one line of flow-style YAML, Unicode kept
-    (no ``\\u`` escapes; :func:`store_custom_data` writes it unfolded).
+    (no ``\u`` escapes; :func:`store_custom_data` writes it unfolded).
     """
     text: str = yaml.safe_dump(dict(scenario), sort_keys=True, default_flow_style=True,
                                allow_unicode=True, width=2**31 - 1)
@@ -38,10 +38,10 @@ def scenario_text(scenario: Mapping[str, Any]) -> str:
 
 
 def store_custom_data(bag_dir: str | Path, key: str, text: str) -> None:
-    """Write ``custom_data[key] = text`` into the bag's metadata.yaml unfolded.
+    r"""Write ``custom_data[key] = text`` into the bag's metadata.yaml unfolded.
 
     rosbags dumps metadata.yaml with ruamel at 80 columns, and ruamel's folding of a
-    double-quoted scalar can split an escape (``\\\\`` came back as ``\\ \\``), so the
+    double-quoted scalar can split an escape (``\\`` came back as ``\ \``), so the
     value it wrote may read back changed; the file is re-dumped here with the value as given
     and no line folding (every other field as rosbags wrote it).
     """
@@ -60,9 +60,9 @@ _SPLIT_ESCAPE = re.compile(r'\\ (?=u[0-9A-Fa-f]{4}|x[0-9A-Fa-f]{2}|U[0-9A-Fa-f]{
 
 
 def parse_scenario_text(text: str) -> Any:
-    """The stored scenario, parsed.
+    r"""The stored scenario, parsed.
 
     The stored scenario; repairs an escape split by the ruamel line fold of bags written
-    before :func:`scenario_text` (``\\ u2080`` → ``\\u2080`` inside a quoted scalar).
+    before :func:`scenario_text` (``\ u2080`` → ``\u2080`` inside a quoted scalar).
     """
     return yaml.safe_load(_SPLIT_ESCAPE.sub(lambda m: '\\', text))

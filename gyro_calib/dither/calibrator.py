@@ -114,11 +114,12 @@ record. Monte Carlo (benchmarks/dither_floor_monte_carlo.py, A = 20 rad/s, 60 s,
 ALLOWANCE_SECOND_ORDER = 0.01
 """Relative margin on κ = k/θ_d for what the first-order allowance leaves out (the shift
 θ_r/θ_d is exact to first order in the small angles; the exact kinematics moved a component
-by up to 1.0002·κ·a and a by up to 1.0004·ρ·a at a = 60′, benchmarks/dither_rocking_allowance.py)."""
+by up to 1.0002·κ·a and a by up to 1.0004·ρ·a at a = 60′,
+benchmarks/dither_rocking_allowance.py)."""
 
 
 def clock_lock(table_hz: float, sample_rate_hz: float, record_s: float) -> int:
-    """n if the vibration frequency divides the sample rate (|f_z − f_s/n| < 1/T), else 0.
+    """The n if the vibration frequency divides the sample rate (|f_z − f_s/n| < 1/T), else 0.
 
     Then the table phase at the samples repeats every n samples and slips by less than one
     table cycle over the record T: the table never dithers the quantisation.
@@ -236,7 +237,8 @@ def line_conflicts(dither_hz: float, table_hz: float, *, separation_hz: float,
     lines.update({('the table line f_z' if h == 1 else f'the table harmonic {h}·f_z'):
                   h * table_hz for h in range(1, harmonics + 1)})
     out = []
-    for name, sb in (('f_d − f_z', abs(dither_hz - table_hz)), ('f_d + f_z', dither_hz + table_hz)):
+    for name, sb in (('f_d − f_z', abs(dither_hz - table_hz)),
+                     ('f_d + f_z', dither_hz + table_hz)):
         for line_name, f in lines.items():
             if abs(sb - f) < separation_hz:
                 out.append(f'the sideband {name} = {sb:.2f} Hz lies within {separation_hz:g} Hz '
@@ -306,7 +308,7 @@ class DitherSummary:
     rocking: RockingAllowance | None = None
 
     def misalignment_line(self) -> str | None:
-        """a as the summary and the figures state it (None without a)."""
+        """The a as the summary and the figures state it (None without a)."""
         m = self.misalignment
         if m is None:
             return None
@@ -673,7 +675,8 @@ class DitherCalibrator:
             self._reject(start, (
                 f'{where}: pulses sampled at {fs:.0f} Hz cannot resolve a dither up to '
                 f'{s.dither_band_max_hz:g} Hz (it would alias): sample faster than '
-                f'{2 * (s.dither_band_max_hz + fz):.0f} Hz (dither and sidebands at ±{fz:.1f} Hz), '
+                f'{2 * (s.dither_band_max_hz + fz):.0f} Hz '
+                f'(dither and sidebands at ±{fz:.1f} Hz), '
                 'or set dither_band_max_hz to just above your gyro\'s dither frequency.'))
             return None
         y = counts - counts[0]

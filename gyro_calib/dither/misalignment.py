@@ -213,7 +213,7 @@ def allowance_half_width(value_rad: float, ratio: float, rho: float) -> float:
 
 def combine_components(z: Component, y: Component,
                        rocking: RockingAllowance | None = None) -> Misalignment:
-    """a = √(s_z² + s_y²), bias-corrected, with its uncertainty and rocking allowance."""
+    """The a = √(s_z² + s_y²), bias-corrected, with its uncertainty and rocking allowance."""
     sz, sy = z.signed_rad, y.signed_rad
     vz, vy = z.statistical_std_rad ** 2, y.statistical_std_rad ** 2
     raw = math.hypot(sz, sy)

@@ -76,7 +76,8 @@ def plot_dither(calibrator_or_results: DitherCalibrator | dict[str, Estimate],
 def _line_marks(ax, fd: float, fz: float, harmonics: int) -> None:  # noqa: ANN001
     marks = [(fd, 'f_d', 'tab:red'), (fd - fz, 'f_d − f_z', 'tab:green'),
              (fd + fz, 'f_d + f_z', 'tab:green')]
-    marks += [(h * fz, f'{h}·f_z' if h > 1 else 'f_z', 'tab:blue') for h in range(1, harmonics + 1)]
+    marks += [(h * fz, f'{h}·f_z' if h > 1 else 'f_z', 'tab:blue')
+              for h in range(1, harmonics + 1)]
     for f, label, color in marks:
         ax.axvline(f, color=color, lw=0.8, ls='--', alpha=0.7)
         ax.text(f, 0.98, f' {label}', rotation=90, va='top', fontsize=7, color=color,

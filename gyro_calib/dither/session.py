@@ -300,7 +300,8 @@ class DitherSession(MethodSession):
                     'the interval; std combines it as a rectangular bound/√3.')
         if s.rocking_treatment == 'model':
             return ('measured in-phase rocking subtracted (rocking_treatment = model: '
-                    f'{s.rocking_in_phase_xz_arcsec:g}″ about Y, {s.rocking_in_phase_xy_arcsec:g}″ '
+                    f'{s.rocking_in_phase_xz_arcsec:g}″ about Y, '
+                    f'{s.rocking_in_phase_xy_arcsec:g}″ '
                     'about Z).')
         return 'ignored (rocking_treatment = none): a may be biased by the in-phase rocking.'
 

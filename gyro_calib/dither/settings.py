@@ -149,7 +149,7 @@ class DitherSettings:
 
     @property
     def rocking_per_misalignment(self) -> float:
-        """k as a ratio, rad of rocking per rad of misalignment."""
+        """The k as a ratio, rad of rocking per rad of misalignment."""
         return self.rocking_arcsec_per_arcmin / 60.0
 
     @property

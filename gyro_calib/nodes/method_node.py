@@ -395,6 +395,7 @@ class SimScenarioBench:
 
     def __init__(self, node: Node, names: tuple[str, ...],
                  on_bench: Callable[[tuple[tuple[str, Mapping[str, Any]], ...]], None]) -> None:
+        """Listen on ``names`` for ``node``; ``on_bench`` gets the benches."""
         self.node, self.names, self.on_bench = node, names, on_bench
         self.benches: dict[str, Mapping[str, Any]] = {}
         self.told: set[str] = set()

@@ -71,6 +71,7 @@ class NodeState:
 
     def __init__(self, node: Node, method: str, gyro_id: str, directory: Path | None,
                  keep: bool, parameters: Mapping[str, Any] | None = None) -> None:
+        """Open (or start) the record for this gyro, method and parameters."""
         self.node, self.keep = node, keep
         self.directory = directory
         identity = {'method': method, 'gyro_id': gyro_id}

@@ -290,6 +290,7 @@ class StartGate:
 
     def __init__(self, wait: bool, *, min_readers: int = 1, settle_s: float = 1.0,
                  logger: Any = None) -> None:
+        """A gate, open at once unless ``wait``."""
         self.wait, self.min_readers, self.settle_s = wait, min_readers, settle_s
         self.opened_at: float | None = None
         self._readers_since: float | None = None
@@ -331,6 +332,7 @@ class ProgressLog:
 
     def __init__(self, logger: Any, what: str, total_s: float, *,
                  period_s: float = 10.0) -> None:
+        """Log ``what`` every ``period_s`` of wall time out of ``total_s``."""
         self._logger, self.what, self.total_s, self.period_s = logger, what, total_s, period_s
         self._started = time.monotonic()
         self._last = self._started

@@ -84,7 +84,10 @@ class ThermalCalibrationNode(MethodNode):
 
 
 def main(args: list[str] | None = None) -> None:
-    """Run the thermal calibration node until SIGINT/SIGTERM; stopped mid-recording, fit what came."""
+    """Run the thermal calibration node until SIGINT/SIGTERM.
+
+    Stopped mid-recording, it fits what came.
+    """
 
     def fit_what_came(node: ThermalCalibrationNode, _executor: object) -> None:
         if node.unfitted:

@@ -71,7 +71,10 @@ class KTildeConfig:
     max_pulse_gap_s: float = 0.5
     """Largest gap in the pulse stream inside a window, s."""
     pulse_jump_tolerance_pulses: float = 10.0
-    """Allowed step of a pulse increment from the window's median rate (plus rate_tolerance), pulses."""
+    """Allowed step of a pulse increment from the window's median rate, pulses.
+
+    Plus rate_tolerance.
+    """
     max_pair_gap_s: float = 60.0
     """Largest time between a window and the opposite-direction window it is paired with, s."""
     max_window_s: float = 600.0
@@ -133,7 +136,8 @@ class KTildeConfig:
         check_ranges(self, checks)  # one range check for every setting
 
 
-def k_tilde_config_from_mapping(values: dict[str, Any], *, source: str = 'mapping') -> KTildeConfig:
+def k_tilde_config_from_mapping(values: dict[str, Any], *,
+                                source: str = 'mapping') -> KTildeConfig:
     """Build a KTildeConfig from a mapping, rejecting unknown keys and wrong types."""
     fields = {f.name: f for f in dataclasses.fields(KTildeConfig)}
     unknown = sorted(set(values) - set(fields))

@@ -39,7 +39,7 @@ ONE_SIGMA_PROBABILITY = 0.8413447460685429
 
 
 def student_t_factor(dof: int) -> float:
-    """t such that ±t·s/√n covers the mean as often as ±1σ covers a normal value (dof ≥ 1)."""
+    """The t such that ±t·s/√n covers the mean as often as ±1σ covers a normal value (dof ≥ 1)."""
     from scipy.stats import t
 
     return float(t.ppf(ONE_SIGMA_PROBABILITY, dof))
@@ -74,7 +74,8 @@ def k_tilde_from_windows(forward: RevolutionWindow, reverse: RevolutionWindow, *
     """K̃ and the Earth-rate + bias term from one forward/reverse pair (eq. 3, generalised).
 
     Args:
-        forward, reverse: the two windows (encoder angles, counts, durations).
+        forward: the forward window (encoder angle, counts, duration).
+        reverse: the reverse window, likewise.
         arw_arcsec_sqrt_s: the gyro's angle random walk, ″/√s (NaN: unknown; then the
             predicted uncertainty holds the fits only).
 

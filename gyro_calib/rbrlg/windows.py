@@ -102,7 +102,8 @@ def count_at_instant(
     if len(gaps) and gaps.max() > max_gap_s * NS_PER_S:
         raise WindowError(
             f'gap of {gaps.max() / 1e6:.1f} ms in the {stream} stream within ±{half_width_s:g} s '
-            f'of the zero-index event at {format_stamp(instant_ns)} (limit {max_gap_s * 1e3:g} ms).'
+            f'of the zero-index event at {format_stamp(instant_ns)} '
+            f'(limit {max_gap_s * 1e3:g} ms).'
         )
     x = (t_span - instant_ns).astype(np.float64) / NS_PER_S
     y0 = counts[mid] if mid < hi else counts[lo]
@@ -355,7 +356,8 @@ class WholeRevolutionWindows:
         """The table reversed or stopped: report what this direction run could not use.
 
         Only a rate-bias run is judged: one whose constant-rate cruise held at least
-        RATE_BIAS_RUN_REVOLUTIONS by the encoder. A positioning move (a station change of the θ procedure)
+        RATE_BIAS_RUN_REVOLUTIONS by the encoder. A positioning move (a station change of the
+        θ procedure)
         that passes the mark is not a failed window.
         """
         run, self._run = self._run, None
@@ -621,7 +623,8 @@ def _circular_mode(angles: list[float], tol_rad: float) -> float:
 
 
 def _span(t_ns: npt.NDArray[np.int64], lo_ns: int, hi_ns: int) -> slice:
-    return slice(int(np.searchsorted(t_ns, lo_ns, 'left')), int(np.searchsorted(t_ns, hi_ns, 'right')))
+    return slice(int(np.searchsorted(t_ns, lo_ns, 'left')),
+                 int(np.searchsorted(t_ns, hi_ns, 'right')))
 
 
 def _rate_problem(
@@ -632,7 +635,10 @@ def _rate_problem(
     margins_ns: tuple[int, int],
     cfg: KTildeConfig,
 ) -> str:
-    """Why the table was not at constant rate over the window and its fit margins ('' if it was)."""
+    """Why the table was not at constant rate over the window and its fit margins.
+
+    '' if it was.
+    """
     lo_ns, hi_ns = start_ns - margins_ns[0], end_ns + margins_ns[1]
     sl = _span(table_t_ns, lo_ns, hi_ns)
     t, r = table_t_ns[sl], rate[sl]
@@ -648,7 +654,8 @@ def _rate_problem(
                 'rate cannot be checked.')
     flips = np.nonzero(np.sign(r) != np.sign(r[0]))[0]
     if len(flips):
-        return f'the table changed direction inside the window, at {format_stamp(int(t[flips[0]]))}.'
+        return ('the table changed direction inside the window, at '
+                f'{format_stamp(int(t[flips[0]]))}.')
     med = float(np.median(r))
     rel = np.abs(r - med) / abs(med)
     worst = int(np.argmax(rel))

@@ -129,6 +129,7 @@ def noise_floor(rate: npt.NDArray[np.float64], tau0_s: float, block_s: float, *,
         quantisation_rad: Q if known (K/√12 for a pulse gyro whose phase moves); then only
             N, B, K are fitted. Fitting Q and N together is poorly conditioned where both
             matter over the same τ.
+        min_tau_s: the shortest τ fitted, s (0: from τ0 on).
 
     The fit is weighted by the Allan variance's own relative uncertainty (≈ 1/√(n/m)); the
     floor's uncertainty is propagated from that of N² (and Q² when fitted) — approximate,

@@ -197,8 +197,11 @@ def compensate(model: ThermalBiasModel, pulse_t_ns: ArrayLike, pulse_counts: Arr
 
     Args:
         model: the thermal model (from the hand-off dict).
-        pulse_t_ns, pulse_counts: /gyro/pulses.
-        temperature_t_ns, temperature_c, temperature_frame_id: /gyro/temperature.
+        pulse_t_ns: /gyro/pulses stamps, ns.
+        pulse_counts: /gyro/pulses cumulative counts.
+        temperature_t_ns: /gyro/temperature stamps, ns.
+        temperature_c: /gyro/temperature readings, °C.
+        temperature_frame_id: /gyro/temperature sensor names (one per message, or one).
         gyro_id: the recording's gyro (scenario metadata, bench log); checked against the
             model's when both are known.
         scale_factor_rad_per_pulse: the recording's own K if known; refused if it differs

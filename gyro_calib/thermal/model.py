@@ -185,7 +185,10 @@ class ThermalBiasModel:
         (METHODS §D.3 (17d), (17g)).
 
         Args:
-            h_c: H, °C. hdot_c_s: Ḣ, °C/s. dtab_c: T_a − T_b, °C. dtcs_c: H − T_shell, °C.
+            h_c: H, °C.
+            hdot_c_s: Ḣ, °C/s.
+            dtab_c: T_a − T_b, °C.
+            dtcs_c: H − T_shell, °C.
             check: refuse values outside the calibrated range (:meth:`check_range`).
 
         Raises:
@@ -269,7 +272,8 @@ class ThermalBiasModel:
         return d
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any], *, source: str = 'the thermal model') -> ThermalBiasModel:
+    def from_dict(cls, d: dict[str, Any], *,
+                  source: str = 'the thermal model') -> ThermalBiasModel:
         """Rebuild a model from :meth:`to_dict` output, checking every key.
 
         Raises:

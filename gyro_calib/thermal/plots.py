@@ -148,7 +148,7 @@ def plot_thermal(calibrator_or_report: ThermalCalibrator | ThermalFitReport, out
 
 
 def plot_compensation(report: CompensationReport, out_dir: Path) -> list[Path]:
-    """Figures of one compensated recording (``gyro-calib compensate --plot``):
+    """Figures of one compensated recording (``gyro-calib compensate --plot``).
 
     - ``thermal_compensation.png``: 100 s means of the raw and compensated bias against
       time, with the noise floor band; the model bias and H underneath;
@@ -169,7 +169,8 @@ def plot_compensation(report: CompensationReport, out_dir: Path) -> list[Path]:
     ax.plot((tb - t0) / 3600, raw / DEG_H, '.', ms=3,
             label=f'raw − Earth rate: {v.bias_stability_raw.value / DEG_H:.4f} °/h')
     ax.plot((tc - t0) / 3600, comp / DEG_H, '.', ms=3,
-            label=f'raw − Earth rate − model: {v.bias_stability_compensated.value / DEG_H:.4f} °/h')
+            label=('raw − Earth rate − model: '
+                   f'{v.bias_stability_compensated.value / DEG_H:.4f} °/h'))
     f = v.noise_floor.floor.value / DEG_H
     ax.axhspan(-f, f, color='g', alpha=0.15, label=f'± noise floor {f:.4f} °/h')
     ax.set_ylabel(f'{v.block_s:g} s means (°/h)')

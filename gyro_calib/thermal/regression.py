@@ -206,7 +206,10 @@ def stepwise(y: npt.ArrayLike, columns: dict[str, npt.NDArray[np.float64]],
     """Stepwise multiple linear regression with F-test entry and removal.
 
     Args:
-        y, columns, sigma, lrv_max_rows: as :func:`fit_linear`.
+        y: as :func:`fit_linear`.
+        columns: as :func:`fit_linear`.
+        sigma: as :func:`fit_linear`.
+        lrv_max_rows: as :func:`fit_linear`.
         candidates: candidate term names (keys of ``columns``).
         p_enter: a candidate enters if its p-value is below this.
         p_remove: a term leaves if its p-value is above this (must be ≥ p_enter).

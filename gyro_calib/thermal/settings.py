@@ -149,7 +149,8 @@ class ThermalSettings:
              'a whole number of averaging intervals'),
             ('calibration_style', self.calibration_style in STYLES, ' or '.join(STYLES)),
             ('max_h_power', 1 <= self.max_h_power <= 6, 'between 1 and 6'),
-            ('stepwise_start', self.stepwise_start in ('full', 'constant'), "'full' or 'constant'"),
+            ('stepwise_start', self.stepwise_start in ('full', 'constant'),
+             "'full' or 'constant'"),
             ('p_enter', 0 < self.p_enter < 1, 'between 0 and 1'),
             ('p_remove', self.p_enter <= self.p_remove < 1,
              'at least p_enter and below 1 (else terms cycle in and out)'),
@@ -219,7 +220,7 @@ class ThermalSettings:
 
 
 def _multiple(x: float, t: float) -> bool:
-    """x is a whole number of t (t > 0 and finite: checked before, see check_ranges)."""
+    """True when x is a whole number of t (t > 0 and finite: checked before, see check_ranges)."""
     if not (0 < t < math.inf and math.isfinite(x)):
         return False
     r = x / t

@@ -125,7 +125,7 @@ class DitheredGyroConfig:
 
     @property
     def rocking_per_misalignment(self) -> float:
-        """k as a ratio (rad of rocking per rad of misalignment)."""
+        """The k as a ratio (rad of rocking per rad of misalignment)."""
         return self.rocking_arcsec_per_arcmin / 60.0
 
     def rocking_amplitudes_rad(self) -> tuple[float, float]:

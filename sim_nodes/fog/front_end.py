@@ -92,7 +92,7 @@ class FrontEnd:
         return v / self.lsb_v
 
     def inverse_error_word(self, word: FloatArray | float) -> FloatArray:
-        """a = F⁻¹(w) on the branch through the null; NaN where |w| ≥ max |F| (no lock)."""
+        """The a = F⁻¹(w) on the branch through the null; NaN where |w| ≥ max |F| (no lock)."""
         w = np.asarray(word, dtype=np.float64)
         ok = np.abs(w) < self.max_error_word
         v = np.where(ok, w, 0.0) * self.lsb_v
@@ -192,7 +192,7 @@ class FrontEnd:
 
     @property
     def phase_rate_per_word(self) -> float:
-        """c = k_i·g·δ/(2τ): da/dt of the averaged loop per unit of mean error, rad/s."""
+        """The c = k_i·g·δ/(2τ): da/dt of the averaged loop per unit of mean error, rad/s."""
         return self.k_i * self.g * self.delta_rad / (2.0 * self.tau_s)
 
     def output_rate_counts_s(self, sagnac_phase_rad: FloatArray | float,

@@ -71,7 +71,8 @@ def theta_procedure_profiles(cfg: ThetaProcedureConfig) -> tuple[MotionProfile, 
     stations: list[tuple[float, float]] = []
     psi, t = 0.0, 0.0
     for station_deg in cfg.stations_deg:
-        target = math.radians(station_deg) + rng.normal() * cfg.station_error_arcsec * RAD_PER_ARCSEC
+        target = (math.radians(station_deg)
+                  + rng.normal() * cfg.station_error_arcsec * RAD_PER_ARCSEC)
         d, a = _move(target - psi, acc, math.radians(60.0))
         rate_d += d
         rate_a += a

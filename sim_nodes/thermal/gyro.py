@@ -438,8 +438,10 @@ class ThermalGyroSimulator:
         cfg = self.config
         # exact derivatives at grid points (the temperatures' derivative is continuous);
         # elementwise, so a value never depends on how many grid points are held
-        da_grid = (z[:, _S] + cfg.cavity_a_self_heating_c - z[:, _A]) / cfg.cavity_a_time_constant_s
-        db_grid = (z[:, _S] + cfg.cavity_b_self_heating_c - z[:, _B]) / cfg.cavity_b_time_constant_s
+        da_grid = ((z[:, _S] + cfg.cavity_a_self_heating_c - z[:, _A])
+                   / cfg.cavity_a_time_constant_s)
+        db_grid = ((z[:, _S] + cfg.cavity_b_self_heating_c - z[:, _B])
+                   / cfg.cavity_b_time_constant_s)
         cols = {name: np.interp(t_s, grid_t, z[:, i]) for name, i in
                 (('u', _U), ('s', _S), ('a', _A), ('b', _B))}
         da = np.interp(t_s, grid_t, da_grid)

@@ -36,7 +36,8 @@ def test_live_k_tilde_equals_offline_core_result(listener: ResultListener,
     expected, n_pairs = _offline_k_tilde_rad(duration, seed)
     assert n_pairs == 3
     got = listener.spin_until(
-        lambda: listener.diagnostics.get('window_pairs') == str(n_pairs), duration / SPEED + 600, source=table)
+        lambda: listener.diagnostics.get('window_pairs') == str(n_pairs),
+        duration / SPEED + 600, source=table)
     logs = '\n'.join(n.log() for n in nodes)
     assert got, f'no result with {n_pairs} pairs; node logs:\n{logs}'
     assert listener.k_tilde[-1] == expected  # bit-identical: stamps and contents only

@@ -176,7 +176,8 @@ class PulseBench:
         from gyro_calib.nodes.ros_io import ns_to_stamp, publish_paced
 
         for _ in range(n):
-            msg = self._joint_state(name=['gyro'], position=[1e8 + self.i * self.pulses_per_sample])
+            msg = self._joint_state(name=['gyro'],
+                                    position=[1e8 + self.i * self.pulses_per_sample])
             ns_to_stamp(T0_NS + self.i * self.dt_ns, msg.header.stamp)
             publish_paced(self.pub, msg)
             self.i += 1
@@ -254,7 +255,8 @@ def test_node_publishes_calibrated_imu_and_follows_a_rewritten_file(
 
     second = _calibration(k_rad=K_RAD * (1 + 2e-4), bias_rad_s=-4.1e-6, arw=None)
     n_before = len(bench.imu)
-    write_calibration(path, _handoff(k_rad=K_RAD * (1 + 2e-4), bias_rad_s=-4.1e-6, arw=None))  # picked up within reload_period_s (1 s) + delivery
+    # picked up within reload_period_s (1 s) + delivery
+    write_calibration(path, _handoff(k_rad=K_RAD * (1 + 2e-4), bias_rad_s=-4.1e-6, arw=None))
     assert bench.spin_until(lambda: abs(bench.imu[-1].angular_velocity.z / (
         K_RAD * (1 + 2e-4) * 412e3 + 4.1e-6) - 1) < 1e-9, 10, publishing=True), node.log()
     switch = next(i for i in range(n_before, len(bench.imu))
