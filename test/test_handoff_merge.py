@@ -306,9 +306,12 @@ def test_a_live_thermal_node_reports_a_bench_conflict_and_writes_the_published_g
 
 def test_a_published_bench_never_changes_a_nodes_session_it_names_what_it_would_give(
         tmp_path: Path) -> None:
-    """Stamps, not wall clocks: whether /sim/scenario arrives before or after the first
+    """A published bench never changes a node's session; it is named.
+
+    Stamps, not wall clocks: whether /sim/scenario arrives before or after the first
     samples is timing, so it never fills a setting the parameters left unset (it did before
-    the first sample, which made a live run's numbers depend on arrival order)."""
+    the first sample, which made a live run's numbers depend on arrival order).
+    """
     import rclpy
     from std_msgs.msg import String
 

@@ -435,8 +435,11 @@ class SimScenarioBench:
         return gyro_id
 
     def tell_unset(self, options: CalibrationOptions) -> None:
-        """Log once each bench setting the parameters left unset that the published bench
-        gives: it is not taken (the numbers must not depend on when it arrived)."""
+        """Log the published bench settings left unset; none is taken.
+
+        Log once each bench setting the parameters left unset that the published bench
+        gives: it is not taken (the numbers must not depend on when it arrived).
+        """
         for name in self.names:
             if name == 'gyro_id':
                 continue

@@ -284,9 +284,12 @@ class ThermalSession(MethodSession):
         return out
 
     def handoff(self, source: str, *, gyro_id: str = '') -> Any:
-        """The hand-off record, under the gyro id the model was fitted for; a model fitted
+        """The hand-off record, under the gyro id the model was fitted for.
+
+        The hand-off record, under the gyro id the model was fitted for; a model fitted
         without an id takes the record's (a live node learns it from /sim/scenario after the
-        session was built: identity, not numbers)."""
+        session was built: identity, not numbers).
+        """
         self._record_gyro_id = gyro_id
         return super().handoff(source, gyro_id=gyro_id or self.settings.gyro_id)
 
