@@ -356,11 +356,11 @@ class DitherSummary:
         if self.verdict is not None:
             out.append(self.verdict.sentence)
         if self.coning is not None:
-            c = self.coning
-            total = (f'{c.total_rad_s:.3g} rad/s' if math.isfinite(c.total_rad_s)
+            cd = self.coning
+            total = (f'{cd.total_rad_s:.3g} rad/s' if math.isfinite(cd.total_rad_s)
                      else 'needs K (θ_d in rad)')
-            out.append(f'coning drift eq. (24): {c.eq24_rad_s:.3g} rad/s '
-                       f'({math.degrees(c.eq24_rad_s) * 3600:.2g} °/h); with dither × rocking '
+            out.append(f'coning drift eq. (24): {cd.eq24_rad_s:.3g} rad/s '
+                       f'({math.degrees(cd.eq24_rad_s) * 3600:.2g} °/h); with dither × rocking '
                        f'(worst case): {total}')
         if math.isfinite(self.dither_frequency_hz):
             amp = (f'{self.dither_amplitude_rad / RAD_PER_ARCSEC:.1f}″'
@@ -610,7 +610,8 @@ class DitherCalibrator:
             if not known or self._anchor_ns is None:
                 return False
             return known[0] - self._anchor_ns >= self.settings.stall_timeout_s * NS_PER_S
-        lag, lead = min(newest), max(newest)  # type: ignore[type-var]
+        stamps = [n for n in newest if n is not None]  # all of them: None was ruled out
+        lag, lead = min(stamps), max(stamps)
         if self._lag_mark is None or self._lag_mark[0] != lag:
             self._lag_mark = (lag, lead)
             return False
@@ -848,6 +849,7 @@ class DitherCalibrator:
         built: dict[str, dict[str, Any]] = {}
         for axis in signed:
             sol, rec = sols[axis], self.orientations[axis]
+            assert sol is not None  # signed holds only the axes with a solution
             sigma = math.sqrt(sol.covariance[0, 0]) * cos_a
             fs = rec.mean('sample_rate_hz')
             floor = detection_floor(

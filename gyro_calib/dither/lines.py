@@ -55,11 +55,12 @@ class TableFit:
     @property
     def rate_amplitude_rad_s(self) -> float:
         """A = Ω_z·|Θ₁|, amplitude of the fundamental rate, rad/s."""
-        return self.angular_frequency_rad_s * abs(self.phasors_rad[0])
+        return float(self.angular_frequency_rad_s * abs(self.phasors_rad[0]))
 
     def rate_phasors_rad_s(self) -> tuple[FloatArray, ComplexArray]:
         """(ν_h, W_h) with ω_T ⊃ Re(W_h·e^{i·ν_h·τ}), W_h = i·ν_h·Θ_h; rad/s."""
-        nu = self.angular_frequency_rad_s * np.arange(1, len(self.phasors_rad) + 1)
+        nu = np.asarray(self.angular_frequency_rad_s * np.arange(1, len(self.phasors_rad) + 1),
+                        dtype=np.float64)
         return nu, 1j * nu * self.phasors_rad
 
 
@@ -138,10 +139,12 @@ def solve_scaled_normal(design: FloatArray, values: FloatArray) -> FloatArray:
     norms[norms == 0] = 1.0
     scaled = design / norms
     gram = scaled.T @ scaled
+    solution: FloatArray
     try:
-        return np.linalg.solve(gram, scaled.T @ values) / norms
+        solution = np.linalg.solve(gram, scaled.T @ values) / norms
     except np.linalg.LinAlgError:  # a column vanished (no line): minimum-norm solution
-        return np.linalg.lstsq(scaled, values, rcond=None)[0] / norms
+        solution = np.linalg.lstsq(scaled, values, rcond=None)[0] / norms
+    return solution
 
 
 def fit_line_frequency(tau_s: FloatArray, values: FloatArray, fixed: FloatArray,
@@ -201,7 +204,7 @@ def fit_table_motion(tau_s: FloatArray, angle_rad: FloatArray, *, harmonics: int
 
 def nuisance_columns(tau_s: FloatArray, table: TableFit, harmonics: int) -> FloatArray:
     """Offset, slope and the table lines h·Ω_z (h = 1 … H): what the count carries besides φ."""
-    w = table.angular_frequency_rad_s * np.arange(1, harmonics + 1)
+    w = np.asarray(table.angular_frequency_rad_s * np.arange(1, harmonics + 1), dtype=np.float64)
     return np.hstack((np.column_stack((np.ones_like(tau_s), tau_s)), sinusoid_columns(tau_s, w)))
 
 

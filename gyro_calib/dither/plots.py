@@ -15,18 +15,18 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from gyro_calib.dither.calibrator import (
     COMPONENT_KEYS,
-    KEY_A,
-    KEY_CONING,
     DitherCalibrator,
     describe_component,
 )
 from gyro_calib.dither.coning import PAPER_ROCKING_PER_MISALIGNMENT, coning_drift
+from gyro_calib.dither.keys import KEY_A, KEY_CONING
 from gyro_calib.dither.misalignment import RAD_PER_ARCMIN
 
 if TYPE_CHECKING:
@@ -35,7 +35,7 @@ if TYPE_CHECKING:
 DEG_H_PER_RAD_S = 180.0 / math.pi * 3600.0
 
 
-def _pyplot():  # noqa: ANN202 - matplotlib's module type
+def _pyplot() -> ModuleType:
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -73,7 +73,7 @@ def plot_dither(calibrator_or_results: DitherCalibrator | dict[str, Estimate],
     return paths
 
 
-def _line_marks(ax, fd: float, fz: float, harmonics: int) -> None:  # noqa: ANN001
+def _line_marks(ax: Any, fd: float, fz: float, harmonics: int) -> None:
     marks = [(fd, 'f_d', 'tab:red'), (fd - fz, 'f_d − f_z', 'tab:green'),
              (fd + fz, 'f_d + f_z', 'tab:green')]
     marks += [(h * fz, f'{h}·f_z' if h > 1 else 'f_z', 'tab:blue')
@@ -87,6 +87,7 @@ def _line_marks(ax, fd: float, fz: float, harmonics: int) -> None:  # noqa: ANN0
 def _plot_spectrum(cal: DitherCalibrator, axis: str, out_dir: Path) -> Path:
     plt = _pyplot()
     rec = cal.orientations[axis]
+    assert rec.spectrum_sum is not None  # plotted only for orientations with spectra
     spec = np.sqrt(rec.spectrum_sum / rec.n_spectra)
     freqs = np.fft.rfftfreq(cal.settings.spectrum_samples, 1.0 / rec.spectrum_rate_hz)
     fd, fz = rec.mean('dither_frequency_hz'), rec.mean('table_frequency_hz')
@@ -129,6 +130,7 @@ def _plot_residuals(cal: DitherCalibrator, axis: str, out_dir: Path) -> Path:
                       f'(quantisation alone: {1 / math.sqrt(12):.3f})', fontsize=9)
         ax1.set_xlabel('time from block centre (s)')
         ax1.set_ylabel('pulses')
+    assert rec.residual_spectrum_sum is not None  # set with spectrum_sum
     spec = np.sqrt(rec.residual_spectrum_sum / rec.n_spectra)
     freqs = np.fft.rfftfreq(cal.settings.spectrum_samples, 1.0 / rec.spectrum_rate_hz)
     ax2.semilogy(freqs[1:], spec[1:], lw=0.6, color='0.3')

@@ -150,7 +150,7 @@ class BlockReduction:
 
     def solve(self) -> FloatArray:
         """This block's own β (β_in, β_quad, then any null coefficients)."""
-        return np.linalg.solve(self.normal, self.rhs)
+        return np.asarray(np.linalg.solve(self.normal, self.rhs), dtype=np.float64)
 
 
 def reduce_block(counts: FloatArray, nuisance: FloatArray, regressors: FloatArray) -> tuple[
@@ -222,7 +222,7 @@ class ReducedNormalEquations:
         if self.normal is None or self.rhs is None:
             raise ValueError('no block accumulated')
         k = len(self.rhs)
-        beta = np.linalg.solve(self.normal, self.rhs)
+        beta = np.asarray(np.linalg.solve(self.normal, self.rhs), dtype=np.float64)
         rss = max(self.rss_nuisance - float(self.rhs @ beta), 0.0)
         dof = self.n_samples - self.n_parameters - k
         sigma2 = rss / dof if dof > 0 else math.nan
@@ -237,7 +237,7 @@ class ReducedNormalEquations:
         else:
             null2 = math.nan
         inflate = max([1.0] + [x for x in (birge2, null2) if math.isfinite(x)])
-        cov = sigma2 * inflate * inv[:2, :2]
+        cov = np.asarray(sigma2 * inflate * inv[:2, :2], dtype=np.float64)
         return SidebandSolution(beta[:2], cov, sigma2, dof, birge2, self.n_blocks,
                                 self.n_samples, null2, n_null, inflate)
 

@@ -26,6 +26,16 @@ from gyro_calib.dither import topics
 from gyro_calib.dither.calibrator import (
     AXES,
     COMPONENT_KEYS,
+    DitherCalibrator,
+    DitherSummary,
+    describe_component,
+)
+from gyro_calib.dither.floor import (
+    required_record_s,
+    required_sample_rate_hz,
+    required_table_rate_amplitude_rad_s,
+)
+from gyro_calib.dither.keys import (
     KEY_A,
     KEY_AMPLITUDE,
     KEY_AMPLITUDE_PULSES,
@@ -38,16 +48,8 @@ from gyro_calib.dither.calibrator import (
     KEY_VERDICT,
     KEY_Y,
     KEY_Z,
-    DitherCalibrator,
-    DitherSummary,
-    describe_component,
+    METHOD,
 )
-from gyro_calib.dither.floor import (
-    required_record_s,
-    required_sample_rate_hz,
-    required_table_rate_amplitude_rad_s,
-)
-from gyro_calib.dither.keys import METHOD
 from gyro_calib.dither.misalignment import RAD_PER_ARCMIN, Component
 from gyro_calib.dither.settings import DitherSettings, dither_settings_from_mapping
 from gyro_calib.errors import ConfigError

@@ -91,7 +91,9 @@ class DitherSettings:
         """Validate every field once; raise ConfigError naming the field."""
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            kind = {'int': int, 'float': (int, float), 'str': str}[str(f.type)]
+            kinds: dict[str, type | tuple[type, ...]] = {
+                'int': int, 'float': (int, float), 'str': str}
+            kind = kinds[str(f.type)]
             if isinstance(value, bool) or not isinstance(value, kind):
                 raise ConfigError(f'{f.name} = {value!r} is invalid: it must be '
                                   f'{"an integer" if kind is int else "a " + str(f.type)}.')

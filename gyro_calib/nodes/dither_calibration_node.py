@@ -13,7 +13,7 @@ is missing on /diagnostics (status ``gyro_calib: dither``), and updates the hand
 from __future__ import annotations
 
 from gyro_calib.dither import topics
-from gyro_calib.dither.calibrator import KEY_A
+from gyro_calib.dither.keys import KEY_A
 from gyro_calib.dither.settings import DitherSettings
 from gyro_calib.nodes.method_node import run_method_node
 
