@@ -166,9 +166,9 @@ class RbrlgCalibrator:
             rate_zero_index_ns if rate_zero_index_ns is not None else no_events)
         self.stations.extend(pulses, position_table, position_zero_index_ns
                              if position_zero_index_ns is not None else no_events, rate_table)
-        if len(position_table[0]):
+        if np.size(position_table[0]):
             self._position_table_seen = True
-        if self._position_angle_rad is None and len(position_table[0]):
+        if self._position_angle_rad is None and np.size(position_table[0]):
             still = np.abs(np.asarray(position_table[2])) < 1e-6
             if np.any(still):
                 self._position_angle_rad = float(np.asarray(position_table[1])[still][0])
@@ -179,6 +179,8 @@ class RbrlgCalibrator:
 
     def results(self) -> RbrlgResults:
         """K̃, θ, K, ω′ₑ + ω_B and ω_B as far as measured."""
+        k_tilde: Estimate | None
+        earth_bias: Estimate | None
         try:
             k_tilde = self.k_tilde.k_tilde()
             earth_bias = self.k_tilde.earth_plus_bias_deg_h()

@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,6 +34,9 @@ from gyro_calib.streams import StampedBuffer, feed_by_timeline
 from gyro_calib.units import ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import numpy.typing as npt
     from numpy.typing import ArrayLike
 
 TABLE_HISTORY_S = 60.0
@@ -233,7 +236,8 @@ class RateBiasCalibrator:
         """
         if None in newest:
             return False
-        lag, lead = min(newest), max(newest)  # type: ignore[type-var]
+        stamps = [n for n in newest if n is not None]  # all of them: None was ruled out
+        lag, lead = min(stamps), max(stamps)
         if self._lag_mark is None or self._lag_mark[0] != lag:
             self._lag_mark = (lag, lead)  # the lagging stream moved: restart the clock
             return False
@@ -275,7 +279,8 @@ class RateBiasCalibrator:
             else:
                 angle, angle_std = fit.value, fit.std_uncertainty
         pulse_gap_s = max(cfg.max_fit_gap_s, 2.5 * pulse_period / NS_PER_S)
-        state = dict(angle_std_rad=angle_std, rate_spread=spread, half_width_ns=half_ns)
+        state: dict[str, Any] = dict(angle_std_rad=angle_std, rate_spread=spread,
+                                     half_width_ns=half_ns)
         try:
             count = count_at_instant(
                 p_t, counts, t_event, half_width_s=half_s, order=cfg.fit_order,
@@ -321,7 +326,7 @@ class RateBiasCalibrator:
             return
         for buf in (self.pulses, self.table):  # a stream never seen (no table) holds nothing
             if buf.newest_ns is not None and buf.span_ns() > limit * 5 // 4:
-                buf.discard_before(buf.newest_ns - limit)  # type: ignore[operator]
+                buf.discard_before(buf.newest_ns - limit)
 
     # -- results -----------------------------------------------------------------------------
     @property
@@ -377,7 +382,8 @@ def calibrate_k_tilde(
     """
     cal = RateBiasCalibrator(config or KTildeConfig())
     back = int(cal.config.restart_backstep_s * NS_PER_S)
-    streams = [
+    streams: list[tuple[Callable[..., object], npt.NDArray[np.int64],
+                        tuple[npt.ArrayLike, ...]]] = [
         (cal.extend_pulses, np.asarray(pulse_t_ns, np.int64), (pulse_counts,)),
         (cal.extend_table_states, np.asarray(table_t_ns, np.int64),
          (table_angle_rad, table_rate_rad_s)),

@@ -166,7 +166,8 @@ def fix_error_angle_multi_station(
     else:
         k, k_is_k_tilde = float(scale_factor_arcsec_per_pulse), False  # type: ignore[arg-type]
     phi = ARCSEC_PER_REV * position_table_revolutions
-    angles = _angles_from_coefficients(coef, k, phi, k_is_k_tilde=k_is_k_tilde)
+    angles = _angles_from_coefficients(np.asarray(coef, np.float64), k, phi,
+                                       k_is_k_tilde=k_is_k_tilde)
     jac = np.empty((3, 3))
     for j in range(3):
         step = 1e-6 * max(1.0, abs(coef[j]))
@@ -183,7 +184,7 @@ def fix_error_angle_multi_station(
         beta0_rad=Estimate(float(angles[1]), float(std[1]), n, dof, (), basis),
         tilt_rad=Estimate(float(angles[2]), float(std[2]), n, dof, (), basis),
         coefficients=(float(coef[0]), float(coef[1]), float(coef[2])),
-        covariance=cov,
+        covariance=np.asarray(cov, np.float64),
     )
 
 

@@ -47,7 +47,7 @@ def rbrlg_calibrator(options: CalibrationOptions) -> RbrlgCalibrator:
     the bag, then the defaults.
     """
     k_config = KTildeConfig()
-    mount: dict[str, float] = {}
+    mount: dict[str, Any] = {}  # float values of MOUNT_SETTINGS
     if options.config_file is not None:
         values, _ = read_method_file(options.config_file, node_name=NODE_NAME,
                                      fields=[*(f.name for f in dataclasses.fields(KTildeConfig)),

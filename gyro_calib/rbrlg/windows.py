@@ -613,7 +613,9 @@ class WholeRevolutionWindows:
 
 def _angle_apart(a: npt.ArrayLike, b: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """|a − b| wrapped into [0, π], rad (angles on a circle)."""
-    return np.abs((np.asarray(a) - np.asarray(b) + math.pi) % TWO_PI - math.pi)
+    apart: npt.NDArray[np.float64] = np.abs((np.asarray(a) - np.asarray(b) + math.pi) % TWO_PI
+                                            - math.pi)
+    return apart
 
 
 def _circular_mode(angles: list[float], tol_rad: float) -> float:

@@ -7,7 +7,7 @@ same configuration and chunk size gives bit-identical samples.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -145,7 +145,7 @@ def simulate_two_axis_bench(
     rate_sim, position_sim = two_axis_simulators(rate_profile, position_profile, table,
                                                  position_index_jitter_arcsec)
     gyro_sim = TwoAxisGyroSimulator(gyro, mount)
-    out: dict[str, list[npt.NDArray[np.float64]]] = {k: [] for k in (
+    out: dict[str, list[npt.NDArray[Any]]] = {k: [] for k in (  # int64 stamps, float64 values
         'pt', 'pn', 'rt', 'ra', 'rr', 'ri', 'qt', 'qa', 'qr', 'qi')}
     dec, n_done = table.joint_state_decimation, 0
     while not rate_sim.finished:

@@ -103,6 +103,7 @@ class RingLaserGyroSimulator:
     ) -> npt.NDArray[np.float64]:
         """Angle sensed along og over each step ending at a sample, ″ (before lock-in)."""
         cfg = self.config
+        assert self._last_t_ns is not None and self._first_t_ns is not None  # the first sample
         t_all = np.concatenate(([self._last_t_ns], t_ns)).astype(np.int64)
         psi = np.concatenate(([self._last_angle_rad], angle_rad))
         dt_s = np.diff(t_all) / NS_PER_S
@@ -122,7 +123,7 @@ class RingLaserGyroSimulator:
         if cfg.angle_random_walk_deg_sqrt_h:
             n_arw = cfg.angle_random_walk_deg_sqrt_h * ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H
             increments = increments + n_arw * np.sqrt(dt_s) * self._rng.standard_normal(len(dt_s))
-        return increments
+        return np.asarray(increments, np.float64)
 
     def step(
         self, t_ns: npt.NDArray[np.int64], angle_rad: npt.NDArray[np.float64]

@@ -107,6 +107,7 @@ class TwoAxisGyroSimulator:
                                0.5 * (psi_all[1:] + psi_all[:-1]))
         earth_body = mid.inv().apply(self._earth)  # rad/s in the gyro case
         sensed_rad = relative @ og + (earth_body @ og) * dt_s
+        assert self._first_t_ns is not None  # set by the first sample
         t_h = (t_ns - self._first_t_ns) / NS_PER_S / 3600.0
         bias = (cfg.bias_deg_h + cfg.bias_drift_deg_h_per_h * t_h) * dt_s  # ″
         increments = sensed_rad * ARCSEC_PER_RAD + bias
