@@ -57,6 +57,9 @@ from gyro_calib.fog.turntable import (
 from gyro_calib.streams import StampedBuffer, feed_by_timeline
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    import numpy.typing as npt
     from numpy.typing import ArrayLike
 
 KEY_SCALE_FACTOR = 'fog_scale_factor_counts_per_rad'
@@ -649,7 +652,8 @@ def calibrate_fog(
     """
     cal = FogCalibrator(settings or FogSettings())
     back = int(cal.settings.restart_backstep_s * 1e9)
-    streams = [
+    streams: list[tuple[Callable[..., object], npt.NDArray[np.int64],
+                        tuple[ArrayLike, ...]]] = [
         (cal.extend_output, np.asarray(output_t_ns, np.int64), (output_counts,)),
         (cal.extend_injection, np.asarray(injection_t_ns, np.int64), (injection_counts_s,)),
         (cal.extend_table_states, np.asarray(table_t_ns, np.int64),

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -22,6 +23,7 @@ from gyro_calib.fog.self_cal import SelfCalFit
 from gyro_calib.fog.turntable import TurntableFit
 
 if TYPE_CHECKING:
+    from gyro_calib.estimate import Estimate
     from gyro_calib.fog.calibrator import FogCalibrator
 
 
@@ -46,7 +48,7 @@ def plot_fog(calibrator: FogCalibrator, out_dir: Path) -> list[Path]:
     return written
 
 
-def _turntable_figure(plt, fit: TurntableFit, out_dir: Path) -> Path:  # noqa: ANN001
+def _turntable_figure(plt: ModuleType, fit: TurntableFit, out_dir: Path) -> Path:
     rates = np.degrees(fit.rates_rad_s)
     full_scale = float(np.max(np.abs(fit.outputs_counts_s)))
     resid = fit.residuals / full_scale * 1e6
@@ -75,7 +77,7 @@ def _turntable_figure(plt, fit: TurntableFit, out_dir: Path) -> Path:  # noqa: A
     return path
 
 
-def _self_cal_figure(plt, fit: SelfCalFit, k_tt, spec_ppm: float,  # noqa: ANN001
+def _self_cal_figure(plt: ModuleType, fit: SelfCalFit, k_tt: Estimate | None, spec_ppm: float,
                      out_dir: Path) -> Path:
     rows = list(fit.table)
     mapped = rows[0].scale_factor is not None

@@ -178,9 +178,9 @@ def measure_plateau(start_ns: int, end_ns: int, injection_counts_s: float, cells
         # stationarity: the rate over the second half against the first, from local-fit
         # counts (cell rates would see the slow beat of the count quantisation as a trend)
         mid = blocks // 2
-        half = span / 2.0
-        drift = 2.0 * float(counts[-1] - 2.0 * counts[mid] + counts[0]) / half
-        var_drift = 4.0 * ((se2[0] + 4.0 * se2[mid] + se2[-1]) / half**2 + 4.0 * arw2 / span)
+        half_s = span / 2.0
+        drift = 2.0 * float(counts[-1] - 2.0 * counts[mid] + counts[0]) / half_s
+        var_drift = 4.0 * ((se2[0] + 4.0 * se2[mid] + se2[-1]) / half_s**2 + 4.0 * arw2 / span)
         late_half = (edges[-1] - edges[mid]) / 1e9
         late_rate = float((counts[-1] - counts[mid]) / late_half)
         late_var = float((se2[mid] + se2[-1]) / late_half**2 + arw2 / late_half)

@@ -308,12 +308,13 @@ class FogSession(MethodSession):
         for i, row in enumerate(rows):
             if i not in shown:
                 continue
-            k = (f'K = {row.scale_factor.value:.6f} ± {row.scale_factor.std_uncertainty:.2g} '
-                 f'counts/rad, up to {math.degrees(row.range_rad_s):.4f} °/s'
-                 if row.scale_factor is not None else
-                 f'dN/dJ = {row.slope.value:.8f} ± {row.slope.std_uncertainty:.2g}')
+            k_text = (f'K = {row.scale_factor.value:.6f} ± {row.scale_factor.std_uncertainty:.2g} '
+                      f'counts/rad, up to {math.degrees(row.range_rad_s):.4f} °/s'
+                      if row.scale_factor is not None else
+                      f'dN/dJ = {row.slope.value:.8f} ± {row.slope.std_uncertainty:.2g}')
             mark = '   ← linear range' if i == linear_at else ''
-            lines.append(f'  {row.plateaus:3d} plateaus: {k}; {row.nonlinearity_text()}{mark}')
+            lines.append(f'  {row.plateaus:3d} plateaus: {k_text}; {row.nonlinearity_text()}'
+                         f'{mark}')
         return lines
 
     def info_lines(self) -> list[str]:

@@ -151,7 +151,8 @@ def measure_segment(run: SteadyRun, index_ns: npt.NDArray[np.int64], cells: Coun
     events = index_ns[(index_ns >= ta) & (index_ns <= tb)]
     if len(events) >= 2 and omega_enc != 0.0:
         angles = psi_a + omega_enc * (events - ta) / 1e9
-        valid = _reference_events(angles, math.radians(settings.index_angle_tolerance_deg))
+        valid = _reference_events(np.asarray(angles, np.float64),
+                                  math.radians(settings.index_angle_tolerance_deg))
         if valid.sum() >= 2:
             ev = events[valid]
             m = int(round(abs(angles[valid][-1] - angles[valid][0]) / (2.0 * math.pi)))
@@ -253,7 +254,8 @@ class SegmentNoise:
         t = np.array([s.duration_s for s in segments])
         end = np.array([s.end_variance_counts2 for s in segments])
         bound = np.array([s.earth_bound_rad_s for s in segments]) * k_abs
-        return self.arw_counts2_s / t + end / t**2 + bound**2 / 3.0
+        variances: FloatArray = self.arw_counts2_s / t + end / t**2 + bound**2 / 3.0
+        return variances
 
 
 def pooled_noise(segments: list[SegmentMeasurement]) -> SegmentNoise:
