@@ -133,7 +133,9 @@ class ThermalCalibrator:
         self._pulses.reduce(flush=flush)
         for red in self._temps.values():
             red.reduce(flush=flush)
-        for src in (self._pulses, *self._temps.values()):
+        sources: list[PulseIntervals | TemperatureIntervals] = [self._pulses,
+                                                                *self._temps.values()]
+        for src in sources:
             lines += src.notices
             src.notices.clear()
         new_rej = self._pulses.rejections[self._n_pulse_rej:]

@@ -332,7 +332,7 @@ def json_document(result: BagCompensation) -> dict[str, Any]:
     r = result.report
     fl = r.noise_floor
     m = result.model
-    return finite_json({'command': 'compensate', 'methods': {'thermal': {
+    document: dict[str, Any] = finite_json({'command': 'compensate', 'methods': {'thermal': {
         'results': {k: _est(e) for k, e in r.results().items()},
         'missing': {},
         'rejections': [f'{format_stamp(x.stamp_ns)}: {x.reason}' for x in r.rejections],
@@ -352,6 +352,7 @@ def json_document(result: BagCompensation) -> dict[str, Any]:
         'notes': list(r.notes)}},
         'bags': [str(b) for b in result.bags],
     })
+    return document
 
 
 def summary_text(result: BagCompensation, calibration_file: Path) -> str:

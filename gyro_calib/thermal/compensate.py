@@ -318,9 +318,9 @@ def compensate_reduced(reducer: CompensationReducer, *, gyro_id: str = '',
             raise InsufficientDataError('every interval lies outside the calibrated range.')
     bias = np.full(len(table), np.nan)
     bias_std = np.full(len(table), np.nan)
-    b, bs = model.bias_rad_s(variables['H'][idx], variables['Hdot'][idx],
-                             variables['dTab'][idx], variables['dTcs'][idx], check=False)
-    bias[idx], bias_std[idx] = b, bs
+    b_in, bs_in = model.bias_rad_s(variables['H'][idx], variables['Hdot'][idx],
+                                   variables['dTab'][idx], variables['dTcs'][idx], check=False)
+    bias[idx], bias_std[idx] = b_in, bs_in
     earth = model.earth_rate_along_axis_rad_s
     nb = int(round(block_s / table.interval_s))
     shift = int((-table.k[0]) % nb)

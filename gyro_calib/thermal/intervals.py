@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -82,15 +82,15 @@ class IntervalSettings:
 class _Rows:
     """Append-only columns, concatenated on demand."""
 
-    parts: list[tuple[npt.NDArray, ...]] = field(default_factory=list)
-    _cache: tuple[npt.NDArray, ...] | None = None
+    parts: list[tuple[npt.NDArray[Any], ...]] = field(default_factory=list)
+    _cache: tuple[npt.NDArray[Any], ...] | None = None
 
-    def append(self, *cols: npt.NDArray) -> None:
+    def append(self, *cols: npt.NDArray[Any]) -> None:
         if len(cols[0]):
             self.parts.append(cols)
             self._cache = None
 
-    def arrays(self, n_cols: int) -> tuple[npt.NDArray, ...]:
+    def arrays(self, n_cols: int) -> tuple[npt.NDArray[Any], ...]:
         if self._cache is None:
             if not self.parts:
                 self._cache = tuple(np.zeros(0) for _ in range(n_cols))
@@ -344,7 +344,7 @@ class IntervalTable:
 
 def join_intervals(pulses: tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                                  npt.NDArray[np.int64]] | None,
-                   temperatures: dict[str, tuple[npt.NDArray, ...]],
+                   temperatures: dict[str, tuple[npt.NDArray[Any], ...]],
                    interval_s: float) -> IntervalTable:
     """Place every stream's rows on one contiguous interval grid (the union of their spans).
 
@@ -565,7 +565,7 @@ def check_sensors(table: IntervalTable, settings: IntervalSettings) -> SensorChe
                     f'{format_stamp(t0)} to {format_stamp(t1)} ({(t1 - t0) / NS_PER_S:.0f} s) '
                     f'while the other sensors moved by {moved:.2f} °C: it is stuck; those '
                     'intervals are not used. Check the sensor and its wiring.')))
-        silent = ~fin & pulses_span
+        silent = np.logical_and(np.logical_not(fin), pulses_span)
         fin_idx = np.nonzero(fin)[0]
         edge_n = int(settings.max_temperature_gap_s / table.interval_s)
         for a, b in true_runs(silent):

@@ -64,7 +64,7 @@ def plot_thermal(calibrator_or_report: ThermalCalibrator | ThermalFitReport, out
         ax.errorbar(rows.variables['H'], rows.y_rad_s / DEG_H, yerr=rows.sigma_rad_s / DEG_H,
                     fmt='none', ecolor='k')
     fig.colorbar(sc, ax=ax, label='Ḣ (°C/min)')
-    h = np.linspace(*model.h_range_c, 200)
+    h = np.linspace(model.h_range_c[0], model.h_range_c[1], 200)
     sc_ = model.scaling
     b, s = model.bias_rad_s(h, 0.0, sc_.centre['dTab'], sc_.centre['dTcs'], check=False)
     ax.plot(h, b / DEG_H, 'k-', label='model (Ḣ = 0)')

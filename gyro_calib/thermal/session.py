@@ -450,7 +450,8 @@ class ThermalSession(MethodSession):
             out['snr_per_point'] = [
                 {'h_c': p.h_c, 'snr_raw_db': p.snr_raw_db, 'snr_denoised_db': p.snr_denoised_db,
                  'intervals': p.n} for p in rep.snr]
-        return finite_json(out)
+        document: dict[str, Any] = finite_json(out)
+        return document
 
     def plot(self, out_dir: Path) -> list[Path]:
         """Bias vs H with the model, residuals vs time, before/after."""
