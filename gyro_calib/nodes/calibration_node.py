@@ -30,7 +30,12 @@ from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.handoff import Provenance, merge_lines, method_calibration, update_calibration
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, SimScenarioBench, _TopicBuffer
-from gyro_calib.nodes.node_state import NodeState, feed_columns, state_directory
+from gyro_calib.nodes.node_state import (
+    NodeState,
+    calibration_complete,
+    feed_columns,
+    state_directory,
+)
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
@@ -216,7 +221,8 @@ class CalibrationNode(CalibrationNodeBase):
         """
         self._process()
         self._publish_results()
-        self.state.finish(complete=not self.bench.missing())
+        self.state.finish(complete=calibration_complete(self.bench.missing(),
+                                                          self.bench.not_measurable()))
 
     def _consume(self, update: CalibrationUpdate, stations: list[Station]) -> None:
         self._report(update)

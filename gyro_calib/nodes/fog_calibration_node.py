@@ -27,6 +27,7 @@ from gyro_calib.fog.calibrator import KEY_SCALE_FACTOR, KEY_SELF_CAL
 from gyro_calib.fog.session import FogSession
 from gyro_calib.fog.settings import FogSettings
 from gyro_calib.nodes.method_node import MethodNode
+from gyro_calib.nodes.node_state import calibration_complete
 from gyro_calib.nodes.ros_io import run_node
 
 RESULT_TOPICS = {KEY_SCALE_FACTOR: topics.FOG_SCALE_FACTOR,
@@ -71,7 +72,8 @@ class FogCalibrationNode(MethodNode):
         self.get_logger().info(f'recording ended after {self.received()} messages: last '
                                f'segment and plateau measured; {len(session.results())} '
                                'quantities final.')
-        self.state.finish(complete=not session.missing())
+        self.state.finish(complete=calibration_complete(session.missing(),
+                                                          session.not_measurable()))
         pubs = [*self._result_pubs.values(), self.diag_pub]
         for pub in pubs:
             pub.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))

@@ -38,7 +38,7 @@ from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
-from gyro_calib.nodes.node_state import NodeState, state_directory
+from gyro_calib.nodes.node_state import NodeState, calibration_complete, state_directory
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
@@ -329,7 +329,8 @@ class MethodNode(CalibrationNodeBase):
         for line in self.session.process(flush=True):
             self.get_logger().info(line)
         self._write_handoff()
-        self.state.finish(complete=not self.session.missing())
+        self.state.finish(complete=calibration_complete(self.session.missing(),
+                                                          self.session.not_measurable()))
 
     def _write_handoff(self) -> None:
         if not self.output_file:

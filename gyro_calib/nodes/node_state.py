@@ -24,6 +24,15 @@ if TYPE_CHECKING:
     from gyro_calib.bagio.columns import TopicColumns
 
 
+def calibration_complete(missing: Mapping[str, str], not_measurable: Mapping[str, str]) -> bool:
+    """True when nothing the bench could give is missing: the hand-off file's ``complete``.
+
+    A key no run on such a bench could give (``not_measurable``, e.g. θ on a plain rate
+    table, the full-scale FOG nonlinearity of a mapping-only table) does not keep a run open.
+    """
+    return not set(missing) - set(not_measurable)
+
+
 NOT_IDENTITY = frozenset({'output_file', 'state_dir', 'keep_state', 'process_period_s',
                           'results_period_s', 'kalibr_file', 'plot_file', 'best_effort',
                           'use_sim_time'})

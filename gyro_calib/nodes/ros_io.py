@@ -359,7 +359,9 @@ def changes_line(before: Any, after: Any) -> str | None:
     """What changed between two sets of keys still missing, in one line; None if nothing.
 
     A node that repeated its whole missing list on every update says instead which keys
-    are now measured and which are no longer (the first call, ``before`` None, lists all).
+    are now measured and which are now missing (a key a bench turns out to be able to give,
+    e.g. the self-calibration keys once injection starts, was never measured: it is not
+    'no longer measured'; the first call, ``before`` None, lists all).
     """
     after = set(after)
     if before is None:
@@ -371,7 +373,7 @@ def changes_line(before: Any, after: Any) -> str | None:
     if before - after:
         parts.append(f'now measured: {", ".join(sorted(before - after))}')
     if after - before:
-        parts.append(f'no longer measured: {", ".join(sorted(after - before))}')
+        parts.append(f'now missing: {", ".join(sorted(after - before))}')
     parts.append(f'{len(after)} still missing' if after else 'complete')
     return '; '.join(parts)
 

@@ -25,6 +25,7 @@ from rcl_interfaces.msg import SetParametersResult
 
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.method_node import MethodNode
+from gyro_calib.nodes.node_state import calibration_complete
 from gyro_calib.nodes.ros_io import described_parameter, run_node
 from gyro_calib.thermal.settings import ThermalSettings
 
@@ -93,7 +94,8 @@ def main(args: list[str] | None = None) -> None:
         if node.unfitted:
             node.finish()
             node._write_handoff()
-        node.state.finish(complete=not node.session.missing())
+        node.state.finish(complete=calibration_complete(node.session.missing(),
+                                                          node.session.not_measurable()))
 
     run_node('thermal_calibration_node', ThermalCalibrationNode, args, on_stop=fit_what_came)
 

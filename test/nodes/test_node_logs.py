@@ -14,9 +14,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gyro_calib.imu_conversion import PulseCalibration, scale_factor_line
+from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.nodes.node_state import calibration_complete
 from gyro_calib.nodes.ros_io import StartGate, changes_line, progress_line
 
 from .dds_harness import NodeProcess, launch
+
+ROOT = Path(__file__).resolve().parents[2]
 
 BAGS = Path(__file__).resolve().parents[2] / 'bags'
 
@@ -87,8 +91,20 @@ def test_a_hand_off_update_logs_what_changed_not_the_whole_list() -> None:
     assert changes_line(None, keys).startswith('still missing: k0, k1')
     assert changes_line(keys, keys) is None  # nothing new: nothing logged
     assert changes_line(keys, keys - {'k3'}) == 'now measured: k3; 19 still missing'
-    assert changes_line(keys - {'k3'}, keys) == 'no longer measured: k3; 20 still missing'
+    assert changes_line(keys - {'k3'}, keys) == 'now missing: k3; 20 still missing'
     assert changes_line({'k1'}, set()) == 'now measured: k1; complete'
+
+
+def test_a_node_calls_complete_what_its_hand_off_file_calls_complete() -> None:
+    # A plain rate table gives K̃ only: θ and K are not measurable there, so the hand-off is
+    # complete, and the node must not keep its state directory as 'calibration not complete'.
+    session = calibrate_bags([str(ROOT / 'bags' / 'k_tilde_bench')]).sessions['rbrlg']
+    record = session.handoff('bags/k_tilde_bench')
+    assert record is not None and record.complete
+    assert 'fix_error_angle_rad' in session.missing()
+    assert calibration_complete(session.missing(), session.not_measurable())
+    assert not calibration_complete({'k1': 'why', 'k2': 'why'}, {'k1': 'bench'})
+    assert calibration_complete({}, {})
 
 
 def test_progress_lines_say_how_far_and_how_fast() -> None:
