@@ -706,7 +706,8 @@ def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
             prov = provenance[spec.method]
             target = dict(getattr(prov, field_name))
             target[key] = why
-            provenance[spec.method] = dataclasses.replace(prov, **{field_name: target})
+            change: dict[str, Any] = {field_name: target}
+            provenance[spec.method] = dataclasses.replace(prov, **change)
     conventions = data.get('conventions', {})
     if not isinstance(conventions, dict):
         raise HandoffError(f'field conventions in {source} must be a mapping.')
@@ -714,7 +715,7 @@ def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
     if not isinstance(gyro_id, str):
         raise HandoffError(f'field gyro_id in {source} must be a string.')
     return Calibration(values, provenance, gyro_id, str(data.get('gyro_calib_version', '')),
-                       int(version))
+                       int(data['format_version']))  # = version, checked above
 
 
 def _provenance(name: str, entry: Any, source: str,

@@ -310,7 +310,7 @@ class StateRecord:
         # batch k's rows of each topic: records are in batch order, so searchsorted cuts
         bounds = {t: np.searchsorted(r['batch'], np.arange(n_batches + 1)) for t, r in
                   recs.items()}
-        sizes = sum(np.diff(b) for b in bounds.values())
+        sizes = np.asarray(sum(np.diff(b) for b in bounds.values()))
         start = 0
         while start < n_batches:
             end, total = start, 0

@@ -70,7 +70,7 @@ import math
 import struct
 import zlib
 from collections import deque
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Generator, Iterator, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -1175,7 +1175,7 @@ def _load(f: BinaryIO, chunk: ChunkPlan, path: Path,
 
 
 def _prefetched(plan: ReadPlan, groups: list[list[ChunkPlan]]
-                ) -> Iterator[list[Future[_Loaded]]]:
+                ) -> Generator[list[Future[_Loaded]], None, None]:
     """Each group's chunks, read ahead by one worker thread.
 
     Each group's chunks, read and decompressed by one worker thread up to PREFETCH

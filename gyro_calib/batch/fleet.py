@@ -122,7 +122,7 @@ def _svg_strip(values: np.ndarray, ids: list[str], low: float | None, high: floa
     lo, hi = lo - 0.05 * span, hi + 0.05 * span
 
     def x(v: float) -> float:
-        return pad + (v - lo) / (hi - lo) * (width - 2 * pad)
+        return float(pad + (v - lo) / (hi - lo) * (width - 2 * pad))
 
     parts = [(f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
              f'role="img"><line x1="{pad}" y1="40" x2="{width - pad}" y2="40" stroke="#999"/>')]

@@ -140,6 +140,7 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
         record = None
         for run in done:
             record = run.part if record is None else run.part.merged_into(record, schema)
+        assert record is not None  # a run without error carries its part
         evidence = RunEvidence(
             tuple(m for r in done for m in r.evidence.methods),
             tuple({b.path: b for r in done for b in r.evidence.bags}.values()),

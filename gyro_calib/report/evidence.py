@@ -196,14 +196,14 @@ def _budgets(session: MethodSession,
             parts[key] = (section.get('components') or {}).get(axis)
         parts['dither_axis_misalignment_rad'] = section.get('misalignment')
         for key, part in parts.items():
-            est = estimates.get(key)
+            part_est = estimates.get(key)
             stat = (part or {}).get('statistical_std_rad')
-            if est is None or stat is None or not math.isfinite(stat):
+            if part_est is None or stat is None or not math.isfinite(stat):
                 continue
-            stat = min(float(stat), est.std_uncertainty)
-            rest = math.sqrt(max(est.std_uncertainty**2 - stat**2, 0.0))
+            stat = min(float(stat), part_est.std_uncertainty)
+            rest = math.sqrt(max(part_est.std_uncertainty**2 - stat**2, 0.0))
             lines = [BudgetLine('statistical scatter of the sideband fits', stat,
-                                float(est.dof))]
+                                float(part_est.dof))]
             if rest > 0:
                 lines.append(BudgetLine('rocking allowance and clock-lock widening '
                                         '(Type B, as a standard uncertainty)', rest, math.inf))
