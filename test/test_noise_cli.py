@@ -204,6 +204,17 @@ def test_outputs_that_cannot_be_written_are_refused_before_reading(
     assert list(tmp_path.iterdir()) == []
 
 
+def test_the_kalibr_file_and_the_handoff_file_must_not_be_the_same_file(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # The README once gave noise_node kalibr_file:=imu.yaml and output_file:=imu.yaml: the
+    # Kalibr file was written, then refused as a hand-off file (exit 2, a file written).
+    same = tmp_path / 'imu.yaml'
+    status, out, err = run(capsys, bags['imu'], '--kalibr', same, '--out', same)
+    assert status == 2 and out == ''
+    assert 'the Kalibr file and the hand-off file are the same file' in one_line_error(err)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_handoff_file_of_another_gyro_is_refused_and_nothing_is_written(
         bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out, kalibr = tmp_path / 'handoff.yaml', tmp_path / 'imu.yaml'

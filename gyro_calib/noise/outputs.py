@@ -41,7 +41,8 @@ def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
     themselves (a directory given for the figure gets ``noise_adev.png`` inside).
 
     Raises:
-        ConfigError: a target is a directory, or its directory does not exist.
+        ConfigError: a target is a directory, or its directory does not exist, or two
+            targets are the same file (the Kalibr file written over the hand-off file).
     """
     from gyro_calib.noise.session import FIGURE_NAME
 
@@ -55,9 +56,19 @@ def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
             return (p / FIGURE_NAME).absolute()
         return check_output_file(p, what)
 
-    return OutputTargets(check(kalibr, 'the Kalibr file'), check(plot, 'the figure',
-                                                                  directory_ok=True),
-                         check(handoff, 'the hand-off file'))
+    targets = OutputTargets(check(kalibr, 'the Kalibr file'), check(plot, 'the figure',
+                                                                     directory_ok=True),
+                            check(handoff, 'the hand-off file'))
+    named = [(what, p) for what, p in (('the Kalibr file', targets.kalibr),
+                                       ('the figure', targets.plot),
+                                       ('the hand-off file', targets.handoff)) if p is not None]
+    for i, (what, path) in enumerate(named):
+        for other, other_path in named[i + 1:]:
+            if path.resolve() == other_path.resolve():
+                raise ConfigError(f'{what} and {other} are the same file {path}: one would '
+                                  'overwrite the other; give each its own name (e.g. --kalibr '
+                                  'imu.yaml --out handoff.yaml). Nothing was read.')
+    return targets
 
 
 def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,

@@ -13,8 +13,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from gyro_calib.imu_conversion import PulseCalibration, scale_factor_line
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.imu_conversion import PulseCalibration, scale_factor_line
 from gyro_calib.nodes.node_state import calibration_complete
 from gyro_calib.nodes.ros_io import StartGate, changes_line, progress_line
 
