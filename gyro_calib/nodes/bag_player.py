@@ -22,6 +22,7 @@ import importlib
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
@@ -39,11 +40,15 @@ from gyro_calib.nodes.ros_io import (
 )
 from gyro_calib.topics import relative
 
+if TYPE_CHECKING:
+    from rclpy.publisher import Publisher
+
 
 def message_class(msgtype: str) -> type:
     """'sensor_msgs/msg/JointState' → the rclpy message class."""
     package, _, name = msgtype.split('/')
-    return getattr(importlib.import_module(f'{package}.msg'), name)
+    cls: type = getattr(importlib.import_module(f'{package}.msg'), name)
+    return cls
 
 
 class BagPlayer(Node):
@@ -70,7 +75,7 @@ class BagPlayer(Node):
         unknown = sorted(set(names) - set(self.info.topics))
         if unknown:
             raise GyroCalibError(f'{self.path}: no topic(s) {", ".join(unknown)} in the bag.')
-        self.publishers_by_topic = {
+        self.publishers_by_topic: dict[str, Publisher[Any]] = {
             name: self.create_publisher(message_class(self.info.topics[name].msgtype),
                                         relative(name), SENSOR_QOS)
             for name in names}

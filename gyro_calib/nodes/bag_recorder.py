@@ -130,7 +130,7 @@ class BagRecorder(Node):
 
     def _on_message(self, name: str, cls: type, raw: bytes) -> None:
         if self.log_time == 'header':
-            msg = deserialize_message(raw, cls)
+            msg: Any = deserialize_message(raw, cls)
             stamp = msg.stamp if hasattr(msg, 'stamp') else msg.header.stamp
             log_ns = stamp_to_ns(stamp)
         else:

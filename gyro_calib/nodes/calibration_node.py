@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rcl_interfaces.msg import SetParametersResult
@@ -56,6 +56,9 @@ from gyro_calib.registry import HEADER, METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.topics import relative
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
+
+if TYPE_CHECKING:
+    from rclpy.parameter import Parameter
 
 
 class CalibrationNode(CalibrationNodeBase):
@@ -108,7 +111,7 @@ class CalibrationNode(CalibrationNodeBase):
         bench_args = (self.config, int(site['position_table_revolutions']),
                       float(site['latitude_deg']), float(site['heading_deg']),
                       float(site['nominal_tilt_deg']), float(site['tilt_tolerance_deg']))
-        self._new_bench = lambda: RbrlgCalibrator(*bench_args)
+        self._new_bench: Callable[[], RbrlgCalibrator] = lambda: RbrlgCalibrator(*bench_args)
         self.bench = self._new_bench()
         self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
@@ -148,7 +151,7 @@ class CalibrationNode(CalibrationNodeBase):
             self.get_logger().info(f'gyro_id {gyro_id!r} taken from {topics.SIM_SCENARIO} '
                                    '(parameter gyro_id not given).')
 
-    def _refuse_runtime_change(self, params: list) -> SetParametersResult:
+    def _refuse_runtime_change(self, params: list[Parameter[Any]]) -> SetParametersResult:
         return SetParametersResult(successful=False, reason=(
             'calibration parameters are read at start-up; restart the node to change them.'))
 

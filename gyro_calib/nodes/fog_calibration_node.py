@@ -51,7 +51,9 @@ class FogCalibrationNode(MethodNode):
         self.messages_taken += sum(len(b.stamps) for b in self._buffers.values())
         super()._process()
 
-    def finish(self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 60.0) -> None:
+    # It spins the executor before the generic finish: called only by this node's main.
+    def finish(  # type: ignore[override]
+            self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 60.0) -> None:
         """The recording ended: take what the readers hold, flush, publish, write.
 
         Spins until no message has arrived for ``quiet_s`` (at most ``limit_s``): a reliable

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import os
 import re
+from typing import TYPE_CHECKING, Any
 
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
@@ -54,6 +55,9 @@ from gyro_calib.nodes.ros_io import (
 from gyro_calib.registry import handoff_schema
 from gyro_calib.thermal.site import RAD_S_PER_DEG_H
 from gyro_calib.topics import relative
+
+if TYPE_CHECKING:
+    from rclpy.parameter import Parameter
 
 GYRO_IMU = '/gyro/imu'
 """sensor_msgs/Imu: calibrated rate about the gyro's sense axis (z), rad/s, with covariance."""
@@ -106,7 +110,7 @@ class ImuCorrectorNode(Node):
         self._poll_file()
         self.create_timer(self.get_parameter('reload_period_s').value, self._poll_file)
 
-    def _check_runtime_change(self, params: list) -> SetParametersResult:
+    def _check_runtime_change(self, params: list[Parameter[Any]]) -> SetParametersResult:
         fixed = [p.name for p in params if p.name != 'calibration_file']
         return SetParametersResult(successful=not fixed, reason=(
             f'{", ".join(fixed)} is read at start-up; restart the node to change it.'

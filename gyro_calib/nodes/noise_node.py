@@ -54,6 +54,8 @@ class NoiseNode(MethodNode):
     the subscriptions re-wired to its topics.
     """
 
+    session: NoiseSession
+
     def __init__(self) -> None:
         """Declare the parameters, build the session, subscribe, start the refresh timer.
 
@@ -213,7 +215,7 @@ class NoiseNode(MethodNode):
             if now != seen:
                 seen, quiet_since = now, time.monotonic()
 
-    def finish(self) -> int:
+    def finish(self) -> int:  # type: ignore[override]  # main() exits with this status
         """End the record, publish the final terms, write the files; 0, or 1 on failure."""
         log = self.get_logger()
         self._process()

@@ -8,7 +8,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -21,6 +21,9 @@ if TYPE_CHECKING:
     from rclpy.executors import Executor
     from rclpy.node import Node
     from rclpy.publisher import Publisher
+
+NodeT = TypeVar('NodeT', bound='Node')
+"""The node class a front door runs (its on_stop and done callbacks take that class)."""
 
 SENSOR_QOS = QoSProfile(
     history=HistoryPolicy.KEEP_ALL, depth=1, reliability=ReliabilityPolicy.RELIABLE)
@@ -214,9 +217,9 @@ EXIT_READERS_STALLED = 3
 signal or a finished run 0)."""
 
 
-def run_node(node_name: str, make_node: Callable[[], Node], args: list[str] | None = None,
-             *, on_stop: Callable[[Node, Executor], None] | None = None,
-             done: Callable[[Node], bool] | None = None) -> None:
+def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | None = None,
+             *, on_stop: Callable[[NodeT, Executor], None] | None = None,
+             done: Callable[[NodeT], bool] | None = None) -> None:
     """Run ``make_node()`` until SIGINT/SIGTERM (or ``done(node)``), then stop it cleanly.
 
     The node owns SIGINT and SIGTERM: they only set a flag. The spin loop ends,
@@ -297,7 +300,7 @@ class StartGate:
         self._logger = logger
         self._waiting_for: tuple[str, ...] | None = None
 
-    def open(self, publishers: list[Publisher]) -> bool:
+    def open(self, publishers: list[Publisher[Any]]) -> bool:
         """True once the gate is open (it stays open)."""
         if self.opened_at is not None:
             return True
@@ -378,7 +381,7 @@ def changes_line(before: Any, after: Any) -> str | None:
     return '; '.join(parts)
 
 
-def simulation_done(node: Node) -> bool:
+def simulation_done(node: Any) -> bool:
     """True when a simulator node's run is over.
 
     A simulator node has published its whole run and is asked to exit then, or its
@@ -387,7 +390,7 @@ def simulation_done(node: Node) -> bool:
     return bool(getattr(node, 'stalled', '')) or bool(node.done and node.exit_when_done)
 
 
-def acknowledge_tail(node: Node, _executor: Executor | None = None, *,
+def acknowledge_tail(node: Any, _executor: Executor | None = None, *,
                      patience_s: float = 60.0) -> None:
     """Before a finished simulator exits, let lagging readers acknowledge its last samples."""
     from rclpy.duration import Duration
@@ -417,7 +420,7 @@ def make_executor(context: Context | None = None) -> Executor:
     machine where the default SingleThreadedExecutor falls behind at a few thousand
     (measured; see README, Performance), so 1 kHz streams replay well above real time.
     """
-    from rclpy.experimental import EventsExecutor
+    from rclpy.experimental.events_executor import EventsExecutor
 
     return EventsExecutor(context=context)
 
@@ -452,7 +455,7 @@ def stops_on_stalled_readers(callback: Callable[..., None]) -> Callable[..., Non
     return guarded
 
 
-def publish_paced(publisher: Publisher, msg: object, *, patience_s: float = 30.0) -> None:
+def publish_paced(publisher: Publisher[Any], msg: object, *, patience_s: float = 30.0) -> None:
     """Publish on a reliable topic; if the reader lags so far that DDS refuses, wait and retry.
 
     A reliable writer whose history is full of unacknowledged samples fails with
