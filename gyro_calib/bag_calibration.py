@@ -199,7 +199,10 @@ def select_methods(infos: Sequence[BagInfo], names: Sequence[str] | None) -> lis
         return chosen
     for info in infos:
         check_topics(info, {}, (), what='calibration')  # empty bags
-    revealed = methods_revealed(present)
+    # A topic recorded empty (bag_recorder opens every contract topic) reveals nothing, as
+    # in ``gyro-calib info``.
+    recorded = {t.name for i in infos for t in i.topics.values() if t.count}
+    revealed = methods_revealed({k: v for k, v in present.items() if k in recorded})
     if not revealed:
         auto = [m for m in METHODS.values() if m.auto and m.reveal]
         partly = max(auto, key=lambda m: sum(t in present for t in m.reveal))

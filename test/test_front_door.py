@@ -329,3 +329,22 @@ def test_scenario_metadata_is_one_line_in_metadata_yaml(tmp_path: Path) -> None:
     meta = yaml.safe_load((path / 'metadata.yaml').read_text())
     text = meta['rosbag2_bagfile_information']['custom_data']['gyro_calib.scenario']
     assert '\n' not in text and '\\u' not in text
+
+
+def test_a_topic_recorded_empty_reveals_no_method_as_in_info() -> None:
+    # bag_recorder opens every contract topic: a bench that published only the RBRLG topics
+    # leaves /fog/output, /vibration_table/joint_states and /gyro/temperature with 0
+    # messages. calibrate then ran fog on them and stopped (exit 2: '/fog/output ... is
+    # missing or empty'), while info said fog could not run; both now pick the RBRLG alone.
+    import dataclasses
+
+    from gyro_calib.bag_calibration import select_methods
+    from gyro_calib.bagio import TopicInfo
+
+    info = bag_info(BAGS / 'k_tilde_bench')
+    empty = {t: TopicInfo(t, ty, 0) for t, ty in (
+        ('/fog/output', 'sensor_msgs/msg/JointState'),
+        ('/vibration_table/joint_states', 'sensor_msgs/msg/JointState'),
+        ('/gyro/temperature', 'sensor_msgs/msg/Temperature'))}
+    recorded = dataclasses.replace(info, topics={**info.topics, **empty})
+    assert [m.name for m in select_methods([recorded], None)] == ['rbrlg']
