@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import io
 import json
 import math
 import sys
@@ -241,7 +242,7 @@ _options = options_from_args
 
 def _calibrate(args: argparse.Namespace) -> int:
     from gyro_calib.bag_calibration import bag_infos, select_methods
-    from gyro_calib.outputs import check_output_file, check_plot_dir, make_plot_dir
+    from gyro_calib.outputs import check_output_file, check_plot_dir
 
     if args.out is not None:
         check_output_file(args.out, '--out')
@@ -260,13 +261,26 @@ def _calibrate(args: argparse.Namespace) -> int:
         check_calibrate_report(args)
     show = sys.stderr.isatty() if args.progress is None else args.progress
     outcome = _run_with_progress(args, show)
-    human = sys.stderr if args.json else sys.stdout
+    # the human text goes out only once the files are written: a refusal on the way (a
+    # hand-off the run cannot be merged into) leaves one line on stderr and nothing on stdout
+    human, document = io.StringIO(), io.StringIO()
+    status = _calibrate_outputs(args, outcome, human, document, plot_dir)
+    (sys.stderr if args.json else sys.stdout).write(human.getvalue())
+    sys.stdout.write(document.getvalue())
+    return status
+
+
+def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human: Any,
+                       document: Any, plot_dir: Path | None) -> int:
+    """Summary, hand-off, figures, certificate and JSON of a finished calibration."""
+    from gyro_calib.outputs import make_plot_dir
+
     print(summary_text(outcome), file=human)
 
     def print_json() -> None:  # last: a command whose files failed prints nothing on stdout
         if args.json:
             print(json.dumps(json_document(outcome), indent=1, allow_nan=False,
-                             default=_json_default))
+                             default=_json_default), file=document)
     if not outcome.calibrated_anything:
         print_json()
         print('gyro-calib: nothing could be calibrated from the bag(s); nothing written.',

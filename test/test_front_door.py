@@ -348,3 +348,21 @@ def test_a_topic_recorded_empty_reveals_no_method_as_in_info() -> None:
         ('/gyro/temperature', 'sensor_msgs/msg/Temperature'))}
     recorded = dataclasses.replace(info, topics={**info.topics, **empty})
     assert [m.name for m in select_methods([recorded], None)] == ['rbrlg']
+
+
+def test_a_hand_off_refused_after_the_calibration_leaves_nothing_on_stdout(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The README walk-through: a thermal model merged into a file holding another gyro's
+    K is refused (exit 2) after the calibration ran; the summary must not reach stdout then
+    (it did), and the file stays as it was."""
+    out = tmp_path / 'gyro.yaml'
+    assert main(['calibrate', str(BAGS / 'theta_four_position'), '--out', str(out),
+                 '--no-progress']) == 0
+    before = out.read_bytes()
+    capsys.readouterr()
+    assert main(['calibrate', str(BAGS / 'thermal_validation'), '--out', str(out),
+                 '--no-progress']) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ''
+    assert len(captured.err.strip().splitlines()) == 1, captured.err
+    assert out.read_bytes() == before
