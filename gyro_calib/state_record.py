@@ -99,7 +99,8 @@ class StateRecord:
     """Append-only record of a node's input, and its replay.
 
     Args:
-        directory: the state directory (created when missing).
+        directory: the state directory (created with the first sample recorded, so a node
+            that stops before any data leaves nothing behind).
         identity: what the record belongs to (``method``, ``gyro_id`` …); an existing
             record with another identity is refused rather than mixed in.
         fsync_period_s: the longest time between ``fsync`` calls (power-loss exposure).
@@ -121,12 +122,9 @@ class StateRecord:
         self._files: dict[str, Any] = {}
         self._last_fsync = time.monotonic()
         self._batch = 0
-        self.directory.mkdir(parents=True, exist_ok=True)
         state = self.directory / STATE_FILE
-        if state.exists():
+        if state.exists():  # else the directory is made with the first sample recorded
             self._load_state(state)
-        else:
-            self._write_state()
 
     # -- identity and layouts -------------------------------------------------------------
 
@@ -159,6 +157,7 @@ class StateRecord:
         doc = {'format': FORMAT, 'identity': self.identity,
                'topics': [self._layouts[t].as_yaml() for t in
                           sorted(self._index, key=self._index.__getitem__)]}
+        self.directory.mkdir(parents=True, exist_ok=True)
         tmp = self.directory / (STATE_FILE + '.tmp')
         with open(tmp, 'w', encoding='utf-8') as f:
             yaml.safe_dump(doc, f, sort_keys=False, allow_unicode=True)
@@ -247,14 +246,12 @@ class StateRecord:
         self._files.clear()
 
     def clear(self) -> None:
-        """Remove the record (a completed calibration, or ``reset``); start an empty one."""
+        """Remove the record (``reset``); the next sample recorded starts a new one."""
         self.remove()
         self._layouts.clear()
         self._index.clear()
         self._frames.clear()
         self._batch = 0
-        self.directory.mkdir(parents=True, exist_ok=True)
-        self._write_state()
 
     def remove(self) -> None:
         """Close the files and remove the state directory (a completed calibration)."""

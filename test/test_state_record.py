@@ -148,7 +148,9 @@ def test_a_record_holds_exactly_what_was_appended(tmp_path: Path) -> None:
 
 
 def test_a_record_of_another_gyro_or_method_is_refused_in_one_line(tmp_path: Path) -> None:
-    StateRecord(tmp_path, {'method': 'fog', 'gyro_id': 'A-1'}).close()
+    first = StateRecord(tmp_path, {'method': 'fog', 'gyro_id': 'A-1'})
+    first.append(_small_batches('fog', BAGS / CASES['fog'], 50)[0])
+    first.close()
     with pytest.raises(StateRecordError, match="gyro_id 'A-1', not 'B-2'.*state_dir"):
         StateRecord(tmp_path, {'method': 'fog', 'gyro_id': 'B-2'})
     with pytest.raises(StateRecordError, match="method 'fog', not 'thermal'"):
@@ -165,6 +167,14 @@ def test_a_cut_frame_name_drops_the_samples_that_use_it(tmp_path: Path) -> None:
     again = StateRecord(tmp_path, {'method': 'fog'})
     assert list(again.replay()) == []
     assert again.summary().dropped_bytes > 0
+
+
+def test_a_record_that_never_got_a_sample_leaves_no_directory(tmp_path: Path) -> None:
+    """A node refused at start-up (or stopped before any data) leaves nothing behind."""
+    record = StateRecord(tmp_path / 'gyro.yaml.state', {'method': 'noise'})
+    record.close()
+    assert not (tmp_path / 'gyro.yaml.state').exists()
+    assert list(record.replay()) == [] and record.summary().messages == 0
 
 
 def test_a_node_moves_a_record_of_other_parameters_aside_and_starts_anew(
