@@ -163,7 +163,8 @@ def overlapping_allan_deviation(data: npt.ArrayLike, *, tau0_s: float, m: npt.Ar
     return tau, np.asarray(np.sqrt(s.sum_sq / (2.0 * s.terms)) / tau, dtype=np.float64)
 
 
-def total_variance_sums(phase: npt.ArrayLike, m: npt.ArrayLike) -> tuple[IntArray, FloatArray, int]:
+def total_variance_sums(phase: npt.ArrayLike,
+                        m: npt.ArrayLike) -> tuple[IntArray, FloatArray, int]:
     """Total-variance sums (NIST SP 1065 eq. 25): reflect the phase at both ends.
 
     x*_{1−j} = 2x_1 − x_{1+j}, x*_{N+j} = 2x_N − x_{N−j} (j = 1..N−2); the sum runs over

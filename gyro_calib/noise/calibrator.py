@@ -194,7 +194,8 @@ class NoiseCalibrator:
     def _stamps(t_ns: ArrayLike, what: str) -> npt.NDArray[np.int64]:
         t = np.asarray(t_ns)
         if t.ndim != 1:
-            raise StreamError(f'{what}: stamps must be a 1-D array of int ns, got shape {t.shape}.')
+            raise StreamError(f'{what}: stamps must be a 1-D array of int ns, '
+                              f'got shape {t.shape}.')
         if len(t) and t.dtype.kind not in 'iu':
             raise StreamError(f'{what}: stamps must be integer nanoseconds (int64), '
                               f'got {t.dtype}; convert header stamps with sec·10⁹ + nanosec.')
@@ -253,8 +254,11 @@ class NoiseCalibrator:
         s.pending_v.append((float(count),))
 
     def extend_imu(self, t_ns: ArrayLike, gyro_xyz: ArrayLike, accel_xyz: ArrayLike) -> None:
-        """Imu samples (bag replay): stamps (int ns), angular velocity (N × 3, rad/s) and
-        linear acceleration (N × 3, m/s²)."""
+        """Imu samples (bag replay).
+
+        Imu samples (bag replay): stamps (int ns), angular velocity (N × 3, rad/s) and
+        linear acceleration (N × 3, m/s²).
+        """
         t = self._stamps(t_ns, 'imu')
         g = np.asarray(gyro_xyz, dtype=np.float64)
         a = np.asarray(accel_xyz, dtype=np.float64)
@@ -461,7 +465,7 @@ class NoiseCalibrator:
                               ramp_significance=s.ramp_term_significance,
                               min_tau_s=s.fit_min_tau_s, max_tau_s=s.fit_max_tau_s,
                               context=context, min_clusters=s.fit_min_clusters,
-                              exclude_band_limited=s.fit_exclude_band_limited)
+                              exclude_band_limited=bool(s.fit_exclude_band_limited))
         alpha = _noise_types(curve, fit)
         edf = curve.edf(alpha)
         std = adev_std(curve.adev, edf)
@@ -579,8 +583,11 @@ class NoiseCalibrator:
 
 
 def _noise_types(curve: AllanCurve, fit: NoiseFit) -> npt.NDArray[np.int64]:
-    """Noise type α at each τ: the fitted model's where it was fitted, else the local
-    log-log slope of the measured curve (α from the slope μ as in :mod:`.edf`)."""
+    """Noise type α at each τ.
+
+    Noise type α at each τ: the fitted model's where it was fitted, else the local
+    log-log slope of the measured curve (α from the slope μ as in :mod:`.edf`).
+    """
     alpha = np.asarray(fit.alpha, dtype=np.int64).copy()
     rest = ~np.asarray(fit.used)
     if np.any(rest):

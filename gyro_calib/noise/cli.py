@@ -82,14 +82,22 @@ def add_commands(subparsers: Any) -> None:
 
 def run_noise(args: argparse.Namespace) -> int:
     """Check the input, calibrate the bags, print, write the files asked for."""
-    from gyro_calib.bagio import topics_present
     from gyro_calib.bag_calibration import bag_infos, json_document, merged_topics
-    from gyro_calib.cli import _json_default, options_from_args, summary_text
+    from gyro_calib.bagio import topics_present
+    from gyro_calib.cli import (
+        _json_default,
+        check_calibration_file,
+        options_from_args,
+        summary_text,
+    )
     from gyro_calib.noise.outputs import resolve_targets, write_outputs
-    from gyro_calib.noise.session import FIGURE_NAME, NoiseSession, check_scale_factor, \
-        input_kind, select_input
-
-    from gyro_calib.cli import check_calibration_file
+    from gyro_calib.noise.session import (
+        FIGURE_NAME,
+        NoiseSession,
+        check_scale_factor,
+        input_kind,
+        select_input,
+    )
     from gyro_calib.outputs import check_plot_dir, make_plot_dir
 
     targets = resolve_targets(args.kalibr, None, args.out)
@@ -173,8 +181,11 @@ def run_noise(args: argparse.Namespace) -> int:
 
 
 def _benches(infos: Sequence[Any]) -> tuple[tuple[str, dict[str, Any]], ...]:
-    """(bag, its stored bench settings or {}) of each bag: a bag storing none still counts,
-    so another bag's settings never stand in for it."""
+    """(bag, its stored bench settings or {}) of each bag.
+
+    (bag, its stored bench settings or {}) of each bag: a bag storing none still counts,
+    so another bag's settings never stand in for it.
+    """
     out = []
     for info in infos:
         bench = info.scenario.get('bench')

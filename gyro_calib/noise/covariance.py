@@ -179,8 +179,11 @@ def _pair_basis(m_a: int, m_b: int) -> tuple[tuple[float, ...], ...]:
 
 @lru_cache(maxsize=256)
 def _basis_stack(ms: tuple[int, ...]) -> FloatArray:
-    """pair_basis of every pair of averaging factors (len × len × 4 × 4), read-only; one
-    curve's factors are fitted several times (iterations, edge terms, snapshots)."""
+    """pair_basis of every pair of averaging factors, read-only.
+
+    pair_basis of every pair of averaging factors (len × len × 4 × 4), read-only; one
+    curve's factors are fitted several times (iterations, edge terms, snapshots).
+    """
     n = len(ms)
     out = np.empty((n, n, 4, 4))
     for i in range(n):

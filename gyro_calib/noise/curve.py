@@ -69,8 +69,11 @@ class AllanCurve:
         return np.sqrt(self.avar)
 
     def edf(self, alpha: npt.ArrayLike, statistic: str = 'adev') -> FloatArray:
-        """EDF at each τ for the noise type α at that τ (array or scalar), of the ADEV or
-        of another statistic in :attr:`others`."""
+        """EDF at each τ for the noise type α at that τ.
+
+        EDF at each τ for the noise type α at that τ (array or scalar), of the ADEV or
+        of another statistic in :attr:`others`.
+        """
         a = np.broadcast_to(np.asarray(alpha, dtype=np.int64), self.tau_s.shape)
         rows = np.array([ALPHAS.index(int(v)) for v in a], dtype=np.int64)
         table = self.edf_by_alpha if statistic == 'adev' else self.others[statistic][2]
@@ -147,7 +150,7 @@ class CurvePool:
                 nu = edf_oadev(level_points, level_m, alpha)
             den = np.bincount(idx, arr[:, 2] ** 2 / nu, k)
             edf[r] = n_sum**2 / den  # (Σ n_i)² / Σ (n_i²/EDF_i)
-        clusters = np.bincount(idx, (arr[:, 5] - 1.0) / arr[:, 0], k)
+        clusters = np.asarray(np.bincount(idx, (arr[:, 5] - 1.0) / arr[:, 0], k), np.float64)
         others = self._others(segs, unique_m)
         n_samples = sum(s.sums.n_points for s in segs)
         total_w = sum(s.sums.n_points for s in segs)

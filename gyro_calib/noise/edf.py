@@ -129,7 +129,9 @@ def _greenhall(alpha: int, d: int, m: int, n_points: int, modified: bool) -> flo
 
 def edf_greenhall(n_points: npt.ArrayLike, m: npt.ArrayLike, alpha: npt.ArrayLike, *,
                   d: int = 2, modified: bool = False) -> FloatArray:
-    """EDF of an overlapping estimator by Greenhall's algorithm (Greenhall & Riley 2004,
+    """EDF of an overlapping estimator by Greenhall's algorithm.
+
+    EDF of an overlapping estimator by Greenhall's algorithm (Greenhall & Riley 2004,
     as used by Stable32 and IEEE Std 1139; ``allantools.edf_greenhall``), elementwise.
 
     Args:

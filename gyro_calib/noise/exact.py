@@ -68,8 +68,11 @@ def _pool() -> ThreadPoolExecutor:
 
 
 def _buffers(block: int) -> tuple[FloatArray, FloatArray]:
-    """Work and read buffers of this thread for ``block`` (reused: fresh large temporaries
-    cost page faults)."""
+    """Work and read buffers of this thread for ``block``.
+
+    Work and read buffers of this thread for ``block`` (reused: fresh large temporaries
+    cost page faults).
+    """
     key = (threading.get_ident(), block)
     bufs = _BUFFERS.get(key)
     if bufs is None:
@@ -108,9 +111,12 @@ class ScratchPhase:
         return self._n
 
     def __deepcopy__(self, memo: dict[int, object]) -> ScratchPhase:
-        """A copy that shares the scratch file read-only (a duplicated descriptor, reads by
+        """A copy that shares the scratch file read-only.
+
+        A copy that shares the scratch file read-only (a duplicated descriptor, reads by
         offset) and keeps the points pushed to it afterwards in memory: snapshots of a live
-        stream (copy, flush, fit) cost no copy of the file and leave it untouched."""
+        stream (copy, flush, fit) cost no copy of the file and leave it untouched.
+        """
         new = ScratchPhase.__new__(ScratchPhase)
         new.memory_points, new.window, new.directory = (self.memory_points, self.window,
                                                         self.directory)
@@ -174,19 +180,22 @@ class ScratchPhase:
 
     def _write(self, x: FloatArray) -> None:
         assert self._file is not None
-        data = memoryview(np.ascontiguousarray(x)).cast('B')
+        data = np.ascontiguousarray(x).data.cast('B')
         done = 0
         while done < len(data):
             done += os.write(self._file, data[done:])
 
     def read(self, lo: int, hi: int, out: FloatArray | None = None) -> FloatArray:
-        """Points lo ≤ i < hi: a view when in memory, else read from the file (into ``out``
-        when given and long enough)."""
+        """Points lo ≤ i < hi, from memory or the file.
+
+        Points lo ≤ i < hi: a view when in memory, else read from the file (into ``out``
+        when given and long enough).
+        """
         if lo >= self._start:
             return self._buf[lo - self._start:hi - self._start]
         assert self._file is not None
         dest = out[:hi - lo] if out is not None and len(out) >= hi - lo else np.empty(hi - lo)
-        got = os.preadv(self._file, [memoryview(dest).cast('B')], 8 * lo)
+        got = os.preadv(self._file, [dest.data.cast('B')], 8 * lo)
         if got != 8 * (hi - lo):
             raise OSError(f'short read from the phase scratch file ({got} bytes)')
         return dest
@@ -288,8 +297,11 @@ class ExactDeviations:
         self.phase.close()
 
     def push(self, x: npt.ArrayLike) -> None:
-        """Append phase points (in order); complete blocks are summed as they fill (while
-        the points they need are still in memory)."""
+        """Append phase points (in order).
+
+        Append phase points (in order); complete blocks are summed as they fill (while
+        the points they need are still in memory).
+        """
         a = np.asarray(x, dtype=np.float64)
         for lo in range(0, len(a), self.block):
             self.phase.push(a[lo:lo + self.block])

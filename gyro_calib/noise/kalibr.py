@@ -61,8 +61,11 @@ def _axis_value(cal: NoiseCalibrator, axis: str, units: TermUnits,
 
 def _largest(cal: NoiseCalibrator, prefix: str, units: TermUnits,
              symbol: str, kalibr_key: str) -> tuple[float, str]:
-    """The largest value over the measured axes; axes without one (dead, constant, too
-    short) are left out and named in the comment. Raises if no axis has a value."""
+    """The largest value over the measured axes.
+
+    The largest value over the measured axes; axes without one (dead, constant, too
+    short) are left out and named in the comment. Raises if no axis has a value.
+    """
     axes = [a for a in cal.axes() if a.startswith(prefix + '_')]
     values = []
     left_out = []

@@ -37,7 +37,9 @@ class OutputTargets:
 
 def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
                     handoff: str | Path | None) -> OutputTargets:
-    """Check the targets before any work: files in existing directories, not directories
+    """Check the output targets before any work.
+
+    Check the targets before any work: files in existing directories, not directories
     themselves (a directory given for the figure gets ``noise_adev.png`` inside).
 
     Raises:
@@ -45,7 +47,6 @@ def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
             targets are the same file (the Kalibr file written over the hand-off file).
     """
     from gyro_calib.noise.session import FIGURE_NAME
-
     from gyro_calib.outputs import check_output_file
 
     def check(path: str | Path | None, what: str, *, directory_ok: bool = False) -> Path | None:

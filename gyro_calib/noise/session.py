@@ -39,7 +39,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 from gyro_calib import topics
 from gyro_calib.errors import ConfigError, InsufficientDataError, StreamError
@@ -70,8 +70,11 @@ FIGURE_NAME = 'noise_adev.png'
 
 
 class NoNoiseDataError(InsufficientDataError):
-    """No axis of the input yields an Allan deviation (constant, non-finite, too short,
-    no scale factor): no noise term can be measured."""
+    """No axis of the input yields an Allan deviation.
+
+    No axis of the input yields an Allan deviation (constant, non-finite, too short,
+    no scale factor): no noise term can be measured.
+    """
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,7 +95,7 @@ class ScaleFactor:
         return math.isfinite(self.value) and self.value > 0
 
 
-def _positive(value: Any) -> bool:
+def _positive(value: Any) -> TypeGuard[float]:
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
             and math.isfinite(value) and value > 0)
 
@@ -109,7 +112,9 @@ def _from_handoff(path: Path, keys: tuple[str, ...]) -> tuple[float, str] | None
 
 
 def pulse_scale_factor(options: CalibrationOptions) -> ScaleFactor:
-    """K of ``/gyro/pulses``, rad/pulse: the flag (node parameter), a hand-off file
+    """K of ``/gyro/pulses``, rad/pulse, from the first source given.
+
+    K of ``/gyro/pulses``, rad/pulse: the flag (node parameter), a hand-off file
     (``scale_factor_rad_per_pulse``, else ``k_tilde_rad_per_pulse``), the settings (config
     file), the bag's bench settings — the first given.
 
@@ -138,7 +143,9 @@ def pulse_scale_factor(options: CalibrationOptions) -> ScaleFactor:
 
 
 def fog_scale_factor(options: CalibrationOptions) -> ScaleFactor:
-    """Scale factor of ``/fog/output``, counts/rad: the flag, the setting
+    """Scale factor of ``/fog/output``, counts/rad, from the first source given.
+
+    Scale factor of ``/fog/output``, counts/rad: the flag, the setting
     ``fog_scale_factor_counts_per_rad`` (node parameter, config file), a hand-off file
     (``fog_scale_factor_counts_per_rad``), the bag's bench settings — the first given.
 
@@ -166,7 +173,9 @@ def fog_scale_factor(options: CalibrationOptions) -> ScaleFactor:
 
 
 def settings_values(options: CalibrationOptions) -> tuple[dict[str, Any], str]:
-    """The settings given: the node's parameters, then the config file's values (plain
+    """The settings given, and where they came from.
+
+    The settings given: the node's parameters, then the config file's values (plain
     mapping or ROS 2 parameter file of ``noise_node``); and where they came from.
 
     Raises:
@@ -189,7 +198,9 @@ def settings_values(options: CalibrationOptions) -> tuple[dict[str, Any], str]:
 
 
 def noise_settings(options: CalibrationOptions) -> NoiseSettings:
-    """The analysis settings (:func:`settings_values`) with the scale factors resolved by
+    """The analysis settings with the scale factors resolved.
+
+    The analysis settings (:func:`settings_values`) with the scale factors resolved by
     :func:`pulse_scale_factor` and :func:`fog_scale_factor`.
 
     Raises:
@@ -212,8 +223,11 @@ def noise_settings(options: CalibrationOptions) -> NoiseSettings:
 
 
 def input_topic(options: CalibrationOptions) -> str | None:
-    """The input topic asked for (flag, node parameter, or the bag's stored ``bench.topic``);
-    None: ``/gyro/pulses`` or ``/fog/output``, whichever arrives."""
+    """The input topic asked for, or None.
+
+    The input topic asked for (flag, node parameter, or the bag's stored ``bench.topic``);
+    None: ``/gyro/pulses`` or ``/fog/output``, whichever arrives.
+    """
     topic = options.topic or options.bench('topic', None)
     return str(topic) if topic else None
 
@@ -227,7 +241,9 @@ def input_kind(topic: str | None) -> str:
 
 def select_input(present: Mapping[str, tuple[str, int]], options: CalibrationOptions, *,
                  where: str, listing: str) -> str:
-    """The topic ``gyro-calib noise`` reads in a bag: the one asked for, checked, or the only
+    """The topic ``gyro-calib noise`` reads in a bag.
+
+    The topic ``gyro-calib noise`` reads in a bag: the one asked for, checked, or the only
     candidate (``/gyro/pulses``, ``/fog/output``, an Imu topic).
 
     Args:
@@ -369,14 +385,17 @@ class NoiseSession(MethodSession):
                               'run characterises one gyro: choose one with --topic (node: '
                               'parameter topic).') from None
         if self.kind == 'imu':
-            c = batch.columns.get(self.topic)
+            c = batch.columns.get(self.topic) if self.topic is not None else None
             if c is not None and c.msgtype == IMU:
                 cal.extend_imu(c.stamp_ns, c.values['angular_velocity_rad_s'],
                                c.values['linear_acceleration_m_s2'])
 
     def process(self, *, flush: bool = False) -> list[str]:
-        """Take in what is final; at ``flush`` the rest. New log lines (periods learnt,
-        gaps, restarts, segments left out; at the end the ordering counts)."""
+        """Take in what is final; at ``flush`` the rest.
+
+        Take in what is final; at ``flush`` the rest. New log lines (periods learnt,
+        gaps, restarts, segments left out; at the end the ordering counts).
+        """
         lines = self.calibrator.process(flush=flush)
         if flush:
             self._flushed = True
@@ -406,8 +425,11 @@ class NoiseSession(MethodSession):
 
     @property
     def view(self) -> NoiseCalibrator | None:
-        """The calibrator results come from: itself once flushed, else the latest snapshot
-        (taken now when :attr:`auto_refresh`); None before any data or snapshot."""
+        """The calibrator results come from.
+
+        The calibrator results come from: itself once flushed, else the latest snapshot
+        (taken now when :attr:`auto_refresh`); None before any data or snapshot.
+        """
         if self._flushed:
             return self.calibrator
         if not self.calibrator.axes():
@@ -490,10 +512,13 @@ class NoiseSession(MethodSession):
 
     # -- output -----------------------------------------------------------------------------
     def json_section(self) -> dict[str, Any]:
-        """Every method's ``{"results", "missing", "rejections"}`` (hand-off keys) plus the
+        """The noise method's JSON section, with the curves.
+
+        Every method's ``{"results", "missing", "rejections"}`` (hand-off keys) plus the
         curves: ``"axes": {AXIS: {"tau_s", "adev", "adev_std", "results": {KEY: {"value",
         "std", "n"}}}}`` — axis ``gyro`` for a single gyro, ``gyro_x`` … ``accel_z`` for an
-        IMU; term keys as :mod:`gyro_calib.noise.terms` names them."""
+        IMU; term keys as :mod:`gyro_calib.noise.terms` names them.
+        """
         view = self.view
         out = super().json_section()
         out.update(view.json_section() if view is not None else {'axes': {}})
@@ -555,8 +580,11 @@ class NoiseSession(MethodSession):
         return ', '.join(parts)
 
     def summary_lines(self) -> list[str]:
-        """Input and scale factor, the stream counts (re-sorted, duplicates, late, gaps …),
-        the terms not resolved with their 2σ bounds, and axes without any term."""
+        """The summary lines of a noise run.
+
+        Input and scale factor, the stream counts (re-sorted, duplicates, late, gaps …),
+        the terms not resolved with their 2σ bounds, and axes without any term.
+        """
         lines = [self._input_line()]
         view = self.view
         if view is None:
@@ -590,8 +618,11 @@ class NoiseSession(MethodSession):
         return self.summary_lines() + [f'  {k}: {why}' for k, why in self.missing().items()]
 
     def limiting(self) -> str:
-        """What limits the result most: the reason nothing is measured, else the least
-        certain term and the record length behind it."""
+        """What limits the result most.
+
+        What limits the result most: the reason nothing is measured, else the least
+        certain term and the record length behind it.
+        """
         results = self.axis_results()
         if not any(r.fit is not None and r.fit.estimates for r in results.values()):
             reasons = [r.reason for r in results.values() if r.reason]
