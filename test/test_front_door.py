@@ -352,9 +352,12 @@ def test_a_topic_recorded_empty_reveals_no_method_as_in_info() -> None:
 
 def test_a_hand_off_refused_after_the_calibration_leaves_nothing_on_stdout(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """The README walk-through: a thermal model merged into a file holding another gyro's
+    """A hand-off refused after the calibration leaves nothing on stdout.
+
+    The README walk-through: a thermal model merged into a file holding another gyro's
     K is refused (exit 2) after the calibration ran; the summary must not reach stdout then
-    (it did), and the file stays as it was."""
+    (it did), and the file stays as it was.
+    """
     out = tmp_path / 'gyro.yaml'
     assert main(['calibrate', str(BAGS / 'theta_four_position'), '--out', str(out),
                  '--no-progress']) == 0
