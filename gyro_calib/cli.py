@@ -67,7 +67,7 @@ FLAG_METHODS: dict[str, tuple[str, ...]] = {
     'position_table_revolutions': ('rbrlg',),
     'scale_factor_rad_per_pulse': ('dither', 'thermal', 'noise'),
     'scale_factor_counts_per_rad': ('noise',),
-    'calibration': ('dither', 'thermal', 'noise'),
+    'calibration': ('rbrlg', 'dither', 'thermal', 'noise'),
     'sense_axis_elevation_deg': ('thermal',),
     'sense_axis_azimuth_deg': ('thermal',),
 }

@@ -25,7 +25,7 @@ from std_msgs.msg import Float64
 from gyro_calib import topics
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import TopicColumns
-from gyro_calib.config import BENCH_SETTINGS, read_method_file
+from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.handoff import Provenance, merge_lines, method_calibration, update_calibration
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
@@ -50,7 +50,7 @@ from gyro_calib.rbrlg.calibrator import CalibrationUpdate
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
 from gyro_calib.rbrlg.diagnostics import calibration_status
 from gyro_calib.rbrlg.session import TOPICS as RBRLG_TOPICS
-from gyro_calib.rbrlg.session import RbrlgSession
+from gyro_calib.rbrlg.session import RbrlgSession, prior_k_tilde
 from gyro_calib.rbrlg.stations import Station
 from gyro_calib.registry import HEADER, METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
@@ -93,9 +93,14 @@ class CalibrationNode(CalibrationNodeBase):
             ('gyro_id', '', BENCH_SETTINGS['gyro_id'].description),
             ('state_dir', '', "Durable record of the data consumed, replayed on restart after "
              "a crash ('' = beside output_file as <output_file>.state)."),
-            ('keep_state', False, 'Keep the state directory after a completed calibration.'))}
+            ('keep_state', False, 'Keep the state directory after a completed calibration.'),
+            ('calibration_file', '', "Hand-off file whose K̃ gives θ and K when this run has "
+             "no K̃ phase (this run's own K̃, once measured, is used instead; '' = none)."))}
         self.output_file = str(site.pop('output_file'))
         self.gyro_id = str(site.pop('gyro_id'))
+        calibration_file = str(site.pop('calibration_file'))
+        prior, prior_source = (prior_k_tilde(Path(calibration_file)) if calibration_file
+                               else (None, ''))
         options = CalibrationOptions(  # the one range check of every bench setting
             latitude_deg=None if math.isnan(site['latitude_deg']) else site['latitude_deg'],
             heading_deg=site['heading_deg'],
@@ -111,7 +116,11 @@ class CalibrationNode(CalibrationNodeBase):
         bench_args = (self.config, int(site['position_table_revolutions']),
                       float(site['latitude_deg']), float(site['heading_deg']),
                       float(site['nominal_tilt_deg']), float(site['tilt_tolerance_deg']))
-        self._new_bench: Callable[[], RbrlgCalibrator] = lambda: RbrlgCalibrator(*bench_args)
+        self._new_bench: Callable[[], RbrlgCalibrator] = lambda: RbrlgCalibrator(
+            *bench_args, prior_k_tilde=prior, prior_k_tilde_source=prior_source)
+        if prior is not None:
+            self.get_logger().info(f'K̃ for θ until this run measures its own: {prior.value:.10f} '
+                                   f'″/pulse ± {prior.std_uncertainty:.3g} from {prior_source}')
         self.bench = self._new_bench()
         self.calibrator = self.bench.k_tilde
         self._last_rejection = ''
@@ -290,7 +299,7 @@ class CalibrationNode(CalibrationNodeBase):
             return
         cannot = self.bench.not_measurable()
         missing = {k: v for k, v in self.bench.missing().items() if k not in cannot}
-        conditions = {k: v for k, v in self.bench.conditions().items() if not math.isnan(v)}
+        conditions = {k: v for k, v in self.bench.conditions().items() if given(v)}
         try:
             record = method_calibration('rbrlg', values, Provenance(
                 'live', span[0], span[1], missing, conditions=conditions,

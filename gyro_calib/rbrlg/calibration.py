@@ -89,19 +89,35 @@ class RbrlgCalibrator:
     tilt_tolerance_deg: float = 5.0
     k_tilde: RateBiasCalibrator = field(init=False)
     stations: StationCalibrator = field(init=False)
+    prior_k_tilde: Estimate | None = None
+    """K̃ (″/pulse) from an earlier run's hand-off file, for θ and K when this run's own K̃
+    phase gives none (its own K̃, once measured, is used instead)."""
+    prior_k_tilde_source: str = ''
+    """Where :attr:`prior_k_tilde` came from (file and run), for the hand-off conditions."""
     _position_angle_rad: float | None = None
     """χ of the position table at rest (first still sample): where the K̃ phase ran."""
     _position_table_seen: bool = False
     """Any position-table sample at all (else the rate table is taken as a plain, vertical one)."""
 
-    def conditions(self) -> dict[str, float | int]:
+    def conditions(self) -> dict[str, float | int | str]:
         """The bench settings the results rest on.
 
         The bench settings the results rest on (the bias: latitude and heading), for the
         hand-off file (NaN: not given).
         """
-        return {'latitude_deg': self.latitude_deg, 'heading_deg': self.heading_deg,
-                'position_table_revolutions': self.position_table_revolutions}
+        out: dict[str, float | int | str] = {
+            'latitude_deg': self.latitude_deg, 'heading_deg': self.heading_deg,
+            'position_table_revolutions': self.position_table_revolutions}
+        if self.prior_k_tilde is not None and self.k_tilde_own() is None:
+            out['k_tilde_for_theta_from'] = self.prior_k_tilde_source
+        return out
+
+    def k_tilde_own(self) -> Estimate | None:
+        """This run's own K̃ (″/pulse), or None while its K̃ phase has not given it."""
+        try:
+            return self.k_tilde.k_tilde()
+        except InsufficientDataError:
+            return None
 
     def not_measurable(self) -> dict[str, str]:
         """θ and K of a bench without a position table, with why.
@@ -187,11 +203,14 @@ class RbrlgCalibrator:
         except InsufficientDataError:
             k_tilde = earth_bias = None
         fix_error, problem = None, ''
-        if self.stations.stations and k_tilde is None:
-            problem = 'θ waits for K̃ (the K̃ phase has not given enough window pairs yet).'
-        elif self.stations.stations:
+        k_for_theta = k_tilde if k_tilde is not None else self.prior_k_tilde
+        if self.stations.stations and k_for_theta is None:
+            problem = ('θ waits for K̃ (the K̃ phase has not given enough window pairs yet; '
+                       'a hand-off file holding K̃ can give it: --calibration FILE, node '
+                       'parameter calibration_file).')
+        elif self.stations.stations and k_for_theta is not None:
             try:
-                fix_error = self.stations.fix_error_angle(k_tilde.value)  # type: ignore[union-attr]
+                fix_error = self.stations.fix_error_angle(k_for_theta.value)
             except InsufficientDataError as exc:
                 problem = f'θ not reported: {exc}'
             else:
@@ -203,8 +222,8 @@ class RbrlgCalibrator:
                                'stations from another set-up.')
                     fix_error = None
         k = None
-        if k_tilde is not None and fix_error is not None:
-            k = scale_factor(k_tilde, fix_error.fix_error_angle_rad)
+        if k_for_theta is not None and fix_error is not None:
+            k = scale_factor(k_for_theta, fix_error.fix_error_angle_rad)
         bias = None
         tilt = self._table_axis_tilt_rad(fix_error)
         if earth_bias is not None and tilt is not None and math.isfinite(self.latitude_deg):
@@ -357,9 +376,10 @@ def handoff_values(results: RbrlgResults, calibrator: RbrlgCalibrator) -> dict[s
     """The RBRLG hand-off keys of whatever was measured.
 
     The RBRLG hand-off keys of whatever was measured, in SI (rad/pulse, rad, rad/s), each
-    with its ``_std``, plus the window-pair and station counts; {} when K̃ is not measured.
+    with its ``_std``, plus the window-pair and station counts; {} when neither K̃ nor θ
+    is measured (θ and K without this run's K̃ rest on a calibration file's K̃).
     """
-    if results.k_tilde_arcsec_per_pulse is None:
+    if results.k_tilde_arcsec_per_pulse is None and results.fix_error is None:
         return {}
     deg_h = math.radians(1.0) / 3600.0  # rad/s per °/h
     out: dict[str, Any] = {}
@@ -375,7 +395,8 @@ def handoff_values(results: RbrlgResults, calibrator: RbrlgCalibrator) -> dict[s
         results.fix_error.fix_error_angle_rad if results.fix_error else None, 1.0)
     put('bias_plus_earth_rate_rad_s', results.earth_plus_bias_deg_h, deg_h)
     put('bias_rad_s', results.bias_deg_h, deg_h)
-    out['window_pairs'] = results.k_tilde_arcsec_per_pulse.n_used
+    if results.k_tilde_arcsec_per_pulse is not None:
+        out['window_pairs'] = results.k_tilde_arcsec_per_pulse.n_used
     if results.fix_error:  # absent with θ: no stations measured nothing
         out['stations'] = results.fix_error.fix_error_angle_rad.n_used
     return out

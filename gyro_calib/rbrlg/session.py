@@ -14,17 +14,18 @@ from typing import TYPE_CHECKING, Any
 from gyro_calib import topics
 from gyro_calib.config import read_method_file
 from gyro_calib.errors import ConfigError
+from gyro_calib.estimate import Estimate
 from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults, handoff_values
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
 from gyro_calib.rbrlg.keys import METHOD
 from gyro_calib.session import CalibrationOptions, MethodSession
-from gyro_calib.units import RAD_PER_ARCSEC
+from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
     from pathlib import Path
 
     from gyro_calib.bagio import SampleBatch
-    from gyro_calib.estimate import Estimate, Rejection
+    from gyro_calib.estimate import Rejection
 
 TOPICS = {topics.GYRO_PULSES: 'sensor_msgs/msg/JointState',
           topics.RATE_TABLE_JOINT_STATES: 'sensor_msgs/msg/JointState',
@@ -62,11 +63,36 @@ def rbrlg_calibrator(options: CalibrationOptions) -> RbrlgCalibrator:
                                       'between 0 and 90 °.')
                 mount[name] = float(value)
         k_config = k_tilde_config_from_mapping(values, source=str(options.config_file))
+    prior, source = (prior_k_tilde(options.calibration_file)
+                     if options.calibration_file is not None else (None, ''))
     return RbrlgCalibrator(
         k_config=k_config,
         position_table_revolutions=int(options.setting('position_table_revolutions', 1)),
         latitude_deg=options.latitude,
-        heading_deg=float(options.setting('heading_deg', 0.0)), **mount)
+        heading_deg=float(options.setting('heading_deg', 0.0)), prior_k_tilde=prior,
+        prior_k_tilde_source=source, **mount)
+
+
+def prior_k_tilde(path: Path) -> tuple[Estimate, str]:
+    """K̃ (″/pulse) from a hand-off file, for the θ phase of a run without a K̃ phase.
+
+    Returns:
+        The estimate (value, standard uncertainty, the window pairs it rests on) and where
+        it came from (file, run and its source), for the hand-off conditions.
+
+    Raises:
+        HandoffError: the file cannot be read or holds no K̃.
+    """
+    from gyro_calib.handoff import load_calibration
+
+    cal = load_calibration(path)
+    value, std = cal.require('k_tilde_rad_per_pulse', why='θ and K of a run without a K̃ '
+                             'phase take K̃ from the calibration file')
+    pairs = int(cal.get('window_pairs') or 0)
+    run = cal.methods.get(METHOD)
+    where = f'{path}' + (f' (run {run.source})' if run is not None and run.source else '')
+    return Estimate(value * ARCSEC_PER_RAD, std * ARCSEC_PER_RAD, pairs, max(pairs - 1, 0),
+                    basis=f'from the calibration file {where}'), where
 
 
 class RbrlgSession(MethodSession):
