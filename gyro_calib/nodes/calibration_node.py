@@ -50,7 +50,7 @@ from gyro_calib.rbrlg.calibrator import CalibrationUpdate
 from gyro_calib.rbrlg.config import KTildeConfig, k_tilde_config_from_mapping
 from gyro_calib.rbrlg.diagnostics import calibration_status
 from gyro_calib.rbrlg.session import TOPICS as RBRLG_TOPICS
-from gyro_calib.rbrlg.session import RbrlgSession, prior_k_tilde
+from gyro_calib.rbrlg.session import RbrlgSession, feed_calibrator, prior_k_tilde
 from gyro_calib.rbrlg.stations import Station
 from gyro_calib.registry import HEADER, METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
@@ -208,13 +208,7 @@ class CalibrationNode(CalibrationNodeBase):
         feed_columns(self._extend, columns)
 
     def _extend(self, batch: SampleBatch) -> None:
-        pulses = batch.joint_state(topics.GYRO_PULSES)
-        self.bench.extend(
-            pulses=pulses[:2] if pulses is not None else None,
-            rate_table=batch.joint_state(topics.RATE_TABLE_JOINT_STATES),
-            rate_zero_index_ns=batch.stamps(topics.RATE_TABLE_ZERO_INDEX),
-            position_table=batch.joint_state(topics.POSITION_TABLE_JOINT_STATES),
-            position_zero_index_ns=batch.stamps(topics.POSITION_TABLE_ZERO_INDEX))
+        feed_calibrator(self.bench, batch)
 
     def _replay_process(self) -> list[str]:
         self._consume(*self.bench.process())

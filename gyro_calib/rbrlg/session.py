@@ -95,6 +95,21 @@ def prior_k_tilde(path: Path) -> tuple[Estimate, str]:
                     basis=f'from the calibration file {where}'), where
 
 
+def feed_calibrator(calibrator: RbrlgCalibrator, batch: SampleBatch) -> None:
+    """Hand a batch's streams to the calibrator.
+
+    Pulses, both tables' joint_states and zero-index events: the one way offline sessions
+    and calibration_node feed it.
+    """
+    pulses = batch.joint_state(topics.GYRO_PULSES)
+    calibrator.extend(
+        pulses=pulses[:2] if pulses is not None else None,
+        rate_table=batch.joint_state(topics.RATE_TABLE_JOINT_STATES),
+        rate_zero_index_ns=batch.stamps(topics.RATE_TABLE_ZERO_INDEX),
+        position_table=batch.joint_state(topics.POSITION_TABLE_JOINT_STATES),
+        position_zero_index_ns=batch.stamps(topics.POSITION_TABLE_ZERO_INDEX))
+
+
 class RbrlgSession(MethodSession):
     """K̃, θ, K = K̃·cos θ and bias of a rate-biased RLG (METHODS §A)."""
 
@@ -120,13 +135,7 @@ class RbrlgSession(MethodSession):
 
     def feed(self, batch: SampleBatch) -> None:
         """Pulses, both tables' joint_states and zero-index events of the batch."""
-        pulses = batch.joint_state(topics.GYRO_PULSES)
-        self.calibrator.extend(
-            pulses=pulses[:2] if pulses is not None else None,
-            rate_table=batch.joint_state(topics.RATE_TABLE_JOINT_STATES),
-            rate_zero_index_ns=batch.stamps(topics.RATE_TABLE_ZERO_INDEX),
-            position_table=batch.joint_state(topics.POSITION_TABLE_JOINT_STATES),
-            position_zero_index_ns=batch.stamps(topics.POSITION_TABLE_ZERO_INDEX))
+        feed_calibrator(self.calibrator, batch)
 
     def process(self, *, flush: bool = False) -> list[str]:
         """Resolve windows and stations; new rejections and notices as lines."""
