@@ -46,9 +46,9 @@ def _wait_for(node: NodeProcess, text: str, timeout_s: float = 60.0) -> None:
 
 
 @pytest.mark.xfail(strict=False, reason=(
-    'known bug, open: the adaptive-QoS input subscribes a topic only once its publisher '
-    "appears (0.5 s poll); the bag recorder already opens the table simulator's start gate, "
-    'so a node can miss the first table samples and a window pair (seen in 1 run of 3).'))
+    "known bug, open: rate_table_sim's start gate opens once each topic has one reader; the "
+    'bag recorder is one, so a bench may start before its calibration node is matched and '
+    'the node misses the first table samples and a window pair (seen in 1 run of 3).'))
 def test_two_namespaced_benches_at_once_each_calibrate_their_own_gyro(
         nodes: list[NodeProcess], tmp_path: Path) -> None:
     lab = tmp_path / 'lab'
