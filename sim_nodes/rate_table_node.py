@@ -10,7 +10,8 @@ true motion of both tables on /sim/bench/true_motion.
 Parameters: every field of :class:`~sim_nodes.rate_table.RateTableConfig`, the
 ``procedure.*`` fields of :class:`~sim_nodes.rbrlg.procedure.ThetaProcedureConfig`,
 ``k_tilde_pairs``, ``real_time_factor`` (simulated seconds per wall second; 0 = as
-fast as the readers acknowledge), ``exit_when_done`` and ``wait_for_subscribers``.
+fast as the readers acknowledge), ``exit_when_done``, ``wait_for_subscribers`` and
+``min_subscribers``.
 """
 
 from __future__ import annotations
@@ -84,6 +85,9 @@ class RateTableNode(Node):
         self.wait_for_subscribers = param(
             'wait_for_subscribers', True, 'Start only once the gyro and a reader of every '
             'table topic are connected, so nothing is lost at the start.')
+        self.min_subscribers = int(param(
+            'min_subscribers', 1, 'Readers each table topic needs before the run starts '
+            '(2 when a bag recorder and a calibration node must both hear it from the start).'))
         if scenario not in SCENARIOS:
             raise SystemExit(f'rate_table_sim: scenario {scenario!r} is not one of {SCENARIOS}')
         self.tables: list[tuple[RateTableSimulator, object, object, str]] = []
@@ -114,7 +118,9 @@ class RateTableNode(Node):
             data=scenario_yaml(scenario, self.config, procedure, int(k_pairs))))
         self._n_published = 0
         self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers, logger=self.get_logger())
+        self._start_gate = StartGate(self.wait_for_subscribers,
+                                     min_readers=self.min_subscribers,
+                                     logger=self.get_logger())
         self._progress: ProgressLog | None = None
         self.done = False
         self.stalled = ''  # why publishing stopped before the end ('' = it did not)
@@ -123,13 +129,18 @@ class RateTableNode(Node):
     @property
     def all_publishers(self) -> list:  # noqa: D401
         """Every publisher of the node (for the final acknowledgement wait)."""
-        return [self.truth_pub] + [p for _, js, ix, _ in self.tables for p in (js, ix)]
+        return [self.truth_pub, *self.sensor_publishers]
+
+    @property
+    def sensor_publishers(self) -> list:  # noqa: D401
+        """The table topics a recorder and a calibrator read (each needs min_subscribers)."""
+        return [p for _, js, ix, _ in self.tables for p in (js, ix)]
 
     @stops_on_stalled_readers
     def _tick(self) -> None:
         master = self.tables[0][0]
         if self._wall_start is None:
-            if not self._start_gate.open(self.all_publishers):
+            if not self._start_gate.open(self.sensor_publishers, internal=[self.truth_pub]):
                 return  # readers first (see StartGate)
             self._wall_start = self._start_gate.opened_at
             total_s = master.n_samples_total / self.config.sample_rate_hz

@@ -7,7 +7,7 @@ import math
 import signal
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from rcl_interfaces.msg import ParameterDescriptor
@@ -300,13 +300,22 @@ class StartGate:
         self._logger = logger
         self._waiting_for: tuple[str, ...] | None = None
 
-    def open(self, publishers: list[Publisher[Any]]) -> bool:
-        """True once the gate is open (it stays open)."""
+    def open(self, publishers: list[Publisher[Any]],
+             internal: Sequence[Publisher[Any]] = ()) -> bool:
+        """True once the gate is open (it stays open).
+
+        Args:
+            publishers: the sensor topics; each needs ``min_readers`` readers.
+            internal: simulator-internal topics (the true motion a gyro simulator reads,
+                which no recorder or calibrator does); each needs one reader.
+        """
         if self.opened_at is not None:
             return True
         if self.wait:
             lacking = tuple(sorted({p.topic_name for p in publishers
-                                    if p.get_subscription_count() < self.min_readers}))
+                                    if p.get_subscription_count() < self.min_readers}
+                                   | {p.topic_name for p in internal
+                                      if p.get_subscription_count() < 1}))
             if lacking != self._waiting_for:
                 self._waiting_for = lacking
                 if self._logger is not None and lacking:

@@ -14,8 +14,8 @@ Parameters: ``orientation`` ("z" or "y"); every field of
 :class:`~sim_nodes.dither.vibration_table.VibrationTableConfig` but ``axis`` as ``table.*``;
 every field of :class:`~sim_nodes.dither.gyro.DitheredGyroConfig` and of
 :class:`~sim_nodes.dither.bench.DitherBenchConfig`; ``real_time_factor`` (simulated seconds per
-wall second; 0 = as fast as the readers acknowledge), ``exit_when_done`` and
-``wait_for_subscribers``.
+wall second; 0 = as fast as the readers acknowledge), ``exit_when_done``,
+``wait_for_subscribers`` and ``min_subscribers``.
 """
 
 from __future__ import annotations
@@ -103,6 +103,9 @@ class VibrationTableNode(Node):
         self.wait_for_subscribers = bool(param(
             'wait_for_subscribers', True, 'Start only once /gyro/pulses and '
             '/vibration_table/joint_states have a reader, so nothing is lost at the start.'))
+        self.min_subscribers = int(param(
+            'min_subscribers', 1, 'Readers each topic needs before the run starts (2 when a '
+            'bag recorder and a calibration node must both hear it from the start).'))
         self.sim = DitherBenchSimulator(self.gyro_config, self.table_config, self.bench)
         self.chunk_samples = max(1, int(round(CHUNK_S * self.bench.sample_rate_hz)))
         self.pulse_pub = self.create_publisher(JointState, relative(topics.GYRO_PULSES),
@@ -113,7 +116,9 @@ class VibrationTableNode(Node):
             data=scenario_yaml(self.gyro_config, self.table_config, self.bench)))
         self._n_published = 0
         self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers, logger=self.get_logger())
+        self._start_gate = StartGate(self.wait_for_subscribers,
+                                     min_readers=self.min_subscribers,
+                                     logger=self.get_logger())
         self._progress: ProgressLog | None = None
         self.done = False
         self.stalled = ''  # why publishing stopped before the end ('' = it did not)

@@ -11,7 +11,8 @@ Parameters: every field of :class:`~sim_nodes.thermal.scenarios.ChamberRunConfig
 (programme, gyro_id, seed, soak and ramp settings, rates, faults), ``real_time_factor``
 (simulated seconds per wall second; 0 = as fast as the readers acknowledge — hours of
 chamber time then take seconds), ``chunk_s`` (simulated seconds per published chunk),
-``exit_when_done`` and ``wait_for_subscribers``.
+``exit_when_done``, ``wait_for_subscribers`` and
+``min_subscribers``.
 """
 
 from __future__ import annotations
@@ -61,6 +62,9 @@ class ThermalChamberNode(Node):
         self.wait_for_subscribers = bool(param(
             'wait_for_subscribers', True, 'Start only once /gyro/pulses and /gyro/temperature '
             'each have a reader, so nothing is lost at the start.'))
+        self.min_subscribers = int(param(
+            'min_subscribers', 1, 'Readers each topic needs before the run starts (2 when a '
+            'bag recorder and a calibration node must both hear it from the start).'))
         if not self.chunk_s > 0:
             raise ValueError(f'chunk_s = {self.chunk_s!r} must be positive')
         self.run = self.config.run()
@@ -75,7 +79,9 @@ class ThermalChamberNode(Node):
         self._step_ns = int(round(self.chunk_s * 1e9))
         self._until_ns = self.run.simulator.start_time_ns - 1
         self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers, logger=self.get_logger())
+        self._start_gate = StartGate(self.wait_for_subscribers,
+                                     min_readers=self.min_subscribers,
+                                     logger=self.get_logger())
         self._progress: ProgressLog | None = None
         self.published = 0
         self.done = False

@@ -86,6 +86,19 @@ def test_the_start_gate_logs_each_change_of_what_it_waits_for_once() -> None:
                          'every topic has its readers; starting in 0 s']
 
 
+def test_min_readers_holds_the_sensor_topics_but_an_internal_topic_needs_one_reader() -> None:
+    # A lab records and calibrates at once (min_subscribers 2): the table waits until both
+    # hear its sensor topics; the true motion only the gyro simulator reads opens with one.
+    gate = StartGate(True, min_readers=2, settle_s=0.0)
+    table, truth = _Pub('/rate_table/joint_states', 1), _Pub('/sim/rate_table/true_motion', 1)
+    assert not gate.open([table], internal=[truth])  # the recorder alone: not yet
+    table.readers = 2
+    truth.readers = 0
+    assert not gate.open([table], internal=[truth])  # no gyro simulator yet
+    truth.readers = 1
+    assert gate.open([table], internal=[truth])
+
+
 def test_a_hand_off_update_logs_what_changed_not_the_whole_list() -> None:
     keys = {f'k{i}' for i in range(20)}
     assert changes_line(None, keys).startswith('still missing: k0, k1')
