@@ -39,6 +39,9 @@ Example (``format_version: 3``)::
         keys: [k_tilde_rad_per_pulse, bias_plus_earth_rate_rad_s, window_pairs]
         earlier_runs: []                 # runs whose values were kept (each with its keys)
 
+A noise run keeps its curves with it, ``methods.noise.deviations.<axis>``: ADEV, MDEV,
+HDEV and TOTDEV per τ with their standard uncertainties and EDF (:data:`DEVIATION_FIELDS`).
+
 Each value comes from exactly one run, named by the ``keys`` of its method's latest run or of
 one of its ``earlier_runs``: a K̃ of one run beside a θ of another is stated, with each run's
 conditions (latitude and heading a bias rests on, the K a thermal model was fitted with).
@@ -215,6 +218,9 @@ class Provenance:
         keys: the keys (no ``_std``) of the file this run gave; None = all of its method's
             (a record not yet merged, or a format 1/2 file).
         earlier: earlier runs of the method whose keys the file kept (each with its keys).
+        deviations: the per-τ tables the run's values rest on, by axis (a noise run: τ,
+            ADEV, MDEV, HDEV, TOTDEV with their standard uncertainties and EDF; see
+            :data:`DEVIATION_FIELDS`); empty for the other methods.
     """
 
     source: str
@@ -226,6 +232,7 @@ class Provenance:
     not_measurable: Mapping[str, str] = field(default_factory=dict)
     keys: tuple[str, ...] | None = None
     earlier: tuple[Provenance, ...] = ()
+    deviations: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
 
     def same_run(self, other: Provenance) -> bool:
         """True when both describe one run (a live node rewriting its file as it goes)."""
@@ -601,6 +608,7 @@ class ProvenanceYaml(TypedDict, total=False):
     conditions: dict[str, Any]
     keys: list[str]
     earlier_runs: list[ProvenanceYaml]
+    deviations: dict[str, dict[str, Any]]
 
 
 class CalibrationYaml(TypedDict):
@@ -620,7 +628,17 @@ class CalibrationYaml(TypedDict):
 _TOP_LEVEL = ('format_version', 'gyro_calib_version', 'gyro_id', 'conventions', 'complete',
               'missing', 'not_measurable', 'gyro', 'methods')
 _PROVENANCE_KEYS = ('source', 'created_utc', 'data_start_stamp_ns', 'data_end_stamp_ns',
-                    'missing', 'conditions', 'keys', 'earlier_runs')
+                    'missing', 'conditions', 'keys', 'earlier_runs', 'deviations')
+
+DEVIATION_FIELDS = ('tau_s', 'm', 'clusters', 'noise_alpha', 'unit',
+                    *(f'{name}{suffix}' for name in ('adev', 'mdev', 'hdev', 'totdev')
+                      for suffix in ('', '_std', '_edf')))
+"""What one axis of ``methods.<name>.deviations`` may hold: ``tau_s`` (the averaging times,
+s), ``m`` (τ/τ₀), ``clusters`` (independent clusters at each τ), ``noise_alpha`` (the
+power-law noise type the EDF assumes), ``unit`` (of the deviations: rad/s or m/s²), and per
+deviation (ADEV overlapping, MDEV modified, HDEV overlapping Hadamard, TOTDEV total) its
+value, its standard uncertainty ``_std`` and its equivalent degrees of freedom ``_edf`` at
+each τ; a list per field, one entry per τ, null where a deviation has no value there."""
 
 
 def _run_yaml(prov: Provenance, method: str, calibration: Calibration,
@@ -634,6 +652,8 @@ def _run_yaml(prov: Provenance, method: str, calibration: Calibration,
         _run_keys(prov, method, calibration.values, schema)
         - {k for e in prov.earlier if e.keys for k in e.keys})
     entry['keys'] = list(_ordered(keys, schema))
+    if prov.deviations:
+        entry['deviations'] = {axis: dict(table) for axis, table in prov.deviations.items()}
     return entry
 
 
@@ -765,7 +785,33 @@ def _provenance(name: str, entry: Any, source: str,
         raise HandoffError(f'{where}: earlier_runs must be a list of runs (not nested).')
     earlier = tuple(_provenance(name, e, source, schema, nested=True) for e in earlier_entries)
     return Provenance(entry['source'], start, end, dict(missing_keys), str(created),
-                      dict(conditions), {}, tuple(keys) if keys is not None else None, earlier)
+                      dict(conditions), {}, tuple(keys) if keys is not None else None, earlier,
+                      _deviations(entry.get('deviations', {}) or {}, where))
+
+
+def _deviations(tables: Any, where: str) -> dict[str, dict[str, Any]]:
+    """Check ``methods.<name>.deviations``: axis → field → a list per τ (or the unit)."""
+    if not isinstance(tables, dict):
+        raise HandoffError(f'{where}: deviations must map axes to tables.')
+    out: dict[str, dict[str, Any]] = {}
+    for axis, table in tables.items():
+        if not isinstance(table, dict) or not isinstance(table.get('tau_s'), list):
+            raise HandoffError(f'{where}: deviations.{axis} must be a table with tau_s.')
+        n = len(table['tau_s'])
+        for name, column in table.items():
+            if name not in DEVIATION_FIELDS:
+                raise HandoffError(f'{where}: deviations.{axis}.{name} is not one of '
+                                   f'{", ".join(DEVIATION_FIELDS)}.')
+            if name == 'unit':
+                if not isinstance(column, str):
+                    raise HandoffError(f'{where}: deviations.{axis}.unit must be a string.')
+                continue
+            if not isinstance(column, list) or len(column) != n or not all(
+                    v is None or (_numbers(v) and not isinstance(v, bool)) for v in column):
+                raise HandoffError(f'{where}: deviations.{axis}.{name} must list {n} numbers '
+                                   '(null where there is none), one per tau_s.')
+        out[str(axis)] = dict(table)
+    return out
 
 
 _FORMAT_1_TOP = ('format_version', 'gyro_calib_version', 'created_utc', 'source',
@@ -829,8 +875,8 @@ def write_calibration(path: str | Path, calibration: Calibration,
     """
     target = Path(path).resolve()
     text = ('# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py\n'
-            + yaml.safe_dump(dict(calibration_to_yaml_dict(calibration, schema)),
-                             sort_keys=False, allow_unicode=True, width=100))
+            + yaml.dump(dict(calibration_to_yaml_dict(calibration, schema)), Dumper=_Dumper,
+                        sort_keys=False, allow_unicode=True, width=100))
     tmp: str | None = None
     try:
         mode = new_file_mode(target)
@@ -858,6 +904,19 @@ def write_calibration(path: str | Path, calibration: Calibration,
                            f'not be synced, so it may not survive a power loss: '
                            f'{exc.strerror or exc}.') from None
     return target
+
+
+class _Dumper(yaml.SafeDumper):
+    """The safe dumper, with a list of numbers on one line (a deviation table per τ)."""
+
+
+def _represent_list(dumper: yaml.SafeDumper, data: list[Any]) -> yaml.Node:
+    flow = bool(data) and all(v is None or (_numbers(v) and not isinstance(v, bool))
+                              for v in data)
+    return dumper.represent_sequence('tag:yaml.org,2002:seq', data, flow_style=flow)
+
+
+_Dumper.add_representer(list, _represent_list)
 
 
 def update_calibration(path: str | Path, calibration: Calibration,

@@ -317,6 +317,13 @@ class MethodSession(ABC):
         """
         return {}
 
+    def deviation_tables(self) -> dict[str, dict[str, Any]]:
+        """Per-τ tables written with the run in the hand-off file, by axis (noise only).
+
+        See :data:`gyro_calib.handoff.DEVIATION_FIELDS`; empty for a method without curves.
+        """
+        return {}
+
     def not_measurable(self) -> dict[str, str]:
         """Missing keys no run on such a bench could give, with why.
 
@@ -338,7 +345,8 @@ class MethodSession(ABC):
             self.name, values,
             Provenance(source, span[0], span[1],
                        {k: v for k, v in missing.items() if k not in cannot},
-                       conditions=conditions, not_measurable=cannot),
+                       conditions=conditions, not_measurable=cannot,
+                       deviations=self.deviation_tables()),
             gyro_id=gyro_id)
 
     def summary_rows(self) -> list[tuple[str, str, str, str]]:

@@ -317,3 +317,38 @@ def test_an_interrupt_after_every_file_was_written_says_so_and_exits_0(
     status, out, err = run(capsys, bags['imu'], '--out', target)
     assert status == 0 and target.exists()
     assert f'interrupted after every file was written (hand-off {target})' in err
+
+
+def test_the_handoff_file_holds_every_deviation_per_tau_equal_to_allantools(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--out`` keeps the curves: ADEV, MDEV, HDEV, TOTDEV per τ with std and EDF (issue 18)."""
+    import allantools
+
+    from gyro_calib.handoff import DEVIATION_FIELDS, load_calibration
+
+    target = tmp_path / 'h.yaml'
+    status, out, err = run(capsys, bags['pulses'], '--scale-factor-rad-per-pulse', K,
+                           '--out', target, '--json')
+    assert status == 0, err
+    axis = json.loads(out)['methods']['noise']['axes']['gyro']
+    table = load_calibration(target).methods['noise'].deviations['gyro']
+    assert set(table) == set(DEVIATION_FIELDS)
+    assert table['unit'] == 'rad/s'
+    for name in set(DEVIATION_FIELDS) - {'unit'}:
+        assert table[name] == axis[name], name  # the numbers --json prints, unrounded
+    rng = np.random.default_rng(8)  # the bag's pulses, as the fixture made them
+    phase = K * np.cumsum(1e-3 * 0.01 / K + rng.normal(0, 30.0, 4000))
+    m = np.array(table['m'], dtype=np.float64)
+    for name, reference in (('adev', allantools.oadev), ('mdev', allantools.mdev),
+                            ('hdev', allantools.ohdev), ('totdev', allantools.totdev)):
+        tau, dev, _, _ = reference(phase, rate=100.0, data_type='phase', taus=m * 0.01)
+        ours = np.array([table[name][int(np.argmin(np.abs(m * 0.01 - t)))] for t in tau])
+        assert len(tau) >= 8 and np.max(np.abs(ours / dev - 1.0)) < 1e-9, name
+        assert all(s is None or s > 0 for s in table[f'{name}_std'])
+    # a second run merges into the file: the latest run's curves are the ones kept
+    status, _, err = run(capsys, bags['pulses'], '--scale-factor-rad-per-pulse', K,
+                         '--out', target, '--taus', 'octave')
+    assert status == 0, err
+    latest = load_calibration(target).methods['noise']
+    assert min(abs(t / 0.1 - 1) for t in latest.deviations['gyro']['tau_s']) > 1e-3  # octaves
+    assert all(run.deviations['gyro']['tau_s'] == table['tau_s'] for run in latest.earlier)

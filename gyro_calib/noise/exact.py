@@ -43,16 +43,23 @@ if TYPE_CHECKING:
     FloatArray = npt.NDArray[np.float64]
     IntArray = npt.NDArray[np.int64]
 
-EXACT_BLOCK = 1 << 16
-"""Terms per block of every sum."""
+EXACT_BLOCK = 1 << 15
+"""Terms per block of every sum (256 KiB of phase: a block and its differences stay in the
+L2 cache; 2¹⁵ was the fastest of 2¹³–2¹⁷ in ``benchmarks/noise_allan.py``)."""
+ADVANCE_BLOCKS = 16
+"""Blocks of new points gathered before the sums advance: every factor then sweeps them in
+one go while they are in memory (fewer calls, less thread hand-over)."""
 DOT_PIECE = 8192
 """Longest dot product handed to BLAS at once: OpenBLAS runs longer ones multi-threaded,
 which on a loaded machine costs ~50× (measured: 45 ns/element at 65 536 vs 0.9 at 8192)."""
 DEVIATIONS = ('adev', 'mdev', 'hdev', 'totdev')
 """The statistics :class:`ExactDeviations` can compute."""
 THREADS = min(2, os.cpu_count() or 1)
-"""Averaging factors summed in parallel (NumPy releases the GIL in its loops; each factor's
-sums stay in one thread, in block order, so they are the same however many threads)."""
+"""Averaging factors summed in parallel when MDEV or HDEV is asked for (NumPy releases the
+GIL in its loops; each factor's sums stay in one thread, in block order, so they are the
+same however many threads). The ADEV alone runs in one thread: its three memory-bound passes
+per block gain nothing from a second one and lose to the hand-over (1.03 s against 1.44 s
+for 3·10⁷ points, 23 factors)."""
 
 _POOL: ThreadPoolExecutor | None = None
 _BUFFERS: dict[tuple[int, int], tuple[FloatArray, FloatArray]] = {}
@@ -278,8 +285,9 @@ class ExactDeviations:
         self.max_fraction = max_fraction
         self.deviations = tuple(d for d in DEVIATIONS if d in deviations or d == 'adev')
         self._third = 'mdev' in self.deviations or 'hdev' in self.deviations
+        self._threads = THREADS if self._third else 1
         self.block = block
-        self.phase = ScratchPhase(memory_points, 4 * block, scratch_dir)
+        self.phase = ScratchPhase(memory_points, (ADVANCE_BLOCKS + 4) * block, scratch_dir)
         self._factors: dict[int, _Factor] = {}
         self._processed_to = 0
 
@@ -305,7 +313,7 @@ class ExactDeviations:
         a = np.asarray(x, dtype=np.float64)
         for lo in range(0, len(a), self.block):
             self.phase.push(a[lo:lo + self.block])
-            if len(self.phase) - self._processed_to >= self.block:
+            if len(self.phase) - self._processed_to >= ADVANCE_BLOCKS * self.block:
                 self._advance()
 
     # -- block sums ------------------------------------------------------------------------
@@ -321,7 +329,7 @@ class ExactDeviations:
     def _advance(self) -> None:
         n = len(self.phase)
         facs = self._active()
-        if THREADS > 1 and len(facs) > 1:
+        if self._threads > 1 and len(facs) > 1:
             list(_pool().map(lambda f: self._advance_factor(f, n), facs))
         else:
             for f in facs:
@@ -457,7 +465,7 @@ class ExactDeviations:
                 t_sum = a_sum + self._edges(f)
             return a_sum, m_sum, h_sum, t_sum
 
-        if THREADS > 1 and k > 1:
+        if self._threads > 1 and k > 1:
             parts = list(_pool().map(partial, facs))
         else:
             parts = [partial(f) for f in facs]

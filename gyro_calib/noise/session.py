@@ -524,6 +524,23 @@ class NoiseSession(MethodSession):
         out.update(view.json_section() if view is not None else {'axes': {}})
         return out
 
+    def deviation_tables(self) -> dict[str, dict[str, Any]]:
+        """The per-τ ADEV, MDEV, HDEV and TOTDEV of each axis, for the hand-off file.
+
+        The per-τ ADEV, MDEV, HDEV and TOTDEV of each axis with their standard
+        uncertainties and EDF (``methods.noise.deviations``; the same numbers as ``--json``'s
+        ``axes``), in the axis's rate unit.
+        """
+        from gyro_calib.handoff import DEVIATION_FIELDS
+
+        view = self.view
+        if view is None:
+            return {}
+        units = {axis: res.units.rate_unit for axis, res in view.axis_results().items()}
+        return {axis: {k: (units[axis] if k == 'unit' else record[k]) for k in DEVIATION_FIELDS
+                       if k == 'unit' or k in record}
+                for axis, record in view.json_section()['axes'].items()}
+
     def summary_rows(self) -> list[tuple[str, str, str, str]]:
         """One row per resolved term: SI and the quoted unit (°/√h, °/h, µg …)."""
         rows = []
