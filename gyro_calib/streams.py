@@ -198,6 +198,9 @@ def timeline_starts(t_ns: npt.NDArray[np.int64], backstep_ns: int,
     """
     out: list[int] = []
     start, newest = 0, newest_before_ns
+    if len(t_ns) and (newest is None or int(t_ns[0]) > newest - backstep_ns) and bool(
+            np.all(t_ns[1:] >= t_ns[:-1])):
+        return out  # in order (the usual case): nothing falls behind, one pass
     while start < len(t_ns):
         running = np.maximum.accumulate(t_ns[start:])
         if newest is not None:

@@ -109,6 +109,27 @@ def test_every_deviation_equals_allantools_at_every_tau_including_few_clusters(
     store.close()
 
 
+def test_adev_alone_from_the_scratch_file_equals_it_in_memory_bit_for_bit() -> None:
+    """The ADEV-only sweep reads each slice of the file once (shared by factors m and 2m)."""
+    x = _record(200_000, 6)
+    grid = TauGrid('octave', 1.0)
+    sums = []
+    for memory_points in (1 << 22, 3000):
+        store = ExactDeviations(grid.factors_up_to, 0.25, deviations=('adev',),
+                                memory_points=memory_points, block=1024)
+        for part in np.array_split(x, 37):
+            store.push(part)
+        assert store.phase.spilled == (memory_points < len(x))
+        sums.append(store.sums())
+        store.close()
+    assert np.array_equal(sums[0].adev_sum, sums[1].adev_sum)
+    m = sums[1].m.astype(np.float64)
+    assert m[-1] >= 16 * 1024  # factors far beyond a block, read from the file
+    _, dev, _, _ = allantools.oadev(x, rate=1.0, data_type='phase', taus=m)
+    ours = np.sqrt(sums[1].adev_sum / (2 * m**2 * sums[1].adev_terms))
+    assert np.max(np.abs(ours / dev - 1.0)) < 1e-9
+
+
 def test_sums_are_bit_identical_however_the_phase_is_chunked_or_probed() -> None:
     x = _record(30_000, 5)
     grid = TauGrid('octave', 1.0)

@@ -199,7 +199,7 @@ class NoiseCalibrator:
         if len(t) and t.dtype.kind not in 'iu':
             raise StreamError(f'{what}: stamps must be integer nanoseconds (int64), '
                               f'got {t.dtype}; convert header stamps with sec·10⁹ + nanosec.')
-        return t.astype(np.int64)
+        return t.astype(np.int64, copy=False)
 
     def _extend(self, name: str, t_ns: ArrayLike, columns: FloatArray) -> None:
         stream = self._stream(name)

@@ -189,9 +189,14 @@ class ChannelAccumulator:
         else:
             dt = np.concatenate(([0], np.diff(t)))  # t[0] has no interval before it
             self.stats.intervals += len(dt) - 1
+        gap_ns = self.settings.gap_threshold_periods * nominal
+        measured = dt if self._live is not None else dt[1:]
+        if not len(measured) or (measured.min() >= 0.5 * nominal and measured.max() <= gap_ns):
+            self._append(t, v)  # evenly sampled (the usual case): two reductions, no scan
+            return
         self.stats.bunched_intervals += int(np.count_nonzero((dt > 0) & (dt < 0.5 * nominal)))
         pos = 0
-        for gap in np.nonzero(dt > self.settings.gap_threshold_periods * nominal)[0]:
+        for gap in np.nonzero(dt > gap_ns)[0]:
             g = int(gap)
             if g > pos:
                 self._append(t[pos:g], v[pos:g])

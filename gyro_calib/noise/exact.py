@@ -225,6 +225,10 @@ class ScratchPhase:
             os.close(self._file)  # type: ignore[arg-type]
 
 
+_Kept = dict[tuple[int, int], tuple['FloatArray', 'FloatArray']]
+"""Slices read from the scratch file in one sweep, by (lo, hi): (the slice, its buffer)."""
+
+
 @dataclass(slots=True)
 class _Factor:
     """Committed sums of one averaging factor."""
@@ -290,6 +294,8 @@ class ExactDeviations:
         self.phase = ScratchPhase(memory_points, (ADVANCE_BLOCKS + 4) * block, scratch_dir)
         self._factors: dict[int, _Factor] = {}
         self._processed_to = 0
+        self._reuse: tuple[_Kept, _Kept] | None = None
+        self._spare: list[FloatArray] = []  # block buffers of reused slices
 
     @property
     def n_samples(self) -> int:
@@ -298,7 +304,8 @@ class ExactDeviations:
 
     def nbytes(self) -> int:
         """Bytes of sample storage in memory (bounded once the scratch file is in use)."""
-        return self.phase.nbytes() + (THREADS + 1) * 18 * 8 * self.block  # + work buffers
+        return (self.phase.nbytes() + (THREADS + 1) * 18 * 8 * self.block  # + work buffers
+                + 8 * self.block * len(self._spare))  # + slices shared by factors m and 2m
 
     def close(self) -> None:
         """Free the scratch file (the sums already computed stay valid in copies)."""
@@ -332,9 +339,43 @@ class ExactDeviations:
         if self._threads > 1 and len(facs) > 1:
             list(_pool().map(lambda f: self._advance_factor(f, n), facs))
         else:
-            for f in facs:
+            # ascending m: the oldest slice x_{a..} a factor m reads from the scratch file is
+            # the middle slice x_{a'+2m..} of factor 2m in the same sweep; it is read once
+            self._reuse = ({}, {})
+            for f in sorted(facs, key=lambda f: f.m):
+                self._reuse = (self._reuse[1], {})
                 self._advance_factor(f, n)
+                self._spare += [buf for _, buf in self._reuse[0].values()]  # not asked for
+            self._spare += [buf for _, buf in self._reuse[1].values()]
+            self._reuse = None
         self._processed_to = n
+
+    def _oldest_slice(self, lo: int, hi: int, out: FloatArray) -> FloatArray:
+        """x[lo:hi], read from the file, kept for the next (doubled) factor of the sweep."""
+        if self._reuse is None or not self.phase.spilled:
+            return self.phase.read(lo, hi, out)
+        if len(self._reuse[1]) >= ADVANCE_BLOCKS + 1:  # a new factor's backlog: read it
+            return self.phase.read(lo, hi, out)  # plainly, kept nowhere (memory bounded)
+        spare = self._spare.pop() if self._spare else np.empty(self.block)
+        x = self.phase.read(lo, hi, spare)
+        if x.base is spare:
+            self._reuse[1][(lo, hi)] = (x, spare)
+        else:  # it was in memory
+            self._spare.append(spare)
+        return x
+
+    def _middle_slice(self, lo: int, hi: int,
+                      out: FloatArray) -> tuple[FloatArray, FloatArray | None]:
+        """x[lo:hi] (the previous factor's oldest slice when it read this one, else read).
+
+        Returns:
+            The slice, and the buffer to free once it is used (None: nothing to free).
+        """
+        if self._reuse is not None:
+            kept = self._reuse[0].pop((lo, hi), None)
+            if kept is not None:
+                return kept
+        return self.phase.read(lo, hi, out), None
 
     def _advance_factor(self, f: _Factor, n: int) -> None:
         """Commit every complete block of one factor (one thread per factor)."""
@@ -374,9 +415,14 @@ class ExactDeviations:
                 d = np.subtract(x[m:], x[:-m], out=work[0, :e - a + m])
                 u = np.subtract(d[m:], d[:e - a], out=work[1, :e - a])
             else:
-                x0, x1, x2 = self._slices(m, a, e, 2)
+                reads = _buffers(self.block)[1]
+                x2 = self.phase.read(a + 2 * m, e + 2 * m, reads[2])
+                x1, used = self._middle_slice(a + m, e + m, reads[1])
                 u = np.subtract(x2, x1, out=work[0, :e - a])
+                x0 = self._oldest_slice(a, e, reads[0])
                 u -= np.subtract(x1, x0, out=work[1, :e - a])
+                if used is not None:
+                    self._spare.append(used)
             total += _sumsq(u)
         return total
 
