@@ -352,3 +352,20 @@ def test_the_handoff_file_holds_every_deviation_per_tau_equal_to_allantools(
     latest = load_calibration(target).methods['noise']
     assert min(abs(t / 0.1 - 1) for t in latest.deviations['gyro']['tau_s']) > 1e-3  # octaves
     assert all(run.deviations['gyro']['tau_s'] == table['tau_s'] for run in latest.earlier)
+
+
+def test_curves_without_a_term_exit_1_write_nothing_and_still_print_the_curves(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Exit 1 is not bad input: the curves were measured, so ``--json`` reports them."""
+    rng = np.random.default_rng(2)
+    t = START_NS + PERIOD_NS * np.arange(150, dtype=np.int64)
+    bag = tmp_path / 'short'
+    write_bag(bag, pulse_messages(t, np.cumsum(250.0 + rng.normal(0, 30.0, 150))))
+    target = tmp_path / 'h.yaml'
+    status, out, err = run(capsys, bag, '--scale-factor-rad-per-pulse', K, '--out', target,
+                           '--json')
+    assert status == 1, err
+    assert 'no noise term is resolved' in err.strip().splitlines()[-1]
+    axis = json.loads(out)['methods']['noise']['axes']['gyro']
+    assert axis['adev'] and axis['results'] == {}
+    assert not target.exists()
