@@ -8,6 +8,7 @@ and its ``write_scenario_bag(scenario, path)``); this module only gathers them.
 from __future__ import annotations
 
 import importlib
+import re
 from pathlib import Path
 from typing import Any
 
@@ -92,6 +93,7 @@ def with_overrides(name: str, overrides: dict[str, Any]) -> Any:
     """
     scenario = SCENARIOS[name]
     params = scenario_parameters(name)
+    changed: list[tuple[str, Any, Any]] = []
     for key, value in overrides.items():
         names = ('sample_rate_hz', 'output_rate_hz') if key == 'sample_rate_hz' else (key,)
         paths = [p for p in params if p.rsplit('.', 1)[-1] in names]
@@ -102,7 +104,55 @@ def with_overrides(name: str, overrides: dict[str, Any]) -> Any:
         for k, p in enumerate(paths):
             new = value + k if key == 'seed' else type(params[p])(value)
             scenario = _replace_path(scenario, p.split('.'), new)
+            if new != params[p]:
+                changed.append((p, params[p], new))
+    if changed and isinstance(getattr(scenario, 'description', None), str):
+        scenario = _replace_path(scenario, ['description'],
+                                 described_with(scenario.description, changed))
     return scenario
+
+
+def _spellings(key: str, value: Any) -> list[str]:
+    """How a description writes a parameter value: '280 s', '500 Hz', '1 kHz', 'seed 101'."""
+    if key == 'seed':
+        return [f'seed {value}']
+    if key == 'duration_s':
+        return [f'{value:g} s']
+    out = [f'{value:g} Hz']
+    if value >= 1000 and value % 1000 == 0:
+        out.append(f'{value / 1000:g} kHz')
+    return out
+
+
+def described_with(description: str, changed: list[tuple[str, Any, Any]]) -> str:
+    """The scenario's sentence made to follow the parameters actually simulated.
+
+    Each value the sentence states ('280 s', '500 Hz', '1 kHz', 'seed 101') is rewritten
+    to the value used; a changed parameter the sentence does not state is said after it
+    ("Simulated with duration_s = 60 (the scenario's 280)."), so the stored description
+    never claims what the bag does not hold.
+
+    Args:
+        description: the scenario's own sentence.
+        changed: (dotted parameter path, the scenario's value, the value used).
+    """
+    unsaid = []
+    for path, old, new in changed:
+        key = path.rsplit('.', 1)[-1]
+        key = 'sample_rate_hz' if key == 'output_rate_hz' else key
+        found = False
+        for was, now in zip(_spellings(key, old), _spellings(key, new)):
+            pattern = rf'(?<![\d.]){re.escape(was)}(?![\w])'
+            if re.search(pattern, description):
+                description = re.sub(pattern, now.replace('\\', r'\\'), description)
+                found = True
+                break
+        if not found:
+            unsaid.append(f'{path} = {new:g} (the scenario\'s {old:g})' if key != 'seed'
+                          else f'{path} = {new} (the scenario\'s {old})')
+    if unsaid:
+        description = f'{description.rstrip()} Simulated with {", ".join(unsaid)}.'
+    return description
 
 
 def write_scenario_bag_with(name: str, path: str | Path, overrides: dict[str, Any]) -> Path:

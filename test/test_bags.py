@@ -221,3 +221,26 @@ def test_cli_simulate_writes_a_scenario_bag(tmp_path: Path) -> None:
     assert gyro_calib_main(['simulate', 'fault_lock_in', '--out', str(out)]) == 0
     assert bag_info(out).scenario['name'] == 'fault_lock_in'
     assert gyro_calib_main(['simulate', '--list']) == 0
+
+
+def test_cli_simulate_stores_the_description_of_the_run_it_simulated(tmp_path: Path) -> None:
+    """--duration-s / --sample-rate-hz / --seed: the stored sentence states what was used."""
+    out = tmp_path / 'short'
+    assert gyro_calib_main(['simulate', 'noise_rlg_static', '--out', str(out),
+                            '--duration-s', '6', '--sample-rate-hz', '250']) == 0
+    stored = bag_info(out).scenario
+    assert stored['duration_s'] == 6.0 and stored['sample_rate_hz'] == 250.0
+    text = stored['description']
+    assert '250 Hz, 6 s,' in text and '280 s' not in text and '500 Hz' not in text
+    assert 'The 240–242 s gap lies beyond this 6 s record: it has none.' in text
+    assert bag_info(out).duration_s < 6.0
+    # a changed value the sentence does not state is said after it
+    from sim_nodes.scenarios import SCENARIOS, with_overrides
+
+    assert with_overrides('k_tilde_bench', {'duration_s': 50.0}).description == (
+        SCENARIOS['k_tilde_bench'].description
+        + " Simulated with table.duration_s = 50 (the scenario's 100).")
+    assert with_overrides('k_tilde_bench', {'sample_rate_hz': 2000.0}).description.endswith(
+        '150 °/s, 2 kHz.')
+    assert with_overrides('noise_rlg_static', {}).description == \
+        SCENARIOS['noise_rlg_static'].description

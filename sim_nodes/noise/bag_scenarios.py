@@ -431,8 +431,12 @@ class RlgBagScenario:
 
     def description_dict(self) -> dict[str, Any]:
         """Stored in the bag: generator parameters, seed, gap, bench settings, truth."""
+        description = self.description
+        if not self.gap_s[0] < self.duration_s:  # a shortened run ends before its gap
+            description += (f' The {self.gap_s[0]:g}–{self.gap_s[1]:g} s gap lies beyond this '
+                            f'{self.duration_s:g} s record: it has none.')
         return {
-            'name': self.name, 'description': self.description, 'kind': 'pulses',
+            'name': self.name, 'description': description, 'kind': 'pulses',
             'terms': _terms_dict(self.terms), 'sample_rate_hz': self.sample_rate_hz,
             'duration_s': self.duration_s,
             'dither_amplitude_rad': self.dither_amplitude_rad,
