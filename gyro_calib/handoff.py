@@ -130,6 +130,10 @@ class HandoffKey:
         bench_specific: its value holds on the bench it was measured on only (a bias with the
             Earth rate along that bench's axis in it): runs on other benches are not compared
             with it for consistency.
+        scales_with_scale_factor: an angle (or rate) the run turned from the gyro's output
+            with the scale factor its conditions name (:data:`SCALE_FACTOR_CONDITIONS`): the
+            relative difference of another scale factor moves it by at most that fraction of
+            its value (:func:`scale_factor_findings`).
     """
 
     name: str
@@ -140,6 +144,7 @@ class HandoffKey:
     check: Callable[[Any], str] | None = None
     follows: str = ''
     bench_specific: bool = False
+    scales_with_scale_factor: bool = False
 
 
 def _problem(key: HandoffKey, value: Any) -> str:
@@ -361,9 +366,10 @@ class Calibration:
                      if schema.get(_base_key(k), HandoffKey(k, '', '')).method in others})
             lines.append(f'unchanged: {n} key(s) of method(s) {", ".join(others)}.')
         merged = Calibration(values, methods, self.gyro_id or older.gyro_id)
-        problem = scale_factor_inconsistency(merged, schema)
-        if problem:
-            raise HandoffError(problem)
+        findings = scale_factor_findings(merged, schema, new_methods=self.methods)
+        if findings.problem:
+            raise HandoffError(findings.problem)
+        lines.extend(findings.notes)
         return merged
 
 
@@ -495,37 +501,161 @@ def _numbers(*values: Any) -> bool:
     return all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
 
 
-def scale_factor_inconsistency(calibration: Calibration,
-                               schema: Mapping[str, HandoffKey] | None = None) -> str:
-    """Why the file is inconsistent ('' if not).
+SCALE_FACTOR_CONDITIONS: dict[str, tuple[tuple[str, ...], int, str]] = {
+    'scale_factor_rad_per_pulse': (('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'), 1,
+                                   'rad/pulse'),
+    'fog_scale_factor_counts_per_rad': (('fog_scale_factor_counts_per_rad',), -1, 'counts/rad'),
+}
+"""A run condition naming the scale factor its values rest on → (the file's keys holding that
+scale factor, the first present being the file's; the power p of the scale factor in those
+values: v ∝ Kᵖ, rad = K·pulses, rad = counts/SF; its unit)."""
 
-    Why the file is inconsistent ('' if not): a value that rests on a scale factor (a mapping
-    stating ``…scale_factor_rad_per_pulse``, e.g. a thermal model) beside the file's K (or K̃)
-    that differs from it by more than 100 ppm.
+SCALE_FACTOR_FROM = 'scale_factor_from'
+"""The run condition saying where the run's scale factor came from (a flag, a file, stored
+bench settings)."""
+
+MAX_SCALE_FACTOR_SHIFT = 0.2
+"""A run's values may rest on a scale factor other than the file's only while the difference
+moves none of them by more than this fraction of its standard uncertainty."""
+
+MAX_MODEL_SCALE_FACTOR_PPM = 100.0
+"""A model fitted with a scale factor (thermal) may differ from the file's by this much, ppm."""
+
+
+@dataclass(frozen=True, slots=True)
+class ScaleFactorFindings:
+    """What :func:`scale_factor_findings` found: the refusal ('' if none) and merge notes."""
+
+    problem: str = ''
+    notes: tuple[str, ...] = ()
+
+
+def _file_scale_factor(calibration: Calibration, keys: tuple[str, ...],
+                       ) -> tuple[str, float] | None:
+    for key in keys:
+        if key in calibration.values and _numbers(calibration.values[key]):
+            return key, float(calibration.values[key])
+    return None
+
+
+def _own_keys(run: Provenance, latest: Provenance, method: str, values: Mapping[str, Any],
+              schema: Mapping[str, HandoffKey]) -> set[str]:
+    """The base keys of ``values`` that ``run`` (``latest`` or one of its earlier runs) gave."""
+    keys = _run_keys(run, method, values, schema)
+    if run.keys is None and run is latest:
+        keys -= {k for e in latest.earlier if e.keys for k in e.keys}
+    return keys
+
+
+def scale_factor_findings(calibration: Calibration,
+                          schema: Mapping[str, HandoffKey] | None = None, *,
+                          new_methods: Iterable[str] = ()) -> ScaleFactorFindings:
+    """Whether the values of ``calibration`` rest on the file's scale factor.
+
+    Two rules, against the file's scale factor (``scale_factor_rad_per_pulse``, else
+    ``k_tilde_rad_per_pulse``; a FOG's ``fog_scale_factor_counts_per_rad``):
+
+    * a value that is a model fitted with a scale factor (a mapping stating
+      ``…scale_factor_rad_per_pulse``, the thermal model) differing from the file's by more
+      than :data:`MAX_MODEL_SCALE_FACTOR_PPM`: refused (the model's bias belongs to its K);
+    * a run whose conditions name the scale factor its values rest on
+      (:data:`SCALE_FACTOR_CONDITIONS`: dither's θ_d and angles, noise terms in rad) beside
+      another in the file: with v ∝ Kᵖ, each value of the run that scales with it
+      (:attr:`HandoffKey.scales_with_scale_factor`) would move by |(K_file/K_run)ᵖ − 1|·|v|;
+      more than :data:`MAX_SCALE_FACTOR_SHIFT` of its standard uncertainty for any of them
+      is refused, else the difference is noted (a merge-report line).
+
+    Args:
+        calibration: the file's content (after a merge).
+        schema: the known keys.
+        new_methods: the methods of the run being merged (their latest runs are this run),
+            so the refusal says which side is new and notes name only what this merge brings.
     """
     sch = _schema(schema)
-    file_k = None
-    for key in ('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'):
-        if key in calibration.values:
-            file_k = key, float(calibration.values[key])
-            break
-    if file_k is None:
-        return ''
-    for key, value in calibration.values.items():
-        if not isinstance(value, dict):
-            continue
-        for inner, k in value.items():
-            if str(inner).endswith('scale_factor_rad_per_pulse') and _numbers(k) and k > 0 \
-                    and abs(file_k[1] / k - 1.0) > 1e-4:
-                run = calibration.source_of(key, sch)
-                other = calibration.source_of(file_k[0], sch)
-                return (f'the file\'s {file_k[0]} = {file_k[1]!r} rad/pulse '
+    new = set(new_methods)
+    file_k = _file_scale_factor(calibration, SCALE_FACTOR_CONDITIONS[
+        'scale_factor_rad_per_pulse'][0])
+    if file_k is not None:
+        for key, value in calibration.values.items():
+            if not isinstance(value, dict):
+                continue
+            for inner, k in value.items():
+                if str(inner).endswith('scale_factor_rad_per_pulse') and _numbers(k) and k > 0 \
+                        and abs(file_k[1] / k - 1.0) > MAX_MODEL_SCALE_FACTOR_PPM * 1e-6:
+                    run = calibration.source_of(key, sch)
+                    other = calibration.source_of(file_k[0], sch)
+                    return ScaleFactorFindings(
+                        f'the file\'s {file_k[0]} = {file_k[1]!r} rad/pulse '
                         f'({other.source if other else "?"}) differs from the K = {k!r} '
-                        f'rad/pulse its {key} was fitted with ({run.source if run else "?"}) by '
-                        f'{abs(file_k[1] / k - 1.0) * 1e6:.0f} ppm (more than 100), and the '
+                        f'rad/pulse its {key} was fitted with ({run.source if run else "?"}) '
+                        f'by {abs(file_k[1] / k - 1.0) * 1e6:.0f} ppm (more than 100), and the '
                         f'model\'s bias belongs to its K: refit it with this K (--calibration '
                         f'FILE) or use another --out. Nothing written.')
-    return ''
+    notes: list[str] = []
+    for condition, (file_keys, power, unit) in SCALE_FACTOR_CONDITIONS.items():
+        held = _file_scale_factor(calibration, file_keys)
+        if held is None:
+            continue
+        file_key, k_file = held
+        k_owner = calibration.source_of(file_key, sch)
+        k_is_new = sch[file_key].method in new and k_owner is calibration.methods.get(
+            sch[file_key].method)
+        for method, latest in calibration.methods.items():
+            for run in (latest, *latest.earlier):
+                stated = run.conditions.get(condition)
+                if not isinstance(stated, (int, float)) or isinstance(stated, bool) \
+                        or not stated > 0 or stated == k_file:
+                    continue
+                k_run = float(stated)
+                shift = abs((k_file / k_run) ** power - 1.0)
+                worst: tuple[float, str] = (0.0, '')
+                for key in sorted(_own_keys(run, latest, method, calibration.values, sch)):
+                    v, u = calibration.values.get(key), calibration.values.get(key + '_std')
+                    if not (sch[key].scales_with_scale_factor and _numbers(v, u)):
+                        continue
+                    assert v is not None and u is not None  # numbers, checked above
+                    moved = shift * abs(v)
+                    sigmas = moved / u if u > 0 else (math.inf if moved > 0 else 0.0)
+                    if sigmas >= worst[0]:
+                        worst = (sigmas, key)
+                if not worst[1]:
+                    continue
+                run_is_new = method in new and run is latest
+                ppm = abs(k_file / k_run - 1.0) * 1e6
+                where = run.conditions.get(SCALE_FACTOR_FROM, 'source not stated')
+                whose = 'this run\'s' if k_is_new and not run_is_new else 'the file\'s'
+                rests = (f'the {method} run {run.source} rests on {condition} = {k_run!r} '
+                         f'{unit} ({where}); {whose} {file_key} = {k_file!r} {unit} '
+                         f'({k_owner.source if k_owner else "?"}) differs from it by '
+                         f'{_figure(ppm)} ppm')
+                if worst[0] > MAX_SCALE_FACTOR_SHIFT:
+                    if k_is_new and not run_is_new:
+                        todo = (f'write this run to another --out, then re-run {method} on '
+                                f'{run.source} with --calibration on that file')
+                    else:
+                        todo = (f're-run {method} with the file\'s scale factor '
+                                '(--calibration FILE), or use another --out')
+                    return ScaleFactorFindings(
+                        f'{rests}, which would move its {worst[1]} by {_figure(worst[0])} '
+                        f'standard uncertainties (more than {MAX_SCALE_FACTOR_SHIFT:g}): not '
+                        f'merging values that rest on another scale factor; {todo}. Nothing '
+                        'written.')
+                if run_is_new or k_is_new or not new:
+                    notes.append(f'scale factor: {rests}, which moves its values by at most '
+                                 f'{worst[0]:.2g} of their standard uncertainty ({worst[1]}); '
+                                 'merged.')
+    return ScaleFactorFindings('', tuple(notes))
+
+
+def _figure(x: float) -> str:
+    """3 significant figures, without an exponent up to 10⁹ (ppm, multiples of σ)."""
+    return f'{x:.3g}' if x < 1000 or not math.isfinite(x) or x >= 1e9 else f'{x:.0f}'
+
+
+def scale_factor_inconsistency(calibration: Calibration,
+                               schema: Mapping[str, HandoffKey] | None = None) -> str:
+    """Why the file is inconsistent ('' if not): :func:`scale_factor_findings`' refusal."""
+    return scale_factor_findings(calibration, schema).problem
 
 
 def _base_key(key: str) -> str:
@@ -940,11 +1070,12 @@ def update_calibration(path: str | Path, calibration: Calibration,
         calibration = calibration.merged_into(load_calibration(target, sch), sch,
                                               replace=replace, report=lines)
     else:
-        problem = scale_factor_inconsistency(calibration, sch)
-        if problem:
-            raise HandoffError(problem)
+        findings = scale_factor_findings(calibration, sch, new_methods=calibration.methods)
+        if findings.problem:
+            raise HandoffError(findings.problem)
         lines += [f'added: {k} = {_with_std(v, calibration.values.get(k + "_std"))}.'
                   for k, v in calibration.values.items() if not k.endswith('_std')]
+        lines += findings.notes
     written = write_calibration(target, calibration, sch)
     if report is not None:
         report.extend(lines)

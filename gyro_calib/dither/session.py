@@ -88,8 +88,12 @@ def _finite_or_none(value: Any) -> Any:
     return value
 
 
-def _scale_factor_from_file(path: Path) -> tuple[float, str]:
-    """K from a hand-off file: its K, else its K̃ (they differ by cos θ, a few 1e-5)."""
+def _scale_factor_from_file(path: Path) -> tuple[float, str, str]:
+    """K from a hand-off file: its K, else its K̃ (they differ by cos θ, a few 1e-5).
+
+    Returns:
+        K (rad/pulse), the phrase for the summary, and where it came from (key and file).
+    """
     from gyro_calib.handoff import load_calibration
 
     cal = load_calibration(path)
@@ -98,18 +102,19 @@ def _scale_factor_from_file(path: Path) -> tuple[float, str]:
                                                  'a few 1e-5, far below what θ_d needs)')):
         got = cal.measured(key)
         if got is not None:
-            return got[0], f'{what} from {path}'
+            return got[0], f'{what} from {path}', f'{key} in {path}'
     raise ConfigError(f'calibration file {path} holds neither scale_factor_rad_per_pulse nor '
                       'k_tilde_rad_per_pulse: give --scale-factor-rad-per-pulse, or calibrate '
                       'the gyro\'s scale factor first (gyro-calib calibrate ... --method rbrlg '
                       '--out FILE).')
 
 
-def dither_settings(options: CalibrationOptions) -> tuple[DitherSettings, str]:
-    """The dither settings with K resolved, and where K came from.
+def dither_settings(options: CalibrationOptions) -> tuple[DitherSettings, str, str]:
+    """The dither settings with K resolved, where K came from, and its origin.
 
-    The settings (node parameters, then the config file's values) with K resolved, and a
-    sentence saying where K came from (or that it is unknown).
+    The settings (node parameters, then the config file's values) with K resolved, a
+    sentence saying where K came from (or that it is unknown), and that origin in a few words
+    for the run's hand-off conditions (``scale_factor_from``; '' without K).
     """
     values = dict(options.settings)
     source = 'ROS parameters'
@@ -120,19 +125,22 @@ def dither_settings(options: CalibrationOptions) -> tuple[DitherSettings, str]:
     settings = dither_settings_from_mapping(values, source=source)
     if options.scale_factor_rad_per_pulse is not None:
         k, where = float(options.scale_factor_rad_per_pulse), 'K given'
+        origin = options.origin_of_given('scale_factor_rad_per_pulse')
     elif settings.has_scale_factor:
         k, where = settings.scale_factor_rad_per_pulse, f'K from {source}'
+        origin = (f'config file {source}' if options.config_file is not None
+                  else 'the node parameters')
     elif options.calibration_file is not None:
-        k, where = _scale_factor_from_file(options.calibration_file)
+        k, where, origin = _scale_factor_from_file(options.calibration_file)
     else:
         return settings, ('no scale factor K given: θ_d is reported in pulses '
                           '(dither_amplitude_pulses) and the dither × rocking coning is not '
-                          'computed; give --scale-factor-rad-per-pulse or --calibration FILE.')
+                          'computed; give --scale-factor-rad-per-pulse or --calibration FILE.'), ''
     if not (0 < k < 1e-2):
         raise ConfigError(f'scale factor K = {k!r} rad/pulse ({where}) is invalid: it must be '
                           'between 0 and 0.01 rad/pulse.')
     settings = dataclasses.replace(settings, scale_factor_rad_per_pulse=k)
-    return settings, f'{where}: K = {k / RAD_PER_ARCSEC:.6g}″/pulse ({k:.6g} rad/pulse).'
+    return settings, f'{where}: K = {k / RAD_PER_ARCSEC:.6g}″/pulse ({k:.6g} rad/pulse).', origin
 
 
 class DitherSession(MethodSession):
@@ -142,7 +150,7 @@ class DitherSession(MethodSession):
 
     def __init__(self, options: CalibrationOptions) -> None:
         """Build the calibrator from the options."""
-        settings, self.scale_factor_note = dither_settings(options)
+        settings, self.scale_factor_note, self.scale_factor_from = dither_settings(options)
         self.calibrator = DitherCalibrator(settings)
         self._pending: list[str] = []
         self._bags: list[str] = []
@@ -242,6 +250,14 @@ class DitherSession(MethodSession):
             return None
         return (min(b.start_ns for b in blocks),
                 max(b.start_ns + int(round(b.span_s * NS_PER_S)) for b in blocks))
+
+    def conditions(self) -> dict[str, Any]:
+        """The scale factor K θ_d and the angles rest on, and where it came from (none: {})."""
+        s = self.calibrator.settings
+        if not s.has_scale_factor:
+            return {}
+        return {'scale_factor_rad_per_pulse': s.scale_factor_rad_per_pulse,
+                'scale_factor_from': self.scale_factor_from}
 
     # -- reports ----------------------------------------------------------------------------
     def summary_rows(self) -> list[tuple[str, str, str, str]]:

@@ -190,6 +190,10 @@ class NoiseCalibrator:
         self._streams[name] = stream
         return stream
 
+    def inputs(self) -> tuple[str, ...]:
+        """The streams that arrived: 'pulses' (/gyro/pulses), 'fog' (/fog/output), 'imu'."""
+        return tuple(self._streams)
+
     @staticmethod
     def _stamps(t_ns: ArrayLike, what: str) -> npt.NDArray[np.int64]:
         t = np.asarray(t_ns)

@@ -21,14 +21,19 @@ _SLOPES = {'Q': '−1 slope', 'N': '−½ slope, σ(1 s)', 'B': 'flat part / 0.6
 
 SINGLE_GYRO_KEYS = (
     HandoffKey('quantization_noise_rad', METHOD, 'quantisation noise Q (Allan variance −1 '
-               'slope term 3Q²/τ²), rad', 'nonnegative'),
+               'slope term 3Q²/τ²), rad', 'nonnegative',
+               scales_with_scale_factor=True),
     HandoffKey('angle_random_walk_rad_per_sqrt_s', METHOD, 'angle random walk N (−½ slope, '
-               'σ(1 s)), rad/√s', 'nonnegative'),
+               'σ(1 s)), rad/√s', 'nonnegative',
+               scales_with_scale_factor=True),
     HandoffKey('bias_instability_rad_s', METHOD, 'bias instability B (flat part / 0.664, joint '
-               'fit), rad/s', 'nonnegative'),
+               'fit), rad/s', 'nonnegative',
+               scales_with_scale_factor=True),
     HandoffKey('rate_random_walk_rad_per_s_sqrt_s', METHOD, 'rate random walk K (+½ slope, '
-               'σ(3 s)), rad/s/√s', 'nonnegative'),
-    HandoffKey('rate_ramp_rad_per_s2', METHOD, 'rate ramp R (+1 slope), rad/s²', 'nonnegative'),
+               'σ(3 s)), rad/s/√s', 'nonnegative',
+               scales_with_scale_factor=True),
+    HandoffKey('rate_ramp_rad_per_s2', METHOD, 'rate ramp R (+1 slope), rad/s²', 'nonnegative',
+               scales_with_scale_factor=True),
 )
 """The five terms of a single-axis gyro."""
 

@@ -127,7 +127,7 @@ def pulse_scale_factor(options: CalibrationOptions) -> ScaleFactor:
         if not _positive(given):
             raise ConfigError(f'scale_factor_rad_per_pulse = {given!r} is invalid: it must be a '
                               'positive number of rad/pulse.')
-        return ScaleFactor(float(given), '--scale-factor-rad-per-pulse')
+        return ScaleFactor(float(given), options.origin_of_given('scale_factor_rad_per_pulse'))
     if options.calibration_file is not None:
         got = _from_handoff(options.calibration_file,
                             ('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'))
@@ -138,7 +138,7 @@ def pulse_scale_factor(options: CalibrationOptions) -> ScaleFactor:
         return ScaleFactor(float(setting), 'the settings')
     stored = options.bench('scale_factor_rad_per_pulse', None)
     if _positive(stored):
-        return ScaleFactor(float(stored), "the bench settings stored in the bag")
+        return ScaleFactor(float(stored), 'the bench settings stored in the bag')
     return ScaleFactor(math.nan)
 
 
@@ -158,7 +158,8 @@ def fog_scale_factor(options: CalibrationOptions) -> ScaleFactor:
         if not _positive(given):
             raise ConfigError(f'scale_factor_counts_per_rad = {given!r} is invalid: it must be '
                               'a positive number of counts/rad.')
-        return ScaleFactor(float(given), '--scale-factor-counts-per-rad')
+        return ScaleFactor(float(given),
+                           options.origin_of_given('fog_scale_factor_counts_per_rad'))
     setting = options.settings.get('fog_scale_factor_counts_per_rad')
     if _positive(setting):
         return ScaleFactor(float(setting), 'fog_scale_factor_counts_per_rad (settings)')
@@ -486,6 +487,19 @@ class NoiseSession(MethodSession):
         """First and last stamp of the segments analysed."""
         view = self.view
         return view.data_span_ns() if view is not None else None
+
+    def conditions(self) -> dict[str, Any]:
+        """The scale factor the terms in rad rest on, and where it came from.
+
+        ``scale_factor_rad_per_pulse`` (/gyro/pulses) or ``fog_scale_factor_counts_per_rad``
+        (/fog/output) with ``scale_factor_from``; nothing for an Imu (no scale factor).
+        """
+        inputs = self.calibrator.inputs()
+        for stream, name, scale in (('pulses', 'scale_factor_rad_per_pulse', self.pulse_scale),
+                                    ('fog', 'fog_scale_factor_counts_per_rad', self.fog_scale)):
+            if stream in inputs and scale.known:
+                return {name: scale.value, 'scale_factor_from': scale.source}
+        return {}
 
     def check_measurable(self) -> None:
         """Raise unless at least one axis gives an Allan deviation in SI units.
