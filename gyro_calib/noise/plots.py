@@ -55,7 +55,8 @@ def _draw_axis(ax: Any, res: AxisResult) -> None:
         for k, symbol in enumerate(SYMBOLS):
             key = units.keys[k]
             est = fit.estimates.get(key)
-            line = np.sqrt(AVAR_FACTOR[k] * fit.theta[k] * grid ** AVAR_EXPONENT[k])
+            line = np.sqrt(AVAR_FACTOR[k] * max(float(fit.theta[k]), 0.0)
+                           * grid ** AVAR_EXPONENT[k])  # θ < 0 is never drawn
             if est is None:
                 if fit.theta[k] > 0:
                     ax.loglog(grid, line, ':', color=_COLOURS[k], lw=0.8, alpha=0.6,
