@@ -93,6 +93,19 @@ def test_two_bags_a_live_stream_and_the_arrays_give_the_same_numbers_bit_for_bit
     assert live.data_span_ns() == offline.sessions['dither'].data_span_ns()
 
 
+def test_the_live_log_says_why_a_running_component_is_unbounded(
+        recordings: list[DitherRecording]) -> None:
+    """Without K the rocking allowance is unbounded: the line says so, never '± inf′'."""
+    live = DitherSession(CalibrationOptions())
+    log = []
+    for batch in _live_batches(recordings[:1], 0.37, table_lag=2):
+        live.feed(batch)
+        log += live.process()
+    running = [line for line in log if 'running component' in line]
+    assert running and not any('inf' in line for line in log)
+    assert '± unbounded, the rocking allowance needs the scale factor K' in running[-1]
+
+
 def test_scale_factor_comes_from_the_flag_the_settings_or_a_handoff_file(tmp_path: Path) -> None:
     handoff = tmp_path / 'gyro.yaml'
     handoff.write_text(yaml.safe_dump({

@@ -788,8 +788,12 @@ class DitherCalibrator:
                     'rad/s')
             c = comps.get(axis)
             if c is not None:
-                head += (f'; running component {_arcmin(c.signed_rad)} ± {_arcmin(c.std_rad)}'
-                         f' (floor {_arcmin(c.floor.component_std_rad)})')
+                why = ('' if math.isfinite(c.std_rad) else
+                       ', the rocking allowance needs the scale factor K'
+                       if math.isinf(c.rocking_bound_rad) else
+                       ', one block gives no scatter yet' if c.n_blocks < 2 else '')
+                head += (f'; running component {_arcmin(c.signed_rad)} {_pm(c.std_rad)}'
+                         f'{why} (floor {_arcmin(c.floor.component_std_rad)})')
             lines.append(head + '.')
         return lines
 
