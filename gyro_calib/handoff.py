@@ -44,7 +44,10 @@ HDEV and TOTDEV per τ with their standard uncertainties and EDF (:data:`DEVIATI
 
 Each value comes from exactly one run, named by the ``keys`` of its method's latest run or of
 one of its ``earlier_runs``: a K̃ of one run beside a θ of another is stated, with each run's
-conditions (latitude and heading a bias rests on, the K a thermal model was fitted with).
+conditions (latitude and heading a bias rests on, the K a thermal model was fitted with; the
+scale factor a dither or noise run turned the output into rad with, and where it came from:
+``scale_factor_rad_per_pulse`` or, for a FOG's output, ``fog_scale_factor_counts_per_rad``,
+with ``scale_factor_from``, absent when the run used none).
 
 The keys each method may write, with units and meaning, are its ``HANDOFF_KEYS`` (listed in
 the README); unknown keys are refused (a misspelt key would otherwise be silently dropped).
@@ -60,7 +63,11 @@ from the run that measured it best (smaller standard uncertainty; the keys that 
 counts, quantities derived in the same fit — go with it), one line per key says what was
 added, replaced, kept or dropped, and what would make the file inconsistent is refused:
 another gyro, a value differing from the file's by more than 5 combined standard
-uncertainties (``replace`` takes the run's values), a model fitted with another scale factor.
+uncertainties (``replace`` takes the run's values), a model fitted with another scale factor,
+a run whose values rest on a scale factor other than the file's by enough to move one of them
+by more than 1/5 of its standard uncertainty — either side new; ``replace`` does not override
+it — while a smaller difference is merged with a line giving the ppm and the shift
+(:func:`scale_factor_findings`).
 """
 
 from __future__ import annotations
@@ -518,6 +525,9 @@ MAX_SCALE_FACTOR_SHIFT = 0.2
 """A run's values may rest on a scale factor other than the file's only while the difference
 moves none of them by more than this fraction of its standard uncertainty."""
 
+SCALE_FACTOR_NOTE = 'scale factor: '
+"""How a merge-report line about a run resting on another scale factor begins."""
+
 MAX_MODEL_SCALE_FACTOR_PPM = 100.0
 """A model fitted with a scale factor (thermal) may differ from the file's by this much, ppm."""
 
@@ -641,7 +651,7 @@ def scale_factor_findings(calibration: Calibration,
                         f'merging values that rest on another scale factor; {todo}. Nothing '
                         'written.')
                 if run_is_new or k_is_new or not new:
-                    notes.append(f'scale factor: {rests}, which moves its values by at most '
+                    notes.append(f'{SCALE_FACTOR_NOTE}{rests}, which moves its values by at most '
                                  f'{worst[0]:.2g} of their standard uncertainty ({worst[1]}); '
                                  'merged.')
     return ScaleFactorFindings('', tuple(notes))

@@ -247,3 +247,13 @@ def test_a_file_written_before_runs_stated_their_k_still_loads_and_merges(
     update_calibration(path, _k_tilde(K_DITHER_BENCH * 0.8), report=report)
     assert not any(line.startswith('scale factor: ') for line in report)
     assert load_calibration(path).get('dither_amplitude_rad') == THETA_D_RAD
+
+
+def test_gyro_calib_noise_says_the_scale_factor_line_with_the_handoff_it_wrote(
+        k_tilde_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``gyro-calib noise --out`` (and the noise node) print no merge report but this line."""
+    code = gyro_calib_main(['noise', str(BAGS / 'noise_rlg_static'), '--out', str(k_tilde_file)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert ('hand-off (scale factor: the noise run ' in out and '7.64 ppm' in out
+            and f') written: {k_tilde_file}' in out)

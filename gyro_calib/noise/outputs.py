@@ -92,7 +92,7 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         HandoffError: the hand-off file there is invalid or of another gyro.
         OSError: a file cannot be written (the ones before it are in place).
     """
-    from gyro_calib.handoff import load_calibration, update_calibration
+    from gyro_calib.handoff import SCALE_FACTOR_NOTE, load_calibration, update_calibration
     from gyro_calib.outputs import temporary_beside, write_text_atomically
     from gyro_calib.registry import handoff_schema
 
@@ -131,8 +131,10 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             figure_tmp = None
             written.append(('figure', targets.plot))
         if record is not None and targets.handoff is not None:
-            written.append(('hand-off', update_calibration(targets.handoff, record,
-                                                           handoff_schema())))
+            report: list[str] = []
+            path = update_calibration(targets.handoff, record, handoff_schema(), report=report)
+            notes = [line for line in report if line.startswith(SCALE_FACTOR_NOTE)]
+            written.append(('hand-off' + (f' ({"; ".join(notes)})' if notes else ''), path))
     finally:
         if figure_tmp is not None:
             figure_tmp.unlink(missing_ok=True)
