@@ -65,8 +65,9 @@ added, replaced, kept or dropped, and what would make the file inconsistent is r
 another gyro, a value differing from the file's by more than 5 combined standard
 uncertainties (``replace`` takes the run's values), a model fitted with another scale factor,
 a run whose values rest on a scale factor other than the file's by enough to move one of them
-by more than 1/5 of its standard uncertainty — either side new; ``replace`` does not override
-it — while a smaller difference is merged with a line giving the ppm and the shift
+by more than 1/5 of its standard uncertainty, either side new (``replace`` with a new scale
+factor drops the values of the run resting on the old one, each with a line, and lists them as
+missing), while a smaller difference is merged with a line giving the ppm and the shift
 (:func:`scale_factor_findings`).
 """
 
@@ -350,7 +351,9 @@ class Calibration:
             HandoffError: the file is of another gyro; a value differs from the file's by more
                 than :data:`MAX_DISAGREEMENT_SIGMA` combined standard uncertainties (without
                 ``replace``); the result would hold a model fitted with another scale factor
-                than the file's.
+                than the file's, or a run whose values rest on another scale factor than the
+                file's by more than :data:`MAX_SCALE_FACTOR_SHIFT` of a standard uncertainty
+                (with ``replace``, a new scale factor drops such a run of the file instead).
         """
         lines = report if report is not None else []
         if self.gyro_id and older.gyro_id and self.gyro_id != older.gyro_id:
@@ -366,18 +369,49 @@ class Calibration:
         for method, prov in self.methods.items():
             methods[method] = _merge_method(method, prov, self.values, older, values, schema,
                                             replace, lines)
-        others = sorted({schema[_base_key(k)].method for k in older.values
-                         if _base_key(k) in schema} - set(self.methods))
-        if others:
-            n = len({_base_key(k) for k in older.values
-                     if schema.get(_base_key(k), HandoffKey(k, '', '')).method in others})
-            lines.append(f'unchanged: {n} key(s) of method(s) {", ".join(others)}.')
         merged = Calibration(values, methods, self.gyro_id or older.gyro_id)
         findings = scale_factor_findings(merged, schema, new_methods=self.methods)
+        while findings.problem and replace and findings.stale is not None:
+            merged = _without_run(merged, *findings.stale, schema, lines)
+            findings = scale_factor_findings(merged, schema, new_methods=self.methods)
         if findings.problem:
             raise HandoffError(findings.problem)
+        others = sorted({schema[_base_key(k)].method for k in merged.values
+                         if _base_key(k) in schema} - set(self.methods))
+        if others:
+            n = len({_base_key(k) for k in merged.values
+                     if schema.get(_base_key(k), HandoffKey(k, '', '')).method in others})
+            lines.append(f'unchanged: {n} key(s) of method(s) {", ".join(others)}.')
         lines.extend(findings.notes)
         return merged
+
+
+def _without_run(calibration: Calibration, method: str, run: Provenance, why: str,
+                 schema: Mapping[str, HandoffKey], lines: list[str]) -> Calibration:
+    """``calibration`` without the values of ``run`` (one of ``method``'s), each said in a line.
+
+    Its values go together (they rest on one scale factor, ``why``); the keys become missing
+    with that reason, and the run stays named (no keys) when it is the method's latest.
+    """
+    latest = calibration.methods[method]
+    dropped = _ordered(_own_keys(run, latest, method, calibration.values, schema), schema)
+    values = dict(calibration.values)
+    reason = (f'dropped (replace asked): the {method} run {run.source} {why}; re-run {method} '
+              'with --calibration FILE.')
+    lines.append(f'{reason[:-1]}: its {len(dropped)} value(s) go.')
+    for key in dropped:
+        lines.append(f'dropped: {key} = {_with_std(values.get(key), values.get(key + "_std"))} '
+                     f'from {run.source} (rests on another scale factor).')
+        values.pop(key, None)
+        values.pop(key + '_std', None)
+    missing = {**latest.missing, **{k: reason for k in dropped}}
+    if run is latest:
+        latest = dataclasses.replace(latest, keys=(), missing=missing)
+    else:
+        latest = dataclasses.replace(latest, missing=missing,
+                                     earlier=tuple(e for e in latest.earlier if e is not run))
+    return dataclasses.replace(calibration, values=values,
+                               methods={**calibration.methods, method: latest})
 
 
 def _run_keys(prov: Provenance, method: str, values: Mapping[str, Any],
@@ -538,6 +572,9 @@ class ScaleFactorFindings:
 
     problem: str = ''
     notes: tuple[str, ...] = ()
+    stale: tuple[str, Provenance, str] | None = None
+    """A refusal because this merge brings a new scale factor: (method, the file's run that
+    rests on the old one, why) — ``replace`` drops that run's values instead."""
 
 
 def _file_scale_factor(calibration: Calibration, keys: tuple[str, ...],
@@ -639,17 +676,24 @@ def scale_factor_findings(calibration: Calibration,
                          f'({k_owner.source if k_owner else "?"}) differs from it by '
                          f'{_figure(ppm)} ppm')
                 if worst[0] > MAX_SCALE_FACTOR_SHIFT:
+                    moves = (f'{rests}, which would move its {worst[1]} by '
+                             f'{_figure(worst[0])} standard uncertainties (more than '
+                             f'{MAX_SCALE_FACTOR_SHIFT:g})')
                     if k_is_new and not run_is_new:
-                        todo = (f'write this run to another --out, then re-run {method} on '
-                                f'{run.source} with --calibration on that file')
-                    else:
-                        todo = (f're-run {method} with the file\'s scale factor '
-                                '(--calibration FILE), or use another --out')
+                        return ScaleFactorFindings(
+                            f'{moves}: not merging values that rest on another scale factor; '
+                            f'write this run to another --out, then re-run {method} on '
+                            f'{run.source} with --calibration on that file, or give --replace '
+                            f'to drop the {method} run\'s values (then re-run {method} with '
+                            '--calibration FILE). Nothing written.',
+                            stale=(method, run, f'rested on {condition} = {k_run!r} {unit} '
+                                   f'({where}), {_figure(ppm)} ppm from the file\'s {file_key} '
+                                   f'= {k_file!r} {unit} ({k_owner.source if k_owner else "?"})'))
                     return ScaleFactorFindings(
-                        f'{rests}, which would move its {worst[1]} by {_figure(worst[0])} '
-                        f'standard uncertainties (more than {MAX_SCALE_FACTOR_SHIFT:g}): not '
-                        f'merging values that rest on another scale factor; {todo}. Nothing '
-                        'written.')
+                        f'{moves}: not merging values that rest on another scale factor; '
+                        f're-run {method} with the file\'s scale factor (--calibration FILE), '
+                        'or use another --out (--replace does not take values resting on '
+                        'another scale factor). Nothing written.')
                 if run_is_new or k_is_new or not new:
                     notes.append(f'{SCALE_FACTOR_NOTE}{rests}, which moves its values by at most '
                                  f'{worst[0]:.2g} of their standard uncertainty ({worst[1]}); '

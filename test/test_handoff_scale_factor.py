@@ -125,6 +125,39 @@ def test_a_new_k_beside_a_dither_run_resting_on_another_is_refused(
     assert "this run's k_tilde_rad_per_pulse = 4.0859" in err
     assert f'the dither run {DITHER[0]}, {DITHER[1]} rests on' in err
     assert 'write this run to another --out, then re-run dither' in err
+    assert 'or give --replace to drop the dither run\'s values' in err
+
+
+def test_replace_takes_the_new_k_and_drops_the_values_resting_on_the_old_one_with_lines(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / 'h.yaml'
+    assert _cli(capsys, *DITHER, '--scale-factor-rad-per-pulse', repr(K_DITHER_BENCH),
+                '--out', str(path))[0] == 0
+    dither_keys = [k for k in load_calibration(path).values if not k.endswith('_std')]
+    code, out, _ = _cli(capsys, str(BAGS / 'k_tilde_bench'), '--out', str(path), '--replace')
+    assert code == 0
+    assert ('dropped (replace asked): the dither run '
+            f'{DITHER[0]}, {DITHER[1]} rested on scale_factor_rad_per_pulse') in out
+    for key in dither_keys:
+        assert f'dropped: {key} = ' in out
+    written = load_calibration(path)
+    assert not any(k in written.values for k in dither_keys)
+    assert set(dither_keys) <= set(written.missing) and not written.complete
+    assert 'rested on scale_factor_rad_per_pulse' in written.missing['dither_amplitude_rad']
+    # the way back: dither re-run with the file's K
+    assert _cli(capsys, *DITHER, '--calibration', str(path), '--out', str(path))[0] == 0
+    again = load_calibration(path)
+    assert set(dither_keys) <= set(again.values) and again.complete
+
+
+def test_replace_does_not_take_a_run_resting_on_another_k_than_the_files(
+        k_tilde_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    before = k_tilde_file.read_bytes()
+    err = _refused_in_one_line(*_cli(capsys, *DITHER, '--scale-factor-rad-per-pulse',
+                                     repr(K_DITHER_BENCH), '--out', str(k_tilde_file),
+                                     '--replace'))
+    assert '--replace does not take values resting on another scale factor' in err
+    assert k_tilde_file.read_bytes() == before
 
 
 def test_a_noise_run_with_another_k_is_refused_and_one_within_tolerance_merged(
