@@ -133,7 +133,8 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            handoff_lead='thermal_model'),
     Method('noise', 'noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml '
            '(docs/methods.md §E)',
-           {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE},
+           {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE,
+            topics.RATE_TABLE_JOINT_STATES: JOINT_STATE},
            (), 'gyro_calib.noise.session:NoiseSession', 'gyro_calib.noise.keys', auto=False,
            any_topic=IMU, node='noise_node',
            settings='gyro_calib.noise.settings:NoiseSettings',

@@ -35,18 +35,19 @@ points fitted − terms fitted. Memory is bounded independently of the record le
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from gyro_calib.errors import StreamError
 from gyro_calib.estimate import Estimate, Rejection
-from gyro_calib.noise.channel import ChannelAccumulator
+from gyro_calib.noise.channel import ChannelAccumulator, format_stamp
 from gyro_calib.noise.edf import adev_std, alpha_from_slope, edf_totdev
 from gyro_calib.noise.fit import NoiseFit, fit_noise_terms
 from gyro_calib.noise.ordering import OrderingStats, ReorderBuffer
 from gyro_calib.noise.settings import NoiseSettings
+from gyro_calib.noise.table import RATE_TABLE_JOINT_STATES, TableMotion
 from gyro_calib.noise.terms import SYMBOLS, TermUnits, units_for_axis
 from gyro_calib.units import NS_PER_S
 
@@ -145,6 +146,22 @@ class _Stream:
     channels: list[ChannelAccumulator]
     pending_t: list[int]
     pending_v: list[tuple[float, ...]]
+    held_t: list[npt.NDArray[np.int64]] = field(default_factory=list)
+    """Final samples waiting for the table state at their stamp (motion gate)."""
+    held_v: list[FloatArray] = field(default_factory=list)
+    moving_run: list[int] | None = None
+    """[first stamp, last stamp, samples] of the samples left out since the table began
+    to move, while it moves."""
+    left_out: int = 0
+    """Samples left out because the rate table moved."""
+    before_table: int = 0
+    """Samples analysed before any table state had arrived."""
+    rest_run: int = 0
+    """Samples analysed since the table last moved."""
+    longest_rest: int = 0
+    """The most samples analysed between two motions of the table."""
+    final: list[int] = field(default_factory=lambda: [0, 0, 0])
+    """[first stamp, last stamp, samples] of the final (ordered) samples, for the mean period."""
 
 
 class NoiseCalibrator:
@@ -162,6 +179,12 @@ class NoiseCalibrator:
         self._streams: dict[str, _Stream] = {}
         self._n_notices: dict[str, int] = {}
         self._n_rejections_reported = 0
+        self.table = TableMotion(self.settings.table_rest_rate_rad_s,
+                                 self.settings.table_rest_angle_rad)
+        """The rate table's motion (an optional input: without table states nothing is
+        gated; :mod:`gyro_calib.noise.table`)."""
+        self._motion_rejections: list[Rejection] = []
+        self._n_motion_reported = 0
         self._flushed = False
         self._cache: dict[str, tuple[tuple[int, int, bool], AxisResult]] = {}
 
@@ -218,16 +241,77 @@ class NoiseCalibrator:
             stream.pending_v.clear()
             self._release(stream, stream.reorder.extend(t, v))
 
-    @staticmethod
-    def _release(stream: _Stream, batches: list[Any]) -> None:
+    def _release(self, stream: _Stream, batches: list[Any]) -> None:
         for batch in batches:
             if batch is None:
+                self._gate(stream, final=True)  # the old timeline ends: its held samples too
+                self._close_motion(stream)
                 for ch in stream.channels:
                     ch.restart()
                 continue
             t, v = batch
-            for k, ch in enumerate(stream.channels):
-                ch.feed(t, v[:, k])
+            if len(t):
+                if not stream.final[2]:
+                    stream.final[0] = int(t[0])
+                stream.final[1] = int(t[-1])
+                stream.final[2] += len(t)
+            if not self.table.seen:  # no table (yet): every sample analysed, as without one
+                stream.before_table += len(t)
+                self._feed_channels(stream, t, v)
+                continue
+            stream.held_t.append(t)
+            stream.held_v.append(v)
+            self._gate(stream, final=False)
+
+    @staticmethod
+    def _feed_channels(stream: _Stream, t: npt.NDArray[np.int64], v: FloatArray) -> None:
+        stream.rest_run += len(t)
+        stream.longest_rest = max(stream.longest_rest, stream.rest_run)
+        for k, ch in enumerate(stream.channels):
+            ch.feed(t, v[:, k])
+
+    def _gate(self, stream: _Stream, *, final: bool) -> None:
+        """Feed the held samples the table states decide; leave out those while it moved."""
+        if not stream.held_t:
+            return
+        t = np.concatenate(stream.held_t) if len(stream.held_t) > 1 else stream.held_t[0]
+        v = np.concatenate(stream.held_v) if len(stream.held_v) > 1 else stream.held_v[0]
+        n, moving = self.table.decide(t, final=final)
+        stream.held_t, stream.held_v = ([t[n:]], [v[n:]]) if n < len(t) else ([], [])
+        if n == 0:
+            return
+        edges = np.flatnonzero(np.diff(moving.astype(np.int8))) + 1
+        bounds = [0, *edges.tolist(), n]
+        for a, b in zip(bounds[:-1], bounds[1:]):
+            if not moving[a]:
+                self._close_motion(stream)
+                self._feed_channels(stream, t[a:b], v[a:b])
+                continue
+            stream.left_out += b - a
+            stream.rest_run = 0
+            if stream.moving_run is None:
+                for ch in stream.channels:
+                    ch.cut()
+                stream.moving_run = [int(t[a]), int(t[b - 1]), b - a]
+            else:
+                stream.moving_run[1] = int(t[b - 1])
+                stream.moving_run[2] += b - a
+
+    def _close_motion(self, stream: _Stream) -> None:
+        """The table came to rest (or the record ended): say what was left out."""
+        run = stream.moving_run
+        if run is None:
+            return
+        stream.moving_run = None
+        first, last, n = run
+        rate = self.table.span_max_rate(first, last)
+        s = self.settings
+        self._motion_rejections.append(Rejection(first, (
+            f'{stream.topic}: the {n} sample(s) from {format_stamp(first)} to '
+            f'{format_stamp(last)} are left out: the rate table was turning '
+            f'({RATE_TABLE_JOINT_STATES} up to {rate:.4g} rad/s = {math.degrees(rate):.4g} °/s; '
+            f'at rest means |velocity| ≤ {s.table_rest_rate_rad_s:g} rad/s and the angle '
+            f'within {s.table_rest_angle_rad:g} rad).')))
 
     def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
         """RLG samples (bag replay): stamps (int ns) and cumulative pulse counts."""
@@ -271,6 +355,23 @@ class NoiseCalibrator:
                               f'({len(t)}, 3); got {g.shape} and {a.shape}.')
         self._extend('imu', t, np.hstack((g, a)))
 
+    def extend_table(self, t_ns: ArrayLike, angle_rad: ArrayLike, rate_rad_s: ArrayLike) -> None:
+        """Rate-table states (``/rate_table/joint_states``), NaN where a message gave none.
+
+        Stamps (int ns), unwrapped encoder angle (rad) and rate (rad/s). The gyro samples
+        held for want of a table state at their stamp are decided now
+        (:mod:`gyro_calib.noise.table`).
+        """
+        t = self._stamps(t_ns, RATE_TABLE_JOINT_STATES)
+        a = np.asarray(angle_rad, dtype=np.float64)
+        r = np.asarray(rate_rad_s, dtype=np.float64)
+        if a.shape != t.shape or r.shape != t.shape:
+            raise StreamError(f'{RATE_TABLE_JOINT_STATES}: {len(t)} stamps but angles of shape '
+                              f'{a.shape} and rates of shape {r.shape}.')
+        self.table.extend(t, a, r)
+        for stream in self._streams.values():
+            self._gate(stream, final=False)
+
     def add_imu(self, t_ns: int, gyro_xyz: ArrayLike, accel_xyz: ArrayLike) -> None:
         """One Imu sample (live node): angular velocity (3, rad/s), acceleration (3, m/s²)."""
         s = self._stream('imu')
@@ -289,6 +390,8 @@ class NoiseCalibrator:
             self._drain(stream)
             if flush:
                 self._release(stream, stream.reorder.flush())
+                self._gate(stream, final=True)  # no table state follows: the last one holds
+                self._close_motion(stream)
                 for ch in stream.channels:
                     ch.close()
         lines: list[str] = []
@@ -297,9 +400,11 @@ class NoiseCalibrator:
                 seen = self._n_notices.get(ch.name, 0)
                 lines.extend(ch.notices[seen:])
                 self._n_notices[ch.name] = len(ch.notices)
-        rejections = self.rejections
+        rejections = self._segment_rejections()
         lines.extend(r.reason for r in rejections[self._n_rejections_reported:])
         self._n_rejections_reported = len(rejections)
+        lines.extend(r.reason for r in self._motion_rejections[self._n_motion_reported:])
+        self._n_motion_reported = len(self._motion_rejections)
         if flush and not self._flushed:
             self._flushed = True
             for stream in self._streams.values():
@@ -307,6 +412,9 @@ class NoiseCalibrator:
                 if summary:
                     lines.append(f'{stream.topic}: {summary}.')
                 lines.extend(self._channel_summaries(stream))
+            motion = self.table_line()
+            if motion:
+                lines.append(motion)
         return lines
 
     def _channel_summaries(self, stream: _Stream) -> list[str]:
@@ -348,10 +456,84 @@ class NoiseCalibrator:
         return out
 
     # -- results ----------------------------------------------------------------------------
+    def _segment_rejections(self) -> list[Rejection]:
+        return [r for s in self._streams.values() for c in s.channels for r in c.rejections]
+
     @property
     def rejections(self) -> list[Rejection]:
-        """Segments left out, each with its reason."""
-        return [r for s in self._streams.values() for c in s.channels for r in c.rejections]
+        """Segments left out, then the spans left out while the table moved, with reasons."""
+        return self._segment_rejections() + list(self._motion_rejections)
+
+    def table_line(self) -> str:
+        """One line on the rate table's motion ('' when no table state arrived).
+
+        Whether the table moved during the record; if it did, for how long, its largest
+        rate, and how many samples of each input were left out.
+        """
+        tm, s = self.table, self.settings
+        if not tm.seen:
+            return ''
+        rest = (f'at rest = |velocity| ≤ {s.table_rest_rate_rad_s:g} rad/s and the angle '
+                f'within {s.table_rest_angle_rad:g} rad')
+        if not tm.moved:
+            return (f'{RATE_TABLE_JOINT_STATES}: the rate table stayed at rest throughout its '
+                    f'{tm.record_s():.6g} s record ({tm.states} states; {rest}): every '
+                    'sample analysed.')
+        parts = []
+        for st in self._streams.values():
+            received = st.reorder.stats.received
+            pct = 100.0 * st.left_out / received if received else 0.0
+            early = (f', {st.before_table} analysed before the first table state'
+                     if st.before_table else '')
+            parts.append(f'{st.left_out} of {received} samples of {st.topic} '
+                         f'({pct:.3g} %){early}')
+        rate = tm.max_rate_rad_s
+        return (f'{RATE_TABLE_JOINT_STATES}: the rate table moved during {tm.moving_s():.6g} s '
+                f'of its {tm.record_s():.6g} s record ({len(tm.spans)} span(s), largest rate '
+                f'{rate:.4g} rad/s = {math.degrees(rate):.4g} °/s; {rest}): '
+                f'{", ".join(parts) or "no gyro sample"} left out; '
+                + ('each span at rest is analysed as a segment of a static record.'
+                   if any(st.left_out < st.reorder.stats.received
+                          for st in self._streams.values()) else 'no sample at rest remains.'))
+
+    def table_record(self) -> dict[str, Any] | None:
+        """The table's motion for ``--json`` (``table_motion``), or None without a table."""
+        tm = self.table
+        if not tm.seen:
+            return None
+        return {
+            'topic': RATE_TABLE_JOINT_STATES, 'moved': tm.moved, 'states': tm.states,
+            'moving_states': tm.moving_states, 'record_s': tm.record_s(),
+            'moving_s': tm.moving_s(), 'spans': len(tm.spans),
+            'max_rate_rad_s': tm.max_rate_rad_s,
+            'samples_left_out': {st.topic: st.left_out for st in self._streams.values()},
+            'samples_received': {st.topic: st.reorder.stats.received
+                                 for st in self._streams.values()},
+            'rest_rate_rad_s': self.settings.table_rest_rate_rad_s,
+            'rest_angle_rad': self.settings.table_rest_angle_rad,
+            'line': self.table_line(),
+        }
+
+    def _motion_reason(self, stream: _Stream) -> str:
+        """Why a record with the table turning gives no term, and what record would."""
+        if not stream.left_out:
+            return ''
+        s = self.settings
+        # the fit needs 8 τ points (octaves m = 1 … 128) with fit_min_clusters clusters each
+        # and within max_tau_fraction of the span: the least record for the white-noise term
+        need = int(math.ceil(max(s.fit_min_clusters, 1.0 / s.max_tau_fraction) * 128)) + 1
+        first, last, n = stream.final
+        period = (last - first) / (n - 1) / NS_PER_S if n > 1 and last > first else math.nan
+        secs = f' ({need * period:.3g} s)' if math.isfinite(period) else ''
+        return (f' The rate table turned during {self.table.moving_s():.6g} s of its '
+                f'{self.table.record_s():.6g} s record (up to {self.table.max_rate_rad_s:.4g} '
+                f'rad/s = {math.degrees(self.table.max_rate_rad_s):.4g} °/s): '
+                f'{stream.left_out} samples of {stream.topic} were left out and the longest '
+                f'span at rest holds {stream.longest_rest}. Noise terms describe a static '
+                f'sensor: record it with the table at rest, {need} samples{secs} or more in '
+                f'one span for the white-noise term (8 octaves of τ with '
+                f'{s.fit_min_clusters:g} clusters each), hours for bias instability and the '
+                'random walks.')
 
     def ordering_stats(self) -> dict[str, OrderingStats]:
         """Per input topic: samples received, re-sorted, duplicate, late (dropped), restarts."""
@@ -380,8 +562,13 @@ class NoiseCalibrator:
         return min(a for a, _ in spans), max(b for _, b in spans)
 
     def sample_storage_bytes(self) -> int:
-        """Bytes of sample storage held now (bounded in 'partial' overlap mode)."""
-        return sum(c.storage_bytes() for s in self._streams.values() for c in s.channels)
+        """Bytes of sample storage held now (bounded in 'partial' overlap mode).
+
+        The samples held for the table state at their stamp included (a table stream that
+        lags the gyro by Δt holds Δt of samples).
+        """
+        held = sum(a.nbytes for s in self._streams.values() for a in (*s.held_t, *s.held_v))
+        return held + sum(c.storage_bytes() for s in self._streams.values() for c in s.channels)
 
     def axes(self) -> list[str]:
         """Axis names of the streams that arrived."""
@@ -432,6 +619,16 @@ class NoiseCalibrator:
         def none(reason: str) -> AxisResult:
             return AxisResult(ch.name, units, None, None, None, None, reason)
 
+        motion = self._motion_reason(stream)
+        if st.samples == 0 and motion:
+            return none(f'no sample of {ch.name} on {stream.topic} was taken with the rate '
+                        f'table at rest.{motion}')
+        if motion and st.non_finite < st.samples:
+            rest_curve = ch.curve()
+            if rest_curve is None or int(np.count_nonzero(rest_curve.avar > 0)) < 2:
+                return none(f'the spans of {ch.name} on {stream.topic} with the rate table at '
+                            f'rest are too short for any noise term ({st.samples} sample(s) '
+                            f'at rest).{motion}')
         if st.samples == 0:
             return none(f'no samples have arrived on {stream.topic} yet.')
         if st.non_finite == st.samples:
@@ -462,7 +659,7 @@ class NoiseCalibrator:
                         f'{s.min_segment_samples}; the Allan '
                         f'variance needs averaging times up to a fraction '
                         f'{s.max_tau_fraction:g} of a segment, so at least {need} samples in '
-                        f'one segment.')
+                        f'one segment.{motion}')
         context = 'pulses' if stream.topic == GYRO_PULSES else ''
         fit = fit_noise_terms(curve, units, min_significance=s.min_term_significance,
                               edge_significance=s.edge_term_significance,
@@ -523,7 +720,9 @@ class NoiseCalibrator:
         gyro, ``gyro_x`` … ``accel_z`` for an Imu; adev in rad/s (gyro) or m/s² (accel);
         only resolved terms under "results". Axes with no Allan deviation in SI units
         (no samples, no scale factor, constant, too short) are absent; :meth:`missing`
-        says why.
+        says why. With rate-table states in the record, ``"table_motion"``: whether the
+        table moved, for how long, its largest rate and the samples left out
+        (:meth:`table_record`).
         """
         axes: dict[str, Any] = {}
         for axis, res in self.axis_results().items():
@@ -550,7 +749,11 @@ class NoiseCalibrator:
             if res.fit is not None:
                 record['fit'] = res.fit.json_record(c)
             axes[axis] = record
-        return {'axes': axes}
+        out: dict[str, Any] = {'axes': axes}
+        table = self.table_record()
+        if table is not None:
+            out['table_motion'] = table
+        return out
 
     def summary_table(self) -> str:
         """The noise terms as a table, in SI and the units people quote (°/√h, °/h, µg)."""

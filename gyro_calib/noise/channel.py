@@ -256,6 +256,15 @@ class ChannelAccumulator:
                                 f'{format_stamp(self._live.last_ns)}; the segment ends there.')
         self._close_live()
 
+    def cut(self) -> None:
+        """Samples were left out upstream (the rate table moved): end the live segment.
+
+        The next sample starts a new segment, as after a gap; no gap is counted (the
+        motion gate reports what it left out).
+        """
+        self._flush_learning()
+        self._close_live()
+
     def close(self) -> None:
         """End of the record: learn from what there is and end the live segment."""
         self._flush_learning()

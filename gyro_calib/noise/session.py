@@ -63,6 +63,9 @@ GYRO_PULSES = topics.GYRO_PULSES
 FOG_OUTPUT = topics.FOG_OUTPUT
 GYRO_TOPICS = {GYRO_PULSES: JOINT_STATE, FOG_OUTPUT: JOINT_STATE}
 """The single-axis gyro streams (topic → type)."""
+TABLE_TOPICS = {topics.RATE_TABLE_JOINT_STATES: JOINT_STATE}
+"""Optional input: the rate table's joint states. When they are recorded, the samples taken
+while the table moved are left out (:mod:`gyro_calib.noise.table`)."""
 NODE_NAME = 'noise_node'
 """The node's name (ROS 2 parameter files for ``--config`` use it, or ``/**``)."""
 FIGURE_NAME = 'noise_adev.png'
@@ -354,14 +357,19 @@ class NoiseSession(MethodSession):
 
     # -- input ------------------------------------------------------------------------------
     def topics(self) -> dict[str, str]:
-        """The input topic (an Imu), or both single-axis gyro streams when none was named."""
+        """The input topic, and the rate table's joint states (optional).
+
+        The input topic (an Imu), or both single-axis gyro streams when none was named;
+        and ``/rate_table/joint_states``, read when recorded to leave out what the sensor
+        gave while the table moved.
+        """
         if self.kind == 'imu':
             assert self.topic is not None
-            return {self.topic: IMU}
+            return {self.topic: IMU, **TABLE_TOPICS}
         if self.kind == 'gyro':
-            return dict(GYRO_TOPICS)
+            return {**GYRO_TOPICS, **TABLE_TOPICS}
         assert self.topic is not None
-        return {self.topic: JOINT_STATE}
+        return {self.topic: JOINT_STATE, **TABLE_TOPICS}
 
     def feed(self, batch: SampleBatch) -> None:
         """The input stream's samples of one batch.
@@ -370,6 +378,9 @@ class NoiseSession(MethodSession):
             ConfigError: both /gyro/pulses and /fog/output arrived and no topic was chosen.
         """
         cal = self.calibrator
+        table = batch.joint_state(topics.RATE_TABLE_JOINT_STATES)
+        if table is not None and self.topic != topics.RATE_TABLE_JOINT_STATES:
+            cal.extend_table(*table)  # first: it decides the gyro samples of the same batch
         try:
             if self.kind in ('pulses', 'gyro'):
                 pulses = batch.joint_state(GYRO_PULSES)
@@ -405,7 +416,9 @@ class NoiseSession(MethodSession):
 
     # -- snapshots --------------------------------------------------------------------------
     def _data_key(self) -> tuple[tuple[str, int], ...]:
-        return tuple((t, s.received) for t, s in self.calibrator.ordering_stats().items())
+        table = self.calibrator.table
+        return (*((t, s.received) for t, s in self.calibrator.ordering_stats().items()),
+                (topics.RATE_TABLE_JOINT_STATES, table.states + table.unusable + table.behind))
 
     def refresh(self) -> bool:
         """Take a snapshot of the samples so far (flushed copy, fitted); True when new.
@@ -622,6 +635,9 @@ class NoiseSession(MethodSession):
             lines.append(f'no samples analysed yet on {self.topic or " or ".join(GYRO_TOPICS)}.')
             return lines
         lines += [c.line() for c in view.stream_counts()]
+        motion = view.table_line()
+        if motion:
+            lines.append(motion)
         scaled = []
         for axis, res in view.axis_results().items():
             if res.fit is None:

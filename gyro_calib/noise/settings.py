@@ -86,6 +86,15 @@ class NoiseSettings:
     from fit_min_tau_s on."""
     total_deviation_points: int = 4096
     """Phase points kept per segment (decimated) for the total deviation at long τ; 0 = off."""
+    table_rest_rate_rad_s: float = 1.0e-2
+    """With /rate_table/joint_states in the record: a table state whose |velocity| exceeds
+    this is moving, rad/s (above the one-count flicker of a rate differentiated from the
+    encoder, 6e-3 rad/s for a 2^20-count encoder read at 1 kHz); the gyro samples while the
+    table moves are left out."""
+    table_rest_angle_rad: float = 2.0e-5
+    """A table state whose encoder angle lies this far from where the table came to rest is
+    moving (a creep too slow for the rate test), rad (more than three counts of a
+    2^20-count encoder, 27 of the 2^23-count one of our benches)."""
 
     def __post_init__(self) -> None:
         """Validate every field once; raise ConfigError naming the field."""
@@ -144,6 +153,10 @@ class NoiseSettings:
              'greater than fit_min_tau_s'),
             ('total_deviation_points', self.total_deviation_points == 0
              or self.total_deviation_points >= 64, '0 (off) or at least 64'),
+            ('table_rest_rate_rad_s', math.isfinite(self.table_rest_rate_rad_s)
+             and self.table_rest_rate_rad_s > 0, 'positive'),
+            ('table_rest_angle_rad', math.isfinite(self.table_rest_angle_rad)
+             and self.table_rest_angle_rad > 0, 'positive'),
         ]
         check_ranges(self, checks)  # one range check for every setting
 
