@@ -1,0 +1,277 @@
+"""Noise characterisation notices a rate table that turns during the record.
+
+IEEE Std 952 noise terms describe a static sensor. When the record also holds the rate
+table's joint states (``/rate_table/joint_states``), the samples taken while the table
+moved are left out and each span at rest is analysed as its own segment (as a gap splits
+a record); the summary, ``--json`` (``table_motion``) and the rejections say how much of the
+record the table moved and its largest rate. A table at rest throughout changes nothing.
+
+The gyro and the table are generated here from the physics: the table's angle is the
+integral of a trapezoidal rate profile, read through a quantised encoder; the RLG's pulse
+count is ⌊(table angle + Earth-rate angle + angle random walk)/K⌋. ``GYRO_CALIB_STRESS=1``
+raises the property test's example count.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import BagMessage, ContractMessages, write_bag
+from gyro_calib.cli import main
+from gyro_calib.noise.calibrator import NoiseCalibrator
+from gyro_calib.noise.settings import NoiseSettings
+from gyro_calib.session import CalibrationOptions
+
+STRESS = os.environ.get('GYRO_CALIB_STRESS', '') not in ('', '0')
+BAGS = Path(__file__).resolve().parents[1] / 'bags'
+K = 4.0e-6                      # rad/pulse
+GYRO_HZ, TABLE_HZ = 200, 50     # gyro samples and table states per second
+N_TRUE = 2.0e-4                 # angle random walk, rad/√s
+EARTH_Z = 7.292115e-5 * math.sin(math.radians(45.0))  # rad/s on a vertical sense axis
+ENCODER_RAD = 2 * math.pi / 2**23                       # one count of the table encoder
+START_NS = 1_000_000_000_000
+
+
+def table_angle(t_s: np.ndarray, start_s: float, cruise_s: float, rate: float,
+                accel: float) -> tuple[np.ndarray, np.ndarray]:
+    """Angle (rad) and rate (rad/s) of a trapezoidal move.
+
+    The table rests, accelerates at ``accel`` to ``rate`` at ``start_s``, cruises
+    ``cruise_s``, decelerates to rest and stays there.
+    """
+    ramp = rate / accel
+    s = np.clip(t_s - start_s, 0.0, None)
+    up = np.minimum(s, ramp)
+    cruise = np.clip(s - ramp, 0.0, cruise_s)
+    down = np.clip(s - ramp - cruise_s, 0.0, ramp)
+    angle = 0.5 * accel * up**2 + rate * cruise + rate * down - 0.5 * accel * down**2
+    omega = np.where(s < ramp, accel * up, np.where(s < ramp + cruise_s, rate,
+                                                    rate - accel * down))
+    omega = np.where(s >= 2 * ramp + cruise_s, 0.0, np.where(s <= 0, 0.0, omega))
+    return angle, omega
+
+
+def bench(duration_s: float, motion: tuple[float, float, float, float] | None, seed: int,
+          jitter_counts: int = 1) -> dict[str, np.ndarray]:
+    """Stamps and readings of a gyro on a table.
+
+    ``motion`` = (start s, cruise s, rate rad/s, acceleration rad/s²) or None (at rest);
+    the encoder flickers by up to ``jitter_counts`` counts at rest, and its rate is the
+    encoder difference over the state interval.
+    """
+    rng = np.random.default_rng(seed)
+    n = int(duration_s * GYRO_HZ) + 1
+    tg = np.arange(n, dtype=np.int64) * (1_000_000_000 // GYRO_HZ)
+    ts = tg / 1e9
+    table = (table_angle(ts, *motion)[0] if motion is not None else np.zeros(n))
+    walk = np.concatenate(([0.0], np.cumsum(rng.normal(0.0, N_TRUE / math.sqrt(GYRO_HZ),
+                                                       n - 1))))
+    counts = np.floor((table + EARTH_Z * ts + walk) / K + rng.uniform())
+    m = int(duration_s * TABLE_HZ) + 1
+    tt = np.arange(m, dtype=np.int64) * (1_000_000_000 // TABLE_HZ)
+    true = (table_angle(tt / 1e9, *motion) if motion is not None
+            else (np.zeros(m), np.zeros(m)))[0]
+    encoder = (np.round(true / ENCODER_RAD) + rng.integers(-jitter_counts, jitter_counts + 1, m)
+               ) * ENCODER_RAD
+    rate = np.concatenate(([0.0], np.diff(encoder) * TABLE_HZ))
+    return {'t_gyro': START_NS + tg, 'counts': counts, 't_table': START_NS + tt,
+            'angle': encoder, 'rate': rate}
+
+
+def write(path: Path, b: dict[str, np.ndarray], *, table: bool) -> Path:
+    cdr = ContractMessages()
+    msgs = [BagMessage('/gyro/pulses', int(t), cdr.joint_state(int(t), 'gyro', float(c)))
+            for t, c in zip(b['t_gyro'], b['counts'])]
+    if table:
+        msgs += [BagMessage('/rate_table/joint_states', int(t),
+                            cdr.joint_state(int(t), 'rate_table', float(a), float(r)))
+                 for t, a, r in zip(b['t_table'], b['angle'], b['rate'])]
+    write_bag(path, sorted(msgs, key=lambda m: m.log_time_ns))
+    return path
+
+
+def run_cli(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
+    status = main(['noise', *map(str, argv), '--no-progress'])
+    out = capsys.readouterr()
+    return status, out.out, out.err
+
+
+def calibrated(b: dict[str, np.ndarray], *, table: bool, chunk: int = 997) -> NoiseCalibrator:
+    """The calibrator fed in interleaved chunks, the table's states of each chunk first."""
+    cal = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
+    edges = np.arange(0, len(b['t_gyro']) + chunk, chunk)
+    for a, z in zip(edges[:-1], edges[1:]):
+        tg = b['t_gyro'][a:z]
+        if not len(tg):
+            continue
+        if table:
+            hi = tg[-1] if z < len(b['t_gyro']) else b['t_table'][-1]
+            lo = b['t_gyro'][a - 1] if a else b['t_table'][0] - 1
+            k = (b['t_table'] > lo) & (b['t_table'] <= hi)
+            cal.extend_table(b['t_table'][k], b['angle'][k], b['rate'][k])
+        cal.extend_pulses(tg, b['counts'][a:z])
+        cal.process()
+    cal.process(flush=True)
+    return cal
+
+
+# -- a table that turns for part of the record -------------------------------------------------
+MOTION = (40.0, 12.0, math.radians(90.0), math.radians(180.0))  # 40 s at rest, then 90 °/s
+
+
+@pytest.fixture(scope='module')
+def turning(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, np.ndarray], Path]:
+    b = bench(100.0, MOTION, seed=5)
+    return b, write(tmp_path_factory.mktemp('turning') / 'bag', b, table=True)
+
+
+def test_the_turning_part_is_left_out_with_one_line_and_the_rest_gives_the_static_terms(
+        turning: tuple[dict[str, np.ndarray], Path], capsys: pytest.CaptureFixture[str]) -> None:
+    b, bag = turning
+    status, out, err = run_cli(capsys, bag, '--scale-factor-rad-per-pulse', K, '--json')
+    assert status == 0, err
+    lines = [ln for ln in err.splitlines() if 'the rate table moved' in ln]
+    assert len(lines) == 1
+    # the motion: 40 s → 40.5 s accelerating, 12 s at 90 °/s, 0.5 s decelerating: 13 s, seen
+    # between the last state at rest before it and the first after it (± one 20 ms state)
+    assert 'the rate table moved during 13.02 s of its 100 s record (1 span(s), largest rate ' \
+        '1.571 rad/s = 90' in lines[0]
+    doc = json.loads(out)['methods']['noise']
+    motion = doc['table_motion']
+    assert motion['moved'] is True and motion['spans'] == 1
+    assert motion['moving_s'] == pytest.approx(13.02) and motion['record_s'] == 100.0
+    assert motion['max_rate_rad_s'] == np.max(np.abs(b['rate']))  # 90 °/s + encoder flicker
+    # left out: exactly the gyro samples strictly between those two table states
+    t_rest_before, t_rest_after = START_NS + 40_000_000_000, START_NS + 53_020_000_000
+    inside = (b['t_gyro'] > t_rest_before) & (b['t_gyro'] < t_rest_after)
+    assert motion['samples_left_out'] == {'/gyro/pulses': int(np.count_nonzero(inside))}
+    assert any('are left out: the rate table was turning' in r for r in doc['rejections'])
+    # what remains is a static record: it gives what the same record with the moving part
+    # cut out (a gap) gives, to the last bit, and N within 3σ of the truth
+    cut = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
+    cut.extend_pulses(b['t_gyro'][~inside], b['counts'][~inside])
+    cut.process(flush=True)
+    assert doc['axes']['gyro']['adev'] == cut.json_section()['axes']['gyro']['adev']
+    n = doc['results']['angle_random_walk_rad_per_sqrt_s']
+    want = cut.results()['gyro']['angle_random_walk_rad_per_sqrt_s']
+    assert (n['value'], n['std'], n['n']) == (want.value, want.std_uncertainty, want.n_used)
+    assert abs(n['value'] - N_TRUE) < 3 * n['std']
+
+
+def test_without_the_table_the_same_record_reports_the_motion_as_noise(
+        turning: tuple[dict[str, np.ndarray], Path]) -> None:
+    """Why the gate exists: the turning record read blind gives a curve of the profile."""
+    b, _ = turning
+    blind = calibrated(b, table=False)
+    gated = calibrated(b, table=True)
+    assert blind.table_line() == ''
+    blind_adev = np.array(blind.json_section()['axes']['gyro']['adev'])
+    gated_adev = np.array(gated.json_section()['axes']['gyro']['adev'])
+    assert np.nanmax(blind_adev) > 100 * np.nanmax(gated_adev)
+
+
+def test_the_turning_record_is_analysed_the_same_live_as_offline(
+        turning: tuple[dict[str, np.ndarray], Path]) -> None:
+    """Chunked like a node's batches (the table's states first) = the whole bag at once."""
+    b, bag = turning
+    offline = calibrate_bags([bag], methods=['noise'], options=CalibrationOptions(
+        scale_factor_rad_per_pulse=K)).sessions['noise']
+    live = calibrated(b, table=True, chunk=211)
+    assert live.json_section()['axes'] == offline.json_section()['axes']
+    assert live.table_line() == offline.calibrator.table_line()
+
+
+# -- a table at rest throughout ----------------------------------------------------------------
+def test_a_table_at_rest_throughout_gives_exactly_the_numbers_without_it(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    b = bench(60.0, None, seed=9, jitter_counts=3)  # encoder flickering ±3 counts at rest
+    with_table = write(tmp_path / 'with', b, table=True)
+    without = write(tmp_path / 'without', b, table=False)
+    docs = {}
+    for name, bag in (('with', with_table), ('without', without)):
+        status, out, err = run_cli(capsys, bag, '--scale-factor-rad-per-pulse', K, '--json')
+        assert status == 0, err
+        docs[name] = json.loads(out)['methods']['noise']
+        if name == 'with':
+            assert ('/rate_table/joint_states: the rate table stayed at rest throughout its '
+                    '60 s record (3001 states;') in err
+    motion = docs['with'].pop('table_motion')
+    assert motion['moved'] is False and motion['samples_left_out'] == {'/gyro/pulses': 0}
+    assert docs['with'] == docs['without']
+
+
+# -- the committed RBRLG bench --------------------------------------------------------------------
+def test_the_rate_bias_bench_is_refused_naming_the_table_motion_and_the_record_that_would_serve(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    out_file = tmp_path / 'handoff.yaml'
+    status, out, err = run_cli(capsys, BAGS / 'k_tilde_bench', '--scale-factor-rad-per-pulse',
+                               4.086e-6, '--out', out_file)
+    assert status == 2 and out == '' and not out_file.exists()
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith('gyro-calib: error: ')
+    assert 'The rate table turned during 100 s of its 100 s record (up to 2.618 rad/s = ' \
+        '150 °/s): 100000 samples of /gyro/pulses were left out' in lines[0]
+    assert 'record it with the table at rest, 1281 samples (1.28 s) or more in one span' \
+        in lines[0]
+    # calibrate --method noise says it in the summary line and --json
+    status = main(['calibrate', str(BAGS / 'k_tilde_bench'), '--method', 'noise',
+                   '--scale-factor-rad-per-pulse', '4.086e-6', '--json'])
+    captured = capsys.readouterr()
+    noise = json.loads(captured.out)['methods']['noise']
+    assert noise['table_motion']['moved'] is True
+    assert noise['table_motion']['max_rate_rad_s'] == pytest.approx(math.radians(150.0))
+    assert noise['results'] == {}
+    assert ('/rate_table/joint_states: the rate table moved during 100 s of its 100 s record '
+            '(1 span(s), largest rate 2.618 rad/s = 150 °/s') in captured.err
+
+
+# -- property: whatever the motion, exactly the samples while it moved are left out ------------
+@settings(max_examples=200 if STRESS else 12, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(start_s=st.floats(0.0, 25.0), cruise_s=st.floats(0.0, 8.0),
+       rate_deg_s=st.floats(-200.0, 200.0).filter(lambda r: abs(r) > 0.05),
+       accel_deg_s2=st.floats(5.0, 2000.0), chunk=st.integers(50, 5000),
+       seed=st.integers(0, 2**16))
+def test_exactly_the_samples_between_the_table_states_at_rest_are_left_out(
+        start_s: float, cruise_s: float, rate_deg_s: float, accel_deg_s2: float, chunk: int,
+        seed: int) -> None:
+    motion = (start_s, cruise_s, math.radians(rate_deg_s), math.radians(accel_deg_s2))
+    b = bench(30.0, motion, seed=seed)
+    cal = calibrated(b, table=True, chunk=chunk)
+    # the table states: moving by the rate, or by the angle from where the table rested
+    thr_w, thr_a = cal.settings.table_rest_rate_rad_s, cal.settings.table_rest_angle_rad
+    moving, ref = np.zeros(len(b['t_table']), dtype=bool), b['angle'][0]
+    for i, (a, w) in enumerate(zip(b['angle'], b['rate'])):
+        if abs(w) > thr_w or abs(a - ref) > thr_a:
+            moving[i], ref = True, a
+    # a gyro sample is left out when a moving state lies between the states at rest around
+    # it (before the first and after the last: none, so the first and last states hold)
+    rest_t = b['t_table'][~moving]
+    k = np.searchsorted(rest_t, b['t_gyro'], side='left')
+    on_state = (k < len(rest_t)) & (rest_t[np.minimum(k, len(rest_t) - 1)] == b['t_gyro'])
+    lo = np.where(k > 0, rest_t[np.maximum(k - 1, 0)], np.iinfo(np.int64).min)
+    hi = np.where(k < len(rest_t), rest_t[np.minimum(k, len(rest_t) - 1)],
+                  np.iinfo(np.int64).max)
+    n_moving_before = np.concatenate(([0], np.cumsum(moving)))
+    between = (n_moving_before[np.searchsorted(b['t_table'], hi, side='left')]
+               - n_moving_before[np.searchsorted(b['t_table'], lo, side='right')])
+    moved_between = (between > 0) & ~on_state
+    record = cal.table_record()
+    assert record is not None
+    assert record['samples_left_out']['/gyro/pulses'] == int(np.count_nonzero(moved_between))
+    assert record['moved'] is bool(moving.any())
+    # and the rest is analysed as if the moving part were a gap in a static record
+    cut = NoiseCalibrator(cal.settings)
+    cut.extend_pulses(b['t_gyro'][~moved_between], b['counts'][~moved_between])
+    cut.process(flush=True)
+    assert cal.json_section()['axes'] == cut.json_section()['axes']
