@@ -20,11 +20,13 @@ import os
 from pathlib import Path
 from typing import Any
 
+import jsonschema
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import gyro_calib
 from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.bagio import BagMessage, ContractMessages, write_bag
 from gyro_calib.cli import main
@@ -146,7 +148,10 @@ def test_the_turning_part_is_left_out_with_one_line_and_the_rest_gives_the_stati
     # between the last state at rest before it and the first after it (± one 20 ms state)
     assert 'the rate table moved during 13.02 s of its 100 s record (1 span(s), largest rate ' \
         '1.571 rad/s = 90' in lines[0]
-    doc = json.loads(out)['methods']['noise']
+    document = json.loads(out)
+    jsonschema.validate(document, json.loads((Path(gyro_calib.__file__).parent / 'schema'
+                                              / 'result.schema.json').read_text()))
+    doc = document['methods']['noise']
     motion = doc['table_motion']
     assert motion['moved'] is True and motion['spans'] == 1
     assert motion['moving_s'] == pytest.approx(13.02) and motion['record_s'] == 100.0
