@@ -280,3 +280,35 @@ def test_exactly_the_samples_between_the_table_states_at_rest_are_left_out(
     cut.extend_pulses(b['t_gyro'][~moved_between], b['counts'][~moved_between])
     cut.process(flush=True)
     assert cal.json_section()['axes'] == cut.json_section()['axes']
+
+
+def test_a_table_whose_states_stop_holds_its_last_state_and_no_unbounded_backlog() -> None:
+    """The table's states end at 20 s of a 60 s static record.
+
+    The samples beyond wait at most table_wait_s, then the last state (at rest) holds for
+    them, and the line says so.
+    """
+    b = bench(60.0, None, seed=4)
+    stopped = dict(b)
+    keep = b['t_table'] <= START_NS + 20_000_000_000
+    for key in ('t_table', 'angle', 'rate'):
+        stopped[key] = b[key][keep]
+    gated = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
+    blind = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
+    gated.extend_table(stopped['t_table'], stopped['angle'], stopped['rate'])
+    wait = gated.settings.table_wait_s
+    for a in range(0, len(b['t_gyro']), 500):
+        for cal in (gated, blind):
+            cal.extend_pulses(b['t_gyro'][a:a + 500], b['counts'][a:a + 500])
+            cal.process()
+        backlog = gated.sample_storage_bytes() - blind.sample_storage_bytes()
+        assert backlog <= 16 * (wait + 1.0 + 2.5) * GYRO_HZ  # the wait, the reorder window, 500
+    for cal in (gated, blind):
+        cal.process(flush=True)
+    assert gated.json_section()['axes'] == blind.json_section()['axes']
+    # decided by the held state once the newest sample was 5 s ahead: 20.005 s … 55 s (the
+    # last 5 s at the end of the record, as every record's tail)
+    line = gated.table_line()
+    assert 'stayed at rest throughout its 20 s record' in line
+    assert f'7000 of /gyro/pulses after waiting {wait:g} s for a later state: taken as at ' \
+        'rest' in line

@@ -156,6 +156,8 @@ class _Stream:
     """Samples left out because the rate table moved."""
     before_table: int = 0
     """Samples analysed before any table state had arrived."""
+    beyond_table: int = 0
+    """Samples decided by the last table state because none followed within table_wait_s."""
     rest_run: int = 0
     """Samples analysed since the table last moved."""
     longest_rest: int = 0
@@ -277,6 +279,13 @@ class NoiseCalibrator:
         t = np.concatenate(stream.held_t) if len(stream.held_t) > 1 else stream.held_t[0]
         v = np.concatenate(stream.held_v) if len(stream.held_v) > 1 else stream.held_v[0]
         n, moving = self.table.decide(t, final=final)
+        if n < len(t):  # the table's states lag or stopped: the last one holds beyond the wait
+            wait_ns = int(round(self.settings.table_wait_s * NS_PER_S))
+            m = int(np.searchsorted(t, int(t[-1]) - wait_ns, side='right'))
+            if m > n:
+                moving = np.concatenate((moving, self.table.decide(t[n:m], final=True)[1]))
+                stream.beyond_table += m - n
+                n = m
         stream.held_t, stream.held_v = ([t[n:]], [v[n:]]) if n < len(t) else ([], [])
         if n == 0:
             return
@@ -476,15 +485,23 @@ class NoiseCalibrator:
         rest = (f'at rest = |velocity| ≤ {s.table_rest_rate_rad_s:g} rad/s and the angle '
                 f'within {s.table_rest_angle_rad:g} rad')
         if not tm.moved:
+            late = [f'{st.before_table} of {st.topic} before its first state'
+                    for st in self._streams.values() if st.before_table]
+            late += [f'{st.beyond_table} of {st.topic} after waiting {s.table_wait_s:g} s for a '
+                     'later state' for st in self._streams.values() if st.beyond_table]
+            unknown = f' ({", ".join(late)}: taken as at rest)' if late else ''
             return (f'{RATE_TABLE_JOINT_STATES}: the rate table stayed at rest throughout its '
                     f'{tm.record_s():.6g} s record ({tm.states} states; {rest}): every '
-                    'sample analysed.')
+                    f'sample analysed{unknown}.')
         parts = []
         for st in self._streams.values():
             received = st.reorder.stats.received
             pct = 100.0 * st.left_out / received if received else 0.0
             early = (f', {st.before_table} analysed before the first table state'
                      if st.before_table else '')
+            if st.beyond_table:
+                early += (f', {st.beyond_table} decided by the last table state after '
+                          f'waiting {self.settings.table_wait_s:g} s for a later one')
             parts.append(f'{st.left_out} of {received} samples of {st.topic} '
                          f'({pct:.3g} %){early}')
         rate = tm.max_rate_rad_s

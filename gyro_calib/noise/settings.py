@@ -95,6 +95,10 @@ class NoiseSettings:
     """A table state whose encoder angle lies this far from where the table came to rest is
     moving (a creep too slow for the rate test), rad (more than three counts of a
     2^20-count encoder, 27 of the 2^23-count one of our benches)."""
+    table_wait_s: float = 5.0
+    """A sample waits at most this long (by the newest stamp) for a table state at or after
+    its stamp; when the table's states stop or lag more, the last one holds for it (counted
+    in the summary), s."""
 
     def __post_init__(self) -> None:
         """Validate every field once; raise ConfigError naming the field."""
@@ -157,6 +161,8 @@ class NoiseSettings:
              and self.table_rest_rate_rad_s > 0, 'positive'),
             ('table_rest_angle_rad', math.isfinite(self.table_rest_angle_rad)
              and self.table_rest_angle_rad > 0, 'positive'),
+            ('table_wait_s', math.isfinite(self.table_wait_s) and self.table_wait_s >= 0,
+             'zero or positive'),
         ]
         check_ranges(self, checks)  # one range check for every setting
 
