@@ -48,9 +48,10 @@ def table_angle(t_s: np.ndarray, start_s: float, cruise_s: float, rate: float,
                 accel: float) -> tuple[np.ndarray, np.ndarray]:
     """Angle (rad) and rate (rad/s) of a trapezoidal move.
 
-    The table rests, accelerates at ``accel`` to ``rate`` at ``start_s``, cruises
+    The table rests, accelerates at |``accel``| to ``rate`` at ``start_s``, cruises
     ``cruise_s``, decelerates to rest and stays there.
     """
+    accel = math.copysign(accel, rate)
     ramp = rate / accel
     s = np.clip(t_s - start_s, 0.0, None)
     up = np.minimum(s, ramp)
@@ -312,3 +313,56 @@ def test_a_table_whose_states_stop_holds_its_last_state_and_no_unbounded_backlog
     assert 'stayed at rest throughout its 20 s record' in line
     assert f'7000 of /gyro/pulses after waiting {wait:g} s for a later state: taken as at ' \
         'rest' in line
+
+
+def test_noise_node_subscribes_the_rate_table_beside_its_input(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The live graph: the node reads the table through the same session topics."""
+    import rclpy
+
+    from gyro_calib.nodes.noise_node import NoiseNode
+    from gyro_calib.nodes.processes import ros_args
+
+    monkeypatch.chdir(tmp_path)  # the node keeps its state record in the working directory
+    rclpy.init(args=[*ros_args({'scale_factor_rad_per_pulse': K}), '-r', '__ns:=/bench2'])
+    try:
+        node = NoiseNode()
+        try:
+            names = {s.topic_name for s in node.subscriptions}
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown()
+    assert {'/bench2/gyro/pulses', '/bench2/fog/output',
+            '/bench2/rate_table/joint_states'} <= names
+
+
+@pytest.mark.parametrize('given', ['angle and rate', 'angle only', 'rate only'])
+def test_the_motion_is_seen_from_whatever_the_table_publishes(given: str) -> None:
+    """JointState may carry the angle, the rate or both (NaN = not given, as decoded).
+
+    An Imu on the same table loses the same stretch on all six axes.
+    """
+    b = bench(30.0, (10.0, 5.0, math.radians(-30.0), math.radians(60.0)), seed=2)
+    angle = b['angle'] if given != 'rate only' else np.full_like(b['angle'], np.nan)
+    rate = b['rate'] if given != 'angle only' else np.full_like(b['rate'], np.nan)
+    cal = NoiseCalibrator(NoiseSettings())
+    cal.extend_table(b['t_table'], angle, rate)
+    n = len(b['t_gyro'])
+    rng = np.random.default_rng(1)
+    gyro = rng.normal(0.0, 1e-3, (n, 3))
+    gyro[:, 2] += np.interp(b['t_gyro'], b['t_table'], b['rate'])  # the table turns about z
+    cal.extend_imu(b['t_gyro'], gyro, rng.normal(0.0, 1e-2, (n, 3)) + (0, 0, 9.81))
+    cal.process(flush=True)
+    record = cal.table_record()
+    assert record is not None and record['moved'] and record['spans'] == 1
+    # 10 s → 10.5 s accelerating, 5 s at 30 °/s, 0.5 s decelerating; the rate differenced
+    # from the angle is the same here, as the test's encoder rate is
+    assert record['max_rate_rad_s'] == pytest.approx(math.radians(30.0), abs=1.5e-4)  # ±3 counts
+    assert record['moving_s'] == pytest.approx(6.0, abs=0.041)
+    left = record['samples_left_out']['imu']
+    assert abs(left - 6.0 * GYRO_HZ) <= 8
+    assert all(cal.axis_result(a).curve is not None for a in cal.axes())
+    assert [r.reason.split(':')[0] for r in cal.rejections] == ['imu']
+    # the two spans at rest are two segments, each integrated from its own phase origin
+    assert cal.results()['gyro_z']['angle_random_walk_rad_per_sqrt_s'].n_used == n - left + 2
