@@ -2,8 +2,8 @@
 
 Noise characterisation (IEEE Std 952 Allan analysis) describes a *static* sensor: the
 gyro's output must be its noise plus a constant rate. A rate table that turns during the
-record puts its own motion profile into the Allan variance — a reversal from +Ω to −Ω
-alone gives ADEV ≈ Ω at τ of the order of the dwell time — and the fit then reports the
+record puts its own motion profile into the Allan variance — reversals between ±Ω every D
+seconds give σ(τ = D) ≈ 0.8·Ω (a square wave: σ² = 2Ω²/3) — and the fit then reports the
 table's profile as "noise terms". When the bag (or the live graph) also carries the table's
 joint states (``/rate_table/joint_states``: unwrapped encoder angle, rad; rate, rad/s),
 :class:`TableMotion` classifies each table state and tells the calibrator which gyro
