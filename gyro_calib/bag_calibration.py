@@ -138,14 +138,15 @@ def own_bags(method: Method, infos: Sequence[BagInfo]) -> list[BagInfo]:
     """The bags that are the method's own.
 
     The bags that are the method's own: those holding all its revealing topics (with their
-    types); when none does (or it has none), those holding any of its topics.
+    types); when none does (or it has none), those holding any of its input topics (a
+    context topic such as noise's rate table alone does not make a bag its own).
     """
     def holds(info: BagInfo, topic: str) -> bool:
         t = info.topics.get(topic)
         return t is not None and t.msgtype == method.topics[topic]
 
     mine = [i for i in infos if method.reveal and all(holds(i, t) for t in method.reveal)]
-    return mine or [i for i in infos if any(holds(i, t) for t in method.topics) or (
+    return mine or [i for i in infos if any(holds(i, t) for t in method.inputs()) or (
         method.any_topic and any(t.msgtype == method.any_topic for t in i.topics.values()))]
 
 

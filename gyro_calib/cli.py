@@ -404,14 +404,14 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
                            if m.name in revealed else
                            {'runs': False, 'how': f'needs {", ".join(lacking)}'})
             continue
-        inputs = [t for t, typ in m.topics.items() if present.get(t) == typ and counts.get(t)]
+        inputs = [t for t, typ in m.inputs().items() if present.get(t) == typ and counts.get(t)]
         if m.any_topic:
             inputs += sorted(t for t, typ in present.items()
                              if typ == m.any_topic and counts.get(t))
         out[m.name] = ({'runs': True, 'how': f'gyro-calib {m.name} BAG --topic T, T one of '
                         f'{", ".join(inputs)}'} if inputs else
                        {'runs': False, 'how': 'needs one of '
-                        + ', '.join([*m.topics, *([f"a {m.any_topic} topic"]
+                        + ', '.join([*m.inputs(), *([f"a {m.any_topic} topic"]
                                                   if m.any_topic else [])])})
     return out
 
@@ -511,8 +511,8 @@ def _methods(args: argparse.Namespace) -> int:
         print(f'{m.name:8} {m.title}' + ('' if m.auto else '  [runs when asked: --method '
                                               f'{m.name} or gyro-calib {m.name}]'))
         for topic, msgtype in m.topics.items():
-            need = 'needed' if topic in m.reveal else ('one of these' if not m.reveal
-                                                       else 'optional')
+            need = ('needed' if topic in m.reveal else 'optional, beside the input'
+                    if topic in m.context else 'one of these' if not m.reveal else 'optional')
             print(f'           {topic:32} {msgtype:28} {need}')
         if m.any_topic:
             print(f'           {"any topic (--topic)":32} {m.any_topic:28} one of these')

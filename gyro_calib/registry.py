@@ -50,6 +50,8 @@ class Method:
             updated (one fit: a newer run replaces them all, or keeps them all), '' = none.
         bench_settings: the bench settings (:data:`gyro_calib.config.BENCH_SETTINGS`) it
             uses; the bench settings stored with its own bags must agree on these.
+        context: topics among ``topics`` read beside an input when they are there, never an
+            input themselves (noise: the rate table, whose motion is left out).
     """
 
     name: str
@@ -65,6 +67,11 @@ class Method:
     settings: str = ''
     bench_settings: tuple[str, ...] = ()
     handoff_lead: str = ''
+    context: tuple[str, ...] = ()
+
+    def inputs(self) -> dict[str, str]:
+        """Topic → type of the topics it can run from (``topics`` without ``context``)."""
+        return {t: m for t, m in self.topics.items() if t not in self.context}
 
     def make_session(self, options: CalibrationOptions) -> MethodSession:
         """A new session of this method with the user's options."""
@@ -139,7 +146,8 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            any_topic=IMU, node='noise_node',
            settings='gyro_calib.noise.settings:NoiseSettings',
            bench_settings=('scale_factor_rad_per_pulse', 'fog_scale_factor_counts_per_rad',
-                           'gyro_id')),
+                           'gyro_id'),
+           context=(topics.RATE_TABLE_JOINT_STATES,)),
 )}
 """Every method, by name."""
 

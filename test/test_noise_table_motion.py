@@ -366,3 +366,15 @@ def test_the_motion_is_seen_from_whatever_the_table_publishes(given: str) -> Non
     assert [r.reason.split(':')[0] for r in cal.rejections] == ['imu']
     # the two spans at rest are two segments, each integrated from its own phase origin
     assert cal.results()['gyro_z']['angle_random_walk_rad_per_sqrt_s'].n_used == n - left + 2
+
+
+def test_the_table_is_never_offered_as_an_input_to_characterise(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The table is context beside the input: info and methods say so."""
+    assert main(['info', str(BAGS / 'k_tilde_bench')]) == 0
+    info = capsys.readouterr().out
+    assert 'gyro-calib noise BAG --topic T, T one of /gyro/pulses\n' in info
+    assert main(['methods']) == 0
+    listing = capsys.readouterr().out.split('\nnoise ', 1)[1]
+    assert '/rate_table/joint_states         sensor_msgs/msg/JointState   optional, beside the ' \
+        'input' in listing

@@ -122,7 +122,7 @@ def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
         methods = [name for name in calibration.methods if name in METHODS and (
             all(present.get(t) == METHODS[name].topics[t] for t in METHODS[name].reveal)
             if METHODS[name].reveal else
-            any(present.get(t) == ty for t, ty in METHODS[name].topics.items()))]
+            any(present.get(t) == ty for t, ty in METHODS[name].inputs().items()))]
         if not methods:
             raise ConfigError(f'the bag(s) {", ".join(map(str, bags))} hold the topics of none '
                               f'of the hand-off file\'s methods ({", ".join(calibration.methods)})'
