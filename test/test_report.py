@@ -227,6 +227,22 @@ def test_hand_off_alone_gives_a_certificate_that_says_k_2_is_assumed(tmp_path: P
     assert {r.key for r in cert.rows} == {k for k in record.values if k + '_std' in record.values}
 
 
+def test_hand_off_alone_of_a_noise_run_still_shows_the_curves_it_stores() -> None:
+    """Without the bag the noise curves come from the hand-off file's deviations."""
+    record, _ = _run('noise_rlg_static')
+    assert record is not None and record.methods['noise'].deviations
+    page = _Page()
+    page.feed(render_html(build_certificate(record, None)))
+    assert page.figures == ['stored_deviations']
+    png = base64.b64decode(page.images[-1].split(',', 1)[1])
+    assert png[:8] == b'\x89PNG\r\n\x1a\n' and len(png) > 10_000
+    fog, _ = _run('fog_turntable')  # a method that stores no curves draws nothing
+    assert fog is not None
+    page = _Page()
+    page.feed(render_html(build_certificate(fog, None)))
+    assert page.figures == []
+
+
 def test_values_read_generically_so_added_keys_appear() -> None:
     """A key the hand-off gains later (value with _std, _n, _dof twins) is shown as it is."""
     record, _ = _run('k_tilde_bench')

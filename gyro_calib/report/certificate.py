@@ -306,9 +306,9 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
             missing=tuple(missing.items()), rejections=rejections[:REJECTIONS_LISTED],
             rejections_more=max(len(rejections) - REJECTIONS_LISTED, 0),
             notices=ev.notices if ev else (), summary=ev.summary if ev else (),
-            figures=tuple((f.name, f.caption, 'data:image/png;base64,'
-                           + base64.b64encode(f.png).decode('ascii'))
-                          for f in (ev.figures if ev else ())),
+            figures=tuple((name_, caption, 'data:image/png;base64,'
+                           + base64.b64encode(png).decode('ascii'))
+                          for name_, caption, png in _figures(ev, prov)),
             conditions=tuple((str(k), str(v))
                              for k, v in (getattr(prov, 'conditions', {}) or {}).items()),
             not_measurable=tuple((k, v) for k, v in (getattr(prov, 'not_measurable', {})
@@ -335,9 +335,23 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         latitude=latitude, rule=rule, overall=verdict_all, spec_source=spec_source,
         spec_missing=tuple(spec_missing),
         evidence_note='' if evidence else (
-            'No bag was given: degrees of freedom, budgets, rejections, figures and input '
-            'hashes are not known to this certificate; k = 2 is assumed for every quantity.'),
+            'No bag was given: degrees of freedom, budgets, rejections, figures (but the '
+            'noise curves the hand-off file stores) and input hashes are not known to this '
+            'certificate; k = 2 is assumed for every quantity.'),
         notes=tuple(notes), conventions=_conventions())
+
+
+def _figures(ev: MethodEvidence | None, prov: Any) -> list[tuple[str, str, bytes]]:
+    """The method's figures: drawn by its session, or its stored curves without a bag."""
+    if ev is not None:
+        return [(f.name, f.caption, f.png) for f in ev.figures]
+    tables = getattr(prov, 'deviations', None) or {}
+    if not tables:
+        return []
+    from gyro_calib.report.deviation_figure import CAPTION, deviation_figure_png
+
+    png = deviation_figure_png(tables)
+    return [('stored_deviations', CAPTION, png)] if png else []
 
 
 def _conventions() -> tuple[tuple[str, str], ...]:
