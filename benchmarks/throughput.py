@@ -65,10 +65,12 @@ import resource
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import tracemalloc
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from gyro_calib.errors import InsufficientDataError
@@ -329,8 +331,11 @@ def live_run(opts: argparse.Namespace, env: dict[str, str], speed: float, ref_pa
             children.append(child)
             return child
 
-        cal = start('calibration_node', {} if opts.stall_timeout is None
-                    else {'stall_timeout_s': float(opts.stall_timeout)})
+        # a fresh hand-off file and state directory per run: the default output_file in the
+        # current directory would resume the previous speed's record (and touch the user's file)
+        out = Path(tempfile.mkdtemp(prefix='gyro_calib_throughput_')) / 'gyro.yaml'
+        cal = start('calibration_node', {'output_file': str(out)} | (
+            {} if opts.stall_timeout is None else {'stall_timeout_s': float(opts.stall_timeout)}))
         rlg = start('rlg_sim', {'seed': opts.seed})
         deadline = time.monotonic() + 60.0
         while not lst.bench_connected():

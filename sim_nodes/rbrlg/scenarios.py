@@ -177,7 +177,7 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
              faults=Faults(drop_zero_index=(17,)),
              expected={'window_pairs': 2, 'windows_accepted': 5, 'rejections': 1,
                        'rejection_reasons': ['missing zero-index event']}),
-    Scenario('fault_pulse_gap', 'K̃ bench that loses 0.5 s of gyro samples around the end '
+    Scenario('fault_pulse_gap', 'K̃ bench that loses 0.4 s of gyro samples around the end '
              'of a window.', 'rate_bias', dataclasses.replace(_K_TABLE, seed=24),
              dataclasses.replace(_K_GYRO, seed=24), faults=Faults(pulse_gap_s=(58.3, 58.7)),
              expected={'window_pairs': 2, 'windows_accepted': 5, 'rejections': 1,
