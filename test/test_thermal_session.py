@@ -194,6 +194,10 @@ def test_summary_speaks_degrees_per_hour_and_names_terms_snr_and_floor(
     assert 'SNR raw → denoised (dB)' in text
     assert 'noise floor of 100 s means' in text
     assert 'held-out check' in text
+    m = session.report.model  # type: ignore[union-attr]
+    assert m.model_error_n > 0 and (  # u_m in the summary, as the node logs it
+        f'{m.model_error_rad_s / (math.pi / 180 / 3600):.4f} °/h from {m.model_error_n} '
+        'held-out blocks') in text
     assert 'noise' in session.limiting() or 'misfit' in session.limiting()
     doc = session.json_section()
     json.dumps(doc, allow_nan=False)
@@ -210,6 +214,7 @@ def test_soak_style_has_no_held_out_check_and_is_still_complete() -> None:
     assert soak.missing() == {}
     assert 'thermal_holdout_bias_stability_raw_rad_s' not in soak.handoff_values()
     assert 'no held-out check in this style' in '\n'.join(soak.summary_lines())
+    assert 'model error u_m: not estimated' in '\n'.join(soak.summary_lines())
     assert soak.json_section()['thermal_model']['thermal_fit_block_s'] is None
     json.dumps(soak.json_section(), allow_nan=False)
 

@@ -360,6 +360,12 @@ class ThermalSession(MethodSession):
                      + '), Earth rate along the sense axis '
                      f'{m.earth_rate_along_axis_rad_s / RAD_S_PER_DEG_H:.4f} °/h; gyro '
                      f'{m.gyro_id or "(unnamed: identity not checked on use)"}.')
+        lines.insert(3, (f'model error u_m (held-out scatter beyond noise and covariance, added '
+                         f'in quadrature to every prediction, METHODS §D.3 (17g)): '
+                         f'{m.model_error_rad_s / RAD_S_PER_DEG_H:.4f} °/h from '
+                         f'{m.model_error_n} held-out blocks of {s.stability_block_s:g} s.')
+                     if m.model_error_n else
+                     'model error u_m: not estimated (no held-out data); 0 in the model.')
         lines += [n for n in rep.notes if n.startswith('temperature sensor')]
         if rep.snr:
             lines.append('per temperature point: H (°C), raw bias (°/h), model at Ḣ = 0 '
