@@ -51,7 +51,7 @@ class Method:
         bench_settings: the bench settings (:data:`gyro_calib.config.BENCH_SETTINGS`) it
             uses; the bench settings stored with its own bags must agree on these.
         context: topics among ``topics`` read beside an input when they are there, never an
-            input themselves (noise: the rate table, whose motion is left out).
+            input themselves (noise: the rate and position tables, whose motion is left out).
     """
 
     name: str
@@ -141,13 +141,14 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method('noise', 'noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml '
            '(docs/methods.md §E)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE,
-            topics.RATE_TABLE_JOINT_STATES: JOINT_STATE},
+            topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
+            topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE},
            (), 'gyro_calib.noise.session:NoiseSession', 'gyro_calib.noise.keys', auto=False,
            any_topic=IMU, node='noise_node',
            settings='gyro_calib.noise.settings:NoiseSettings',
            bench_settings=('scale_factor_rad_per_pulse', 'fog_scale_factor_counts_per_rad',
                            'gyro_id'),
-           context=(topics.RATE_TABLE_JOINT_STATES,)),
+           context=(topics.RATE_TABLE_JOINT_STATES, topics.POSITION_TABLE_JOINT_STATES)),
 )}
 """Every method, by name."""
 

@@ -47,7 +47,12 @@ from gyro_calib.noise.edf import adev_std, alpha_from_slope, edf_totdev
 from gyro_calib.noise.fit import NoiseFit, fit_noise_terms
 from gyro_calib.noise.ordering import OrderingStats, ReorderBuffer
 from gyro_calib.noise.settings import NoiseSettings
-from gyro_calib.noise.table import RATE_TABLE_JOINT_STATES, TableMotion
+from gyro_calib.noise.table import (
+    RATE_TABLE_JOINT_STATES,
+    TABLE_NAMES,
+    TableGate,
+    TableMotion,
+)
 from gyro_calib.noise.terms import SYMBOLS, TermUnits, units_for_axis
 from gyro_calib.units import NS_PER_S
 
@@ -153,7 +158,7 @@ class _Stream:
     """[first stamp, last stamp, samples] of the samples left out since the table began
     to move, while it moves."""
     left_out: int = 0
-    """Samples left out because the rate table moved."""
+    """Samples left out because a table (rate or position) moved."""
     before_table: int = 0
     """Samples analysed before any table state had arrived."""
     beyond_table: int = 0
@@ -181,10 +186,12 @@ class NoiseCalibrator:
         self._streams: dict[str, _Stream] = {}
         self._n_notices: dict[str, int] = {}
         self._n_rejections_reported = 0
-        self.table = TableMotion(self.settings.table_rest_rate_rad_s,
-                                 self.settings.table_rest_angle_rad)
-        """The rate table's motion (an optional input: without table states nothing is
-        gated; :mod:`gyro_calib.noise.table`)."""
+        self.gate = TableGate.create(self.settings.table_rest_rate_rad_s,
+                                     self.settings.table_rest_angle_rad)
+        """Every table's motion (optional inputs: a table without states gates nothing;
+        :mod:`gyro_calib.noise.table`)."""
+        self.table: TableMotion = self.gate.tables[RATE_TABLE_JOINT_STATES]
+        """The rate table's motion."""
         self._motion_rejections: list[Rejection] = []
         self._n_motion_reported = 0
         self._flushed = False
@@ -257,7 +264,7 @@ class NoiseCalibrator:
                     stream.final[0] = int(t[0])
                 stream.final[1] = int(t[-1])
                 stream.final[2] += len(t)
-            if not self.table.seen:  # no table (yet): every sample analysed, as without one
+            if not self.gate.seen:  # no table (yet): every sample analysed, as without one
                 stream.before_table += len(t)
                 self._feed_channels(stream, t, v)
                 continue
@@ -278,12 +285,12 @@ class NoiseCalibrator:
             return
         t = np.concatenate(stream.held_t) if len(stream.held_t) > 1 else stream.held_t[0]
         v = np.concatenate(stream.held_v) if len(stream.held_v) > 1 else stream.held_v[0]
-        n, moving = self.table.decide(t, final=final)
+        n, moving = self.gate.decide(t, final=final)
         if n < len(t):  # the table's states lag or stopped: the last one holds beyond the wait
             wait_ns = int(round(self.settings.table_wait_s * NS_PER_S))
             m = int(np.searchsorted(t, int(t[-1]) - wait_ns, side='right'))
             if m > n:
-                moving = np.concatenate((moving, self.table.decide(t[n:m], final=True)[1]))
+                moving = np.concatenate((moving, self.gate.decide(t[n:m], final=True)[1]))
                 stream.beyond_table += m - n
                 n = m
         stream.held_t, stream.held_v = ([t[n:]], [v[n:]]) if n < len(t) else ([], [])
@@ -313,13 +320,17 @@ class NoiseCalibrator:
             return
         stream.moving_run = None
         first, last, n = run
-        rate = self.table.span_max_rate(first, last)
+        movers = self.gate.moved_within(first, last) or [
+            (topic, tm.max_rate_rad_s) for topic, tm in self.gate.recorded() if tm.moved]
+        names = ' and '.join(f'the {TABLE_NAMES[topic]}' for topic, _ in movers)
+        rates = ', '.join(f'{topic} up to {rate:.4g} rad/s = {math.degrees(rate):.4g} °/s'
+                          for topic, rate in movers)
         s = self.settings
         self._motion_rejections.append(Rejection(first, (
             f'{stream.topic}: the {n} sample(s) from {format_stamp(first)} to '
-            f'{format_stamp(last)} are left out: the rate table was turning '
-            f'({RATE_TABLE_JOINT_STATES} up to {rate:.4g} rad/s = {math.degrees(rate):.4g} °/s; '
-            f'at rest means |velocity| ≤ {s.table_rest_rate_rad_s:g} rad/s and the angle '
+            f'{format_stamp(last)} are left out: {names} '
+            f'{"were" if len(movers) > 1 else "was"} turning ({rates}; at rest means '
+            f'|velocity| ≤ {s.table_rest_rate_rad_s:g} rad/s and the angle '
             f'within {s.table_rest_angle_rad:g} rad).')))
 
     def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
@@ -364,20 +375,25 @@ class NoiseCalibrator:
                               f'({len(t)}, 3); got {g.shape} and {a.shape}.')
         self._extend('imu', t, np.hstack((g, a)))
 
-    def extend_table(self, t_ns: ArrayLike, angle_rad: ArrayLike, rate_rad_s: ArrayLike) -> None:
-        """Rate-table states (``/rate_table/joint_states``), NaN where a message gave none.
+    def extend_table(self, t_ns: ArrayLike, angle_rad: ArrayLike, rate_rad_s: ArrayLike, *,
+                     topic: str = RATE_TABLE_JOINT_STATES) -> None:
+        """Table states, NaN where a message gave none.
 
-        Stamps (int ns), unwrapped encoder angle (rad) and rate (rad/s). The gyro samples
-        held for want of a table state at their stamp are decided now
-        (:mod:`gyro_calib.noise.table`).
+        ``/rate_table/joint_states``, or with ``topic`` the position table's
+        ``/position_table/joint_states``. Stamps (int ns), unwrapped encoder angle (rad)
+        and rate (rad/s). The gyro samples held for want of a state of every recorded table
+        at their stamp are decided now (:mod:`gyro_calib.noise.table`).
         """
-        t = self._stamps(t_ns, RATE_TABLE_JOINT_STATES)
+        if topic not in self.gate.tables:
+            raise StreamError(f'{topic}: not a table the noise gate reads; tables: '
+                              f'{", ".join(self.gate.tables)}.')
+        t = self._stamps(t_ns, topic)
         a = np.asarray(angle_rad, dtype=np.float64)
         r = np.asarray(rate_rad_s, dtype=np.float64)
         if a.shape != t.shape or r.shape != t.shape:
-            raise StreamError(f'{RATE_TABLE_JOINT_STATES}: {len(t)} stamps but angles of shape '
+            raise StreamError(f'{topic}: {len(t)} stamps but angles of shape '
                               f'{a.shape} and rates of shape {r.shape}.')
-        self.table.extend(t, a, r)
+        self.gate.tables[topic].extend(t, a, r)
         for stream in self._streams.values():
             self._gate(stream, final=False)
 
@@ -474,25 +490,36 @@ class NoiseCalibrator:
         return self._segment_rejections() + list(self._motion_rejections)
 
     def table_line(self) -> str:
-        """One line on the rate table's motion ('' when no table state arrived).
+        """One line on the tables' motion ('' when no table state arrived).
 
-        Whether the table moved during the record; if it did, for how long, its largest
-        rate, and how many samples of each input were left out.
+        Whether each recorded table moved during the record; for one that did, for how
+        long and its largest rate; and how many samples of each input were left out.
         """
-        tm, s = self.table, self.settings
-        if not tm.seen:
+        recorded, s = self.gate.recorded(), self.settings
+        if not recorded:
             return ''
         rest = (f'at rest = |velocity| ≤ {s.table_rest_rate_rad_s:g} rad/s and the angle '
                 f'within {s.table_rest_angle_rad:g} rad')
-        if not tm.moved:
+        clauses = []
+        for topic, tm in recorded:
+            name = TABLE_NAMES[topic]
+            if tm.moved:
+                rate = tm.max_rate_rad_s
+                clauses.append((f'{topic}: the {name} moved during {tm.moving_s():.6g} s of its '
+                                f'{tm.record_s():.6g} s record ({len(tm.spans)} span(s), '
+                                f'largest rate {rate:.4g} rad/s = {math.degrees(rate):.4g} °/s'))
+            else:
+                clauses.append((f'{topic}: the {name} stayed at rest throughout its '
+                                f'{tm.record_s():.6g} s record ({tm.states} states'))
+        head = (f'{clauses[0]}; {rest})' if len(clauses) == 1
+                else '; '.join(f'{c})' for c in clauses) + f'; {rest} for every table')
+        if not any(tm.moved for _, tm in recorded):
             late = [f'{st.before_table} of {st.topic} before its first state'
                     for st in self._streams.values() if st.before_table]
             late += [f'{st.beyond_table} of {st.topic} after waiting {s.table_wait_s:g} s for a '
                      'later state' for st in self._streams.values() if st.beyond_table]
             unknown = f' ({", ".join(late)}: taken as at rest)' if late else ''
-            return (f'{RATE_TABLE_JOINT_STATES}: the rate table stayed at rest throughout its '
-                    f'{tm.record_s():.6g} s record ({tm.states} states; {rest}): every '
-                    f'sample analysed{unknown}.')
+            return f'{head}: every sample analysed{unknown}.'
         parts = []
         for st in self._streams.values():
             received = st.reorder.stats.received
@@ -504,35 +531,46 @@ class NoiseCalibrator:
                           f'waiting {self.settings.table_wait_s:g} s for a later one')
             parts.append(f'{st.left_out} of {received} samples of {st.topic} '
                          f'({pct:.3g} %){early}')
-        rate = tm.max_rate_rad_s
-        return (f'{RATE_TABLE_JOINT_STATES}: the rate table moved during {tm.moving_s():.6g} s '
-                f'of its {tm.record_s():.6g} s record ({len(tm.spans)} span(s), largest rate '
-                f'{rate:.4g} rad/s = {math.degrees(rate):.4g} °/s; {rest}): '
-                f'{", ".join(parts) or "no gyro sample"} left out; '
+        return (f'{head}: {", ".join(parts) or "no gyro sample"} left out; '
                 + ('each span at rest is analysed as a segment of a static record.'
                    if any(st.left_out < st.reorder.stats.received
                           for st in self._streams.values()) else 'no sample at rest remains.'))
 
+    @staticmethod
+    def _table_fields(tm: TableMotion) -> dict[str, Any]:
+        return {'moved': tm.moved, 'states': tm.states, 'moving_states': tm.moving_states,
+                'record_s': tm.record_s(), 'moving_s': tm.moving_s(), 'spans': len(tm.spans),
+                'max_rate_rad_s': tm.max_rate_rad_s}
+
     def table_record(self) -> dict[str, Any] | None:
-        """The table's motion for ``--json`` (``table_motion``), or None without a table."""
-        tm = self.table
-        if not tm.seen:
+        """The tables' motion for ``--json`` (``table_motion``), or None without a table.
+
+        The top-level fields describe ``topic``: the rate table when it was recorded, else
+        the position table; ``tables`` has the same fields for every recorded table, by
+        topic; the samples left out are those while any recorded table moved.
+        """
+        recorded = self.gate.recorded()
+        if not recorded:
             return None
+        topic, tm = recorded[0]
         return {
-            'topic': RATE_TABLE_JOINT_STATES, 'moved': tm.moved, 'states': tm.states,
-            'moving_states': tm.moving_states, 'record_s': tm.record_s(),
-            'moving_s': tm.moving_s(), 'spans': len(tm.spans),
-            'max_rate_rad_s': tm.max_rate_rad_s,
+            'topic': topic, **self._table_fields(tm),
             'samples_left_out': {st.topic: st.left_out for st in self._streams.values()},
             'samples_received': {st.topic: st.reorder.stats.received
                                  for st in self._streams.values()},
             'rest_rate_rad_s': self.settings.table_rest_rate_rad_s,
             'rest_angle_rad': self.settings.table_rest_angle_rad,
             'line': self.table_line(),
+            'tables': {t: self._table_fields(m) for t, m in recorded},
         }
 
+    def _tables_phrase(self) -> str:
+        """'the rate table', 'the position table' (the one recorded) or 'every table'."""
+        recorded = self.gate.recorded()
+        return f'the {TABLE_NAMES[recorded[0][0]]}' if len(recorded) == 1 else 'every table'
+
     def _motion_reason(self, stream: _Stream) -> str:
-        """Why a record with the table turning gives no term, and what record would."""
+        """Why a record with a table turning gives no term, and what record would."""
         if not stream.left_out:
             return ''
         s = self.settings
@@ -542,12 +580,16 @@ class NoiseCalibrator:
         first, last, n = stream.final
         period = (last - first) / (n - 1) / NS_PER_S if n > 1 and last > first else math.nan
         secs = f' ({need * period:.3g} s)' if math.isfinite(period) else ''
-        return (f' The rate table turned during {self.table.moving_s():.6g} s of its '
-                f'{self.table.record_s():.6g} s record (up to {self.table.max_rate_rad_s:.4g} '
-                f'rad/s = {math.degrees(self.table.max_rate_rad_s):.4g} °/s): '
+        turned = ' and '.join(
+            f'the {TABLE_NAMES[topic]} turned during {tm.moving_s():.6g} s of its '
+            f'{tm.record_s():.6g} s record (up to {tm.max_rate_rad_s:.4g} rad/s = '
+            f'{math.degrees(tm.max_rate_rad_s):.4g} °/s)'
+            for topic, tm in self.gate.recorded() if tm.moved)
+        rest = 'the table' if len(self.gate.recorded()) == 1 else 'every table'
+        return (f' {turned[:1].upper()}{turned[1:]}: '
                 f'{stream.left_out} samples of {stream.topic} were left out and the longest '
                 f'span at rest holds {stream.longest_rest}. Noise terms describe a static '
-                f'sensor: record it with the table at rest, {need} samples{secs} or more in '
+                f'sensor: record it with {rest} at rest, {need} samples{secs} or more in '
                 f'one span for the white-noise term (8 octaves of τ with '
                 f'{s.fit_min_clusters:g} clusters each), hours for bias instability and the '
                 'random walks.')
@@ -638,13 +680,14 @@ class NoiseCalibrator:
 
         motion = self._motion_reason(stream)
         if st.samples == 0 and motion:
-            return none(f'no sample of {ch.name} on {stream.topic} was taken with the rate '
-                        f'table at rest.{motion}')
+            return none(f'no sample of {ch.name} on {stream.topic} was taken with '
+                        f'{self._tables_phrase()} at rest.{motion}')
         if motion and st.non_finite < st.samples:
             rest_curve = ch.curve()
             if rest_curve is None or int(np.count_nonzero(rest_curve.avar > 0)) < 2:
-                return none(f'the spans of {ch.name} on {stream.topic} with the rate table at '
-                            f'rest are too short for any noise term ({st.samples} sample(s) '
+                return none(f'the spans of {ch.name} on {stream.topic} with '
+                            f'{self._tables_phrase()} at rest are too short for any noise '
+                            f'term ({st.samples} sample(s) '
                             f'at rest).{motion}')
         if st.samples == 0:
             return none(f'no samples have arrived on {stream.topic} yet.')
@@ -737,9 +780,9 @@ class NoiseCalibrator:
         gyro, ``gyro_x`` … ``accel_z`` for an Imu; adev in rad/s (gyro) or m/s² (accel);
         only resolved terms under "results". Axes with no Allan deviation in SI units
         (no samples, no scale factor, constant, too short) are absent; :meth:`missing`
-        says why. With rate-table states in the record, ``"table_motion"``: whether the
-        table moved, for how long, its largest rate and the samples left out
-        (:meth:`table_record`).
+        says why. With table states (rate or position table) in the record,
+        ``"table_motion"``: whether each table moved, for how long, its largest rate and
+        the samples left out (:meth:`table_record`).
         """
         axes: dict[str, Any] = {}
         for axis, res in self.axis_results().items():

@@ -63,9 +63,10 @@ GYRO_PULSES = topics.GYRO_PULSES
 FOG_OUTPUT = topics.FOG_OUTPUT
 GYRO_TOPICS = {GYRO_PULSES: JOINT_STATE, FOG_OUTPUT: JOINT_STATE}
 """The single-axis gyro streams (topic → type)."""
-TABLE_TOPICS = {topics.RATE_TABLE_JOINT_STATES: JOINT_STATE}
-"""Optional input: the rate table's joint states. When they are recorded, the samples taken
-while the table moved are left out (:mod:`gyro_calib.noise.table`)."""
+TABLE_TOPICS = {topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
+                topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE}
+"""Optional inputs: the rate table's and the position table's joint states. The samples
+taken while any recorded table moved are left out (:mod:`gyro_calib.noise.table`)."""
 NODE_NAME = 'noise_node'
 """The node's name (ROS 2 parameter files for ``--config`` use it, or ``/**``)."""
 FIGURE_NAME = 'noise_adev.png'
@@ -357,11 +358,11 @@ class NoiseSession(MethodSession):
 
     # -- input ------------------------------------------------------------------------------
     def topics(self) -> dict[str, str]:
-        """The input topic, and the rate table's joint states (optional).
+        """The input topic, and the tables' joint states (optional).
 
         The input topic (an Imu), or both single-axis gyro streams when none was named;
-        and ``/rate_table/joint_states``, read when recorded to leave out what the sensor
-        gave while the table moved.
+        and ``/rate_table/joint_states`` and ``/position_table/joint_states``, read when
+        recorded to leave out what the sensor gave while a table moved.
         """
         if self.kind == 'imu':
             assert self.topic is not None
@@ -378,9 +379,10 @@ class NoiseSession(MethodSession):
             ConfigError: both /gyro/pulses and /fog/output arrived and no topic was chosen.
         """
         cal = self.calibrator
-        table = batch.joint_state(topics.RATE_TABLE_JOINT_STATES)
-        if table is not None and self.topic != topics.RATE_TABLE_JOINT_STATES:
-            cal.extend_table(*table)  # first: it decides the gyro samples of the same batch
+        for topic in TABLE_TOPICS:  # first: they decide the gyro samples of the same batch
+            table = batch.joint_state(topic)
+            if table is not None and self.topic != topic:
+                cal.extend_table(*table, topic=topic)
         try:
             if self.kind in ('pulses', 'gyro'):
                 pulses = batch.joint_state(GYRO_PULSES)
@@ -416,9 +418,9 @@ class NoiseSession(MethodSession):
 
     # -- snapshots --------------------------------------------------------------------------
     def _data_key(self) -> tuple[tuple[str, int], ...]:
-        table = self.calibrator.table
         return (*((t, s.received) for t, s in self.calibrator.ordering_stats().items()),
-                (topics.RATE_TABLE_JOINT_STATES, table.states + table.unusable + table.behind))
+                *((topic, table.states + table.unusable + table.behind)
+                  for topic, table in self.calibrator.gate.tables.items()))
 
     def refresh(self) -> bool:
         """Take a snapshot of the samples so far (flushed copy, fitted); True when new.

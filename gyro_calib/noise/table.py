@@ -1,4 +1,4 @@
-"""Was the rate table at rest? The motion gate of a noise record (METHODS §E).
+"""Were the bench's tables at rest? The motion gate of a noise record (METHODS §E).
 
 Noise characterisation (IEEE Std 952 Allan analysis) describes a *static* sensor: the
 gyro's output must be its noise plus a constant rate. A rate table that turns during the
@@ -8,7 +8,11 @@ table's profile as "noise terms". When the bag (or the live graph) also carries 
 joint states (``/rate_table/joint_states``: unwrapped encoder angle, rad; rate, rad/s),
 :class:`TableMotion` classifies each table state and tells the calibrator which gyro
 samples fall while the table moved; those are left out and each span at rest is analysed
-as its own segment, as a gap would split it.
+as its own segment, as a gap would split it. The two-axis RBRLG bench also records its
+position table (``/position_table/joint_states``, same fields), which turns while the rate
+table is held in the θ phase: :class:`TableGate` classifies every recorded table alike (each
+its own states, the same thresholds) and a gyro sample is at rest only when every recorded
+table is; a table never recorded holds nothing back.
 
 A table state is *moving* when
 
@@ -55,6 +59,11 @@ if TYPE_CHECKING:
 RATE_TABLE_JOINT_STATES = '/rate_table/joint_states'
 """The rate table's joint states (the topic contract's name, repeated here so the noise
 method imports no other)."""
+POSITION_TABLE_JOINT_STATES = '/position_table/joint_states'
+"""The two-axis bench's position table (topic contract; the same fields as the rate table's)."""
+TABLE_NAMES = {RATE_TABLE_JOINT_STATES: 'rate table',
+               POSITION_TABLE_JOINT_STATES: 'position table'}
+"""Every table that gates the gyro samples, by topic, with the name the lines give it."""
 _BEFORE = np.iinfo(np.int64).min
 _AFTER = np.iinfo(np.int64).max
 
@@ -269,6 +278,15 @@ class TableMotion:
         moving = (k >= 0) & (t < ends[np.maximum(k, 0)])
         return n, moving
 
+    def overlaps(self, start_ns: int, end_ns: int) -> bool:
+        """A motion span overlaps [start_ns, end_ns]."""
+        for s in self.spans:
+            a = _BEFORE if s.start_ns is None else s.start_ns
+            b = _AFTER if s.end_ns is None else s.end_ns
+            if a < end_ns and b > start_ns:
+                return True
+        return False
+
     def span_max_rate(self, start_ns: int, end_ns: int) -> float:
         """The largest |rate| of the motion spans overlapping [start_ns, end_ns], rad/s."""
         out = 0.0
@@ -278,3 +296,47 @@ class TableMotion:
             if a < end_ns and b > start_ns:
                 out = max(out, s.max_rate_rad_s)
         return out
+
+
+@dataclass(slots=True)
+class TableGate:
+    """Every table the bench records (:data:`TABLE_NAMES`): the gyro is at rest when all are.
+
+    Attributes:
+        tables: each table's :class:`TableMotion`, by topic (rate table first).
+    """
+
+    tables: dict[str, TableMotion]
+
+    @classmethod
+    def create(cls, rest_rate_rad_s: float, rest_angle_rad: float) -> TableGate:
+        """A gate over every table of :data:`TABLE_NAMES`, each with the same thresholds."""
+        return cls({topic: TableMotion(rest_rate_rad_s, rest_angle_rad) for topic in TABLE_NAMES})
+
+    def recorded(self) -> list[tuple[str, TableMotion]]:
+        """The tables a state arrived from, as (topic, motion), rate table first."""
+        return [(topic, tm) for topic, tm in self.tables.items() if tm.seen]
+
+    @property
+    def seen(self) -> bool:
+        """A state of some table has arrived: the gate is active."""
+        return any(tm.seen for tm in self.tables.values())
+
+    def decide(self, t_ns: IntArray, *, final: bool) -> tuple[int, BoolArray]:
+        """:meth:`TableMotion.decide` over every recorded table.
+
+        The first n stamps every recorded table decides are decided; a stamp moved when any
+        recorded table moved at it. With one table recorded, exactly its decision.
+        """
+        n = len(t_ns)
+        moving = np.zeros(n, dtype=bool)
+        for _, tm in self.recorded():
+            k, m = tm.decide(t_ns, final=final)
+            n = min(n, k)
+            moving = moving[:n] | m[:n]
+        return n, moving
+
+    def moved_within(self, start_ns: int, end_ns: int) -> list[tuple[str, float]]:
+        """The tables that moved within [start_ns, end_ns]: (topic, largest |rate| rad/s)."""
+        return [(topic, tm.span_max_rate(start_ns, end_ns)) for topic, tm in self.recorded()
+                if tm.overlaps(start_ns, end_ns)]
