@@ -151,7 +151,8 @@ def test_summary_rows_give_si_and_the_quoted_units(imu_session: NoiseSession) ->
 def test_pulse_session_uses_the_plain_keys_and_names_its_scale_factor() -> None:
     s = NoiseSession(CalibrationOptions(scale_factor_rad_per_pulse=K_PULSE))
     assert s.topics() == {GYRO_PULSES: JOINT_STATE, '/fog/output': JOINT_STATE,
-                          '/rate_table/joint_states': JOINT_STATE}  # optional: motion gate
+                          '/rate_table/joint_states': JOINT_STATE,  # optional: motion gate
+                          '/position_table/joint_states': JOINT_STATE}
     t, counts = pulse_record(20_000)
     s.feed(batch(joint_columns(GYRO_PULSES, t, counts)))
     s.process(flush=True)

@@ -333,8 +333,8 @@ def test_noise_node_subscribes_the_rate_table_beside_its_input(
             node.destroy_node()
     finally:
         rclpy.shutdown()
-    assert {'/bench2/gyro/pulses', '/bench2/fog/output',
-            '/bench2/rate_table/joint_states'} <= names
+    assert {'/bench2/gyro/pulses', '/bench2/fog/output', '/bench2/rate_table/joint_states',
+            '/bench2/position_table/joint_states'} <= names
 
 
 @pytest.mark.parametrize('given', ['angle and rate', 'angle only', 'rate only'])
@@ -378,3 +378,189 @@ def test_the_table_is_never_offered_as_an_input_to_characterise(
     listing = capsys.readouterr().out.split('\nnoise ', 1)[1]
     assert '/rate_table/joint_states         sensor_msgs/msg/JointState   optional, beside the ' \
         'input' in listing
+    assert '/position_table/joint_states     sensor_msgs/msg/JointState   optional, beside the ' \
+        'input' in listing
+
+
+# -- the two-axis bench: the position table gates as the rate table does -------------------------
+ELEVATION = math.radians(45.0)  # the sense axis's elevation over the position table's plane
+
+
+def two_axis_bench(duration_s: float, rate_motion: tuple[float, float, float, float] | None,
+                   position_motion: tuple[float, float, float, float] | None,
+                   seed: int) -> dict[str, np.ndarray]:
+    """Stamps and readings of a gyro on a rate table carried by a position table.
+
+    The rate table's axis is the sense axis; the sense axis is tilted ``ELEVATION`` out of
+    the position table's plane, so it sees sin(ELEVATION) of the position table's rotation
+    (the rate table's own angle does not change that projection: its axis is the sense
+    axis). Each table's encoder (2²³ counts) flickers by ±1 count; its rate is the encoder
+    difference over the state interval. Motions as :func:`bench`'s, None = at rest.
+    """
+    rng = np.random.default_rng(seed)
+    n = int(duration_s * GYRO_HZ) + 1
+    tg = np.arange(n, dtype=np.int64) * (1_000_000_000 // GYRO_HZ)
+    ts = tg / 1e9
+
+    def true_angle(t_s: np.ndarray, motion: tuple[float, float, float, float] | None
+                   ) -> np.ndarray:
+        return table_angle(t_s, *motion)[0] if motion is not None else np.zeros(len(t_s))
+
+    sensed = true_angle(ts, rate_motion) + math.sin(ELEVATION) * true_angle(ts, position_motion)
+    walk = np.concatenate(([0.0], np.cumsum(rng.normal(0.0, N_TRUE / math.sqrt(GYRO_HZ),
+                                                       n - 1))))
+    counts = np.floor((sensed + EARTH_Z * ts + walk) / K + rng.uniform())
+    m = int(duration_s * TABLE_HZ) + 1
+    tt = np.arange(m, dtype=np.int64) * (1_000_000_000 // TABLE_HZ)
+    out = {'t_gyro': START_NS + tg, 'counts': counts, 't_table': START_NS + tt}
+    for name, motion in (('rate', rate_motion), ('position', position_motion)):
+        encoder = (np.round(true_angle(tt / 1e9, motion) / ENCODER_RAD)
+                   + rng.integers(-1, 2, m)) * ENCODER_RAD
+        out[f'{name}_angle'] = encoder
+        out[f'{name}_rate'] = np.concatenate(([0.0], np.diff(encoder) * TABLE_HZ))
+    return out
+
+
+def write_two_axis(path: Path, b: dict[str, np.ndarray], tables: tuple[str, ...]) -> Path:
+    """The bag of :func:`two_axis_bench` with the joint states of ``tables``."""
+    cdr = ContractMessages()
+    msgs = [BagMessage('/gyro/pulses', int(t), cdr.joint_state(int(t), 'gyro', float(c)))
+            for t, c in zip(b['t_gyro'], b['counts'])]
+    for name in tables:
+        msgs += [BagMessage(f'/{name}_table/joint_states', int(t),
+                            cdr.joint_state(int(t), f'{name}_table', float(a), float(r)))
+                 for t, a, r in zip(b['t_table'], b[f'{name}_angle'], b[f'{name}_rate'])]
+    write_bag(path, sorted(msgs, key=lambda m: m.log_time_ns))
+    return path
+
+
+def moving_states(cal: NoiseCalibrator, angle: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """The table states that moved: by the rate, or by the angle from where the table rested."""
+    thr_w, thr_a = cal.settings.table_rest_rate_rad_s, cal.settings.table_rest_angle_rad
+    moving, ref = np.zeros(len(angle), dtype=bool), angle[0]
+    for i, (a, w) in enumerate(zip(angle, rate)):
+        if abs(w) > thr_w or abs(a - ref) > thr_a:
+            moving[i], ref = True, a
+    return moving
+
+
+def moved_at(t_table: np.ndarray, moving: np.ndarray, t_gyro: np.ndarray) -> np.ndarray:
+    """Gyro samples strictly between two states at rest with a moving state between them."""
+    rest_t = t_table[~moving]
+    k = np.searchsorted(rest_t, t_gyro, side='left')
+    on_state = (k < len(rest_t)) & (rest_t[np.minimum(k, len(rest_t) - 1)] == t_gyro)
+    lo = np.where(k > 0, rest_t[np.maximum(k - 1, 0)], np.iinfo(np.int64).min)
+    hi = np.where(k < len(rest_t), rest_t[np.minimum(k, len(rest_t) - 1)],
+                  np.iinfo(np.int64).max)
+    n_moving_before = np.concatenate(([0], np.cumsum(moving)))
+    between = (n_moving_before[np.searchsorted(t_table, hi, side='left')]
+               - n_moving_before[np.searchsorted(t_table, lo, side='right')])
+    return (between > 0) & ~on_state
+
+
+POSITION_MOTION = (25.0, 12.0, math.radians(30.0), math.radians(60.0))  # one revolution at 30 °/s
+
+
+@pytest.mark.parametrize('tables', [('rate', 'position'), ('position',)])
+def test_the_position_table_turning_while_the_rate_table_holds_is_left_out(
+        tables: tuple[str, ...], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The θ phase: the rate table held, the position table turning; the gyro is not static.
+
+    With the rate table recorded (at rest) or not, the same samples are left out: those
+    while the position table turned; the line, the rejection and ``table_motion.tables``
+    name the position table.
+    """
+    b = two_axis_bench(70.0, None, POSITION_MOTION, seed=11)
+    bag = write_two_axis(tmp_path / 'bag', b, tables)
+    status, out, err = run_cli(capsys, bag, '--scale-factor-rad-per-pulse', K, '--json')
+    assert status == 0, err
+    document = json.loads(out)
+    jsonschema.validate(document, json.loads((Path(gyro_calib.__file__).parent / 'schema'
+                                              / 'result.schema.json').read_text()))
+    doc = document['methods']['noise']
+    motion = doc['table_motion']
+    cal = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
+    inside = moved_at(b['t_table'], moving_states(cal, b['position_angle'], b['position_rate']),
+                      b['t_gyro'])
+    assert 0.95 * 13.0 * GYRO_HZ < np.count_nonzero(inside) < 1.05 * 13.0 * GYRO_HZ
+    assert motion['samples_left_out'] == {'/gyro/pulses': int(np.count_nonzero(inside))}
+    position = motion['tables']['/position_table/joint_states']
+    assert position['moved'] is True and position['spans'] == 1
+    # 25 s → 25.5 s accelerating, 12 s at 30 °/s, 0.5 s decelerating, ± one 20 ms state
+    assert position['moving_s'] == pytest.approx(13.0, abs=0.041)
+    peak = np.max(np.abs(b['position_rate']))  # 30 °/s + encoder flicker
+    assert position['max_rate_rad_s'] == peak
+    largest = f'{peak:.4g} rad/s = {math.degrees(peak):.4g} °/s'
+    assert sorted(motion['tables']) == sorted(f'/{t}_table/joint_states' for t in tables)
+    if 'rate' in tables:  # the top-level keys stay the rate table's
+        assert motion['topic'] == '/rate_table/joint_states' and motion['moved'] is False
+        assert motion['tables']['/rate_table/joint_states']['moved'] is False
+        assert ('/rate_table/joint_states: the rate table stayed at rest throughout its 70 s '
+                'record (3501 states); /position_table/joint_states: the position table moved '
+                f'during 13.02 s of its 70 s record (1 span(s), largest rate {largest}); at rest '
+                '= |velocity| ≤ 0.01 rad/s and the angle within 2e-05 rad for every table: '
+                f'{np.count_nonzero(inside)} of 14001 samples of /gyro/pulses') in err
+    else:
+        assert motion['topic'] == '/position_table/joint_states' and motion['moved'] is True
+        assert ('/position_table/joint_states: the position table moved during 13.02 s of its '
+                f'70 s record (1 span(s), largest rate {largest}; at rest') in err
+    assert len(doc['rejections']) == 1
+    assert doc['rejections'][0].startswith('t=1025.005000 s: /gyro/pulses: the ')
+    assert 'are left out: the position table was turning (/position_table/joint_states up ' \
+        f'to {largest}; at rest' in doc['rejections'][0]
+    # what remains is the static record with the turning part cut out, to the last bit
+    cal.extend_pulses(b['t_gyro'][~inside], b['counts'][~inside])
+    cal.process(flush=True)
+    assert doc['axes']['gyro']['adev'] == cal.json_section()['axes']['gyro']['adev']
+    n = doc['results']['angle_random_walk_rad_per_sqrt_s']
+    assert abs(n['value'] - N_TRUE) < 3 * n['std']
+
+
+def test_both_tables_at_rest_give_exactly_the_numbers_without_them(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    b = two_axis_bench(60.0, None, None, seed=13)
+    docs = {}
+    for tables in (('rate', 'position'), ()):
+        bag = write_two_axis(tmp_path / ('_'.join(tables) or 'none'), b, tables)
+        status, out, err = run_cli(capsys, bag, '--scale-factor-rad-per-pulse', K, '--json')
+        assert status == 0, err
+        docs[tables] = json.loads(out)['methods']['noise']
+    motion = docs[('rate', 'position')].pop('table_motion')
+    assert motion['line'].startswith(
+        '/rate_table/joint_states: the rate table stayed at rest throughout its 60 s record '
+        '(3001 states); /position_table/joint_states: the position table stayed at rest '
+        'throughout its 60 s record (3001 states); at rest = ')
+    assert motion['line'].endswith('for every table: every sample analysed.')
+    assert motion['moved'] is False and motion['samples_left_out'] == {'/gyro/pulses': 0}
+    assert {t: m['moved'] for t, m in motion['tables'].items()} == {
+        '/rate_table/joint_states': False, '/position_table/joint_states': False}
+    assert docs[('rate', 'position')] == docs[()]
+
+
+def test_the_committed_theta_bench_names_the_position_table_motion(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The θ bench's position-table motion is named and left out.
+
+    theta_four_position: the K̃ phase turns the rate table, the θ phase the position table at
+    30 °/s, one revolution each way at each of four stations; both are left out.
+    """
+    status = main(['calibrate', str(BAGS / 'theta_four_position'), '--method', 'rbrlg',
+                   '--method', 'noise', '--scale-factor-rad-per-pulse', '4.086e-6', '--json',
+                   '--no-progress'])
+    captured = capsys.readouterr()
+    assert status == 0, captured.err
+    document = json.loads(captured.out)
+    jsonschema.validate(document, json.loads((Path(gyro_calib.__file__).parent / 'schema'
+                                              / 'result.schema.json').read_text()))
+    noise = document['methods']['noise']
+    tables = noise['table_motion']['tables']
+    position = tables['/position_table/joint_states']
+    assert position['moved'] is True and position['spans'] == 4
+    assert position['max_rate_rad_s'] == pytest.approx(math.radians(30.0))
+    assert tables['/rate_table/joint_states']['moved'] is True
+    assert noise['table_motion']['max_rate_rad_s'] == pytest.approx(math.radians(150.0))
+    assert sum('the position table was turning' in r for r in noise['rejections']) == 4
+    assert '/position_table/joint_states: the position table moved during 196.88 s of its ' \
+        '270.9 s record (4 span(s), largest rate 0.5236 rad/s = 30 °/s)' in captured.err
+    # without the position table the θ phase counted as at rest: 16291 of 67726 left out
+    assert noise['table_motion']['samples_left_out'] == {'/gyro/pulses': 65507}
