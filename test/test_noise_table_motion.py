@@ -564,3 +564,53 @@ def test_the_committed_theta_bench_names_the_position_table_motion(
         '270.9 s record (4 span(s), largest rate 0.5236 rad/s = 30 °/s)' in captured.err
     # without the position table the θ phase counted as at rest: 16291 of 67726 left out
     assert noise['table_motion']['samples_left_out'] == {'/gyro/pulses': 65507}
+
+
+def motions() -> st.SearchStrategy[tuple[float, float, float, float] | None]:
+    """A table at rest, or a trapezoidal move of random start, cruise, rate and acceleration."""
+    return st.none() | st.tuples(
+        st.floats(0.0, 25.0), st.floats(0.0, 8.0),
+        st.floats(-200.0, 200.0).filter(lambda r: abs(r) > 0.05).map(math.radians),
+        st.floats(5.0, 2000.0).map(math.radians))
+
+
+@settings(max_examples=200 if STRESS else 10, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(rate_motion=motions(), position_motion=motions(), chunk=st.integers(50, 5000),
+       seed=st.integers(0, 2**16))
+def test_a_sample_is_at_rest_only_when_every_recorded_table_is(
+        rate_motion: tuple[float, float, float, float] | None,
+        position_motion: tuple[float, float, float, float] | None, chunk: int,
+        seed: int) -> None:
+    """Left out: exactly the samples either table's own states say it moved at (the union)."""
+    b = two_axis_bench(30.0, rate_motion, position_motion, seed=seed)
+    cal = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
+    edges = np.arange(0, len(b['t_gyro']) + chunk, chunk)
+    for a, z in zip(edges[:-1], edges[1:]):
+        tg = b['t_gyro'][a:z]
+        if not len(tg):
+            continue
+        hi = tg[-1] if z < len(b['t_gyro']) else b['t_table'][-1]
+        lo = b['t_gyro'][a - 1] if a else b['t_table'][0] - 1
+        k = (b['t_table'] > lo) & (b['t_table'] <= hi)
+        for name in ('rate', 'position'):  # each chunk's table states first, as a node's batch
+            cal.extend_table(b['t_table'][k], b[f'{name}_angle'][k], b[f'{name}_rate'][k],
+                             topic=f'/{name}_table/joint_states')
+        cal.extend_pulses(tg, b['counts'][a:z])
+        cal.process()
+    cal.process(flush=True)
+    moved = {name: moved_at(b['t_table'], moving_states(cal, b[f'{name}_angle'],
+                                                        b[f'{name}_rate']), b['t_gyro'])
+             for name in ('rate', 'position')}
+    either = moved['rate'] | moved['position']
+    record = cal.table_record()
+    assert record is not None
+    assert record['samples_left_out']['/gyro/pulses'] == int(np.count_nonzero(either))
+    assert {t: m['moved'] for t, m in record['tables'].items()} == {
+        f'/{name}_table/joint_states': bool(moving_states(cal, b[f'{name}_angle'],
+                                                          b[f'{name}_rate']).any())
+        for name in ('rate', 'position')}
+    cut = NoiseCalibrator(cal.settings)
+    cut.extend_pulses(b['t_gyro'][~either], b['counts'][~either])
+    cut.process(flush=True)
+    assert cal.json_section()['axes'] == cut.json_section()['axes']
