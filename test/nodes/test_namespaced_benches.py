@@ -74,7 +74,7 @@ def test_two_namespaced_benches_at_once_each_calibrate_their_own_gyro(
     assert expected['/bench1'] != expected['/bench2']
     for ns in BENCHES:
         live = load_calibration(tmp_path / f'{ns.strip("/")}.yaml')
-        assert live.get('k_tilde_rad_per_pulse') == expected[ns], logs  # its own gyro, exactly
+        assert live.values.get('k_tilde_rad_per_pulse') == expected[ns], logs  # its own gyro
         recorded = calibrate_bags([lab], methods=['rbrlg'], namespace=ns)
         k = recorded.sessions['rbrlg'].results()['k_tilde_rad_per_pulse']
         assert k.value == expected[ns]
