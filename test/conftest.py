@@ -1,20 +1,47 @@
 """Test-run settings: DDS stays on loopback, in a domain private to this test run.
 
-The domain is derived from the pytest process id (1–100) unless
-GYRO_CALIB_TEST_DOMAIN_ID names one, so two runs on one machine do not cross-talk
-and a ROS_DOMAIN_ID left in the shell is never joined by tests.
+The domain (1–100) is one no other test run on this machine holds: each run takes an
+exclusive lock on ``gyro_calib_dds_domain_<N>.lock`` in the temporary directory for its
+whole life, starting from its process id (two runs whose ids agree modulo 100 once shared
+a domain, and one run's replayed zero-index events reached the other's nodes as "too
+late"). GYRO_CALIB_TEST_DOMAIN_ID names a domain instead. A ROS_DOMAIN_ID left in the
+shell is never joined by tests.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
+import tempfile
+from typing import IO
 
 # Every front door imports the method registry, which installs its hand-off key schema as
 # the default of gyro_calib.handoff (the hand-off module never imports the registry: issue
 # 19 §5); tests that call the hand-off functions or the sessions directly get it too.
 import gyro_calib.registry  # noqa: F401
 
+
+def _private_domain() -> tuple[int, IO[bytes] | None]:
+    """A DDS domain no other test run on this machine holds, and the lock that keeps it."""
+    start = os.getpid() % 100
+    for k in range(100):
+        domain = 1 + (start + k) % 100
+        lock = open(os.path.join(tempfile.gettempdir(),  # noqa: SIM115 (held for the run)
+                                 f'gyro_calib_dds_domain_{domain}.lock'), 'wb')
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            lock.close()
+            continue
+        return domain, lock
+    return 1 + start, None  # every domain held: fall back to the process id
+
+
+if 'GYRO_CALIB_TEST_DOMAIN_ID' in os.environ:
+    _DOMAIN, _DOMAIN_LOCK = int(os.environ['GYRO_CALIB_TEST_DOMAIN_ID']), None
+else:
+    _DOMAIN, _DOMAIN_LOCK = _private_domain()
+
 # Set before any test imports rclpy or starts a node: every child process inherits it.
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-os.environ['ROS_DOMAIN_ID'] = os.environ.get('GYRO_CALIB_TEST_DOMAIN_ID',
-                                             str(1 + os.getpid() % 100))
+os.environ['ROS_DOMAIN_ID'] = str(_DOMAIN)

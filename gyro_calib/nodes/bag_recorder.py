@@ -49,6 +49,7 @@ from gyro_calib.nodes.ros_io import (
     described_parameter,
     make_executor,
     report_unused_parameters,
+    spin_until_quiet,
     stamp_to_ns,
 )
 
@@ -195,23 +196,11 @@ def main(args: list[str] | None = None) -> None:
         try:
             while not stop.is_set() and not recorder.done:
                 executor.spin_once(timeout_sec=0.1)
-            drain_backlog(executor, recorder)
+            spin_until_quiet(executor, lambda: sum(recorder.counts.values()))
         except ExternalShutdownException:
             pass
         finally:
             recorder.close()
-
-
-def drain_backlog(executor: Any, recorder: BagRecorder, *, quiet_s: float = 0.5,
-                  limit_s: float = 60.0) -> None:
-    """Spin until no message has arrived for ``quiet_s`` (at most ``limit_s``)."""
-    deadline = time.monotonic() + limit_s
-    seen, quiet_since = sum(recorder.counts.values()), time.monotonic()
-    while time.monotonic() - quiet_since < quiet_s and time.monotonic() < deadline:
-        executor.spin_once(timeout_sec=0.05)
-        total = sum(recorder.counts.values())
-        if total != seen:
-            seen, quiet_since = total, time.monotonic()
 
 
 if __name__ == '__main__':

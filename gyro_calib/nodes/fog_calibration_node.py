@@ -17,7 +17,6 @@ recording of the same run, bit for bit.
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import rclpy
@@ -28,7 +27,7 @@ from gyro_calib.fog.session import FogSession
 from gyro_calib.fog.settings import FogSettings
 from gyro_calib.nodes.method_node import MethodNode
 from gyro_calib.nodes.node_state import calibration_complete
-from gyro_calib.nodes.ros_io import run_node
+from gyro_calib.nodes.ros_io import run_node, spin_until_quiet
 
 RESULT_TOPICS = {KEY_SCALE_FACTOR: topics.FOG_SCALE_FACTOR,
                  KEY_SELF_CAL: topics.FOG_SELF_CAL_SCALE_FACTOR}
@@ -52,19 +51,13 @@ class FogCalibrationNode(MethodNode):
         super()._process()
 
     # It spins the executor before the generic finish: called only by this node's main.
-    def finish(  # type: ignore[override]
-            self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 60.0) -> None:
+    def finish(self, executor: Any) -> None:  # type: ignore[override]
         """The recording ended: take what the readers hold, flush, publish, write.
 
-        Spins until no message has arrived for ``quiet_s`` (at most ``limit_s``): a reliable
-        writer counts a sample delivered once our reader has it, before our callback ran.
+        What the readers hold is taken in first (:func:`spin_until_quiet`): a reliable writer
+        counts a sample delivered once our reader has it, before our callback ran.
         """
-        deadline = time.monotonic() + limit_s
-        seen, quiet_since = self.received(), time.monotonic()
-        while time.monotonic() - quiet_since < quiet_s and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
-            if self.received() != seen:
-                seen, quiet_since = self.received(), time.monotonic()
+        spin_until_quiet(executor, self.received)
         session = self.session
         assert isinstance(session, FogSession)
         session.end_of_recording()

@@ -38,7 +38,7 @@ from typing import Any
 
 from gyro_calib.errors import ConfigError, GyroCalibError
 from gyro_calib.nodes.method_node import GENERIC_PARAMETERS, MethodNode
-from gyro_calib.nodes.ros_io import described_parameter, run_node
+from gyro_calib.nodes.ros_io import described_parameter, run_node, spin_until_quiet
 from gyro_calib.noise.keys import METHOD
 from gyro_calib.noise.outputs import resolve_targets, write_outputs
 from gyro_calib.noise.session import IMU, NoiseSession, check_scale_factor
@@ -203,19 +203,9 @@ class NoiseNode(MethodNode):
         return (f'running terms{span} ({seconds:.2f} s to compute): '
                 + ('; '.join(parts) if parts else 'none resolved yet'))
 
-    def drain(self, executor: Any, *, quiet_s: float = 0.5, limit_s: float = 30.0) -> None:
-        """Spin until no sample has arrived for ``quiet_s``.
-
-        Spin until no sample has arrived for ``quiet_s`` (at most ``limit_s``): the
-        samples DDS already acknowledged to the publisher are taken in before the end.
-        """
-        deadline = time.monotonic() + limit_s
-        seen, quiet_since = self.received(), time.monotonic()
-        while time.monotonic() - quiet_since < quiet_s and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
-            now = self.received()
-            if now != seen:
-                seen, quiet_since = now, time.monotonic()
+    def drain(self, executor: Any) -> None:
+        """Take in the samples DDS already acknowledged to the publisher before the end."""
+        spin_until_quiet(executor, self.received, limit_s=30.0)
 
     def finish(self) -> int:  # type: ignore[override]  # main() exits with this status
         """End the record, publish the final terms, write the files; 0, or 1 on failure."""

@@ -279,6 +279,30 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
         raise SystemExit(EXIT_READERS_STALLED)
 
 
+DRAIN_QUIET_S = 2.0
+"""How long no message may arrive before a node's readers count as drained, s: on a loaded
+machine a node can go half a second without the CPU while its readers still hold
+acknowledged messages (a bag of a two-bench run lost its last window pair with 0.5 s while
+two test runs shared 2 cores)."""
+
+
+def spin_until_quiet(executor: Any, received: Callable[[], int], *,
+                     quiet_s: float = DRAIN_QUIET_S, limit_s: float = 60.0) -> None:
+    """Spin until ``received()`` has not changed for ``quiet_s`` (at most ``limit_s``).
+
+    A reliable writer counts a sample delivered once our DDS reader holds it, before our
+    callback ran: at the end of a recording the node takes that backlog in before it
+    closes its files.
+    """
+    deadline = time.monotonic() + limit_s
+    seen, quiet_since = received(), time.monotonic()
+    while time.monotonic() - quiet_since < quiet_s and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+        now = received()
+        if now != seen:
+            seen, quiet_since = now, time.monotonic()
+
+
 class StartGate:
     """When a simulator may start publishing: once every sensor topic has its readers.
 
