@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -109,20 +110,30 @@ def run_cli(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, s
     return status, out.out, out.err
 
 
+def interleaved(b: dict[str, np.ndarray],
+                chunk: int) -> Iterator[tuple[slice, np.ndarray]]:
+    """Chunks of gyro samples, each with the mask of the table states due before it.
+
+    Chunks of gyro samples, each with the mask of the table states due before it (a
+    node's batch: the table's states of a chunk first, the last chunk takes the rest).
+    """
+    t_gyro, t_table = b['t_gyro'], b['t_table']
+    edges = np.arange(0, len(t_gyro) + chunk, chunk)
+    for a, z in zip(edges[:-1], edges[1:]):
+        if a >= len(t_gyro):
+            continue
+        hi = t_gyro[min(z, len(t_gyro)) - 1] if z < len(t_gyro) else t_table[-1]
+        lo = t_gyro[a - 1] if a else t_table[0] - 1
+        yield slice(a, z), (t_table > lo) & (t_table <= hi)
+
+
 def calibrated(b: dict[str, np.ndarray], *, table: bool, chunk: int = 997) -> NoiseCalibrator:
     """The calibrator fed in interleaved chunks, the table's states of each chunk first."""
     cal = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
-    edges = np.arange(0, len(b['t_gyro']) + chunk, chunk)
-    for a, z in zip(edges[:-1], edges[1:]):
-        tg = b['t_gyro'][a:z]
-        if not len(tg):
-            continue
+    for part, k in interleaved(b, chunk):
         if table:
-            hi = tg[-1] if z < len(b['t_gyro']) else b['t_table'][-1]
-            lo = b['t_gyro'][a - 1] if a else b['t_table'][0] - 1
-            k = (b['t_table'] > lo) & (b['t_table'] <= hi)
             cal.extend_table(b['t_table'][k], b['angle'][k], b['rate'][k])
-        cal.extend_pulses(tg, b['counts'][a:z])
+        cal.extend_pulses(b['t_gyro'][part], b['counts'][part])
         cal.process()
     cal.process(flush=True)
     return cal
@@ -585,18 +596,11 @@ def test_a_sample_is_at_rest_only_when_every_recorded_table_is(
     """Left out: exactly the samples either table's own states say it moved at (the union)."""
     b = two_axis_bench(30.0, rate_motion, position_motion, seed=seed)
     cal = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
-    edges = np.arange(0, len(b['t_gyro']) + chunk, chunk)
-    for a, z in zip(edges[:-1], edges[1:]):
-        tg = b['t_gyro'][a:z]
-        if not len(tg):
-            continue
-        hi = tg[-1] if z < len(b['t_gyro']) else b['t_table'][-1]
-        lo = b['t_gyro'][a - 1] if a else b['t_table'][0] - 1
-        k = (b['t_table'] > lo) & (b['t_table'] <= hi)
+    for part, k in interleaved(b, chunk):
         for name in ('rate', 'position'):  # each chunk's table states first, as a node's batch
             cal.extend_table(b['t_table'][k], b[f'{name}_angle'][k], b[f'{name}_rate'][k],
                              topic=f'/{name}_table/joint_states')
-        cal.extend_pulses(tg, b['counts'][a:z])
+        cal.extend_pulses(b['t_gyro'][part], b['counts'][part])
         cal.process()
     cal.process(flush=True)
     moved = {name: moved_at(b['t_table'], moving_states(cal, b[f'{name}_angle'],
