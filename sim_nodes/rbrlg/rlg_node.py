@@ -64,6 +64,9 @@ class RingLaserGyroNode(Node):
             self, 'subscriber_wait_s', 60.0, 'Before the first pulse, wait up to this long (s) '
             'for a reader of /gyro/pulses, so no pulse is published into the void; 0 = do not '
             'wait.'))
+        self.min_subscribers = int(described_parameter(
+            self, 'min_subscribers', 1, 'Readers of /gyro/pulses to wait for before the first '
+            'pulse (2 when a bag recorder and a calibration node must both hear it).'))
         self.sim: RingLaserGyroSimulator | TwoAxisGyroSimulator | None = None
         self._last_ns: int | None = None
         self._waited_for_reader = False
@@ -126,12 +129,14 @@ class RingLaserGyroNode(Node):
             return
         self._waited_for_reader = True
         deadline = time.monotonic() + self.subscriber_wait_s
-        if self.pub.get_subscription_count() == 0 and self.subscriber_wait_s > 0:
-            self.get_logger().info(f'waiting for a reader of {topics.GYRO_PULSES}')
-        while self.pub.get_subscription_count() == 0 and time.monotonic() < deadline:
+        need = max(1, self.min_subscribers)
+        what = 'a reader' if need == 1 else f'{need} readers'
+        if self.pub.get_subscription_count() < need and self.subscriber_wait_s > 0:
+            self.get_logger().info(f'waiting for {what} of {topics.GYRO_PULSES}')
+        while self.pub.get_subscription_count() < need and time.monotonic() < deadline:
             time.sleep(0.01)
-        if self.pub.get_subscription_count() == 0 and self.subscriber_wait_s > 0:
-            self.get_logger().warning(f'no reader of {topics.GYRO_PULSES} after '
+        if self.pub.get_subscription_count() < need and self.subscriber_wait_s > 0:
+            self.get_logger().warning(f'not {what} of {topics.GYRO_PULSES} after '
                                       f'{self.subscriber_wait_s:g} s; publishing anyway.')
 
 

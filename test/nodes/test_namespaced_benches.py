@@ -53,7 +53,8 @@ def test_two_namespaced_benches_at_once_each_calibrate_their_own_gyro(
         out = tmp_path / f'{ns.strip("/")}.yaml'
         calibrators[ns] = launch('calibration_node', {'output_file': str(out)}, namespace=ns)
         nodes.append(calibrators[ns])
-        nodes.append(launch('rlg_sim', {'seed': seed, 'scale_factor_arcsec_per_pulse': scale},
+        nodes.append(launch('rlg_sim', {'seed': seed, 'scale_factor_arcsec_per_pulse': scale,
+                                        'min_subscribers': 2},  # the recorder hears it all too
                             namespace=ns))
     _wait_for(recorder, 'recording /bench1/gyro/pulses')
     for node in calibrators.values():
