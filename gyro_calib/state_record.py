@@ -25,6 +25,7 @@ Pure core: no ROS import.
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import time
@@ -39,9 +40,17 @@ import yaml
 
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.errors import GyroCalibError
+from gyro_calib.units import NS_PER_S, format_stamp
 
 FORMAT = 1
 STATE_FILE = 'state.yaml'
+RESUME_MAX_GAP_S = 60.0
+"""Default longest stamp gap between a record's end and new data that still continues it, s.
+
+As long as the longest time between paired windows (``max_pair_gap_s``, §A): no method
+bridges a longer gap, so data after it are a new run whatever they are."""
+RATE_MARGIN = 1.25
+"""Factor on the record's fastest rate when judging how far a count may move over a gap."""
 
 
 class StateRecordError(GyroCalibError):
@@ -93,6 +102,111 @@ class ResumeSummary:
     last_stamp_ns: int | None
     dropped_bytes: int
     last_stamp_ns_by_topic: dict[str, int]
+
+
+@dataclass(frozen=True, slots=True)
+class TopicTail:
+    """How one topic's record ends: what new data must continue (see :func:`why_not_continued`).
+
+    Attributes:
+        topic: the topic.
+        msgtype: its message type.
+        samples: samples recorded.
+        last_stamp_ns: the latest header stamp recorded.
+        last: value of each continuous column at that stamp.
+        max_rate: fastest |change| per second of each continuous column between consecutive
+            samples of the record (inf where fewer than two samples tell it).
+        max_step: largest |change| between consecutive samples (the quantisation and noise
+            allowance).
+    """
+
+    topic: str
+    msgtype: str
+    samples: int
+    last_stamp_ns: int
+    last: dict[str, float]
+    max_rate: dict[str, float]
+    max_step: dict[str, float]
+
+
+def continuous_columns(topic: str, msgtype: str) -> dict[str, bool]:
+    """The columns of a topic that move continuously, each with True where it is an angle.
+
+    A JointState's ``position`` is a cumulative count (``/gyro/pulses``, ``/fog/output``) or
+    a table's encoder angle (``…/joint_states``, judged modulo 2π since an encoder may wrap).
+    Rates, temperatures and events carry no such constraint: only their stamps are judged.
+    """
+    if msgtype.endswith('JointState'):
+        return {'position': topic.rstrip('/').endswith('joint_states')}
+    return {}
+
+
+def why_not_continued(tails: Mapping[str, TopicTail], live: Mapping[str, TopicColumns],
+                      max_gap_s: float = RESUME_MAX_GAP_S) -> str | None:
+    """Why new data do not continue a record, or None when they do.
+
+    New data continue a record when, for every topic, the first new sample comes after the
+    topic's last recorded one (a topic the record lacks: after the earliest end of the
+    recorded topics), the gap from the record's end to the first new sample is at most
+    ``max_gap_s``, and every cumulative count or encoder angle has moved from its recorded
+    value by no more than the record's fastest rate allows over that gap (× 1.25, plus two
+    of the record's largest sample-to-sample steps). Stamps that go back, a jump in a count
+    and a gap no window could bridge mean another run (another gyro, bench or recording).
+    """
+    ends = [t.last_stamp_ns for t in tails.values() if t.samples]
+    firsts = {topic: int(np.min(c.stamp_ns)) for topic, c in live.items() if len(c)}
+    if not ends or not firsts:
+        return None
+    record_end, earliest_end = max(ends), min(ends)
+    for topic, first in sorted(firsts.items()):
+        tail = tails.get(topic)
+        end = tail.last_stamp_ns if tail is not None and tail.samples else earliest_end
+        if first <= end:
+            return (f'{topic}: the stamps go back (the first new sample at '
+                    f'{format_stamp(first)}, the record ends at {format_stamp(end)})')
+    gap_ns = min(firsts.values()) - record_end
+    if gap_ns > max_gap_s * NS_PER_S:
+        return (f'a gap of {gap_ns / NS_PER_S:.6g} s from the end of the record '
+                f'({format_stamp(record_end)}) to the first new sample, longer than '
+                f'resume_max_gap_s = {max_gap_s:g} s')
+    for topic, cols in sorted(live.items()):
+        tail = tails.get(topic)
+        if tail is None or not tail.samples or not len(cols):
+            continue
+        i = int(np.argmin(cols.stamp_ns))
+        dt_s = (int(cols.stamp_ns[i]) - tail.last_stamp_ns) / NS_PER_S
+        for name, is_angle in continuous_columns(topic, tail.msgtype).items():
+            if name not in cols.values or name not in tail.last:
+                continue
+            value, last = float(np.asarray(cols.values[name])[i]), tail.last[name]
+            if not (math.isfinite(value) and math.isfinite(last)):
+                continue
+            moved = value - last
+            if is_angle:
+                moved = math.remainder(moved, 2 * math.pi)
+            allowed = RATE_MARGIN * tail.max_rate[name] * dt_s + 2 * tail.max_step[name]
+            if abs(moved) > allowed:
+                what = 'angle' if is_angle else 'count'
+                return (f'{topic}: the {what} ({name}) jumps by {moved:.10g} in {dt_s:.6g} s '
+                        f'after the record (from {last:.10g} to {value:.10g}); the recorded '
+                        f'rate allows at most {allowed:.6g}')
+    return None
+
+
+def set_aside(directory: Path) -> Path:
+    """Rename a state directory to ``<directory>.superseded-<UTC time>[-n]``; the new path.
+
+    Never overwrites: a second move in the same second gets ``-2``, ``-3`` ….
+    """
+    stamp = time.strftime('%Y%m%dT%H%M%S', time.gmtime())
+    aside = directory.with_name(f'{directory.name}.superseded-{stamp}')
+    n = 1
+    while aside.exists():
+        n += 1
+        aside = directory.with_name(f'{directory.name}.superseded-{stamp}-{n}')
+    if directory.exists():
+        directory.rename(aside)
+    return aside
 
 
 class StateRecord:
@@ -253,6 +367,22 @@ class StateRecord:
         self._frames.clear()
         self._batch = 0
 
+    def set_aside(self) -> Path:
+        """Move the record to ``<directory>.superseded-<UTC time>`` and start an empty one.
+
+        Nothing of it is deleted or used; a second move in the same second gets ``-2``,
+        ``-3`` … so no record ever overwrites another.
+        """
+        for f in self._files.values():
+            f.close()
+        self._files.clear()
+        aside = set_aside(self.directory)
+        self._layouts.clear()
+        self._index.clear()
+        self._frames.clear()
+        self._batch = 0
+        return aside
+
     def remove(self) -> None:
         """Close the files and remove the state directory (a completed calibration)."""
         for f in self._files.values():
@@ -289,6 +419,35 @@ class StateRecord:
                 by_topic[topic] = int(rec['stamp_ns'].max())
         last = max(by_topic.values(), default=None)
         return ResumeSummary(messages, batches, last, dropped, by_topic)
+
+    def tails(self) -> dict[str, TopicTail]:
+        """How each topic's record ends (what new data must continue to resume it)."""
+        out: dict[str, TopicTail] = {}
+        for topic, layout in self._layouts.items():
+            rec, _ = self._read_topic(topic)
+            if not len(rec):
+                continue
+            order = np.argsort(rec['stamp_ns'], kind='stable')
+            stamps = rec['stamp_ns'][order]
+            last: dict[str, float] = {}
+            max_rate: dict[str, float] = {}
+            max_step: dict[str, float] = {}
+            columns = self._columns(topic, rec[order]).values
+            for name in continuous_columns(topic, layout.msgtype):
+                v = np.asarray(columns.get(name, np.zeros(0)), dtype=np.float64)
+                if v.ndim != 1 or not len(v):
+                    continue
+                ok = np.isfinite(v)
+                last[name] = float(v[-1])
+                step = np.abs(np.diff(v[ok]))
+                dt = np.diff(stamps[ok]) / NS_PER_S
+                moving = dt > 0
+                max_step[name] = float(step.max()) if len(step) else math.inf
+                max_rate[name] = (float(np.max(step[moving] / dt[moving])) if moving.any()
+                                  else math.inf)
+            out[topic] = TopicTail(topic, layout.msgtype, len(rec), int(stamps[-1]), last,
+                                   max_rate, max_step)
+        return out
 
     def replay(self, *, batch_messages: int = 50_000) -> Iterator[dict[str, TopicColumns]]:
         """The recorded batches in their recorded order.

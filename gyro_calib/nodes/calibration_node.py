@@ -31,6 +31,8 @@ from gyro_calib.handoff import Provenance, merge_lines, method_calibration, upda
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, SimScenarioBench, _TopicBuffer
 from gyro_calib.nodes.node_state import (
+    RESUME_DESCRIPTION,
+    RESUME_MAX_GAP_DESCRIPTION,
     NodeState,
     calibration_complete,
     feed_columns,
@@ -54,6 +56,7 @@ from gyro_calib.rbrlg.session import RbrlgSession, feed_calibrator, prior_k_tild
 from gyro_calib.rbrlg.stations import Station
 from gyro_calib.registry import HEADER, METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
+from gyro_calib.state_record import RESUME_MAX_GAP_S
 from gyro_calib.topics import relative
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
@@ -94,6 +97,8 @@ class CalibrationNode(CalibrationNodeBase):
             ('state_dir', '', "Durable record of the data consumed, replayed on restart after "
              "a crash ('' = beside output_file as <output_file>.state)."),
             ('keep_state', False, 'Keep the state directory after a completed calibration.'),
+            ('resume', True, RESUME_DESCRIPTION),
+            ('resume_max_gap_s', RESUME_MAX_GAP_S, RESUME_MAX_GAP_DESCRIPTION),
             ('calibration_file', '', "Hand-off file whose K̃ gives θ and K when this run has "
              "no K̃ phase (this run's own K̃, once measured, is used instead; '' = none)."))}
         self.output_file = str(site.pop('output_file'))
@@ -137,7 +142,9 @@ class CalibrationNode(CalibrationNodeBase):
         self.state = NodeState(self, 'rbrlg', self.gyro_id,
                                state_directory(str(site.pop('state_dir')), self.output_file),
                                bool(site.pop('keep_state')),
-                               parameters={**values, **site, 'config_file': path})
+                               parameters={**values, **site, 'config_file': path},
+                               resume=bool(site.pop('resume')),
+                               max_gap_s=float(site.pop('resume_max_gap_s')))
         # relative names: '-r __ns:=/bench2' moves inputs, results and diagnostics together
         pub = self.create_publisher
         self.k_tilde_pub = pub(Float64, relative(topics.K_TILDE), RESULT_QOS)

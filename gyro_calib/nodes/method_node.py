@@ -38,7 +38,13 @@ from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
-from gyro_calib.nodes.node_state import NodeState, calibration_complete, state_directory
+from gyro_calib.nodes.node_state import (
+    RESUME_DESCRIPTION,
+    RESUME_MAX_GAP_DESCRIPTION,
+    NodeState,
+    calibration_complete,
+    state_directory,
+)
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
@@ -58,12 +64,13 @@ from gyro_calib.registry import (
     handoff_schema,
 )
 from gyro_calib.session import CalibrationOptions, MethodSession
+from gyro_calib.state_record import RESUME_MAX_GAP_S
 from gyro_calib.topics import relative
 from gyro_calib.units import format_stamp
 
 GENERIC_PARAMETERS = ('config_file', 'output_file', 'gyro_id', 'latitude_deg', 'heading_deg',
                       'scale_factor_rad_per_pulse', 'process_period_s', 'state_dir',
-                      'keep_state')
+                      'keep_state', 'resume', 'resume_max_gap_s')
 """Parameters every method node declares (a settings field of the same name is not
 declared twice: the session takes it from the options)."""
 
@@ -166,7 +173,9 @@ class MethodNode(CalibrationNodeBase):
              "after a crash ('' = beside output_file as <output_file>.state; no "
              'output_file and no state_dir = no record).'),
             ('keep_state', False, 'Keep the state directory after a completed calibration '
-             '(default: removed once nothing is missing).'))}
+             '(default: removed once nothing is missing).'),
+            ('resume', True, RESUME_DESCRIPTION),
+            ('resume_max_gap_s', RESUME_MAX_GAP_S, RESUME_MAX_GAP_DESCRIPTION))}
         options = CalibrationOptions(
             latitude_deg=None if math.isnan(p['latitude_deg']) else p['latitude_deg'],
             heading_deg=p['heading_deg'],
@@ -182,7 +191,9 @@ class MethodNode(CalibrationNodeBase):
         self.output_file, self.gyro_id = p['output_file'], p['gyro_id']
         self.state = NodeState(self, method, p['gyro_id'],
                                state_directory(p['state_dir'], p['output_file']),
-                               bool(p['keep_state']), parameters={**settings, **p})
+                               bool(p['keep_state']), parameters={**settings, **p},
+                               resume=bool(p['resume']),
+                               max_gap_s=float(p['resume_max_gap_s']))
         self.session: MethodSession = self.method.make_session(options)
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self._buffers: dict[str, _TopicBuffer] = {}

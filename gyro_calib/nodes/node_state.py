@@ -1,21 +1,30 @@
 """A calibration node's state directory in ROS terms: resume after a crash, clear when done.
 
 The record itself (:class:`gyro_calib.state_record.StateRecord`) is pure core; this module
-wires it to a node: it opens the record at start-up (refusing another gyro's or method's
-record in one line), replays it into the node's session before the first live batch, logs
-what it resumed, appends every batch before the session sees it, and removes the record
-once the calibration is complete (unless ``keep_state``).
+wires it to a node: it opens the record at start-up (moving another gyro's, method's or
+parameter set's record aside in one line), and at the first live batch judges whether the
+new data continue the record (:func:`gyro_calib.state_record.why_not_continued`: stamps
+that follow it within ``resume_max_gap_s``, counts that move no faster than the record's
+rate allows). Only then is the record replayed into the node's session, before that batch;
+anything else is a new run: the record is moved aside with one warning naming why and
+where it went. Every batch is appended before the session sees it, and the record is
+removed once the calibration is complete (unless ``keep_state``).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from gyro_calib.bagio import SampleBatch
-from gyro_calib.state_record import StateRecord, StateRecordError
+from gyro_calib.state_record import (
+    RESUME_MAX_GAP_S,
+    StateRecord,
+    StateRecordError,
+    set_aside,
+    why_not_continued,
+)
 from gyro_calib.units import format_stamp
 
 if TYPE_CHECKING:
@@ -35,8 +44,17 @@ def calibration_complete(missing: Mapping[str, str], not_measurable: Mapping[str
 
 NOT_IDENTITY = frozenset({'output_file', 'state_dir', 'keep_state', 'process_period_s',
                           'results_period_s', 'kalibr_file', 'plot_file', 'best_effort',
-                          'use_sim_time'})
+                          'use_sim_time', 'resume', 'resume_max_gap_s'})
 """Parameters that do not change what the session computes from the data."""
+
+
+RESUME_DESCRIPTION = (
+    'Resume a record found in the state directory when the new data continue it (stamps '
+    'that follow it within resume_max_gap_s, counts that move no faster than its rate '
+    'allows); false = always start a new run (the record is moved aside, never deleted).')
+RESUME_MAX_GAP_DESCRIPTION = (
+    'Longest stamp gap from the end of a state record to the first new sample that still '
+    'continues it, s (a longer gap is a new run).')
 
 
 def state_directory(state_dir: str, output_file: str) -> Path | None:
@@ -71,26 +89,37 @@ class NodeState:
         gyro_id: the gyro's id (part of the record's identity).
         directory: where the record lives; None = no record.
         keep: keep the record after a completed calibration.
-        parameters: the node's parameters; a record made with other values is refused
+        parameters: the node's parameters; a record made with other values is moved aside
             (those in :data:`NOT_IDENTITY` do not change the results and may differ).
-
-    Raises:
-        StateRecordError: the directory holds another gyro's or method's record.
+        resume: False = never resume: a record found at start-up is moved aside (the
+            ``resume`` parameter).
+        max_gap_s: the longest stamp gap from the record's end to new data that still
+            continues it (``resume_max_gap_s``), s.
     """
 
     def __init__(self, node: Node, method: str, gyro_id: str, directory: Path | None,
-                 keep: bool, parameters: Mapping[str, Any] | None = None) -> None:
+                 keep: bool, parameters: Mapping[str, Any] | None = None, *,
+                 resume: bool = True, max_gap_s: float = RESUME_MAX_GAP_S) -> None:
         """Open (or start) the record for this gyro, method and parameters."""
         self.node, self.keep = node, keep
         self.directory = directory
+        self.max_gap_s = max_gap_s
         identity = {'method': method, 'gyro_id': gyro_id}
         identity.update({f'parameter {k}': repr(v) for k, v in sorted(
             (parameters or {}).items()) if k not in NOT_IDENTITY})
         self.record = None if directory is None else self._open(directory, identity)
         self._resumed = False
+        self._replay_into: tuple[Callable[[SampleBatch], None],
+                                 Callable[[], list[str]]] | None = None
+        if self.record is not None and not resume and self.record.summary().messages:
+            self._set_aside('parameter resume is false')
+        self._pending = self.record is not None and self.record.summary().messages > 0
         if self.record is not None:
-            node.get_logger().info(f'state directory: {directory} (the data consumed are '
-                                   'recorded there and replayed after a crash)')
+            node.get_logger().info(
+                f'state directory: {directory} (the data consumed are recorded there and '
+                'replayed after a crash)' + (
+                    '; it holds a record, resumed only if the first new data continue it'
+                    if self._pending else ''))
 
     def _open(self, directory: Path, identity: dict[str, str]) -> StateRecord:
         """The record in ``directory``, or a new one.
@@ -101,28 +130,44 @@ class NodeState:
         try:
             return StateRecord(directory, identity)
         except StateRecordError as exc:
-            stamp = time.strftime('%Y%m%dT%H%M%S', time.gmtime())
-            aside = directory.with_name(f'{directory.name}.superseded-{stamp}')
-            directory.rename(aside)
+            aside = set_aside(directory)
             self.node.get_logger().warning(
                 f'{" ".join(str(exc).split())} It was moved to {aside} (nothing of it is '
                 'used); this run starts a new record.')
             return StateRecord(directory, identity)
 
+    def _set_aside(self, why: str) -> None:
+        assert self.record is not None
+        summary = self.record.summary()
+        aside = self.record.set_aside()
+        self.node.get_logger().warning(
+            f'state directory {self.directory} not resumed: {why}. This is a new run: the '
+            f'record ({summary.messages} messages) was moved to {aside} (nothing of it is '
+            'used) and a new one is started.')
+
     def resume_once(self, feed: Callable[[SampleBatch], None],
                     process: Callable[[], list[str]]) -> None:
-        """Before the first live batch: replay what the record holds into the session."""
-        if self._resumed:
+        """Say where a resumed record is to be replayed (at the first live batch)."""
+        if self._replay_into is None:
+            self._replay_into = (feed, process)
+
+    def _resume_or_start_anew(self, columns: Mapping[str, TopicColumns]) -> None:
+        """At the first live batch: replay the record if the batch continues it, else set aside."""
+        self._pending = False
+        if self.record is None or self._resumed:
             return
+        why = why_not_continued(self.record.tails(), columns, self.max_gap_s)
+        if why is not None:
+            self._set_aside(why)
+            return
+        if self._replay_into is None:
+            raise RuntimeError('NodeState.resume_once was not called before the first batch')
+        feed, process = self._replay_into
         self._resumed = True
-        if self.record is None:
-            return
         summary = self.record.summary()
-        if summary.messages == 0:
-            return
         log = self.node.get_logger()
-        for columns in self.record.replay():
-            feed_columns(feed, columns)
+        for recorded in self.record.replay():
+            feed_columns(feed, recorded)
             for line in process():
                 log.info(line)
         cut = (f'; {summary.dropped_bytes} bytes of a record cut by the crash dropped'
@@ -133,13 +178,20 @@ class NodeState:
                  'no node ran are a gap')
 
     def record_batch(self, columns: Mapping[str, TopicColumns]) -> None:
-        """Append a batch before the session sees it."""
+        """Append a live batch before the session sees it.
+
+        The first live batch first decides the record found at start-up: replayed into the
+        session (given by :meth:`resume_once`) when the batch continues it, else moved aside.
+        """
+        if self._pending and any(len(c) for c in columns.values()):
+            self._resume_or_start_anew(columns)
         if self.record is not None:
             self.record.append(columns)
 
     def reset(self) -> None:
         """Start over: an empty record (``~/reset``)."""
         self._resumed = True
+        self._pending = False
         if self.record is not None:
             self.record.clear()
 
@@ -148,6 +200,11 @@ class NodeState:
         if self.record is None:
             return
         log = self.node.get_logger()
+        if self._pending:
+            self.record.close()
+            log.info(f'state directory {self.directory} kept as it was, not resumed: no new '
+                     'data came to continue it')
+            return
         if complete and not self.keep:
             self.record.remove()
             log.info(f'calibration complete: state directory {self.directory} removed')

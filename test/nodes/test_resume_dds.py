@@ -25,6 +25,7 @@ from gyro_calib.handoff import load_calibration
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.state_record import StateRecord
+from gyro_calib.units import RAD_PER_ARCSEC
 
 from .dds_harness import NodeProcess, launch
 
@@ -133,3 +134,61 @@ def test_calibration_node_resumes_its_windows_after_a_kill(
     expected = _offline_of_record('rbrlg', state, CalibrationOptions())
     assert got == expected, logs
     assert 'k_tilde_rad_per_pulse' in got, logs
+
+
+def _k_tilde_run(params: dict, gyro: dict, table: dict, nodes: list[NodeProcess]
+                 ) -> NodeProcess:
+    """One gyro on the K̃ bench: node started first, bench run, Ctrl-C once K̃ is out."""
+    node = launch('calibration_node', params)
+    nodes.append(node)
+    sim = launch('rlg_sim', gyro)
+    nodes.append(sim)
+    bench = launch('rate_table_sim', {'duration_s': 100.0, 'real_time_factor': 6.0,
+                                      'sample_rate_hz': 250.0, **table})
+    nodes.append(bench)
+    bench.proc.wait(timeout=180)
+    deadline = time.monotonic() + 60
+    while 'K̃ = ' not in node.log():
+        assert time.monotonic() < deadline, node.log()
+        time.sleep(0.1)
+    time.sleep(1.0)
+    node.proc.send_signal(signal.SIGINT)
+    node.proc.wait(timeout=60)
+    sim.stop()
+    return node
+
+
+def test_a_second_gyro_run_with_defaults_never_resumes_the_first_gyros_record(
+        tmp_path: Path, nodes: list[NodeProcess]) -> None:
+    """Issue 24 §1: the paper bench, then an unfamiliar gyro, each with default parameters.
+
+    Before the fix the second K̃ came out 1.5714″/pulse (−32 %): the first gyro's record
+    (a K̃-only bench never completes, so it stays) was resumed into the second run.
+    """
+    handoff = tmp_path / 'gyro_calibration.yaml'
+    params = {'output_file': str(handoff)}  # the state directory beside it, by default
+    first = _k_tilde_run(params, {'seed': 3}, {'seed': 3}, nodes)
+    assert first.proc.returncode == 0, first.log()
+    state = tmp_path / 'gyro_calibration.yaml.state'
+    assert StateRecord(state, {}).summary().messages > 0, first.log()
+    second = _k_tilde_run(
+        params, {'seed': 4, 'scale_factor_arcsec_per_pulse': 2.3,
+                 'fix_error_angle_arcsec': 300.0, 'latitude_deg': 45.0},
+        {'seed': 4, 'rate_deg_s': 120.0}, nodes)
+    logs = '\n'.join(n.log() for n in nodes)
+    assert second.proc.returncode == 0, logs
+    assert 'resumed from' not in second.log(), logs
+    said = [line for line in second.lines if 'not resumed' in line]
+    assert len(said) == 1 and 'stamps go back' in said[0] and 'moved to' in said[0], logs
+    # the second gyro's own K̃ (K / cos θ ≈ K), from exactly the data of its own run
+    told = [line for line in second.lines if 'K̃ = ' in line][-1]
+    k_tilde_arcsec = float(told.split('K̃ = ')[1].split()[0])
+    assert abs(k_tilde_arcsec / 2.3 - 1) < 1e-5, logs
+    offline = _offline_of_record('rbrlg', state, CalibrationOptions())
+    assert f"{offline['k_tilde_rad_per_pulse'] / RAD_PER_ARCSEC:.10f}" == f'{k_tilde_arcsec:.10f}'
+    aside = [p for p in tmp_path.iterdir() if '.superseded-' in p.name]
+    assert len(aside) == 1
+    # the first gyro's file is not overwritten by another gyro's values without --replace
+    first_k = dict(load_calibration(handoff).values)['k_tilde_rad_per_pulse'] / RAD_PER_ARCSEC
+    assert abs(first_k / 0.84279066 - 1) < 1e-5
+    assert 'hand-off file not written' in second.log(), logs

@@ -1,0 +1,366 @@
+"""A state directory resumes only the run it recorded (issue 24, part 1).
+
+A node started with a record in its state directory replays it only when the first new
+data continue it: per topic, stamps that follow the record's last within
+``resume_max_gap_s``, and cumulative counts and encoder angles that have moved no more than
+the record's rate allows over that gap. Anything else — stamps that go back, a counter that
+starts anew, a gap no window could bridge — is another run: the record is moved aside with
+one line saying why and where, and not one of its samples reaches the new session.
+
+The benches here are written from the kinematics in this file (a rate table reversing
+between constant rates, a rate-biased gyro counting its angle over K), not taken from
+``sim_nodes``; the bit-for-bit resume is checked on committed bags with the real sessions.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import SampleBatch, bag_info, iter_bags
+from gyro_calib.bagio.columns import FrameIds, TopicColumns
+from gyro_calib.nodes.node_state import NodeState
+from gyro_calib.registry import METHODS
+from gyro_calib.session import CalibrationOptions, MethodSession
+from gyro_calib.state_record import StateRecord, why_not_continued
+
+BAGS = Path(__file__).resolve().parent.parent / 'bags'
+ARCSEC = math.pi / 180 / 3600
+PULSES, TABLE, INDEX = '/gyro/pulses', '/rate_table/joint_states', '/rate_table/zero_index'
+
+
+class _Logger:
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def info(self, line: str) -> None:
+        self.lines.append(line)
+
+    warning = info
+
+
+class _Node:
+    def __init__(self) -> None:
+        self.logger = _Logger()
+
+    def get_logger(self) -> _Logger:
+        return self.logger
+
+
+# -- a bench from the kinematics ------------------------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class Bench:
+    """A rate table reversing between ±rate and a gyro on it counting angle / K."""
+
+    k_arcsec_per_pulse: float
+    rate_deg_s: float
+    start_s: float
+    counter_start: float
+    bias_deg_s: float = 0.01
+    revolutions_per_segment: float = 3.0
+    acceleration_deg_s2: float = 500.0
+    sample_hz: float = 200.0
+    encoder_wraps: bool = False
+
+    def batches(self, duration_s: float, batch_s: float = 0.2) -> list[dict[str, TopicColumns]]:
+        """The bench's topics as a live node hands them over, every ``batch_s``."""
+        n = int(duration_s * self.sample_hz)
+        dt = 1.0 / self.sample_hz
+        t = np.arange(n) * dt
+        seg_s = self.revolutions_per_segment * 360.0 / self.rate_deg_s
+        ramp_s = 2 * self.rate_deg_s / self.acceleration_deg_s2
+        phase = np.mod(t, 2 * (seg_s + ramp_s))
+        rate = np.where(phase < seg_s, 1.0, np.where(
+            phase < seg_s + ramp_s, 1.0 - 2 * (phase - seg_s) / ramp_s, np.where(
+                phase < 2 * seg_s + ramp_s, -1.0, -1.0 + 2 * (phase - 2 * seg_s - ramp_s)
+                / ramp_s))) * math.radians(self.rate_deg_s)
+        angle = np.concatenate([[0.0], np.cumsum((rate[1:] + rate[:-1]) / 2) * dt])
+        gyro = angle + math.radians(self.bias_deg_s) * t
+        counts = self.counter_start + np.floor(gyro / (self.k_arcsec_per_pulse * ARCSEC))
+        encoder = np.mod(angle, 2 * math.pi) if self.encoder_wraps else angle
+        stamps = np.round((self.start_s + t) * 1e9).astype(np.int64)
+        turns = np.floor(angle / (2 * math.pi))
+        events = stamps[1:][np.diff(turns) != 0]
+        out = []
+        per = max(1, int(batch_s * self.sample_hz))
+        for lo in range(0, n, per):
+            part = slice(lo, min(n, lo + per))
+            cols = {PULSES: _columns(PULSES, stamps[part], position=counts[part]),
+                    TABLE: _columns(TABLE, stamps[part], position=encoder[part],
+                                    velocity=rate[part])}
+            ev = events[(events >= stamps[part][0]) & (events <= stamps[part][-1])]
+            if len(ev):
+                cols[INDEX] = _columns(INDEX, ev)
+            out.append(cols)
+        return out
+
+
+def _columns(topic: str, stamps: np.ndarray, **values: np.ndarray) -> TopicColumns:
+    msgtype = 'std_msgs/msg/Header' if topic == INDEX else 'sensor_msgs/msg/JointState'
+    vals = {k: np.asarray(v, dtype=np.float64) for k, v in values.items()}
+    if msgtype.endswith('JointState') and 'velocity' not in vals:
+        vals['velocity'] = np.full(len(stamps), np.nan)
+    stamps = np.asarray(stamps, dtype=np.int64)
+    return TopicColumns(topic, msgtype, stamps.copy(), stamps,
+                        FrameIds(np.zeros(len(stamps), dtype=np.int32), ('',)), vals)
+
+
+class _Collector:
+    """Stands for a session: keeps the stamps of every sample it is handed, per topic."""
+
+    def __init__(self) -> None:
+        self.stamps: dict[str, list[int]] = {}
+
+    def feed(self, batch: SampleBatch) -> None:
+        for topic, cols in batch.columns.items():
+            self.stamps.setdefault(topic, []).extend(int(s) for s in cols.stamp_ns)
+
+    def process(self) -> list[str]:
+        return []
+
+
+def _life(directory: Path, batches: list[dict[str, TopicColumns]], **kw: object
+          ) -> tuple[_Collector, _Node]:
+    """One run of a node: open the state directory, then hand over the batches."""
+    node, session = _Node(), _Collector()
+    state = NodeState(node, 'rbrlg', '', directory, False, {}, **kw)  # type: ignore[arg-type]
+    state.resume_once(session.feed, session.process)
+    for cols in batches:
+        state.record_batch(cols)
+        session.feed(SampleBatch(cols, sum(len(c) for c in cols.values()), 0))
+    if state.record is not None:
+        state.record.close()
+    return session, node
+
+
+def _stamps(batches: list[dict[str, TopicColumns]]) -> dict[str, list[int]]:
+    out: dict[str, list[int]] = {}
+    for cols in batches:
+        for topic, c in cols.items():
+            out.setdefault(topic, []).extend(int(s) for s in c.stamp_ns)
+    return out
+
+
+PAPER = Bench(k_arcsec_per_pulse=0.84279066, rate_deg_s=150.0, start_s=0.0, counter_start=0)
+
+
+# -- another bench never borrows a sample ----------------------------------------------------
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(stop_s=st.floats(1.0, 40.0),
+       k=st.floats(0.5, 5.0), rate=st.floats(20.0, 200.0),
+       how=st.sampled_from(['stamps start anew', 'counter starts anew', 'after a long gap',
+                            'stamps start anew, counter continues']),
+       start_fraction=st.floats(0.0, 1.0), gap_s=st.floats(0.05, 30.0),
+       wraps=st.booleans())
+def test_another_bench_never_borrows_a_sample_of_the_record(
+        tmp_path_factory: pytest.TempPathFactory, stop_s: float, k: float, rate: float,
+        how: str, start_fraction: float, gap_s: float, wraps: bool) -> None:
+    directory = tmp_path_factory.mktemp('run') / 'gyro.yaml.state'
+    first = PAPER.batches(stop_s)
+    _life(directory, first)
+    end_s = stop_s - 1 / PAPER.sample_hz
+    counter_end = float(first[-1][PULSES].values['position'][-1])
+    # a counter that starts anew is another run only where the gyro could not have come
+    # back to zero in the gap: at most half the time the bench's peak rate needs for that
+    peak_counts_per_s = PAPER.rate_deg_s * 3600 / PAPER.k_arcsec_per_pulse
+    short_gap = min(gap_s, 0.5 * abs(counter_end) / peak_counts_per_s)
+    start, counter = {  # what makes the second bench observably another run
+        'stamps start anew': (start_fraction * end_s, 0.0),
+        'counter starts anew': (end_s + max(short_gap, 1e-3), 0.0),
+        'after a long gap': (end_s + 60.0 + gap_s, counter_end),
+        'stamps start anew, counter continues': (start_fraction * end_s, counter_end),
+    }[how]
+    second_bench = Bench(k_arcsec_per_pulse=k, rate_deg_s=rate, start_s=start,
+                         counter_start=counter, encoder_wraps=wraps)
+    second = second_bench.batches(5.0)
+    session, node = _life(directory, second)
+    assert session.stamps == _stamps(second), 'a sample of the first bench was borrowed'
+    said = [line for line in node.logger.lines if 'not resumed' in line]
+    assert len(said) == 1 and 'moved to' in said[0] and 'new run' in said[0], node.logger.lines
+    assert not any(line.startswith('resumed from') for line in node.logger.lines)
+    aside = [p for p in directory.parent.iterdir() if '.superseded-' in p.name]
+    assert len(aside) == 1 and str(aside[0]) in said[0]
+    assert StateRecord(aside[0], {}).summary().messages == sum(
+        len(c) for b in first for c in b.values())  # nothing of it lost
+    assert StateRecord(directory, {}).summary().messages == sum(
+        len(c) for b in second for c in b.values())  # the new record is the new run's
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(stop_batch=st.integers(5, 150), gap_batches=st.integers(0, 100), wraps=st.booleans())
+def test_the_same_bench_after_a_crash_resumes_every_recorded_sample_first(
+        tmp_path_factory: pytest.TempPathFactory, stop_batch: int, gap_batches: int,
+        wraps: bool) -> None:
+    bench = dataclasses.replace(PAPER, encoder_wraps=wraps)
+    batches = bench.batches(60.0)
+    directory = tmp_path_factory.mktemp('run') / 'gyro.yaml.state'
+    _life(directory, batches[:stop_batch])
+    rest = batches[stop_batch + gap_batches:]  # what the bench published while no node ran
+    session, node = _life(directory, rest)
+    assert session.stamps == _stamps(batches[:stop_batch] + rest)
+    assert any(line.startswith('resumed from') for line in node.logger.lines)
+    assert not [p for p in directory.parent.iterdir() if '.superseded-' in p.name]
+
+
+def test_each_reason_for_a_new_run_is_named(tmp_path: Path) -> None:
+    batches = PAPER.batches(10.0)
+    record = StateRecord(tmp_path / 'state', {})
+    for cols in batches[:20]:
+        record.append(cols)
+    tails = record.tails()
+    assert why_not_continued(tails, batches[20]) is None
+    assert why_not_continued(tails, batches[30]) is None  # a 2 s gap: a crash and restart
+    back = why_not_continued(tails, batches[5])
+    assert back is not None and 'stamps go back' in back and PULSES in back
+    later = {t: dataclasses.replace(c, stamp_ns=c.stamp_ns + 120 * 10**9)
+             for t, c in batches[20].items()}
+    gap = why_not_continued(tails, later)
+    assert gap is not None and 'resume_max_gap_s = 60 s' in gap
+    jumped = dict(batches[20])
+    p = jumped[PULSES]
+    jumped[PULSES] = dataclasses.replace(
+        p, values={**p.values, 'position': p.values['position'] - 1e6})
+    jump = why_not_continued(tails, jumped)
+    assert jump is not None and 'count (position) jumps by -99' in jump and 'allows at most' in jump
+    record.remove()
+
+
+# -- bit for bit on committed bags, with the real sessions -----------------------------------
+
+CASES = {'rbrlg': ('k_tilde_mark_in_acceleration', 'k_tilde_bench'),
+         'fog': ('fog_fault_short_plateau', 'fog_turntable')}
+SEQUENCES = [*((m, a, b) for m, (a, b) in CASES.items()),
+             ('rbrlg', 'theta_four_position', 'theta_multi_station')]  # θ: 4 then 10 stations
+
+
+def _bag_batches(method: str, bag: Path, batch_s: float) -> list[dict[str, TopicColumns]]:
+    """The bag's samples of the method's topics cut into hand-overs of ``batch_s`` of stamps."""
+    options = CalibrationOptions(scenario=bag_info(bag).scenario or {})
+    types = {t: m for t, m in METHODS[method].make_session(options).topics().items()
+             if t in bag_info(bag).topics}
+    parts: dict[str, list[TopicColumns]] = {}
+    for _, batch in iter_bags([bag], types):
+        for t, c in batch.columns.items():
+            parts.setdefault(t, []).append(c)
+    whole = {t: _joined(cs) for t, cs in parts.items()}
+    first = min(int(c.stamp_ns.min()) for c in whole.values())
+    last = max(int(c.stamp_ns.max()) for c in whole.values())
+    edges = np.arange(first, last + int(batch_s * 1e9) + 1, int(batch_s * 1e9))
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        cols = {}
+        for t, c in whole.items():
+            keep = (c.stamp_ns >= lo) & (c.stamp_ns < hi)
+            if keep.any():
+                cols[t] = _take(c, keep)
+        if cols:
+            out.append(cols)
+    return out
+
+
+def _take(c: TopicColumns, keep: np.ndarray) -> TopicColumns:
+    return dataclasses.replace(c, log_time_ns=c.log_time_ns[keep], stamp_ns=c.stamp_ns[keep],
+                               frame_id=FrameIds(c.frame_id.codes[keep], c.frame_id.names),
+                               values={k: v[keep] for k, v in c.values.items()})
+
+
+def _joined(parts: list[TopicColumns]) -> TopicColumns:
+    names = parts[0].frame_id.names
+    assert all(p.frame_id.names == names for p in parts)
+    return dataclasses.replace(
+        parts[0], log_time_ns=np.concatenate([p.log_time_ns for p in parts]),
+        stamp_ns=np.concatenate([p.stamp_ns for p in parts]),
+        frame_id=FrameIds(np.concatenate([p.frame_id.codes for p in parts]), names),
+        values={k: np.concatenate([p.values[k] for p in parts]) for k in parts[0].values})
+
+
+def _numbers(session: MethodSession) -> dict[str, tuple[float, float, int]]:
+    return {k: (float(e.value), float(e.std_uncertainty), int(e.n_used))
+            for k, e in session.results().items()}
+
+
+def _node_life(method: str, directory: Path, options: CalibrationOptions,
+               batches: list[dict[str, TopicColumns]]) -> tuple[MethodSession, _Node]:
+    node = _Node()
+    session = METHODS[method].make_session(options)
+    state = NodeState(node, method, 'G-1', directory, True, {})
+    state.resume_once(session.feed, session.process)
+    for cols in batches:
+        state.record_batch(cols)
+        n = sum(len(c) for c in cols.values())
+        session.feed(SampleBatch(cols, n, max(int(c.stamp_ns.max()) for c in cols.values())))
+        session.process()
+    session.process(flush=True)
+    state.finish(complete=False)
+    return session, node
+
+
+@pytest.mark.parametrize(('method', 'first_name', 'second_name'), SEQUENCES)
+def test_a_second_gyro_after_a_stopped_run_gets_exactly_its_own_numbers(
+        tmp_path: Path, method: str, first_name: str, second_name: str) -> None:
+    """The issue's repro without ROS: gyro 1 stopped mid-run, then gyro 2 with defaults."""
+    first_bag, second_bag = BAGS / first_name, BAGS / second_name
+    directory = tmp_path / 'gyro.yaml.state'
+    first = _bag_batches(method, first_bag, 5.0)
+    _node_life(method, directory, CalibrationOptions(
+        scenario=bag_info(first_bag).scenario or {}), first[:len(first) * 2 // 3])
+    options = CalibrationOptions(scenario=bag_info(second_bag).scenario or {})
+    session, node = _node_life(method, directory, options,
+                               _bag_batches(method, second_bag, 5.0))
+    alone = calibrate_bags([second_bag], methods=[method], options=options)
+    assert _numbers(session) == _numbers(alone.sessions[method])
+    assert any('not resumed' in line and 'stamps go back' in line
+               for line in node.logger.lines), node.logger.lines
+
+
+@pytest.mark.parametrize('method', sorted(CASES))
+def test_a_killed_node_on_the_same_bench_resumes_bit_for_bit(tmp_path: Path,
+                                                               method: str) -> None:
+    bag = BAGS / CASES[method][0]
+    options = CalibrationOptions(scenario=bag_info(bag).scenario or {})
+    batches = _bag_batches(method, bag, 1.0)
+    directory = tmp_path / 'gyro.yaml.state'
+    k = len(batches) // 3
+    _node_life(method, directory, options, batches[:k])
+    session, node = _node_life(method, directory, options, batches[k + 2:])  # a 2-batch gap
+    assert any(line.startswith('resumed from') for line in node.logger.lines)
+    offline = METHODS[method].make_session(options)
+    for cols in StateRecord(directory, {}).replay():
+        n = sum(len(c) for c in cols.values())
+        offline.feed(SampleBatch(cols, n, max(int(c.stamp_ns.max()) for c in cols.values())))
+        offline.process()
+    offline.process(flush=True)
+    assert _numbers(session) == _numbers(offline)
+    assert _numbers(session)  # something measured
+
+
+def test_resume_false_always_starts_a_new_run(tmp_path: Path) -> None:
+    batches = PAPER.batches(10.0)
+    directory = tmp_path / 'gyro.yaml.state'
+    _life(directory, batches[:20])
+    session, node = _life(directory, batches[20:], resume=False)
+    assert session.stamps == _stamps(batches[20:])
+    assert any('parameter resume is false' in line for line in node.logger.lines)
+
+
+def test_a_node_that_gets_no_new_data_leaves_the_record_as_it_was(tmp_path: Path) -> None:
+    directory = tmp_path / 'gyro.yaml.state'
+    batches = PAPER.batches(5.0)
+    _life(directory, batches)
+    node = _Node()
+    state = NodeState(node, 'rbrlg', '', directory, False, {})
+    state.finish(complete=False)
+    assert StateRecord(directory, {}).summary().messages == sum(
+        len(c) for b in batches for c in b.values())
+    assert any('kept as it was, not resumed' in line for line in node.logger.lines)
