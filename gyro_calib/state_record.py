@@ -57,6 +57,10 @@ class StateRecordError(GyroCalibError):
     """A state directory that cannot be used (another gyro or method, unreadable)."""
 
 
+class StateDirectoryInUseError(GyroCalibError):
+    """A state directory another running process writes, or that cannot be written."""
+
+
 @dataclass(frozen=True, slots=True)
 class _TopicLayout:
     """How one topic's samples are stored: its value columns and their widths."""
@@ -207,6 +211,61 @@ def set_aside(directory: Path) -> Path:
     if directory.exists():
         directory.rename(aside)
     return aside
+
+
+class StateLock:
+    """One writer per state directory: an advisory ``flock`` on ``<directory>.lock``.
+
+    The kernel releases the lock when the process ends however it ends, so a killed node
+    leaves no stale lock behind; the file names the holder's pid and start time for the
+    message another writer gets.
+    """
+
+    def __init__(self, directory: Path) -> None:
+        """A lock for the state directory ``directory`` (not yet taken)."""
+        self.directory = directory
+        self.path = directory.with_name(directory.name + '.lock')
+        self._fd: int | None = None
+
+    def acquire(self) -> None:
+        """Take the directory for this process.
+
+        Raises:
+            StateDirectoryInUseError: another live process holds it, or the place cannot be
+                written.
+        """
+        import fcntl
+
+        if self._fd is not None:
+            return
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise StateDirectoryInUseError(
+                f'state directory {self.directory} cannot be written ({exc.strerror}): give '
+                'state_dir (or output_file) a writable place.') from exc
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            holder = os.read(fd, 200).decode(errors='replace').strip() or 'another process'
+            os.close(fd)
+            raise StateDirectoryInUseError(
+                f'state directory {self.directory} is being written by {holder}: give this '
+                'node its own output_file or state_dir, or stop the other one.') from None
+        os.ftruncate(fd, 0)
+        started = time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())
+        os.write(fd, f'pid {os.getpid()} (started {started})\n'.encode())
+        self._fd = fd
+
+    def release(self, *, remove: bool = False) -> None:
+        """Let another process take the directory; ``remove`` the lock file too."""
+        if self._fd is None:
+            return
+        if remove:
+            self.path.unlink(missing_ok=True)
+        os.close(self._fd)
+        self._fd = None
 
 
 class StateRecord:

@@ -136,8 +136,7 @@ def _life(directory: Path, batches: list[dict[str, TopicColumns]], **kw: object
     for cols in batches:
         state.record_batch(cols)
         session.feed(SampleBatch(cols, sum(len(c) for c in cols.values()), 0))
-    if state.record is not None:
-        state.record.close()
+    state.finish(complete=False)
     return session, node
 
 
@@ -365,3 +364,41 @@ def test_a_node_that_gets_no_new_data_leaves_the_record_as_it_was(tmp_path: Path
     assert StateRecord(directory, {}).summary().messages == sum(
         len(c) for b in batches for c in b.values())
     assert any('kept as it was, not resumed' in line for line in node.logger.lines)
+
+
+# -- one writer per state directory ----------------------------------------------------------
+
+def test_a_second_node_on_the_same_state_directory_is_refused_and_a_killed_one_leaves_no_lock(
+        tmp_path: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+
+    from gyro_calib.state_record import StateDirectoryInUseError
+
+    directory = tmp_path / 'gyro.yaml.state'
+    holder = subprocess.Popen(
+        [sys.executable, '-c', 'import sys, time; from pathlib import Path; '
+         'from gyro_calib.state_record import StateLock; '
+         f'StateLock(Path({str(directory)!r})).acquire(); print("held", flush=True); '
+         'time.sleep(60)'], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == 'held'
+        with pytest.raises(StateDirectoryInUseError,
+                           match=rf'being written by pid {holder.pid} \(started .*own '
+                                 r'output_file or state_dir'):
+            NodeState(_Node(), 'rbrlg', '', directory, False, {})
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+    state = NodeState(_Node(), 'rbrlg', '', directory, False, {})  # no stale lock after a kill
+    state.finish(complete=False)
+
+
+def test_a_state_directory_that_cannot_be_written_is_refused_at_start_up(tmp_path: Path) -> None:
+    from gyro_calib.state_record import StateDirectoryInUseError
+
+    blocker = tmp_path / 'not_a_directory'
+    blocker.write_text('a file where the output directory should be')
+    with pytest.raises(StateDirectoryInUseError, match='cannot be written.*writable place'):
+        NodeState(_Node(), 'rbrlg', '', blocker / 'gyro.yaml.state', False, {})

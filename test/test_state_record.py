@@ -197,9 +197,10 @@ def test_a_node_moves_a_record_of_other_parameters_aside_and_starts_anew(
             return self.logger
 
     directory = tmp_path / 'gyro.yaml.state'
-    record = NodeState(_Node(), 'rbrlg', '', directory, False, {'min_pairs': 2}).record
-    assert record is not None
-    record.append(_small_batches('fog', BAGS / CASES['fog'], 50)[0])
+    first = NodeState(_Node(), 'rbrlg', '', directory, False, {'min_pairs': 2})
+    assert first.record is not None
+    first.record.append(_small_batches('fog', BAGS / CASES['fog'], 50)[0])
+    first.finish(complete=False)  # the first node stops (its lock released)
     again = NodeState(_Node(), 'rbrlg', '', directory, False, {'min_pairs': 3}).record
     assert again is not None and again.summary().messages == 0
     aside = [p for p in tmp_path.iterdir() if p.name.startswith('gyro.yaml.state.superseded-')]

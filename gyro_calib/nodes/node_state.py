@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.state_record import (
     RESUME_MAX_GAP_S,
+    StateLock,
     StateRecord,
     StateRecordError,
     set_aside,
@@ -107,6 +108,9 @@ class NodeState:
         identity = {'method': method, 'gyro_id': gyro_id}
         identity.update({f'parameter {k}': repr(v) for k, v in sorted(
             (parameters or {}).items()) if k not in NOT_IDENTITY})
+        self.lock = None if directory is None else StateLock(directory)
+        if self.lock is not None:  # one writer: a second node on this directory stops here
+            self.lock.acquire()
         self.record = None if directory is None else self._open(directory, identity)
         self._resumed = False
         self._replay_into: tuple[Callable[[SampleBatch], None],
@@ -195,6 +199,10 @@ class NodeState:
         if self.record is not None:
             self.record.clear()
 
+    def _release(self, *, remove: bool = False) -> None:
+        if self.lock is not None:
+            self.lock.release(remove=remove)
+
     def finish(self, *, complete: bool) -> None:
         """End of the run: remove the record when complete (unless ``keep``), else keep it."""
         if self.record is None:
@@ -202,14 +210,17 @@ class NodeState:
         log = self.node.get_logger()
         if self._pending:
             self.record.close()
+            self._release()
             log.info(f'state directory {self.directory} kept as it was, not resumed: no new '
                      'data came to continue it')
             return
         if complete and not self.keep:
             self.record.remove()
+            self._release(remove=True)
             log.info(f'calibration complete: state directory {self.directory} removed')
         else:
             self.record.close()
+            self._release()
             log.info(f'state kept in {self.directory} '
                      + ('(keep_state)' if complete else '(calibration not complete: a restart '
                         'with the same parameters resumes it)'))
