@@ -402,3 +402,14 @@ def test_a_state_directory_that_cannot_be_written_is_refused_at_start_up(tmp_pat
     blocker.write_text('a file where the output directory should be')
     with pytest.raises(StateDirectoryInUseError, match='cannot be written.*writable place'):
         NodeState(_Node(), 'rbrlg', '', blocker / 'gyro.yaml.state', False, {})
+
+
+def test_the_default_gap_is_the_longest_the_method_bridges_anyway() -> None:
+    from gyro_calib.nodes.node_state import resume_max_gap_s
+    from gyro_calib.rbrlg.config import KTildeConfig
+    from gyro_calib.thermal.settings import ThermalSettings
+
+    assert resume_max_gap_s(math.nan, dataclasses.asdict(KTildeConfig())) == 60.0
+    assert resume_max_gap_s(math.nan, dataclasses.asdict(ThermalSettings())) == 120.0
+    assert resume_max_gap_s(math.nan, {}) == 60.0
+    assert resume_max_gap_s(5.0, dataclasses.asdict(KTildeConfig())) == 5.0

@@ -36,6 +36,7 @@ from gyro_calib.nodes.node_state import (
     NodeState,
     calibration_complete,
     feed_columns,
+    resume_max_gap_s,
     state_directory,
 )
 from gyro_calib.nodes.ros_io import (
@@ -56,7 +57,6 @@ from gyro_calib.rbrlg.session import RbrlgSession, feed_calibrator, prior_k_tild
 from gyro_calib.rbrlg.stations import Station
 from gyro_calib.registry import HEADER, METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
-from gyro_calib.state_record import RESUME_MAX_GAP_S
 from gyro_calib.topics import relative
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
@@ -98,7 +98,7 @@ class CalibrationNode(CalibrationNodeBase):
              "a crash ('' = beside output_file as <output_file>.state)."),
             ('keep_state', False, 'Keep the state directory after a completed calibration.'),
             ('resume', True, RESUME_DESCRIPTION),
-            ('resume_max_gap_s', RESUME_MAX_GAP_S, RESUME_MAX_GAP_DESCRIPTION),
+            ('resume_max_gap_s', math.nan, RESUME_MAX_GAP_DESCRIPTION),
             ('calibration_file', '', "Hand-off file whose K̃ gives θ and K when this run has "
              "no K̃ phase (this run's own K̃, once measured, is used instead; '' = none)."))}
         self.output_file = str(site.pop('output_file'))
@@ -144,7 +144,8 @@ class CalibrationNode(CalibrationNodeBase):
                                bool(site.pop('keep_state')),
                                parameters={**values, **site, 'config_file': path},
                                resume=bool(site.pop('resume')),
-                               max_gap_s=float(site.pop('resume_max_gap_s')))
+                               max_gap_s=resume_max_gap_s(float(site.pop('resume_max_gap_s')),
+                                                          dataclasses.asdict(self.config)))
         # relative names: '-r __ns:=/bench2' moves inputs, results and diagnostics together
         pub = self.create_publisher
         self.k_tilde_pub = pub(Float64, relative(topics.K_TILDE), RESULT_QOS)

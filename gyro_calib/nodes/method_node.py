@@ -43,6 +43,7 @@ from gyro_calib.nodes.node_state import (
     RESUME_MAX_GAP_DESCRIPTION,
     NodeState,
     calibration_complete,
+    resume_max_gap_s,
     state_directory,
 )
 from gyro_calib.nodes.ros_io import (
@@ -64,7 +65,6 @@ from gyro_calib.registry import (
     handoff_schema,
 )
 from gyro_calib.session import CalibrationOptions, MethodSession
-from gyro_calib.state_record import RESUME_MAX_GAP_S
 from gyro_calib.topics import relative
 from gyro_calib.units import format_stamp
 
@@ -175,7 +175,7 @@ class MethodNode(CalibrationNodeBase):
             ('keep_state', False, 'Keep the state directory after a completed calibration '
              '(default: removed once nothing is missing).'),
             ('resume', True, RESUME_DESCRIPTION),
-            ('resume_max_gap_s', RESUME_MAX_GAP_S, RESUME_MAX_GAP_DESCRIPTION))}
+            ('resume_max_gap_s', math.nan, RESUME_MAX_GAP_DESCRIPTION))}
         options = CalibrationOptions(
             latitude_deg=None if math.isnan(p['latitude_deg']) else p['latitude_deg'],
             heading_deg=p['heading_deg'],
@@ -193,7 +193,8 @@ class MethodNode(CalibrationNodeBase):
                                state_directory(p['state_dir'], p['output_file']),
                                bool(p['keep_state']), parameters={**settings, **p},
                                resume=bool(p['resume']),
-                               max_gap_s=float(p['resume_max_gap_s']))
+                               max_gap_s=resume_max_gap_s(float(p['resume_max_gap_s']),
+                                                          settings))
         self.session: MethodSession = self.method.make_session(options)
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self._buffers: dict[str, _TopicBuffer] = {}

@@ -13,6 +13,7 @@ removed once the calibration is complete (unless ``keep_state``).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -55,7 +56,22 @@ RESUME_DESCRIPTION = (
     'allows); false = always start a new run (the record is moved aside, never deleted).')
 RESUME_MAX_GAP_DESCRIPTION = (
     'Longest stamp gap from the end of a state record to the first new sample that still '
-    'continues it, s (a longer gap is a new run).')
+    "continues it, s (a longer gap is a new run); NaN = the method's own: max_pair_gap_s "
+    '(rbrlg), max_temperature_gap_s (thermal), else 60 s.')
+
+
+def resume_max_gap_s(given: float, settings: Mapping[str, Any]) -> float:
+    """``resume_max_gap_s`` as given, or (NaN) the longest gap the method bridges anyway, s.
+
+    ``max_pair_gap_s`` (rbrlg: no window pair spans more), ``max_temperature_gap_s``
+    (thermal: the model bridges that), else :data:`RESUME_MAX_GAP_S`.
+    """
+    if math.isfinite(given):
+        return given
+    for key in ('max_pair_gap_s', 'max_temperature_gap_s'):
+        if key in settings:
+            return float(settings[key])
+    return RESUME_MAX_GAP_S
 
 
 def state_directory(state_dir: str, output_file: str) -> Path | None:
