@@ -394,16 +394,20 @@ class NoiseCalibrator:
 
     @staticmethod
     def _change_words(tm: TableMotion, span: MotionSpan) -> str:
-        """'was turning' (a table that must rest) or 'changed rate (a reversal …)'."""
+        """What a table did: 'was turning' (one that must rest), 'reversed from 37.9 °/s …'."""
         if not tm.turning:
             return 'was turning'
-        what = span.what(tm.rest_rate_rad_s)
+        verb = {'reversal': 'reversed', 'stop': 'stopped', 'start': 'started',
+                'move': 'moved'}.get(span.what(tm.rest_rate_rad_s),
+                                                       'changed rate')
         a, b = span.rate_before_rad_s, span.rate_after_rad_s
-        if math.isnan(a) and math.isnan(b):
-            return 'changed rate throughout'
-        frm = f' from {math.degrees(a):.4g} °/s' if not math.isnan(a) else ''
-        to = f' to {math.degrees(b):.4g} °/s' if not math.isnan(b) else ' to the end'
-        return f'changed rate in {what}{frm}{to}'
+
+        def deg(r: float) -> str:
+            return 'rest' if abs(r) <= tm.rest_rate_rad_s else f'{math.degrees(r):.4g} °/s'
+
+        frm = f' from {deg(a)}' if not math.isnan(a) else ''
+        to = f' to {deg(b)}' if not math.isnan(b) else ''
+        return f'{verb}{frm}{to}'
 
     def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
         """RLG samples (bag replay): stamps (int ns) and cumulative pulse counts."""
@@ -601,7 +605,7 @@ class NoiseCalibrator:
         for sp in changes:
             w = sp.what(tm.rest_rate_rad_s)
             kinds[w] = kinds.get(w, 0) + 1
-        kind = ', '.join(f'{n} × {w[2:]}' for w, n in kinds.items())
+        kind = ', '.join(f'{n} × {w}' for w, n in kinds.items())
         return (f'{topic}: the {name} changed rate during {tm.moving_s():.6g} s of its '
                 f'{tm.record_s():.6g} s record ({len(changes)} span(s): {kind}; largest rate '
                 f'{rate:.4g} rad/s = {math.degrees(rate):.4g} °/s) and held {len(segs)} steady '

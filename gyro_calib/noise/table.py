@@ -132,19 +132,19 @@ class MotionSpan:
     rate_after_rad_s: float = math.nan
 
     def what(self, rest_rate_rad_s: float) -> str:
-        """'a reversal', 'a stop', 'a start', 'a change of rate' (from the rates around it)."""
+        """'reversal', 'stop', 'start', 'move', 'change of rate' (from the rates around it)."""
         a, b = self.rate_before_rad_s, self.rate_after_rad_s
         if math.isnan(a) or math.isnan(b):
-            return 'a change of rate'
+            return 'change of rate'
         if abs(a) <= rest_rate_rad_s and abs(b) <= rest_rate_rad_s:
-            return 'a move between two rests'
+            return 'move'
         if abs(b) <= rest_rate_rad_s:
-            return 'a stop'
+            return 'stop'
         if abs(a) <= rest_rate_rad_s:
-            return 'a start'
+            return 'start'
         if a * b < 0:
-            return 'a reversal'
-        return 'a change of rate'
+            return 'reversal'
+        return 'change of rate'
 
 
 @dataclass(slots=True)
