@@ -1,6 +1,7 @@
 """The committed noise bags calibrated offline.
 
-The committed noise bags (noise_imu_static, noise_rlg_static) calibrated offline through the
+The committed noise bags (noise_imu_static, noise_imu_band_limited, noise_rlg_static,
+noise_rlg_turning) calibrated offline through the
 front door: terms within their stated uncertainties of the generators' truth, the ordering
 and gap counts, Kalibr keys and units, the JSON shape, the figure; and the messages' bytes
 equal rosbags' own serialisation. (Regeneration and size: test/test_bags.py.)
@@ -9,6 +10,7 @@ equal rosbags' own serialisation. (Regeneration and size: test/test_bags.py.)
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +22,7 @@ from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.bagio import ContractMessages, bag_info, iter_raw_messages
 from gyro_calib.cli import main
 from gyro_calib.noise.session import NoiseSession
+from gyro_calib.session import CalibrationOptions
 from sim_nodes.noise.bag_scenarios import SCENARIOS, imu_message, imu_template, pulse_template
 
 BAGS = Path(__file__).resolve().parents[1] / 'bags'
@@ -84,6 +87,51 @@ def test_rlg_bag_shows_quantisation_because_its_dither_moves_the_phase(
     assert 'bias_instability_rad_s' in sessions['noise_rlg_static'].missing()
 
 
+def test_rate_biased_rlg_at_constant_rate_gives_its_noise_and_leaves_out_only_the_reversal(
+        sessions: dict[str, NoiseSession]) -> None:
+    """noise_rlg_turning: 100 s at +37.9 °/s, a reversal, 100 s at −37.9 °/s.
+
+    The two steady segments are analysed (a constant rate is a constant the Allan variance
+    removes), the reversal is left out — the gyro samples strictly inside it, and at most two
+    table-state intervals more on each side — and the line says so and which reference was
+    used. With the table's encoder angle subtracted (gyro_minus_table) the terms agree.
+    """
+    exp = expected('noise_rlg_turning')
+    session = sessions['noise_rlg_turning']
+    record = session.calibrator.table_record()
+    assert record is not None
+    assert record['changes'] == ['reversal'] and record['reference'] == 'gyro'
+    assert [math.degrees(r) for r in record['steady_rates_rad_s']] == pytest.approx(
+        exp['table']['steady_rates_deg_s'], rel=1e-6)
+    lo, hi = exp['table']['reversal_s']
+    dt = exp['table']['state_interval_s']
+    rate_hz = 250.0
+    inside = int(math.ceil((hi - lo) * rate_hz)) - 1  # samples strictly inside the reversal
+    left = record['samples_left_out']['/gyro/pulses']
+    assert inside <= left <= inside + 4 * dt * rate_hz
+    assert ('the rate table changed rate during 0.76 s of its 200.76 s record (1 span(s): 1 × '
+            'reversal;') in record['line']
+    assert 'held 2 steady segment(s) (at 37.9 °/s, at -37.9 °/s;' in record['line']
+    assert record['line'].endswith('reference: the gyro alone (table_reference = gyro).')
+    (rejection,) = session.calibrator.rejections
+    assert 'the rate table reversed from 37.9 °/s to -37.9 °/s' in rejection.reason
+    referenced = calibrate_bags([BAGS / 'noise_rlg_turning'], methods=['noise'],
+                                options=CalibrationOptions(settings={
+                                    'table_reference': 'gyro_minus_table'})).sessions['noise']
+    assert isinstance(referenced, NoiseSession)
+    ref_record = referenced.calibrator.table_record()
+    assert ref_record is not None and ref_record['reference'] == 'gyro_minus_table'
+    assert ref_record['samples_referenced'] == {'/gyro/pulses': exp['counts']['received'] - left}
+    assert 'reference: the gyro angle minus the rate table\'s encoder angle (K·counts − ' \
+        'encoder angle)' in ref_record['line']
+    alone, minus = session.calibrator.results()['gyro'], referenced.calibrator.results()['gyro']
+    truth = exp['truth']['gyro']
+    for key in exp['must_resolve']['gyro']:
+        a, b = alone[key], minus[key]
+        assert abs(a.value - b.value) < math.hypot(a.std_uncertainty, b.std_uncertainty)
+        assert abs(b.value - truth[key]) < exp['coverage_factor'] * b.std_uncertainty
+
+
 def test_imu_bag_kalibr_file_has_kalibrs_keys_in_their_units(
         sessions: dict[str, NoiseSession]) -> None:
     session = sessions['noise_imu_static']
@@ -124,8 +172,9 @@ def test_json_section_has_the_issue_shape_and_the_figure_is_written(
         name: str, sessions: dict[str, NoiseSession], tmp_path: Path) -> None:
     section = json.loads(json.dumps(sessions[name].json_section()))
     axes = section['axes']
-    assert set(section) == {'results', 'missing', 'rejections', 'axes'}
-    assert list(axes) == (['gyro'] if name == 'noise_rlg_static' else
+    table = {'table_motion'} if 'table' in expected(name) else set()
+    assert set(section) == {'results', 'missing', 'rejections', 'axes'} | table
+    assert list(axes) == (['gyro'] if expected(name)['kind'] == 'pulses' else
                           ['gyro_x', 'gyro_y', 'gyro_z', 'accel_x', 'accel_y', 'accel_z'])
     for a in axes.values():
         assert {'tau_s', 'adev', 'adev_std', 'results', 'mdev', 'hdev', 'totdev'} <= set(a)

@@ -1,10 +1,14 @@
-"""Noise characterisation notices a rate table that turns during the record.
+"""Noise characterisation splits the record at the rate table's changes of rate.
 
-IEEE Std 952 noise terms describe a static sensor. When the record also holds the rate
-table's joint states (``/rate_table/joint_states``), the samples taken while the table
-moved are left out and each span at rest is analysed as its own segment (as a gap splits
-a record); the summary, ``--json`` (``table_motion``) and the rejections say how much of the
-record the table moved and its largest rate. A table at rest throughout changes nothing.
+IEEE Std 952 noise terms need a constant input rate: a table at rest or turning at one
+constant rate adds a constant, which every Allan-family deviation removes; a table that
+changes rate (start, reversal, stop) puts its profile into the Allan variance. When the
+record also holds the rate table's joint states (``/rate_table/joint_states``), each span at
+a constant rate is a steady segment, analysed as its own segment (as a gap splits a record),
+and the samples while the rate changed are left out; the summary, ``--json``
+(``table_motion``) and the rejections say what changed and how much was left out. A table
+at rest throughout changes nothing. The position table (two-axis bench) sweeps the tilted
+sense axis round a cone, so it is steady only at rest.
 
 The gyro and the table are generated here from the physics: the table's angle is the
 integral of a trapezoidal rate profile, read through a quantised encoder; the RLG's pulse
@@ -127,6 +131,57 @@ def interleaved(b: dict[str, np.ndarray],
         yield slice(a, z), (t_table > lo) & (t_table <= hi)
 
 
+def left_out(cal: NoiseCalibrator, t_gyro: np.ndarray) -> np.ndarray:
+    """The gyro stamps the calibrator's table gate leaves out (the record complete)."""
+    n, seg = cal.gate.decide(t_gyro, final=True)
+    assert n == len(t_gyro)
+    return np.any(seg == -1, axis=1)
+
+
+def changes_of_rate(t_gyro: np.ndarray, ramps: list[tuple[float, float, float]],
+                    steady: list[tuple[float, float]], settings: NoiseSettings,
+                    state_s: float = 1.0 / TABLE_HZ) -> tuple[np.ndarray, np.ndarray]:
+    """(must be left out, must be analysed) from the true motion.
+
+    ``ramps``: (start s, end s, |acceleration| rad/s²) of each change of rate. Left out: every
+    gyro sample inside a ramp at which the table has left the steady line by more than the
+    gate can miss — by twice the angle tolerance or twice the rate tolerance, judged one state
+    interval later (the next state decides). Analysed: every sample of a true constant-rate
+    span long enough to be steady (table_min_steady_s and four state intervals), more than two
+    state intervals from a ramp (a state's rate, differenced over the interval before it,
+    mixes the ramp in; the record's own ends are no ramp).
+    """
+    ts = (t_gyro - START_NS) / 1e9
+    must_out = np.zeros(len(ts), dtype=bool)
+    theta_tol = settings.table_rest_angle_rad + 3.5 * settings.table_stamp_jitter_s  # ≤ 200 °/s
+    for lo, hi, accel in ramps:
+        d = np.minimum(ts - lo, hi - ts) - state_s  # into the ramp, one state later
+        seen = ((0.5 * accel * d**2 > 2 * theta_tol)
+                | (accel * d > 2 * settings.table_rest_rate_rad_s))
+        must_out |= (ts > lo) & (ts < hi) & (d > 0) & seen
+    must_in = np.zeros(len(ts), dtype=bool)
+    end = ts[-1]
+    for lo, hi in steady:
+        if hi - lo < settings.table_min_steady_s + 4 * state_s:
+            continue
+        a = lo + 2 * state_s if lo > 0 else -math.inf
+        z = hi - 2 * state_s if hi < end else math.inf
+        must_in |= (ts > a) & (ts < z)
+    return must_out, must_in
+
+
+def trapezoid_spans(motion: tuple[float, float, float, float],
+                    duration_s: float) -> tuple[list[tuple[float, float, float]],
+                                                list[tuple[float, float]]]:
+    """(ramps, constant-rate spans) of :func:`table_angle`'s move, s from the start."""
+    start, cruise, rate, accel = motion
+    ramp, a = abs(rate / accel), abs(accel)
+    ramps = [(start, start + ramp, a), (start + ramp + cruise, start + 2 * ramp + cruise, a)]
+    steady = [(0.0, start), (start + ramp, start + ramp + cruise),
+              (start + 2 * ramp + cruise, duration_s)]
+    return ramps, steady
+
+
 def calibrated(b: dict[str, np.ndarray], *, table: bool, chunk: int = 997) -> NoiseCalibrator:
     """The calibrator fed in interleaved chunks, the table's states of each chunk first."""
     cal = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
@@ -149,34 +204,46 @@ def turning(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, np.ndar
     return b, write(tmp_path_factory.mktemp('turning') / 'bag', b, table=True)
 
 
-def test_the_turning_part_is_left_out_with_one_line_and_the_rest_gives_the_static_terms(
+def test_a_turn_at_constant_rate_is_analysed_and_only_its_start_and_stop_are_left_out(
         turning: tuple[dict[str, np.ndarray], Path], capsys: pytest.CaptureFixture[str]) -> None:
     b, bag = turning
     status, out, err = run_cli(capsys, bag, '--scale-factor-rad-per-pulse', K, '--json')
     assert status == 0, err
-    lines = [ln for ln in err.splitlines() if 'the rate table moved' in ln]
+    lines = [ln for ln in err.splitlines() if ln.startswith('/rate_table/joint_states: ')]
     assert len(lines) == 1
-    # the motion: 40 s → 40.5 s accelerating, 12 s at 90 °/s, 0.5 s decelerating: 13 s, seen
-    # between the last state at rest before it and the first after it (± one 20 ms state)
-    assert 'the rate table moved during 13.02 s of its 100 s record (1 span(s), largest rate ' \
-        '1.571 rad/s = 90' in lines[0]
+    # 40 s → 40.5 s accelerating, 12 s at 90 °/s, 0.5 s decelerating: two changes of rate,
+    # each seen between the last state of one steady segment and the first of the next
+    assert 'the rate table changed rate during 1.04 s of its 100 s record (2 span(s): 1 × ' \
+        'start, 1 × stop; largest rate' in lines[0]
+    assert 'held 3 steady segment(s) (at rest, at 90 °/s;' in lines[0]
+    assert 'reference: the gyro alone (table_reference = gyro).' in lines[0]
     document = json.loads(out)
     jsonschema.validate(document, json.loads((Path(gyro_calib.__file__).parent / 'schema'
                                               / 'result.schema.json').read_text()))
     doc = document['methods']['noise']
     motion = doc['table_motion']
-    assert motion['moved'] is True and motion['spans'] == 1
-    assert motion['moving_s'] == pytest.approx(13.02) and motion['record_s'] == 100.0
-    assert motion['max_rate_rad_s'] == np.max(np.abs(b['rate']))  # 90 °/s + encoder flicker
-    # left out: exactly the gyro samples strictly between those two table states
-    t_rest_before, t_rest_after = START_NS + 40_000_000_000, START_NS + 53_020_000_000
-    inside = (b['t_gyro'] > t_rest_before) & (b['t_gyro'] < t_rest_after)
-    assert motion['samples_left_out'] == {'/gyro/pulses': int(np.count_nonzero(inside))}
-    assert any('are left out: the rate table was turning' in r for r in doc['rejections'])
-    # what remains is a static record: it gives what the same record with the moving part
-    # cut out (a gap) gives, to the last bit, and N within 3σ of the truth
+    assert motion['moved'] is True and motion['spans'] == 2
+    assert motion['changes'] == ['start', 'stop'] and motion['steady_segments'] == 3
+    assert motion['steady_rates_rad_s'] == pytest.approx([0.0, math.radians(90.0), 0.0],
+                                                         abs=1e-6)
+    assert motion['turning_s'] == pytest.approx(12.0, abs=0.041)
+    assert motion['reference'] == 'gyro'
+    assert motion['max_rate_rad_s'] <= math.radians(90.0)
+    rejections = [r for r in doc['rejections'] if 'are left out: the rate table' in r]
+    assert len(rejections) == 2
+    assert 'the rate table started from rest to 90 °/s' in rejections[0]
+    assert 'the rate table stopped from 90 °/s to rest' in rejections[1]
+    # left out: the ramps, within two state intervals; the 12 s at 90 °/s is analysed
+    cal = calibrated(b, table=True)
+    out_mask = left_out(cal, b['t_gyro'])
+    ramps, steady = trapezoid_spans(MOTION, 100.0)
+    must_out, must_in = changes_of_rate(b['t_gyro'], ramps, steady, cal.settings)
+    assert np.all(out_mask[must_out]) and not np.any(out_mask[must_in])
+    assert motion['samples_left_out'] == {'/gyro/pulses': int(np.count_nonzero(out_mask))}
+    # what remains is the same record with the changes cut out (gaps), to the last bit: the
+    # constant 90 °/s adds a constant rate the Allan variance removes; N within 3σ of the truth
     cut = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
-    cut.extend_pulses(b['t_gyro'][~inside], b['counts'][~inside])
+    cut.extend_pulses(b['t_gyro'][~out_mask], b['counts'][~out_mask])
     cut.process(flush=True)
     assert doc['axes']['gyro']['adev'] == cut.json_section()['axes']['gyro']['adev']
     n = doc['results']['angle_random_walk_rad_per_sqrt_s']
@@ -228,68 +295,67 @@ def test_a_table_at_rest_throughout_gives_exactly_the_numbers_without_it(
 
 
 # -- the committed RBRLG bench --------------------------------------------------------------------
-def test_the_rate_bias_bench_is_refused_naming_the_table_motion_and_the_record_that_would_serve(
+def test_the_rate_bias_bench_gives_no_term_from_its_reversals(
         capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """k_tilde_bench: ±150 °/s with six reversals in 100 s.
+
+    Read blind, the reversals gave a "rate random walk" K of 1.043 rad/s/√s. Gated, each
+    reversal is left out and only the steady ±150 °/s spans (14.4 s each) are analysed: their
+    curve is the gyro's own (no point near the reversals' 0.8·Ω ≈ 2 rad/s), and 14.4 s spans
+    give too few averaging times for a term, which the run says without writing anything.
+    """
     out_file = tmp_path / 'handoff.yaml'
     status, out, err = run_cli(capsys, BAGS / 'k_tilde_bench', '--scale-factor-rad-per-pulse',
                                4.086e-6, '--out', out_file)
-    assert status == 2 and out == '' and not out_file.exists()
-    lines = err.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith('gyro-calib: error: ')
-    assert 'The rate table turned during 100 s of its 100 s record (up to 2.618 rad/s = ' \
-        '150 °/s): 100000 samples of /gyro/pulses were left out' in lines[0]
-    assert 'record it with the table at rest, 1281 samples (1.28 s) or more in one span' \
-        in lines[0]
-    # calibrate --method noise says it in the summary line and --json
+    assert status == 1 and not out_file.exists()
+    assert 'no noise term is resolved (see the reasons above); nothing written' in err
+    assert '/rate_table/joint_states: the rate table changed rate during 1.95 s of its 100 s ' \
+        'record (7 span(s): 1 × change of rate, 6 × reversal; largest rate 2.531 rad/s = 145 ' \
+        '°/s) and held 7 steady segment(s) (at 150 °/s, at -150 °/s;' in out  # the summary
     status = main(['calibrate', str(BAGS / 'k_tilde_bench'), '--method', 'noise',
                    '--scale-factor-rad-per-pulse', '4.086e-6', '--json'])
     captured = capsys.readouterr()
     noise = json.loads(captured.out)['methods']['noise']
-    assert noise['table_motion']['moved'] is True
-    assert noise['table_motion']['max_rate_rad_s'] == pytest.approx(math.radians(150.0))
+    motion = noise['table_motion']
+    assert motion['moved'] is True and motion['changes'] == ['change of rate'] + ['reversal'] * 6
+    assert motion['steady_rates_rad_s'] == pytest.approx(
+        [math.radians(150.0) * (-1) ** k for k in range(7)], rel=1e-6)
+    assert motion['samples_left_out'] == {'/gyro/pulses': 1944}
+    assert sum('are left out: the rate table reversed from ' in r
+               for r in noise['rejections']) == 6
     assert noise['results'] == {}
-    assert ('/rate_table/joint_states: the rate table moved during 100 s of its 100 s record '
-            '(1 span(s), largest rate 2.618 rad/s = 150 °/s') in captured.err
+    assert 'rate_random_walk_rad_per_s_sqrt_s' in noise['missing']
+    gyro = noise['axes']['gyro']
+    assert max(gyro['tau_s']) < 14.4 / 4 and max(gyro['adev']) < 3e-3  # no reversal in it
 
 
-# -- property: whatever the motion, exactly the samples while it moved are left out ------------
+# -- property: whatever the move, its changes of rate are left out, and only they -------------
 @settings(max_examples=200 if STRESS else 12, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.too_slow])
 @given(start_s=st.floats(0.0, 25.0), cruise_s=st.floats(0.0, 8.0),
        rate_deg_s=st.floats(-200.0, 200.0).filter(lambda r: abs(r) > 0.05),
        accel_deg_s2=st.floats(5.0, 2000.0), chunk=st.integers(50, 5000),
        seed=st.integers(0, 2**16))
-def test_exactly_the_samples_between_the_table_states_at_rest_are_left_out(
+def test_the_changes_of_rate_are_left_out_and_the_steady_spans_analysed_as_a_cut_record(
         start_s: float, cruise_s: float, rate_deg_s: float, accel_deg_s2: float, chunk: int,
         seed: int) -> None:
     motion = (start_s, cruise_s, math.radians(rate_deg_s), math.radians(accel_deg_s2))
     b = bench(30.0, motion, seed=seed)
     cal = calibrated(b, table=True, chunk=chunk)
-    # the table states: moving by the rate, or by the angle from where the table rested
-    thr_w, thr_a = cal.settings.table_rest_rate_rad_s, cal.settings.table_rest_angle_rad
-    moving, ref = np.zeros(len(b['t_table']), dtype=bool), b['angle'][0]
-    for i, (a, w) in enumerate(zip(b['angle'], b['rate'])):
-        if abs(w) > thr_w or abs(a - ref) > thr_a:
-            moving[i], ref = True, a
-    # a gyro sample is left out when a moving state lies between the states at rest around
-    # it (before the first and after the last: none, so the first and last states hold)
-    rest_t = b['t_table'][~moving]
-    k = np.searchsorted(rest_t, b['t_gyro'], side='left')
-    on_state = (k < len(rest_t)) & (rest_t[np.minimum(k, len(rest_t) - 1)] == b['t_gyro'])
-    lo = np.where(k > 0, rest_t[np.maximum(k - 1, 0)], np.iinfo(np.int64).min)
-    hi = np.where(k < len(rest_t), rest_t[np.minimum(k, len(rest_t) - 1)],
-                  np.iinfo(np.int64).max)
-    n_moving_before = np.concatenate(([0], np.cumsum(moving)))
-    between = (n_moving_before[np.searchsorted(b['t_table'], hi, side='left')]
-               - n_moving_before[np.searchsorted(b['t_table'], lo, side='right')])
-    moved_between = (between > 0) & ~on_state
+    out_mask = left_out(cal, b['t_gyro'])
+    ramps, steady = trapezoid_spans(motion, 30.0)
+    must_out, must_in = changes_of_rate(b['t_gyro'], ramps, steady, cal.settings)
+    assert np.all(out_mask[must_out]) and not np.any(out_mask[must_in])
     record = cal.table_record()
     assert record is not None
-    assert record['samples_left_out']['/gyro/pulses'] == int(np.count_nonzero(moved_between))
-    assert record['moved'] is bool(moving.any())
-    # and the rest is analysed as if the moving part were a gap in a static record
+    assert record['samples_left_out']['/gyro/pulses'] == int(np.count_nonzero(out_mask))
+    assert record['moved'] is bool(out_mask.any())
+    # every steady segment is at rest or at the cruise rate (its encoder-fitted slope)
+    for r in record['steady_rates_rad_s']:
+        assert min(abs(r), abs(r - motion[2])) < 1e-3, record['steady_rates_rad_s']
+    # and the rest is analysed as if the changes were gaps in a static record
     cut = NoiseCalibrator(cal.settings)
-    cut.extend_pulses(b['t_gyro'][~moved_between], b['counts'][~moved_between])
+    cut.extend_pulses(b['t_gyro'][~out_mask], b['counts'][~out_mask])
     cut.process(flush=True)
     assert cal.json_section()['axes'] == cut.json_section()['axes']
 
@@ -322,8 +388,8 @@ def test_a_table_whose_states_stop_holds_its_last_state_and_no_unbounded_backlog
     # last 5 s at the end of the record, as every record's tail)
     line = gated.table_line()
     assert 'stayed at rest throughout its 20 s record' in line
-    assert f'7000 of /gyro/pulses after waiting {wait:g} s for a later state: taken as at ' \
-        'rest' in line
+    assert f'7000 of /gyro/pulses after waiting {wait:g} s for a later state: taken as ' \
+        'steady' in line
 
 
 def test_noise_node_subscribes_the_rate_table_beside_its_input(
@@ -366,17 +432,24 @@ def test_the_motion_is_seen_from_whatever_the_table_publishes(given: str) -> Non
     cal.extend_imu(b['t_gyro'], gyro, rng.normal(0.0, 1e-2, (n, 3)) + (0, 0, 9.81))
     cal.process(flush=True)
     record = cal.table_record()
-    assert record is not None and record['moved'] and record['spans'] == 1
-    # 10 s → 10.5 s accelerating, 5 s at 30 °/s, 0.5 s decelerating; the rate differenced
-    # from the angle is the same here, as the test's encoder rate is
-    assert record['max_rate_rad_s'] == pytest.approx(math.radians(30.0), abs=1.5e-4)  # ±3 counts
-    assert record['moving_s'] == pytest.approx(6.0, abs=0.041)
+    assert record is not None and record['moved'] and record['spans'] == 2
+    assert record['changes'] == ['start', 'stop']
+    # 10 s → 10.5 s accelerating, 5 s at −30 °/s (a steady segment: analysed, the constant
+    # −30 °/s on gyro_z removed as any constant rate), 0.5 s decelerating
+    assert record['steady_rates_rad_s'] == pytest.approx([0.0, math.radians(-30.0), 0.0],
+                                                         abs=2e-4)
+    assert record['moving_s'] == pytest.approx(1.0, abs=0.081)
+    must_out, must_in = changes_of_rate(
+        b['t_gyro'], [(10.0, 10.5, math.radians(60.0)), (15.5, 16.0, math.radians(60.0))],
+        [(0.0, 10.0), (10.5, 15.5), (16.0, 30.0)], cal.settings)
+    out_mask = left_out(cal, b['t_gyro'])
+    assert np.all(out_mask[must_out]) and not np.any(out_mask[must_in])
     left = record['samples_left_out']['imu']
-    assert abs(left - 6.0 * GYRO_HZ) <= 8
+    assert left == np.count_nonzero(out_mask)
     assert all(cal.axis_result(a).curve is not None for a in cal.axes())
-    assert [r.reason.split(':')[0] for r in cal.rejections] == ['imu']
-    # the two spans at rest are two segments, each integrated from its own phase origin
-    assert cal.results()['gyro_z']['angle_random_walk_rad_per_sqrt_s'].n_used == n - left + 2
+    assert [r.reason.split(':')[0] for r in cal.rejections] == ['imu', 'imu']
+    # the three steady segments are three segments, each integrated from its own phase origin
+    assert cal.results()['gyro_z']['angle_random_walk_rad_per_sqrt_s'].n_used == n - left + 3
 
 
 def test_the_table_is_never_offered_as_an_input_to_characterise(
@@ -508,17 +581,19 @@ def test_the_position_table_turning_while_the_rate_table_holds_is_left_out(
         assert motion['tables']['/rate_table/joint_states']['moved'] is False
         assert ('/rate_table/joint_states: the rate table stayed at rest throughout its 70 s '
                 'record (3501 states); /position_table/joint_states: the position table moved '
-                f'during 13.02 s of its 70 s record (1 span(s), largest rate {largest}); at rest '
-                '= |velocity| ≤ 0.01 rad/s and the angle within 2e-05 rad for every table: '
-                f'{np.count_nonzero(inside)} of 14001 samples of /gyro/pulses') in err
+                f'during 13.02 s of its 70 s record (1 span(s), largest rate {largest}); steady '
+                '= velocity within 0.01 rad/s of the segment\'s mean and angle within 2e-05 rad '
+                '(+ |rate| × 0.0001 s) of its line, for 1 s or more; the position table steady '
+                f'only at rest: {np.count_nonzero(inside)} of 14001 samples of '
+                '/gyro/pulses') in err
     else:
         assert motion['topic'] == '/position_table/joint_states' and motion['moved'] is True
         assert ('/position_table/joint_states: the position table moved during 13.02 s of its '
-                f'70 s record (1 span(s), largest rate {largest}; at rest') in err
+                f'70 s record (1 span(s), largest rate {largest}; steady') in err
     assert len(doc['rejections']) == 1
     assert doc['rejections'][0].startswith('t=1025.005000 s: /gyro/pulses: the ')
     assert 'are left out: the position table was turning (/position_table/joint_states up ' \
-        f'to {largest}; at rest' in doc['rejections'][0]
+        f'to {largest}); steady' in doc['rejections'][0]
     # what remains is the static record with the turning part cut out, to the last bit
     cal.extend_pulses(b['t_gyro'][~inside], b['counts'][~inside])
     cal.process(flush=True)
@@ -540,8 +615,10 @@ def test_both_tables_at_rest_give_exactly_the_numbers_without_them(
     assert motion['line'].startswith(
         '/rate_table/joint_states: the rate table stayed at rest throughout its 60 s record '
         '(3001 states); /position_table/joint_states: the position table stayed at rest '
-        'throughout its 60 s record (3001 states); at rest = ')
-    assert motion['line'].endswith('for every table: every sample analysed.')
+        'throughout its 60 s record (3001 states); steady = ')
+    assert motion['line'].endswith('the position table steady only at rest: every sample '
+                                   'analysed; reference: the gyro alone (table_reference = '
+                                   'gyro).')
     assert motion['moved'] is False and motion['samples_left_out'] == {'/gyro/pulses': 0}
     assert {t: m['moved'] for t, m in motion['tables'].items()} == {
         '/rate_table/joint_states': False, '/position_table/joint_states': False}
@@ -569,12 +646,17 @@ def test_the_committed_theta_bench_names_the_position_table_motion(
     assert position['moved'] is True and position['spans'] == 4
     assert position['max_rate_rad_s'] == pytest.approx(math.radians(30.0))
     assert tables['/rate_table/joint_states']['moved'] is True
-    assert noise['table_motion']['max_rate_rad_s'] == pytest.approx(math.radians(150.0))
+    # the rate table's K̃ phase turns steadily at ±150 °/s between reversals: analysed
+    assert noise['table_motion']['steady_rates_rad_s'][:4] == pytest.approx(
+        [math.radians(150.0) * (-1) ** k for k in range(4)], rel=1e-6)
+    assert noise['table_motion']['changes'] == ['change of rate'] + ['reversal'] * 3 + [
+        'stop'] + ['move'] * 3
     assert sum('the position table was turning' in r for r in noise['rejections']) == 4
-    assert '/position_table/joint_states: the position table moved during 196.88 s of its ' \
+    assert '/position_table/joint_states: the position table moved during 196.8 s of its ' \
         '270.9 s record (4 span(s), largest rate 0.5236 rad/s = 30 °/s)' in captured.err
-    # without the position table the θ phase counted as at rest: 16291 of 67726 left out
-    assert noise['table_motion']['samples_left_out'] == {'/gyro/pulses': 65507}
+    # left out: the position table's four turns and the rate table's changes of rate (its
+    # steady ±150 °/s spans analysed; 65507 when only rest was steady)
+    assert noise['table_motion']['samples_left_out'] == {'/gyro/pulses': 51099}
 
 
 def motions() -> st.SearchStrategy[tuple[float, float, float, float] | None]:
@@ -589,32 +671,47 @@ def motions() -> st.SearchStrategy[tuple[float, float, float, float] | None]:
           suppress_health_check=[HealthCheck.too_slow])
 @given(rate_motion=motions(), position_motion=motions(), chunk=st.integers(50, 5000),
        seed=st.integers(0, 2**16))
-def test_a_sample_is_at_rest_only_when_every_recorded_table_is(
+def test_a_sample_is_analysed_only_when_every_recorded_table_is_steady(
         rate_motion: tuple[float, float, float, float] | None,
         position_motion: tuple[float, float, float, float] | None, chunk: int,
         seed: int) -> None:
-    """Left out: exactly the samples either table's own states say it moved at (the union)."""
+    """Left out: the union of what each table's own states leave out.
+
+    Each table is classified from its own states as when it is the only one recorded; the
+    rate table is steady at any constant rate, the position table only at rest (its turning
+    sweeps the tilted sense axis round a cone).
+    """
     b = two_axis_bench(30.0, rate_motion, position_motion, seed=seed)
-    cal = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
-    for part, k in interleaved(b, chunk):
-        for name in ('rate', 'position'):  # each chunk's table states first, as a node's batch
-            cal.extend_table(b['t_table'][k], b[f'{name}_angle'][k], b[f'{name}_rate'][k],
-                             topic=f'/{name}_table/joint_states')
-        cal.extend_pulses(b['t_gyro'][part], b['counts'][part])
-        cal.process()
-    cal.process(flush=True)
-    moved = {name: moved_at(b['t_table'], moving_states(cal, b[f'{name}_angle'],
-                                                        b[f'{name}_rate']), b['t_gyro'])
-             for name in ('rate', 'position')}
-    either = moved['rate'] | moved['position']
-    record = cal.table_record()
+
+    def fed(names: tuple[str, ...]) -> NoiseCalibrator:
+        cal = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=K))
+        for part, k in interleaved(b, chunk):
+            for name in names:  # each chunk's table states first, as a node's batch
+                cal.extend_table(b['t_table'][k], b[f'{name}_angle'][k], b[f'{name}_rate'][k],
+                                 topic=f'/{name}_table/joint_states')
+            cal.extend_pulses(b['t_gyro'][part], b['counts'][part])
+            cal.process()
+        cal.process(flush=True)
+        return cal
+
+    both, alone = fed(('rate', 'position')), {n: fed((n,)) for n in ('rate', 'position')}
+    either = left_out(alone['rate'], b['t_gyro']) | left_out(alone['position'], b['t_gyro'])
+    assert np.array_equal(left_out(both, b['t_gyro']), either)
+    record = both.table_record()
     assert record is not None
     assert record['samples_left_out']['/gyro/pulses'] == int(np.count_nonzero(either))
-    assert {t: m['moved'] for t, m in record['tables'].items()} == {
-        f'/{name}_table/joint_states': bool(moving_states(cal, b[f'{name}_angle'],
-                                                          b[f'{name}_rate']).any())
-        for name in ('rate', 'position')}
-    cut = NoiseCalibrator(cal.settings)
+    for name, cal in alone.items():
+        own = cal.table_record()
+        assert own is not None
+        topic = f'/{name}_table/joint_states'
+        assert record['tables'][topic] == own['tables'][topic]
+    # the position table turning at a constant rate is never steady; the rate table is
+    if position_motion is not None and position_motion[1] > 2.0:
+        start, cruise, rate, accel = position_motion
+        ts = (b['t_gyro'] - START_NS) / 1e9
+        mid = abs(rate / accel) + start + cruise / 2
+        assert np.all(either[np.abs(ts - mid) < 0.5])
+    cut = NoiseCalibrator(both.settings)
     cut.extend_pulses(b['t_gyro'][~either], b['counts'][~either])
     cut.process(flush=True)
-    assert cal.json_section()['axes'] == cut.json_section()['axes']
+    assert both.json_section()['axes'] == cut.json_section()['axes']

@@ -40,7 +40,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gyro_calib.errors import StreamError
+from gyro_calib.errors import ConfigError, StreamError
 from gyro_calib.estimate import Estimate, Rejection
 from gyro_calib.noise.channel import ChannelAccumulator, format_stamp
 from gyro_calib.noise.edf import adev_std, alpha_from_slope, edf_totdev
@@ -50,6 +50,7 @@ from gyro_calib.noise.settings import NoiseSettings
 from gyro_calib.noise.table import (
     RATE_TABLE_JOINT_STATES,
     TABLE_NAMES,
+    MotionSpan,
     TableGate,
     TableMotion,
 )
@@ -169,6 +170,13 @@ class _Stream:
     """The most samples analysed between two motions of the table."""
     final: list[int] = field(default_factory=lambda: [0, 0, 0])
     """[first stamp, last stamp, samples] of the final (ordered) samples, for the mean period."""
+    segment_key: tuple[int, ...] | None = None
+    """The tables' steady segments the last analysed sample lay in (a change of them cuts)."""
+    referenced: int = 0
+    """Samples analysed as the gyro's angle minus the rate table's angle."""
+    unreferenced: int = 0
+    """Samples analysed as the gyro alone although gyro_minus_table was asked for (no rate
+    table angle at their stamp)."""
 
 
 class NoiseCalibrator:
@@ -186,8 +194,11 @@ class NoiseCalibrator:
         self._streams: dict[str, _Stream] = {}
         self._n_notices: dict[str, int] = {}
         self._n_rejections_reported = 0
-        self.gate = TableGate.create(self.settings.table_rest_rate_rad_s,
-                                     self.settings.table_rest_angle_rad)
+        s = self.settings
+        self.gate = TableGate.create(s.table_rest_rate_rad_s, s.table_rest_angle_rad,
+                                     min_steady_s=s.table_min_steady_s,
+                                     stamp_jitter_s=s.table_stamp_jitter_s,
+                                     keep_angles=s.table_reference == 'gyro_minus_table')
         """Every table's motion (optional inputs: a table without states gates nothing;
         :mod:`gyro_calib.noise.table`)."""
         self.table: TableMotion = self.gate.tables[RATE_TABLE_JOINT_STATES]
@@ -264,8 +275,8 @@ class NoiseCalibrator:
                     stream.final[0] = int(t[0])
                 stream.final[1] = int(t[-1])
                 stream.final[2] += len(t)
-            if not self.gate.seen:  # no table (yet): every sample analysed, as without one
-                stream.before_table += len(t)
+            if not self.gate.seen and not self._wants_reference(stream):
+                stream.before_table += len(t)  # no table (yet): analysed as without one
                 self._feed_channels(stream, t, v)
                 continue
             stream.held_t.append(t)
@@ -279,29 +290,48 @@ class NoiseCalibrator:
         for k, ch in enumerate(stream.channels):
             ch.feed(t, v[:, k])
 
+    def _wants_reference(self, stream: _Stream) -> bool:
+        """gyro_minus_table was asked for and the stream is a gyro angle (pulses, FOG)."""
+        return (self.settings.table_reference == 'gyro_minus_table'
+                and stream.topic in (GYRO_PULSES, FOG_OUTPUT))
+
     def _gate(self, stream: _Stream, *, final: bool) -> None:
-        """Feed the held samples the table states decide; leave out those while it moved."""
+        """Feed the held samples of steady segments; leave out those while a table changed."""
         if not stream.held_t:
             return
         t = np.concatenate(stream.held_t) if len(stream.held_t) > 1 else stream.held_t[0]
         v = np.concatenate(stream.held_v) if len(stream.held_v) > 1 else stream.held_v[0]
-        n, moving = self.gate.decide(t, final=final)
+        refer = self._wants_reference(stream)
+        n, seg = self.gate.decide(t, final=final, hold_unseen=refer)
         if n < len(t):  # the table's states lag or stopped: the last one holds beyond the wait
             wait_ns = int(round(self.settings.table_wait_s * NS_PER_S))
             m = int(np.searchsorted(t, int(t[-1]) - wait_ns, side='right'))
             if m > n:
-                moving = np.concatenate((moving, self.gate.decide(t[n:m], final=True)[1]))
-                stream.beyond_table += m - n
+                seg = np.concatenate((seg, self.gate.decide(t[n:m], final=True)[1]))
+                if self.gate.seen:
+                    stream.beyond_table += m - n
+                else:
+                    stream.before_table += m - n
                 n = m
         stream.held_t, stream.held_v = ([t[n:]], [v[n:]]) if n < len(t) else ([], [])
         if n == 0:
             return
-        edges = np.flatnonzero(np.diff(moving.astype(np.int8))) + 1
-        bounds = [0, *edges.tolist(), n]
+        moving = np.any(seg == -1, axis=1)
+        change = np.zeros(n, dtype=bool)
+        change[1:] = (moving[1:] != moving[:-1]) | np.any(seg[1:] != seg[:-1], axis=1)
+        bounds = [*np.flatnonzero(change).tolist(), n]
+        if bounds[0] != 0:
+            bounds.insert(0, 0)
         for a, b in zip(bounds[:-1], bounds[1:]):
             if not moving[a]:
+                key = tuple(int(k) for k in seg[a])
+                if stream.moving_run is None and stream.segment_key not in (None, key):
+                    for ch in stream.channels:  # another steady segment, nothing between
+                        ch.cut()
                 self._close_motion(stream)
-                self._feed_channels(stream, t[a:b], v[a:b])
+                stream.segment_key = key
+                vv = self._referenced(stream, t[a:b], v[a:b], key) if refer else v[a:b]
+                self._feed_channels(stream, t[a:b], vv)
                 continue
             stream.left_out += b - a
             stream.rest_run = 0
@@ -312,26 +342,72 @@ class NoiseCalibrator:
             else:
                 stream.moving_run[1] = int(t[b - 1])
                 stream.moving_run[2] += b - a
+        if refer:
+            self.gate.tables[RATE_TABLE_JOINT_STATES].forget_before(int(t[n - 1]))
+
+    def _referenced(self, stream: _Stream, t: npt.NDArray[np.int64], v: FloatArray,
+                    key: tuple[int, ...]) -> FloatArray:
+        """The counts minus the rate table's angle in counts (gyro_minus_table), METHODS §E.1."""
+        table = self.gate.tables[RATE_TABLE_JOINT_STATES]
+        scale = stream.channels[0].phase_scale
+        index = key[list(self.gate.tables).index(RATE_TABLE_JOINT_STATES)]
+        if index < 0 or not table.has_angles() or not math.isfinite(scale):
+            stream.unreferenced += len(t)
+            return v
+        angle = table.angle_at(t, index)
+        rate = table.segment_rate(index)
+        span_s = (int(t[-1]) - int(t[0])) / NS_PER_S
+        if span_s >= 0.1 and abs(rate) > 10.0 * self.settings.table_rest_rate_rad_s:
+            gyro_rate = (float(v[-1, 0]) - float(v[0, 0])) * scale / span_s
+            if abs(gyro_rate - rate) > 0.5 * abs(rate):
+                raise ConfigError(
+                    f'table_reference = gyro_minus_table: {stream.topic} turns at '
+                    f'{math.degrees(gyro_rate):.4g} °/s while the rate table turns at '
+                    f'{math.degrees(rate):.4g} °/s (from {format_stamp(int(t[0]))}): the '
+                    'sense axis does not lie along the table\'s axis counting the same way, '
+                    'so its angle minus the table\'s is not its noise; use table_reference = '
+                    'gyro (a constant rate is removed anyway). Nothing was written.')
+        stream.referenced += len(t)
+        return v - (angle / scale)[:, None]
 
     def _close_motion(self, stream: _Stream) -> None:
-        """The table came to rest (or the record ended): say what was left out."""
+        """A steady segment began (or the record ended): say what was left out and why."""
         run = stream.moving_run
         if run is None:
             return
         stream.moving_run = None
         first, last, n = run
-        movers = self.gate.moved_within(first, last) or [
-            (topic, tm.max_rate_rad_s) for topic, tm in self.gate.recorded() if tm.moved]
-        names = ' and '.join(f'the {TABLE_NAMES[topic]}' for topic, _ in movers)
-        rates = ', '.join(f'{topic} up to {rate:.4g} rad/s = {math.degrees(rate):.4g} °/s'
-                          for topic, rate in movers)
-        s = self.settings
+        movers = [(topic, tm, tm.spans_within(first, last)) for topic, tm in self.gate.recorded()
+                  if tm.overlaps(first, last)]
+        if not movers:
+            movers = [(topic, tm, tm.changes()) for topic, tm in self.gate.recorded() if tm.moved]
+        whats = []
+        for topic, tm, spans in movers:
+            rate = max((sp.max_rate_rad_s for sp in spans), default=0.0)
+            kinds = sorted({self._change_words(tm, sp) for sp in spans})
+            whats.append(f'the {TABLE_NAMES[topic]} {" and ".join(kinds) or "changed rate"} '
+                         f'({topic} up to {rate:.4g} rad/s = {math.degrees(rate):.4g} °/s)')
         self._motion_rejections.append(Rejection(first, (
             f'{stream.topic}: the {n} sample(s) from {format_stamp(first)} to '
-            f'{format_stamp(last)} are left out: {names} '
-            f'{"were" if len(movers) > 1 else "was"} turning ({rates}; at rest means '
-            f'|velocity| ≤ {s.table_rest_rate_rad_s:g} rad/s and the angle '
-            f'within {s.table_rest_angle_rad:g} rad).')))
+            f'{format_stamp(last)} are left out: {" and ".join(whats)}; '
+            f'{self._steady_words()}.')))
+
+    @staticmethod
+    def _change_words(tm: TableMotion, span: MotionSpan) -> str:
+        """What a table did: 'was turning' (one that must rest), 'reversed from 37.9 °/s …'."""
+        if not tm.turning:
+            return 'was turning'
+        verb = {'reversal': 'reversed', 'stop': 'stopped', 'start': 'started',
+                'move': 'moved'}.get(span.what(tm.rest_rate_rad_s),
+                                                       'changed rate')
+        a, b = span.rate_before_rad_s, span.rate_after_rad_s
+
+        def deg(r: float) -> str:
+            return 'rest' if abs(r) <= tm.rest_rate_rad_s else f'{math.degrees(r):.4g} °/s'
+
+        frm = f' from {deg(a)}' if not math.isnan(a) else ''
+        to = f' to {deg(b)}' if not math.isnan(b) else ''
+        return f'{verb}{frm}{to}'
 
     def extend_pulses(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
         """RLG samples (bag replay): stamps (int ns) and cumulative pulse counts."""
@@ -489,37 +565,100 @@ class NoiseCalibrator:
         """Segments left out, then the spans left out while the table moved, with reasons."""
         return self._segment_rejections() + list(self._motion_rejections)
 
+    def _steady_words(self) -> str:
+        s = self.settings
+        rest_only = any(not tm.turning for _, tm in self.gate.recorded())
+        return (f'steady = velocity within {s.table_rest_rate_rad_s:g} rad/s of the segment\'s '
+                f'mean and angle within {s.table_rest_angle_rad:g} rad (+ |rate| × '
+                f'{s.table_stamp_jitter_s:g} s) of its line, for {s.table_min_steady_s:g} s '
+                'or more' + ('; the position table steady only at rest' if rest_only else ''))
+
+    @staticmethod
+    def _rates_words(tm: TableMotion) -> str:
+        """'at rest', 'at 37.9 °/s', 'at rest, at ±150 °/s' … of the steady segments."""
+        out: list[str] = []
+        for r in tm.steady_rates():
+            word = 'at rest' if abs(r) <= tm.rest_rate_rad_s else f'at {math.degrees(r):.4g} °/s'
+            if word not in out:
+                out.append(word)
+        if len(out) > 4:
+            out = [*out[:4], '…']
+        return ', '.join(out) or 'none'
+
+    def _table_clause(self, topic: str, tm: TableMotion) -> str:
+        name = TABLE_NAMES[topic]
+        segs = tm.segments
+        if not tm.moved:
+            if segs and all(abs(r) <= tm.rest_rate_rad_s for r in tm.steady_rates()):
+                return (f'{topic}: the {name} stayed at rest throughout its {tm.record_s():.6g} s '
+                        f'record ({tm.states} states')
+            return (f'{topic}: the {name} kept a constant rate throughout its '
+                    f'{tm.record_s():.6g} s record ({tm.states} states, '
+                    f'{self._rates_words(tm)}')
+        rate = tm.max_rate_rad_s
+        changes = tm.changes()
+        if not tm.turning:
+            return (f'{topic}: the {name} moved during {tm.moving_s():.6g} s of its '
+                    f'{tm.record_s():.6g} s record ({len(changes)} span(s), largest rate '
+                    f'{rate:.4g} rad/s = {math.degrees(rate):.4g} °/s')
+        kinds: dict[str, int] = {}
+        for sp in changes:
+            w = sp.what(tm.rest_rate_rad_s)
+            kinds[w] = kinds.get(w, 0) + 1
+        kind = ', '.join(f'{n} × {w}' for w, n in kinds.items())
+        return (f'{topic}: the {name} changed rate during {tm.moving_s():.6g} s of its '
+                f'{tm.record_s():.6g} s record ({len(changes)} span(s): {kind}; largest rate '
+                f'{rate:.4g} rad/s = {math.degrees(rate):.4g} °/s) and held {len(segs)} steady '
+                f'segment(s) ({self._rates_words(tm)}')
+
+    def reference_words(self) -> str:
+        """Which reference the gyro samples were analysed against ('' without a gyro angle)."""
+        streams = [st for st in self._streams.values() if st.topic in (GYRO_PULSES, FOG_OUTPUT)]
+        if not streams:
+            return ''
+        if self.settings.table_reference != 'gyro_minus_table':
+            return 'reference: the gyro alone (table_reference = gyro)'
+        ref = sum(st.referenced for st in streams)
+        alone = sum(st.unreferenced for st in streams)
+        angle = 'K·counts' if streams[0].topic == GYRO_PULSES else 'counts/SF'
+        words = (f'reference: the gyro angle minus the rate table\'s encoder angle ({angle} − '
+                 f'encoder angle) for {ref} sample(s)')
+        if alone:
+            words += f', the gyro alone for {alone} (no rate table angle at their stamps)'
+        return words
+
+    def reference_used(self) -> str:
+        """'gyro', 'gyro_minus_table', or 'mixed' (some samples had no table angle)."""
+        streams = [st for st in self._streams.values() if st.topic in (GYRO_PULSES, FOG_OUTPUT)]
+        if self.settings.table_reference != 'gyro_minus_table' or not streams:
+            return 'gyro'
+        ref = sum(st.referenced for st in streams)
+        alone = sum(st.unreferenced for st in streams)
+        return 'gyro_minus_table' if not alone else ('gyro' if not ref else 'mixed')
+
     def table_line(self) -> str:
         """One line on the tables' motion ('' when no table state arrived).
 
-        Whether each recorded table moved during the record; for one that did, for how
-        long and its largest rate; and how many samples of each input were left out.
+        Each recorded table's steady segments (their rates) and the stretches of changing
+        rate left out (how many, what kind, for how long, the largest rate); how many
+        samples of each input were left out; and the reference the samples were analysed
+        against (the gyro alone, or minus the rate table's angle).
         """
         recorded, s = self.gate.recorded(), self.settings
         if not recorded:
             return ''
-        rest = (f'at rest = |velocity| ≤ {s.table_rest_rate_rad_s:g} rad/s and the angle '
-                f'within {s.table_rest_angle_rad:g} rad')
-        clauses = []
-        for topic, tm in recorded:
-            name = TABLE_NAMES[topic]
-            if tm.moved:
-                rate = tm.max_rate_rad_s
-                clauses.append((f'{topic}: the {name} moved during {tm.moving_s():.6g} s of its '
-                                f'{tm.record_s():.6g} s record ({len(tm.spans)} span(s), '
-                                f'largest rate {rate:.4g} rad/s = {math.degrees(rate):.4g} °/s'))
-            else:
-                clauses.append((f'{topic}: the {name} stayed at rest throughout its '
-                                f'{tm.record_s():.6g} s record ({tm.states} states'))
-        head = (f'{clauses[0]}; {rest})' if len(clauses) == 1
-                else '; '.join(f'{c})' for c in clauses) + f'; {rest} for every table')
+        clauses = [self._table_clause(topic, tm) for topic, tm in recorded]
+        head = (f'{clauses[0]}; {self._steady_words()})' if len(clauses) == 1
+                else '; '.join(f'{c})' for c in clauses) + f'; {self._steady_words()}')
+        reference = self.reference_words()
+        tail = f'; {reference}.' if reference else '.'
         if not any(tm.moved for _, tm in recorded):
             late = [f'{st.before_table} of {st.topic} before its first state'
                     for st in self._streams.values() if st.before_table]
             late += [f'{st.beyond_table} of {st.topic} after waiting {s.table_wait_s:g} s for a '
                      'later state' for st in self._streams.values() if st.beyond_table]
-            unknown = f' ({", ".join(late)}: taken as at rest)' if late else ''
-            return f'{head}: every sample analysed{unknown}.'
+            unknown = f' ({", ".join(late)}: taken as steady)' if late else ''
+            return f'{head}: every sample analysed{unknown}{tail}'
         parts = []
         for st in self._streams.values():
             received = st.reorder.stats.received
@@ -531,35 +670,49 @@ class NoiseCalibrator:
                           f'waiting {self.settings.table_wait_s:g} s for a later one')
             parts.append(f'{st.left_out} of {received} samples of {st.topic} '
                          f'({pct:.3g} %){early}')
-        return (f'{head}: {", ".join(parts) or "no gyro sample"} left out; '
-                + ('each span at rest is analysed as a segment of a static record.'
-                   if any(st.left_out < st.reorder.stats.received
-                          for st in self._streams.values()) else 'no sample at rest remains.'))
+        kept = any(st.left_out < st.reorder.stats.received for st in self._streams.values())
+        return (f'{head}: {", ".join(parts) or "no gyro sample"} left out (the stretches of '
+                'changing rate); '
+                + ('each steady segment is analysed as a segment of a static record'
+                   if kept else 'no sample in a steady segment remains') + tail)
 
     @staticmethod
     def _table_fields(tm: TableMotion) -> dict[str, Any]:
+        changes = tm.changes()
         return {'moved': tm.moved, 'states': tm.states, 'moving_states': tm.moving_states,
-                'record_s': tm.record_s(), 'moving_s': tm.moving_s(), 'spans': len(tm.spans),
-                'max_rate_rad_s': tm.max_rate_rad_s}
+                'record_s': tm.record_s(), 'moving_s': tm.moving_s(), 'spans': len(changes),
+                'max_rate_rad_s': tm.max_rate_rad_s, 'steady_segments': len(tm.segments),
+                'steady_rates_rad_s': [float(r) for r in tm.steady_rates()],
+                'turning_s': tm.turning_s(), 'turning_allowed': tm.turning,
+                'changes': [sp.what(tm.rest_rate_rad_s) if tm.turning else 'turning'
+                            for sp in changes]}
 
     def table_record(self) -> dict[str, Any] | None:
         """The tables' motion for ``--json`` (``table_motion``), or None without a table.
 
         The top-level fields describe ``topic``: the rate table when it was recorded, else
         the position table; ``tables`` has the same fields for every recorded table, by
-        topic; the samples left out are those while any recorded table moved.
+        topic; the samples left out are those while any recorded table changed rate (the
+        position table: turned). ``moved``: some stretch was left out; ``steady_segments``,
+        ``steady_rates_rad_s``, ``turning_s`` (steady at a non-zero rate), ``changes`` (what
+        each stretch was) and ``reference`` (what the samples were analysed against) besides.
         """
         recorded = self.gate.recorded()
         if not recorded:
             return None
         topic, tm = recorded[0]
+        s = self.settings
         return {
             'topic': topic, **self._table_fields(tm),
             'samples_left_out': {st.topic: st.left_out for st in self._streams.values()},
             'samples_received': {st.topic: st.reorder.stats.received
                                  for st in self._streams.values()},
-            'rest_rate_rad_s': self.settings.table_rest_rate_rad_s,
-            'rest_angle_rad': self.settings.table_rest_angle_rad,
+            'rest_rate_rad_s': s.table_rest_rate_rad_s,
+            'rest_angle_rad': s.table_rest_angle_rad,
+            'stamp_jitter_s': s.table_stamp_jitter_s,
+            'min_steady_s': s.table_min_steady_s,
+            'reference': self.reference_used(),
+            'samples_referenced': {st.topic: st.referenced for st in self._streams.values()},
             'line': self.table_line(),
             'tables': {t: self._table_fields(m) for t, m in recorded},
         }
@@ -570,7 +723,7 @@ class NoiseCalibrator:
         return f'the {TABLE_NAMES[recorded[0][0]]}' if len(recorded) == 1 else 'every table'
 
     def _motion_reason(self, stream: _Stream) -> str:
-        """Why a record with a table turning gives no term, and what record would."""
+        """Why a record whose table changed rate gives no term, and what record would."""
         if not stream.left_out:
             return ''
         s = self.settings
@@ -581,18 +734,18 @@ class NoiseCalibrator:
         period = (last - first) / (n - 1) / NS_PER_S if n > 1 and last > first else math.nan
         secs = f' ({need * period:.3g} s)' if math.isfinite(period) else ''
         turned = ' and '.join(
-            f'the {TABLE_NAMES[topic]} turned during {tm.moving_s():.6g} s of its '
-            f'{tm.record_s():.6g} s record (up to {tm.max_rate_rad_s:.4g} rad/s = '
+            f'the {TABLE_NAMES[topic]} {"changed rate" if tm.turning else "turned"} during '
+            f'{tm.moving_s():.6g} s of its {tm.record_s():.6g} s record ({len(tm.changes())} '
+            f'span(s), up to {tm.max_rate_rad_s:.4g} rad/s = '
             f'{math.degrees(tm.max_rate_rad_s):.4g} °/s)'
             for topic, tm in self.gate.recorded() if tm.moved)
-        rest = 'the table' if len(self.gate.recorded()) == 1 else 'every table'
         return (f' {turned[:1].upper()}{turned[1:]}: '
                 f'{stream.left_out} samples of {stream.topic} were left out and the longest '
-                f'span at rest holds {stream.longest_rest}. Noise terms describe a static '
-                f'sensor: record it with {rest} at rest, {need} samples{secs} or more in '
-                f'one span for the white-noise term (8 octaves of τ with '
-                f'{s.fit_min_clusters:g} clusters each), hours for bias instability and the '
-                'random walks.')
+                f'steady span holds {stream.longest_rest}. Noise terms need a constant input '
+                f'rate: record with the rate table at rest or at one constant rate (the '
+                f'position table at rest), {need} samples{secs} or more in one steady span for '
+                f'the white-noise term (8 octaves of τ with {s.fit_min_clusters:g} clusters '
+                'each), hours for bias instability and the random walks.')
 
     def ordering_stats(self) -> dict[str, OrderingStats]:
         """Per input topic: samples received, re-sorted, duplicate, late (dropped), restarts."""
@@ -681,14 +834,15 @@ class NoiseCalibrator:
         motion = self._motion_reason(stream)
         if st.samples == 0 and motion:
             return none(f'no sample of {ch.name} on {stream.topic} was taken with '
-                        f'{self._tables_phrase()} at rest.{motion}')
+                        f'{self._tables_phrase()} steady (at rest or at one constant '
+                        f'rate).{motion}')
         if motion and st.non_finite < st.samples:
             rest_curve = ch.curve()
             if rest_curve is None or int(np.count_nonzero(rest_curve.avar > 0)) < 2:
                 return none(f'the spans of {ch.name} on {stream.topic} with '
-                            f'{self._tables_phrase()} at rest are too short for any noise '
+                            f'{self._tables_phrase()} steady are too short for any noise '
                             f'term ({st.samples} sample(s) '
-                            f'at rest).{motion}')
+                            f'in steady spans).{motion}')
         if st.samples == 0:
             return none(f'no samples have arrived on {stream.topic} yet.')
         if st.non_finite == st.samples:

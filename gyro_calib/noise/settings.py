@@ -13,6 +13,9 @@ from dataclasses import dataclass
 from gyro_calib.config import check_ranges
 from gyro_calib.errors import ConfigError
 
+TABLE_REFERENCES = ('gyro', 'gyro_minus_table')
+"""What the noise of a gyro on a turning table is computed from (``table_reference``)."""
+
 
 @dataclass(frozen=True, slots=True)
 class NoiseSettings:
@@ -87,14 +90,28 @@ class NoiseSettings:
     total_deviation_points: int = 4096
     """Phase points kept per segment (decimated) for the total deviation at long τ; 0 = off."""
     table_rest_rate_rad_s: float = 1.0e-2
-    """With /rate_table/joint_states in the record: a table state whose |velocity| exceeds
-    this is moving, rad/s (above the one-count flicker of a rate differentiated from the
-    encoder, 6e-3 rad/s for a 2^20-count encoder read at 1 kHz); the gyro samples while the
-    table moves are left out."""
+    """With /rate_table/joint_states (or /position_table/joint_states) in the record: a table
+    state whose velocity differs by more than this from its steady segment's mean rate (from
+    0 at rest) ends the segment, rad/s (above the one-count flicker of a rate differentiated
+    from the encoder at any constant rate, 6e-3 rad/s for a 2^20-count encoder read at 1 kHz);
+    the gyro samples while the table changes rate are left out."""
     table_rest_angle_rad: float = 2.0e-5
-    """A table state whose encoder angle lies this far from where the table came to rest is
-    moving (a creep too slow for the rate test), rad (more than three counts of a
-    2^20-count encoder, 27 of the 2^23-count one of our benches)."""
+    """A table state whose encoder angle lies this far from the line fitted through its steady
+    segment's angles (flat at rest) ends the segment (a rate change too slow for the rate
+    test), rad (more than three counts of a 2^20-count encoder, 27 of the 2^23-count one of
+    our benches)."""
+    table_stamp_jitter_s: float = 1.0e-4
+    """Jitter of the table states' stamps, s: a turning table's angle leaves the line by up to
+    |rate|·this, so the angle tolerance grows by it (0.26 mrad at 150 °/s)."""
+    table_min_steady_s: float = 1.0
+    """A steady segment (constant rate, rest included) must span this long; a shorter one is
+    part of the change around it (a slow acceleration can look steady for a few states), s.
+    Shorter than the 1.28 s one span needs at 1 kHz for the white-noise term."""
+    table_reference: str = 'gyro'
+    """'gyro': the gyro's angle as it is (a constant table rate is a constant, which the Allan
+    variance removes); 'gyro_minus_table': K·counts (or counts/SF) minus the rate table's
+    encoder angle, interpolated at each gyro stamp, which also removes table-rate wander (the
+    sense axis along the table's axis, counting the same way; /gyro/pulses and /fog/output)."""
     table_wait_s: float = 5.0
     """A sample waits at most this long (by the newest stamp) for a table state at or after
     its stamp; when the table's states stop or lag more, the last one holds for it (counted
@@ -163,6 +180,12 @@ class NoiseSettings:
              and self.table_rest_angle_rad > 0, 'positive'),
             ('table_wait_s', math.isfinite(self.table_wait_s) and self.table_wait_s >= 0,
              'zero or positive'),
+            ('table_stamp_jitter_s', math.isfinite(self.table_stamp_jitter_s)
+             and self.table_stamp_jitter_s >= 0, 'zero or positive'),
+            ('table_min_steady_s', math.isfinite(self.table_min_steady_s)
+             and self.table_min_steady_s >= 0, 'zero or positive'),
+            ('table_reference', self.table_reference in TABLE_REFERENCES,
+             ' or '.join(repr(r) for r in TABLE_REFERENCES)),
         ]
         check_ranges(self, checks)  # one range check for every setting
 

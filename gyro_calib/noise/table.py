@@ -1,42 +1,60 @@
-"""Were the bench's tables at rest? The motion gate of a noise record (METHODS §E).
+"""Was the bench's input rate constant? The table gate of a noise record (METHODS §E.1).
 
-Noise characterisation (IEEE Std 952 Allan analysis) describes a *static* sensor: the
-gyro's output must be its noise plus a constant rate. A rate table that turns during the
-record puts its own motion profile into the Allan variance — reversals between ±Ω every D
-seconds give σ(τ = D) ≈ 0.8·Ω (a square wave: σ² = 2Ω²/3) — and the fit then reports the
-table's profile as "noise terms". When the bag (or the live graph) also carries the table's
-joint states (``/rate_table/joint_states``: unwrapped encoder angle, rad; rate, rad/s),
-:class:`TableMotion` classifies each table state and tells the calibrator which gyro
-samples fall while the table moved; those are left out and each span at rest is analysed
-as its own segment, as a gap would split it. The two-axis RBRLG bench also records its
-position table (``/position_table/joint_states``, same fields), which turns while the rate
-table is held in the θ phase: :class:`TableGate` classifies every recorded table alike (each
-its own states, the same thresholds) and a gyro sample is at rest only when every recorded
-table is; a table never recorded holds nothing back.
+Noise characterisation (IEEE Std 952 Allan analysis) needs the gyro's input rate to be
+*constant*: its output is then the noise plus a constant, and every Allan-family deviation
+removes a constant rate (a linear phase cancels in every difference of eq. E.1-2). A rate
+table turning at a constant rate Ω is therefore as good as one at rest — a rate-biased RLG
+is operated, and its noise measured, that way — but a table that *changes* rate puts its
+profile into the Allan variance: reversals between ±Ω every D seconds give σ(τ = D) ≈ 0.8·Ω
+(a square wave: σ² = 2Ω²/3), and the fit reports the profile as "noise terms".
 
-A table state is *moving* when
+When the bag (or the live graph) carries a table's joint states (``/rate_table/joint_states``:
+unwrapped encoder angle, rad; rate, rad/s), :class:`TableMotion` splits them into *steady
+segments* — spans at one constant rate (rest is the rate 0) — and the calibrator analyses the
+gyro samples inside each steady segment as a segment of its own, leaving out those between
+(acceleration, reversal, stop), as a gap would split a record.
 
-- its rate exceeds ``table_rest_rate_rad_s`` (|ω| > ω_rest), or
-- its encoder angle lies more than ``table_rest_angle_rad`` from the angle at which the
-  table last came to rest (|θ − θ_ref| > θ_rest; θ_ref is the first state's angle, reset to
-  a moving state's angle after each moving state), which catches a creep too slow for the
-  rate test.
+A table state joins the current steady segment when
 
-The defaults sit above the noise of a table encoder at rest: ±1 count is 0.75 µrad for the
-2²³-count encoder of our benches and 6 µrad for a coarse 2²⁰-count one, so θ_rest = 2·10⁻⁵ rad
-(4.1″) is more than three counts of the coarsest; a rate differentiated from such an encoder
-flickers by one count per sample interval, 0.75 µrad × 200 Hz = 1.5·10⁻⁴ rad/s up to
-6 µrad × 1 kHz = 6·10⁻³ rad/s, so ω_rest = 10⁻² rad/s (0.57 °/s) is above it; any slower motion
-passes θ_rest within θ_rest/ω (2 ms at ω_rest, 0.2 s at 10⁻⁴ rad/s). Motion below both
-thresholds is not detected (the summary states them).
+- its rate lies within ``table_rest_rate_rad_s`` of the segment's mean rate
+  (|ω − ω̄| ≤ ω_tol), and
+- its angle lies within ``table_rest_angle_rad`` + |ω̂|·``table_stamp_jitter_s`` of the
+  straight line fitted (least squares) through the segment's angles so far, extrapolated to
+  its stamp (|θ − θ̂(t)| ≤ θ_tol): a rate change too slow for the rate test bends the angle
+  away from the line (a constant acceleration a leaves the line by a·T²/12 after T), and
+  a stamp jitter σ_t moves a turning table's angle off the line by |ω|·σ_t.
 
-Between two table states the table is taken to have moved when either of them is moving
-(conservative: motion began after the last state at rest and ended before the first state
-at rest after it); before the first state the table is taken as in the first state, after
-the last as in the last (zero-order hold). Gyro samples are therefore decided once a table
-state at or after their stamp has arrived (or at once while the table moves); the
-calibrator holds the others. Before any table state has arrived there is no table on the
-graph and every sample is analysed, as without one.
+A state that does not join ends the segment and starts the next one. A segment is *steady*
+once it spans ``table_min_steady_s`` (confirmed); a shorter one is part of the change around
+it (a slow acceleration can look steady for a few states). The thresholds sit above the noise
+of a table encoder: ±1 count is 0.75 µrad for the 2²³-count encoder of our benches and 6 µrad
+for a coarse 2²⁰-count one, so θ_tol = 2·10⁻⁵ rad (4.1″) is more than three counts of the
+coarsest; a rate differentiated from such an encoder flickers by one count per sample
+interval at any constant rate, 0.75 µrad × 200 Hz = 1.5·10⁻⁴ rad/s up to 6 µrad × 1 kHz =
+6·10⁻³ rad/s, so ω_tol = 10⁻² rad/s (0.57 °/s) is above it. Changes below both thresholds
+are not detected (the summary states them).
+
+The position table of the two-axis bench (``/position_table/joint_states``) carries the
+tilted mount: its rotation sweeps the sense axis round a cone, so the Earth rate's projection
+on the sense axis changes with the position angle — a signal, not a constant. Its steady
+segments must therefore be *at rest* (``turning=False``: rate and line tested against rest,
+the line flat through where the table came to rest), as the gate always required. Only the
+rate table turns the sense axis about itself. :class:`TableGate` classifies every recorded
+table from its own states and a gyro sample is analysed only when it lies in a steady
+segment of every recorded table; a table never recorded holds nothing back.
+
+A gyro sample lies in a steady segment when its stamp lies between (or on) two states of the
+segment; before the first state the table is taken as in the first state, after the last as
+in the last (zero-order hold). Samples are decided once a table state at or after their stamp
+has arrived and the segment they fall in is confirmed or broken; the calibrator holds the
+others (at most ``table_wait_s``). Before any table state has arrived there is no table on
+the graph and every sample is analysed, as without one.
+
+The rate table's encoder angle can also be subtracted from the gyro's angle (``table_reference
+= gyro_minus_table``: K·counts − encoder angle, the sense axis along the table's axis, both
+counting the same way): :meth:`TableMotion.angle_at` interpolates the angle linearly between
+the states at each gyro stamp (along the segment's line beyond the first or last state), which
+removes table-rate wander (servo wobble) that a constant rate does not.
 """
 
 from __future__ import annotations
@@ -64,74 +82,209 @@ POSITION_TABLE_JOINT_STATES = '/position_table/joint_states'
 TABLE_NAMES = {RATE_TABLE_JOINT_STATES: 'rate table',
                POSITION_TABLE_JOINT_STATES: 'position table'}
 """Every table that gates the gyro samples, by topic, with the name the lines give it."""
+TURNING_ALLOWED = {RATE_TABLE_JOINT_STATES: True, POSITION_TABLE_JOINT_STATES: False}
+"""Whether a constant rotation of the table leaves the gyro's input rate constant (the rate
+table turns the sense axis about itself; the position table sweeps it round a cone)."""
 _BEFORE = np.iinfo(np.int64).min
 _AFTER = np.iinfo(np.int64).max
 
 
 @dataclass(slots=True)
-class MotionSpan:
-    """One stretch during which the table moved.
+class SteadySegment:
+    """One confirmed span of the table at a constant rate.
 
     Attributes:
-        start_ns: stamp of the last state at rest before it (motion began after it);
-            None when the first state already moved.
-        end_ns: stamp of the first state at rest after it (motion ended before it); None
-            while it lasts.
-        first_moving_ns: stamp of its first moving state.
-        last_moving_ns: stamp of its last moving state so far.
-        max_rate_rad_s: the largest |rate| of its states, rad/s.
+        first_ns: stamp of its first state.
+        last_ns: stamp of its last state (so far, while it lasts).
+        states: its states.
+        rate_rad_s: its rate (least-squares slope of its angles; the mean of its rates
+            where no angle was given), rad/s.
+        peak_before_rad_s: the largest |rate| of the states between the previous steady
+            segment and this one (NaN when none lay between).
+    """
+
+    first_ns: int
+    last_ns: int
+    states: int
+    rate_rad_s: float
+    peak_before_rad_s: float = math.nan
+
+
+@dataclass(slots=True)
+class MotionSpan:
+    """One stretch between two steady segments: the table changed rate (or turned).
+
+    Attributes:
+        start_ns: stamp of the last state of the steady segment before it (the change
+            began after it); None when the record began with it.
+        end_ns: stamp of the first state of the steady segment after it; None while it
+            lasts (or when the record ended in it).
+        max_rate_rad_s: the largest |rate| of its states (of the segments around it when
+            no state lay between), rad/s.
+        rate_before_rad_s: the rate of the steady segment before it (NaN: none).
+        rate_after_rad_s: the rate of the steady segment after it (NaN: none).
     """
 
     start_ns: int | None
     end_ns: int | None
-    first_moving_ns: int
-    last_moving_ns: int
-    max_rate_rad_s: float = 0.0
+    max_rate_rad_s: float
+    rate_before_rad_s: float = math.nan
+    rate_after_rad_s: float = math.nan
+
+    def what(self, rest_rate_rad_s: float) -> str:
+        """'reversal', 'stop', 'start', 'move', 'change of rate' (from the rates around it)."""
+        a, b = self.rate_before_rad_s, self.rate_after_rad_s
+        if math.isnan(a) or math.isnan(b):
+            return 'change of rate'
+        if abs(a) <= rest_rate_rad_s and abs(b) <= rest_rate_rad_s:
+            return 'move'
+        if abs(b) <= rest_rate_rad_s:
+            return 'stop'
+        if abs(a) <= rest_rate_rad_s:
+            return 'start'
+        if a * b < 0:
+            return 'reversal'
+        return 'change of rate'
+
+
+@dataclass(slots=True)
+class _Current:
+    """The segment being built: running sums of its states (t from its first, s)."""
+
+    first_ns: int
+    last_ns: int
+    a0: float = math.nan
+    states: int = 0
+    n_a: int = 0
+    s_t: float = 0.0
+    s_a: float = 0.0
+    s_tt: float = 0.0
+    s_ta: float = 0.0
+    n_r: int = 0
+    s_r: float = 0.0
+    peak: float = 0.0
+    confirmed: bool = False
+
+    def slope(self) -> float:
+        """Least-squares slope of its angles (rad/s); NaN below two angles."""
+        if self.n_a < 2:
+            return math.nan
+        den = self.n_a * self.s_tt - self.s_t * self.s_t
+        return (self.n_a * self.s_ta - self.s_t * self.s_a) / den if den > 0 else math.nan
+
+    def rate(self) -> float:
+        """Its rate: the slope of its angles, else the mean of its rates, else 0."""
+        slope = self.slope()
+        if math.isfinite(slope):
+            return slope
+        return self.s_r / self.n_r if self.n_r else 0.0
 
 
 @dataclass(slots=True)
 class TableMotion:
-    """Classifies the rate table's states and gates gyro stamps (see the module docstring).
+    """Classifies one table's states into steady segments and gates gyro stamps.
+
+    See the module docstring.
 
     Attributes:
-        rest_rate_rad_s: ω_rest, rad/s.
-        rest_angle_rad: θ_rest, rad.
+        rest_rate_rad_s: ω_tol, rad/s.
+        rest_angle_rad: θ_tol at rest, rad.
+        min_steady_s: the shortest steady segment, s.
+        stamp_jitter_s: σ_t, s (θ_tol grows by |ω|·σ_t).
+        turning: a constant rotation is steady (rate table); False: only rest is (position
+            table).
+        keep_angles: keep the states' angles for :meth:`angle_at`.
         states: table states taken in.
-        moving_states: those classified moving.
         unusable: states without a finite angle or rate (dropped).
         behind: states stamped at or before one already taken in (dropped).
-        spans: the motion spans, in time order.
+        segments: the confirmed steady segments, in time order.
     """
 
     rest_rate_rad_s: float
     rest_angle_rad: float
+    min_steady_s: float = 1.0
+    stamp_jitter_s: float = 0.0
+    turning: bool = True
+    keep_angles: bool = False
     states: int = 0
-    moving_states: int = 0
     unusable: int = 0
     behind: int = 0
-    spans: list[MotionSpan] = field(default_factory=list)
+    segments: list[SteadySegment] = field(default_factory=list)
     first_ns: int | None = None
     last_ns: int | None = None
+    _cur: _Current | None = None
+    _pending_peak: float = math.nan
     _last_angle: float = math.nan
-    _ref_angle: float = math.nan
-    _last_moving: bool = False
-    _starts: IntArray | None = None
-    _ends: IntArray | None = None
+    _steady_states: int = 0
+    _hist_t: list[IntArray] = field(default_factory=list)
+    _hist_a: list[FloatArray] = field(default_factory=list)
 
     @property
     def seen(self) -> bool:
         """A table state has arrived: the gate is active."""
         return self.states > 0
 
+    # -- what the record shows ---------------------------------------------------------------
+    def changes(self) -> list[MotionSpan]:
+        """The stretches left out (between steady segments), as the record stands now.
+
+        A segment not yet confirmed counts as part of a change (what the end of the record
+        would make of it).
+        """
+        if not self.seen:
+            return []
+        segs = self.segments
+        cur = self._cur
+        tail_peak = self._pending_peak
+        if cur is not None and not cur.confirmed:
+            tail_peak = _nanmax(tail_peak, cur.peak)
+        if not segs:
+            return [MotionSpan(None, None, _zero_nan(tail_peak))]
+        out = []
+        if segs[0].first_ns != self.first_ns:
+            out.append(MotionSpan(None, segs[0].first_ns, _zero_nan(segs[0].peak_before_rad_s),
+                                  math.nan, segs[0].rate_rad_s))
+        for a, b in zip(segs[:-1], segs[1:]):
+            peak = b.peak_before_rad_s
+            if math.isnan(peak):
+                peak = max(abs(a.rate_rad_s), abs(b.rate_rad_s))
+            out.append(MotionSpan(a.last_ns, b.first_ns, peak, a.rate_rad_s, b.rate_rad_s))
+        last = segs[-1]
+        if last.last_ns != self.last_ns:
+            out.append(MotionSpan(last.last_ns, None, _zero_nan(tail_peak), last.rate_rad_s))
+        return out
+
+    @property
+    def spans(self) -> list[MotionSpan]:
+        """:meth:`changes` (the stretches left out)."""
+        return self.changes()
+
     @property
     def moved(self) -> bool:
-        """The table moved at some time of the record."""
-        return bool(self.spans)
+        """Some stretch of the record was left out.
+
+        The table changed rate (or turned, where only rest is steady).
+        """
+        return bool(self.changes())
+
+    @property
+    def moving_states(self) -> int:
+        """States outside every steady segment."""
+        return self.states - self._steady_states
 
     @property
     def max_rate_rad_s(self) -> float:
-        """The largest |rate| of any moving state, rad/s (0 when it never moved)."""
-        return max((s.max_rate_rad_s for s in self.spans), default=0.0)
+        """The largest |rate| of the stretches left out, rad/s (0 when none)."""
+        return max((s.max_rate_rad_s for s in self.changes()), default=0.0)
+
+    def steady_rates(self) -> list[float]:
+        """The rate of every steady segment, rad/s, in time order."""
+        return [s.rate_rad_s for s in self.segments]
+
+    def turning_s(self) -> float:
+        """Time in steady segments at a rate above ω_tol (turning steadily), s."""
+        return sum((s.last_ns - s.first_ns) / NS_PER_S for s in self.segments
+                   if abs(s.rate_rad_s) > self.rest_rate_rad_s)
 
     def record_s(self) -> float:
         """Time from the first to the last table state, s."""
@@ -140,11 +293,11 @@ class TableMotion:
         return (self.last_ns - self.first_ns) / NS_PER_S
 
     def moving_s(self) -> float:
-        """Time the table moved within its record, s (each span clipped to the record)."""
+        """Time of the stretches left out within the record, s."""
         if self.first_ns is None or self.last_ns is None:
             return 0.0
         total = 0
-        for s in self.spans:
+        for s in self.changes():
             a = self.first_ns if s.start_ns is None else s.start_ns
             b = self.last_ns if s.end_ns is None else s.end_ns
             total += max(0, b - a)
@@ -172,20 +325,19 @@ class TableMotion:
         if not len(t):
             return
         speed = self._speeds(t, angle, rate)
-        fast = np.abs(rate) > self.rest_rate_rad_s  # NaN rate: no rate test
         if self.first_ns is None:
             self.first_ns = int(t[0])
-            finite = np.flatnonzero(np.isfinite(angle))
-            self._ref_angle = float(angle[finite[0]]) if len(finite) else math.nan
-        moving = self._classify(angle, fast)
-        self._spans(t, moving, speed)
+        i = 0
+        while i < len(t):
+            i = self._take(t, angle, rate, speed, i)
         self.states += len(t)
-        self.moving_states += int(np.count_nonzero(moving))
         self.last_ns = int(t[-1])
         finite = np.flatnonzero(np.isfinite(angle))
         if len(finite):
             self._last_angle = float(angle[finite[-1]])
-        self._starts = self._ends = None
+            if self.keep_angles:
+                self._hist_t.append(t[finite])
+                self._hist_a.append(angle[finite])
 
     def _speeds(self, t: IntArray, angle: FloatArray, rate: FloatArray) -> FloatArray:
         """|rate| where given, else |Δθ/Δt| from the previous state, rad/s."""
@@ -196,111 +348,234 @@ class TableMotion:
             diff = np.where(dt > 0, np.abs(angle - prev_a) / np.where(dt > 0, dt, 1.0), np.nan)
         return np.where(np.isfinite(rate), np.abs(rate), diff)
 
-    def _classify(self, angle: FloatArray, fast: BoolArray) -> BoolArray:
-        """Moving flags of consecutive states (the angle test is sequential in θ_ref)."""
-        ref, thr = self._ref_angle, self.rest_angle_rad
-        if not fast.any() and not math.isnan(ref):
-            with np.errstate(invalid='ignore'):
-                far = np.abs(angle - ref) > thr
-            if not far.any():  # at rest throughout (the usual static bench): no loop
-                return np.zeros(len(angle), dtype=bool)
-        if fast.all():  # turning throughout
+    def _start(self, t: IntArray, angle: FloatArray, rate: FloatArray, speed: FloatArray,
+               i: int) -> None:
+        """State i starts a segment (a table that must rest: only a state at rest does)."""
+        if not self.turning and abs(rate[i]) > self.rest_rate_rad_s:  # NaN: no rate test
+            self._pending_peak = _nanmax(self._pending_peak, float(speed[i]))
+            self._cur = None
+            return
+        self._cur = _Current(int(t[i]), int(t[i]))
+        self._absorb(self._cur, t[i:i + 1], angle[i:i + 1], rate[i:i + 1], speed[i:i + 1])
+
+    def _absorb(self, cur: _Current, t: IntArray, angle: FloatArray, rate: FloatArray,
+                speed: FloatArray) -> None:
+        """Add states to the current segment (sums in time order: chunking changes no bit)."""
+        if math.isnan(cur.a0):
             finite = np.flatnonzero(np.isfinite(angle))
             if len(finite):
-                self._ref_angle = float(angle[finite[-1]])
-            return np.ones(len(angle), dtype=bool)
-        moving = np.zeros(len(angle), dtype=bool)
-        for i in range(len(angle)):
-            a = float(angle[i])
-            if math.isnan(ref):
-                ref = a
-            if fast[i] or abs(a - ref) > thr:
-                moving[i] = True
-                if not math.isnan(a):
-                    ref = a
-        self._ref_angle = ref
-        return moving
+                cur.a0 = float(angle[finite[0]])
+        ts = (t - cur.first_ns) / NS_PER_S
+        fa = np.isfinite(angle)
+        if fa.any():
+            x, y = ts[fa], angle[fa] - cur.a0
+            cur.n_a += len(x)
+            cur.s_t = float(np.cumsum(np.concatenate(([cur.s_t], x)))[-1])
+            cur.s_a = float(np.cumsum(np.concatenate(([cur.s_a], y)))[-1])
+            cur.s_tt = float(np.cumsum(np.concatenate(([cur.s_tt], x * x)))[-1])
+            cur.s_ta = float(np.cumsum(np.concatenate(([cur.s_ta], x * y)))[-1])
+        fr = np.isfinite(rate)
+        if fr.any():
+            cur.n_r += int(np.count_nonzero(fr))
+            cur.s_r = float(np.cumsum(np.concatenate(([cur.s_r], rate[fr])))[-1])
+        if np.isfinite(speed).any():
+            cur.peak = max(cur.peak, float(np.nanmax(speed)))
+        cur.states += len(t)
+        cur.last_ns = int(t[-1])
+        min_ns = self.min_steady_s * NS_PER_S
+        if cur.confirmed:
+            seg = self.segments[-1]
+            seg.last_ns, seg.states, seg.rate_rad_s = cur.last_ns, cur.states, cur.rate()
+            self._steady_states += len(t)
+        elif cur.last_ns - cur.first_ns >= min_ns:
+            cur.confirmed = True
+            peak = self._pending_peak
+            self.segments.append(SteadySegment(cur.first_ns, cur.last_ns, cur.states,
+                                               cur.rate(), peak))
+            self._pending_peak = math.nan
+            self._steady_states += cur.states
 
-    def _spans(self, t: IntArray, moving: BoolArray, speed: FloatArray) -> None:
-        """Open, extend and close the motion spans with the new states."""
-        prev_moving = self._last_moving
-        prev_ns = self.last_ns
-        edges = np.flatnonzero(np.diff(np.concatenate(([prev_moving], moving)).astype(np.int8)))
-        bounds = [0, *edges.tolist(), len(t)]
-        for a, b in zip(bounds[:-1], bounds[1:]):
-            if a == b:
-                continue
-            if moving[a]:
-                peak = float(np.nanmax(speed[a:b])) if np.isfinite(speed[a:b]).any() else 0.0
-                if a == 0 and prev_moving and self.spans:
-                    span = self.spans[-1]
-                    span.max_rate_rad_s = max(span.max_rate_rad_s, peak)
-                    span.last_moving_ns = int(t[b - 1])
-                else:
-                    start = prev_ns if a == 0 else int(t[a - 1])
-                    self.spans.append(MotionSpan(start, None, int(t[a]), int(t[b - 1]), peak))
-            elif a > 0 or prev_moving:
-                if self.spans and self.spans[-1].end_ns is None:
-                    self.spans[-1].end_ns = int(t[a])
-        self._last_moving = bool(moving[-1])
+    def _take(self, t: IntArray, angle: FloatArray, rate: FloatArray, speed: FloatArray,
+              i: int) -> int:
+        """Take states from i on while they join the current segment; return the next."""
+        cur = self._cur
+        if cur is None:
+            self._start(t, angle, rate, speed, i)
+            return i + 1
+        w = 16  # growing windows: a steady record costs O(n), a changing one O(16·n)
+        while i < len(t):
+            j = min(len(t), i + w)
+            bad = np.flatnonzero(self._fails(cur, t[i:j], angle[i:j], rate[i:j]))
+            stop = i + int(bad[0]) if len(bad) else j
+            if stop > i:
+                self._absorb(cur, t[i:stop], angle[i:stop], rate[i:stop], speed[i:stop])
+            if stop < j:
+                if not cur.confirmed:  # broken before it was steady: part of the change
+                    self._pending_peak = _nanmax(self._pending_peak, cur.peak)
+                self._start(t, angle, rate, speed, stop)
+                return stop + 1
+            i, w = j, 2 * w
+        return i
+
+    def _fails(self, cur: _Current, t: IntArray, angle: FloatArray,
+               rate: FloatArray) -> BoolArray:
+        """Whether each state fails to join, were all before it to join (vectorised)."""
+        n = len(t)
+        ts = (t - cur.first_ns) / NS_PER_S
+        fa = np.isfinite(angle)
+        a0 = cur.a0 if not math.isnan(cur.a0) else (float(angle[fa][0]) if fa.any() else 0.0)
+        x = np.where(fa, ts, 0.0)
+        y = np.where(fa, angle - a0, 0.0)
+
+        def before(carry: float, v: FloatArray) -> FloatArray:  # sums over the states before
+            return np.cumsum(np.concatenate(([carry], v)))[:-1]
+
+        fr = np.isfinite(rate)
+        n_r = cur.n_r + np.concatenate(([0], np.cumsum(fr)))[:-1]
+        s_r = before(cur.s_r, np.where(fr, rate, 0.0))
+        with np.errstate(invalid='ignore', divide='ignore'):
+            if self.turning:
+                mean_rate = np.where(n_r > 0, s_r / np.maximum(n_r, 1), np.nan)
+            else:
+                mean_rate = np.zeros(n)
+            rate_off = np.abs(rate - mean_rate) > self.rest_rate_rad_s  # NaN: no test
+            if not self.turning:  # flat through where the table came to rest
+                line, slope, has_line = np.zeros(n), np.zeros(n), np.ones(n, dtype=bool)
+            else:
+                n_a = cur.n_a + np.concatenate(([0], np.cumsum(fa)))[:-1]
+                s_t, s_a = before(cur.s_t, x), before(cur.s_a, y)
+                s_tt, s_ta = before(cur.s_tt, x * x), before(cur.s_ta, x * y)
+                den = n_a * s_tt - s_t * s_t
+                slope = np.where(den > 0, (n_a * s_ta - s_t * s_a) / np.where(den > 0, den, 1.0),
+                                 np.nan)
+                slope = np.where(n_a >= 2, slope, mean_rate)  # one angle: the given rate
+                line = (s_a - slope * s_t) / np.maximum(n_a, 1) + slope * ts
+                has_line = (n_a >= 1) & np.isfinite(slope)
+            tol = self.rest_angle_rad + np.abs(np.where(np.isfinite(slope), slope, 0.0)) \
+                * self.stamp_jitter_s
+            angle_off = fa & has_line & (np.abs(angle - a0 - line) > tol)
+        return np.asarray(rate_off | angle_off, dtype=bool)
 
     # -- gyro stamps -------------------------------------------------------------------------
-    def _bounds(self) -> tuple[IntArray, IntArray]:
-        if self._starts is None or self._ends is None:
-            self._starts = np.array([_BEFORE if s.start_ns is None else s.start_ns
-                                     for s in self.spans], dtype=np.int64)
-            self._ends = np.array([_AFTER if s.end_ns is None else s.end_ns
-                                   for s in self.spans], dtype=np.int64)
-        return self._starts, self._ends
+    def _segment_bounds(self) -> tuple[IntArray, IntArray]:
+        firsts = np.array([s.first_ns for s in self.segments], dtype=np.int64)
+        lasts = np.array([s.last_ns for s in self.segments], dtype=np.int64)
+        if len(firsts):
+            assert self.first_ns is not None and self.last_ns is not None
+            if firsts[0] == self.first_ns:
+                firsts[0] = _BEFORE  # before the first state: the first holds
+            cur = self._cur
+            if cur is not None and cur.confirmed and lasts[-1] == self.last_ns:
+                lasts[-1] = _AFTER  # after the last state: the last holds (decided at final)
+        return firsts, lasts
 
-    def decide(self, t_ns: IntArray, *, final: bool) -> tuple[int, BoolArray]:
-        """How many of the (ordered) gyro stamps can be decided now, and which moved.
+    def decide(self, t_ns: IntArray, *, final: bool) -> tuple[int, IntArray]:
+        """How many of the (ordered) gyro stamps can be decided now, and where they lie.
 
         Args:
             t_ns: gyro stamps in increasing order, int ns.
-            final: no table state will follow (end of the record): the last state holds.
+            final: no table state will follow (end of the record, or the wait is over): the
+                last state holds and a segment not yet confirmed is a change.
 
         Returns:
-            (n, moving): the first n stamps are decided; moving[k] is True when the table
-            moved at t_ns[k] (k < n).
+            (n, seg): the first n stamps are decided; seg[k] is the index in
+            :attr:`segments` of the steady segment t_ns[k] lies in, −1 when it lies in a
+            change (left out) (k < n).
         """
         if not self.seen or not len(t_ns):
-            return len(t_ns), np.zeros(len(t_ns), dtype=bool)
+            return len(t_ns), np.full(len(t_ns), -2, dtype=np.int64)
         assert self.last_ns is not None
         n = len(t_ns)
-        if not final and not self._last_moving:
-            n = int(np.searchsorted(t_ns, self.last_ns, side='right'))
+        if not final:
+            cur = self._cur
+            if cur is not None and not cur.confirmed:
+                hold_from = _BEFORE if cur.first_ns == self.first_ns else cur.first_ns
+                n = int(np.searchsorted(t_ns, hold_from, side='left'))
+            else:
+                n = int(np.searchsorted(t_ns, self.last_ns, side='right'))
         t = t_ns[:n]
-        starts, ends = self._bounds()
-        if not len(starts):
-            return n, np.zeros(n, dtype=bool)
-        k = np.searchsorted(starts, t, side='left') - 1
-        moving = (k >= 0) & (t < ends[np.maximum(k, 0)])
-        return n, moving
+        firsts, lasts = self._segment_bounds()
+        if not len(firsts):
+            return n, np.full(n, -1, dtype=np.int64)
+        k = np.searchsorted(firsts, t, side='right') - 1
+        inside = (k >= 0) & (t <= lasts[np.maximum(k, 0)])
+        return n, np.where(inside, k, -1).astype(np.int64)
+
+    def segment_rate(self, index: int) -> float:
+        """The rate of steady segment ``index``, rad/s."""
+        return self.segments[index].rate_rad_s
+
+    def angle_at(self, t_ns: IntArray, index: int) -> FloatArray:
+        """The table's angle at gyro stamps of steady segment ``index``, rad.
+
+        Linear between the states around each stamp; beyond the first or last state along
+        the segment's rate. Needs ``keep_angles``.
+        """
+        if len(self._hist_t) > 1:
+            self._hist_t = [np.concatenate(self._hist_t)]
+            self._hist_a = [np.concatenate(self._hist_a)]
+        ht, ha = self._hist_t[0], self._hist_a[0]
+        origin = int(ht[0])
+        x = (t_ns - origin) / NS_PER_S
+        xs = (ht - origin) / NS_PER_S
+        out = np.interp(x, xs, ha)
+        rate = self.segments[index].rate_rad_s
+        lo, hi = x < xs[0], x > xs[-1]
+        out = np.where(lo, ha[0] + rate * (x - xs[0]), out)
+        return np.where(hi, ha[-1] + rate * (x - xs[-1]), out)
+
+    def has_angles(self) -> bool:
+        """Angles were kept (``keep_angles``) and some state gave one."""
+        return bool(self._hist_t)
+
+    def forget_before(self, t_ns: int) -> None:
+        """Drop the kept angles no later gyro stamp needs (all but the last state ≤ t_ns)."""
+        if not self._hist_t:
+            return
+        ht = np.concatenate(self._hist_t) if len(self._hist_t) > 1 else self._hist_t[0]
+        ha = np.concatenate(self._hist_a) if len(self._hist_a) > 1 else self._hist_a[0]
+        k = max(0, int(np.searchsorted(ht, t_ns, side='right')) - 1)
+        self._hist_t, self._hist_a = [ht[k:]], [ha[k:]]
 
     def overlaps(self, start_ns: int, end_ns: int) -> bool:
-        """A motion span overlaps [start_ns, end_ns]."""
-        for s in self.spans:
+        """A stretch left out overlaps [start_ns, end_ns]."""
+        return bool(self._overlapping(start_ns, end_ns))
+
+    def _overlapping(self, start_ns: int, end_ns: int) -> list[MotionSpan]:
+        out = []
+        for s in self.changes():
             a = _BEFORE if s.start_ns is None else s.start_ns
             b = _AFTER if s.end_ns is None else s.end_ns
             if a < end_ns and b > start_ns:
-                return True
-        return False
+                out.append(s)
+        return out
 
     def span_max_rate(self, start_ns: int, end_ns: int) -> float:
-        """The largest |rate| of the motion spans overlapping [start_ns, end_ns], rad/s."""
-        out = 0.0
-        for s in self.spans:
-            a = _BEFORE if s.start_ns is None else s.start_ns
-            b = _AFTER if s.end_ns is None else s.end_ns
-            if a < end_ns and b > start_ns:
-                out = max(out, s.max_rate_rad_s)
-        return out
+        """The largest |rate| of the stretches left out overlapping [start_ns, end_ns], rad/s."""
+        return max((s.max_rate_rad_s for s in self._overlapping(start_ns, end_ns)), default=0.0)
+
+    def spans_within(self, start_ns: int, end_ns: int) -> list[MotionSpan]:
+        """The stretches left out overlapping [start_ns, end_ns]."""
+        return self._overlapping(start_ns, end_ns)
+
+
+def _nanmax(a: float, b: float) -> float:
+    if math.isnan(a):
+        return b
+    if math.isnan(b):
+        return a
+    return max(a, b)
+
+
+def _zero_nan(v: float) -> float:
+    return 0.0 if math.isnan(v) else v
 
 
 @dataclass(slots=True)
 class TableGate:
-    """Every table the bench records (:data:`TABLE_NAMES`): the gyro is at rest when all are.
+    """Every table the bench records (:data:`TABLE_NAMES`).
+
+    A sample is analysed when it lies in a steady segment of each.
 
     Attributes:
         tables: each table's :class:`TableMotion`, by topic (rate table first).
@@ -309,9 +584,17 @@ class TableGate:
     tables: dict[str, TableMotion]
 
     @classmethod
-    def create(cls, rest_rate_rad_s: float, rest_angle_rad: float) -> TableGate:
-        """A gate over every table of :data:`TABLE_NAMES`, each with the same thresholds."""
-        return cls({topic: TableMotion(rest_rate_rad_s, rest_angle_rad) for topic in TABLE_NAMES})
+    def create(cls, rest_rate_rad_s: float, rest_angle_rad: float, *,
+               min_steady_s: float = 1.0, stamp_jitter_s: float = 0.0,
+               keep_angles: bool = False) -> TableGate:
+        """A gate over every table of :data:`TABLE_NAMES`, each with the same thresholds.
+
+        The rate table keeps its angles when ``keep_angles`` (gyro minus table angle).
+        """
+        return cls({topic: TableMotion(rest_rate_rad_s, rest_angle_rad, min_steady_s,
+                                       stamp_jitter_s, TURNING_ALLOWED[topic],
+                                       keep_angles and topic == RATE_TABLE_JOINT_STATES)
+                    for topic in TABLE_NAMES})
 
     def recorded(self) -> list[tuple[str, TableMotion]]:
         """The tables a state arrived from, as (topic, motion), rate table first."""
@@ -322,21 +605,27 @@ class TableGate:
         """A state of some table has arrived: the gate is active."""
         return any(tm.seen for tm in self.tables.values())
 
-    def decide(self, t_ns: IntArray, *, final: bool) -> tuple[int, BoolArray]:
-        """:meth:`TableMotion.decide` over every recorded table.
+    def decide(self, t_ns: IntArray, *, final: bool,
+               hold_unseen: bool = False) -> tuple[int, IntArray]:
+        """:meth:`TableMotion.decide` over every table.
 
-        The first n stamps every recorded table decides are decided; a stamp moved when any
-        recorded table moved at it. With one table recorded, exactly its decision.
+        Returns (n, seg): the first n stamps every recorded table decides are decided;
+        seg[k, j] is the steady segment of table j (in :attr:`tables` order) stamp k lies in
+        (−1: a change, −2: table j not recorded). A stamp is analysed when no entry is −1.
+        With ``hold_unseen`` nothing is decided before a table state arrives (unless final).
         """
-        n = len(t_ns)
-        moving = np.zeros(n, dtype=bool)
-        for _, tm in self.recorded():
-            k, m = tm.decide(t_ns, final=final)
+        n = 0 if hold_unseen and not final and not self.seen else len(t_ns)
+        cols = []
+        for tm in self.tables.values():
+            k, seg = tm.decide(t_ns, final=final)
             n = min(n, k)
-            moving = moving[:n] | m[:n]
-        return n, moving
+            cols.append(seg)
+        return n, np.stack([c[:n] for c in cols], axis=1)
 
     def moved_within(self, start_ns: int, end_ns: int) -> list[tuple[str, float]]:
-        """The tables that moved within [start_ns, end_ns]: (topic, largest |rate| rad/s)."""
+        """The tables with a stretch left out within [start_ns, end_ns].
+
+        As (topic, largest |rate| rad/s).
+        """
         return [(topic, tm.span_max_rate(start_ns, end_ns)) for topic, tm in self.recorded()
                 if tm.overlaps(start_ns, end_ns)]

@@ -1,6 +1,6 @@
-"""Committed noise-characterisation bags: a static MEMS IMU and a dithered RLG at rest.
+"""Committed noise-characterisation bags: static MEMS IMUs, a dithered RLG at rest, a turning RLG.
 
-Two scenarios (``bags/<name>/`` and ``bags/<name>.expected.yaml``, written by
+The scenarios (``bags/<name>/`` and ``bags/<name>.expected.yaml``, written by
 ``python bags/generate.py NAME``):
 
 ``noise_imu_static``
@@ -23,6 +23,14 @@ Two scenarios (``bags/<name>/`` and ``bags/<name>.expected.yaml``, written by
     measure (``gyro-calib noise`` says so and stops) — quantisation is absent then, not
     fitted. The bias instability of a navigation RLG (0.003 °/h) needs hours; 280 s leave
     it absent, with its bound.
+``noise_rlg_turning``
+    A rate-biased RLG (no dither) on a rate table turning about its sense axis at a constant
+    37.9 °/s, 100 s one way, a reversal at 100 °/s² (0.758 s), 100 s the other way: pulses
+    on ``/gyro/pulses`` at 250 Hz, the table's joint states on ``/rate_table/joint_states``
+    at 50 Hz (2²³-count encoder angle, the controller's rate). A constant rate is a constant
+    the Allan variance removes: the table gate leaves out the reversal only, and the two
+    steady segments give Q = K/√12 (the rotation moves the sub-pulse phase) and N
+    (0.01 °/√h). The count is ⌊φ0 + (table angle + Earth rate·t + noise angle)/K⌋.
 
 The sinusoidal dither leaves structure in the rounding error a few samples long, so the
 model fits the RLG's Allan variance worse than its scatter allows (χ² ratio about 4.5):
@@ -66,6 +74,7 @@ IMU = 'sensor_msgs/msg/Imu'
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 GYRO_PULSES = '/gyro/pulses'
 GYRO_JOINT = 'gyro'
+TABLE_TOPIC = '/rate_table/joint_states'
 START_NS = 1_767_225_600 * NS_PER_S
 """First stamp of the simulated records (2026-01-01T00:00:00Z)."""
 EARTH_RATE_RAD_S = 7.292115e-5
@@ -446,6 +455,161 @@ class RlgBagScenario:
         }
 
 
+@dataclass(frozen=True, slots=True)
+class RlgTurningBagScenario:
+    """A rate-biased RLG on a rate table turning at a constant rate (see the module docstring).
+
+    Attributes:
+        name, description: bag name and one sentence.
+        terms: the gyro's rate noise (rad/s units) and bias.
+        scale_factor_rad_per_pulse: K, rad/pulse (stored as the bench setting).
+        sample_rate_hz, table_rate_hz: pulse sampling and table joint states, Hz.
+        rate_deg_s: the table's constant rate, °/s (+ then −: one reversal).
+        cruise_s: time at each constant rate, s.
+        acceleration_deg_s2: the reversal's angular acceleration, °/s².
+        encoder_counts_per_rev: the table encoder's counts per revolution.
+        latitude_deg: the site (sense axis along the vertical table axis).
+        seed: generator seed.
+    """
+
+    name: str
+    description: str
+    terms: NoiseTerms
+    scale_factor_rad_per_pulse: float = 4.0860157e-6
+    sample_rate_hz: float = 250.0
+    table_rate_hz: float = 50.0
+    rate_deg_s: float = 37.9
+    cruise_s: float = 100.0
+    acceleration_deg_s2: float = 100.0
+    encoder_counts_per_rev: int = 2**23
+    latitude_deg: float = 45.0
+    seed: int = 14
+    coverage_factor: float = 3.5
+    topic: str = GYRO_PULSES
+
+    @property
+    def reversal_s(self) -> tuple[float, float]:
+        """(start, end) of the reversal, s from the start."""
+        return self.cruise_s, self.cruise_s + 2.0 * self.rate_deg_s / self.acceleration_deg_s2
+
+    @property
+    def duration_s(self) -> float:
+        """Record length, s."""
+        return self.reversal_s[1] + self.cruise_s
+
+    def profile(self) -> Any:
+        """The table's motion: +rate, a reversal at constant deceleration, −rate."""
+        from sim_nodes.motion import MotionProfile
+
+        a = self.acceleration_deg_s2 * DEG
+        lo, hi = self.reversal_s
+        return MotionProfile([lo, hi - lo, self.cruise_s], [0.0, -a, 0.0],
+                             initial_rate_rad_s=self.rate_deg_s * DEG)
+
+    def generator(self) -> RlgPulseGenerator:
+        """A fresh generator of this gyro, turned by the table."""
+        profile = self.profile()
+        return RlgPulseGenerator(
+            self.terms, scale_factor_rad_per_pulse=self.scale_factor_rad_per_pulse,
+            sample_rate_hz=self.sample_rate_hz, seed=self.seed, start_ns=START_NS,
+            rotation_rate_rad_s=EARTH_RATE_RAD_S * math.sin(self.latitude_deg * DEG),
+            table_angle=profile.angle_rad)
+
+    @property
+    def n_samples(self) -> int:
+        """Pulse samples."""
+        return int(round(self.duration_s * self.sample_rate_hz)) + 1
+
+    @property
+    def n_table_states(self) -> int:
+        """Table joint states."""
+        return int(round(self.duration_s * self.table_rate_hz)) + 1
+
+    def truth(self) -> dict[str, dict[str, float]]:
+        """The noise terms of the pulse record.
+
+        Q = K/√12 (the rotation moves the sub-pulse phase), the rate noise's N, B, K, R.
+        """
+        t = self.terms
+        return {'gyro': dict(zip(GYRO_KEYS, (
+            self.generator().quantization_noise_rad(), t.random_walk, t.bias_instability,
+            t.rate_random_walk, t.rate_ramp)))}
+
+    def table_states(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
+                                    npt.NDArray[np.float64]]:
+        """Stamps, encoder angle (quantised, rad) and the controller's rate (rad/s)."""
+        profile = self.profile()
+        period = int(round(NS_PER_S / self.table_rate_hz))
+        t = START_NS + period * np.arange(self.n_table_states, dtype=np.int64)
+        ts = (t - START_NS) / NS_PER_S
+        res = 2.0 * math.pi / self.encoder_counts_per_rev
+        return t, np.round(profile.angle_rad(ts) / res) * res, profile.rate_rad_s(ts)
+
+    def messages(self) -> Iterator[tuple[str, int, bytes]]:
+        """(topic, log time ns, CDR) in stamp order (the table's state first at a tie)."""
+        from gyro_calib.bagio import ContractMessages
+
+        cdr = ContractMessages()
+        template = pulse_template()
+        gen = self.generator()
+        t_table, angle, rate = self.table_states()
+        table = [(int(t), 0, TABLE_TOPIC, cdr.joint_state(int(t), 'rate_table', float(a),
+                                                          float(r)))
+                 for t, a, r in zip(t_table, angle, rate)]
+        k = 0
+        n, done = self.n_samples, 0
+        while done < n:
+            m = min(CHUNK, n - done)
+            t, counts = gen.chunk(m)
+            rows = template.rows(t, counts)
+            for i in range(m):
+                while k < len(table) and table[k][0] <= int(t[i]):
+                    yield table[k][2], table[k][0], table[k][3]
+                    k += 1
+                yield self.topic, int(t[i]), rows[i].tobytes()
+            done += m
+        for entry in table[k:]:
+            yield entry[2], entry[0], entry[3]
+
+    def messages_count(self) -> int:
+        """Messages in the bag (pulses and table states)."""
+        return self.n_samples + self.n_table_states
+
+    def bench_settings(self) -> dict[str, Any]:
+        """What the operator knows: the topic, K, the site."""
+        return {'topic': self.topic, 'scale_factor_rad_per_pulse': self.scale_factor_rad_per_pulse,
+                'latitude_deg': self.latitude_deg}
+
+    def expected_results(self) -> dict[str, Any]:
+        """Truth, coverage factor, terms that must resolve, counts, the table's motion."""
+        lo, hi = self.reversal_s
+        return {
+            'scenario': self.name, 'topic': self.topic, 'kind': 'pulses',
+            'messages': self.messages_count(), 'truth': self.truth(),
+            'coverage_factor': self.coverage_factor, 'coverage_note': COVERAGE_NOTE,
+            'must_resolve': {'gyro': [GYRO_KEYS[0], GYRO_KEYS[1]]},
+            'counts': {'received': self.n_samples, 'out_of_order': 0, 'duplicate': 0,
+                       'late': 0, 'restarts': 0, 'gaps': 0, 'segments': 2},
+            'table': {'steady_rates_deg_s': [self.rate_deg_s, -self.rate_deg_s],
+                      'reversal_s': [lo, hi], 'state_interval_s': 1.0 / self.table_rate_hz,
+                      'note': 'the gyro samples strictly inside the reversal are left out, and '
+                              'at most two table-state intervals more on each side'},
+        }
+
+    def description_dict(self) -> dict[str, Any]:
+        """Stored in the bag: generator and table parameters, seed, bench settings, truth."""
+        lo, hi = self.reversal_s
+        return {
+            'name': self.name, 'description': self.description, 'kind': 'pulses',
+            'terms': _terms_dict(self.terms), 'sample_rate_hz': self.sample_rate_hz,
+            'duration_s': self.duration_s, 'table_rate_hz': self.table_rate_hz,
+            'rate_deg_s': self.rate_deg_s, 'cruise_s': self.cruise_s,
+            'acceleration_deg_s2': self.acceleration_deg_s2, 'reversal_s': [lo, hi],
+            'encoder_counts_per_rev': self.encoder_counts_per_rev, 'seed': self.seed,
+            'bench': self.bench_settings(), 'truth': self.truth(),
+        }
+
+
 def _mems_gyro(n_deg_rt_h: float, b_deg_h: float, k_rad_s_rt_s: float,
                bias_rad_s: float) -> NoiseTerms:
     return NoiseTerms(random_walk=n_deg_rt_h * DEG / 60.0, bias_instability=b_deg_h * DEG / 3600,
@@ -458,7 +622,8 @@ def _mems_accel(n_ug_rt_hz: float, b_ug: float, k_m_s2_rt_s: float,
                       rate_random_walk=k_m_s2_rt_s, bias=bias_m_s2)
 
 
-SCENARIOS: dict[str, ImuBagScenario | RlgBagScenario] = {s.name: s for s in (
+Scenario = ImuBagScenario | RlgBagScenario | RlgTurningBagScenario
+SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
     ImuBagScenario(
         'noise_imu_static', 'A consumer MEMS IMU lying still (sensor_msgs/Imu, 200 Hz, '
         '500 s, 16-bit output, jittered host stamps, 60 swapped and 25 repeated messages): '
@@ -483,11 +648,17 @@ SCENARIOS: dict[str, ImuBagScenario | RlgBagScenario] = {s.name: s for s in (
         'stripped, a 2 s gap): Q = K/√12 and N resolve; a locked-in RLG would show neither.',
         NoiseTerms(random_walk=0.003 * DEG / 60.0, bias_instability=0.003 * DEG / 3600.0,
                    bias=0.005 * DEG / 3600.0)),
+    RlgTurningBagScenario(
+        'noise_rlg_turning', 'A rate-biased RLG on a rate table turning at 37.9 °/s (no '
+        'dither: the rotation keeps it out of lock-in; /gyro/pulses 250 Hz, '
+        '/rate_table/joint_states 50 Hz), 100 s each way with one reversal: the reversal is '
+        'left out, Q = K/√12 and N resolve from the two steady segments.',
+        NoiseTerms(random_walk=0.01 * DEG / 60.0, bias=0.005 * DEG / 3600.0)),
 )}
 """The committed noise scenarios (``bags/<name>``)."""
 
 
-def write_scenario_bag(scenario: ImuBagScenario | RlgBagScenario | str,
+def write_scenario_bag(scenario: Scenario | str,
                        path: str | Path) -> Path:
     """Simulate ``scenario`` and write its bag at ``path`` (which must not exist)."""
     from gyro_calib.bagio import BagMessage, write_bag
@@ -495,13 +666,16 @@ def write_scenario_bag(scenario: ImuBagScenario | RlgBagScenario | str,
     if isinstance(scenario, str):
         scenario = SCENARIOS[scenario]
     msgtype = IMU if isinstance(scenario, ImuBagScenario) else JOINT_STATE
+    types = {scenario.topic: msgtype}
+    if isinstance(scenario, RlgTurningBagScenario):
+        types[TABLE_TOPIC] = JOINT_STATE
     write_bag(path, (BagMessage(topic, log_ns, cdr) for topic, log_ns, cdr
                      in scenario.messages()),
-              types={scenario.topic: msgtype}, scenario=scenario.description_dict())
+              types=types, scenario=scenario.description_dict())
     return Path(path)
 
 
-def write_scenario_files(scenario: ImuBagScenario | RlgBagScenario | str,
+def write_scenario_files(scenario: Scenario | str,
                          directory: str | Path) -> Path:
     """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in ``directory``."""
     import yaml
@@ -518,5 +692,6 @@ def write_scenario_files(scenario: ImuBagScenario | RlgBagScenario | str,
     return bag
 
 
-__all__ = ['ImuBagScenario', 'RlgBagScenario', 'SCENARIOS', 'write_scenario_bag',
+__all__ = ['ImuBagScenario', 'RlgBagScenario', 'RlgTurningBagScenario', 'SCENARIOS',
+           'write_scenario_bag',
            'write_scenario_files']

@@ -34,6 +34,8 @@ from sim_nodes.noise.processes import (
 )
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     import numpy.typing as npt
 
     FloatArray = npt.NDArray[np.float64]
@@ -293,12 +295,19 @@ class RlgPulseGenerator(_IntegratingGyro):
                  sample_rate_hz: float = 1000.0, seed: int = 1,
                  start_ns: int = 1_700_000_000 * NS_PER_S, rotation_rate_rad_s: float = 0.0,
                  lock_in_rate_rad_s: float = 0.0, dither_amplitude_rad: float = 0.0,
-                 dither_frequency_hz: float = 413.7, dither_stripped: bool = True) -> None:
-        """Create the gyro; every error source is a parameter (0 = off)."""
+                 dither_frequency_hz: float = 413.7, dither_stripped: bool = True,
+                 table_angle: Callable[[FloatArray], FloatArray] | None = None) -> None:
+        """Create the gyro; every error source is a parameter (0 = off).
+
+        ``table_angle``: the angle (rad) of a rate table turning the gyro about its sense
+        axis, as a function of the time since ``start_ns`` (s); added to the sensed angle
+        (a rate-biased RLG: the table's rotation keeps it out of lock-in).
+        """
         if not scale_factor_rad_per_pulse > 0:
             raise ValueError('scale_factor_rad_per_pulse must be positive')
         super().__init__(terms, sample_rate_hz, seed, start_ns, rotation_rate_rad_s,
                          dither_amplitude_rad, dither_frequency_hz)
+        self.table_angle = table_angle
         self.scale_factor_rad_per_pulse = scale_factor_rad_per_pulse
         self.dither_stripped = dither_stripped
         self.locked_in = (dither_amplitude_rad == 0.0
@@ -312,6 +321,8 @@ class RlgPulseGenerator(_IntegratingGyro):
     def chunk(self, n: int) -> tuple[IntArray, FloatArray]:
         """The next ``n`` samples: stamps (int ns) and cumulative counts (pulses)."""
         t, angle, dither = self._angles(n)
+        if self.table_angle is not None:
+            angle = angle + self.table_angle((t - self.start_ns) / NS_PER_S)
         k = self.scale_factor_rad_per_pulse
         if self.locked_in:
             return t, np.full(n, math.floor(self._phase0), dtype=np.float64)
