@@ -18,8 +18,9 @@ methods``). Several bags are taken together in stamp order.
 
 Exit status: 0 done (at least one quantity measured; with ``--out`` the hand-off written,
 listing what is still missing); 1 nothing could be calibrated; 2 bad input (path, bag, topic,
-type, configuration), reported in one line. On any failure no output file is written or
-overwritten.
+type, configuration, an output path that cannot be written), reported in one line. On any
+failure no output file is written or overwritten — except an output that fails while being
+written (disk full): one line then names it and what was written before it, each whole.
 """
 
 from __future__ import annotations
@@ -125,6 +126,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.run(args))
     except GyroCalibError as exc:
         print(f'gyro-calib: error: {" ".join(str(exc).split())}', file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:  # e.g. the disk filled while an output was written: one line
+        from gyro_calib.outputs import os_error_text
+
+        print(f'gyro-calib: error: {" ".join(os_error_text(exc).split())}; stopped there.',
+              file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print('gyro-calib: interrupted; nothing written.', file=sys.stderr)
@@ -252,27 +259,38 @@ def _calibrate(args: argparse.Namespace) -> int:
             # a file that cannot be updated: refused before work
             load_calibration(args.out, handoff_schema())
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
-    check_calibration_file(args.calibration)
-    infos, _ = bag_infos(args.bags, args.namespace)
-    refuse_unused_flags(args, [m.name for m in select_methods(infos, args.method)])
     if args.report is not None or args.spec is not None:  # checked before any work
         from gyro_calib.report.cli import check_calibrate_report
 
         check_calibrate_report(args)
+    check_calibration_file(args.calibration)
+    infos, _ = bag_infos(args.bags, args.namespace)
+    refuse_unused_flags(args, [m.name for m in select_methods(infos, args.method)])
     show = sys.stderr.isatty() if args.progress is None else args.progress
     outcome = _run_with_progress(args, show)
     # the human text goes out only once the files are written: a refusal on the way (a
-    # hand-off the run cannot be merged into) leaves one line on stderr and nothing on stdout
+    # hand-off the run cannot be merged into, a full disk) leaves one line on stderr and
+    # nothing on stdout
     human, document = io.StringIO(), io.StringIO()
-    status = _calibrate_outputs(args, outcome, human, document, plot_dir)
+    written: list[str] = []
+    try:
+        status = _calibrate_outputs(args, outcome, human, document, plot_dir, written)
+    except OSError as exc:
+        from gyro_calib.outputs import write_failed
+
+        raise write_failed(exc, written) from None
     (sys.stderr if args.json else sys.stdout).write(human.getvalue())
     sys.stdout.write(document.getvalue())
     return status
 
 
 def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human: Any,
-                       document: Any, plot_dir: Path | None) -> int:
-    """Summary, hand-off, figures, certificate and JSON of a finished calibration."""
+                       document: Any, plot_dir: Path | None, written: list[str]) -> int:
+    """Summary, hand-off, figures, certificate and JSON of a finished calibration.
+
+    ``written`` is filled with each file as it is written (for the line of a write that
+    fails on the way).
+    """
     from gyro_calib.outputs import make_plot_dir
 
     print(summary_text(outcome), file=human)
@@ -288,11 +306,14 @@ def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human:
         return EXIT_NOT_CALIBRATED
     # the hand-off first: the measured values are kept whatever happens to a figure
     status = _write_handoff(args, outcome, human) if args.out is not None else EXIT_OK
+    if status == EXIT_OK and args.out is not None:
+        written.append(f'the hand-off {args.out}')
     if plot_dir is not None:
         make_plot_dir(plot_dir)
         for session in outcome.sessions.values():
             for path in session.plot(plot_dir):
                 print(f'figure written: {path.resolve()}', file=human)
+                written.append(f'the figure {path}')
     if args.report is not None and status == EXIT_OK:
         from gyro_calib.report.cli import report_after_calibrate
 
