@@ -272,26 +272,20 @@ def _calibrate(args: argparse.Namespace) -> int:
     # hand-off the run cannot be merged into, a full disk) leaves one line on stderr and
     # nothing on stdout
     human, document = io.StringIO(), io.StringIO()
-    written: list[str] = []
-    try:
-        status = _calibrate_outputs(args, outcome, human, document, plot_dir, written)
-    except OSError as exc:
-        from gyro_calib.outputs import write_failed
-
-        raise write_failed(exc, written) from None
+    status = _calibrate_outputs(args, outcome, human, document, plot_dir)
     (sys.stderr if args.json else sys.stdout).write(human.getvalue())
     sys.stdout.write(document.getvalue())
     return status
 
 
 def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human: Any,
-                       document: Any, plot_dir: Path | None, written: list[str]) -> int:
+                       document: Any, plot_dir: Path | None) -> int:
     """Summary, hand-off, figures, certificate and JSON of a finished calibration.
 
-    ``written`` is filled with each file as it is written (for the line of a write that
-    fails on the way).
+    An output that fails while being written (disk full) ends the command in one line
+    naming it and what was written before it.
     """
-    from gyro_calib.outputs import make_plot_dir
+    from gyro_calib.outputs import write_failed, write_figures
 
     print(summary_text(outcome), file=human)
 
@@ -306,18 +300,23 @@ def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human:
         return EXIT_NOT_CALIBRATED
     # the hand-off first: the measured values are kept whatever happens to a figure
     status = _write_handoff(args, outcome, human) if args.out is not None else EXIT_OK
-    if status == EXIT_OK and args.out is not None:
-        written.append(f'the hand-off {args.out}')
+    written = [f'--out {args.out}'] if status == EXIT_OK and args.out is not None else []
     if plot_dir is not None:
-        make_plot_dir(plot_dir)
-        for session in outcome.sessions.values():
-            for path in session.plot(plot_dir):
-                print(f'figure written: {path.resolve()}', file=human)
-                written.append(f'the figure {path}')
+        try:
+            figures = write_figures(plot_dir, lambda stage: [
+                path for session in outcome.sessions.values() for path in session.plot(stage)])
+        except OSError as exc:
+            raise write_failed(exc, '--plot', plot_dir, written) from None
+        for path in figures:
+            print(f'figure written: {path.resolve()}', file=human)
+        written.append(f'--plot {plot_dir}')
     if args.report is not None and status == EXIT_OK:
         from gyro_calib.report.cli import report_after_calibrate
 
-        report_after_calibrate(args, outcome, human)
+        try:
+            report_after_calibrate(args, outcome, human)
+        except OSError as exc:
+            raise write_failed(exc, '--report', args.report, written) from None
     print_json()
     return status
 
@@ -551,10 +550,10 @@ def _simulate(args: argparse.Namespace) -> int:
         print('gyro-calib: error: simulate needs SCENARIO and --out BAG '
               '(gyro-calib simulate --list shows the scenarios).', file=sys.stderr)
         return EXIT_BAD_INPUT
-    if args.out.exists():
-        print(f'gyro-calib: error: {args.out}: exists already; not overwriting it.',
-              file=sys.stderr)
-        return EXIT_BAD_INPUT
+    from gyro_calib.outputs import check_new_directory
+    from sim_nodes.scenarios import scenario_parameters, write_scenario_bag_with
+
+    check_new_directory(args.out, '--out')  # exists, no parent, cannot be written: refused
     if args.scenario not in SCENARIOS:
         print(f'gyro-calib: error: unknown scenario {args.scenario!r}; known: '
               f'{", ".join(SCENARIOS)}.', file=sys.stderr)
@@ -566,15 +565,15 @@ def _simulate(args: argparse.Namespace) -> int:
             print(f'gyro-calib: error: --{key.replace("_", "-")} = {overrides[key]!r} is '
                   'invalid: it must be a positive number.', file=sys.stderr)
             return EXIT_BAD_INPUT
-    from gyro_calib.outputs import check_new_directory
-    from sim_nodes.scenarios import scenario_parameters, write_scenario_bag_with
-
-    check_new_directory(args.out, '--out')
     try:
         write_scenario_bag_with(args.scenario, args.out, overrides)
     except KeyError as exc:
         print(f'gyro-calib: error: {exc.args[0]}', file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OSError as exc:  # the bag is written whole (a .partial directory renamed) or not
+        from gyro_calib.outputs import write_failed
+
+        raise write_failed(exc, '--out', args.out) from None
     changed = ', '.join(f'{k} = {v}' for k, v in overrides.items())
     print(f'wrote {args.out}' + (f' ({changed}; defaults: {scenario_parameters(args.scenario)})'
                                  if changed else ''))

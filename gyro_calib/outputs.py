@@ -25,8 +25,9 @@
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from gyro_calib.errors import ConfigError
@@ -180,6 +181,9 @@ def write_text_atomically(path: str | Path, text: str) -> Path:
             os.fchmod(f.fileno(), mode)
             os.fsync(f.fileno())
         os.replace(tmp, target)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise with_filename(exc, target) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -208,12 +212,54 @@ def os_error_text(exc: OSError) -> str:
     return f'{" → ".join(paths)}: {reason}' if paths else reason
 
 
-def write_failed(exc: OSError, written: Sequence[str] = ()) -> ConfigError:
+def write_failed(exc: OSError, flag: str, path: Path | str | None,
+                 written: Sequence[str] = ()) -> ConfigError:
     """The one-line error of an output that failed while being written (disk full, ...).
 
-    Names the file and the system's reason, and what was written before it (each output
-    is written whole or not at all: the one that failed was not).
+    Names the output (its ``flag`` and ``path``), the file when another (a figure in the
+    directory), the system's reason, and what was written before it (each output is
+    written whole or not at all: the one that failed was not).
     """
     done = (f'written before it: {", ".join(written)}' if written else
             'nothing was written')
-    return ConfigError(f'cannot write {os_error_text(exc)}; {done}.')
+    files = [str(f) for f in (exc.filename, exc.filename2)
+             if f is not None and str(f) != str(path)]
+    inside = f' ({" → ".join(files)})' if files else ''
+    return ConfigError(f'cannot write {flag} {path}{inside}: {exc.strerror or exc}; {done}.')
+
+
+def with_filename(exc: OSError, path: Path) -> OSError:
+    """``exc`` naming ``path`` when it names no file (a failed ``write`` names none)."""
+    if exc.filename is not None:
+        return exc
+    return type(exc)(exc.errno, exc.strerror or str(exc), str(path))
+
+
+def write_figures(plot_dir: Path, draw: Callable[[Path], Iterable[Path]]) -> list[Path]:
+    """Draw figures into ``plot_dir`` (created if absent), none of them half written.
+
+    ``draw(directory)`` draws into a temporary directory inside ``plot_dir`` and returns
+    the files; each is then renamed into ``plot_dir``. On any error (a disk that fills
+    while a figure is saved) the temporary directory goes, and ``plot_dir`` too when this
+    call created it and nothing is in it; the figures moved before the error stay, whole.
+
+    Returns:
+        The figures' paths in ``plot_dir``.
+    """
+    created = not plot_dir.exists()
+    plot_dir.mkdir(exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix='.gyro-calib-figures.', dir=plot_dir))
+    try:
+        out = []
+        for drawn in list(draw(stage)):
+            target = plot_dir / drawn.relative_to(stage)
+            os.replace(drawn, target)
+            out.append(target)
+        return out
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        if created and not any(plot_dir.iterdir()):
+            plot_dir.rmdir()
+        raise
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)

@@ -161,6 +161,7 @@ def run_noise(args: argparse.Namespace) -> int:
         if targets.handoff is not None and _holds_noise_terms(targets.handoff):
             kept = f'; {targets.handoff} keeps its noise terms (not replaced by curves alone)'
             targets = dataclasses.replace(targets, handoff=None)
+    created = plot_dir is not None and not plot_dir.exists()
     if plot_dir is not None:
         targets = dataclasses.replace(targets, plot=make_plot_dir(plot_dir) / FIGURE_NAME)
     written: list[tuple[str, Path]] = []
@@ -183,7 +184,14 @@ def run_noise(args: argparse.Namespace) -> int:
     except OSError as exc:
         from gyro_calib.outputs import write_failed
 
-        raise write_failed(exc, [f'{what} {path}' for what, path in written]) from None
+        named = Path(str(exc.filename or ''))
+        failed = (('--kalibr', args.kalibr) if named == targets.kalibr else
+                  ('--plot', args.plot) if targets.plot is not None
+                  and named.parent == targets.plot.parent else ('--out', args.out))
+        raise write_failed(exc, *failed, [f'{what} {path}' for what, path in written]) from None
+    finally:
+        if created and plot_dir is not None and not any(plot_dir.iterdir()):
+            plot_dir.rmdir()  # the run made it and wrote nothing into it
     for what, path in written:
         print(f'{what} written: {path}', file=human)
     _flush(human, document, args.json)

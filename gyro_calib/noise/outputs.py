@@ -123,7 +123,7 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         OSError: a file cannot be written (the ones before it are in place).
     """
     from gyro_calib.handoff import SCALE_FACTOR_NOTE, load_calibration, update_calibration
-    from gyro_calib.outputs import temporary_beside, write_text_atomically
+    from gyro_calib.outputs import temporary_beside, with_filename, write_text_atomically
     from gyro_calib.registry import handoff_schema
 
     kalibr_text = session.kalibr_text() if targets.kalibr is not None else None
@@ -148,6 +148,9 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         figure_tmp = temporary_beside(targets.plot, targets.plot.suffix or '.png')
         try:
             plot_noise_figure(view, figure_tmp)
+        except OSError as exc:  # a disk that fills: the error names the figure
+            figure_tmp.unlink(missing_ok=True)
+            raise with_filename(exc, targets.plot) from None
         except BaseException:
             figure_tmp.unlink(missing_ok=True)
             raise
