@@ -18,8 +18,9 @@ methods``). Several bags are taken together in stamp order.
 
 Exit status: 0 done (at least one quantity measured; with ``--out`` the hand-off written,
 listing what is still missing); 1 nothing could be calibrated; 2 bad input (path, bag, topic,
-type, configuration), reported in one line. On any failure no output file is written or
-overwritten.
+type, configuration, an output path that cannot be written), reported in one line. On any
+failure no output file is written or overwritten — except an output that fails while being
+written (disk full): one line then names it and what was written before it, each whole.
 """
 
 from __future__ import annotations
@@ -125,6 +126,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(args.run(args))
     except GyroCalibError as exc:
         print(f'gyro-calib: error: {" ".join(str(exc).split())}', file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OSError as exc:  # e.g. the disk filled while an output was written: one line
+        from gyro_calib.outputs import os_error_text
+
+        print(f'gyro-calib: error: {" ".join(os_error_text(exc).split())}; stopped there.',
+              file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print('gyro-calib: interrupted; nothing written.', file=sys.stderr)
@@ -252,17 +259,18 @@ def _calibrate(args: argparse.Namespace) -> int:
             # a file that cannot be updated: refused before work
             load_calibration(args.out, handoff_schema())
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
-    check_calibration_file(args.calibration)
-    infos, _ = bag_infos(args.bags, args.namespace)
-    refuse_unused_flags(args, [m.name for m in select_methods(infos, args.method)])
     if args.report is not None or args.spec is not None:  # checked before any work
         from gyro_calib.report.cli import check_calibrate_report
 
         check_calibrate_report(args)
+    check_calibration_file(args.calibration)
+    infos, _ = bag_infos(args.bags, args.namespace)
+    refuse_unused_flags(args, [m.name for m in select_methods(infos, args.method)])
     show = sys.stderr.isatty() if args.progress is None else args.progress
     outcome = _run_with_progress(args, show)
     # the human text goes out only once the files are written: a refusal on the way (a
-    # hand-off the run cannot be merged into) leaves one line on stderr and nothing on stdout
+    # hand-off the run cannot be merged into, a full disk) leaves one line on stderr and
+    # nothing on stdout
     human, document = io.StringIO(), io.StringIO()
     status = _calibrate_outputs(args, outcome, human, document, plot_dir)
     (sys.stderr if args.json else sys.stdout).write(human.getvalue())
@@ -272,8 +280,12 @@ def _calibrate(args: argparse.Namespace) -> int:
 
 def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human: Any,
                        document: Any, plot_dir: Path | None) -> int:
-    """Summary, hand-off, figures, certificate and JSON of a finished calibration."""
-    from gyro_calib.outputs import make_plot_dir
+    """Summary, hand-off, figures, certificate and JSON of a finished calibration.
+
+    An output that fails while being written (disk full) ends the command in one line
+    naming it and what was written before it.
+    """
+    from gyro_calib.outputs import write_failed, write_figures
 
     print(summary_text(outcome), file=human)
 
@@ -288,15 +300,23 @@ def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human:
         return EXIT_NOT_CALIBRATED
     # the hand-off first: the measured values are kept whatever happens to a figure
     status = _write_handoff(args, outcome, human) if args.out is not None else EXIT_OK
+    written = [f'--out {args.out}'] if status == EXIT_OK and args.out is not None else []
     if plot_dir is not None:
-        make_plot_dir(plot_dir)
-        for session in outcome.sessions.values():
-            for path in session.plot(plot_dir):
-                print(f'figure written: {path.resolve()}', file=human)
+        try:
+            figures = write_figures(plot_dir, lambda stage: [
+                path for session in outcome.sessions.values() for path in session.plot(stage)])
+        except OSError as exc:
+            raise write_failed(exc, '--plot', plot_dir, written) from None
+        for path in figures:
+            print(f'figure written: {path.resolve()}', file=human)
+        written.append(f'--plot {plot_dir}')
     if args.report is not None and status == EXIT_OK:
         from gyro_calib.report.cli import report_after_calibrate
 
-        report_after_calibrate(args, outcome, human)
+        try:
+            report_after_calibrate(args, outcome, human)
+        except OSError as exc:
+            raise write_failed(exc, '--report', args.report, written) from None
     print_json()
     return status
 
@@ -530,10 +550,10 @@ def _simulate(args: argparse.Namespace) -> int:
         print('gyro-calib: error: simulate needs SCENARIO and --out BAG '
               '(gyro-calib simulate --list shows the scenarios).', file=sys.stderr)
         return EXIT_BAD_INPUT
-    if args.out.exists():
-        print(f'gyro-calib: error: {args.out}: exists already; not overwriting it.',
-              file=sys.stderr)
-        return EXIT_BAD_INPUT
+    from gyro_calib.outputs import check_new_directory
+    from sim_nodes.scenarios import scenario_parameters, write_scenario_bag_with
+
+    check_new_directory(args.out, '--out')  # exists, no parent, cannot be written: refused
     if args.scenario not in SCENARIOS:
         print(f'gyro-calib: error: unknown scenario {args.scenario!r}; known: '
               f'{", ".join(SCENARIOS)}.', file=sys.stderr)
@@ -545,15 +565,15 @@ def _simulate(args: argparse.Namespace) -> int:
             print(f'gyro-calib: error: --{key.replace("_", "-")} = {overrides[key]!r} is '
                   'invalid: it must be a positive number.', file=sys.stderr)
             return EXIT_BAD_INPUT
-    from gyro_calib.outputs import check_new_directory
-    from sim_nodes.scenarios import scenario_parameters, write_scenario_bag_with
-
-    check_new_directory(args.out, '--out')
     try:
         write_scenario_bag_with(args.scenario, args.out, overrides)
     except KeyError as exc:
         print(f'gyro-calib: error: {exc.args[0]}', file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OSError as exc:  # the bag is written whole (a .partial directory renamed) or not
+        from gyro_calib.outputs import write_failed
+
+        raise write_failed(exc, '--out', args.out) from None
     changed = ', '.join(f'{k} = {v}' for k, v in overrides.items())
     print(f'wrote {args.out}' + (f' ({changed}; defaults: {scenario_parameters(args.scenario)})'
                                  if changed else ''))

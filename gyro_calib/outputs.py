@@ -1,14 +1,22 @@
 """Output paths of every front door (``gyro-calib`` commands and the nodes): one rule each.
 
 - **Checked before any work**: a command checks every output path it was given before it
-  reads a bag (:func:`check_output_file`, :func:`check_plot_dir`), so a wrong path costs a
-  one-line error, not a calibration run.
-- **Parent directories are never created**: the directory an output file goes into must
-  exist. A ``--plot DIR`` (every command) is itself created when absent, in an existing
-  parent; a ``--out BAG`` of ``compensate`` likewise (a bag is a directory).
+  reads a bag (:func:`check_output_file`, :func:`check_plot_dir`, :func:`check_new_directory`),
+  so a wrong path costs a one-line error, not a calibration run. Writability included: a
+  temporary file (a temporary directory, for a directory still to be created) is made where
+  the output will go and removed again, so a read-only directory, a read-only file system or
+  a path under a regular file is refused then, not after the run.
+- **Parent directories are never created** (a path whose parent is missing is refused,
+  for every output): the directory an output goes into must exist. A ``--plot DIR`` (every
+  command), ``report``/``batch --out DIR`` and ``calibrate --report DIR`` are themselves
+  created when absent, in an existing parent; a bag (``simulate``/``compensate --out``)
+  likewise.
 - **``--plot`` names a directory** for every command; each method names its figures inside
   (``noise_adev.png``, ``fog_*.png``, ...). A path that is an existing file, or that ends in
   an image suffix (``fig.png``), is refused: it would otherwise become a directory.
+- **Failing at write time** (disk full, a directory made read-only during the run): the
+  command ends with one line naming the file and the system's reason (``gyro-calib``'s
+  ``main`` turns the :class:`OSError` into it), never a traceback.
 - **Files are created with the user's umask** (mode 0666 & ~umask, as ``open()`` gives); a
   file replaced keeps its mode. Every text file is written atomically: a temporary file
   beside the target, fsync, rename.
@@ -17,7 +25,9 @@
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from gyro_calib.errors import ConfigError
@@ -46,20 +56,60 @@ def new_file_mode(target: Path) -> int:
         return 0o666 & ~current_umask()
 
 
-def check_output_file(path: str | Path, what: str) -> Path:
-    """An output file's absolute path, checked before any work.
+def _missing_parent(p: Path, what: str) -> ConfigError | None:
+    """The refusal of an output whose parent directory is absent or a file, else None."""
+    parent = p.absolute().parent
+    if parent.is_dir():
+        return None
+    if parent.exists():
+        return ConfigError(f'{what} {p}: {parent} is a file, not a directory. Nothing was '
+                           'read.')
+    return ConfigError(f'{what} {p}: the directory {parent} does not exist (create it first; '
+                       'gyro-calib does not create parent directories). Nothing was read.')
+
+
+def _cannot_write(p: Path, what: str, where: Path, exc: OSError) -> ConfigError:
+    reason = exc.strerror or str(exc)
+    return ConfigError(f'{what} {p}: cannot write in {where} ({reason}); choose a directory '
+                       'you can write in. Nothing was read.')
+
+
+def probe_writable(directory: Path, what: str, path: Path, *, new_directory: bool = False) -> None:
+    """Create a temporary file (``new_directory``: a directory) in ``directory``, remove it.
 
     Raises:
-        ConfigError: ``path`` is a directory, or its directory does not exist (it is not
-            created), naming ``what`` (e.g. ``--out``).
+        ConfigError: it cannot be created (read-only directory or file system, no
+            permission), naming ``what``, ``path`` and the system's reason.
+    """
+    try:
+        if new_directory:
+            os.rmdir(tempfile.mkdtemp(prefix='.gyro-calib-probe.', dir=directory))
+        else:
+            fd, name = tempfile.mkstemp(prefix='.gyro-calib-probe.', dir=directory)
+            os.close(fd)
+            os.unlink(name)
+    except OSError as exc:
+        raise _cannot_write(path, what, directory, exc) from None
+
+
+def check_output_file(path: str | Path, what: str) -> Path:
+    """An output file's absolute path, checked before any work (writability included).
+
+    Raises:
+        ConfigError: ``path`` is a directory or another non-regular file (a device, a
+            pipe), its directory does not exist (it is not created) or is a file, or no file
+            can be created there; naming ``what`` (e.g. ``--out``) and ``path``.
     """
     p = Path(path)
     if p.is_dir():
         raise ConfigError(f'{what} {p} is a directory; give a file name. Nothing was read.')
-    parent = p.absolute().parent
-    if not parent.is_dir():
-        raise ConfigError(f'{what} {p}: the directory {parent} does not exist (create it first; '
-                          'gyro-calib does not create parent directories). Nothing was read.')
+    if p.exists() and not p.is_file():
+        raise ConfigError(f'{what} {p} is not a regular file (a device, pipe or socket); give '
+                          'a file name. Nothing was read.')
+    refusal = _missing_parent(p, what)
+    if refusal is not None:
+        raise refusal
+    probe_writable(p.absolute().parent, what, p)
     return p.absolute()
 
 
@@ -67,15 +117,16 @@ def check_new_directory(path: str | Path, what: str) -> Path:
     """A directory output that must not exist yet (a bag), checked before any work.
 
     Raises:
-        ConfigError: ``path`` exists, or its parent directory does not.
+        ConfigError: ``path`` exists, its parent directory does not (or is a file), or no
+            directory can be created there.
     """
     p = Path(path)
     if p.exists():
         raise ConfigError(f'{what} {p}: exists already; not overwriting it. Nothing was read.')
-    parent = p.absolute().parent
-    if not parent.is_dir():
-        raise ConfigError(f'{what} {p}: the directory {parent} does not exist (create it first; '
-                          'gyro-calib does not create parent directories). Nothing was read.')
+    refusal = _missing_parent(p, what)
+    if refusal is not None:
+        raise refusal
+    probe_writable(p.absolute().parent, what, p, new_directory=True)
     return p.absolute()
 
 
@@ -83,11 +134,12 @@ def check_plot_dir(path: str | Path, what: str = '--plot') -> Path:
     """The figure directory's absolute path, checked before any work.
 
     The figure directory's absolute path, checked before any work (created later, by
-    :func:`make_plot_dir`, when the figures are drawn).
+    :func:`make_plot_dir`, when the figures are drawn): a file can be created in it, or,
+    when it is absent, a directory beside it.
 
     Raises:
-        ConfigError: ``path`` is an existing file, names a figure file (``fig.png``), or its
-            parent directory does not exist.
+        ConfigError: ``path`` is an existing file, names a figure file (``fig.png``), its
+            parent directory does not exist, or nothing can be written there.
     """
     p = Path(path)
     if p.exists() and not p.is_dir():
@@ -97,10 +149,13 @@ def check_plot_dir(path: str | Path, what: str = '--plot') -> Path:
         raise ConfigError(f'{what} {p} names a figure file; {what} takes a directory (the '
                           'figures are named by method inside it, e.g. noise_adev.png). '
                           'Nothing was read.')
-    parent = p.absolute().parent
-    if not p.exists() and not parent.is_dir():
-        raise ConfigError(f'{what} {p}: the directory {parent} does not exist (create it first; '
-                          'gyro-calib does not create parent directories). Nothing was read.')
+    if p.is_dir():
+        probe_writable(p.absolute(), what, p)
+        return p.absolute()
+    refusal = _missing_parent(p, what)
+    if refusal is not None:
+        raise refusal
+    probe_writable(p.absolute().parent, what, p, new_directory=True)
     return p.absolute()
 
 
@@ -126,6 +181,9 @@ def write_text_atomically(path: str | Path, text: str) -> Path:
             os.fchmod(f.fileno(), mode)
             os.fsync(f.fileno())
         os.replace(tmp, target)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise with_filename(exc, target) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
@@ -145,3 +203,63 @@ def temporary_beside(target: Path, suffix: str = '') -> Path:
     finally:
         os.close(fd)
     return Path(name)
+
+
+def os_error_text(exc: OSError) -> str:
+    """``PATH: reason`` of an OS error (both paths of a rename), for a one-line message."""
+    reason = exc.strerror or str(exc)
+    paths = [str(f) for f in (exc.filename, exc.filename2) if f is not None]
+    return f'{" → ".join(paths)}: {reason}' if paths else reason
+
+
+def write_failed(exc: OSError, flag: str, path: Path | str | None,
+                 written: Sequence[str] = ()) -> ConfigError:
+    """The one-line error of an output that failed while being written (disk full, ...).
+
+    Names the output (its ``flag`` and ``path``), the file when another (a figure in the
+    directory), the system's reason, and what was written before it (each output is
+    written whole or not at all: the one that failed was not).
+    """
+    done = (f'written before it: {", ".join(written)}' if written else
+            'nothing was written')
+    files = [str(f) for f in (exc.filename, exc.filename2)
+             if f is not None and str(f) != str(path)]
+    inside = f' ({" → ".join(files)})' if files else ''
+    return ConfigError(f'cannot write {flag} {path}{inside}: {exc.strerror or exc}; {done}.')
+
+
+def with_filename(exc: OSError, path: Path) -> OSError:
+    """``exc`` naming ``path`` when it names no file (a failed ``write`` names none)."""
+    if exc.filename is not None:
+        return exc
+    return type(exc)(exc.errno, exc.strerror or str(exc), str(path))
+
+
+def write_figures(plot_dir: Path, draw: Callable[[Path], Iterable[Path]]) -> list[Path]:
+    """Draw figures into ``plot_dir`` (created if absent), none of them half written.
+
+    ``draw(directory)`` draws into a temporary directory inside ``plot_dir`` and returns
+    the files; each is then renamed into ``plot_dir``. On any error (a disk that fills
+    while a figure is saved) the temporary directory goes, and ``plot_dir`` too when this
+    call created it and nothing is in it; the figures moved before the error stay, whole.
+
+    Returns:
+        The figures' paths in ``plot_dir``.
+    """
+    created = not plot_dir.exists()
+    plot_dir.mkdir(exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix='.gyro-calib-figures.', dir=plot_dir))
+    try:
+        out = []
+        for drawn in list(draw(stage)):
+            target = plot_dir / drawn.relative_to(stage)
+            os.replace(drawn, target)
+            out.append(target)
+        return out
+    except BaseException:
+        shutil.rmtree(stage, ignore_errors=True)
+        if created and not any(plot_dir.iterdir()):
+            plot_dir.rmdir()
+        raise
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)

@@ -23,15 +23,21 @@ that exists already. ``main`` is called in-process; output is captured with caps
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import random
 import re
+import resource
 import shutil
+import signal
 import struct
-from collections.abc import Callable, Sequence
+import subprocess
+import time
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from gyro_calib import topics
@@ -446,3 +452,259 @@ def test_simulate_refuses_to_overwrite_an_existing_out_path(
              for p in tmp_path.rglob('*') if p.is_file()}
     assert after == before, 'the existing path (and its directory) must be left untouched'
     assert listing(tmp_path) == ['precious'], 'no partial bag may be left behind'
+
+
+# -- output paths: checked before any work, writability included ----------------------------
+@dataclass(frozen=True)
+class OutputFlag:
+    """One output flag of one subcommand.
+
+    ``kind``: 'file' (a file written in an existing directory), 'dir' (a directory created
+    when absent) or 'bag' (a new directory that must not exist). :meth:`argv` is the
+    command (``head``) with the flag set to ``out`` and the command's other output flags
+    (``siblings``: flag → name) pointed into the writable directory ``spare``; its inputs
+    do not exist, so a command that read anything before checking its outputs would report
+    the input, not the flag.
+    """
+
+    command: str
+    flag: str
+    kind: str
+    head: tuple[str | Path, ...]
+    siblings: tuple[tuple[str, str], ...] = ()
+
+    def argv(self, out: Path, spare: Path) -> list[str | Path]:
+        others = [a for flag, name in self.siblings if flag != self.flag
+                  for a in (flag, spare / name)]
+        return [*self.head, self.flag, out, *others]
+
+
+NO_INPUT = Path('/nonexistent-gyro-calib-input')
+"""An input path that does not exist: reading it would be the error reported."""
+_CALIBRATE = (('--out', 'c.yaml'), ('--plot', 'figs'), ('--report', 'cert'))
+_NOISE = (('--out', 'h.yaml'), ('--kalibr', 'imu.yaml'), ('--plot', 'figs'))
+_COMPENSATE = (('--out', 'bag2'), ('--plot', 'figs'))
+
+OUTPUT_FLAGS = [
+    *(OutputFlag('calibrate', f, k, ('calibrate', NO_INPUT / 'bag'), _CALIBRATE)
+      for f, k in (('--out', 'file'), ('--plot', 'dir'), ('--report', 'dir'))),
+    *(OutputFlag('noise', f, k, ('noise', NO_INPUT / 'bag'), _NOISE)
+      for f, k in (('--out', 'file'), ('--kalibr', 'file'), ('--plot', 'dir'))),
+    *(OutputFlag('compensate', f, k, ('compensate', NO_INPUT / 'bag', '--calibration',
+                                      NO_INPUT / 'h.yaml'), _COMPENSATE)
+      for f, k in (('--out', 'bag'), ('--plot', 'dir'))),
+    OutputFlag('simulate', '--out', 'bag', ('simulate', 'k_tilde_bench')),
+    OutputFlag('report', '--out', 'dir', ('report', NO_INPUT / 'h.yaml')),
+    OutputFlag('batch', '--out', 'dir', ('batch', NO_INPUT / 'fleet.yaml')),
+]
+"""Every output flag of every ``gyro-calib`` subcommand (``info`` and ``methods`` write
+nothing; ``--json`` is stdout)."""
+
+
+def test_the_output_flag_list_is_every_path_flag_that_writes() -> None:
+    """A new output flag must join OUTPUT_FLAGS (parsers read from gyro_calib.cli)."""
+    import argparse
+
+    from gyro_calib.cli import _parser
+
+    readers = {'--config', '--calibration', '--spec'}  # inputs, not outputs
+    sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
+    found = {(name, opt) for name, p in sub.choices.items() for a in p._actions
+             for opt in a.option_strings
+             if opt.startswith('--') and opt not in readers
+             and (a.type is Path or opt in ('--out', '--plot', '--kalibr', '--report'))}
+    assert found == {(f.command, f.flag) for f in OUTPUT_FLAGS}
+
+
+def _name(flag: OutputFlag) -> str:
+    return {'file': 'out.yaml', 'dir': 'outdir', 'bag': 'newbag'}[flag.kind]
+
+
+@pytest.fixture
+def read_only_dir(tmp_path: Path) -> Iterator[Path]:
+    """A directory in which no file can be created, also for root.
+
+    chmod 0o555 stops a user; root writes through it, so root gets ``chattr +i`` (the
+    immutable attribute, which stops root too); where neither works (root without
+    CAP_LINUX_IMMUTABLE) sysfs's root directory, where no file can be created either.
+    """
+    ro = tmp_path / 'read_only'
+    ro.mkdir()
+    ro.chmod(0o555)
+    immutable = False
+    if _writable(ro) and shutil.which('chattr'):
+        immutable = subprocess.run(['chattr', '+i', str(ro)], capture_output=True).returncode == 0
+    where = ro if not _writable(ro) else Path('/sys')
+    assert where.is_dir() and not _writable(where), 'no read-only directory could be made'
+    yield where
+    if immutable:
+        subprocess.run(['chattr', '-i', str(ro)], check=True)
+    ro.chmod(0o755)
+
+
+def _writable(directory: Path) -> bool:
+    try:
+        (directory / '.probe').touch()
+    except OSError:
+        return False
+    (directory / '.probe').unlink()
+    return True
+
+
+WHERE = ['in a read-only directory', 'on sysfs', 'under a regular file',
+         'in a directory that does not exist', 'the read-only directory itself',
+         'of the wrong kind']
+
+
+def _unwritable(where: str, flag: OutputFlag, tmp_path: Path, read_only: Path) -> Path:
+    """The output path of case ``where``."""
+    if where == 'in a read-only directory':
+        return read_only / _name(flag)
+    if where == 'on sysfs':
+        return Path('/sys') / _name(flag)
+    if where == 'under a regular file':
+        (tmp_path / 'plain').write_text('a file, not a directory\n')
+        return tmp_path / 'plain' / _name(flag)
+    if where == 'in a directory that does not exist':  # refused, never created
+        return tmp_path / 'missing' / _name(flag)
+    if where == 'the read-only directory itself':  # an existing output directory
+        return read_only
+    # a directory where a file goes, a file where a directory goes, an existing bag path
+    wrong = tmp_path / 'wrong'
+    if flag.kind == 'dir':
+        wrong.write_text('a file where a directory is expected\n')
+    else:
+        wrong.mkdir()
+    return wrong
+
+
+@pytest.mark.parametrize('flag, where', [
+    pytest.param(f, w, id=f'{f.command} {f.flag}: {w}') for f in OUTPUT_FLAGS for w in WHERE
+    if w != 'the read-only directory itself' or f.kind == 'dir'])  # an existing output dir
+def test_an_output_path_that_cannot_be_written_is_refused_before_any_work(
+        flag: OutputFlag, where: str, tmp_path: Path, read_only_dir: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    out = _unwritable(where, flag, tmp_path, read_only_dir)
+    spare = tmp_path / 'spare'
+    spare.mkdir()
+    before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob('*'))
+    started = time.monotonic()
+
+    run = gyro_calib(capsys, *flag.argv(out, spare))
+
+    line = the_one_error_line(run)
+    assert run.code == EXIT_BAD_INPUT and run.out == ''
+    assert flag.flag in line and str(out) in line, line
+    assert str(NO_INPUT) not in line, f'the input was read before the output was checked: {line}'
+    assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob('*')) == before, (
+        'nothing may be written, not even the other outputs')
+    assert not list(Path('/sys').glob('.gyro-calib-probe*'))
+    assert time.monotonic() - started < 5.0
+
+
+# -- output errors that only show at write time: a disk that fills --------------------------
+@contextlib.contextmanager
+def disk_full() -> Iterator[None]:
+    """Every write that would make a file larger than 16 bytes fails (EFBIG), root's too.
+
+    RLIMIT_FSIZE holds for root as for anyone (SIGXFSZ ignored, the write fails with "File
+    too large", as on a full disk it fails with "No space left on device"); an empty file
+    can still be created, so the checks before any work pass and the failure comes while
+    the output is written.
+    """
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)
+    previous = signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (16, limit[1]))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_FSIZE, limit)
+        signal.signal(signal.SIGXFSZ, previous)
+
+
+@pytest.fixture(scope='module')
+def handoff_of_k_tilde_bench(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp('handoff') / 'gyro.yaml'
+    assert main(['calibrate', str(COMMITTED_BAG), '--out', str(out), '--no-progress']) == 0
+    return out
+
+
+@pytest.fixture(scope='module')
+def imu_record(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """40 s of a white-noise IMU at 100 Hz: every noise output can be written from it."""
+    from sim_nodes.noise.bag_scenarios import imu_template
+
+    rng = np.random.default_rng(5)
+    n = 4000
+    t = 1_700_000_000_000_000_000 + 10_000_000 * np.arange(n, dtype=np.int64)
+    template, accel_at = imu_template('imu')
+    rows = template.rows(t, rng.normal(0, 3e-3, (n, 3)))
+    at = template.value_at + accel_at
+    accel = rng.normal(0, 2e-2, (n, 3)) + (0, 0, 9.81)
+    rows[:, at:at + 24] = np.ascontiguousarray(accel.astype('<f8')).view(np.uint8).reshape(n, 24)
+    bag = tmp_path_factory.mktemp('imu') / 'imu'
+    write_bag(bag, [BagMessage('/imu/data', int(ti), r.tobytes()) for ti, r in zip(t, rows)],
+              types={'/imu/data': 'sensor_msgs/msg/Imu'})
+    return bag
+
+
+WRITE_TIME = {
+    'calibrate --out': lambda out, inputs: ['calibrate', COMMITTED_BAG, '--out', out / 'c.yaml'],
+    'calibrate --plot': lambda out, inputs: ['calibrate', COMMITTED_BAG, '--plot', out / 'figs'],
+    'calibrate --report': lambda out, inputs: ['calibrate', COMMITTED_BAG,
+                                               '--report', out / 'cert'],
+    'noise --out': lambda out, inputs: ['noise', inputs['imu'], '--out', out / 'h.yaml'],
+    'noise --kalibr': lambda out, inputs: ['noise', inputs['imu'], '--kalibr', out / 'imu.yaml'],
+    'noise --plot': lambda out, inputs: ['noise', inputs['imu'], '--plot', out / 'figs'],
+    'simulate --out': lambda out, inputs: ['simulate', 'k_tilde_bench', '--out', out / 'bag'],
+    'report --out': lambda out, inputs: ['report', inputs['handoff'], '--out', out / 'cert',
+                                         '--no-pdf'],
+}
+"""Output flags run to the end on a disk that fills (``compensate`` writes through the same
+helpers as ``calibrate --plot`` and ``simulate --out``; ``batch`` below)."""
+
+
+@pytest.mark.parametrize('case', list(WRITE_TIME))
+def test_a_disk_that_fills_while_an_output_is_written_ends_in_one_line_and_no_partial_file(
+        case: str, tmp_path: Path, imu_record: Path, handoff_of_k_tilde_bench: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    out_dir = tmp_path / 'out'
+    out_dir.mkdir()
+    argv = WRITE_TIME[case](out_dir, {'imu': imu_record, 'handoff': handoff_of_k_tilde_bench})
+    target = argv[-1] if argv[-1] != '--no-pdf' else argv[-2]
+
+    with disk_full():
+        run = gyro_calib(capsys, *argv, *(['--no-progress'] if argv[0] in (
+            'calibrate', 'noise') else []))
+
+    line = the_one_error_line(run)
+    assert run.code == EXIT_BAD_INPUT and run.out == ''
+    # the line names the output (the hand-off by its path, the others by flag and path)
+    named = ('calibration file' if target.suffix == '.yaml' and case.endswith('--out')
+             else case.split()[1])
+    assert f'cannot write {named} {target}' in line and 'File too large' in line, line
+    assert listing(out_dir) == [], 'no output, half-written file or temporary file may remain'
+
+
+def test_batch_on_a_disk_that_fills_ends_in_one_line_and_leaves_no_partial_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import gyro_calib.batch.run as batch_run
+
+    broken = directory_not_a_bag(tmp_path)  # a gyro whose bag fails: the fleet files remain
+    manifest = tmp_path / 'fleet.yaml'
+    manifest.write_text(f'gyros:\n- id: X-1\n  bags: [{broken}]\n', encoding='utf-8')
+    run_batch = batch_run.run_batch
+
+    def on_a_full_disk(*args: object, **kwargs: object) -> object:
+        with disk_full():  # the workers run already; the fleet's files are the parent's
+            return run_batch(*args, **kwargs)  # type: ignore[arg-type]
+    monkeypatch.setattr(batch_run, 'run_batch', on_a_full_disk)
+    out = tmp_path / 'fleet'
+
+    run = gyro_calib(capsys, 'batch', manifest, '--out', out, '--workers', '1', '--no-progress')
+
+    line = the_one_error_line(run)
+    assert run.code == EXIT_BAD_INPUT and run.out == ''
+    assert f'cannot write --out {out}' in line and 'File too large' in line, line
+    assert not out.exists()

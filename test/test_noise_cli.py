@@ -211,7 +211,7 @@ def test_the_kalibr_file_and_the_handoff_file_must_not_be_the_same_file(
     same = tmp_path / 'imu.yaml'
     status, out, err = run(capsys, bags['imu'], '--kalibr', same, '--out', same)
     assert status == 2 and out == ''
-    assert 'the Kalibr file and the hand-off file are the same file' in one_line_error(err)
+    assert '--kalibr and --out are the same file' in one_line_error(err)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -292,6 +292,51 @@ def test_taus_flag_gives_the_grid_asked_for(bags: dict[str, Path],
     assert status == 2 and '--taus' in one_line_error(err) and out == ''
 
 
+README_BAG = Path(__file__).resolve().parents[1] / 'bags' / 'noise_imu_static'
+"""A 500 s IMU record: the README's ``--taus 1,10,100`` fits in it, all three τ."""
+
+
+def test_taus_1_10_100_names_the_setting_in_the_failing_line_and_writes_the_curves(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Three τ can never give a term (a fit needs 8): the line says so, naming --taus.
+
+    The curves computed at the three τ are written (--out, --plot), as --json holds them.
+    """
+    from gyro_calib.handoff import load_calibration
+
+    target, figures, kalibr = tmp_path / 'h.yaml', tmp_path / 'figures', tmp_path / 'imu.yaml'
+    status, out, err = run(capsys, README_BAG, '--taus', '1,10,100', '--json', '--out', target,
+                           '--plot', figures, '--kalibr', kalibr)
+    assert status == 1, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith('gyro-calib: no noise term is resolved (--taus 1,10,100 lists 3 '
+                           'averaging time(s), fewer than the 8 a term fit needs'), last
+    assert 'no record can give a term' in last and f'hand-off {target}' in last
+    assert 'no Kalibr file' in last and not kalibr.exists()
+    document = json.loads(out)['methods']['noise']
+    assert document['axes']['gyro_x']['tau_s'] == pytest.approx([1.0, 10.0, 100.0], rel=1e-2)
+    reason = document['missing']['imu_gyro_x_angle_random_walk_rad_per_sqrt_s']
+    assert 'the setting taus (--taus) lists only 3' in reason and 'longer record' not in reason
+    written = load_calibration(target)
+    assert written.values == {}
+    curves = written.methods['noise'].deviations['gyro_x']
+    assert curves['tau_s'] == document['axes']['gyro_x']['tau_s']
+    assert curves['adev'] == document['axes']['gyro_x']['adev']
+    assert (figures / 'noise_adev.png').stat().st_size > 0
+
+
+def test_curves_without_a_term_leave_a_handoff_file_with_noise_terms_as_it_was(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The same record again with too few τ: its terms are not withdrawn for bare curves."""
+    target = tmp_path / 'h.yaml'
+    assert run(capsys, bags['imu'], '--out', target)[0] == 0
+    before = target.read_bytes()
+    status, _, err = run(capsys, bags['imu'], '--out', target, '--taus', '0.1,1,10')
+    assert status == 1, err
+    assert f'{target} keeps its noise terms' in err.strip().splitlines()[-1]
+    assert target.read_bytes() == before
+
+
 def test_a_directory_given_as_the_calibration_file_is_one_line_exit_2(
         bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     status, _, err = run(capsys, bags['pulses'], '--calibration', bags['imu'],
@@ -354,18 +399,27 @@ def test_the_handoff_file_holds_every_deviation_per_tau_equal_to_allantools(
     assert all(run.deviations['gyro']['tau_s'] == table['tau_s'] for run in latest.earlier)
 
 
-def test_curves_without_a_term_exit_1_write_nothing_and_still_print_the_curves(
+def test_curves_without_a_term_exit_1_and_still_write_and_print_the_curves(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Exit 1 is not bad input: the curves were measured, so ``--json`` reports them."""
+    """Exit 1 is not bad input: the curves were measured, so ``--json``, ``--out``, ``--plot``.
+
+    The hand-off file holds them with every term missing and its reason.
+    """
     rng = np.random.default_rng(2)
     t = START_NS + PERIOD_NS * np.arange(150, dtype=np.int64)
     bag = tmp_path / 'short'
     write_bag(bag, pulse_messages(t, np.cumsum(250.0 + rng.normal(0, 30.0, 150))))
-    target = tmp_path / 'h.yaml'
+    from gyro_calib.handoff import load_calibration
+
+    target, figures = tmp_path / 'h.yaml', tmp_path / 'figures'
     status, out, err = run(capsys, bag, '--scale-factor-rad-per-pulse', K, '--out', target,
-                           '--json')
+                           '--plot', figures, '--json')
     assert status == 1, err
-    assert 'no noise term is resolved' in err.strip().splitlines()[-1]
+    last = err.strip().splitlines()[-1]
+    assert 'no noise term is resolved' in last and f'hand-off {target}' in last
     axis = json.loads(out)['methods']['noise']['axes']['gyro']
     assert axis['adev'] and axis['results'] == {}
-    assert not target.exists()
+    written = load_calibration(target)
+    assert written.values == {} and 'angle_random_walk_rad_per_sqrt_s' in written.missing
+    assert written.methods['noise'].deviations['gyro']['adev'] == axis['adev']
+    assert (figures / 'noise_adev.png').stat().st_size > 0

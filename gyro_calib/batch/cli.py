@@ -55,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f'--workers {args.workers} is invalid: it must be at least 1.')
     check_output_dir(args.out)
+    created = not args.out.exists()
     jobs = load_manifest(args.manifest)
     spec = load_spec_arg(args.spec)
     show = sys.stderr.isatty() if args.progress is None else args.progress
@@ -75,6 +76,14 @@ def run(args: argparse.Namespace) -> int:
 
         outcome = run_batch(jobs, args.out, client=client, spec=spec, spec_path=args.spec,
                             force=args.force, pdf=args.pdf, progress=progress)
+    except OSError as exc:  # disk full: what was stored before it stays, each file whole
+        from gyro_calib.outputs import write_failed
+
+        if created and not any(args.out.iterdir()):
+            args.out.rmdir()
+            raise write_failed(exc, '--out', args.out) from None
+        raise write_failed(exc, '--out', args.out,
+                           ['the files of the gyros stored before it']) from None
     finally:
         if bar is not None:
             bar.close()

@@ -880,7 +880,8 @@ class NoiseCalibrator:
                               ramp_significance=s.ramp_term_significance,
                               min_tau_s=s.fit_min_tau_s, max_tau_s=s.fit_max_tau_s,
                               context=context, min_clusters=s.fit_min_clusters,
-                              exclude_band_limited=bool(s.fit_exclude_band_limited))
+                              exclude_band_limited=bool(s.fit_exclude_band_limited),
+                              tau_list=s.tau_spec if isinstance(s.tau_spec, tuple) else None)
         alpha = _noise_types(curve, fit)
         edf = curve.edf(alpha)
         std = adev_std(curve.adev, edf)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import io
 import json
 import sys
 from collections.abc import Sequence
@@ -33,6 +34,8 @@ if TYPE_CHECKING:
     from gyro_calib.bag_calibration import BagCalibration
 
 EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_INTERRUPTED = 0, 1, 130
+MIN_FIT_POINTS = 8
+"""Fewest usable τ a term fit needs (:func:`gyro_calib.noise.fit.fit_noise_terms`)."""
 
 
 def add_commands(subparsers: Any) -> None:
@@ -101,7 +104,7 @@ def run_noise(args: argparse.Namespace) -> int:
     )
     from gyro_calib.outputs import check_plot_dir, make_plot_dir
 
-    targets = resolve_targets(args.kalibr, None, args.out)
+    targets = resolve_targets(args.kalibr, None, args.out, names=('--kalibr', '--plot', '--out'))
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     check_calibration_file(args.calibration)
     infos, _ = bag_infos(args.bags, args.namespace)
@@ -145,40 +148,105 @@ def run_noise(args: argparse.Namespace) -> int:
     session = outcome.sessions['noise']
     assert isinstance(session, NoiseSession)
     session.check_measurable()
-    human = sys.stderr if args.json else sys.stdout
+    # the human text and the document go out only once the files are written: a command
+    # that fails writing them prints one line on stderr and nothing on stdout
+    human = io.StringIO()
     print(summary_text(outcome), file=human)
     document = (json.dumps(json_document(outcome, 'noise'), indent=1, allow_nan=False,
                            default=_json_default) if args.json else None)
-    if not session.results():
-        if document is not None:
-            print(document)
-        print('gyro-calib: no noise term is resolved (see the reasons above); nothing '
-              'written.', file=sys.stderr)
-        return EXIT_NOT_CALIBRATED
+    resolved = bool(session.results())
+    kept = ''
+    if not resolved:  # the curves were measured: written (--out, --plot), not Kalibr's terms
+        targets = dataclasses.replace(targets, kalibr=None)
+        if targets.handoff is not None and _holds_noise_terms(targets.handoff):
+            kept = f'; {targets.handoff} keeps its noise terms (not replaced by curves alone)'
+            targets = dataclasses.replace(targets, handoff=None)
+    created = plot_dir is not None and not plot_dir.exists()
     if plot_dir is not None:
         targets = dataclasses.replace(targets, plot=make_plot_dir(plot_dir) / FIGURE_NAME)
-    # the files first: a command that fails writing them prints nothing on stdout
     written: list[tuple[str, Path]] = []
     asked = sum(p is not None for p in (targets.kalibr, targets.plot, targets.handoff))
     try:
         write_outputs(session, targets, source=outcome.source, gyro_id=args.gyro_id,
-                      progress=written)
-        if document is not None:
-            print(document)
-        for what, path in written:
-            print(f'{what} written: {path}', file=human)
+                      progress=written, curves_only=not resolved)
     except KeyboardInterrupt:
+        _flush(human, None, args.json)
         if not written:
             raise
         names = ', '.join(f'{what} {path}' for what, path in written)
         if len(written) == asked:  # the work is done: say so, exit as done
             print(f'gyro-calib: interrupted after every file was written ({names}).',
                   file=sys.stderr)
-            return EXIT_OK
+            return EXIT_OK if resolved else EXIT_NOT_CALIBRATED
         print(f'gyro-calib: interrupted while writing; written: {names}; the others were '
               'not written.', file=sys.stderr)
         return EXIT_INTERRUPTED
+    except OSError as exc:
+        from gyro_calib.outputs import write_failed
+
+        named = Path(str(exc.filename or ''))
+        failed = (('--kalibr', args.kalibr) if named == targets.kalibr else
+                  ('--plot', args.plot) if targets.plot is not None
+                  and named.parent == targets.plot.parent else ('--out', args.out))
+        raise write_failed(exc, *failed, [f'{what} {path}' for what, path in written]) from None
+    finally:
+        if created and plot_dir is not None and not any(plot_dir.iterdir()):
+            plot_dir.rmdir()  # the run made it and wrote nothing into it
+    for what, path in written:
+        print(f'{what} written: {path}', file=human)
+    _flush(human, document, args.json)
+    if not resolved:
+        print(f'gyro-calib: no noise term is resolved ({_why_no_term(args, session)}); '
+              + (f'the curves are written ({", ".join(f"{w} {p}" for w, p in written)})'
+                 if written else 'nothing written')
+              + kept + ('; no Kalibr file without a term' if args.kalibr is not None else '')
+              + '.',
+              file=sys.stderr)
+        return EXIT_NOT_CALIBRATED
     return EXIT_OK
+
+
+def _holds_noise_terms(path: Path) -> bool:
+    """True when the hand-off file at ``path`` holds a noise term (of any run)."""
+    from gyro_calib.handoff import load_calibration
+    from gyro_calib.registry import handoff_schema
+
+    if not path.exists():
+        return False
+    schema = handoff_schema()
+    values = load_calibration(path, schema).values
+    return any(getattr(schema.get(k), 'method', '') == 'noise' for k in values)
+
+
+def _flush(human: io.StringIO, document: str | None, json_asked: bool) -> None:
+    """Print the human summary (stderr with ``--json``) and then the document."""
+    (sys.stderr if json_asked else sys.stdout).write(human.getvalue())
+    if document is not None:
+        print(document)
+
+
+def _why_no_term(args: argparse.Namespace, session: Any) -> str:
+    """Why no term came out, in a phrase for the failing line.
+
+    A fixed τ list (setting ``taus``) that leaves fewer usable τ than a fit needs is named,
+    with the flag or setting it came from; else the reasons above are pointed to.
+    """
+    spec = session.settings.tau_spec
+    fits = [r.fit for r in session.axis_results().values() if r.fit is not None]
+    if not isinstance(spec, tuple) or not fits or any(f.estimates for f in fits):
+        return 'see the reasons above'
+    usable = max(int(f.used.sum()) for f in fits)
+    if usable >= MIN_FIT_POINTS:
+        return 'see the reasons above'
+    setting = (f'--taus {args.taus}' if args.taus is not None else
+               f'the setting taus = {", ".join(f"{t:g}" for t in spec)} (--config)')
+    if len(spec) < MIN_FIT_POINTS:
+        return (f'{setting} lists {len(spec)} averaging time(s), fewer than the '
+                f'{MIN_FIT_POINTS} a term fit needs, so no record can give a term: list at '
+                'least 8 τ, or leave taus at its default grid')
+    return (f'{setting}: {usable} of its {len(spec)} averaging times are usable on this '
+            f'record, fewer than the {MIN_FIT_POINTS} a term fit needs: list more within the '
+            'record, or leave taus at its default grid')
 
 
 def _benches(infos: Sequence[Any]) -> tuple[tuple[str, dict[str, Any]], ...]:

@@ -286,13 +286,27 @@ def _reason(symbol: str, units: TermUnits, theta: float, sigma: float, tau_max_s
     return text
 
 
+def _more_taus(tau_list: tuple[float, ...] | None, min_points: int) -> str:
+    """What gives more usable τ: a longer record, or (a fixed list) the setting ``taus``."""
+    if tau_list is None:
+        return 'a longer record gives more'
+    listed = ', '.join(f'{t:g}' for t in tau_list)
+    if len(tau_list) < min_points:
+        return (f'the setting taus (--taus) lists only {len(tau_list)} averaging time(s) '
+                f'({listed} s), so no record can give a term: list at least {min_points} τ '
+                'within the record, or use a named grid (default)')
+    return (f'the setting taus (--taus) lists {len(tau_list)} averaging times ({listed} s): '
+            'list more within the record, use a named grid (default), or record longer')
+
+
 def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: float = 2.0,
                     edge_significance: float = 3.0, ramp_significance: float = 5.0,
                     min_tau_s: float = 0.0,
                     max_tau_s: float = math.inf,
                     terms: tuple[str, ...] = SYMBOLS, context: str = '',
                     eliminate_edges: bool = True, min_clusters: float = 10.0,
-                    exclude_band_limited: bool = True, min_points: int = 8) -> NoiseFit:
+                    exclude_band_limited: bool = True, min_points: int = 8,
+                    tau_list: tuple[float, ...] | None = None) -> NoiseFit:
     """Fit the five IEEE 952 terms jointly to one axis's Allan variance (module docstring).
 
     Args:
@@ -316,6 +330,8 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         min_points: fewest fitted τ points for any term (fewer: every term absent, with the
             reason): below it a band-limited or otherwise unmodelled curve cannot be told
             from the terms' slopes.
+        tau_list: the τ list of the setting ``taus`` when the grid is a fixed list (None for
+            a named grid): too few usable τ then name the setting, not the record length.
         exclude_band_limited: leave out the short-τ range where the curve departs from the
             model (a sensor's anti-alias/decimation filter bends the white-noise line):
             while the fit's χ² exceeds its expectation by 3 standard deviations, the
@@ -354,7 +370,7 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         why = (f'the Allan variance has {n_used} usable averaging time(s) (with at least '
                f'{min_clusters:g} clusters, in the fitted τ range), fewer than the '
                f'{min_points} needed to fit noise terms and still check that the model '
-               'describes the curve; a longer record gives more.')
+               f'describes the curve; {_more_taus(tau_list, min_points)}.')
         for s in SYMBOLS:
             missing.setdefault(keys[s], f'{units.names[SYMBOLS.index(s)]} is not reported: {why}')
         return NoiseFit({}, missing, empty.theta, empty.theta_cov, empty.alpha, empty.edf, used,

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 from gyro_calib.errors import ConfigError, InsufficientDataError
 
 if TYPE_CHECKING:
+    from gyro_calib.handoff import Calibration
     from gyro_calib.noise.session import NoiseSession
 
 
@@ -35,16 +36,23 @@ class OutputTargets:
     handoff: Path | None = None
 
 
+OUTPUT_NAMES = ('the Kalibr file', 'the figure', 'the hand-off file')
+"""How :func:`resolve_targets` names the three outputs by default (``noise_node``)."""
+
+
 def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
-                    handoff: str | Path | None) -> OutputTargets:
+                    handoff: str | Path | None, *,
+                    names: tuple[str, str, str] = OUTPUT_NAMES) -> OutputTargets:
     """Check the output targets before any work.
 
-    Check the targets before any work: files in existing directories, not directories
-    themselves (a directory given for the figure gets ``noise_adev.png`` inside).
+    Check the targets before any work: files that can be written in existing directories,
+    not directories themselves (a directory given for the figure gets ``noise_adev.png``
+    inside); ``names`` names them in a refusal (``gyro-calib noise``: its flags).
 
     Raises:
-        ConfigError: a target is a directory, or its directory does not exist, or two
-            targets are the same file (the Kalibr file written over the hand-off file).
+        ConfigError: a target is a directory, or its directory does not exist or cannot be
+            written in, or two targets are the same file (the Kalibr file written over the
+            hand-off file).
     """
     from gyro_calib.noise.session import FIGURE_NAME
     from gyro_calib.outputs import check_output_file
@@ -57,12 +65,10 @@ def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
             return (p / FIGURE_NAME).absolute()
         return check_output_file(p, what)
 
-    targets = OutputTargets(check(kalibr, 'the Kalibr file'), check(plot, 'the figure',
-                                                                     directory_ok=True),
-                            check(handoff, 'the hand-off file'))
-    named = [(what, p) for what, p in (('the Kalibr file', targets.kalibr),
-                                       ('the figure', targets.plot),
-                                       ('the hand-off file', targets.handoff)) if p is not None]
+    targets = OutputTargets(check(kalibr, names[0]), check(plot, names[1], directory_ok=True),
+                            check(handoff, names[2]))
+    named = [(what, p) for what, p in zip(names, (targets.kalibr, targets.plot, targets.handoff))
+             if p is not None]
     for i, (what, path) in enumerate(named):
         for other, other_path in named[i + 1:]:
             if path.resolve() == other_path.resolve():
@@ -72,9 +78,31 @@ def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
     return targets
 
 
+def curves_record(session: NoiseSession, source: str, gyro_id: str = '') -> Calibration | None:
+    """A hand-off record of the curves alone (no term resolved), or None without curves.
+
+    The run's per-τ tables (``methods.noise.deviations``) with every term missing and its
+    reason, as :meth:`NoiseSession.handoff` writes them beside the terms.
+    """
+    from gyro_calib.config import given
+    from gyro_calib.handoff import Provenance, method_calibration
+
+    span, tables = session.data_span_ns(), session.deviation_tables()
+    if span is None or not tables:
+        return None
+    missing = session.missing()
+    cannot = {k: v for k, v in session.not_measurable().items() if k in missing}
+    return method_calibration(
+        session.name, {},
+        Provenance(source, span[0], span[1], {k: v for k, v in missing.items() if k not in cannot},
+                   conditions={k: v for k, v in session.conditions().items() if given(v)},
+                   not_measurable=cannot, deviations=tables),
+        gyro_id=gyro_id)
+
+
 def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
-                  gyro_id: str = '',
-                  progress: list[tuple[str, Path]] | None = None) -> list[tuple[str, Path]]:
+                  gyro_id: str = '', progress: list[tuple[str, Path]] | None = None,
+                  curves_only: bool = False) -> list[tuple[str, Path]]:
     """Prepare every file asked for, then put them in place; return (what, absolute path).
 
     Args:
@@ -84,6 +112,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         gyro_id: the sensor's serial or name (hand-off identity).
         progress: filled with each file as it is put in place (so a caller interrupted
             while writing knows what was written).
+        curves_only: no term was resolved: the hand-off file gets the curves alone
+            (:func:`curves_record`).
 
     Raises:
         ConfigError: Kalibr asked for a single-axis gyro.
@@ -93,13 +123,15 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         OSError: a file cannot be written (the ones before it are in place).
     """
     from gyro_calib.handoff import SCALE_FACTOR_NOTE, load_calibration, update_calibration
-    from gyro_calib.outputs import temporary_beside, write_text_atomically
+    from gyro_calib.outputs import temporary_beside, with_filename, write_text_atomically
     from gyro_calib.registry import handoff_schema
 
     kalibr_text = session.kalibr_text() if targets.kalibr is not None else None
     record = None
     if targets.handoff is not None:
         record = session.handoff(source, gyro_id=gyro_id)
+        if record is None and curves_only:
+            record = curves_record(session, source, gyro_id)
         if record is None:
             raise InsufficientDataError(f'no noise term was measured: the hand-off file '
                                         f'{targets.handoff} is not written.')
@@ -116,6 +148,9 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         figure_tmp = temporary_beside(targets.plot, targets.plot.suffix or '.png')
         try:
             plot_noise_figure(view, figure_tmp)
+        except OSError as exc:  # a disk that fills: the error names the figure
+            figure_tmp.unlink(missing_ok=True)
+            raise with_filename(exc, targets.plot) from None
         except BaseException:
             figure_tmp.unlink(missing_ok=True)
             raise

@@ -393,14 +393,21 @@ def render_pdf(html: str) -> bytes:
 def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> list[Path]:
     """Write ``<out_dir>/<stem>.html`` (and ``.pdf``); each replaces its file atomically.
 
-    Both documents are rendered before anything is written.
+    Both documents are rendered before anything is written; ``out_dir``, when this call
+    creates it, goes again if a write fails (disk full) before anything is in it.
     """
     html = render_html(cert)
     documents = [(out_dir / f'{cert.file_stem}.html', html.encode('utf-8'))]
     if pdf:
         documents.append((out_dir / f'{cert.file_stem}.pdf', render_pdf(html)))
+    created = not out_dir.exists()
     out_dir.mkdir(exist_ok=True)  # checked before any work; parents are never created
-    return [write_bytes_atomically(path, data) for path, data in documents]
+    try:
+        return [write_bytes_atomically(path, data) for path, data in documents]
+    except BaseException:
+        if created and not any(out_dir.iterdir()):
+            out_dir.rmdir()
+        raise
 
 
 def write_bytes_atomically(path: Path, data: bytes) -> Path:
@@ -409,7 +416,7 @@ def write_bytes_atomically(path: Path, data: bytes) -> Path:
     Write ``data`` to ``path``: temporary file beside it, fsync, rename; the mode of
     :func:`gyro_calib.outputs.new_file_mode` (the user's umask, or the replaced file's).
     """
-    from gyro_calib.outputs import new_file_mode
+    from gyro_calib.outputs import new_file_mode, with_filename
 
     target = Path(path).absolute()
     mode = new_file_mode(target)
@@ -421,6 +428,9 @@ def write_bytes_atomically(path: Path, data: bytes) -> Path:
             os.fchmod(stream.fileno(), mode)
             os.fsync(stream.fileno())
         os.replace(tmp, target)
+    except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
+        raise with_filename(exc, target) from None
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise

@@ -97,8 +97,13 @@ def run_report(args: argparse.Namespace) -> int:
         if not options.gyro_id and calibration.gyro_id:
             options = dataclasses.replace(options, gyro_id=calibration.gyro_id)
         evidence = evidence_from_bags(args.bags, calibration, options, args.method)
-    paths = write_report(calibration, evidence, spec, args.out, handoff_path=str(args.handoff),
-                         pdf=args.pdf)
+    try:
+        paths = write_report(calibration, evidence, spec, args.out,
+                             handoff_path=str(args.handoff), pdf=args.pdf)
+    except OSError as exc:  # disk full: each document is written whole or not at all
+        from gyro_calib.outputs import write_failed
+
+        raise write_failed(exc, '--out', args.out) from None
     for path in paths:
         print(f'certificate written: {path}')
     return EXIT_OK

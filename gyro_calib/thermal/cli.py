@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import io
 import json
 import math
 import struct
@@ -397,11 +398,13 @@ def summary_text(result: BagCompensation, calibration_file: Path) -> str:
 
 def run_compensate(args: argparse.Namespace) -> int:
     """``gyro-calib compensate``: exit status 0, or a GyroCalibError for main() to print."""
-    from gyro_calib.bagio import BagError
-    from gyro_calib.outputs import check_new_directory, check_plot_dir, make_plot_dir
+    from gyro_calib.outputs import (
+        check_new_directory,
+        check_plot_dir,
+        write_failed,
+        write_figures,
+    )
 
-    if args.out is not None and args.out.exists():
-        raise BagError(f'{args.out}: exists already; not overwriting it.')
     if args.out is not None:
         check_new_directory(args.out, '--out')
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
@@ -410,12 +413,15 @@ def run_compensate(args: argparse.Namespace) -> int:
     result = compensate_bags(args.bags, args.calibration, gyro_id=args.gyro_id,
                              block_s=args.block_s,
                              out_of_range='skip' if args.skip_out_of_range else 'raise')
-    human = sys.stderr if args.json else sys.stdout
+    human = io.StringIO()  # out once the files are written: a failed write prints one line
     print(summary_text(result, args.calibration), file=human)
     doc = json_document(result)
     if args.out is not None:
-        written, without = write_compensated_bag(result, args.out,
-                                                 calibration_file=args.calibration)
+        try:
+            written, without = write_compensated_bag(result, args.out,
+                                                     calibration_file=args.calibration)
+        except OSError as exc:  # the bag is written whole (a .partial directory) or not
+            raise write_failed(exc, '--out', args.out) from None
         print(f'compensated bag written: {args.out.resolve()} ({written} {GYRO_IMU} messages'
               + (f'; {without} pulse samples without a model bias got none' if without else '')
               + ')', file=human)
@@ -424,8 +430,15 @@ def run_compensate(args: argparse.Namespace) -> int:
     if plot_dir is not None:
         from gyro_calib.thermal.plots import plot_compensation
 
-        for path in plot_compensation(result.report, make_plot_dir(plot_dir)):
+        try:
+            figures = write_figures(plot_dir, lambda stage: plot_compensation(result.report,
+                                                                              stage))
+        except OSError as exc:
+            raise write_failed(exc, '--plot', plot_dir,
+                               [f'--out {args.out}'] if args.out is not None else []) from None
+        for path in figures:
             print(f'figure written: {path.resolve()}', file=human)
+    (sys.stderr if args.json else sys.stdout).write(human.getvalue())
     if args.json:
         print(json.dumps(doc, indent=1, allow_nan=False))
     return 0
