@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from fake_node import FakeNode as _Node
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -34,24 +35,6 @@ from gyro_calib.state_record import StateRecord, why_not_continued
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 ARCSEC = math.pi / 180 / 3600
 PULSES, TABLE, INDEX = '/gyro/pulses', '/rate_table/joint_states', '/rate_table/zero_index'
-
-
-class _Logger:
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-
-    def info(self, line: str) -> None:
-        self.lines.append(line)
-
-    warning = info
-
-
-class _Node:
-    def __init__(self) -> None:
-        self.logger = _Logger()
-
-    def get_logger(self) -> _Logger:
-        return self.logger
 
 
 # -- a bench from the kinematics ------------------------------------------------------------

@@ -179,32 +179,20 @@ def test_a_record_that_never_got_a_sample_leaves_no_directory(tmp_path: Path) ->
 
 def test_a_node_moves_a_record_of_other_parameters_aside_and_starts_anew(
         tmp_path: Path) -> None:
+    from fake_node import FakeNode
+
     from gyro_calib.nodes.node_state import NodeState
 
-    class _Logger:
-        def __init__(self) -> None:
-            self.lines: list[str] = []
-
-        def info(self, line: str) -> None:
-            self.lines.append(line)
-
-        warning = info
-
-    class _Node:
-        logger = _Logger()
-
-        def get_logger(self) -> _Logger:
-            return self.logger
-
     directory = tmp_path / 'gyro.yaml.state'
-    first = NodeState(_Node(), 'rbrlg', '', directory, False, {'min_pairs': 2})
+    first = NodeState(FakeNode(), 'rbrlg', '', directory, False, {'min_pairs': 2})
     assert first.record is not None
     first.record.append(_small_batches('fog', BAGS / CASES['fog'], 50)[0])
     first.finish(complete=False)  # the first node stops (its lock released)
-    again = NodeState(_Node(), 'rbrlg', '', directory, False, {'min_pairs': 3}).record
+    node = FakeNode()
+    again = NodeState(node, 'rbrlg', '', directory, False, {'min_pairs': 3}).record
     assert again is not None and again.summary().messages == 0
     aside = [p for p in tmp_path.iterdir() if p.name.startswith('gyro.yaml.state.superseded-')]
     assert len(aside) == 1
     assert StateRecord(aside[0], {}).summary().messages > 0  # nothing of it lost
     assert any("parameter min_pairs '2', not '3'" in line and 'moved to' in line
-               for line in _Node.logger.lines)
+               for line in node.logger.lines)
