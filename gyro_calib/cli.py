@@ -252,7 +252,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     from gyro_calib.outputs import check_output_file, check_plot_dir
 
     if args.out is not None:
-        check_output_file(args.out, '--out')
+        check_output_file(args.out, '--out', follow_links=True)
         if args.out.exists():
             from gyro_calib.handoff import load_calibration
 

@@ -92,8 +92,11 @@ def probe_writable(directory: Path, what: str, path: Path, *, new_directory: boo
         raise _cannot_write(path, what, directory, exc) from None
 
 
-def check_output_file(path: str | Path, what: str) -> Path:
+def check_output_file(path: str | Path, what: str, *, follow_links: bool = False) -> Path:
     """An output file's absolute path, checked before any work (writability included).
+
+    ``follow_links``: the writer replaces a symbolic link's target (the hand-off file), so
+    the target's directory must be writable too.
 
     Raises:
         ConfigError: ``path`` is a directory or another non-regular file (a device, a
@@ -110,6 +113,8 @@ def check_output_file(path: str | Path, what: str) -> Path:
     if refusal is not None:
         raise refusal
     probe_writable(p.absolute().parent, what, p)
+    if follow_links and p.is_symlink() and p.resolve().parent != p.absolute().parent:
+        probe_writable(p.resolve().parent, what, p)
     return p.absolute()
 
 

@@ -11,12 +11,14 @@ stream through the shared bag calibration (columnar decoding, several bags in st
 into :class:`gyro_calib.noise.session.NoiseSession`.
 
 Exit status: 0 terms measured (files written); 1 Allan deviations but no term resolved
-(nothing written; ``--json`` still prints the curves and each term's reason, which were
-measured); 2 bad input in one line — a path that is not a bag, a topic absent or
+(the curves and each term's reason were measured: ``--json`` prints them, ``--plot`` draws
+them, ``--out`` gets the curves alone unless the file holds noise terms; no Kalibr file;
+the last line names a ``--taus`` list too short for a fit); 2 bad input in one line — a path that is not a bag, a topic absent or
 of another type (the line lists the topics present with their types), a pulse or FOG
 stream without a scale factor, a channel that is constant or all NaN, a record too short
-for any term, an output path that cannot be written. On any failure no file is written or
-overwritten.
+for any term, an output path that cannot be written (checked before any work, writability
+included). On any failure no file is written or overwritten; a disk that fills while writing
+ends in one line naming the output and what was written before it.
 """
 
 from __future__ import annotations

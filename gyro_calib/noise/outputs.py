@@ -57,16 +57,17 @@ def resolve_targets(kalibr: str | Path | None, plot: str | Path | None,
     from gyro_calib.noise.session import FIGURE_NAME
     from gyro_calib.outputs import check_output_file
 
-    def check(path: str | Path | None, what: str, *, directory_ok: bool = False) -> Path | None:
+    def check(path: str | Path | None, what: str, *, directory_ok: bool = False,
+              follow_links: bool = False) -> Path | None:
         if path is None or str(path) == '':
             return None
         p = Path(path)
         if p.is_dir() and directory_ok:
             return (p / FIGURE_NAME).absolute()
-        return check_output_file(p, what)
+        return check_output_file(p, what, follow_links=follow_links)
 
     targets = OutputTargets(check(kalibr, names[0]), check(plot, names[1], directory_ok=True),
-                            check(handoff, names[2]))
+                            check(handoff, names[2], follow_links=True))
     named = [(what, p) for what, p in zip(names, (targets.kalibr, targets.plot, targets.handoff))
              if p is not None]
     for i, (what, path) in enumerate(named):
