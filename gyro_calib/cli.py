@@ -255,7 +255,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     check_calibration_file(args.calibration)
     infos, _ = bag_infos(args.bags, args.namespace)
     refuse_unused_flags(args, [m.name for m in select_methods(infos, args.method)])
-    if args.report is not None or args.spec is not None:  # checked before any work
+    if any(v is not None for v in (args.report, args.spec, args.lab, args.customer)):  # first
         from gyro_calib.report.cli import check_calibrate_report
 
         check_calibrate_report(args)
