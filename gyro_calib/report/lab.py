@@ -39,6 +39,7 @@ import datetime
 import difflib
 import fcntl
 import os
+import re
 import string
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -153,11 +154,14 @@ def check_pattern(pattern: str, where: str = 'certificate_number') -> str:
     except ValueError as exc:
         raise ConfigError(f'{shown} is not a valid pattern ({exc}); write e.g. '
                           '"GC-{year}-{seq:05d}".') from None
-    for name, _, conv in fields:
+    for name, spec, conv in fields:
         if name not in NUMBER_FIELDS or conv:
             raise ConfigError(f'{shown}: unknown field {{{name}{"!" + conv if conv else ""}}}'
                               f'{_nearest(name, list(NUMBER_FIELDS))} The fields are '
                               f'{", ".join("{" + f + "}" for f in NUMBER_FIELDS)}.')
+        if not re.fullmatch(r'0?\d{0,2}d?', spec or ''):
+            raise ConfigError(f'{shown}: {{{name}:{spec}}} is not a whole-number format (two '
+                              'sequence numbers could print alike); write e.g. {seq:05d}.')
     if 'seq' not in [name for name, _, _ in fields]:
         raise ConfigError(f'{shown} has no {{seq}}: without the sequence number two '
                           'certificates could get the same number; write e.g. '
