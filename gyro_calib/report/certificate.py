@@ -4,9 +4,10 @@
 what the run knows (:class:`~gyro_calib.report.evidence.RunEvidence`: degrees of freedom,
 budgets, rejections, figures, input hashes, settings) and a spec (verdicts). Values are the
 hand-off's, converted to the unit a lab quotes (:mod:`gyro_calib.report.units`); k and U follow
-from the degrees of freedom (:mod:`gyro_calib.report.uncertainty`). What ISO/IEC 17025 7.8.2,
-7.8.4 and 7.8.6 ask a calibration certificate to hold is laid out in its template
-(:data:`TEMPLATE`).
+from the degrees of freedom (:mod:`gyro_calib.report.uncertainty`). Only a certificate issued
+by a laboratory (an :class:`~gyro_calib.report.lab.Issue`: lab, number, customer) holds what
+ISO/IEC 17025 7.8.2, 7.8.4 and 7.8.6 ask, laid out in its template (:data:`TEMPLATE`); without
+one it is a draft and says so on every page.
 """
 
 from __future__ import annotations
