@@ -259,7 +259,7 @@ def _calibrate(args: argparse.Namespace) -> int:
             # a file that cannot be updated: refused before work
             load_calibration(args.out, handoff_schema())
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
-    if args.report is not None or args.spec is not None:  # checked before any work
+    if any(v is not None for v in (args.report, args.spec, args.lab, args.customer)):  # first
         from gyro_calib.report.cli import check_calibrate_report
 
         check_calibrate_report(args)

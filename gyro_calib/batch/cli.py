@@ -2,6 +2,7 @@
 
     gyro-calib batch MANIFEST --out DIR [--workers N | --scheduler tcp://HOST:PORT]
                      [--spec SPEC.yaml] [--force] [--no-pdf] [--progress]
+                     [--lab LAB.yaml] [--customer TEXT]
 
 Exit status: 0 every gyro calibrated; 1 some gyro failed (its row says why; the others
 are done); 2 bad input (manifest, spec, output directory), nothing written; 130 interrupted
@@ -43,6 +44,9 @@ def add_commands(sub: Any) -> None:
     bat.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
                      help='progress bar over gyros on stderr (default: when stderr is a '
                      'terminal)')
+    from gyro_calib.report.cli import lab_arguments
+
+    lab_arguments(bat)  # --customer: for the gyros whose manifest entry names none
     bat.set_defaults(run=run)
 
 
@@ -58,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     created = not args.out.exists()
     jobs = load_manifest(args.manifest)
     spec = load_spec_arg(args.spec)
+    lab, jobs = lab_and_customers(args, jobs)
     show = sys.stderr.isatty() if args.progress is None else args.progress
     try:
         client, cluster = make_client(args.workers, args.scheduler)
@@ -75,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
                 bar.update(done - bar.n)
 
         outcome = run_batch(jobs, args.out, client=client, spec=spec, spec_path=args.spec,
-                            force=args.force, pdf=args.pdf, progress=progress)
+                            force=args.force, pdf=args.pdf, progress=progress, lab=lab)
     except OSError as exc:  # disk full: what was stored before it stays, each file whole
         from gyro_calib.outputs import write_failed
 
@@ -95,3 +100,28 @@ def run(args: argparse.Namespace) -> int:
         print('gyro-calib: interrupted; the gyros that finished are kept.', file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_SOME_FAILED if outcome.failed else EXIT_OK
+
+
+def lab_and_customers(args: argparse.Namespace, jobs: list[Any]) -> tuple[Any, list[Any]]:
+    """The issuing lab (``--lab``, else ``lab.yaml`` in ``--out``) and each gyro's customer.
+
+    A gyro's customer: its manifest's ``customer``, else ``--customer``, else the lab file's.
+
+    Raises:
+        ConfigError: a malformed lab file, or a gyro without a customer under a lab.
+    """
+    import dataclasses
+
+    from gyro_calib.report.lab import check_customer, find_lab
+
+    lab = find_lab(args.lab, args.out)
+    default = check_customer(args.customer, None)
+    out = []
+    for job in jobs:
+        customer = job.customer or default or (lab.customer if lab is not None else '')
+        if lab is not None and not customer:
+            raise ConfigError(f'gyro {job.gyro_id}: a certificate issued by {lab.name} names '
+                              'its customer (ISO/IEC 17025 7.8.2.1 e): give a customer column '
+                              f'in the manifest, --customer, or customer: in {lab.source}.')
+        out.append(dataclasses.replace(job, customer=customer))
+    return lab, out

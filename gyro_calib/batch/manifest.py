@@ -3,11 +3,15 @@
 Three forms:
 
 * YAML — a list (or ``gyros:`` list) of mappings ``{id, bags: [...], methods: [...],
-  settings: {latitude_deg: 28.2, ...}}``;
+  settings: {latitude_deg: 28.2, ...}, customer: ...}``;
 * CSV — columns ``gyro_id``, ``bags`` (``;``-separated), optional ``methods``
-  (``;``-separated) and one column per setting (empty cell: not given);
+  (``;``-separated), optional ``customer`` and one column per setting (empty cell: not
+  given);
 * a directory with one folder per gyro (the folder name is the id) holding its bags and,
-  optionally, ``settings.yaml`` (the settings mapping, ``methods`` allowed in it).
+  optionally, ``settings.yaml`` (the settings mapping, ``methods`` and ``customer`` allowed
+  in it).
+
+``customer`` is the customer the gyro's certificate names (ISO/IEC 17025 7.8.2.1 e).
 
 Relative paths are relative to the manifest (or the directory). Settings are the
 ``gyro-calib calibrate`` flags without ``--`` and with ``_`` (``latitude_deg``,
@@ -45,12 +49,14 @@ class GyroJob:
         bags: its bag paths (absolute).
         methods: the methods to run (empty: every method the bags reveal).
         settings: setting name → value (see :data:`SETTINGS`).
+        customer: the customer its certificate names ('' not given).
     """
 
     gyro_id: str
     bags: tuple[str, ...]
     methods: tuple[str, ...] = ()
     settings: dict[str, Any] = field(default_factory=dict)
+    customer: str = ''
 
     def options(self) -> Any:
         """The :class:`~gyro_calib.session.CalibrationOptions` of this gyro."""
@@ -103,7 +109,7 @@ def load_manifest(path: Path) -> list[GyroJob]:
 
 
 def _job(where: str, base: Path, gyro_id: Any, bags: Any, methods: Any,
-         settings: Any) -> GyroJob:
+         settings: Any, customer: Any = None) -> GyroJob:
     if not isinstance(gyro_id, (str, int)) or not str(gyro_id).strip():
         raise ConfigError(f'{where}: every gyro needs an id.')
     gid = str(gyro_id).strip()
@@ -119,6 +125,8 @@ def _job(where: str, base: Path, gyro_id: Any, bags: Any, methods: Any,
                           f'{", ".join(METHODS)}.')
     if not isinstance(settings, dict):
         raise ConfigError(f'{where}: gyro {gid}: settings must be a mapping.')
+    if customer is not None and not isinstance(customer, (str, int)):
+        raise ConfigError(f'{where}: gyro {gid}: customer must be a text (name and contact).')
     checked: dict[str, Any] = {}
     for name, value in settings.items():
         if value is None or value == '':
@@ -143,7 +151,7 @@ def _job(where: str, base: Path, gyro_id: Any, bags: Any, methods: Any,
             raise ConfigError(f'{where}: gyro {gid}: {name} = {value!r} is not '
                               f'{"an integer" if kind is int else "a finite number"}.') from None
     return GyroJob(gid, tuple(str((base / b).absolute()) for b in bags), tuple(methods),
-                   checked)
+                   checked, ' '.join(str(customer or '').split()))
 
 
 def _from_yaml(path: Path) -> list[GyroJob]:
@@ -162,11 +170,13 @@ def _from_yaml(path: Path) -> list[GyroJob]:
         where = f'manifest {path}, entry {i + 1}'
         if not isinstance(entry, dict):
             raise ConfigError(f'{where} must be a mapping {{id, bags, methods, settings}}.')
-        unknown = sorted(set(entry) - {'id', 'gyro_id', 'bags', 'methods', 'settings'})
+        unknown = sorted(set(entry) - {'id', 'gyro_id', 'bags', 'methods', 'settings',
+                                       'customer'})
         if unknown:
             raise ConfigError(f'{where}: unknown field(s) {", ".join(unknown)}.')
         jobs.append(_job(where, path.parent, entry.get('id', entry.get('gyro_id')),
-                         entry.get('bags'), entry.get('methods'), entry.get('settings') or {}))
+                         entry.get('bags'), entry.get('methods'), entry.get('settings') or {},
+                         entry.get('customer')))
     return jobs
 
 
@@ -183,9 +193,9 @@ def _from_csv(path: Path) -> list[GyroJob]:
             raise ConfigError(f'{where} has more cells than the header.')
         bags = [b.strip() for b in (row.get('bags') or '').split(';') if b.strip()]
         settings = {k: (v or '').strip() for k, v in row.items()
-                    if k not in ('gyro_id', 'bags', 'methods')}
+                    if k not in ('gyro_id', 'bags', 'methods', 'customer')}
         jobs.append(_job(where, path.parent, row.get('gyro_id', ''), bags,
-                         row.get('methods'), settings))
+                         row.get('methods'), settings, row.get('customer')))
     return jobs
 
 
@@ -210,8 +220,9 @@ def _from_directory(path: Path) -> list[GyroJob]:
             raise ConfigError(f'{settings_file} must hold a mapping of settings.')
         settings = dict(settings)
         methods = settings.pop('methods', None)
+        customer = settings.pop('customer', None)
         where = f'manifest directory {path}, folder {folder.name}'
         if not bags:
             raise ConfigError(f'{where} holds no bag.')
-        jobs.append(_job(where, folder, folder.name, bags, methods, settings))
+        jobs.append(_job(where, folder, folder.name, bags, methods, settings, customer))
     return jobs

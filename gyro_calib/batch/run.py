@@ -31,6 +31,7 @@ from gyro_calib.batch.tasks import (
     reason,
     run_method,
 )
+from gyro_calib.report.lab import reserve_number
 
 RECORD = 'record.json'
 """Each gyro's record (fingerprint, inputs, certificate rows) in its folder."""
@@ -103,16 +104,20 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
 
 def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any = None,
               spec_path: Path | None = None, force: bool = False, pdf: bool = True,
-              progress: Callable[[int, int], None] | None = None) -> BatchOutcome:
+              progress: Callable[[int, int], None] | None = None,
+              lab: Any = None) -> BatchOutcome:
     """Calibrate every gyro of ``jobs`` on the cluster.
 
     Calibrate every gyro of ``jobs`` on ``client``'s cluster; write per-gyro and fleet
-    files into ``out_dir`` (what finished is kept when interrupted).
+    files into ``out_dir`` (what finished is kept when interrupted). With a ``lab``
+    (:class:`~gyro_calib.report.lab.Lab`) each certificate made is issued under the next
+    number of its register, reserved here in the parent when the gyro's finish task is
+    submitted; an unchanged gyro keeps its certificate and number.
     """
     from dask.distributed import as_completed
 
     out_dir.mkdir(exist_ok=True)  # checked before any work; parents are never created
-    digest = spec_digest(spec_path)
+    digest = spec_digest(spec_path) + (spec_digest(lab.source) if lab is not None else '')
     stems = {j.gyro_id: gyro_stem(j.gyro_id) for j in jobs}
     previous = {j.gyro_id: _previous(out_dir, stems[j.gyro_id]) for j in jobs}
     records: dict[str, dict[str, Any]] = {}
@@ -153,8 +158,10 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
                         runs = [client.submit(run_method, job, m, pure=False,
                                               key=f'{m}-{stems[gid]}-{os.urandom(4).hex()}')
                                 for m in plan.methods]
+                        issue = (None if lab is None else
+                                 reserve_number(lab, gid, job.customer))
                         fin = client.submit(finish_gyro, job, plan, spec, pdf, stems[gid], *runs,
-                                            pure=False,
+                                            issue=issue, pure=False,
                                             key=f'finish-{stems[gid]}-{os.urandom(4).hex()}')
                         pending[fin.key] = ('finish', gid)
                         submitted += [*runs, fin]

@@ -83,7 +83,8 @@ def plan_gyro(job: GyroJob, previous_fingerprint: str, spec_digest: str, force: 
             inputs[bag] = sha256_files(info.path)
         fingerprint = hashlib.sha256(json.dumps(
             {'version': __version__, 'inputs': inputs, 'settings': job.settings,
-             'methods': job.methods, 'spec': spec_digest, 'gyro_id': job.gyro_id},
+             'methods': job.methods, 'spec': spec_digest, 'gyro_id': job.gyro_id,
+             **({'customer': job.customer} if job.customer else {})},
             sort_keys=True).encode()).hexdigest()
         if fingerprint == previous_fingerprint and not force:
             return Plan(job.gyro_id, inputs, fingerprint, (), True)
@@ -113,8 +114,11 @@ def run_method(job: GyroJob, method: str) -> MethodRun:
 
 
 def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
-                *runs: MethodRun) -> GyroResult:
-    """Merge the methods' hand-off parts, render the hand-off file and the certificate."""
+                *runs: MethodRun, issue: Any = None) -> GyroResult:
+    """Merge the methods' hand-off parts, render the hand-off file and the certificate.
+
+    ``issue``: the laboratory and certificate number the parent reserved (None: a draft).
+    """
     errors = [r.error for r in runs if r.error]
     done = [r for r in runs if not r.error]
     base = {'gyro_id': job.gyro_id, 'stem': stem, 'fingerprint': plan.fingerprint,
@@ -146,7 +150,8 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
             tuple({b.path: b for r in done for b in r.evidence.bags}.values()),
             done[0].evidence.settings)
         handoff_name = f'{stem}/{stem}.yaml'
-        cert = build_certificate(record, evidence, spec, handoff_path=handoff_name)
+        cert = build_certificate(record, evidence, spec, handoff_path=handoff_name,
+                                 issue=issue, customer=job.customer)
         cert = _with_stem(cert, stem)
         html = render_html(cert)
         files = {handoff_name: (

@@ -13,7 +13,8 @@ into :class:`gyro_calib.noise.session.NoiseSession`.
 Exit status: 0 terms measured (files written); 1 Allan deviations but no term resolved
 (the curves and each term's reason were measured: ``--json`` prints them, ``--plot`` draws
 them, ``--out`` gets the curves alone unless the file holds noise terms; no Kalibr file;
-the last line names a ``--taus`` list too short for a fit); 2 bad input in one line — a path that is not a bag, a topic absent or
+the last line names a ``--taus`` list too short for a fit); 2 bad input in one line — a
+path that is not a bag, a topic absent or
 of another type (the line lists the topics present with their types), a pulse or FOG
 stream without a scale factor, a channel that is constant or all NaN, a record too short
 for any term, an output path that cannot be written (checked before any work, writability

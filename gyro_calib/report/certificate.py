@@ -4,9 +4,10 @@
 what the run knows (:class:`~gyro_calib.report.evidence.RunEvidence`: degrees of freedom,
 budgets, rejections, figures, input hashes, settings) and a spec (verdicts). Values are the
 hand-off's, converted to the unit a lab quotes (:mod:`gyro_calib.report.units`); k and U follow
-from the degrees of freedom (:mod:`gyro_calib.report.uncertainty`). What ISO/IEC 17025 7.8.2,
-7.8.4 and 7.8.6 ask a calibration certificate to hold is laid out in its template
-(:data:`TEMPLATE`).
+from the degrees of freedom (:mod:`gyro_calib.report.uncertainty`). Only a certificate issued
+by a laboratory (an :class:`~gyro_calib.report.lab.Issue`: lab, number, customer) holds what
+ISO/IEC 17025 7.8.2, 7.8.4 and 7.8.6 ask, laid out in its template (:data:`TEMPLATE`); without
+one it is a draft and says so on every page.
 """
 
 from __future__ import annotations
@@ -28,7 +29,9 @@ import yaml
 from gyro_calib import __version__
 from gyro_calib.handoff import Calibration, HandoffKey
 from gyro_calib.registry import METHODS, handoff_schema
+from gyro_calib.report.conditions import calibration_date, temperature_text
 from gyro_calib.report.evidence import MethodEvidence, RunEvidence
+from gyro_calib.report.lab import Issue
 from gyro_calib.report.spec import NOT_MEASURED, Spec, overall, verdict
 from gyro_calib.report.uncertainty import (
     BudgetLine,
@@ -118,6 +121,10 @@ class Certificate:
     evidence_note: str
     notes: tuple[str, ...] = field(default=())
     conventions: tuple[tuple[str, str], ...] = field(default=())
+    issue: Issue | None = None
+    customer: str = ''
+    calibration_date: str = ''
+    temperature: str = ''
 
 
 def _utc_now() -> str:
@@ -208,7 +215,8 @@ def _span_text(start_ns: int, end_ns: int) -> str:
 
 def build_certificate(calibration: Calibration, evidence: RunEvidence | None = None,
                       spec: Spec | None = None, *, handoff_path: str = '',
-                      schema: Mapping[str, HandoffKey] | None = None) -> Certificate:
+                      schema: Mapping[str, HandoffKey] | None = None,
+                      issue: Issue | None = None, customer: str = '') -> Certificate:
     """The certificate of one gyro.
 
     Args:
@@ -218,6 +226,9 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         spec: limits and decision rule (None: no verdicts, and the certificate says so).
         handoff_path: the hand-off file, as named on the certificate.
         schema: the hand-off keys (default: every registered method's).
+        issue: the laboratory, number and customer (:mod:`gyro_calib.report.lab`); None: a
+            draft, not issued by a laboratory.
+        customer: the customer a draft names (an issue names its own).
     """
     sch = handoff_schema() if schema is None else schema
     order = {k: i for i, k in enumerate(sch)}
@@ -325,9 +336,16 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                 else 'not recorded in the hand-off file (give the bags to see the settings)')
     created = sorted(p.created_utc for p in calibration.methods.values())
     stem = _file_stem(calibration.gyro_id or Path(handoff_path).stem or 'gyro')
+    calculated = ' … '.join(dict.fromkeys([created[0], created[-1]])) if created else '?'
+    when = (calibration_date([(b.start_ns, b.end_ns) for b in evidence.bags], calculated)
+            if evidence else calibration_date(
+                [(p.data_start_stamp_ns, p.data_end_stamp_ns)
+                 for p in calibration.methods.values()], calculated,
+                'the data the hand-off file records'))
     return Certificate(
         gyro_id=calibration.gyro_id or '(no gyro id given)', file_stem=stem,
-        issued_utc=_utc_now(), software=f'gyro_calib {__version__} (hand-off written by '
+        issued_utc=issue.issued_utc if issue else _utc_now(),
+        software=f'gyro_calib {__version__} (hand-off written by '
         f'{calibration.gyro_calib_version or "?"})', handoff_path=handoff_path,
         calibrated_utc=' … '.join(dict.fromkeys([created[0], created[-1]])) if created else '',
         complete=calibration.complete, rows=tuple(rows), facts=tuple(facts),
@@ -338,7 +356,9 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
             'No bag was given: degrees of freedom, budgets, rejections, figures (but the '
             'noise curves the hand-off file stores) and input hashes are not known to this '
             'certificate; k = 2 is assumed for every quantity.'),
-        notes=tuple(notes), conventions=_conventions())
+        notes=tuple(notes), conventions=_conventions(), issue=issue,
+        customer=issue.customer if issue else customer, calibration_date=when,
+        temperature=temperature_text(evidence.bags if evidence else (), evidence is not None))
 
 
 def _figures(ev: MethodEvidence | None, prov: Any) -> list[tuple[str, str, bytes]]:
@@ -375,8 +395,17 @@ def render_html(cert: Certificate) -> str:
     import jinja2
 
     env = jinja2.Environment(autoescape=True, undefined=jinja2.StrictUndefined)
+    env.filters['css'] = _css_string
     template = resources.files('gyro_calib.report').joinpath(TEMPLATE).read_text('utf-8')
     return env.from_string(template).render(c=cert)
+
+
+def _css_string(text: Any) -> Any:
+    """Text for a CSS string in the page's ``<style>`` (no HTML escaping applies there)."""
+    import markupsafe
+
+    return markupsafe.Markup(''.join(c if c.isalnum() or c in ' .,:;/_-—()' else
+                                     f'\\{ord(c):x} ' for c in str(text)))
 
 
 def render_pdf(html: str) -> bytes:
@@ -441,6 +470,7 @@ def certificate_record(cert: Certificate) -> dict[str, Any]:
     """The certificate's quantities as plain data (the fleet files are made of these)."""
     return {
         'gyro_id': cert.gyro_id, 'overall': cert.overall, 'rule': cert.rule,
+        'certificate_number': cert.issue.number if cert.issue else None,
         'complete': cert.complete,
         'quantities': [{'key': r.key, 'method': r.method, 'unit': r.unit,
                         'value': r.value_si * r.factor, 'std': r.std_si * r.factor,

@@ -1,11 +1,14 @@
 """``gyro-calib report`` and ``gyro-calib calibrate … --report DIR``: the certificate of a gyro.
 
     gyro-calib report HANDOFF.yaml [BAG ...] [--spec SPEC.yaml] --out DIR [--no-pdf]
+                      [--lab LAB.yaml] [--customer TEXT]
 
 writes ``DIR/<gyro_id>.html`` (self-contained) and ``DIR/<gyro_id>.pdf``. With bags, the
 methods of the hand-off file whose topics the bags hold are run again on them (with the same
 settings flags as ``calibrate``) for the degrees of freedom, budgets, rejections, figures and
-input hashes; without, the certificate rests on the hand-off file alone and says so.
+input hashes; without, the certificate rests on the hand-off file alone and says so. With a
+lab file (``--lab``, or ``lab.yaml`` in DIR; :mod:`gyro_calib.report.lab`) the certificate is
+issued by that laboratory under the next number of its register; without, it is a draft.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ if TYPE_CHECKING:
     from gyro_calib.bag_calibration import BagCalibration
     from gyro_calib.handoff import Calibration
     from gyro_calib.report.evidence import RunEvidence
+    from gyro_calib.report.lab import Issue, Lab
     from gyro_calib.report.spec import Spec
 
 EXIT_OK = 0
@@ -42,8 +46,19 @@ def add_commands(sub: Any) -> None:
                      help='acceptance limits and decision rule (YAML); without it no verdicts')
     rep.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
                      help='write the PDF beside the HTML (default: yes)')
+    lab_arguments(rep)
     method_arguments(rep)
     rep.set_defaults(run=run_report)
+
+
+def lab_arguments(parser: argparse.ArgumentParser, where: str = '--out DIR') -> None:
+    """``--lab`` and ``--customer``: who issues the certificate, and for whom."""
+    parser.add_argument('--lab', type=Path, metavar='LAB',
+                        help='the issuing laboratory (YAML: name, address, signatory, '
+                        f'traceability, certificate_number); default: lab.yaml in {where}; '
+                        'without one the certificate is a DRAFT')
+    parser.add_argument('--customer', metavar='TEXT',
+                        help='the customer the certificate names (name and contact)')
 
 
 def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
@@ -52,6 +67,7 @@ def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
                         help='write the certificate (<gyro_id>.html and .pdf) into DIR')
     parser.add_argument('--spec', type=Path, metavar='SPEC',
                         help='with --report: acceptance limits and decision rule (YAML)')
+    lab_arguments(parser, '--report DIR')
 
 
 def check_output_dir(path: Path, what: str = '--out') -> Path:
@@ -66,11 +82,27 @@ def check_output_dir(path: Path, what: str = '--out') -> Path:
 
 
 def check_calibrate_report(args: argparse.Namespace) -> None:
-    """``calibrate --report DIR [--spec SPEC]``: checked before any work."""
+    """``calibrate --report DIR [--spec SPEC] [--lab LAB] [--customer TEXT]``: checked first."""
     if args.report is None:
-        raise ConfigError('--spec applies only with --report DIR (the certificate).')
+        given = [f for f, v in (('--spec', args.spec), ('--lab', args.lab),
+                                ('--customer', args.customer)) if v is not None]
+        raise ConfigError(f'{" and ".join(given)} appl{"ies" if len(given) == 1 else "y"} only '
+                          'with --report DIR (the certificate).')
     check_output_dir(args.report, '--report')
     load_spec_arg(args.spec)
+    lab_and_customer(args, args.report)
+
+
+def lab_and_customer(args: argparse.Namespace, out_dir: Path) -> tuple[Lab | None, str]:
+    """The issuing lab (``--lab``, else ``lab.yaml`` in ``out_dir``) and the customer.
+
+    Raises:
+        ConfigError: a malformed lab file, or a lab without a customer (one line).
+    """
+    from gyro_calib.report.lab import check_customer, find_lab
+
+    lab = find_lab(args.lab, out_dir)
+    return lab, check_customer(args.customer, lab)
 
 
 def load_spec_arg(path: Path | None) -> Spec | None:
@@ -90,6 +122,7 @@ def run_report(args: argparse.Namespace) -> int:
 
     check_output_dir(args.out)
     spec = load_spec_arg(args.spec)
+    lab, customer = lab_and_customer(args, args.out)
     calibration = load_calibration(args.handoff, handoff_schema())
     evidence = None
     if args.bags:
@@ -99,7 +132,9 @@ def run_report(args: argparse.Namespace) -> int:
         evidence = evidence_from_bags(args.bags, calibration, options, args.method)
     try:
         paths = write_report(calibration, evidence, spec, args.out,
-                             handoff_path=str(args.handoff), pdf=args.pdf)
+                             handoff_path=str(args.handoff), pdf=args.pdf,
+                             issue=issue_for(lab, calibration, customer, str(args.handoff)),
+                             customer=customer)
     except OSError as exc:  # disk full: each document is written whole or not at all
         from gyro_calib.outputs import write_failed
 
@@ -136,12 +171,24 @@ def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
     return evidence_from_outcome(outcome, options)
 
 
+def issue_for(lab: Lab | None, calibration: Calibration, customer: str,
+              handoff_path: str) -> Issue | None:
+    """The certificate's issue: the next number of the lab's register (None: a draft)."""
+    if lab is None:
+        return None
+    from gyro_calib.report.lab import reserve_number
+
+    return reserve_number(lab, calibration.gyro_id or Path(handoff_path).stem, customer)
+
+
 def write_report(calibration: Calibration, evidence: RunEvidence | None, spec: Spec | None,
-                 out_dir: Path, *, handoff_path: str = '', pdf: bool = True) -> list[Path]:
+                 out_dir: Path, *, handoff_path: str = '', pdf: bool = True,
+                 issue: Issue | None = None, customer: str = '') -> list[Path]:
     """Build the certificate and write its HTML (and PDF) into ``out_dir``."""
     from gyro_calib.report.certificate import build_certificate, write_certificate
 
-    cert = build_certificate(calibration, evidence, spec, handoff_path=handoff_path)
+    cert = build_certificate(calibration, evidence, spec, handoff_path=handoff_path,
+                             issue=issue, customer=customer)
     return write_certificate(cert, out_dir, pdf=pdf)
 
 
@@ -172,6 +219,8 @@ def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
         return
     human = sys.stdout if human is None else human
     evidence = evidence_from_outcome(outcome, options_from_args(args))
+    lab, customer = lab_and_customer(args, args.report)
     for path in write_report(record, evidence, load_spec_arg(args.spec), args.report,
-                             handoff_path=where):
+                             handoff_path=where, issue=issue_for(lab, record, customer, where),
+                             customer=customer):
         print(f'certificate written: {path}', file=human)

@@ -65,6 +65,8 @@ class BagInput:
         files: (file name inside the bag, SHA-256 hex) of each file, sorted.
         start_ns, end_ns: log-time span, ns.
         messages: message count.
+        temperature: per sensor of ``/gyro/temperature`` recorded in it (header.frame_id):
+            (sensor, lowest, mean, highest in °C, readings); () when none is recorded.
     """
 
     path: str
@@ -72,6 +74,7 @@ class BagInput:
     start_ns: int
     end_ns: int
     messages: int
+    temperature: tuple[tuple[str, float, float, float, int], ...] = ()
 
     @property
     def duration_s(self) -> float:
@@ -142,9 +145,40 @@ def sha256_files(path: Path) -> tuple[tuple[str, str], ...]:
 
 
 def bag_input(info: BagInfo) -> BagInput:
-    """The bag's identity: files with their hashes, span, count."""
+    """The bag's identity: files with their hashes, span, count; the temperatures it records."""
     return BagInput(str(info.path), sha256_files(info.path), info.start_ns, info.end_ns,
-                    info.message_count)
+                    info.message_count, recorded_temperature(info))
+
+
+def recorded_temperature(info: BagInfo) -> tuple[tuple[str, float, float, float, int], ...]:
+    """(sensor, lowest, mean, highest °C, readings) of each ``/gyro/temperature`` sensor.
+
+    Only that topic is read (nothing when the bag does not record it); NaN readings are left
+    out.
+    """
+    from gyro_calib.bagio import TEMPERATURE, iter_sample_batches
+    from gyro_calib.topics import GYRO_TEMPERATURE
+
+    if info.topics.get(GYRO_TEMPERATURE) is None:
+        return ()
+    import numpy as np
+
+    parts: dict[str, list[Any]] = {}
+    for batch in iter_sample_batches(info.path, {GYRO_TEMPERATURE: TEMPERATURE},
+                                     namespace=info.namespace):
+        cols = batch.columns.get(GYRO_TEMPERATURE)
+        if cols is None:
+            continue
+        values = cols.values['temperature_degc']
+        for code, name in enumerate(cols.frame_id.names):
+            picked = values[(cols.frame_id.codes == code) & np.isfinite(values)]
+            if picked.size:
+                parts.setdefault(name or '(unnamed)', []).append(picked)
+    out = []
+    for name, chunks in sorted(parts.items()):
+        v = np.concatenate(chunks)
+        out.append((name, float(v.min()), float(v.mean()), float(v.max()), int(v.size)))
+    return tuple(out)
 
 
 def settings_used(options: CalibrationOptions, method: str = '') -> tuple[Setting, ...]:
