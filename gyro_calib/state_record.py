@@ -122,6 +122,7 @@ class TopicTail:
             samples of the record (inf where fewer than two samples tell it).
         max_step: largest |change| between consecutive samples (the quantisation and noise
             allowance).
+        last_frame_id: the header.frame_id of the last sample (the sensor's name).
     """
 
     topic: str
@@ -131,6 +132,7 @@ class TopicTail:
     last: dict[str, float]
     max_rate: dict[str, float]
     max_step: dict[str, float]
+    last_frame_id: str = ''
 
 
 def continuous_columns(topic: str, msgtype: str) -> dict[str, bool]:
@@ -178,6 +180,10 @@ def why_not_continued(tails: Mapping[str, TopicTail], live: Mapping[str, TopicCo
         if tail is None or not tail.samples or not len(cols):
             continue
         i = int(np.argmin(cols.stamp_ns))
+        frame = cols.frame_id.names[int(cols.frame_id.codes[i])]
+        if frame != tail.last_frame_id:
+            return (f'{topic}: another sensor (frame_id {frame!r}; the record ends with '
+                    f'{tail.last_frame_id!r})')
         dt_s = (int(cols.stamp_ns[i]) - tail.last_stamp_ns) / NS_PER_S
         for name, is_angle in continuous_columns(topic, tail.msgtype).items():
             if name not in cols.values or name not in tail.last:
@@ -504,8 +510,10 @@ class StateRecord:
                 max_step[name] = float(step.max()) if len(step) else math.inf
                 max_rate[name] = (float(np.max(step[moving] / dt[moving])) if moving.any()
                                   else math.inf)
+            names = sorted(self._frames[topic], key=self._frames[topic].__getitem__)
+            frame = names[int(rec['frame'][order[-1]])] if names else ''
             out[topic] = TopicTail(topic, layout.msgtype, len(rec), int(stamps[-1]), last,
-                                   max_rate, max_step)
+                                   max_rate, max_step, frame)
         return out
 
     def replay(self, *, batch_messages: int = 50_000) -> Iterator[dict[str, TopicColumns]]:

@@ -215,6 +215,11 @@ def test_each_reason_for_a_new_run_is_named(tmp_path: Path) -> None:
         p, values={**p.values, 'position': p.values['position'] - 1e6})
     jump = why_not_continued(tails, jumped)
     assert jump is not None and 'count (position) jumps by -99' in jump
+    renamed = dict(batches[20])
+    renamed[TABLE] = dataclasses.replace(renamed[TABLE], frame_id=FrameIds(
+        renamed[TABLE].frame_id.codes, ('other_table',)))
+    other = why_not_continued(tails, renamed)
+    assert other is not None and "another sensor (frame_id 'other_table'" in other
     assert 'allows at most' in jump
     record.remove()
 
