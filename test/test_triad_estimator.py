@@ -21,6 +21,7 @@ from gyro_calib.triad.estimator import BenchParameter, TriadPair, triad_calibrat
 from gyro_calib.triad.kinematics import (
     STATION_OFFSET,
     TILT,
+    inner_axis_enu,
     outer_axis_direction,
     pair_from_windows,
     remount_direction,
@@ -69,7 +70,7 @@ class Bench:
     def inner_axis_enu(self) -> np.ndarray:
         """The rate-table axis in East-North-Up while the position table holds at χ."""
         oz_q = rot(2, self.chi) @ rot(1, self.tilt) @ np.array([0.0, 0.0, 1.0])
-        return rot(2, -self.heading) @ oz_q  # Q's x is heading h clockwise from East
+        return rot(2, self.heading) @ oz_q  # the base is ENU turned by h about Up (§A (4a))
 
     def earth_enu(self) -> np.ndarray:
         return EARTH * np.array([0.0, math.cos(self.latitude), math.sin(self.latitude)])
@@ -152,12 +153,18 @@ def angle_between(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.arctan2(np.linalg.norm(np.cross(a, b)), a @ b))
 
 
-def test_the_generator_agrees_with_eq_1() -> None:
-    """The composed rotations give §F eq. (1) (the generator is independent of it)."""
-    bench = Bench(np.ones(3), np.eye(3), math.radians(40.0))
+def test_the_generator_agrees_with_eqs_1_and_13() -> None:
+    """The composed rotations give §F eqs. (1) and (13) (the generator is independent)."""
+    bench = Bench(np.ones(3), np.eye(3), math.radians(40.0), heading=0.4, chi=2.1)
     for beta in (0.0, 0.3, 2.0, -1.1):
-        u, _ = outer_axis_direction(beta, bench.tilt)
+        u, d = outer_axis_direction(beta, bench.tilt)
         np.testing.assert_allclose(bench.outer_axis_body(beta), u, atol=1e-15)
+        h = 1e-7
+        bent = Bench(np.ones(3), np.eye(3), bench.tilt + h)
+        np.testing.assert_allclose((bent.outer_axis_body(beta) - u) / h, d[:, 0], atol=1e-6)
+    np.testing.assert_allclose(
+        inner_axis_enu(tilt_rad=bench.tilt, heading_deg=math.degrees(bench.heading),
+                       position_table_angle_rad=bench.chi), bench.inner_axis_enu(), atol=1e-15)
 
 
 @pytest.mark.parametrize('fixture_z', [0.0, math.pi / 2])
