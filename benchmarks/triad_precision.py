@@ -49,7 +49,7 @@ LAT = math.radians(34.0)
 
 def axes(rng: np.random.Generator) -> np.ndarray:
     a = np.eye(3) + rng.uniform(-5e-3, 5e-3, (3, 3)) * (1 - np.eye(3))
-    return a / np.linalg.norm(a, axis=1)[:, None]
+    return np.asarray(a / np.linalg.norm(a, axis=1)[:, None], dtype=np.float64)
 
 
 def window(rng: np.random.Generator, s: np.ndarray, u: np.ndarray, turns: int, sign: int,
@@ -64,7 +64,7 @@ def window(rng: np.random.Generator, s: np.ndarray, u: np.ndarray, turns: int, s
         return np.asarray(c)
     c = c + arw * math.sqrt(t) / K * rng.standard_normal(3)
     start = rng.uniform(0, 1, 3)
-    return np.floor(start + c) - np.floor(start)
+    return np.asarray(np.floor(start + c) - np.floor(start), dtype=np.float64)
 
 
 def run(rng: np.random.Generator, truth: np.ndarray, *, stations: int, turns: int,

@@ -17,6 +17,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from gyro_calib.errors import InsufficientDataError
 from gyro_calib.triad.estimator import BenchParameter, TriadPair, triad_calibration
 from gyro_calib.triad.kinematics import (
     STATION_OFFSET,
@@ -65,12 +66,13 @@ class Bench:
         about its z; the body is T through the fixture.
         """
         r_qt = rot(1, self.tilt) @ rot(2, beta)
-        return self.fixture @ (r_qt.T @ np.array([0.0, 0.0, 1.0]))
+        return np.asarray(self.fixture @ (r_qt.T @ np.array([0.0, 0.0, 1.0])), dtype=float)
 
     def inner_axis_enu(self) -> np.ndarray:
         """The rate-table axis in East-North-Up while the position table holds at χ."""
         oz_q = rot(2, self.chi) @ rot(1, self.tilt) @ np.array([0.0, 0.0, 1.0])
-        return rot(2, self.heading) @ oz_q  # the base is ENU turned by h about Up (§A (4a))
+        # the base is ENU turned by h about Up (§A (4a))
+        return np.asarray(rot(2, self.heading) @ oz_q, dtype=float)
 
     def earth_enu(self) -> np.ndarray:
         return EARTH * np.array([0.0, math.cos(self.latitude), math.sin(self.latitude)])
@@ -146,7 +148,7 @@ def _with_direction(p: TriadPair, u: np.ndarray) -> TriadPair:
 def random_axes(rng: np.random.Generator, spread: float = 5e-3) -> np.ndarray:
     """Sense axes within ±``spread`` rad of the body axes (each tilted on both sides)."""
     axes = np.eye(3) + rng.uniform(-spread, spread, (3, 3)) * (1 - np.eye(3))
-    return axes / np.linalg.norm(axes, axis=1)[:, None]
+    return np.asarray(axes / np.linalg.norm(axes, axis=1)[:, None], dtype=float)
 
 
 def angle_between(a: np.ndarray, b: np.ndarray) -> float:
@@ -272,12 +274,12 @@ def test_a_channel_with_rejected_windows_is_solved_if_the_rest_span_it() -> None
     pairs = bench.two_axis_run(rng, list(np.radians([0, 90, 180, 270])), inner_pairs=2)
 
     def reject(p: TriadPair, c: int) -> TriadPair:
-        why = ['', '', '']
-        why[c] = 'too little rate for the lock-in band'
+        lock_in = 'too little rate for the lock-in band'
+        why = (lock_in if c == 0 else '', lock_in if c == 1 else '', lock_in if c == 2 else '')
         return TriadPair(p.direction, p.swept_angle_rad, p.count_difference,
                          p.count_difference_std, p.swept_angle_std_rad,
                          p.direction_sensitivity, p.sum_rate, p.sum_rate_std,
-                         p.excess_rate_rad_s, p.earth_rate_along_u_rad_s, 7, tuple(why))
+                         p.excess_rate_rad_s, p.earth_rate_along_u_rad_s, 7, why)
 
     # x loses the K̃ pairs and one station: three stations still span 3-D
     spanned = [reject(p, 0) if k in (0, 1, 2) else p for k, p in enumerate(pairs)]
@@ -323,3 +325,100 @@ def test_a_tilt_off_its_stated_value_is_fitted_from_the_data() -> None:
     assert corr.std_uncertainty < 0.05 * ARCSEC
     assert abs(kx_fitted.value - bench.k_rad[0]) <= 3 * kx_fitted.std_uncertainty
     assert kx_fitted.relative_uncertainty < 2e-7
+
+
+def paper_bench_prediction(station_turns: int) -> tuple[np.ndarray, np.ndarray]:
+    """u(K_i)/K_i and √trace C(s_i) (″) the model predicts for the paper bench.
+
+    Four stations at 90°, α = 45°, 10 K̃ pairs of m = 5, K = 0.8428″/pulse, ±½-pulse
+    quantisation (1/6 pulse² per window), zero-index jitter 0.1″ per window end, α fitted.
+    Noise-free counts: the prediction alone (no scatter to widen it).
+    """
+    rng = np.random.default_rng(6)
+    bench = Bench(np.full(3, 0.8428 * ARCSEC), random_axes(rng), math.radians(45.0),
+                  quantise=False, jitter=0.1 * ARCSEC)
+    bench.jitter = 0.0  # noise-free counts, but the stated jitter below
+
+    def stated(p: TriadPair) -> TriadPair:
+        return TriadPair(p.direction, p.swept_angle_rad, p.count_difference,
+                         np.full(3, math.sqrt(2 / 6)), 0.1 * ARCSEC, p.direction_sensitivity)
+
+    pairs = [stated(p) for p in bench.two_axis_run(rng, list(np.radians([0, 90, 180, 270])),
+                                                   station_turns=station_turns, inner_pairs=10)]
+    res = triad_calibration(pairs, parameters=[BenchParameter(TILT, 60 * ARCSEC, True),
+                                               BenchParameter(STATION_OFFSET, 0.0)])
+    rel = np.array([c.scale_factor_rad_per_pulse.relative_uncertainty  # type: ignore[union-attr]
+                    for c in res.channels])
+    ang = np.array([math.sqrt(np.trace(c.sense_axis_covariance)) / ARCSEC  # type: ignore[arg-type]
+                    for c in res.channels])
+    return rel, ang
+
+
+def test_paper_bench_prediction_against_the_issue_targets() -> None:
+    """What the model predicts on the paper bench (docs/methods.md §F.4 table).
+
+    The gyro along the rate-table axis meets |ΔK/K| ≤ 2e-8 and every direction meets 0.5″;
+    the other two gyros do NOT meet 1e-7 with one turn per station (≈ 2.5e-7: their K rests
+    on the stations' quantisation), and do with five.
+    """
+    rel, ang = paper_bench_prediction(1)
+    assert rel[2] <= 2e-8
+    assert np.all(ang <= 0.5)
+    assert np.all((rel[:2] > 2e-7) & (rel[:2] < 3e-7))
+    rel5, _ = paper_bench_prediction(5)
+    assert np.all(rel5 <= 1e-7)
+
+
+def test_the_station_offset_is_a_rotation_about_the_table_axis() -> None:
+    """ψ₀ stated ± 10″: the x and y sense axes carry 10″ (about z), no K moves."""
+    rng = np.random.default_rng(7)
+    bench = Bench(np.ones(3) * ARCSEC, random_axes(rng), math.radians(45.0), count_noise=0.1)
+    pairs = bench.two_axis_run(rng, list(np.radians([0, 90, 180, 270])), inner_pairs=4)
+    res = triad_calibration(pairs, parameters=[BenchParameter(TILT, 0.0),
+                                               BenchParameter(STATION_OFFSET, 10 * ARCSEC)])
+    line = next(b for b in res.budget if b.source == STATION_OFFSET)
+    np.testing.assert_allclose(line.direction_rad[:2], 10 * ARCSEC, rtol=0.02)
+    assert line.direction_rad[2] < 0.1 * ARCSEC
+    assert np.all(line.scale_factor_relative < 1e-9)
+    assert {b.source for b in res.budget} == {'counts', 'swept angle', STATION_OFFSET}
+
+
+def test_bias_without_the_site_is_missing_with_the_reason() -> None:
+    rng = np.random.default_rng(8)
+    bench = Bench(np.ones(3) * ARCSEC, random_axes(rng), math.radians(45.0), count_noise=0.1)
+    pairs = [TriadPair(p.direction, p.swept_angle_rad, p.count_difference,
+                       p.count_difference_std, sum_rate=p.sum_rate, sum_rate_std=p.sum_rate_std)
+             for p in bench.two_axis_run(rng, list(np.radians([0, 120, 240])), inner_pairs=2)]
+    res = triad_calibration(pairs)
+    assert res.pulses_to_body_rad is not None and res.bias_body_rad_s is None
+    assert all(c.bias_rad_s is None and 'latitude' in c.bias_missing for c in res.channels)
+    assert 'latitude' in res.bias_missing
+
+
+def test_malformed_input_is_refused() -> None:
+    with pytest.raises(InsufficientDataError, match='no window pairs'):
+        triad_calibration([])
+    bad = TriadPair(np.array([0.0, 0.0, 2.0]), 1.0, np.ones(3), np.ones(3))
+    with pytest.raises(ValueError, match='unit 3-vector'):
+        triad_calibration([bad])
+    ok = TriadPair(np.array([0.0, 0.0, 1.0]), 1.0, np.ones(3), np.ones(3))
+    with pytest.raises(ValueError, match=r'\(3, 1\) direction_sensitivity'):
+        triad_calibration([ok], parameters=[BenchParameter(TILT, 1e-6)])
+
+
+@pytest.mark.parametrize('complete', [True, False])
+def test_a_scatter_above_the_prediction_widens_the_uncertainty(complete: bool) -> None:
+    """Counts noisier than stated (×3): the Birge ratio widens u (§F eq. (12))."""
+    rng = np.random.default_rng(9)
+    bench = Bench(np.ones(3) * ARCSEC, random_axes(rng), math.radians(45.0), count_noise=3.0)
+    pairs = bench.two_axis_run(rng, list(np.radians(np.arange(0, 360, 30))), inner_pairs=6)
+    honest = triad_calibration(pairs, prediction_complete=complete)
+    understated = [TriadPair(p.direction, p.swept_angle_rad, p.count_difference,
+                             p.count_difference_std / 3,
+                             direction_sensitivity=p.direction_sensitivity) for p in pairs]
+    res = triad_calibration(understated, prediction_complete=complete)
+    assert 'Birge ratio' in res.basis and res.birge_ratio > 2
+    for a, b in zip(res.channels, honest.channels, strict=True):
+        ka, kb = a.scale_factor_rad_per_pulse, b.scale_factor_rad_per_pulse
+        assert ka is not None and kb is not None
+        assert 0.6 < ka.std_uncertainty / kb.std_uncertainty < 1.6
