@@ -34,9 +34,9 @@ if TYPE_CHECKING:
     Array = npt.NDArray[np.float64]
 
 RANK_THRESHOLD = 0.05
-"""Smallest singular value of the √n-normalised direction matrix below which a channel's
-directions count as not spanning 3-D (three orthogonal directions give 1/√3 = 0.577;
-four paper-bench directions at α = 45° give 0.35)."""
+"""Smallest singular value of the √d-normalised matrix of a channel's d distinct directions
+below which they count as not spanning 3-D (three orthogonal directions give 1/√3 = 0.577;
+e_z and four stations at α = 45°, 90° apart, give 0.447)."""
 
 BIRGE_PROBABILITY = 0.99
 """A complete prediction is widened by the Birge ratio only when the scatter exceeds it at
@@ -180,17 +180,24 @@ class TriadResult:
 
 
 def _span_problem(name: str, directions: list[Array], threshold: float) -> str:
-    """Why ``directions`` do not span 3-D (eq. 9), or ''."""
+    """Why ``directions`` do not span 3-D (eq. 9), or ''.
+
+    The test is on the distinct directions (equal to 1e-9), so that many pairs about one
+    axis (hundreds of K̃ pairs) do not hide the stations in the √n normalisation.
+    """
     n = len(directions)
-    if n < 3:
-        return (f'channel {name}: {n} accepted pair(s); its row needs pairs about at least 3 '
-                'independent directions (K̃ pairs and 2 stations, or 3 stations).')
-    sv = np.linalg.svd(np.array(directions) / math.sqrt(n), compute_uv=False)
+    distinct = np.unique(np.round(np.array(directions).reshape(-1, 3), 9), axis=0)
+    d = len(distinct)
+    if d < 3:
+        return (f'channel {name}: {n} accepted pair(s) about {d} distinct direction(s); its '
+                'row needs pairs about at least 3 independent directions (K̃ pairs and 2 '
+                'stations, or 3 stations).')
+    sv = np.linalg.svd(distinct / math.sqrt(d), compute_uv=False)
     if sv[-1] < threshold:
-        return (f'channel {name}: the rotation directions of its {n} accepted pairs do not span '
-                f'3-D (smallest singular value {sv[-1]:.3g} of the normalised direction matrix '
-                f'< {threshold}); add pairs about a direction out of their plane (another '
-                'station, K̃ pairs on the inner axis, or another remount axis).')
+        return (f'channel {name}: the {d} distinct rotation directions of its {n} accepted pairs '
+                f'do not span 3-D (smallest singular value {sv[-1]:.3g} of the normalised '
+                f'direction matrix < {threshold}); add pairs about a direction out of their '
+                'plane (another station, K̃ pairs on the inner axis, or another remount axis).')
     return ''
 
 
