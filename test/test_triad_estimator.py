@@ -208,6 +208,7 @@ def test_remount_variant_recovers_the_triad() -> None:
 
 
 COVERAGE: list[bool] = []
+COVERAGE_M: list[bool] = []
 
 
 @settings(max_examples=60, deadline=None, derandomize=True)
@@ -235,21 +236,31 @@ def _coverage_examples(seed: int, n_stations: int, tilt_deg: float, inner_pairs:
                 e = ch.sense_axis[j]
                 COVERAGE.append(abs(e.value - bench.axes[i, j]) <= e.std_uncertainty)
         assert abs(k.value - bench.k_rad[i]) <= 6 * k.std_uncertainty
+    assert res.pulses_to_body_rad is not None and res.pulses_to_body_covariance is not None
+    true_m = np.linalg.inv(bench.axes / bench.k_rad[:, None])
+    for i in range(3):
+        for j in range(3):
+            e = res.pulses_to_body_rad[i][j]
+            assert e.std_uncertainty == pytest.approx(
+                math.sqrt(res.pulses_to_body_covariance[3 * i + j, 3 * i + j]))
+            COVERAGE_M.append(abs(e.value - true_m[i, j]) <= e.std_uncertainty)
 
 
 def test_k_and_sense_axes_are_covered_by_their_uncertainty() -> None:
-    """±1σ covers 60–75 % of K_i and misalignment components over the run.
+    """±1σ covers 60–75 % of K_i and misalignment components, and of M's elements.
 
-    60 examples × 9 checks = 540: the binomial standard deviation of the coverage is
+    60 examples × 9 checks = 540 of each kind: the binomial standard deviation of the coverage is
     2.0 % at 68.3 %, so the band is −4σ … +3σ of the nominal, while a 30 % under- or
     over-statement of u (coverage 52 % or 79 %) falls outside it.
     """
     COVERAGE.clear()
+    COVERAGE_M.clear()
     _coverage_examples()
-    n = len(COVERAGE)
-    assert n >= 500
-    coverage = sum(COVERAGE) / n
-    assert 0.60 <= coverage <= 0.75, f'coverage {coverage:.3f} over {n} checks'
+    for checks in (COVERAGE, COVERAGE_M):  # K_i and s_i; the nine elements of M
+        n = len(checks)
+        assert n >= 500
+        coverage = sum(checks) / n
+        assert 0.60 <= coverage <= 0.75, f'coverage {coverage:.3f} over {n} checks'
 
 
 def test_coplanar_directions_are_not_measurable() -> None:
