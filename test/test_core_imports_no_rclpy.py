@@ -20,7 +20,7 @@ import pytest
 import gyro_calib
 import sim_nodes
 
-METHODS = ('rbrlg', 'fog', 'noise', 'dither', 'thermal')
+METHODS = ('rbrlg', 'fog', 'noise', 'dither', 'thermal', 'triad')
 
 
 def _modules(package: object) -> list[str]:

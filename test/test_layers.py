@@ -10,7 +10,7 @@ of its own layer or of a lower one, never of a higher one. Imports are read stat
 2 core        config, estimate, outputs, streams, handoff, state_record and any other
               top-level module not named here
 3 session     gyro_calib.session (the shared session interface)
-4 methods     gyro_calib.{rbrlg,fog,dither,thermal,noise}.* (no method imports another:
+4 methods     gyro_calib.{rbrlg,fog,dither,thermal,noise,triad}.* (no method imports another:
               test_*_imports, test_thermal_properties)
 5 registry    gyro_calib.registry, and imu_conversion (applies several methods' results)
 6 drivers     bag_calibration (the offline driver), noise.outputs (a noise run's files)
@@ -26,7 +26,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-METHODS = ('rbrlg', 'fog', 'dither', 'thermal', 'noise')
+METHODS = ('rbrlg', 'fog', 'dither', 'thermal', 'noise', 'triad')
 LAYERS = ('base', 'bag I/O', 'core', 'session', 'methods', 'registry', 'drivers',
           'front doors')
 BASE = {'gyro_calib', 'gyro_calib.errors', 'gyro_calib.units', 'gyro_calib.topics'}
