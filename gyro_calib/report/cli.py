@@ -1,11 +1,13 @@
 """``gyro-calib report`` and ``gyro-calib calibrate … --report DIR``: the certificate of a gyro.
 
     gyro-calib report HANDOFF.yaml [BAG ...] [--spec SPEC.yaml] --out DIR [--no-pdf]
+                      [--accept-handoff-values]
 
 writes ``DIR/<gyro_id>.html`` (self-contained) and ``DIR/<gyro_id>.pdf``. With bags, the
 methods of the hand-off file whose topics the bags hold are run again on them (with the same
 settings flags as ``calibrate``) for the degrees of freedom, budgets, rejections, figures and
-input hashes; without, the certificate rests on the hand-off file alone and says so.
+input hashes; without, the certificate rests on the hand-off file alone and says so. A
+hand-off value the bags contradict is refused (exit 2) unless ``--accept-handoff-values``.
 """
 
 from __future__ import annotations
@@ -42,6 +44,9 @@ def add_commands(sub: Any) -> None:
                      help='acceptance limits and decision rule (YAML); without it no verdicts')
     rep.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
                      help='write the PDF beside the HTML (default: yes)')
+    rep.add_argument('--accept-handoff-values', action='store_true',
+                     help='certify the hand-off file\'s values as they stand where the bags '
+                     'give others (each such row says what the bags give); default: refuse')
     method_arguments(rep)
     rep.set_defaults(run=run_report)
 
@@ -98,7 +103,7 @@ def run_report(args: argparse.Namespace) -> int:
             options = dataclasses.replace(options, gyro_id=calibration.gyro_id)
         evidence = evidence_from_bags(args.bags, calibration, options, args.method)
     paths = write_report(calibration, evidence, spec, args.out, handoff_path=str(args.handoff),
-                         pdf=args.pdf)
+                         pdf=args.pdf, accept_handoff_values=args.accept_handoff_values)
     for path in paths:
         print(f'certificate written: {path}')
     return EXIT_OK
@@ -132,11 +137,13 @@ def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
 
 
 def write_report(calibration: Calibration, evidence: RunEvidence | None, spec: Spec | None,
-                 out_dir: Path, *, handoff_path: str = '', pdf: bool = True) -> list[Path]:
+                 out_dir: Path, *, handoff_path: str = '', pdf: bool = True,
+                 accept_handoff_values: bool = False) -> list[Path]:
     """Build the certificate and write its HTML (and PDF) into ``out_dir``."""
     from gyro_calib.report.certificate import build_certificate, write_certificate
 
-    cert = build_certificate(calibration, evidence, spec, handoff_path=handoff_path)
+    cert = build_certificate(calibration, evidence, spec, handoff_path=handoff_path,
+                             accept_handoff_values=accept_handoff_values)
     return write_certificate(cert, out_dir, pdf=pdf)
 
 
