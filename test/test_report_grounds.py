@@ -131,6 +131,7 @@ def test_a_spec_quantity_not_measured_makes_the_unit_no_verdict_never_pass() -> 
     spec = spec_from_dict({'quantities': {**passing, 'fix_error_angle_rad': {'max': 30.0}}})
     cert = build_certificate(record, None, spec)
     assert cert.overall == 'NO VERDICT (not measured: fix_error_angle_rad)'
+    assert 'θ needs the position-table stations' in cert.spec_missing[0]  # and why
     assert ('<span class="overall verdict NOVERDICT" id="overall">NO VERDICT (not measured: '
             'fix_error_angle_rad)</span>') in render_html(cert)
     # the only quantity of the spec is of a method that did not run: nothing was judged

@@ -258,9 +258,8 @@ def _quantity_row(key: str, method: str, description: str, value_si: float, std_
     interval = None
     if interval_si is not None:
         interval = (interval_si[0] * f, interval_si[1] * f)
-        notes.append('U: the method\'s own interval (at its verdict_coverage_factor, k = 2 by '
-                     'default, with the rocking allowance as a bound, hence asymmetric); the '
-                     'verdict is taken on it')
+        notes.append('U: the method\'s own interval (k = verdict_coverage_factor, 2 by '
+                     'default; rocking allowance as a bound); the verdict uses it')
     limit_text, verdict_text = '', ''
     if spec is not None and key in spec.limits:
         lim = spec.limits[key]
@@ -441,7 +440,8 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                 spec_missing.append(f'{key} ({spec.limits[key].text()}): not applicable — '
                                     f'method {owner or "?"} did not run for this gyro')
                 continue
-            why = calibration.missing.get(key, 'not in the hand-off file')
+            why = (calibration.missing.get(key) or calibration.not_measurable.get(key)
+                   or 'not in the hand-off file')
             spec_missing.append(f'{key} ({spec.limits[key].text()}): {NOT_MEASURED} — {why}')
             not_measured.append(key)
         verdict_all = overall(list(judged.values()), not_measured)
