@@ -181,7 +181,7 @@ def test_k_from_the_hand_off_alone_is_student_t_at_the_dof_it_records(tmp_path: 
     k95 = float(scipy.stats.t.ppf(0.975, 2))
     row = next(r for r in build_certificate(load_calibration(path), None).rows
                if r.key == K_TILDE)
-    assert row.dof == '2' and row.k == f'{k95:.2f}' == '4.30'
+    assert row.dof == '2' and row.dof_value == 2 and row.k == f'{k95:.2f}' == '4.30'
     assert row.expanded_si == pytest.approx(k95 * data['gyro'][K_TILDE + '_std'])
     # a file written before ν was recorded still loads: k = 2, and the row says why
     old = {k: v for k, v in data['gyro'].items() if not k.endswith('_dof')}

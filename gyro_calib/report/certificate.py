@@ -83,7 +83,12 @@ RELATIVE_PPM_UNITS = ('″/pulse', 'counts/rad')
 
 @dataclass(frozen=True, slots=True)
 class QuantityRow:
-    """One measured quantity on the certificate (values in the quoted unit unless ``_si``)."""
+    """One measured quantity on the certificate (values in the quoted unit unless ``_si``).
+
+    The text fields are as printed; ``k_value``, ``expanded_si`` and ``dof_value`` (ν, at
+    most n − 1; None unknown) are the numbers; ``interval`` is the method's own interval (its
+    row's U, in the quoted unit) and ``std_relative`` u/|value| in ppm for scale factors.
+    """
 
     key: str
     method: str
@@ -108,6 +113,7 @@ class QuantityRow:
     expanded_si: float | None = None
     std_relative: str = ''
     interval: tuple[float, float] | None = None
+    dof_value: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -288,7 +294,7 @@ def _quantity_row(key: str, method: str, description: str, value_si: float, std_
         in_handoff=in_handoff, note='; '.join(notes),
         k_value=None if interval is not None else exp.k,
         expanded_si=None if interval is not None else exp.expanded,
-        std_relative=relative, interval=interval)
+        std_relative=relative, interval=interval, dof_value=exp.dof)
 
 
 def _utc(stamp_ns: int, *, time_only: bool = False) -> str:
@@ -328,7 +334,8 @@ def _contradiction(key: str, value: float, std: float, est_value: float,
         return z, (f'gyro.{key} = {value * f:.10g} {label} but the bags give '
                    f'{est_value * f:.10g} ± {est_std * f:.2g} {label}: {z:.3g} combined '
                    'standard uncertainties apart')
-    if est_std > 0 and not 1 / CONTRADICTION_U_RATIO <= std / est_std <= CONTRADICTION_U_RATIO:
+    if 0 < est_std < math.inf and not (1 / CONTRADICTION_U_RATIO <= std / est_std
+                                       <= CONTRADICTION_U_RATIO):
         return std / est_std, (f'gyro.{key}_std = {std * f:.3g} {label} but the bags give u = '
                                f'{est_std * f:.3g} {label}: {std / est_std:.3g} times theirs')
     return 0.0, ''
