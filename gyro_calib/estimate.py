@@ -40,6 +40,17 @@ class Estimate:
     basis: str = ''
 
     @property
+    def supported_dof(self) -> int:
+        """ν as the data support it: the stated ``dof``, at most n − 1 (n = ``n_used``).
+
+        A statement resting on n independent measurements (windows, pairs, blocks,
+        plateaus) has at most n − 1 degrees of freedom, however many samples each holds
+        (GUM G.3.3: ν of a Type A evaluation from n observations); where ``n_used`` counts
+        samples (noise), the stated ν (the EDF) is below it already.
+        """
+        return min(self.dof, self.n_used - 1) if self.n_used >= 2 else self.dof
+
+    @property
     def relative_uncertainty(self) -> float:
         """Standard uncertainty divided by |value| (dimensionless)."""
         return self.std_uncertainty / abs(self.value)

@@ -1,7 +1,10 @@
 """The INS hand-off calibration file: what gyro_calib measured, for the navigation system.
 
 One YAML file per gyro holds every value measured, by any method, each with its standard
-(k = 1) uncertainty beside it as ``<name>_std``, under a top-level ``gyro:`` mapping; which
+(k = 1) uncertainty beside it as ``<name>_std`` and, where the estimator knows them, the
+degrees of freedom ν of that uncertainty as ``<name>_dof`` (a certificate's k for 95 % is
+Student t at ν; never more than the n − 1 the n independent measurements support), under a
+top-level ``gyro:`` mapping; which
 method produced them, from what data and when, under ``methods:``; and whether anything the
 methods that ran would measure is still missing (``complete``, ``missing`` with reasons). All
 units are SI and in the key names. A value that was not measured is an *absent key* — never a
@@ -26,6 +29,7 @@ Example (``format_version: 3``)::
     gyro:
       k_tilde_rad_per_pulse: 4.0860157e-06           # K̃ (§A eq. (3))
       k_tilde_rad_per_pulse_std: 4.8e-14
+      k_tilde_rad_per_pulse_dof: 2                   # ν: 3 window pairs (optional key)
       bias_plus_earth_rate_rad_s: 2.4e-05            # ω′ₑ + ω_B along the sense axis
       bias_plus_earth_rate_rad_s_std: 3.0e-08
       window_pairs: 3
@@ -53,7 +57,10 @@ The keys each method may write, with units and meaning, are its ``HANDOFF_KEYS``
 the README); unknown keys are refused (a misspelt key would otherwise be silently dropped).
 Floats need a dot in the mantissa (YAML 1.1: ``4.0e-6``, not ``4e-6``, which reads as a
 string). Files of ``format_version`` 1 (RBRLG only, flat metadata) and 2 (one provenance per
-method, ``missing`` per method too) still load; they are rewritten as format 3.
+method, ``missing`` per method too) still load; they are rewritten as format 3. ``_dof`` is
+optional (files written before it still load; a certificate then assumes k = 2 and says so);
+it is a number ≥ 0 (``.inf`` for ν = ∞; 0: no coverage interval) and travels with its value
+in a merge.
 
 :func:`write_calibration` replaces the file atomically (temporary file in the same
 directory, fsync, rename, fsync of the directory), so a reader such as ``imu_corrector``
@@ -104,7 +111,8 @@ CONVENTIONS: dict[str, str] = {
             'for the latitude and heading in its run\'s conditions; a *_plus_earth_rate key '
             'still holds that Earth rate (valid only on that bench, in that orientation).',
     'units': 'SI, unit in each key name; <key>_std is the standard (k = 1) uncertainty in '
-             'the same unit; an absent key was not measured (missing / not_measurable say why).',
+             'the same unit, <key>_dof (where given) its degrees of freedom; an absent key was '
+             'not measured (missing / not_measurable say why).',
 }
 """What every number in the file is (written under ``conventions:``)."""
 
@@ -403,7 +411,7 @@ def _without_run(calibration: Calibration, method: str, run: Provenance, why: st
         lines.append(f'dropped: {key} = {_with_std(values.get(key), values.get(key + "_std"))} '
                      f'from {run.source} (rests on another scale factor).')
         values.pop(key, None)
-        values.pop(key + '_std', None)
+        _pop_twins(values, key)
     missing = {**latest.missing, **{k: reason for k in dropped}}
     if run is latest:
         latest = dataclasses.replace(latest, keys=(), missing=missing)
@@ -450,7 +458,7 @@ def _merge_method(method: str, prov: Provenance, new_values: Mapping[str, Any],
         if old_runs[i].same_run(prov) and key not in new_keys:
             lines.append(f'withdrawn: {key} {SAME_RUN}')
             values.pop(key, None)
-            values.pop(key + '_std', None)
+            _pop_twins(values, key)
             del old_owner[key]
     groups: dict[str, list[str]] = {}
     for key in sorted(new_keys | set(old_owner)):
@@ -523,15 +531,16 @@ def _merge_group(lead: str, members: list[str], new_has: bool, prov: Provenance,
                 lines.append(f'{verb}: {key} = {new_text} from {prov.source}{was}'
                              + (f' ({why})' if why else '') + '.')
                 values[key] = new_values[key]
-                values.pop(std, None)
-                if std in new_values:
-                    values[std] = new_values[std]
+                _pop_twins(values, key)
+                for twin in (key + suffix for suffix in TWIN_SUFFIXES):
+                    if twin in new_values:
+                        values[twin] = new_values[twin]
                 taken.add(key)
             elif key in old_owner:
                 lines.append(f'dropped: {key} = {old_text} — it goes with {lead}, now from '
                              f'{prov.source}, which did not measure it.')
                 values.pop(key, None)
-                values.pop(std, None)
+                _pop_twins(values, key)
         elif key in old_owner:
             reason = why if key == lead or not new_has else f'goes with {lead}, kept'
             lines.append(f'kept: {key} = {old_text} ({reason}).')
@@ -712,8 +721,19 @@ def scale_factor_inconsistency(calibration: Calibration,
     return scale_factor_findings(calibration, schema).problem
 
 
+TWIN_SUFFIXES = ('_std', '_dof')
+"""The keys that go with an uncertain value ``<key>``: its standard uncertainty and its
+degrees of freedom (optional)."""
+
+
 def _base_key(key: str) -> str:
-    return key[:-4] if key.endswith('_std') else key
+    return key[:-4] if key.endswith(TWIN_SUFFIXES) else key
+
+
+def _pop_twins(values: dict[str, Any], key: str) -> None:
+    """Remove ``key``'s ``_std`` and ``_dof`` from ``values`` (changed in place)."""
+    for suffix in TWIN_SUFFIXES:
+        values.pop(key + suffix, None)
 
 
 def method_calibration(method: str, values: Mapping[str, Any], provenance: Provenance, *,
@@ -751,7 +771,7 @@ def _checked_values(values: dict[str, Any], schema: Mapping[str, HandoffKey], *,
                     source: str) -> dict[str, Any]:
     """``values`` validated against ``schema`` (numbers made floats where floats are meant)."""
     unknown = sorted(k for k in values if _base_key(k) not in schema
-                     or (k.endswith('_std') and not schema[_base_key(k)].has_std))
+                     or (k.endswith(TWIN_SUFFIXES) and not schema[_base_key(k)].has_std))
     if unknown:
         raise HandoffError(f'unknown field(s) {", ".join("gyro." + k for k in unknown)} in '
                            f'{source}.')
@@ -763,6 +783,10 @@ def _checked_values(values: dict[str, Any], schema: Mapping[str, HandoffKey], *,
                 raise HandoffError(f'gyro.{key} in {source} has no gyro.{key[:-4]} beside it.')
             std_spec = HandoffKey(key, spec.method, '', 'nonnegative', False)
             problem = _problem(std_spec, value)
+        elif key.endswith('_dof'):
+            if key[:-4] not in values:
+                raise HandoffError(f'gyro.{key} in {source} has no gyro.{key[:-4]} beside it.')
+            problem = _dof_problem(value)
         else:
             if spec.has_std and key + '_std' not in values:
                 raise HandoffError(f'gyro.{key} in {source} has no gyro.{key}_std beside it '
@@ -772,9 +796,20 @@ def _checked_values(values: dict[str, Any], schema: Mapping[str, HandoffKey], *,
             if isinstance(value, str) and spec.kind != 'text':
                 problem += ' (YAML 1.1 floats need a dot: 4.0e-6, not 4e-6)'
             raise HandoffError(f'gyro.{key} = {value!r} in {source} is invalid: {problem}.')
-        is_float = key.endswith('_std') or spec.kind in ('float', 'positive', 'nonnegative')
+        is_float = key.endswith('_std') or (spec.kind in ('float', 'positive', 'nonnegative')
+                                            and not key.endswith('_dof'))
         out[key] = float(value) if is_float else value
     return out
+
+
+def _dof_problem(value: Any) -> str:
+    """Why ``value`` is not degrees of freedom ('' if it is): a number ≥ 0, or .inf.
+
+    0 says that no coverage interval can be stated (one measurement, no scatter).
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+        return 'degrees of freedom must be a number (.inf for infinitely many)'
+    return '' if value >= 0 else 'degrees of freedom must not be negative'
 
 
 # ---------------------------------------------------------------------------------------
@@ -847,7 +882,8 @@ def calibration_to_yaml_dict(calibration: Calibration,
     sch = _schema(schema)
     order = {k: i for i, k in enumerate(sch)}
     keys = sorted(calibration.values, key=lambda k: (order.get(_base_key(k), len(order)),
-                                                     k.endswith('_std'), k))
+                                                     k.endswith('_std') + 2 * k.endswith('_dof'),
+                                                     k))
     methods: dict[str, ProvenanceYaml] = {}
     for name, prov in calibration.methods.items():
         entry = _run_yaml(prov, name, calibration, sch)
@@ -1128,7 +1164,7 @@ def update_calibration(path: str | Path, calibration: Calibration,
         if findings.problem:
             raise HandoffError(findings.problem)
         lines += [f'added: {k} = {_with_std(v, calibration.values.get(k + "_std"))}.'
-                  for k, v in calibration.values.items() if not k.endswith('_std')]
+                  for k, v in calibration.values.items() if not k.endswith(TWIN_SUFFIXES)]
         lines += findings.notes
     written = write_calibration(target, calibration, sch)
     if report is not None:

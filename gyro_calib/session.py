@@ -302,11 +302,12 @@ class MethodSession(ABC):
         """
 
     def handoff_values(self) -> dict[str, Any]:
-        """The hand-off keys and values (``_std`` twins beside the uncertain ones)."""
+        """The hand-off keys and values (``_std`` and ``_dof`` twins beside the uncertain ones)."""
         out: dict[str, Any] = {}
         for key, est in self.results().items():
             out[key] = est.value
             out[key + '_std'] = est.std_uncertainty
+            out[key + '_dof'] = est.supported_dof
         return out
 
     def conditions(self) -> dict[str, Any]:

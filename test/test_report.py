@@ -85,6 +85,7 @@ class _Page(HTMLParser):
         self.text: list[str] = []
         self._row: dict[str, Any] | None = None
         self._cell: str | None = None
+        self._relative: str | None = None
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         a = dict(attrs)
@@ -102,12 +103,17 @@ class _Page(HTMLParser):
             self.rows[a['data-key'] or ''] = self._row
         if tag == 'td' and self._row is not None:
             self._cell = ''
+        if tag == 'span' and 'rel' in (a.get('class') or '').split() and self._row is not None:
+            self._relative = ''  # the relative u under u (scale factors): kept apart
         if tag == 'figure':
             self.figures.append(a.get('data-figure') or '')
         if tag == 'img':
             self.images.append(a.get('src') or '')
 
     def handle_endtag(self, tag: str) -> None:
+        if tag == 'span' and self._relative is not None and self._row is not None:
+            self._row['relative'] = self._relative.strip()
+            self._relative = None
         if tag == 'td' and self._row is not None and self._cell is not None:
             self._row['cells'].append(self._cell.strip())
             self._cell = None
@@ -116,7 +122,9 @@ class _Page(HTMLParser):
 
     def handle_data(self, data: str) -> None:
         self.text.append(data)
-        if self._cell is not None:
+        if self._relative is not None:
+            self._relative += data
+        elif self._cell is not None:
             self._cell += data
 
 
@@ -129,6 +137,15 @@ def _page(html: str) -> _Page:
 
 def _decimals(text: str) -> int:
     return len(text.split('.')[1]) if '.' in text and 'e' not in text else 0
+
+
+def _half_digit(text: str) -> float:
+    """Half a unit of the last printed digit of ``text`` (fixed or e-notation)."""
+    if 'e' in text:
+        mantissa, exponent = text.split('e')
+        places = len(mantissa.split('.')[1]) if '.' in mantissa else 0
+        return 0.5 * 10.0 ** (int(exponent) - places)
+    return 0.5 * 10.0 ** -_decimals(text)
 
 
 @pytest.mark.parametrize('name', SCENARIO_BAGS)
@@ -152,10 +169,13 @@ def test_certificate_of_each_committed_bag_holds_the_hand_off_values_k_and_U(nam
         assert unit == (user_unit(key).label or user_unit(key).si)
         half_digit = 0.5 * 10.0 ** -_decimals(shown_value)
         assert abs(float(shown_value) - value * factor) <= half_digit * (1 + 1e-9)
-        assert abs(float(shown_std) - std * factor) <= 0.5 * 10.0 ** -_decimals(shown_std) * 1.001
+        assert abs(float(shown_std) - std * factor) <= _half_digit(shown_std) * 1.001
+        assert len(shown_std) <= 8  # 3.4e-9, not 0.0000000034
         est = estimates[key]  # the bag's own estimate: its dof give k
         assert int(n) == est.n_used
-        k95 = float(scipy.stats.t.ppf(0.975, est.dof)) if est.dof >= 1 else math.nan
+        assert dof in ('∞', '> 1000') or (len(dof) <= 4 and float(dof) <= est.n_used - 1)
+        nu = min(est.dof, est.n_used - 1)  # ν: never more than the n measurements support
+        k95 = float(scipy.stats.t.ppf(0.975, nu)) if nu >= 1 else math.nan
         if name.startswith('dither') and key.startswith('dither_misalignment'):
             assert dof != '—'  # Welch–Satterthwaite over statistical + rocking
             k95 = float(scipy.stats.t.ppf(0.975, float(dof)))
@@ -163,7 +183,7 @@ def test_certificate_of_each_committed_bag_holds_the_hand_off_values_k_and_U(nam
         assert float(expanded) == pytest.approx(float(k) * std * factor, rel=0.02,
                                                 abs=2 * half_digit)
     for key, value in record.values.items():  # counts and mappings are on it too
-        if key not in uncertain and not key.endswith('_std'):
+        if key not in uncertain and not key.endswith(('_std', '_dof')):
             assert key in ''.join(page.text)
     assert not page.external and page.scripts == 0, 'the certificate must be self-contained'
     drawn = [f.name for m in evidence.methods for f in m.figures]
@@ -212,19 +232,26 @@ def test_certificate_verdicts_under_a_spec_pass_fail_conditional_and_the_unit() 
     unmeasured = spec_from_dict({'quantities': {'k_tilde_rad_per_pulse': {
         'min': k_tilde - 1e-6, 'max': k_tilde + 1e-6}, 'fix_error_angle_rad': {'max': 1000.0}}})
     cert = build_certificate(record, evidence, unmeasured)  # θ: rbrlg ran, did not measure it
-    assert cert.overall == CONDITIONAL and 'NOT MEASURED' in cert.spec_missing[0]
+    assert cert.overall == 'NO VERDICT (not measured: fix_error_angle_rad)'
+    assert 'NOT MEASURED' in cert.spec_missing[0]
     html = render_html(build_certificate(record, evidence))
     assert 'this certificate states no verdicts' in html
     assert '<span class="verdict' not in html and '<span class="overall' not in html
 
 
-def test_hand_off_alone_gives_a_certificate_that_says_k_2_is_assumed(tmp_path: Path) -> None:
-    record, _ = _run('fog_turntable')
+def test_hand_off_alone_gives_k_from_the_dof_it_states_else_2_said_in_the_row(
+        tmp_path: Path) -> None:
+    record, evidence = _run('fog_turntable')
     assert record is not None
     cert = build_certificate(record, None)
-    assert {r.k for r in cert.rows} == {'2.00'}
+    with_bags = {r.key: r.k for r in build_certificate(record, evidence).rows if r.in_handoff}
+    assert {r.key: r.k for r in cert.rows} == with_bags  # the file's ν: the same k
     assert 'k = 2 is assumed' in cert.evidence_note
     assert {r.key for r in cert.rows} == {k for k in record.values if k + '_std' in record.values}
+    older = {k: v for k, v in record.values.items() if not k.endswith('_dof')}
+    cert = build_certificate(Calibration(older, record.methods, record.gyro_id), None)
+    assert {r.k for r in cert.rows} == {'2.00'}
+    assert all('k = 2 assumed' in r.note for r in cert.rows)
 
 
 def test_hand_off_alone_of_a_noise_run_still_shows_the_curves_it_stores() -> None:

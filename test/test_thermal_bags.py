@@ -102,8 +102,10 @@ def test_cli_calibrate_writes_one_model_mapping_with_its_k_and_gyro(model_file: 
     assert set(cal.values) <= {'thermal_model', 'thermal_residual_std_rad_s',
                                'thermal_holdout_bias_stability_raw_rad_s',
                                'thermal_holdout_bias_stability_raw_rad_s_std',
+                               'thermal_holdout_bias_stability_raw_rad_s_dof',
                                'thermal_holdout_bias_stability_compensated_rad_s',
-                               'thermal_holdout_bias_stability_compensated_rad_s_std'}
+                               'thermal_holdout_bias_stability_compensated_rad_s_std',
+                               'thermal_holdout_bias_stability_compensated_rad_s_dof'}
 
 
 def test_compensate_on_the_unseen_validation_run_meets_the_papers_77_percent(

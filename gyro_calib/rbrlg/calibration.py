@@ -388,6 +388,7 @@ def handoff_values(results: RbrlgResults, calibrator: RbrlgCalibrator) -> dict[s
         if est is not None:
             out[key] = est.value * scale
             out[key + '_std'] = est.std_uncertainty * scale
+            out[key + '_dof'] = est.supported_dof
 
     put('k_tilde_rad_per_pulse', results.k_tilde_arcsec_per_pulse, RAD_PER_ARCSEC)
     put('scale_factor_rad_per_pulse', results.scale_factor_arcsec_per_pulse, RAD_PER_ARCSEC)

@@ -4,7 +4,12 @@
 what the run knows (:class:`~gyro_calib.report.evidence.RunEvidence`: degrees of freedom,
 budgets, rejections, figures, input hashes, settings) and a spec (verdicts). Values are the
 hand-off's, converted to the unit a lab quotes (:mod:`gyro_calib.report.units`); k and U follow
-from the degrees of freedom (:mod:`gyro_calib.report.uncertainty`). Only a certificate issued
+from the degrees of freedom (:mod:`gyro_calib.report.uncertainty`): the run's where the bags
+are given, else the hand-off's ``<key>_dof``, else k = 2 with the reason in the row itself; a
+method that states an interval of its own (the dither misalignment a) is quoted with it and
+judged by it. No verdict without grounds: a certificate with nothing measured is refused, a
+spec quantity not measured makes the unit's verdict NO VERDICT, and a hand-off value the given
+bags contradict is refused (:data:`CONTRADICTION_U`) unless accepted. Only a certificate issued
 by a laboratory (an :class:`~gyro_calib.report.lab.Issue`: lab, number, customer) holds what
 ISO/IEC 17025 7.8.2, 7.8.4 and 7.8.6 ask, laid out in its template (:data:`TEMPLATE`); without
 one it is a draft and says so on every page.
@@ -27,17 +32,26 @@ from typing import Any
 import yaml
 
 from gyro_calib import __version__
+from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Calibration, HandoffKey
 from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.report.conditions import calibration_date, temperature_text
 from gyro_calib.report.evidence import MethodEvidence, RunEvidence
 from gyro_calib.report.lab import Issue
-from gyro_calib.report.spec import NOT_MEASURED, Spec, overall, verdict
+from gyro_calib.report.spec import (
+    NOT_MEASURED,
+    Spec,
+    interval_verdict,
+    overall,
+    overall_class,
+    verdict,
+)
 from gyro_calib.report.uncertainty import (
     BudgetLine,
     Expanded,
     contribution_percent,
     expanded_uncertainty,
+    format_dof,
 )
 from gyro_calib.report.units import user_unit
 
@@ -48,10 +62,36 @@ script, no external resource, A4 print CSS."""
 REJECTIONS_LISTED = 40
 """Rejection lines listed per method; the rest are counted in one line."""
 
+CONTRADICTION_U = 1.0
+"""A hand-off value further than this many combined standard uncertainties from what the
+given bags give (the same estimator on the same data gives the same value) is not the bags'
+result: the certificate is refused unless ``accept_handoff_values``. So is a stated u off by
+more than :data:`CONTRADICTION_U_RATIO` either way."""
+
+CONTRADICTION_U_RATIO = 2.0
+
+INTERVALS = {'dither_axis_misalignment_rad': ('dither_axis_misalignment_lower_rad',
+                                              'dither_axis_misalignment_upper_rad')}
+"""Quantities whose method states an interval of its own (key → lower, upper key; an absent
+upper end is unbounded): the dither misalignment a, at k = verdict_coverage_factor with the
+rocking allowance as a bound — asymmetric, and the measured statement (METHODS §C)."""
+
+FIXED_DECIMALS_MAX = 5
+"""A standard uncertainty needing more decimals than this is printed in e-notation
+(3.4e-9, not 0.0000000034)."""
+
+RELATIVE_PPM_UNITS = ('″/pulse', 'counts/rad')
+"""Quoted units of scale factors: their u is also given relative, in ppm."""
+
 
 @dataclass(frozen=True, slots=True)
 class QuantityRow:
-    """One measured quantity on the certificate (values in the quoted unit unless ``_si``)."""
+    """One measured quantity on the certificate (values in the quoted unit unless ``_si``).
+
+    The text fields are as printed; ``k_value``, ``expanded_si`` and ``dof_value`` (ν, at
+    most n − 1; None unknown) are the numbers; ``interval`` is the method's own interval (its
+    row's U, in the quoted unit) and ``std_relative`` u/|value| in ppm for scale factors.
+    """
 
     key: str
     method: str
@@ -74,6 +114,9 @@ class QuantityRow:
     note: str = ''
     k_value: float | None = None
     expanded_si: float | None = None
+    std_relative: str = ''
+    interval: tuple[float, float] | None = None
+    dof_value: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,6 +169,11 @@ class Certificate:
     calibration_date: str = ''
     temperature: str = ''
 
+    @property
+    def overall_class(self) -> str:
+        """The CSS class of the unit's verdict (PASS, FAIL, CONDITIONAL, NOVERDICT)."""
+        return overall_class(self.overall)
+
 
 def _utc_now() -> str:
     return datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds')
@@ -147,6 +195,27 @@ def format_number(value: float, std: float) -> str:
     if d is None:
         return f'{value:.6g}' if std == 0 else f'{value:.4e}'
     return f'{value:.{d}f}'
+
+
+def _e_notation(x: float, digits: int) -> str:
+    """``x`` to ``digits`` significant digits as 3.4e-9 (no padded exponent)."""
+    mantissa, exponent = f'{x:.{digits - 1}e}'.split('e')
+    return f'{mantissa}e{int(exponent)}'
+
+
+def format_uncertainty(x: float, std: float) -> str:
+    """An uncertainty (u, or U with the u it was made from) as printed.
+
+    Rounded where u has its second digit (GUM 7.2.6); where that is beyond
+    :data:`FIXED_DECIMALS_MAX` decimals, in e-notation: u to two significant digits, U to
+    three (3.4e-9, 1.45e-8).
+    """
+    d = _decimals(std)
+    if d is not None and d <= FIXED_DECIMALS_MAX:
+        return f'{x:.{d}f}'
+    if not (x > 0 and math.isfinite(x)):
+        return format_number(x, std)
+    return _e_notation(x, 2 if x == std else 3)
 
 
 def _generic_values(values: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
@@ -182,54 +251,131 @@ def _twin(key: str, values: Mapping[str, Any]) -> bool:
 
 def _quantity_row(key: str, method: str, description: str, value_si: float, std_si: float,
                   est_n: int | None, budget: tuple[BudgetLine, ...], spec: Spec | None,
-                  in_handoff: bool, note: str = '', dof_given: float | None = None) -> QuantityRow:
+                  in_handoff: bool, note: str = '', dof_given: float | None = None,
+                  interval_si: tuple[float, float] | None = None) -> QuantityRow:
+    """One row: k from the run's budget, else the hand-off's ν, else 2 (said in the row)."""
     unit = user_unit(key)
+    notes = [note] if note else []
     if not budget and dof_given is not None:
-        budget = (BudgetLine('stated in the hand-off', std_si, float(dof_given)),)
-    exp: Expanded = expanded_uncertainty(std_si, budget)
+        budget = (BudgetLine('degrees of freedom stated in the hand-off file', std_si,
+                             float(dof_given)),)
+    elif not budget:
+        notes.append('k = 2 assumed: the hand-off file states no degrees of freedom for this '
+                     'value (written before gyro_calib recorded them) and no bag gave them')
+    exp: Expanded = expanded_uncertainty(std_si, budget, est_n)
     f = unit.factor
     u = std_si * f
-    rows = tuple((b.source, format_number(b.std * f, b.std * f),
-                  '∞' if math.isinf(b.dof) else f'{b.dof:g}',
-                  f'{contribution_percent(b, std_si):.1f} %') for b in exp.budget)
+    rows = tuple((b.source, format_uncertainty(b.std * f, b.std * f),
+                  format_dof(b.dof), f'{contribution_percent(b, std_si):.1f} %')
+                 for b in exp.budget)
+    interval = None
+    if interval_si is not None:
+        interval = (interval_si[0] * f, interval_si[1] * f)
+        notes.append('U: the method\'s own interval (k = verdict_coverage_factor, 2 by '
+                     'default; rocking allowance as a bound); the verdict uses it')
     limit_text, verdict_text = '', ''
     if spec is not None and key in spec.limits:
         lim = spec.limits[key]
         limit_text = lim.text()
-        verdict_text = verdict(lim, value_si * f, u,
-                               None if exp.expanded is None else exp.expanded * f, spec.rule)
+        verdict_text = (interval_verdict(lim, value_si * f, interval, spec.rule)
+                        if interval is not None else
+                        verdict(lim, value_si * f, u,
+                                None if exp.expanded is None else exp.expanded * f, spec.rule))
+    if interval is not None:  # one digit more than u: the ends are the statement
+        ends = [format_uncertainty(x, u / 10) if math.isfinite(x) else '∞' for x in interval]
+        expanded_text = f'[{ends[0]}, {ends[1]}]'
+    else:
+        expanded_text = ('—' if exp.expanded is None
+                         else format_uncertainty(exp.expanded * f, u))
+    relative = ''
+    if unit.label in RELATIVE_PPM_UNITS and value_si != 0 and std_si > 0:
+        ppm = 1e6 * std_si / abs(value_si)
+        relative = f'{format_uncertainty(ppm, ppm)} ppm'
     return QuantityRow(
         key=key, method=method, description=description, unit=unit.label or unit.si,
         value_si=value_si, std_si=std_si, factor=f, value=format_number(value_si * f, u),
-        std=format_number(u, u), n='—' if est_n is None else str(est_n),
-        dof='—' if exp.dof is None else ('∞' if math.isinf(exp.dof) else f'{exp.dof:.3g}'),
-        k='—' if exp.k is None else f'{exp.k:.2f}',
-        expanded='—' if exp.expanded is None else format_number(exp.expanded * f, u),
+        std=format_uncertainty(u, u), n='—' if est_n is None else str(est_n),
+        dof=format_dof(exp.dof), k='—' if exp.k is None or interval is not None
+        else f'{exp.k:.2f}', expanded=expanded_text,
         budget=rows, k_note=exp.note, limit=limit_text, verdict=verdict_text,
-        in_handoff=in_handoff, note=note, k_value=exp.k, expanded_si=exp.expanded)
+        in_handoff=in_handoff, note='; '.join(notes),
+        k_value=None if interval is not None else exp.k,
+        expanded_si=None if interval is not None else exp.expanded,
+        std_relative=relative, interval=interval, dof_value=exp.dof)
+
+
+def _utc(stamp_ns: int, *, time_only: bool = False) -> str:
+    moment = datetime.datetime.fromtimestamp(stamp_ns / 1e9, datetime.UTC)
+    text = moment.strftime('%H:%M:%S.%f' if time_only else '%Y-%m-%d %H:%M:%S.%f')
+    return text[:-3]
 
 
 def _span_text(start_ns: int, end_ns: int) -> str:
-    return f'{start_ns / 1e9:.3f} s → {end_ns / 1e9:.3f} s ({(end_ns - start_ns) / 1e9:.3f} s)'
+    """A data span in UTC, the stamps' clock.
+
+    E.g. '2026-01-01 00:00:00.000 → 00:04:39.998 UTC (279.998 s)' (the end's date only
+    when it is another day).
+    """
+    same_day = start_ns // 86_400_000_000_000 == end_ns // 86_400_000_000_000
+    return (f'{_utc(start_ns)} → {_utc(end_ns, time_only=same_day)} UTC '
+            f'({(end_ns - start_ns) / 1e9:.3f} s)')
+
+
+def _interval_of(key: str, values: Mapping[str, Any]) -> tuple[float, float] | None:
+    """The method's own interval of ``key`` (SI), where the hand-off holds one."""
+    if key not in INTERVALS or INTERVALS[key][0] not in values:
+        return None
+    lower, upper = INTERVALS[key]
+    return float(values[lower]), float(values.get(upper, math.inf))
+
+
+def _contradiction(key: str, value: float, std: float, est_value: float,
+                   est_std: float) -> tuple[float, str]:
+    """(combined u between, what is wrong) of a hand-off value against the bags' ('' if fine)."""
+    spread = math.hypot(std, est_std)
+    z = abs(value - est_value) / spread if spread > 0 else (
+        0.0 if value == est_value else math.inf)
+    unit = user_unit(key)
+    f, label = unit.factor, unit.label or unit.si
+    if z > CONTRADICTION_U:
+        return z, (f'gyro.{key} = {value * f:.10g} {label} but the bags give '
+                   f'{est_value * f:.10g} ± {est_std * f:.2g} {label}: {z:.3g} combined '
+                   'standard uncertainties apart')
+    if 0 < est_std < math.inf and not (1 / CONTRADICTION_U_RATIO <= std / est_std
+                                       <= CONTRADICTION_U_RATIO):
+        return std / est_std, (f'gyro.{key}_std = {std * f:.3g} {label} but the bags give u = '
+                               f'{est_std * f:.3g} {label}: {std / est_std:.3g} times theirs')
+    return 0.0, ''
 
 
 def build_certificate(calibration: Calibration, evidence: RunEvidence | None = None,
                       spec: Spec | None = None, *, handoff_path: str = '',
                       schema: Mapping[str, HandoffKey] | None = None,
-                      issue: Issue | None = None, customer: str = '') -> Certificate:
+                      issue: Issue | None = None, customer: str = '',
+                      accept_handoff_values: bool = False) -> Certificate:
     """The certificate of one gyro.
 
     Args:
         calibration: the hand-off file's content (its values are the certificate's values).
-        evidence: what the run knows (None: the hand-off alone; k = 2 is then assumed and
-            the certificate says so).
+        evidence: what the run knows (None: the hand-off alone; ν is then the file's
+            ``<key>_dof``, or k = 2 is assumed and the row says so).
         spec: limits and decision rule (None: no verdicts, and the certificate says so).
         handoff_path: the hand-off file, as named on the certificate.
         schema: the hand-off keys (default: every registered method's).
         issue: the laboratory, number and customer (:mod:`gyro_calib.report.lab`); None: a
             draft, not issued by a laboratory.
         customer: the customer a draft names (an issue names its own).
+        accept_handoff_values: certify a hand-off value the bags contradict as it stands
+            (the row says what the bags give) instead of refusing.
+
+    Raises:
+        ConfigError: the hand-off holds no measured value; a hand-off value (or its u) is
+            contradicted by the bags (:data:`CONTRADICTION_U`) and not accepted.
     """
+    if not calibration.values:
+        raise ConfigError(f'the hand-off file {handoff_path or "given"} holds no measured value '
+                          '(gyro: is empty): there is nothing to certify; calibrate the gyro '
+                          'first.')
     sch = handoff_schema() if schema is None else schema
     order = {k: i for i, k in enumerate(sch)}
     ev_methods = {m.method: m for m in (evidence.methods if evidence else ())}
@@ -238,6 +384,7 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
     generic = _generic_values(values)
     rows: list[QuantityRow] = []
     notes: list[str] = []
+    contradicted: list[tuple[float, str]] = []
     for key in sorted(generic, key=lambda k: (order.get(k, len(order)), k)):
         entry = generic[key]
         value, std = float(entry['value']), float(entry['std'])
@@ -255,15 +402,29 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
             m, est = estimates[key]
             same = (math.isclose(est.value, value, rel_tol=1e-9, abs_tol=0.0)
                     and math.isclose(est.std_uncertainty, std, rel_tol=1e-9, abs_tol=0.0))
+            z, wrong = _contradiction(key, value, std, est.value, est.std_uncertainty)
             if same:
                 budget = m.budgets.get(key, ())
                 est_n = est.n_used if est_n is None else est_n
+            elif wrong:
+                contradicted.append((z, wrong))
+                note = (f'{wrong}; certified as the hand-off file states it '
+                        '(--accept-handoff-values): degrees of freedom not taken from the bags')
+                notes.append(f'{key}: {note}.')
             else:
                 note = (f'the data given give {est.value:.10g} ± {est.std_uncertainty:.3g} '
-                        '(SI), not the hand-off\'s value: degrees of freedom not taken from them')
+                        '(SI), within the hand-off\'s u of its value: degrees of freedom not '
+                        'taken from them')
                 notes.append(f'{key}: {note}.')
         rows.append(_quantity_row(key, method, description, value, std, est_n, budget, spec,
-                                  True, note, entry.get('dof')))
+                                  True, note, entry.get('dof'), _interval_of(key, values)))
+    if contradicted and not accept_handoff_values:
+        worst = max(contradicted, key=lambda c: c[0])[1]
+        more = f' (and {len(contradicted) - 1} more value(s))' if len(contradicted) > 1 else ''
+        raise ConfigError(f'the hand-off file {handoff_path or "given"} is contradicted by the '
+                          f'bags given: {worst}{more}; nothing written. Give the bags it was '
+                          'calibrated from (with its settings), or --accept-handoff-values to '
+                          'certify the file\'s values as they stand.')
     for key, (m, est) in sorted(estimates.items(), key=lambda kv: (kv[1][0].method, kv[0])):
         if key in generic:
             continue
@@ -288,7 +449,7 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
     if spec is not None:
         rule, spec_source = spec.rule_text, spec.source
         judged = {r.key: r.verdict for r in rows if r.verdict}
-        not_measured = 0
+        not_measured: list[str] = []
         for key in spec.limits:
             if key in judged:
                 continue
@@ -297,10 +458,11 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                 spec_missing.append(f'{key} ({spec.limits[key].text()}): not applicable — '
                                     f'method {owner or "?"} did not run for this gyro')
                 continue
-            why = calibration.missing.get(key, 'not in the hand-off file')
+            why = (calibration.missing.get(key) or calibration.not_measurable.get(key)
+                   or 'not in the hand-off file')
             spec_missing.append(f'{key} ({spec.limits[key].text()}): {NOT_MEASURED} — {why}')
-            not_measured += 1
-        verdict_all = overall(list(judged.values()) + [NOT_MEASURED] * not_measured)
+            not_measured.append(key)
+        verdict_all = overall(list(judged.values()), not_measured)
     sections = []
     for name, prov in calibration.methods.items():
         ev: MethodEvidence | None = ev_methods.get(name)
@@ -353,9 +515,10 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         latitude=latitude, rule=rule, overall=verdict_all, spec_source=spec_source,
         spec_missing=tuple(spec_missing),
         evidence_note='' if evidence else (
-            'No bag was given: degrees of freedom, budgets, rejections, figures (but the '
-            'noise curves the hand-off file stores) and input hashes are not known to this '
-            'certificate; k = 2 is assumed for every quantity.'),
+            'No bag was given: budgets, rejections, figures (but the noise curves the '
+            'hand-off file stores) and input hashes are not known to this certificate; k '
+            'rests on the degrees of freedom the hand-off file states, and where it states '
+            'none k = 2 is assumed, as the row says.'),
         notes=tuple(notes), conventions=_conventions(), issue=issue,
         customer=issue.customer if issue else customer, calibration_date=when,
         temperature=temperature_text(evidence.bags if evidence else (), evidence is not None))
@@ -476,6 +639,7 @@ def certificate_record(cert: Certificate) -> dict[str, Any]:
                         'value': r.value_si * r.factor, 'std': r.std_si * r.factor,
                         'k': r.k_value, 'U': (None if r.expanded_si is None
                                               else r.expanded_si * r.factor),
+                        'interval': None if r.interval is None else list(r.interval),
                         'n': r.n, 'dof': r.dof, 'limit': r.limit, 'verdict': r.verdict,
                         'value_si': r.value_si, 'std_si': r.std_si, 'in_handoff': r.in_handoff}
                        for r in cert.rows],

@@ -1,14 +1,15 @@
 """``gyro-calib report`` and ``gyro-calib calibrate … --report DIR``: the certificate of a gyro.
 
     gyro-calib report HANDOFF.yaml [BAG ...] [--spec SPEC.yaml] --out DIR [--no-pdf]
-                      [--lab LAB.yaml] [--customer TEXT]
+                      [--lab LAB.yaml] [--customer TEXT] [--accept-handoff-values]
 
 writes ``DIR/<gyro_id>.html`` (self-contained) and ``DIR/<gyro_id>.pdf``. With bags, the
 methods of the hand-off file whose topics the bags hold are run again on them (with the same
 settings flags as ``calibrate``) for the degrees of freedom, budgets, rejections, figures and
 input hashes; without, the certificate rests on the hand-off file alone and says so. With a
 lab file (``--lab``, or ``lab.yaml`` in DIR; :mod:`gyro_calib.report.lab`) the certificate is
-issued by that laboratory under the next number of its register; without, it is a draft.
+issued by that laboratory under the next number of its register; without, it is a draft. A
+hand-off value the bags contradict is refused (exit 2) unless ``--accept-handoff-values``.
 """
 
 from __future__ import annotations
@@ -47,6 +48,9 @@ def add_commands(sub: Any) -> None:
     rep.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
                      help='write the PDF beside the HTML (default: yes)')
     lab_arguments(rep)
+    rep.add_argument('--accept-handoff-values', action='store_true',
+                     help='certify the hand-off file\'s values as they stand where the bags '
+                     'give others (each such row says what the bags give); default: refuse')
     method_arguments(rep)
     rep.set_defaults(run=run_report)
 
@@ -134,7 +138,8 @@ def run_report(args: argparse.Namespace) -> int:
         paths = write_report(calibration, evidence, spec, args.out,
                              handoff_path=str(args.handoff), pdf=args.pdf,
                              issue=issue_for(lab, calibration, customer, str(args.handoff)),
-                             customer=customer)
+                             customer=customer,
+                             accept_handoff_values=args.accept_handoff_values)
     except OSError as exc:  # disk full: each document is written whole or not at all
         from gyro_calib.outputs import write_failed
 
@@ -183,12 +188,14 @@ def issue_for(lab: Lab | None, calibration: Calibration, customer: str,
 
 def write_report(calibration: Calibration, evidence: RunEvidence | None, spec: Spec | None,
                  out_dir: Path, *, handoff_path: str = '', pdf: bool = True,
-                 issue: Issue | None = None, customer: str = '') -> list[Path]:
+                 issue: Issue | None = None, customer: str = '',
+                 accept_handoff_values: bool = False) -> list[Path]:
     """Build the certificate and write its HTML (and PDF) into ``out_dir``."""
     from gyro_calib.report.certificate import build_certificate, write_certificate
 
     cert = build_certificate(calibration, evidence, spec, handoff_path=handoff_path,
-                             issue=issue, customer=customer)
+                             issue=issue, customer=customer,
+                             accept_handoff_values=accept_handoff_values)
     return write_certificate(cert, out_dir, pdf=pdf)
 
 

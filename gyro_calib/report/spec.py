@@ -12,13 +12,22 @@ A spec file is YAML::
 Decision rules: ``guarded_k2`` — PASS when the k = 2 interval lies inside the limits, FAIL
 when it lies entirely outside, otherwise CONDITIONAL; ``guarded_k95`` — the same with the
 interval ±U at k₉₅(ν); ``simple`` — PASS when the value lies inside (shared risk, no
-CONDITIONAL). The unit's verdict is FAIL if any quantity fails, CONDITIONAL if any is
-conditional or not measured, else PASS.
+CONDITIONAL). A quantity whose method states an interval of its own (the dither misalignment)
+is judged on that interval under both guarded rules. The unit's verdict is FAIL if any
+quantity fails; else NO VERDICT (not measured: …) if a quantity of the spec that a method
+that ran gives was not measured, or if no quantity of the spec was measured at all; else
+CONDITIONAL if any is conditional; else PASS — never PASS without grounds.
+
+Every quantity of a spec must be a hand-off key with a standard uncertainty, and its unit the
+one the certificate quotes it in; anything else is refused naming the nearest known key or
+unit (a misspelt key would otherwise be skipped, and a FAIL read as a PASS).
 """
 
 from __future__ import annotations
 
+import difflib
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,6 +35,7 @@ from typing import Any
 import yaml
 
 from gyro_calib.errors import ConfigError
+from gyro_calib.handoff import HandoffKey
 from gyro_calib.report.units import user_unit
 
 RULES = {
@@ -39,6 +49,7 @@ RULES = {
 DEFAULT_RULE = 'guarded_k2'
 
 PASS, FAIL, CONDITIONAL, NOT_MEASURED = 'PASS', 'FAIL', 'CONDITIONAL', 'NOT MEASURED'
+NO_VERDICT = 'NO VERDICT'
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +84,21 @@ class Spec:
         return f'{self.rule}: {RULES[self.rule]}'
 
 
+def _quantities(schema: Mapping[str, HandoffKey] | None) -> dict[str, HandoffKey]:
+    """The keys a spec may judge: hand-off keys with a standard uncertainty."""
+    if schema is None:
+        from gyro_calib.registry import handoff_schema
+
+        schema = handoff_schema()
+    return {k: v for k, v in schema.items() if v.has_std}
+
+
+def _nearest(word: str, choices: Sequence[str]) -> str:
+    """The closest of ``choices`` to ``word`` (difflib), or the first when none is close."""
+    close = difflib.get_close_matches(word, choices, n=1, cutoff=0.0)
+    return close[0] if close else choices[0]
+
+
 def load_spec(path: Path) -> Spec:
     """Read and check a spec file.
 
@@ -90,8 +116,16 @@ def load_spec(path: Path) -> Spec:
     return spec_from_dict(data, source=str(path))
 
 
-def spec_from_dict(data: Any, *, source: str = 'spec') -> Spec:
-    """Validate the spec mapping (see the module docstring)."""
+def spec_from_dict(data: Any, *, source: str = 'spec',
+                   schema: Mapping[str, HandoffKey] | None = None) -> Spec:
+    """Validate the spec mapping (see the module docstring).
+
+    Raises:
+        ConfigError: in one line naming the file: a quantity that is not a hand-off key with
+            an uncertainty (with the nearest that is), a unit the certificate does not quote
+            it in (with the one it does), limits that are not numbers, min > max.
+    """
+    known = _quantities(schema)
     if not isinstance(data, dict) or not isinstance(data.get('quantities'), dict):
         raise ConfigError(f'spec file {source} must be a mapping with a "quantities" mapping '
                           '(hand-off key → {unit, min, max}).')
@@ -105,12 +139,19 @@ def spec_from_dict(data: Any, *, source: str = 'spec') -> Spec:
     limits: dict[str, Limit] = {}
     for key, entry in data['quantities'].items():
         where = f'quantities.{key} in spec file {source}'
+        if str(key) not in known:
+            raise ConfigError(f'quantities.{key} in spec file {source} is not a measured '
+                              f'quantity of the hand-off file (did you mean '
+                              f'{_nearest(str(key), sorted(known))}?): a misspelt quantity would '
+                              'never be judged; the keys are listed in the README.')
         if not isinstance(entry, dict) or set(entry) - {'unit', 'min', 'max'}:
             raise ConfigError(f'{where} must be a mapping of unit, min, max.')
-        unit = user_unit(str(key)).label
+        quoted = user_unit(str(key))
+        unit = quoted.label or quoted.si
         if entry.get('unit', unit) != unit:
-            raise ConfigError(f'{where} gives unit {entry.get("unit")!r}; the certificate '
-                              f'quotes {key} in {unit!r}: give the limits in {unit!r}.')
+            raise ConfigError(f'{where} gives unit {entry.get("unit")!r}, which {key} cannot be '
+                              f'given in: the certificate quotes it in {unit!r}; give the '
+                              f'limits in {unit!r}.')
         bounds = []
         for side in ('min', 'max'):
             value = entry.get(side)
@@ -145,10 +186,42 @@ def verdict(limit: Limit, value: float, std: float, expanded: float | None,
     return CONDITIONAL
 
 
-def overall(verdicts: list[str]) -> str:
-    """The unit's verdict from its quantities' verdicts."""
+def interval_verdict(limit: Limit, value: float, interval: tuple[float, float],
+                     rule: str) -> str:
+    """PASS / FAIL / CONDITIONAL of a quantity judged on its method's own interval.
+
+    The guarded rules take the interval [lower, upper] as it is (asymmetric: the measured
+    statement); ``simple`` the value.
+    """
+    low = -math.inf if limit.low is None else limit.low
+    high = math.inf if limit.high is None else limit.high
+    if rule == 'simple':
+        return PASS if low <= value <= high else FAIL
+    lo, hi = interval
+    if lo >= low and hi <= high:
+        return PASS
+    if hi < low or lo > high:
+        return FAIL
+    return CONDITIONAL
+
+
+def overall(verdicts: Sequence[str], not_measured: Sequence[str] = ()) -> str:
+    """The unit's verdict from its quantities' verdicts and the spec keys not measured.
+
+    FAIL if any fails; NO VERDICT (naming what was not measured) if a spec quantity was not
+    measured or nothing was judged; CONDITIONAL if any is; else PASS.
+    """
     if FAIL in verdicts:
         return FAIL
-    if CONDITIONAL in verdicts or NOT_MEASURED in verdicts:
+    if not_measured:
+        return f'{NO_VERDICT} (not measured: {", ".join(not_measured)})'
+    if not verdicts:
+        return f'{NO_VERDICT} (none of the specification\'s quantities was measured)'
+    if CONDITIONAL in verdicts:
         return CONDITIONAL
     return PASS
+
+
+def overall_class(text: str) -> str:
+    """The CSS class of a unit's verdict: PASS, FAIL, CONDITIONAL or NOVERDICT."""
+    return 'NOVERDICT' if text.startswith(NO_VERDICT) else text

@@ -54,13 +54,33 @@ class Expanded:
     note: str
 
 
-def expanded_uncertainty(std: float, budget: tuple[BudgetLine, ...] = ()) -> Expanded:
+DOF_SHOWN_MAX = 1000.0
+"""Above this ν the coverage factor no longer changes at the printed two decimals (t₀.₉₇₅ is
+1.962 at ν = 1000, 1.960 at ∞): ν is printed as "> 1000"."""
+
+
+def format_dof(dof: float | None) -> str:
+    """ν as printed: '—' unknown, '∞', '> 1000', else at most 4 characters ('2', '3.4', '292')."""
+    if dof is None:
+        return '—'
+    if math.isinf(dof):
+        return '∞'
+    if dof > DOF_SHOWN_MAX:
+        return '> 1000'
+    return f'{dof:.2g}' if dof < 10 else f'{dof:.0f}'
+
+
+def expanded_uncertainty(std: float, budget: tuple[BudgetLine, ...] = (),
+                         n: int | None = None) -> Expanded:
     """The k = k₉₅(ν) expanded uncertainty of a quantity of standard uncertainty ``std``.
 
     Args:
         std: the combined standard uncertainty u, SI (as the hand-off states it).
         budget: its sources; empty when nothing is known of them (then ν is unknown and
             k = 2 is stated as an assumption).
+        n: the independent measurements the value rests on, where known: ν is at most
+            n − 1 (a Type B part taken as exact cannot lend the statement more degrees of
+            freedom than the data it was scaled from; GUM G.3.3, G.4.1).
 
     Returns:
         The statement; the budget's sources combined in GTC give ν (GUM G.4.1).
@@ -74,21 +94,24 @@ def expanded_uncertainty(std: float, budget: tuple[BudgetLine, ...] = ()) -> Exp
         y = y + ureal(0.0, line.std, df, label=line.source)
     dof = float(y.df)
     combined = float(y.u)
+    notes = []
     if combined > 0 and abs(combined - std) > 1e-6 * std:
-        note = (f'the budget combines to {combined:.4g}, the stated u is {std:.4g}; '
-                'k from the budget\'s degrees of freedom')
-    else:
-        note = ''
+        notes.append(f'the budget combines to {combined:.4g}, the stated u is {std:.4g}; '
+                     'k from the budget\'s degrees of freedom')
+    if n is not None and n >= 2 and dof > n - 1:
+        notes.append(f'ν capped at n − 1 = {n - 1} (the {n} independent measurements; '
+                     f'{format_dof(dof)} from the sources alone)')
+        dof = float(n - 1)
     ordered = tuple(sorted(budget, key=lambda b: -b.std))
     if any(b.dof < 1 and not math.isinf(b.dof) for b in budget):
         return Expanded(std, dof, None, None, ordered,
                         'fewer than 1 degree of freedom: no coverage interval can be stated')
     k = float(reporting.k_factor(dof, P_COVERAGE_PERCENT))
     what = ('ν = ∞: normal' if math.isinf(dof)
-            else f'Student t, ν = {dof:.3g}' + (' (Welch–Satterthwaite)' if len(budget) > 1
-                                                   else ''))
+            else f'Student t, ν = {format_dof(dof)}' + (' (Welch–Satterthwaite)'
+                                                      if len(budget) > 1 else ''))
     return Expanded(std, dof, k, k * std, ordered,
-                    '; '.join(x for x in (f'k for {P_COVERAGE_PERCENT:g} %: {what}', note) if x))
+                    '; '.join([f'k for {P_COVERAGE_PERCENT:g} %: {what}', *notes]))
 
 
 def contribution_percent(line: BudgetLine, std: float) -> float:

@@ -281,6 +281,7 @@ class ThermalSession(MethodSession):
             if est is not None:
                 out[key] = float(est.value)
                 out[key + '_std'] = float(est.std_uncertainty)
+                out[key + '_dof'] = est.supported_dof
         return out
 
     def handoff(self, source: str, *, gyro_id: str = '') -> Any:
