@@ -48,8 +48,9 @@ def add_commands(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, start or reach the cluster, run the fleet, write its files."""
+    from gyro_calib.batch.lock import BatchLock
     from gyro_calib.batch.manifest import load_manifest
-    from gyro_calib.batch.run import make_client, print_summary, run_batch
+    from gyro_calib.batch.run import check_earlier_runs
     from gyro_calib.report.cli import check_output_dir, load_spec_arg
 
     if args.workers is not None and args.workers < 1:
@@ -57,6 +58,22 @@ def run(args: argparse.Namespace) -> int:
     check_output_dir(args.out)
     jobs = load_manifest(args.manifest)
     spec = load_spec_arg(args.spec)
+    lock = BatchLock(args.out)
+    lock.acquire()  # a second run into the same --out stops here
+    try:
+        check_earlier_runs(jobs, args.out)
+        return _run_locked(args, jobs, spec)
+    except BaseException:
+        lock.abandon()  # also removes --out if this run created it and wrote nothing
+        raise
+    finally:
+        lock.release()
+
+
+def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any) -> int:
+    """Start or reach the cluster, run the fleet, print the summary (the lock is held)."""
+    from gyro_calib.batch.run import make_client, print_summary, run_batch
+
     show = sys.stderr.isatty() if args.progress is None else args.progress
     try:
         client, cluster = make_client(args.workers, args.scheduler)

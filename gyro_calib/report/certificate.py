@@ -71,6 +71,8 @@ class QuantityRow:
     note: str = ''
     k_value: float | None = None
     expanded_si: float | None = None
+    n_value: int | None = None
+    dof_value: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -199,7 +201,8 @@ def _quantity_row(key: str, method: str, description: str, value_si: float, std_
         k='—' if exp.k is None else f'{exp.k:.2f}',
         expanded='—' if exp.expanded is None else format_number(exp.expanded * f, u),
         budget=rows, k_note=exp.note, limit=limit_text, verdict=verdict_text,
-        in_handoff=in_handoff, note=note, k_value=exp.k, expanded_si=exp.expanded)
+        in_handoff=in_handoff, note=note, k_value=exp.k, expanded_si=exp.expanded,
+        n_value=None if est_n is None else int(est_n), dof_value=exp.dof)
 
 
 def _span_text(start_ns: int, end_ns: int) -> str:
@@ -437,7 +440,8 @@ def certificate_record(cert: Certificate) -> dict[str, Any]:
                         'k': r.k_value, 'U': (None if r.expanded_si is None
                                               else r.expanded_si * r.factor),
                         'n': r.n, 'dof': r.dof, 'limit': r.limit, 'verdict': r.verdict,
-                        'value_si': r.value_si, 'std_si': r.std_si, 'in_handoff': r.in_handoff}
+                        'value_si': r.value_si, 'std_si': r.std_si, 'in_handoff': r.in_handoff,
+                        'U_si': r.expanded_si, 'n_value': r.n_value, 'dof_value': r.dof_value}
                        for r in cert.rows],
         'not_measured': list(cert.spec_missing),
     }
