@@ -46,6 +46,8 @@ COMPLETE, INTERRUPTED = 'complete', 'interrupted'
 OUTLIER_ROBUST_Z = 3.5
 OUTLIER_MIN_N = 5
 """Outliers are named only among at least this many gyros."""
+OPEN_MAX = 12
+"""Each gyro's values of a quantity are shown open on the page up to this many gyros."""
 OUTLIER_OWN_K = 2.0
 """A value within this many of its own standard uncertainties of the median is no outlier."""
 
@@ -355,9 +357,11 @@ def _quantity_section(key: str, entries: list[tuple[str, str, dict[str, Any]]],
     cpk = '—' if stats['cpk'] is None else f'{stats["cpk"]:.2f}'
     d = _decimals_for(stats['std'], stds)
     relative = _relative(stats['mean'], values)
-    spread = f'{stats["std"]:.2g}' if math.isfinite(stats['std']) else '— (one unit)'
+    ppm = 1e6 / abs(stats['mean']) if relative else math.nan
+    d_ppm = _decimals_for(stats['std'] * ppm, stds * ppm) if relative else d
+    spread = f'{stats["std"]:.{d}f}' if math.isfinite(stats['std']) else '— (one unit)'
     if relative and math.isfinite(stats['std']):
-        spread += f' ({stats["std"] / abs(stats["mean"]) * 1e6:.3g} ppm of the mean)'
+        spread += f' ({stats["std"] * ppm:.{d_ppm}f} ppm of the mean)'
     outliers = [e for e, o in zip(entries, stats['outliers']) if o]
     links = ', '.join(f'<a href="{esc(s)}/{esc(s)}.html">{esc(g)}</a> '
                       f'({q["display_value"]:.{d}f})' for g, s, q in outliers) or 'none'
@@ -365,12 +369,12 @@ def _quantity_section(key: str, entries: list[tuple[str, str, dict[str, Any]]],
     rows = []
     for (gid, stem, q), v, u, out in zip(entries, values, stds, stats['outliers']):
         dev = v - stats['mean']
-        dev_text = f'{dev / abs(stats["mean"]) * 1e6:+.3f}' if relative else f'{dev:+.{d}f}'
+        dev_text = f'{dev * ppm:+.{d_ppm}f}' if relative else f'{dev:+.{d}f}'
         rows.append(f'<tr class="{"outlier" if out else ""}"><td><a href="{esc(stem)}/'
                     f'{esc(stem)}.html">{esc(gid)}</a></td><td class="num">{v:.{d}f}</td>'
                     f'<td class="num">{"—" if not math.isfinite(u) else f"{u:.2g}"}</td>'
                     f'<td class="num">{dev_text}</td><td>{esc(q.get("verdict") or "—")}</td>'
-                    f'<td>{"outlier" if out else ""}</td></tr>')
+                    f'<td>{"yes" if out else ""}</td></tr>')
     return (f'<section class="quantity" data-key="{esc(key)}"><h3>{esc(key)} '
             f'<span class="unit">[{esc(unit)}]</span></h3>'
             + _svg_strip(values, [e[0] for e in entries], low, high, unit, stats['outliers'], d)
@@ -380,9 +384,11 @@ def _quantity_section(key: str, entries: list[tuple[str, str, dict[str, Any]]],
             f'<td class="num">{stats["mean"]:.{d}f}</td><td>{spread}</td>'
             f'<td>{esc(lim.text()) if lim is not None else "—"}</td><td>{yield_q}</td>'
             f'<td>{cpk}</td><td class="outliers">{links}</td></tr></table>'
-            f'<details><summary>each gyro ({stats["n"]})</summary><table class="values">'
+            f'<details{" open" if stats["n"] <= OPEN_MAX else ""}><summary>each gyro '
+            f'({stats["n"]})</summary><table class="values">'
             f'<tr><th>gyro</th><th>value ({esc(unit)})</th><th>u</th><th>{esc(dev_head)}</th>'
-            f'<th>verdict</th><th></th></tr>' + ''.join(rows) + '</table></details></section>')
+            f'<th>verdict</th><th>outlier</th></tr>' + ''.join(rows)
+            + '</table></details></section>')
 
 
 def _gyro_table(records: Sequence[dict[str, Any]]) -> str:
