@@ -290,10 +290,13 @@ def _decimals_for(spread: float, stds: np.ndarray) -> int:
     return int(min(max(1 - math.floor(math.log10(min(scale))), 0), 15))
 
 
-def _relative(mean: float, values: np.ndarray) -> bool:
-    """Deviations read as relative (ppm of the mean): every value within 10 % of a mean ≠ 0."""
-    return bool(mean != 0 and math.isfinite(mean) and values.size
-                and float(np.max(np.abs(values - mean))) < 0.1 * abs(mean))
+RELATIVE_SUFFIXES = ('_rad_per_pulse', '_counts_per_rad')
+"""Scale factors (K̃, K): their spread and deviations are shown in ppm of the fleet mean."""
+
+
+def _relative(key: str, mean: float) -> bool:
+    """Deviations read in ppm of the mean: a scale factor with a finite mean ≠ 0."""
+    return key.endswith(RELATIVE_SUFFIXES) and mean != 0 and math.isfinite(mean)
 
 
 def fleet_html(records: Sequence[dict[str, Any]], spec_limits: dict[str, Any], *,
@@ -356,7 +359,7 @@ def _quantity_section(key: str, entries: list[tuple[str, str, dict[str, Any]]],
                f'{verdicts.count("FAIL")} fail)' if verdicts else 'no limits')
     cpk = '—' if stats['cpk'] is None else f'{stats["cpk"]:.2f}'
     d = _decimals_for(stats['std'], stds)
-    relative = _relative(stats['mean'], values)
+    relative = _relative(key, stats['mean'])
     ppm = 1e6 / abs(stats['mean']) if relative else math.nan
     d_ppm = _decimals_for(stats['std'] * ppm, stds * ppm) if relative else d
     spread = f'{stats["std"]:.{d}f}' if math.isfinite(stats['std']) else '— (one unit)'
