@@ -422,7 +422,7 @@ def test_fleet_columns_are_spc_ready(fleet: dict[str, Any]) -> None:
     assert k['usl'] == pytest.approx(0.8429 / ARCSEC_PER_RAD, rel=1e-15)
     assert k['lsl'] < k['value'] < k['usl'] and k['limit'] == '0.8427 … 0.8429 ″/pulse'
     assert isinstance(k['n'], int) and k['n'] >= 2 and isinstance(k['dof'], int)
-    assert k['dof'] == k['n'] - 1
+    assert 1 <= k['dof'] and k['k'] > 2  # ν from a few window pairs: t-factor above 2
     records = [json.loads(line) for line in (out / 'fleet.jsonl').read_text().splitlines()]
     r1 = next(r for r in records if r['gyro_id'] == 'R-1')
     q = next(q for q in r1['certificate']['quantities'] if q['key'] == 'k_tilde_rad_per_pulse')

@@ -4,8 +4,9 @@
                      [--spec SPEC.yaml] [--force] [--no-pdf] [--progress]
 
 Exit status: 0 every gyro calibrated; 1 some gyro failed (its row says why; the others
-are done); 2 bad input (manifest, spec, output directory), nothing written; 130 interrupted
-(what finished is kept, the fleet files list it).
+are done); 2 bad input (manifest, spec, output directory, ids whose files would collide) or
+another run writes the output directory (``DIR/batch.lock``), nothing written; 130
+interrupted (what finished is kept; every other gyro is a row ``not run (interrupted)``).
 """
 
 from __future__ import annotations

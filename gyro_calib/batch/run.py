@@ -3,7 +3,8 @@
 Per gyro: one plan task (hash the bags, skip when unchanged, pick the methods), one task per
 method (the streaming bag calibration), one finish task (hand-off file and certificate as
 bytes) that depends on them. The parent schedules, writes what the finish tasks return, and
-never opens a bag. Ctrl-C cancels what is pending and keeps what finished.
+never opens a bag. Ctrl-C cancels what is pending and keeps what finished; every other gyro
+is a row ``not run (interrupted)``.
 """
 
 from __future__ import annotations
