@@ -246,14 +246,19 @@ def test_against_a_separately_started_dask_scheduler_and_worker(
                 proc.wait()
 
 
-def test_ctrl_c_stops_cleanly_and_keeps_what_finished(tmp_path: Path) -> None:
-    """Ctrl-C stops cleanly and keeps what finished.
+def test_ctrl_c_stops_cleanly_keeps_what_finished_and_lists_every_gyro(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Ctrl-C stops cleanly, keeps what finished, and the fleet files say it was interrupted.
 
-    SIGINT to the whole process group (as Ctrl-C at a terminal): exit 130, one line on
-    stderr (no worker traceback), the gyros that finished are in the fleet files with their
-    files, and no process of the run is left.
+    SIGINT to the whole process group (as Ctrl-C at a terminal) once the first gyro is
+    written: exit 130, one line on stderr (no worker traceback), the gyros that finished are
+    in the fleet files with their files, every other manifest gyro is a row ``not run
+    (interrupted)``, every fleet file says the run was interrupted, and no process of the run
+    is left. While it runs, a second run into the same --out is refused, naming its pid.
     """
     import signal
+
+    import pyarrow.parquet as pq
 
     manifest = _manifest(tmp_path)
     out = tmp_path / 'out'
@@ -266,16 +271,39 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_finished(tmp_path: Path) -> None:
     deadline = time.monotonic() + 120
     while not list(out.glob('*/record.json')) and time.monotonic() < deadline:
         time.sleep(0.1)
+    assert main(['batch', str(manifest), '--out', str(out)]) == 2  # the second run
+    refused = capsys.readouterr()
+    assert refused.out == '' and len(refused.err.strip().splitlines()) == 1
+    assert f'pid {proc.pid} ' in refused.err and 'started 20' in refused.err
     os.killpg(proc.pid, signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130
     assert stderr.strip() == 'gyro-calib: interrupted; the gyros that finished are kept.'
+    every = list(FLEET)[:3] + ['X-1'] + list(FLEET)[3:]
     with (out / 'fleet.csv').open(encoding='utf-8') as stream:
-        listed = {r['gyro_id'] for r in csv.DictReader(stream)}
-    assert listed and listed < set(FLEET) | {'X-1'}
-    for gid in listed - {'X-1'}:
+        rows = list(csv.DictReader(stream))
+    assert list(dict.fromkeys(r['gyro_id'] for r in rows)) == every
+    assert {r['fleet_run'] for r in rows} == {'interrupted'}
+    not_run = {r['gyro_id'] for r in rows if r['status'] == 'not run'}
+    finished = set(every) - not_run
+    assert finished and not_run, (finished, not_run)
+    for r in rows:
+        if r['gyro_id'] in not_run:
+            assert r['reason'].startswith('not run (interrupted)') and r['key'] == ''
+    for gid in finished - {'X-1'}:
         assert (out / gid / f'{gid}.yaml').exists() and (out / gid / f'{gid}.html').exists()
-    assert 'interrupted' in stdout
+    for gid in not_run:
+        assert not (out / gid / 'record.json').exists()
+    records = [json.loads(line) for line in (out / 'fleet.jsonl').read_text().splitlines()]
+    assert [r['gyro_id'] for r in records] == every
+    assert {r['fleet_run'] for r in records} == {'interrupted'}
+    table = pq.read_table(out / 'fleet.parquet')
+    assert table.schema.metadata[b'gyro_calib.fleet_run'] == b'interrupted'
+    page = (out / 'fleet.html').read_text(encoding='utf-8')
+    assert f'run interrupted, {len(not_run)} not run' in page and 'not a complete fleet' in page
+    assert f'{len(not_run)} not run (interrupted): not counted' in page
+    assert f'{len(not_run)} not run (interrupted)' in stdout
+    assert not (out / 'batch.lock').exists()
     left = ''
     for _ in range(100):  # nothing of the run is left (workers, nannies, resource tracker)
         left = subprocess.run(['ps', '-o', 'pid=,cmd=', '-g', str(proc.pid)],
@@ -284,6 +312,31 @@ def test_ctrl_c_stops_cleanly_and_keeps_what_finished(tmp_path: Path) -> None:
             break
         time.sleep(0.1)
     assert not left
+
+
+def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A run killed with SIGKILL leaves batch.lock; the next run takes it over and says so."""
+    import signal
+
+    out = tmp_path / 'out'
+    env = {**os.environ, 'PYTHONPATH': os.pathsep.join(
+        [str(Path(__file__).resolve().parent.parent), os.environ.get('PYTHONPATH', '')])}
+    killed = subprocess.Popen(
+        [sys.executable, '-c', 'import os, sys; from pathlib import Path; '
+         'from gyro_calib.batch.lock import BatchLock; BatchLock(Path(sys.argv[1])).acquire(); '
+         'os.kill(os.getpid(), 9)', str(out)], env=env)
+    assert killed.wait(timeout=60) == -signal.SIGKILL
+    left = (out / 'batch.lock').read_text(encoding='utf-8').strip()
+    assert left.startswith(f'pid {killed.pid} on ') and ', started 20' in left
+    manifest = _manifest(tmp_path)  # only the broken gyro: the run is short
+    only_broken = [g for g in yaml.safe_load(manifest.read_text())['gyros'] if g['id'] == 'X-1']
+    manifest.write_text(yaml.safe_dump(only_broken), encoding='utf-8')
+    assert main(['batch', str(manifest), '--out', str(out), '--workers', '1', '--no-pdf']) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f'gyro-calib: --out {out}: taking over the lock left by {left}, a run that '
+                   'ended without releasing it.']
+    assert (out / 'fleet.csv').exists() and not (out / 'batch.lock').exists()
 
 
 def test_fleet_page_says_a_lone_units_spread_is_not_defined() -> None:
@@ -295,3 +348,166 @@ def test_fleet_page_says_a_lone_units_spread_is_not_defined() -> None:
                   {'key': 'fog_bias_rad_s', 'value': 0.5, 'unit': '°/h'}]}}
     page = fleet_html([record], {})
     assert '— (one unit)' in page and '>nan<' not in page
+
+
+# --- Fleet records that never lose or misreport a gyro (issue 25 §4) ---------------------
+
+
+@pytest.mark.parametrize('ids', [('A/1', 'A_1'), ('A-1', 'a-1'), ('A 1', 'A?1')])
+def test_ids_sharing_a_file_stem_are_refused_before_any_work(
+        ids: tuple[str, str], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Two ids stored under one stem (or one folder on a case-insensitive file system)."""
+    manifest = tmp_path / 'm.yaml'
+    manifest.write_text(yaml.safe_dump([{'id': g, 'bags': [str(BAGS / 'k_tilde_bench')]}
+                                        for g in ids]), encoding='utf-8')
+    assert main(['batch', str(manifest), '--out', str(tmp_path / 'out')]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == '' and len(captured.err.strip().splitlines()) == 1
+    assert all(repr(g) in captured.err for g in ids)
+    assert not (tmp_path / 'out').exists()
+
+
+def test_a_gyro_id_naming_a_fleet_file_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    manifest = tmp_path / 'm.yaml'
+    manifest.write_text(yaml.safe_dump([{'id': 'Fleet.HTML', 'bags': ['b']}]), encoding='utf-8')
+    assert main(['batch', str(manifest), '--out', str(tmp_path / 'out')]) == 2
+    assert "'Fleet.HTML'" in capsys.readouterr().err
+    assert not (tmp_path / 'out').exists()
+
+
+def test_a_gyro_whose_folder_holds_another_gyros_earlier_results_is_refused(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``A_1`` ran before into this --out; ``A/1`` now would overwrite its files."""
+    out = tmp_path / 'out'
+    (out / 'A_1').mkdir(parents=True)
+    earlier = json.dumps({'gyro_id': 'A_1', 'stem': 'A_1', 'status': 'ok'})
+    (out / 'A_1' / 'record.json').write_text(earlier, encoding='utf-8')
+    manifest = tmp_path / 'm.yaml'
+    manifest.write_text(yaml.safe_dump([{'id': 'A/1', 'bags': [str(BAGS / 'k_tilde_bench')]}]),
+                        encoding='utf-8')
+    assert main(['batch', str(manifest), '--out', str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == '' and len(captured.err.strip().splitlines()) == 1
+    assert "'A_1'" in captured.err and "'A/1'" in captured.err
+    assert sorted(p.name for p in out.rglob('*')) == ['A_1', 'record.json']
+    assert (out / 'A_1' / 'record.json').read_text(encoding='utf-8') == earlier
+
+
+def test_fleet_columns_are_spc_ready(fleet: dict[str, Any]) -> None:
+    """SI value/std/U under the SI unit, the certificate's unit beside; numeric n, ν, limits."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from gyro_calib.units import ARCSEC_PER_RAD
+
+    out = fleet['out']
+    table = pq.read_table(out / 'fleet.parquet')
+    for column in ('n', 'dof'):
+        assert table.schema.field(column).type == pa.int64()
+    for column in ('value', 'std', 'U', 'lsl', 'usl', 'display_value', 'display_lsl'):
+        assert table.schema.field(column).type == pa.float64()
+    handoff = load_calibration(out / 'R-1' / 'R-1.yaml').values
+    rows = [r for r in table.to_pylist()
+            if (r['gyro_id'], r['key']) == ('R-1', 'k_tilde_rad_per_pulse')]
+    assert len(rows) == 1
+    k = rows[0]
+    assert (k['unit'], k['display_unit']) == ('rad/pulse', '″/pulse')
+    assert k['value'] == handoff['k_tilde_rad_per_pulse']
+    assert k['std'] == handoff['k_tilde_rad_per_pulse_std']
+    assert k['display_value'] == pytest.approx(k['value'] * ARCSEC_PER_RAD, rel=1e-15)
+    assert k['U'] == pytest.approx(k['k'] * k['std'])
+    assert (k['display_lsl'], k['display_usl']) == (0.8427, 0.8429)
+    assert k['lsl'] == pytest.approx(0.8427 / ARCSEC_PER_RAD, rel=1e-15)
+    assert k['usl'] == pytest.approx(0.8429 / ARCSEC_PER_RAD, rel=1e-15)
+    assert k['lsl'] < k['value'] < k['usl'] and k['limit'] == '0.8427 … 0.8429 ″/pulse'
+    assert isinstance(k['n'], int) and k['n'] >= 2 and isinstance(k['dof'], int)
+    assert 1 <= k['dof'] and k['k'] > 2  # ν from a few window pairs: t-factor above 2
+    records = [json.loads(line) for line in (out / 'fleet.jsonl').read_text().splitlines()]
+    r1 = next(r for r in records if r['gyro_id'] == 'R-1')
+    q = next(q for q in r1['certificate']['quantities'] if q['key'] == 'k_tilde_rad_per_pulse')
+    assert {c: q[c] for c in ('value', 'n', 'dof', 'lsl', 'display_unit')} == {
+        c: k[c] for c in ('value', 'n', 'dof', 'lsl', 'display_unit')}
+    assert type(q['n']) is int and type(q['dof']) is int
+    assert q['value_si'] == q['value']  # the older key stays for its readers
+    with (out / 'fleet.csv').open(encoding='utf-8') as stream:
+        row = next(r for r in csv.DictReader(stream)
+                   if (r['gyro_id'], r['key']) == ('R-1', 'k_tilde_rad_per_pulse'))
+    assert float(row['value']) == k['value'] and row['n'] == str(k['n'])
+    assert float(row['lsl']) == k['lsl'] and row['unit'] == 'rad/pulse'
+    assert {r['fleet_run'] for r in table.to_pylist()} == {'complete'}
+
+
+def test_a_quantity_stored_in_the_older_layout_reads_in_the_new_one() -> None:
+    """record.json of an earlier version: value in the quoted unit, n and ν as text."""
+    from gyro_calib.batch.fleet import spc_quantity
+    from gyro_calib.report.spec import Limit
+    from gyro_calib.units import ARCSEC_PER_RAD
+
+    old = {'key': 'k_tilde_rad_per_pulse', 'method': 'rbrlg', 'unit': '″/pulse',
+           'value': 0.8428, 'std': 2e-6, 'k': 4.3, 'U': 8.6e-6, 'n': '3', 'dof': '2',
+           'limit': '≤ 0.9 ″/pulse', 'verdict': 'PASS', 'value_si': 0.8428 / ARCSEC_PER_RAD,
+           'std_si': 2e-6 / ARCSEC_PER_RAD, 'in_handoff': True}
+    new = spc_quantity(old, Limit('k_tilde_rad_per_pulse', '″/pulse', None, 0.9))
+    assert (new['unit'], new['display_unit']) == ('rad/pulse', '″/pulse')
+    assert new['value'] == old['value_si'] and new['display_value'] == pytest.approx(0.8428)
+    assert new['U'] == pytest.approx(8.6e-6 / ARCSEC_PER_RAD)
+    assert (new['n'], new['dof'], new['lsl'], new['display_usl']) == (3, 2, None, 0.9)
+    assert spc_quantity(new) == new
+
+
+def test_fleet_page_shows_the_spread_of_k_tilde_in_ppm() -> None:
+    """Six gyros whose K̃ differ by about a ppm: each value and its deviation are visible."""
+    from gyro_calib.batch.fleet import fleet_html
+
+    base = 0.8427948
+    offsets_ppm = [0.0, 1.0, -1.0, 2.0, -2.0, 0.5]
+    records = [_gyro_record(f'G-{i}', 'k_tilde_rad_per_pulse', '″/pulse',
+                            base * (1 + p * 1e-6), 2e-7) for i, p in enumerate(offsets_ppm)]
+    page = fleet_html(records, {})
+    shown = [f'{base * (1 + p * 1e-6):.8f}' for p in offsets_ppm]
+    assert len(set(shown)) == len(shown) and all(f'>{s}<' in page for s in shown)
+    assert 'deviation from the mean (ppm)' in page
+    mean = sum(offsets_ppm) / len(offsets_ppm)  # u = 0.24 ppm: deviations to 0.01 ppm
+    assert f'>{offsets_ppm[3] - mean:+.2f}<' in page and '>+1.92<' in page
+
+
+def test_an_outlier_is_beyond_the_fleet_spread_and_its_own_2u() -> None:
+    """G-5 and G-6 lie equally far out; G-5's own u covers it, G-6's does not."""
+    from gyro_calib.batch.fleet import fleet_html
+
+    values = [10.0, 10.1, 9.9, 10.05, 9.95, 13.0, 13.0]
+    stds = [0.1, 0.1, 0.1, 0.1, 0.1, 2.0, 0.1]
+    records = [_gyro_record(f'G-{i}', 'fog_bias_rad_s', '°/h', v, u)
+               for i, (v, u) in enumerate(zip(values, stds))]
+    page = fleet_html(records, {})
+    outliers = page.split('class="outliers">', 1)[1].split('</td>', 1)[0]
+    assert 'G-6' in outliers and 'G-5' not in outliers
+
+
+def test_yield_counts_every_gyro_judged_or_failed_and_says_so() -> None:
+    from gyro_calib.batch.fleet import fleet_html
+
+    records = [_gyro_record('P-1', 'fog_bias_rad_s', '°/h', 1.0, 0.1, 'PASS'),
+               _gyro_record('P-2', 'fog_bias_rad_s', '°/h', 1.0, 0.1, 'PASS'),
+               _gyro_record('F-1', 'fog_bias_rad_s', '°/h', 9.0, 0.1, 'FAIL'),
+               {'gyro_id': 'X-1', 'stem': 'X-1', 'status': 'failed', 'reason': 'bad bag'},
+               {'gyro_id': 'Z-1', 'stem': 'Z-1', 'status': 'not run',
+                'reason': 'not run (interrupted)'}]
+    page = fleet_html(records, {}, interrupted=True)
+    assert ('Yield 50.0 % = 2 PASS of 4 gyros judged or failed (3 judged: 2 PASS, 1 FAIL; '
+            '1 failed to calibrate, counted as not passing). 1 not run (interrupted): not '
+            'counted.') in page
+    assert 'This run was interrupted' in page
+
+
+def _gyro_record(gid: str, key: str, unit: str, value: float, std: float,
+                 verdict: str = '') -> dict[str, Any]:
+    """A gyro's record as an earlier run stored it (values in the quoted unit)."""
+    from gyro_calib.report.units import user_unit
+
+    f = user_unit(key).factor
+    return {'gyro_id': gid, 'stem': gid, 'status': 'ok',
+            'certificate': {'overall': verdict, 'quantities': [
+                {'key': key, 'unit': unit, 'value': value, 'std': std, 'value_si': value / f,
+                 'std_si': std / f, 'verdict': verdict, 'limit': '≤ 5 °/h' if verdict else ''}]}}

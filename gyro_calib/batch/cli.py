@@ -5,8 +5,9 @@
                      [--lab LAB.yaml] [--customer TEXT]
 
 Exit status: 0 every gyro calibrated; 1 some gyro failed (its row says why; the others
-are done); 2 bad input (manifest, spec, output directory), nothing written; 130 interrupted
-(what finished is kept, the fleet files list it).
+are done); 2 bad input (manifest, spec, output directory, ids whose files would collide) or
+another run writes the output directory (``DIR/batch.lock``), nothing written; 130
+interrupted (what finished is kept; every other gyro is a row ``not run (interrupted)``).
 """
 
 from __future__ import annotations
@@ -52,8 +53,9 @@ def add_commands(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, start or reach the cluster, run the fleet, write its files."""
+    from gyro_calib.batch.lock import BatchLock
     from gyro_calib.batch.manifest import load_manifest
-    from gyro_calib.batch.run import make_client, print_summary, run_batch
+    from gyro_calib.batch.run import check_earlier_runs
     from gyro_calib.report.cli import check_output_dir, load_spec_arg
 
     if args.workers is not None and args.workers < 1:
@@ -63,6 +65,23 @@ def run(args: argparse.Namespace) -> int:
     jobs = load_manifest(args.manifest)
     spec = load_spec_arg(args.spec)
     lab, jobs = lab_and_customers(args, jobs)
+    lock = BatchLock(args.out)
+    lock.acquire()  # a second run into the same --out stops here
+    try:
+        check_earlier_runs(jobs, args.out)
+        return _run_locked(args, jobs, spec, lab, created)
+    except BaseException:
+        lock.abandon()  # also removes --out if this run created it and wrote nothing
+        raise
+    finally:
+        lock.release()
+
+
+def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
+                created: bool) -> int:
+    """Start or reach the cluster, run the fleet, print the summary (the lock is held)."""
+    from gyro_calib.batch.run import make_client, print_summary, run_batch
+
     show = sys.stderr.isatty() if args.progress is None else args.progress
     try:
         client, cluster = make_client(args.workers, args.scheduler)
@@ -84,9 +103,8 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:  # disk full: what was stored before it stays, each file whole
         from gyro_calib.outputs import write_failed
 
-        if created and not any(args.out.iterdir()):
-            args.out.rmdir()
-            raise write_failed(exc, '--out', args.out) from None
+        if created and not any(p.name != 'batch.lock' for p in args.out.iterdir()):
+            raise write_failed(exc, '--out', args.out) from None  # the lock removes --out
         raise write_failed(exc, '--out', args.out,
                            ['the files of the gyros stored before it']) from None
     finally:

@@ -1,12 +1,15 @@
 """The fleet files: ``fleet.csv``, ``fleet.parquet``, ``fleet.jsonl`` and ``fleet.html``.
 
-One row per gyro and quantity (value, std, k, U in the quoted unit, n, ν, limits, verdict,
-the gyro's overall verdict and input hashes) in CSV and Parquet; one JSON record per gyro
+One row per gyro and quantity in CSV and Parquet: value, std and U in SI under the SI unit
+of the hand-off key (column ``unit``), the same in the certificate's unit beside them
+(``display_*``), k, n and ν as numbers, the limits as printed and as numbers (SI and
+display), the verdict, the gyro's overall verdict and input hashes. One JSON record per gyro
 (limits, verdicts, inputs, settings, status and reason), as production test records are kept
-for MES/SPC; and an HTML page with each quantity's distribution across the fleet against its
-limits, yield, mean, spread (sample standard deviation), Cpk = min(USL − μ, μ − LSL)/(3σ) and
-outliers (more than 3.5 robust standard deviations, 1.4826·MAD, from the median) linked to
-their certificates. A failed gyro has one row with its reason.
+for MES/SPC. An HTML page with each quantity's distribution across the fleet against its
+limits, yield, mean, spread (sample standard deviation), Cpk = min(USL − μ, μ − LSL)/(3σ),
+each gyro's deviation from the fleet mean and the outliers, linked to their certificates.
+A failed gyro has one row with its reason; after an interrupted run every gyro that did not
+finish has one row ``not run (interrupted)`` and every file says the run was interrupted.
 """
 
 from __future__ import annotations
@@ -17,19 +20,36 @@ import html
 import io
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 COLUMNS = ('gyro_id', 'status', 'overall', 'key', 'method', 'unit', 'value', 'std', 'k', 'U',
-           'n', 'dof', 'limit', 'verdict', 'in_handoff', 'inputs_sha256', 'reason')
-"""The columns of fleet.csv and fleet.parquet."""
+           'n', 'dof', 'limit', 'verdict', 'in_handoff', 'inputs_sha256', 'reason',
+           'lsl', 'usl', 'display_unit', 'display_value', 'display_std', 'display_U',
+           'display_lsl', 'display_usl', 'fleet_run')
+"""The columns of fleet.csv and fleet.parquet (new ones appended, old ones in place)."""
+
+FLOAT_COLUMNS = frozenset({'value', 'std', 'k', 'U', 'lsl', 'usl', 'display_value',
+                           'display_std', 'display_U', 'display_lsl', 'display_usl'})
+INT_COLUMNS = frozenset({'n', 'dof'})
+QUANTITY_FIELDS = ('key', 'method', 'unit', 'value', 'std', 'U', 'k', 'n', 'dof', 'limit',
+                   'lsl', 'usl', 'verdict', 'in_handoff', 'display_unit', 'display_value',
+                   'display_std', 'display_U', 'display_lsl', 'display_usl')
+"""A quantity as the fleet files keep it (fleet.jsonl, each gyro's record.json)."""
+
+COMPLETE, INTERRUPTED = 'complete', 'interrupted'
+"""The values of ``fleet_run``: the run finished, or was stopped with gyros not run."""
 
 OUTLIER_ROBUST_Z = 3.5
 OUTLIER_MIN_N = 5
 """Outliers are named only among at least this many gyros."""
+OPEN_MAX = 12
+"""Each gyro's values of a quantity are shown open on the page up to this many gyros."""
+OUTLIER_OWN_K = 2.0
+"""A value within this many of its own standard uncertainties of the median is no outlier."""
 
 
 def inputs_digest(record: dict[str, Any]) -> str:
@@ -39,22 +59,99 @@ def inputs_digest(record: dict[str, Any]) -> str:
     return hashlib.sha256(json.dumps(items).encode()).hexdigest() if items else ''
 
 
-def fleet_rows(records: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+def _finite(x: Any) -> float | None:
+    return float(x) if isinstance(x, (int, float)) and not isinstance(x, bool) \
+        and math.isfinite(x) else None
+
+
+def _count(number: Any, text: Any) -> int | None:
+    """A count (n, ν) as an integer: ν truncated (GUM G.6.4); None when unknown or infinite."""
+    x = _finite(number)
+    if x is None and number is None and isinstance(text, str):  # a record of an older run
+        try:
+            x = _finite(float(text))
+        except ValueError:
+            x = None
+    return None if x is None else int(math.floor(x))
+
+
+def spc_quantity(q: Mapping[str, Any], limit: Any = None) -> dict[str, Any]:
+    """One certificate quantity as the fleet files keep it.
+
+    ``value``/``std``/``U``/``lsl``/``usl`` in SI under ``unit`` (the hand-off key's SI
+    unit), the same in the certificate's unit under ``display_*``, ``n`` and ``dof`` as
+    integers (None: unknown; ``dof`` None with a k also means infinite), the limits as
+    printed in ``limit``. ``value_si``/``std_si`` stay for readers of the older layout. A
+    quantity already in this form is returned unchanged; one in the older form (``value``
+    in the certificate's unit) is converted.
+
+    Args:
+        q: the quantity, as :func:`gyro_calib.report.certificate.certificate_record` gives
+            it (or as an earlier run stored it).
+        limit: the spec's :class:`~gyro_calib.report.spec.Limit` of the key (its bounds
+            in the certificate's unit), or None.
+    """
+    if 'display_unit' in q:
+        return dict(q)
+    from gyro_calib.report.units import user_unit
+
+    unit = user_unit(str(q['key']))
+    f = unit.factor
+    value = _finite(q.get('value_si'))
+    value = value if value is not None or _finite(q.get('value')) is None \
+        else float(q['value']) / f
+    std = _finite(q.get('std_si'))
+    std = std if std is not None or _finite(q.get('std')) is None else float(q['std']) / f
+    big_u = _finite(q.get('U_si'))
+    big_u = big_u if big_u is not None or _finite(q.get('U')) is None else float(q['U']) / f
+    judged = limit is not None and bool(q.get('limit'))
+    low = _finite(getattr(limit, 'low', None)) if judged else None
+    high = _finite(getattr(limit, 'high', None)) if judged else None
+
+    def shown(x: float | None) -> float | None:
+        return None if x is None else x * f
+
+    return {'key': q['key'], 'method': q.get('method'), 'unit': unit.si,
+            'value': value, 'std': std, 'U': big_u, 'k': _finite(q.get('k')),
+            'n': _count(q.get('n_value'), q.get('n')),
+            'dof': _count(q.get('dof_value'), q.get('dof')),
+            'limit': q.get('limit') or '',
+            'lsl': None if low is None else low / f, 'usl': None if high is None else high / f,
+            'verdict': q.get('verdict') or '', 'in_handoff': q.get('in_handoff'),
+            'display_unit': unit.label or unit.si, 'display_value': shown(value),
+            'display_std': shown(std), 'display_U': shown(big_u), 'display_lsl': low,
+            'display_usl': high, 'value_si': value, 'std_si': std}
+
+
+def fleet_record(record: Mapping[str, Any], spec_limits: Mapping[str, Any] | None = None,
+                 fleet_run: str = COMPLETE) -> dict[str, Any]:
+    """A gyro's record with its certificate quantities in the fleet form (:func:`spc_quantity`)."""
+    out = dict(record)
+    cert = out.get('certificate')
+    if cert:
+        limits = spec_limits or {}
+        out['certificate'] = {**cert, 'quantities': [
+            spc_quantity(q, limits.get(q.get('key'))) for q in cert.get('quantities') or []]}
+    out['fleet_run'] = fleet_run
+    return out
+
+
+def fleet_rows(records: Sequence[dict[str, Any]], spec_limits: Mapping[str, Any] | None = None,
+               fleet_run: str = COMPLETE) -> list[dict[str, Any]]:
     """The rows of fleet.csv / fleet.parquet."""
     rows = []
-    for rec in records:
+    for raw in records:
+        rec = fleet_record(raw, spec_limits, fleet_run)
         cert = rec.get('certificate') or {}
         common = {'gyro_id': rec['gyro_id'], 'status': rec.get('status', ''),
                   'overall': cert.get('overall', ''), 'inputs_sha256': inputs_digest(rec),
-                  'reason': rec.get('reason', '')}
+                  'reason': rec.get('reason', ''), 'fleet_run': fleet_run}
         quantities = cert.get('quantities') or []
         if not quantities:
             rows.append({c: common.get(c) for c in COLUMNS})
         for q in quantities:
             rows.append({**{c: common.get(c) for c in COLUMNS},
-                         **{c: q.get(c) for c in ('key', 'method', 'unit', 'value', 'std', 'k',
-                                                   'U', 'n', 'dof', 'limit', 'verdict',
-                                                   'in_handoff')}})
+                         **{c: q.get(c) for c in QUANTITY_FIELDS if c in COLUMNS}})
     return rows
 
 
@@ -65,12 +162,21 @@ def _atomic_write(path: Path, data: bytes) -> None:
 
 
 def write_fleet(records: Sequence[dict[str, Any]], out_dir: Path, *,
-                spec_limits: dict[str, Any] | None = None) -> list[Path]:
-    """Write the four fleet files into ``out_dir``; return their paths."""
+                spec_limits: dict[str, Any] | None = None,
+                interrupted: bool = False) -> list[Path]:
+    """Write the four fleet files into ``out_dir``; return their paths.
+
+    Args:
+        records: every gyro's record, in manifest order (a gyro not run has one too).
+        out_dir: the output directory.
+        spec_limits: the spec's limits by key (None: no spec).
+        interrupted: the run was stopped before every gyro finished.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    rows = fleet_rows(records)
+    run = INTERRUPTED if interrupted else COMPLETE
+    rows = fleet_rows(records, spec_limits, run)
     text = io.StringIO()
     writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator='\n')
     writer.writeheader()
@@ -78,24 +184,33 @@ def write_fleet(records: Sequence[dict[str, Any]], out_dir: Path, *,
     paths = [out_dir / 'fleet.csv', out_dir / 'fleet.parquet', out_dir / 'fleet.jsonl',
              out_dir / 'fleet.html']
     _atomic_write(paths[0], text.getvalue().encode('utf-8'))
-    schema = pa.schema([(c, pa.float64() if c in ('value', 'std', 'k', 'U')
-                         else pa.bool_() if c == 'in_handoff' else pa.string())
-                        for c in COLUMNS])
+    schema = pa.schema([(c, pa.float64() if c in FLOAT_COLUMNS else pa.int64()
+                         if c in INT_COLUMNS else pa.bool_() if c == 'in_handoff'
+                         else pa.string()) for c in COLUMNS],
+                       metadata={'gyro_calib.fleet_run': run})
     table = pa.Table.from_pylist(
-        [{c: (None if r[c] is None else r[c] if c in ('value', 'std', 'k', 'U', 'in_handoff')
-              else str(r[c])) for c in COLUMNS} for r in rows], schema=schema)
+        [{c: (None if r[c] is None else r[c] if c in FLOAT_COLUMNS | INT_COLUMNS
+              or c == 'in_handoff' else str(r[c])) for c in COLUMNS} for r in rows],
+        schema=schema)
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
     _atomic_write(paths[1], sink.getvalue().to_pybytes())
-    lines = [json.dumps({k: v for k, v in rec.items()}, sort_keys=True, allow_nan=False,
+    lines = [json.dumps(fleet_record(rec, spec_limits, run), sort_keys=True, allow_nan=False,
                         default=str) for rec in records]
     _atomic_write(paths[2], ('\n'.join(lines) + '\n').encode('utf-8'))
-    _atomic_write(paths[3], fleet_html(records, spec_limits or {}).encode('utf-8'))
+    _atomic_write(paths[3], fleet_html(records, spec_limits or {},
+                                       interrupted=interrupted).encode('utf-8'))
     return paths
 
 
-def quantity_stats(values: np.ndarray, low: float | None, high: float | None) -> dict[str, Any]:
-    """Mean, sample std, Cpk (None without a limit or spread) of one quantity's values."""
+def quantity_stats(values: np.ndarray, low: float | None, high: float | None,
+                   stds: np.ndarray | None = None) -> dict[str, Any]:
+    """Mean, sample std, Cpk (None without a limit or spread) and outliers of one quantity.
+
+    An outlier lies more than 3.5 robust standard deviations (1.4826·MAD) from the fleet
+    median, among at least 5 gyros, and more than 2 of its own standard uncertainties
+    ``stds`` from it: a gyro whose own u covers its distance from the median is not one.
+    """
     n = int(values.size)
     mean = float(np.mean(values)) if n else math.nan
     sd = float(np.std(values, ddof=1)) if n > 1 else math.nan
@@ -104,13 +219,16 @@ def quantity_stats(values: np.ndarray, low: float | None, high: float | None) ->
     cpk = min(sides) / (3 * sd) if sides and n > 1 and sd > 0 else None
     med = float(np.median(values)) if n else math.nan
     mad = 1.4826 * float(np.median(np.abs(values - med))) if n else math.nan
-    out = (np.abs(values - med) > OUTLIER_ROBUST_Z * mad) if n >= OUTLIER_MIN_N and mad > 0 \
-        else np.zeros(n, bool)
-    return {'n': n, 'mean': mean, 'std': sd, 'cpk': cpk, 'outliers': out}
+    dist = np.abs(values - med)
+    out = (dist > OUTLIER_ROBUST_Z * mad) if n >= OUTLIER_MIN_N else np.zeros(n, bool)
+    if stds is not None:
+        own = np.where(np.isfinite(stds), stds, 0.0)  # an unknown u covers nothing
+        out &= dist > OUTLIER_OWN_K * own
+    return {'n': n, 'mean': mean, 'std': sd, 'cpk': cpk, 'outliers': out, 'median': med}
 
 
 def _svg_strip(values: np.ndarray, ids: list[str], low: float | None, high: float | None,
-               unit: str, outliers: np.ndarray) -> str:
+               unit: str, outliers: np.ndarray, decimals: int = 6) -> str:
     """A dot strip of the fleet's values with the limits (inline SVG; no script)."""
     width, height, pad = 520, 70, 30
     pts = list(values) + [x for x in (low, high) if x is not None]
@@ -134,73 +252,146 @@ def _svg_strip(values: np.ndarray, ids: list[str], low: float | None, high: floa
     for i, (v, gid) in enumerate(zip(values, ids)):
         color = '#d60' if outliers[i] else '#1565c0'
         parts.append(f'<circle cx="{x(v):.1f}" cy="{34 + (i % 3) * 6}" r="3.5" fill="{color}" '
-                     f'fill-opacity="0.7"><title>{html.escape(gid)}: {v:.6g} {html.escape(unit)}'
-                     '</title></circle>')
+                     f'fill-opacity="0.7"><title>{html.escape(gid)}: {v:.{decimals}f} '
+                     f'{html.escape(unit)}</title></circle>')
     parts.append(f'<text x="{pad}" y="68" font-size="9">{lo:.4g}</text><text x="{width - pad}" '
                  f'y="68" font-size="9" text-anchor="end">{hi:.4g} {html.escape(unit)}</text>'
                  '</svg>')
     return ''.join(parts)
 
 
-def fleet_html(records: Sequence[dict[str, Any]], spec_limits: dict[str, Any]) -> str:
-    """The fleet page: one section per quantity, then every gyro with its status."""
-    esc = html.escape
-    by_key: dict[str, list[tuple[str, str, dict[str, Any]]]] = {}
-    for rec in records:
-        cert = rec.get('certificate') or {}
-        for q in cert.get('quantities') or []:
-            if q.get('value') is not None and math.isfinite(q['value']):
-                by_key.setdefault(q['key'], []).append((rec['gyro_id'], rec.get('stem', ''), q))
-    n_ok = sum(r.get('status') == 'ok' for r in records)
+def yield_text(records: Sequence[dict[str, Any]]) -> str:
+    """The fleet's yield and what it counts (plain text).
+
+    Yield = units PASS / units judged or failed: a gyro that could not be calibrated counts
+    as not passing; a gyro not run (interrupted) is not counted, and the text says how many.
+    """
     overall = [(r.get('certificate') or {}).get('overall', '') for r in records]
     judged = [o for o in overall if o]
-    partly = sum(r.get('status') == 'partial' for r in records)
-    failed = sum(r.get('status') == 'failed' for r in records)
-    body = [f'<h1>Fleet: {len(records)} gyros</h1>',
-            f'<p>calibrated: {n_ok}; partly: {partly}; failed: {failed}.']
-    if judged:
-        body.append(f' Units PASS: {judged.count("PASS")}, CONDITIONAL: '
-                    f'{judged.count("CONDITIONAL")}, FAIL: {judged.count("FAIL")}; yield '
-                    f'(PASS of judged) {100.0 * judged.count("PASS") / len(judged):.1f} %.')
-    else:
-        body.append(' No specification given: no verdicts.')
-    body.append('</p>')
-    body.append(_gyro_table(records))
+    failed = sum(r.get('status') == 'failed' and not o for r, o in zip(records, overall))
+    not_run = sum(r.get('status') == 'not run' for r in records)
+    skipped = f' {not_run} not run (interrupted): not counted.' if not_run else ''
+    if not judged:
+        return 'No specification given: no verdicts, no yield.' + skipped
+    counted = len(judged) + failed
+    passed = judged.count('PASS')
+    others = ', '.join(f'{judged.count(v)} {v}' for v in dict.fromkeys(judged) if v != 'PASS')
+    return (f'Yield {100.0 * passed / counted:.1f} % = {passed} PASS of {counted} gyros judged '
+            f'or failed ({len(judged)} judged: {passed} PASS' + (f', {others}' if others else '')
+            + f'; {failed} failed to calibrate, counted as not passing).' + skipped)
+
+
+def _decimals_for(spread: float, stds: np.ndarray) -> int:
+    """Decimal places that show ``spread`` (or the smallest u, if no spread) to two digits."""
+    scale = [x for x in (spread, *np.asarray(stds, float).tolist())
+             if math.isfinite(x) and x > 0]
+    if not scale:
+        return 6
+    return int(min(max(1 - math.floor(math.log10(min(scale))), 0), 15))
+
+
+RELATIVE_SUFFIXES = ('_rad_per_pulse', '_counts_per_rad')
+"""Scale factors (K̃, K): their spread and deviations are shown in ppm of the fleet mean."""
+
+
+def _relative(key: str, mean: float) -> bool:
+    """Deviations read in ppm of the mean: a scale factor with a finite mean ≠ 0."""
+    return key.endswith(RELATIVE_SUFFIXES) and mean != 0 and math.isfinite(mean)
+
+
+def fleet_html(records: Sequence[dict[str, Any]], spec_limits: dict[str, Any], *,
+               interrupted: bool = False) -> str:
+    """The fleet page: totals and yield, every gyro with its status, then each quantity."""
+    esc = html.escape
+    recs = [fleet_record(r, spec_limits, INTERRUPTED if interrupted else COMPLETE)
+            for r in records]
+    by_key: dict[str, list[tuple[str, str, dict[str, Any]]]] = {}
+    for rec in recs:
+        cert = rec.get('certificate') or {}
+        for q in cert.get('quantities') or []:
+            if q.get('display_value') is not None:
+                by_key.setdefault(q['key'], []).append((rec['gyro_id'], rec.get('stem', ''), q))
+    count = {s: sum(r.get('status') == s for r in recs)
+             for s in ('ok', 'partial', 'failed', 'not run')}
+    title = f'Fleet: {len(recs)} gyros'
+    body = []
+    if interrupted:
+        title += f' — run interrupted, {count["not run"]} not run'
+        body.append(f'<p class="interrupted" id="interrupted"><b>This run was interrupted</b>: '
+                    f'{count["not run"]} of {len(recs)} gyros did not run (rows “not run '
+                    '(interrupted)”); this is not a complete fleet. Run the same command '
+                    'again to finish it (finished gyros are skipped).</p>')
+    body.insert(0, f'<h1>{esc(title)}</h1>')
+    body.append(f'<p id="totals">calibrated: {count["ok"]}; partly: {count["partial"]}; '
+                f'failed: {count["failed"]}; not run: {count["not run"]}. '
+                f'<span id="yield">{esc(yield_text(recs))}</span></p>')
+    body.append(_gyro_table(recs))
     body.append('<h2>Quantities</h2>')
     for key in sorted(by_key):
-        entries = by_key[key]
-        unit = entries[0][2].get('unit', '')
-        values = np.array([e[2]['value'] for e in entries])
-        lim = spec_limits.get(key)
-        low = getattr(lim, 'low', None)
-        high = getattr(lim, 'high', None)
-        stats = quantity_stats(values, low, high)
-        verdicts = [e[2].get('verdict') for e in entries if e[2].get('verdict')]
-        yield_text = (f'{100.0 * verdicts.count("PASS") / len(verdicts):.1f} % PASS '
-                      f'({verdicts.count("CONDITIONAL")} conditional, {verdicts.count("FAIL")} '
-                      'fail)' if verdicts else 'no limits')
-        cpk = '—' if stats['cpk'] is None else f'{stats["cpk"]:.2f}'
-        spread = (f'{stats["std"]:.3g}' if math.isfinite(stats['std'])
-                  else '— (one unit)')
-        outliers = [e for e, o in zip(entries, stats['outliers']) if o]
-        links = ', '.join(f'<a href="{esc(s)}/{esc(s)}.html">{esc(g)}</a> ({q["value"]:.6g})'
-                          for g, s, q in outliers) or 'none'
-        body.append(
-            f'<section class="quantity" data-key="{esc(key)}"><h3>{esc(key)} '
-            f'<span class="unit">[{esc(unit)}]</span></h3>'
-            + _svg_strip(values, [e[0] for e in entries], low, high, unit, stats['outliers'])
-            + f'<table><tr><th>n</th><th>mean</th><th>spread (σ)</th><th>limits</th>'
-            f'<th>yield</th><th>Cpk</th><th>outliers</th></tr><tr><td>{stats["n"]}</td>'
-            f'<td>{stats["mean"]:.6g}</td><td>{spread}</td>'
-            f'<td>{esc(lim.text()) if lim is not None else "—"}</td><td>{yield_text}</td>'
-            f'<td>{cpk}</td><td class="outliers">{links}</td></tr></table></section>')
+        body.append(_quantity_section(key, by_key[key], spec_limits.get(key)))
     style = ('body{font-family:"DejaVu Sans",Arial,sans-serif;font-size:10pt;max-width:1000px;'
              'margin:auto;background:#fff}table{border-collapse:collapse;margin:4px 0 10px}'
              'th,td{border:1px solid #bbb;padding:2px 5px;text-align:left}th{background:#eee}'
+             'td.num{text-align:right;font-family:monospace}'
              'tr.failed td{background:#fde}tr.partial td{background:#fff3d6}'
+             'tr.not.run td{color:#777}tr.outlier td{background:#ffe0c0}'
+             '.interrupted{background:#fde;border:2px solid #b00;padding:6px}'
              'h3{margin:14px 0 2px;font-family:monospace}.unit{font-weight:normal}')
     return ('<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>gyro_calib fleet'
-            f'</title><style>{style}</style></head><body>' + ''.join(body) + '</body></html>')
+            + (' (interrupted)' if interrupted else '')
+            + f'</title><style>{style}</style></head><body>' + ''.join(body) + '</body></html>')
+
+
+def _quantity_section(key: str, entries: list[tuple[str, str, dict[str, Any]]],
+                      lim: Any) -> str:
+    """One quantity across the fleet: strip, statistics, and each gyro's value and deviation."""
+    esc = html.escape
+    unit = entries[0][2].get('display_unit', '')
+    values = np.array([e[2]['display_value'] for e in entries], float)
+    stds = np.array([math.nan if e[2].get('display_std') is None else e[2]['display_std']
+                     for e in entries], float)
+    low = getattr(lim, 'low', None)
+    high = getattr(lim, 'high', None)
+    stats = quantity_stats(values, low, high, stds)
+    verdicts = [e[2].get('verdict') for e in entries if e[2].get('verdict')]
+    yield_q = (f'{100.0 * verdicts.count("PASS") / len(verdicts):.1f} % PASS of the '
+               f'{len(verdicts)} judged on it ({verdicts.count("CONDITIONAL")} conditional, '
+               f'{verdicts.count("FAIL")} fail)' if verdicts else 'no limits')
+    cpk = '—' if stats['cpk'] is None else f'{stats["cpk"]:.2f}'
+    d = _decimals_for(stats['std'], stds)
+    relative = _relative(key, stats['mean'])
+    ppm = 1e6 / abs(stats['mean']) if relative else math.nan
+    d_ppm = _decimals_for(stats['std'] * ppm, stds * ppm) if relative else d
+    spread = f'{stats["std"]:.{d}f}' if math.isfinite(stats['std']) else '— (one unit)'
+    if relative and math.isfinite(stats['std']):
+        spread += f' ({stats["std"] * ppm:.{d_ppm}f} ppm of the mean)'
+    outliers = [e for e, o in zip(entries, stats['outliers']) if o]
+    links = ', '.join(f'<a href="{esc(s)}/{esc(s)}.html">{esc(g)}</a> '
+                      f'({q["display_value"]:.{d}f})' for g, s, q in outliers) or 'none'
+    dev_head = 'deviation from the mean (ppm)' if relative else f'deviation from the mean ({unit})'
+    rows = []
+    for (gid, stem, q), v, u, out in zip(entries, values, stds, stats['outliers']):
+        dev = v - stats['mean']
+        dev_text = f'{dev * ppm:+.{d_ppm}f}' if relative else f'{dev:+.{d}f}'
+        rows.append(f'<tr class="{"outlier" if out else ""}"><td><a href="{esc(stem)}/'
+                    f'{esc(stem)}.html">{esc(gid)}</a></td><td class="num">{v:.{d}f}</td>'
+                    f'<td class="num">{"—" if not math.isfinite(u) else f"{u:.2g}"}</td>'
+                    f'<td class="num">{dev_text}</td><td>{esc(q.get("verdict") or "—")}</td>'
+                    f'<td>{"yes" if out else ""}</td></tr>')
+    return (f'<section class="quantity" data-key="{esc(key)}"><h3>{esc(key)} '
+            f'<span class="unit">[{esc(unit)}]</span></h3>'
+            + _svg_strip(values, [e[0] for e in entries], low, high, unit, stats['outliers'], d)
+            + f'<table><tr><th>n</th><th>mean</th><th>spread (σ)</th><th>limits</th>'
+            f'<th>yield</th><th>Cpk</th><th>outliers (beyond 3.5 robust σ of the median and '
+            f'beyond 2u of their own)</th></tr><tr><td>{stats["n"]}</td>'
+            f'<td class="num">{stats["mean"]:.{d}f}</td><td>{spread}</td>'
+            f'<td>{esc(lim.text()) if lim is not None else "—"}</td><td>{yield_q}</td>'
+            f'<td>{cpk}</td><td class="outliers">{links}</td></tr></table>'
+            f'<details{" open" if stats["n"] <= OPEN_MAX else ""}><summary>each gyro '
+            f'({stats["n"]})</summary><table class="values">'
+            f'<tr><th>gyro</th><th>value ({esc(unit)})</th><th>u</th><th>{esc(dev_head)}</th>'
+            f'<th>verdict</th><th>outlier</th></tr>' + ''.join(rows)
+            + '</table></details></section>')
 
 
 def _gyro_table(records: Sequence[dict[str, Any]]) -> str:

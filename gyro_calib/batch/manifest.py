@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,6 +39,40 @@ SETTINGS: dict[str, type] = {
     'config': Path, 'calibration': Path,
 }
 """Per-gyro settings (as the ``calibrate`` flags) and their types."""
+
+FLEET_NAMES = ('fleet.csv', 'fleet.parquet', 'fleet.jsonl', 'fleet.html', 'batch.lock')
+"""The names the fleet files and the lock take in the output directory (no gyro's stem)."""
+
+
+def gyro_stem(gyro_id: str) -> str:
+    """The gyro's folder and file stem (characters other than letters, digits, ._- → _)."""
+    return re.sub(r'[^A-Za-z0-9._-]', '_', gyro_id).strip('.') or 'gyro'
+
+
+def check_stems(jobs: list[GyroJob], where: str) -> None:
+    """Refuse gyros whose files would land on one another's.
+
+    Two ids with one stem (``A/1`` and ``A_1``), or stems equal but for case (``A-1`` and
+    ``a-1``: one folder on a case-insensitive file system), would overwrite each other's
+    hand-off file and certificate; a stem equal to a fleet file's name would replace it.
+
+    Raises:
+        ConfigError: naming both gyros (or the gyro and the fleet file) and what to do.
+    """
+    taken: dict[str, str] = {}
+    reserved = {name.casefold() for name in FLEET_NAMES}
+    for job in jobs:
+        stem = gyro_stem(job.gyro_id)
+        if stem.casefold() in reserved:
+            raise ConfigError(f'{where}: gyro {job.gyro_id!r} would be stored as {stem!r}, '
+                              'the name of a fleet file: rename the gyro.')
+        other = taken.setdefault(stem.casefold(), job.gyro_id)
+        if other != job.gyro_id:
+            raise ConfigError(
+                f'{where}: gyros {other!r} and {job.gyro_id!r} would share the folder and '
+                f'files {gyro_stem(other)!r}/{stem!r} (characters other than letters, digits, '
+                '._- become _, and file systems may ignore case): give them ids that differ '
+                'in letters or digits.')
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,7 +118,8 @@ def load_manifest(path: Path) -> list[GyroJob]:
 
     Raises:
         ConfigError: unreadable, empty, a gyro without id or bags, a duplicate id, an unknown
-            method or setting, a setting of the wrong type — one line naming where.
+            method or setting, a setting of the wrong type, two gyros whose files would
+            collide (see :func:`check_stems`) — one line naming where.
     """
     path = Path(path)
     if path.is_dir():
@@ -105,6 +141,7 @@ def load_manifest(path: Path) -> list[GyroJob]:
         if job.gyro_id in seen:
             raise ConfigError(f'manifest {path}: gyro {job.gyro_id!r} is listed twice.')
         seen.add(job.gyro_id)
+    check_stems(jobs, f'manifest {path}')
     return jobs
 
 

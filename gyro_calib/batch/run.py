@@ -3,26 +3,27 @@
 Per gyro: one plan task (hash the bags, skip when unchanged, pick the methods), one task per
 method (the streaming bag calibration), one finish task (hand-off file and certificate as
 bytes) that depends on them. The parent schedules, writes what the finish tasks return, and
-never opens a bag. Ctrl-C cancels what is pending and keeps what finished.
+never opens a bag. Ctrl-C cancels what is pending and keeps what finished; every other gyro
+is a row ``not run (interrupted)``.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
 import os
-import re
 import signal
 import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from gyro_calib.batch.fleet import _atomic_write, write_fleet
-from gyro_calib.batch.manifest import GyroJob
+from gyro_calib.batch.manifest import GyroJob, gyro_stem
 from gyro_calib.batch.tasks import (
     GyroResult,
     Plan,
@@ -31,7 +32,10 @@ from gyro_calib.batch.tasks import (
     reason,
     run_method,
 )
+from gyro_calib.errors import ConfigError
 from gyro_calib.report.lab import reserve_number
+
+__all__ = ['BatchOutcome', 'gyro_stem', 'make_client', 'print_summary', 'run_batch']
 
 RECORD = 'record.json'
 """Each gyro's record (fingerprint, inputs, certificate rows) in its folder."""
@@ -49,12 +53,40 @@ class BatchOutcome:
     @property
     def failed(self) -> list[str]:
         """Gyros that failed, in whole or in part."""
-        return [r['gyro_id'] for r in self.records if r.get('status') != 'ok']
+        return [r['gyro_id'] for r in self.records if r.get('status') in ('failed', 'partial')]
+
+    @property
+    def not_run(self) -> list[str]:
+        """Gyros an interrupted run never finished."""
+        return [r['gyro_id'] for r in self.records if r.get('status') == NOT_RUN]
 
 
-def gyro_stem(gyro_id: str) -> str:
-    """The gyro's folder and file stem (characters other than letters, digits, ._- → _)."""
-    return re.sub(r'[^A-Za-z0-9._-]', '_', gyro_id).strip('.') or 'gyro'
+NOT_RUN = 'not run'
+"""The status of a gyro an interrupted run never finished."""
+NOT_RUN_REASON = 'not run (interrupted): the run was stopped before this gyro finished'
+
+
+def check_earlier_runs(jobs: Sequence[GyroJob], out_dir: Path) -> None:
+    """Refuse a gyro whose folder holds another gyro's results from an earlier run.
+
+    ``A/1`` now and ``A_1`` before (or ``a-1`` before, on a case-insensitive file system)
+    map to one folder: running would overwrite the earlier gyro's hand-off and certificate.
+
+    Raises:
+        ConfigError: naming both gyros and the folder.
+    """
+    for job in jobs:
+        stem = gyro_stem(job.gyro_id)
+        try:
+            earlier = json.loads((out_dir / stem / RECORD).read_text(encoding='utf-8'))
+        except (OSError, ValueError):
+            continue
+        other = earlier.get('gyro_id') if isinstance(earlier, dict) else None
+        if isinstance(other, str) and other != job.gyro_id:
+            raise ConfigError(
+                f'--out {out_dir}: folder {stem!r} holds gyro {other!r} of an earlier run; '
+                f'gyro {job.gyro_id!r} would overwrite it: give another --out or rename the '
+                'gyro.')
 
 
 def spec_digest(path: Path | None) -> str:
@@ -109,13 +141,18 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
     """Calibrate every gyro of ``jobs`` on the cluster.
 
     Calibrate every gyro of ``jobs`` on ``client``'s cluster; write per-gyro and fleet
-    files into ``out_dir`` (what finished is kept when interrupted). With a ``lab``
-    (:class:`~gyro_calib.report.lab.Lab`) each certificate made is issued under the next
-    number of its register, reserved here in the parent when the gyro's finish task is
+    files into ``out_dir``. When interrupted, what finished is kept and every other gyro is
+    a row ``not run (interrupted)``; the fleet files say the run was interrupted. With a
+    ``lab`` (:class:`~gyro_calib.report.lab.Lab`) each certificate made is issued under the
+    next number of its register, reserved here in the parent when the gyro's finish task is
     submitted; an unchanged gyro keeps its certificate and number.
+
+    Raises:
+        ConfigError: a gyro's folder holds another gyro's earlier results (nothing run).
     """
     from dask.distributed import as_completed
 
+    check_earlier_runs(jobs, out_dir)
     out_dir.mkdir(exist_ok=True)  # checked before any work; parents are never created
     digest = spec_digest(spec_path) + (spec_digest(lab.source) if lab is not None else '')
     stems = {j.gyro_id: gyro_stem(j.gyro_id) for j in jobs}
@@ -123,21 +160,21 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
     records: dict[str, dict[str, Any]] = {}
     skipped: list[str] = []
     by_id = {j.gyro_id: j for j in jobs}
-    pending: dict[str, tuple[str, str]] = {}
+    pending: dict[str, tuple[str, str, Any]] = {}
     queue = as_completed()
     submitted: list[Any] = []
     for job in jobs:
         prev = previous[job.gyro_id]
         fut = client.submit(plan_gyro, job, (prev or {}).get('fingerprint', ''), digest, force,
                             key=f'plan-{stems[job.gyro_id]}-{os.urandom(4).hex()}', pure=False)
-        pending[fut.key] = ('plan', job.gyro_id)
+        pending[fut.key] = ('plan', job.gyro_id, fut)
         submitted.append(fut)
         queue.add(fut)
     done = 0
     interrupted = False
     try:
         for fut in queue:
-            kind, gid = pending.pop(fut.key)
+            kind, gid, _ = pending.pop(fut.key)
             job = by_id[gid]
             try:
                 result = fut.result()
@@ -163,7 +200,7 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
                         fin = client.submit(finish_gyro, job, plan, spec, pdf, stems[gid], *runs,
                                             issue=issue, pure=False,
                                             key=f'finish-{stems[gid]}-{os.urandom(4).hex()}')
-                        pending[fin.key] = ('finish', gid)
+                        pending[fin.key] = ('finish', gid, fin)
                         submitted += [*runs, fin]
                         queue.add(fin)
                 else:
@@ -173,10 +210,37 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
                 progress(done, len(jobs))
     except KeyboardInterrupt:
         interrupted = True
-        client.cancel(submitted)
-    ordered = [records[j.gyro_id] for j in jobs if j.gyro_id in records]
-    files = write_fleet(ordered, out_dir, spec_limits=spec.limits if spec is not None else None)
+        with _sigint_deferred():
+            client.cancel([f for f in submitted if f.status != 'finished'])
+            for kind, gid, fut in pending.values():  # finished, not yet taken from the queue
+                if kind == 'finish' and fut.status == 'finished' and gid not in records:
+                    records[gid] = _store(out_dir, fut.result())
+            client.cancel(submitted)
+    with _sigint_deferred():  # a second Ctrl-C must not leave the fleet files half-updated
+        ordered = [records[j.gyro_id] if j.gyro_id in records
+                   else _not_run(j, stems[j.gyro_id]) for j in jobs]
+        files = write_fleet(ordered, out_dir, spec_limits=spec.limits if spec is not None
+                            else None, interrupted=interrupted)
     return BatchOutcome(ordered, skipped, interrupted, files)
+
+
+@contextlib.contextmanager
+def _sigint_deferred() -> Iterator[None]:
+    """Hold SIGINT while the block runs (main thread only); a Ctrl-C in it is dropped."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def _not_run(job: GyroJob, stem: str) -> dict[str, Any]:
+    return {'gyro_id': job.gyro_id, 'stem': stem, 'status': NOT_RUN, 'reason': NOT_RUN_REASON,
+            'fingerprint': '', 'settings': job.settings, 'methods': list(job.methods),
+            'inputs': {}, 'errors': []}
 
 
 def _failed(job: GyroJob, stem: str, why: str, plan: Plan | None = None) -> dict[str, Any]:
@@ -208,13 +272,18 @@ def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
     """One line per gyro, then the totals and the fleet files (on stdout by default)."""
     stream = sys.stdout if stream is None else stream
     for rec in outcome.records:
+        if rec.get('status') == NOT_RUN:
+            print(f'{rec["gyro_id"]}: not run (interrupted)', file=stream)
+            continue
         cert = rec.get('certificate') or {}
         skipped = ' (unchanged: skipped)' if rec['gyro_id'] in outcome.skipped else ''
         verdict = f' {cert["overall"]}' if cert.get('overall') else ''
         why = f': {rec["reason"]}' if rec.get('reason') else ''
         print(f'{rec["gyro_id"]}: {rec.get("status")}{verdict}{skipped}{why}', file=stream)
-    print(f'{len(outcome.records)} gyros: {len(outcome.records) - len(outcome.failed)} ok, '
-          f'{len(outcome.failed)} failed, {len(outcome.skipped)} skipped as unchanged'
-          + (' (interrupted: the rest did not run)' if outcome.interrupted else ''), file=stream)
+    n_ok = sum(r.get('status') == 'ok' for r in outcome.records)
+    not_run = len(outcome.not_run)
+    print(f'{len(outcome.records)} gyros: {n_ok} ok, {len(outcome.failed)} failed'
+          + (f', {not_run} not run (interrupted)' if outcome.interrupted else '')
+          + f', {len(outcome.skipped)} skipped as unchanged', file=stream)
     for path in outcome.files:
         print(f'written: {path.resolve()}', file=stream)

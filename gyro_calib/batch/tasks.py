@@ -130,6 +130,7 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
                                                 'reason': '; '.join(errors) or 'no method'})
         import yaml
 
+        from gyro_calib.batch.fleet import spc_quantity
         from gyro_calib.handoff import calibration_to_yaml_dict
         from gyro_calib.registry import handoff_schema
         from gyro_calib.report.certificate import (
@@ -162,9 +163,12 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
         if pdf:
             files[f'{stem}/{stem}.pdf'] = render_pdf(html)
         status = 'partial' if errors else 'ok'
+        cert_record = certificate_record(cert)
+        limits = spec.limits if spec is not None else {}
+        cert_record['quantities'] = [spc_quantity(q, limits.get(q['key']))
+                                     for q in cert_record['quantities']]
         return GyroResult(job.gyro_id, files, {**base, 'status': status, 'reason':
-                                               '; '.join(errors),
-                                               'certificate': certificate_record(cert)})
+                                               '; '.join(errors), 'certificate': cert_record})
     except Exception as exc:  # noqa: BLE001  (as above)
         return GyroResult(job.gyro_id, {}, {**base, 'status': 'failed', 'reason': reason(exc)})
 

@@ -116,6 +116,7 @@ class QuantityRow:
     expanded_si: float | None = None
     std_relative: str = ''
     interval: tuple[float, float] | None = None
+    n_value: int | None = None
     dof_value: float | None = None
 
 
@@ -301,7 +302,8 @@ def _quantity_row(key: str, method: str, description: str, value_si: float, std_
         in_handoff=in_handoff, note='; '.join(notes),
         k_value=None if interval is not None else exp.k,
         expanded_si=None if interval is not None else exp.expanded,
-        std_relative=relative, interval=interval, dof_value=exp.dof)
+        std_relative=relative, interval=interval, dof_value=exp.dof,
+        n_value=None if est_n is None else int(est_n))
 
 
 def _utc(stamp_ns: int, *, time_only: bool = False) -> str:
@@ -641,7 +643,8 @@ def certificate_record(cert: Certificate) -> dict[str, Any]:
                                               else r.expanded_si * r.factor),
                         'interval': None if r.interval is None else list(r.interval),
                         'n': r.n, 'dof': r.dof, 'limit': r.limit, 'verdict': r.verdict,
-                        'value_si': r.value_si, 'std_si': r.std_si, 'in_handoff': r.in_handoff}
+                        'value_si': r.value_si, 'std_si': r.std_si, 'in_handoff': r.in_handoff,
+                        'U_si': r.expanded_si, 'n_value': r.n_value, 'dof_value': r.dof_value}
                        for r in cert.rows],
         'not_measured': list(cert.spec_missing),
     }
