@@ -347,7 +347,7 @@ class NoiseCalibrator:
 
     def _referenced(self, stream: _Stream, t: npt.NDArray[np.int64], v: FloatArray,
                     key: tuple[int, ...]) -> FloatArray:
-        """The counts minus the rate table's angle in counts (gyro_minus_table), METHODS §E.1."""
+        """The counts minus the rate table's angle in counts: METHODS §E.1 (2b)."""
         table = self.gate.tables[RATE_TABLE_JOINT_STATES]
         scale = stream.channels[0].phase_scale
         index = key[list(self.gate.tables).index(RATE_TABLE_JOINT_STATES)]

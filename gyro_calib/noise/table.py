@@ -419,7 +419,7 @@ class TableMotion:
 
     def _fails(self, cur: _Current, t: IntArray, angle: FloatArray,
                rate: FloatArray) -> BoolArray:
-        """Whether each state fails to join, were all before it to join (vectorised)."""
+        """Whether each state fails (2a) of METHODS §E.1, were all before it to join."""
         n = len(t)
         ts = (t - cur.first_ns) / NS_PER_S
         fa = np.isfinite(angle)
