@@ -646,6 +646,10 @@ class NoiseCalibrator:
         """
         recorded, s = self.gate.recorded(), self.settings
         if not recorded:
+            if s.table_reference == 'gyro_minus_table' and any(
+                    st.topic in (GYRO_PULSES, FOG_OUTPUT) for st in self._streams.values()):
+                return ('table_reference = gyro_minus_table, but no /rate_table/joint_states '
+                        'state was recorded: reference: the gyro alone.')
             return ''
         clauses = [self._table_clause(topic, tm) for topic, tm in recorded]
         head = (f'{clauses[0]}; {self._steady_words()})' if len(clauses) == 1
