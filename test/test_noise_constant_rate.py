@@ -122,14 +122,14 @@ def gated(b: dict[str, Any], reference: str, chunk: int) -> NoiseCalibrator:
 def spans_strategy() -> st.SearchStrategy[list[Span]]:
     """1–3 spans of constant rate, ≥ 10 °/s apart.
 
-    Each at rest or at 1–200 °/s either way, 7–15 s long (14 s or more in all, for N).
+    Each at rest or at 1–200 °/s either way, 8–20 s long (20 s or more in all, for N).
     """
-    rate = st.one_of(st.just(0.0), st.floats(-200.0, 200.0).filter(lambda r: abs(r) >= 1.0)
-                     ).map(lambda r: r * DEG)
-    span = st.tuples(rate, st.floats(7.0, 15.0))
+    turning = st.tuples(st.sampled_from([-1.0, 1.0]), st.floats(1.0, 200.0)).map(
+        lambda sr: sr[0] * sr[1] * DEG)
+    span = st.tuples(st.one_of(st.just(0.0), turning), st.floats(8.0, 20.0))
     return st.lists(span, min_size=1, max_size=3).filter(
         lambda s: all(abs(a[0] - b[0]) >= 10.0 * DEG for a, b in zip(s[:-1], s[1:]))
-        and sum(d for _, d in s) >= 14.0)
+        and sum(d for _, d in s) >= 20.0)
 
 
 @settings(max_examples=100 if STRESS else 10, deadline=None, derandomize=True, database=None,
@@ -189,7 +189,13 @@ def test_the_terms_at_constant_rate_are_those_at_rest_and_the_changes_are_left_o
     if exact:  # Ω·t (and the wobble, subtracted at the gyro's own stamps) cancel exactly
         np.testing.assert_allclose(got['adev'], want['adev'], rtol=1e-6)
     key = 'angle_random_walk_rad_per_sqrt_s'
-    n_got, n_want = cal.results()['gyro'][key], twin.results()['gyro'][key]
+    got_terms, want_terms = cal.results().get('gyro', {}), twin.results().get('gyro', {})
+    assert (key in got_terms) == (key in want_terms)
+    event(f'N resolved: {key in got_terms}')
+    if key not in got_terms:  # too few τ in the steady spans for either: said the same way
+        assert cal.missing()['gyro'][key] == twin.missing()['gyro'][key]
+        return
+    n_got, n_want = got_terms[key], want_terms[key]
     assert abs(n_got.value - n_want.value) <= 3 * math.hypot(n_got.std_uncertainty,
                                                              n_want.std_uncertainty)
     assert abs(n_got.value - N_TRUE) < 4 * n_got.std_uncertainty
