@@ -206,3 +206,48 @@ def test_the_terms_at_constant_rate_are_those_at_rest_and_the_changes_are_left_o
     assert abs(n_got.value - n_want.value) <= 3 * math.hypot(n_got.std_uncertainty,
                                                              n_want.std_uncertainty)
     assert abs(n_got.value - N_TRUE) < 4 * n_got.std_uncertainty
+
+
+def test_the_table_angle_subtracted_live_gives_the_offline_numbers_bit_for_bit() -> None:
+    """gyro_minus_table fed in a node's chunks (the table's states first) = all at once."""
+    b = record([(37.9 * DEG, 12.0), (-37.9 * DEG, 12.0)], 100.0 * DEG, (1e-4, 5.0), 50, True,
+               seed=4)
+    offline = NoiseCalibrator(NoiseSettings(fog_scale_factor_counts_per_rad=SF,
+                                            table_reference='gyro_minus_table'))
+    offline.extend_table(b['t_table'], b['angle'], b['rate'])
+    offline.extend_fog_output(b['t_gyro'], b['turning'])
+    offline.process(flush=True)
+    live = gated(b, 'gyro_minus_table', 211)
+    assert live.json_section()['axes'] == offline.json_section()['axes']
+    record_ = live.table_record()
+    assert record_ is not None and record_['reference'] == 'gyro_minus_table'
+    assert record_['changes'] == ['reversal']
+    assert "reference: the gyro angle minus the rate table's encoder angle (counts/SF − " \
+        'encoder angle) for ' in live.table_line()
+
+
+def test_a_gyro_counting_against_the_table_is_refused_with_gyro_minus_table() -> None:
+    """The sense axis down the table's axis: refused in one line naming the setting.
+
+    The gyro's angle minus the table's is then 2·Ω·t plus twice the wobble, not its noise.
+    """
+    from gyro_calib.errors import ConfigError
+
+    b = record([(37.9 * DEG, 12.0)], 100.0 * DEG, (0.0, 5.0), 50, True, seed=5)
+    b['turning'] = -b['turning']
+    with pytest.raises(ConfigError, match='table_reference = gyro_minus_table: /fog/output '
+                                          'turns at -37.9'):
+        gated(b, 'gyro_minus_table', 997)
+    assert gated(b, 'gyro', 997).results()['gyro']  # the gyro alone: a constant rate removed
+
+
+def test_gyro_minus_table_without_a_rate_table_says_the_gyro_alone_was_used() -> None:
+    b = record([(0.0, 20.0)], 100.0 * DEG, (0.0, 5.0), 50, True, seed=6)
+    cal = NoiseCalibrator(NoiseSettings(fog_scale_factor_counts_per_rad=SF,
+                                        table_reference='gyro_minus_table'))
+    cal.extend_fog_output(b['t_gyro'], b['rest'])
+    cal.process(flush=True)
+    assert cal.table_line() == ('table_reference = gyro_minus_table, but no '
+                                '/rate_table/joint_states state was recorded: reference: the '
+                                'gyro alone.')
+    assert cal.table_record() is None and cal.results()['gyro']

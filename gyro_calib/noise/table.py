@@ -515,7 +515,8 @@ class TableMotion:
             self._hist_t = [np.concatenate(self._hist_t)]
             self._hist_a = [np.concatenate(self._hist_a)]
         ht, ha = self._hist_t[0], self._hist_a[0]
-        origin = int(ht[0])
+        assert self.first_ns is not None
+        origin = self.first_ns  # fixed: the numbers do not depend on what was forgotten
         x = (t_ns - origin) / NS_PER_S
         xs = (ht - origin) / NS_PER_S
         out = np.interp(x, xs, ha)
