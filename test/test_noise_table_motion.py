@@ -136,7 +136,8 @@ def left_out(cal: NoiseCalibrator, t_gyro: np.ndarray) -> np.ndarray:
     """The gyro stamps the calibrator's table gate leaves out (the record complete)."""
     n, seg = cal.gate.decide(t_gyro, final=True)
     assert n == len(t_gyro)
-    return np.any(seg == -1, axis=1)
+    out: np.ndarray = np.any(seg == -1, axis=1)
+    return out
 
 
 def changes_of_rate(t_gyro: np.ndarray, ramps: list[tuple[float, float, float]],

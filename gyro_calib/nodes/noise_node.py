@@ -8,7 +8,8 @@ Input: the ``sensor_msgs/Imu`` topic named by ``topic`` (all six axes), or with 
 empty ``/gyro/pulses`` (K from ``scale_factor_rad_per_pulse`` or ``calibration_file``) or
 ``/fog/output`` (``fog_scale_factor_counts_per_rad`` or ``calibration_file``); and
 ``/rate_table/joint_states`` and ``/position_table/joint_states`` when published: the
-samples taken while either table turned are left out (:mod:`gyro_calib.noise.table`).
+samples taken while the rate table changed rate (or the position table turned) are left out,
+each steady span analysed as a segment (:mod:`gyro_calib.noise.table`).
 
 Output: every ``results_period_s`` (wall clock; the numbers do not depend on it) the running
 terms — the record so far analysed as if it ended now — on ``/diagnostics`` (status

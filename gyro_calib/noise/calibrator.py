@@ -347,7 +347,7 @@ class NoiseCalibrator:
 
     def _referenced(self, stream: _Stream, t: npt.NDArray[np.int64], v: FloatArray,
                     key: tuple[int, ...]) -> FloatArray:
-        """The counts minus the rate table's angle in counts (gyro_minus_table), METHODS §E.1."""
+        """The counts minus the rate table's angle in counts: METHODS §E.1 (2b)."""
         table = self.gate.tables[RATE_TABLE_JOINT_STATES]
         scale = stream.channels[0].phase_scale
         index = key[list(self.gate.tables).index(RATE_TABLE_JOINT_STATES)]
@@ -646,6 +646,10 @@ class NoiseCalibrator:
         """
         recorded, s = self.gate.recorded(), self.settings
         if not recorded:
+            if s.table_reference == 'gyro_minus_table' and any(
+                    st.topic in (GYRO_PULSES, FOG_OUTPUT) for st in self._streams.values()):
+                return ('table_reference = gyro_minus_table, but no /rate_table/joint_states '
+                        'state was recorded: reference: the gyro alone.')
             return ''
         clauses = [self._table_clause(topic, tm) for topic, tm in recorded]
         head = (f'{clauses[0]}; {self._steady_words()})' if len(clauses) == 1

@@ -66,7 +66,8 @@ GYRO_TOPICS = {GYRO_PULSES: JOINT_STATE, FOG_OUTPUT: JOINT_STATE}
 TABLE_TOPICS = {topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
                 topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE}
 """Optional inputs: the rate table's and the position table's joint states. The samples
-taken while any recorded table moved are left out (:mod:`gyro_calib.noise.table`)."""
+taken while a recorded table changed rate (the position table: turned) are left out, each
+steady span analysed as a segment (:mod:`gyro_calib.noise.table`)."""
 NODE_NAME = 'noise_node'
 """The node's name (ROS 2 parameter files for ``--config`` use it, or ``/**``)."""
 FIGURE_NAME = 'noise_adev.png'

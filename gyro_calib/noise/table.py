@@ -419,7 +419,7 @@ class TableMotion:
 
     def _fails(self, cur: _Current, t: IntArray, angle: FloatArray,
                rate: FloatArray) -> BoolArray:
-        """Whether each state fails to join, were all before it to join (vectorised)."""
+        """Whether each state fails (2a) of METHODS §E.1, were all before it to join."""
         n = len(t)
         ts = (t - cur.first_ns) / NS_PER_S
         fa = np.isfinite(angle)
@@ -515,7 +515,8 @@ class TableMotion:
             self._hist_t = [np.concatenate(self._hist_t)]
             self._hist_a = [np.concatenate(self._hist_a)]
         ht, ha = self._hist_t[0], self._hist_a[0]
-        origin = int(ht[0])
+        assert self.first_ns is not None
+        origin = self.first_ns  # fixed: the numbers do not depend on what was forgotten
         x = (t_ns - origin) / NS_PER_S
         xs = (ht - origin) / NS_PER_S
         out = np.interp(x, xs, ha)
