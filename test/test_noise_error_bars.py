@@ -95,9 +95,12 @@ def test_uniform_rounding_of_a_count_scatters_less_than_gaussian_white_pm() -> N
         phase = rng.uniform(-0.5, 0.5, (records, n))
         mean, var = _avar_scatter(phase, m)
         gaussian = float(np.asarray(edf_greenhall(n, m, 2)))
-        expected = gaussian * float(uniform_quantisation_factor(n, m))
+        expected = gaussian * float(uniform_quantisation_factor('adev', m)[0])
         assert 2.0 * mean**2 / var == pytest.approx(expected, rel=0.12), m
-        assert expected / gaussian == pytest.approx(1.45, abs=0.03)
+    assert uniform_quantisation_factor('adev', [1, 64]) == pytest.approx(140 / 96.8)
+    assert uniform_quantisation_factor('hdev', [1, 64]) == pytest.approx(1848 / 1368)
+    mdev = uniform_quantisation_factor('mdev', [1, 4, 64])
+    assert mdev[0] == pytest.approx(140 / 96.8) and 1.0 < mdev[2] < mdev[1] < mdev[0]
 
 
 def test_the_local_slope_splits_between_the_bracketing_types_without_a_switch() -> None:

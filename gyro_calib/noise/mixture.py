@@ -26,10 +26,11 @@ model with no random term) the curve's own local log-log slope μ splits the τ 
 two types whose slopes bracket it (μ = the share-weighted mean slope).
 
 Quantisation of a pulse count (an RLG's ``/gyro/pulses``): the rounding error to whole
-pulses is uniform, not Gaussian (excess kurtosis −6/5), and the estimate of its white-PM
-Allan variance scatters less: with L = N − 2m terms, Var = (2·(70L − 36m) − 1.2·(36L − 20m))
-·s⁴/L² instead of 2·(70L − 36m)·s⁴/L² (each phase point enters three second differences,
-weights 1, −2, 1), so ν_Q grows by (140L − 72m)/(96.8L − 48m) ≈ 1.45.
+pulses is uniform, not Gaussian (excess kurtosis κ = −6/5), and the estimate of its white-PM
+variance scatters less. A term Σ_k c_k·x_k of i.i.d. phase noise gives, for a long record,
+Var(mean of terms²) ∝ 2·Σ_d r(d)² + κ·(Σ_k c_k²)² with r the autocorrelation of c, so ν_Q
+grows by 2Σr²/(2Σr² + κ(Σc²)²): ADEV (c = 1, −2, 1) 140/96.8 = 1.446, HDEV 1848/1368 = 1.351,
+MDEV 1.446 at m = 1 falling towards 1 (its terms average m points).
 """
 
 from __future__ import annotations
@@ -56,6 +57,8 @@ SLOPES = (-2.0, -1.0, 0.0, 1.0)
 STATISTICS = ('adev', 'mdev', 'hdev', 'totdev')
 
 _LAMBDA = {'adev': (1.0, -2.0, 1.0), 'hdev': (-1.0, 3.0, -3.0, 1.0)}
+UNIFORM_EXCESS_KURTOSIS = -1.2
+"""Excess kurtosis of a uniform distribution (rounding to whole pulses)."""
 MDEV_EXACT_M = 4096
 """Beyond this averaging factor the MDEV/ADEV ratio of N, B and K is taken as at it (the
 ratios have converged to 1e-4; Q's 1/m is exact): the lag sum costs O(m)."""
@@ -186,11 +189,31 @@ def type_correlation(m: int) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(v) for v in row) for row in rho)
 
 
-def uniform_quantisation_factor(n_points: npt.ArrayLike, m: npt.ArrayLike) -> FloatArray:
-    """ν_Q(uniform rounding)/ν_Q(Gaussian white PM) of the Allan variance (module doc)."""
-    mm = np.asarray(m, dtype=np.float64)
-    span = np.maximum(np.asarray(n_points, dtype=np.float64) - 2.0 * mm, 2.0 * mm)
-    return np.asarray((140.0 * span - 72.0 * mm) / (96.8 * span - 48.0 * mm), dtype=np.float64)
+@lru_cache(maxsize=4096)
+def _uniform_factor(statistic: str, m: int) -> float:
+    if statistic == 'mdev' and m > MDEV_EXACT_M:
+        return _uniform_factor('mdev', MDEV_EXACT_M)
+    if statistic == 'mdev':
+        c = np.repeat(np.asarray(_LAMBDA['adev']), m)  # Σ_{j<m} of second differences
+    else:
+        w = _LAMBDA['hdev' if statistic == 'hdev' else 'adev']
+        c = np.zeros((len(w) - 1) * m + 1)
+        c[::m] = w
+    r = np.correlate(c, c, mode='full')
+    gaussian = 2.0 * float(r @ r)
+    return gaussian / (gaussian + UNIFORM_EXCESS_KURTOSIS * float(c @ c) ** 2)
+
+
+def uniform_quantisation_factor(statistic: str, m: npt.ArrayLike) -> FloatArray:
+    """ν_Q(uniform rounding)/ν_Q(Gaussian white PM) of a statistic at m (module doc).
+
+    For a statistic whose terms are Σ_k c_k·x_k of i.i.d. phase noise with excess kurtosis
+    κ: Var(mean of terms²) ∝ 2·Σ_d r(d)² + κ·(Σ c_k²)², r the autocorrelation of c (long
+    records); ADEV 140/96.8 = 1.446, HDEV 1848/1368 = 1.351, MDEV from 1.446 at m = 1 towards
+    1 as m grows (TOTDEV as ADEV).
+    """
+    stat = 'adev' if statistic == 'totdev' else statistic
+    return np.array([_uniform_factor(stat, max(int(v), 1)) for v in np.asarray(m).ravel()])
 
 
 def blended_edf(shares: npt.ArrayLike, pure_edf: npt.ArrayLike,
@@ -228,13 +251,12 @@ def curve_edf(curve: AllanCurve, shares: npt.ArrayLike, statistic: str = 'adev',
               uniform_quantisation: bool = False) -> FloatArray:
     """Blended EDF of one statistic of the curve at each τ (E.6b).
 
-    ``uniform_quantisation``: Q is the rounding of a pulse count (ADEV: ν_Q raised by
+    ``uniform_quantisation``: Q is the rounding of a pulse count (ν_Q raised by
     :func:`uniform_quantisation_factor`; module docstring).
     """
     rows = pure_rows(curve, statistic).copy()
-    if uniform_quantisation and statistic == 'adev':
-        points = curve.span + 2.0 * curve.m  # pooled N: L + 2m
-        rows[0] = rows[0] * uniform_quantisation_factor(points, curve.m)
+    if uniform_quantisation:
+        rows[0] = rows[0] * uniform_quantisation_factor(statistic, curve.m)
     return blended_edf(shares, rows, curve.m)
 
 
