@@ -127,27 +127,34 @@ def _band(n: int, points: int, risk: float = 1e-3) -> tuple[float, float]:
     return float(binom.ppf(r, n, 0.62)) / n, float(binom.isf(r, n, 0.683) + 1) / n
 
 
-def test_rlg_error_bars_cover_the_scatter_over_seeds() -> None:
+@pytest.mark.parametrize(('scenario', 'seeds', 'duration_s'), [
+    ('noise_rlg_static', 48, 30.0),  # 2 s
+    ('noise_imu_static', 24, 20.0),  # 5 s: six axes
+])
+def test_error_bars_cover_the_scatter_over_seeds(scenario: str, seeds: int,
+                                                 duration_s: float) -> None:
     # issue 24: on the RLG at 60 s the noise type flipped 2 ↔ 0 from τ = 0.128 s on and
     # the bars were 7× too wide at mid τ (coverage 1.0) or 25× too narrow at long τ
-    seeds = 48
-    runs = [analyse('noise_rlg_static', 3000 + k, 30.0)['gyro'] for k in range(seeds)]
-    c = coverage(runs)
-    counted = c['clusters'] >= 10
-    lo, hi = _band(seeds, int(np.count_nonzero(counted)))
-    bad = [(round(float(t), 4), float(v)) for t, v, ok in
-           zip(c['tau_s'], c['coverage'], counted) if ok and not lo <= v <= hi]
-    assert not bad, (lo, hi, bad)
+    runs = [analyse(scenario, 3000 + k, duration_s) for k in range(seeds)]
+    tables = {axis: coverage([r[axis] for r in runs]) for axis in runs[0]}
+    points = sum(int(np.count_nonzero(c['clusters'] >= 10)) for c in tables.values())
+    lo, hi = _band(seeds, points)
     # the scatter over seeds against the median bar: a sample standard deviation of n
     # draws is σ·√(χ²_{n−1}/(n−1)); same family-wise risk, 5 % allowed for the median bar
-    k = int(np.count_nonzero(counted))
-    r = 1e-3 / (2 * k)
+    r = 1e-3 / (2 * points)
     low = math.sqrt(chi2.ppf(r, seeds - 1) / (seeds - 1)) / 1.05
     high = math.sqrt(chi2.isf(r, seeds - 1) / (seeds - 1)) * 1.05
-    ratio = (c['scatter'] / c['claimed'])[counted]
-    assert np.all((ratio > low) & (ratio < high)), (low, high, ratio.round(2).tolist())
-    # the same record length gives the same bar within the scatter of the identification:
-    # the switch between white PM and white FM made it differ 7× from seed to seed
-    rel = np.array([np.asarray(r['adev_std']) / np.asarray(r['adev']) for r in runs])
-    spread = (rel.max(axis=0) / rel.min(axis=0))[counted]
-    assert np.all(spread < 4.0), spread.round(2).tolist()
+    for axis, c in tables.items():
+        counted = c['clusters'] >= 10
+        bad = [(round(float(t), 4), float(v)) for t, v, ok in
+               zip(c['tau_s'], c['coverage'], counted) if ok and not lo <= v <= hi]
+        assert not bad, (axis, lo, hi, bad)
+        ratio = (c['scatter'] / c['claimed'])[counted]
+        assert np.all((ratio > low) & (ratio < high)), (axis, low, high,
+                                                        ratio.round(2).tolist())
+        # the same record length gives the same bar within the scatter of the
+        # identification: the switch between white PM and white FM made it differ 7×
+        rel = np.array([np.asarray(r[axis]['adev_std']) / np.asarray(r[axis]['adev'])
+                        for r in runs])
+        spread = (rel.max(axis=0) / rel.min(axis=0))[counted]
+        assert np.all(spread < 4.0), (axis, spread.round(2).tolist())
