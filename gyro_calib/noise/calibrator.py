@@ -51,7 +51,9 @@ from gyro_calib.noise.mixture import (
     curve_edf,
     curve_shares,
     dominant_alpha,
+    model_shares,
     slope_shares,
+    uniform_quantisation_factor,
 )
 from gyro_calib.noise.ordering import OrderingStats, ReorderBuffer
 from gyro_calib.noise.settings import NoiseSettings
@@ -752,7 +754,8 @@ class NoiseCalibrator:
             dev = np.sqrt(var)
             nu = curve_edf(curve, curve_shares(curve, model, name), name)
             others[name] = (dev, adev_std(dev, nu), nu)
-        totdev = self._totdev(ch, fit, curve.tau0_s) if curve.overlap == 'partial' else None
+        totdev = (self._totdev(ch, model, curve.tau0_s, stream.topic == GYRO_PULSES)
+                  if curve.overlap == 'partial' else None)
         return AxisResult(ch.name, units, curve, fit, std, totdev, '', alpha, others, edf,
                           shares)
 
@@ -774,20 +777,21 @@ class NoiseCalibrator:
         return wide.theta if np.any(wide.theta[:4] > 0) else None
 
     @staticmethod
-    def _totdev(ch: ChannelAccumulator, fit: NoiseFit,
-                tau0_s: float) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    def _totdev(ch: ChannelAccumulator, model: FloatArray | None, tau0_s: float,
+                pulses: bool) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+        """TOTDEV at long τ (partial overlap) with its blended EDF (§E.2 (6a))."""
         td = ch.total_deviation()
         if td is None:
             return None
         tau, dev, n_points, m = td
-        parts = fit.term_avar(tau)
-        total = parts.sum(axis=1)
-        if np.any(fit.theta[:4] > 0) and np.all(total > 0):
-            shares = parts / total[:, None]
-        else:
+        level0 = np.maximum(np.round(tau / tau0_s), 1).astype(np.int64)
+        shares = None if model is None else model_shares('totdev', level0, tau0_s, model)
+        if shares is None:
             shares = slope_shares(tau, dev**2)
         pure = np.stack([edf_totdev(n_points, m, a) for a in TERM_ALPHA[:4]])
-        edf = blended_edf(shares, pure, np.maximum(np.round(tau / tau0_s), 1))
+        if pulses:
+            pure[0] = pure[0] * uniform_quantisation_factor('totdev', level0)
+        edf = blended_edf(shares, pure, level0)
         return tau, dev, adev_std(dev, edf)
 
     def results(self) -> dict[str, dict[str, Estimate]]:
