@@ -854,7 +854,8 @@ DEVIATION_FIELDS = ('tau_s', 'm', 'clusters', 'noise_alpha', 'unit',
                       for suffix in ('', '_std', '_edf')))
 """What one axis of ``methods.<name>.deviations`` may hold: ``tau_s`` (the averaging times,
 s), ``m`` (τ/τ₀), ``clusters`` (independent clusters at each τ), ``noise_alpha`` (the
-power-law noise type the EDF assumes), ``unit`` (of the deviations: rad/s or m/s²), and per
+dominant power-law noise type, an integer; the EDF blends the types by their shares,
+docs/methods.md §E.2), ``unit`` (of the deviations: rad/s or m/s²), and per
 deviation (ADEV overlapping, MDEV modified, HDEV overlapping Hadamard, TOTDEV total) its
 value, its standard uncertainty ``_std`` and its equivalent degrees of freedom ``_edf`` at
 each τ; a list per field, one entry per τ, null where a deviation has no value there."""

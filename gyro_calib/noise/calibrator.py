@@ -43,8 +43,18 @@ import numpy as np
 from gyro_calib.errors import ConfigError, StreamError
 from gyro_calib.estimate import Estimate, Rejection
 from gyro_calib.noise.channel import ChannelAccumulator, format_stamp
-from gyro_calib.noise.edf import adev_std, alpha_from_slope, edf_totdev
+from gyro_calib.noise.edf import adev_std, edf_totdev
 from gyro_calib.noise.fit import NoiseFit, fit_noise_terms
+from gyro_calib.noise.mixture import (
+    TERM_ALPHA,
+    blended_edf,
+    curve_edf,
+    curve_shares,
+    dominant_alpha,
+    model_shares,
+    slope_shares,
+    uniform_quantisation_factor,
+)
 from gyro_calib.noise.ordering import OrderingStats, ReorderBuffer
 from gyro_calib.noise.settings import NoiseSettings
 from gyro_calib.noise.table import (
@@ -85,10 +95,14 @@ class AxisResult:
         adev_std: standard deviation of each ADEV point (from the EDF), rate unit.
         total_deviation: (tau_s, totdev, totdev_std) at long τ, or None.
         reason: why the axis has no terms at all ('' when the fit ran).
-        alpha: noise type α used for the error bars at each τ (from the fitted model where
-            it was fitted, from the curve's own local slope elsewhere).
+        alpha: the dominant noise type α at each τ (the term with the largest share of the
+            Allan variance; ``noise_alpha``).
         others: 'mdev', 'hdev', 'totdev' → (deviation, its std, its EDF) at the curve's τ
             (full overlap only; NaN where the statistic has no term).
+        edf: EDF of the ADEV at each τ, blended over the noise types by their shares
+            (:mod:`gyro_calib.noise.mixture`).
+        shares: share of Q, N, B, K, R in the Allan variance at each τ (len × 5): the
+            fitted model's, or the curve's local slope's where there is no model.
     """
 
     axis: str
@@ -100,6 +114,8 @@ class AxisResult:
     reason: str = ''
     alpha: npt.NDArray[np.int64] | None = None
     others: dict[str, tuple[FloatArray, FloatArray, FloatArray]] | None = None
+    edf: FloatArray | None = None
+    shares: FloatArray | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -886,30 +902,55 @@ class NoiseCalibrator:
                               context=context, min_clusters=s.fit_min_clusters,
                               exclude_band_limited=bool(s.fit_exclude_band_limited),
                               tau_list=s.tau_spec if isinstance(s.tau_spec, tuple) else None)
-        alpha = _noise_types(curve, fit)
-        edf = curve.edf(alpha)
+        # error bars (§E.2): the EDF blended over the noise types by their shares at each τ
+        model = self._noise_model(curve, fit, units)
+        shares = curve_shares(curve, model)
+        alpha = dominant_alpha(shares)
+        edf = curve_edf(curve, shares, uniform_quantisation=stream.topic == GYRO_PULSES)
         std = adev_std(curve.adev, edf)
         others = {}
         for name, (var, _, _) in curve.others.items():
             dev = np.sqrt(var)
-            nu = curve.edf(alpha, name)
+            nu = curve_edf(curve, curve_shares(curve, model, name), name)
             others[name] = (dev, adev_std(dev, nu), nu)
-        totdev = self._totdev(ch, fit) if curve.overlap == 'partial' else None
-        return AxisResult(ch.name, units, curve, fit, std, totdev, '', alpha, others)
+        totdev = (self._totdev(ch, model, curve.tau0_s, stream.topic == GYRO_PULSES)
+                  if curve.overlap == 'partial' else None)
+        return AxisResult(ch.name, units, curve, fit, std, totdev, '', alpha, others, edf,
+                          shares)
+
+    def _noise_model(self, curve: AllanCurve, fit: NoiseFit,
+                     units: TermUnits) -> FloatArray | None:
+        """(Q², N², B², K², R²) that identifies the noise types at each τ (§E.2).
+
+        The term fit's model; where it has no random term (too few τ points once a
+        band-limited range was left out, say), the same fit over every τ with enough
+        clusters, nothing left out for misfit and no term reported — only to read the
+        types' shares; None when that has none either (then the local slope decides).
+        """
+        if np.any(fit.theta[:4] > 0):
+            return fit.theta
+        s = self.settings
+        wide = fit_noise_terms(curve, units, min_tau_s=s.fit_min_tau_s, max_tau_s=s.fit_max_tau_s,
+                               min_clusters=s.fit_min_clusters, exclude_band_limited=False,
+                               min_points=3)
+        return wide.theta if np.any(wide.theta[:4] > 0) else None
 
     @staticmethod
-    def _totdev(ch: ChannelAccumulator,
-                fit: NoiseFit) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    def _totdev(ch: ChannelAccumulator, model: FloatArray | None, tau0_s: float,
+                pulses: bool) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+        """TOTDEV at long τ (partial overlap) with its blended EDF (§E.2 (6a))."""
         td = ch.total_deviation()
         if td is None:
             return None
         tau, dev, n_points, m = td
-        parts = fit.term_avar(tau)
-        total = parts.sum(axis=1)
-        with np.errstate(invalid='ignore', divide='ignore'):
-            mu = np.where(total > 0, (parts * np.array([-2, -1, 0, 1, 2])).sum(axis=1) / total,
-                          -1.0)
-        edf = edf_totdev(n_points, m, alpha_from_slope(mu))
+        level0 = np.maximum(np.round(tau / tau0_s), 1).astype(np.int64)
+        shares = None if model is None else model_shares('totdev', level0, tau0_s, model)
+        if shares is None:
+            shares = slope_shares(tau, dev**2)
+        pure = np.stack([edf_totdev(n_points, m, a) for a in TERM_ALPHA[:4]])
+        if pulses:
+            pure[0] = pure[0] * uniform_quantisation_factor('totdev', level0)
+        edf = blended_edf(shares, pure, level0)
         return tau, dev, adev_std(dev, edf)
 
     def results(self) -> dict[str, dict[str, Estimate]]:
@@ -958,9 +999,9 @@ class NoiseCalibrator:
             record['m'] = [int(v) for v in c.m]
             if c.clusters is not None:
                 record['clusters'] = _floats(c.clusters)
-            if res.alpha is not None:
+            if res.alpha is not None and res.edf is not None:
                 record['noise_alpha'] = [int(v) for v in res.alpha]
-                record['adev_edf'] = _floats(c.edf(res.alpha))
+                record['adev_edf'] = _floats(res.edf)
             for name, (dev, std, nu) in (res.others or {}).items():
                 record[name] = _floats(dev)
                 record[f'{name}_std'] = _floats(std)
@@ -1006,23 +1047,6 @@ class NoiseCalibrator:
             out[key] = float(est.value)
             out[f'{key}_std'] = float(est.std_uncertainty)
         return out
-
-
-def _noise_types(curve: AllanCurve, fit: NoiseFit) -> npt.NDArray[np.int64]:
-    """Noise type α at each τ.
-
-    Noise type α at each τ: the fitted model's where it was fitted, else the local
-    log-log slope of the measured curve (α from the slope μ as in :mod:`.edf`).
-    """
-    alpha = np.asarray(fit.alpha, dtype=np.int64).copy()
-    rest = ~np.asarray(fit.used)
-    if np.any(rest):
-        with np.errstate(invalid='ignore', divide='ignore'):
-            lt, la = np.log(curve.tau_s), np.log(np.where(curve.avar > 0, curve.avar, np.nan))
-            mu = np.gradient(la, lt) if len(lt) >= 2 else np.full(len(lt), -1.0)
-        mu = np.where(np.isfinite(mu), mu, -1.0)
-        alpha[rest] = alpha_from_slope(mu)[rest]
-    return alpha
 
 
 def calibrate_noise(*, pulses: tuple[ArrayLike, ArrayLike] | None = None,
