@@ -59,6 +59,8 @@ from gyro_calib.thermal.topics import SENSOR_CAVITY_A, SENSOR_CAVITY_B, SENSOR_S
 from gyro_calib.units import NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable, Iterator
+
     import numpy.typing as npt
     from numpy.typing import ArrayLike
 
@@ -336,6 +338,82 @@ def interval_bias(table: IntervalTable, model: ThermalBiasModel, settings: Inter
                                        check=False)
         bias[idx], bias_std[idx] = b_in, bs_in
     return IntervalBias(valid, bias, bias_std, variables, tuple(rejections), any_in_data)
+
+
+@dataclass(frozen=True, slots=True)
+class CompensatedPair:
+    """Two consecutive pulse samples and the model bias to subtract from their rate.
+
+    Attributes:
+        t0_ns, count0: the earlier sample. t1_ns, count1: the later one (the rate's stamp).
+        bias_rad_s, bias_std: the model bias of the interval holding the pair's midpoint
+            and its standard uncertainty, rad/s.
+    """
+
+    t0_ns: int
+    count0: float
+    t1_ns: int
+    count1: float
+    bias_rad_s: float
+    bias_std: float
+
+
+def pairs_with_bias(samples: Iterable[tuple[int, float]], k0: int, interval_ns: int,
+                    bias: npt.NDArray[np.float64], bias_std: npt.NDArray[np.float64]
+                    ) -> Iterator[CompensatedPair | Rejection | None]:
+    """Each pulse sample with the one before it and the bias of the pair's midpoint interval.
+
+    One item per sample, in order: None where it makes no pair (the first, a non-finite
+    count — the previous sample stays the reference —, a stamp not after the previous one
+    — it becomes the reference), a :class:`Rejection` where the interval holding the
+    midpoint has no bias (``bias[i]`` NaN or outside the table starting at interval
+    ``k0``), else the :class:`CompensatedPair`. ``gyro-calib compensate --out`` writes
+    these; the live corrector gives the same pairs.
+    """
+    last: tuple[int, float] | None = None
+    for t_ns, count in samples:
+        if not math.isfinite(count):
+            yield None
+            continue
+        prev, last = last, (t_ns, count)
+        if prev is None or t_ns <= prev[0]:
+            yield None
+            continue
+        i = (prev[0] + (t_ns - prev[0]) // 2) // interval_ns - k0
+        if not (0 <= i < len(bias)) or not math.isfinite(bias[i]):
+            yield Rejection(t_ns, 'no thermal compensation: the model gives no bias for the '
+                                  'interval holding this pair.')
+            continue
+        yield CompensatedPair(prev[0], prev[1], t_ns, count, float(bias[i]), float(bias_std[i]))
+
+
+def offline_pairs(model: ThermalBiasModel, pulse_t_ns: ArrayLike, pulse_counts: ArrayLike,
+                  temperature_t_ns: ArrayLike, temperature_c: ArrayLike,
+                  temperature_frame_id: ArrayLike | str
+                  ) -> list[CompensatedPair | Rejection | None]:
+    """:func:`pairs_with_bias` of a whole recording, out-of-range intervals skipped.
+
+    The offline reference of the live corrector: the recording reduced and compensated as
+    :func:`compensate` does (:func:`interval_bias` with ``out_of_range='skip'``), without
+    the figures (so a recording too short for them still gives its pairs).
+    """
+    reducer = CompensationReducer(model)
+    reducer.extend_pulses(pulse_t_ns, pulse_counts)
+    t = np.asarray(temperature_t_ns, np.int64)
+    if len(t):
+        reducer.extend_temperatures(t, temperature_c, temperature_frame_id)
+    reducer.process(flush=True)
+    table = reducer.table()
+    tint = reducer.settings.interval_ns
+    try:
+        ib = interval_bias(table, model, reducer.settings, out_of_range='skip')
+        bias, bias_std = ib.bias, ib.bias_std
+    except ModelMismatchError:
+        bias = bias_std = np.full(len(table), np.nan)
+    samples = zip(np.asarray(pulse_t_ns, np.int64).tolist(),
+                  np.asarray(pulse_counts, np.float64).tolist())
+    k0 = int(table.k[0]) if len(table) else 0
+    return list(pairs_with_bias(samples, k0, tint, bias, bias_std))
 
 
 def compensate_reduced(reducer: CompensationReducer, *, gyro_id: str = '',

@@ -212,6 +212,13 @@ class PulseIntervals:
             f'({b.n} interval(s)): {b.reason}; those intervals are not used.')))
         self._bad = None
 
+    def keep_since(self, k: int) -> None:
+        """Forget the reduced rows before interval ``k`` (live use keeps a window only)."""
+        cols = self._rows.arrays(3)
+        if len(cols[0]) and cols[0][0] < k:
+            sel = cols[0] >= k
+            self._rows = _Rows([tuple(c[sel] for c in cols)])
+
     def arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                               npt.NDArray[np.int64]]:
         """Interval index k, ΔN (NaN if invalid) and Δt (int ns, 0 if invalid)."""
@@ -280,6 +287,13 @@ class TemperatureIntervals:
         self._k_next = int(k_end)
         self.buffer.discard_before(int(k_end * tint))
         return n
+
+    def keep_since(self, k: int) -> None:
+        """Forget the reduced rows before interval ``k`` (live use keeps a window only)."""
+        cols = self._rows.arrays(4)
+        if len(cols[0]) and cols[0][0] < k:
+            sel = cols[0] >= k
+            self._rows = _Rows([tuple(c[sel] for c in cols)])
 
     def keep_last(self, n: int) -> None:
         """Forget all but the last ``n`` reduced rows (live use keeps a window only)."""
