@@ -403,9 +403,12 @@ class _Finality:
                     break
                 if b - 1 < lo:
                     continue
+                unseen_left = not self.at_start and k0 + a0 - 1 < self.first_final
+                if b - a0 < owner._stuck_n and k0 + b <= self.last_final and not unseen_left:
+                    continue  # closed on both sides and too short to be stuck: final
                 new_lo = lo
                 if a0 < lo:
-                    if not self.at_start and k0 + a0 - 1 < self.first_final:
+                    if unseen_left:
                         # its start is not in view: fine only when the window alone
                         # already finds it stuck (then it is blanked either way)
                         if self.check is None:
