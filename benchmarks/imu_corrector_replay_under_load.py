@@ -138,37 +138,49 @@ class Listener:
         self._rclpy.shutdown(context=self.context)
 
 
-def one_run(bag: Path, calibration: Path, env: dict[str, str], timeout_s: float
-            ) -> list[Any]:
-    """Start imu_corrector and bag_player; the /gyro/imu messages received."""
+def one_run(bag: Path, calibration: Path, env: dict[str, str], timeout_s: float,
+            last_stamp: int) -> tuple[list[Any], str]:
+    """Start imu_corrector and bag_player; the /gyro/imu messages received, the node's log.
+
+    Waits until a message stamped ``last_stamp`` or later came, or 60 s without a new one
+    once the player is done (the corrector works through its backlog after the player
+    finishes: reliable delivery paces the player by the reader's acknowledgements only).
+    """
     from gyro_calib.nodes.processes import start_node
+
+    def stamp(m: Any) -> int:
+        return int(m.header.stamp.sec) * 10**9 + int(m.header.stamp.nanosec)
 
     listener = Listener()
     with tempfile.TemporaryDirectory() as scratch:
-        corrector = start_node('imu_corrector', {'calibration_file': str(calibration)}, env,
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                               cwd=scratch)
+        log = Path(scratch) / 'imu_corrector.log'
+        with log.open('wb') as err:
+            corrector = start_node('imu_corrector', {'calibration_file': str(calibration)},
+                                   env, stdout=subprocess.DEVNULL, stderr=err, cwd=scratch)
         try:
-            listener.spin(3.0)  # the corrector reads its file and subscribes
             player = start_node('bag_player', {'bag': str(bag), 'rate': 0.0}, env,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                cwd=scratch)
+                                cwd=scratch)  # waits for the corrector's subscriptions
             deadline = time.monotonic() + timeout_s
             while player.poll() is None and time.monotonic() < deadline:
                 listener.spin(0.5)
             if player.poll() is None:
                 player.kill()
             player.wait()
-            n = -1
-            while n != len(listener.imu) and time.monotonic() < deadline + 60:
-                n = len(listener.imu)
-                listener.spin(3.0)  # until the corrector's backlog has drained
+            n, quiet_since = len(listener.imu), time.monotonic()
+            while time.monotonic() < deadline and time.monotonic() - quiet_since < 60:
+                if listener.imu and stamp(listener.imu[-1]) >= last_stamp:
+                    break
+                listener.spin(1.0)
+                if len(listener.imu) != n:
+                    n, quiet_since = len(listener.imu), time.monotonic()
         finally:
             corrector.terminate()
             corrector.wait()
+        text = log.read_text(errors='replace')
     msgs = list(listener.imu)
     listener.close()
-    return msgs
+    return msgs, text
 
 
 def main() -> int:
@@ -206,7 +218,7 @@ def main() -> int:
                   f'{"wall s":>7}')
             for run in range(1, args.runs + 1):
                 t0 = time.monotonic()
-                msgs = one_run(bag, calibration, env, args.timeout)
+                msgs, log = one_run(bag, calibration, env, args.timeout, max(settled))
                 got = {m.header.stamp.sec * 10**9 + m.header.stamp.nanosec:
                        (m.angular_velocity.z, m.angular_velocity_covariance[8]) for m in msgs}
                 wrong = sum(1 for t, v in got.items() if offline.get(t) != v)
@@ -215,6 +227,9 @@ def main() -> int:
                 differing += bool(wrong or missing)
                 print(f'{run:>4} {len(got):>9} {wrong:>6} {missing:>8} {held:>5} '
                       f'{time.monotonic() - t0:>7.1f}', flush=True)
+                if wrong or missing:
+                    print('     imu_corrector log (last lines):\n     '
+                          + '\n     '.join(log.splitlines()[-6:]), flush=True)
         finally:
             for b in burners:
                 b.kill()

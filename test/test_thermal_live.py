@@ -195,9 +195,9 @@ def test_any_interleaving_gives_the_offline_pairs(seed: int, terms: tuple[str, .
     assert sum(isinstance(o, CompensatedPair) for o in offline) > 100
     reference, comp = run(model, in_stamp_order(rec))
     assert_is_offline_prefix(reference, offline)
-    # only the tail the data cannot decide yet is held: ⌊15 s / T⌋ + 1 intervals, the
-    # reorder window, and the 15 s a silent temperature topic is waited for
-    assert comp.held <= (15 + 1 + 1 + 15 + 1) * pulse_hz + 2
+    # only the tail the data cannot decide yet is held: ⌊15 s / T⌋ + 1 intervals and the
+    # reorder window
+    assert comp.held <= (15 + 1 + 1 + 1) * pulse_hz + 2
     rng = np.random.default_rng(seed)
     for _ in range(2):
         live, _ = run(model, interleave(rec, rng, lag_s))
@@ -211,7 +211,7 @@ def test_temperatures_arriving_after_the_pulses_change_nothing() -> None:
     ordered, _ = run(model, in_stamp_order(rec))
     pulses_first = [m for m in in_stamp_order(rec) if m[0] == 'p'] + [
         m for m in in_stamp_order(rec) if m[0] == 't']
-    late, comp = run(model, pulses_first, max_wait_s=3600.0)
+    late, comp = run(model, pulses_first)  # 120 s behind: more than the 15 s wait
     assert comp.held < len(rec.pulses) // 10
     assert [key(o) for o in late[:len(ordered)]] == [key(o) for o in ordered]
     n_pairs = sum(isinstance(o, CompensatedPair) for o in ordered)
@@ -233,18 +233,27 @@ def test_newest_temperature_is_not_what_a_pulse_gets() -> None:
 
 
 def test_a_silent_temperature_topic_does_not_make_it_hoard_pulses() -> None:
+    """Past max_held samples held, the oldest are given up on the pulse stamps alone."""
     model = model_of(('H',))
     rec = recording(11, duration_s=200)
     stop = T0_NS + 80 * 10**9
     rec.temps = [m for m in rec.temps if m[0] < stop]
-    out, comp = run(model, in_stamp_order(rec), max_wait_s=10.0)
-    assert comp.held <= (10 + 2 + 10 + 1) * 4 + 2  # pulses of the last ~23 s only
+    comp = OrderedThermalCompensator(model, max_wait_s=10.0, max_held=60)
+    out: list[CompensatedPair | Rejection] = []
+    for kind, t, v, sensor in in_stamp_order(rec):
+        out += comp.add_pulse(t, v) if kind == 'p' else comp.add_temperature(t, v, sensor)
+        assert comp.held <= max(61, (10 + 2 + 10 + 1) * 4 + 2)
     after = [o for o in out if stamp(o) > stop + 2 * 10**9]
-    assert after and all(isinstance(o, Rejection) for o in after)
-    assert 'thermal_max_age_s = 10 s' in after[-1].reason
+    refused = [o for o in after if isinstance(o, Rejection)]
+    assert after and refused == after
+    assert 'thermal_max_age_s = 10 s' in refused[-1].reason
     # offline reads the last temperatures to the end; live cannot tell the last seconds
     # before them apart from a late topic
     assert_is_offline_prefix(out, rec.offline(model), every_rate_before_ns=stop - 5 * 10**9)
+    # below max_held nothing is given up: the same run holds everything after the stop
+    waiting, comp = run(model, in_stamp_order(rec), max_wait_s=10.0)
+    assert all(stamp(o) < stop for o in waiting)
+    assert comp.held >= 110 * 4
 
 
 def test_a_sensor_reading_exactly_the_same_longer_than_the_wait_gives_no_rate() -> None:
@@ -260,8 +269,9 @@ def test_a_sensor_reading_exactly_the_same_longer_than_the_wait_gives_no_rate() 
                  for t, c, s in rec.temps]
     out, _ = run(model, in_stamp_order(rec), max_wait_s=10.0)
     late = [o for o in out if stamp(o) > T0_NS + 60 * 10**9]
-    assert late and all(isinstance(o, Rejection) for o in late)
-    assert 'reading exactly the same value' in late[-1].reason
+    refused = [o for o in late if isinstance(o, Rejection)]
+    assert late and refused == late
+    assert 'reading exactly the same value' in refused[-1].reason
     # not stuck by the end (110 s < sensor_stuck_s): offline gives rates there, live none
     assert_is_offline_prefix(out, rec.offline(model), every_rate_before_ns=T0_NS + 40 * 10**9)
 

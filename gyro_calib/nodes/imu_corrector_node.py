@@ -22,8 +22,9 @@ stamp, until the temperatures that decide its bias have arrived, and gets exactl
 (:class:`gyro_calib.thermal.live.OrderedThermalCompensator`). Latency, in stamp time: about
 one averaging interval plus the reorder window plus the longest run of identical readings
 (2–10 s with 1 Hz sensors; a sparse sensor's reading spacing), never more than
-``thermal_max_age_s`` beyond the sample's interval plus one interval, the reorder window
-and ``thermal_max_age_s`` again (a silent temperature topic). While the model cannot give a
+``thermal_max_age_s`` beyond the sample's interval plus one interval and the reorder window
+(a temperature topic only behind is waited for; a stopped one: at most 200 000 samples are
+held). While the model cannot give a
 bias — no temperature, a stuck or silent cavity sensor, temperatures not decided within
 ``thermal_max_age_s``, or a temperature outside the calibrated range by more than the
 model's margin — nothing is published, and the log says why once (and again when

@@ -25,10 +25,13 @@ gets a :class:`Rejection` and no rate (offline a long stuck-looking run, or a se
 silent beyond the wait, is the usual cause; offline gives no number for a stuck span
 either). That decision uses the intervals up to that cut only, so it too is a function of
 the messages. It is taken when both streams' stamps have passed the cut (plus the reorder
-window), or — a temperature topic that stopped — when the pulse stamps have passed it by
-``max_wait_s`` more; only then can arrival order matter (a temperature topic lagging the
-pulses by more than ``max_wait_s`` of stamps). So the publish latency, in stamp time, is at
-most (⌊max_wait_s/T⌋ + 1)·T + reorder window + max_wait_s after the pair's midpoint.
+window). A temperature topic that is merely behind — an unpaced replay whose executor takes
+one topic's whole backlog first — is waited for, however far behind. Only as a memory guard,
+with more than ``max_held`` samples held (a temperature topic that stopped), the oldest are
+given up once the pulse stamps pass their cut by ``max_wait_s`` more; only then can arrival
+order matter. So with the temperatures flowing, the publish latency in stamp time is at most
+(⌊max_wait_s/T⌋ + 1)·T + the reorder window after the pair's midpoint interval, and usually
+the few seconds the data take to decide it.
 
 Each topic is assumed to arrive in stamp order (one DDS writer, reliable or
 best-effort), up to the reorder window the interval reducers allow; the topics may be
@@ -93,12 +96,16 @@ class OrderedThermalCompensator:
     """
 
     def __init__(self, model: ThermalBiasModel, *, max_wait_s: float = 30.0,
+                 max_held: int = 200_000,
                  interval_settings: IntervalSettings | None = None) -> None:
         """Create the stream reducers with the model's reduction.
 
         Args:
             model: the thermal model (its interval, Ḣ window and interpolation gap).
             max_wait_s: how far, in stamp time, a bias may need data beyond its interval.
+            max_held: memory guard: with more pulse samples held (about 35 MB at 200 000),
+                the oldest are given up once the pulse stamps pass their cut by
+                ``max_wait_s`` even though the temperatures have not (a silent topic).
             interval_settings: the reduction (default: the model's).
         """
         self.model = model
@@ -107,6 +114,7 @@ class OrderedThermalCompensator:
         self._tint = s.interval_ns
         self._reorder_ns = int(s.reorder_window_s * NS_PER_S)
         self.max_wait_ns = int(round(max_wait_s * NS_PER_S))
+        self.max_held = max_held
         self._wait_n = int(max_wait_s // s.averaging_interval_s)
         self._n_hd = s.hdot_window_n
         self._gap_n = int(math.ceil(s.max_temperature_gap_s / s.averaging_interval_s)) + 1
@@ -221,8 +229,11 @@ class OrderedThermalCompensator:
         pulse_newest = self._newest['']
         temps_passed = all((self._newest[s] or -1) >= cut_end_ns for s in self.needed)
         pulses_passed = pulse_newest is not None and pulse_newest >= cut_end_ns
+        # a temperature topic merely behind (a replay's backlog taken one topic first)
+        # is waited for; only a hoard beyond max_held gives up on the pulses' stamps alone
         give_up = pulse_newest is not None and pulses_passed and (
-            temps_passed or pulse_newest >= cut_end_ns + self.max_wait_ns)
+            temps_passed or (len(self._held) > self.max_held
+                             and pulse_newest >= cut_end_ns + self.max_wait_ns))
         attempt = (i, self._version, give_up)
         if attempt == self._attempt:
             return  # nothing new since the last try
