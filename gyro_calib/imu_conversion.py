@@ -20,20 +20,23 @@ An absent angle random walk contributes nothing (the quantisation term then stan
 the noise; for a rate-biased RLG at 1 kHz it is the larger one by orders of magnitude).
 
 Thermal compensation (METHODS §D). When the hand-off file holds a ``thermal_model``, b is
-not a constant but the model's bias b(H, Ḣ, gradients) at the gyro's current temperatures:
-:class:`PulseRateConverter` also takes the /gyro/temperature readings and uses the bias of
-the latest complete averaging interval (:class:`~gyro_calib.thermal.compensate.
-ThermalBiasTracker`: the same interval means, sensor checks and causal Ḣ as the offline
-compensation), with u(b) the model's coefficient uncertainty there. K is then the file's
+not a constant but the model's bias b(H, Ḣ, gradients) at the gyro's temperatures:
+:class:`PulseRateConverter` also takes the /gyro/temperature readings, holds each pulse
+sample by its stamp until the temperatures that decide its bias have arrived, and subtracts
+exactly what the offline compensation subtracts for that sample (the bias of the averaging
+interval holding the pair's midpoint, from the same interval means, interpolation, sensor
+checks and causal Ḣ; :class:`~gyro_calib.thermal.live.OrderedThermalCompensator`), with u(b)
+the model's uncertainty there — so the rates depend only on the messages and their stamps,
+not on how the two topics were interleaved. K is then the file's
 ``scale_factor_rad_per_pulse`` (``k_tilde_rad_per_pulse`` with use_k_tilde), which must agree
 with the K the model was fitted with within 100 ppm, or, without one, the model's own K
 (its uncertainty unknown: u(K) = 0). A file's constant ``bias_rad_s`` is not used then: the
-model holds the whole bias. Where the model cannot give a bias — no temperature yet, a stuck
-cavity sensor, the latest interval older than ``thermal_max_age_s``, or the temperature
-outside the calibrated range by more than the model's margin — the converter returns a
-:class:`~gyro_calib.estimate.Rejection` saying so and **no rate**: an INS is better told
-nothing than given a rate whose bias is an extrapolation (a variance alone would not stop a
-consumer that ignores it). A model fitted on another gyro (``gyro_id``) is refused.
+model holds the whole bias. Where the model cannot give a bias — no temperature, a stuck
+or silent sensor, temperatures not decided within ``thermal_max_age_s`` of stamps, or a
+temperature outside the calibrated range by more than the model's margin — the converter
+returns a :class:`~gyro_calib.estimate.Rejection` saying so and **no rate**: an INS is better
+told nothing than given a rate whose bias is an extrapolation (a variance alone would not
+stop a consumer that ignores it). A model fitted on another gyro (``gyro_id``) is refused.
 Consecutive rates share a count, so their quantisation errors are anticorrelated; the
 per-message variance is still (2).
 
@@ -51,12 +54,13 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from gyro_calib.errors import GyroCalibError, StreamError
+from gyro_calib.errors import StreamError
 from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import Calibration, HandoffError
 
 if TYPE_CHECKING:
-    from gyro_calib.thermal.compensate import ThermalBiasTracker
+    from gyro_calib.thermal.compensate import CompensatedPair
+    from gyro_calib.thermal.live import OrderedThermalCompensator
     from gyro_calib.thermal.model import ThermalBiasModel
 
 UNKNOWN_AXIS_VARIANCE_RAD2_S2 = 1.0e6
@@ -234,8 +238,10 @@ def angular_velocity_from_pulses(t0_ns: int, count0: float, t1_ns: int, count1: 
 class PulseRateConverter:
     """Streaming form of :func:`angular_velocity_from_pulses` for a node.
 
-    Feed samples in arrival order; each one after the first gives the rate since the one
-    before. Skipped (returned as a :class:`Rejection`, no rate):
+    Feed messages in arrival order (:meth:`add_pulse`, :meth:`add_temperature`); each call
+    returns the rates (or :class:`Rejection` s) it releases, in pulse stamp order. Each
+    sample after the first gives the rate since the one before. Skipped (a Rejection, no
+    rate):
 
     * a non-finite count — the previous sample stays the reference;
     * a stamp not after the previous one — it becomes the new reference, so a source that
@@ -243,25 +249,31 @@ class PulseRateConverter:
     * with a thermal model: a sample for which the model gives no bias (module docstring;
       the sample is still the next one's reference).
 
-    Temperatures (/gyro/temperature) go to :meth:`add_temperature`; without a thermal model
-    they are ignored. The calibration may be replaced between samples (the reference sample
-    stays; the temperature history is kept when the new model reduces temperatures the same
-    way).
+    Without a thermal model a sample's rate is released at once and temperatures are
+    ignored. With one, samples are held by stamp until the temperatures that decide their
+    bias have arrived, then released with the bias the offline compensation gives them,
+    whatever the interleaving of the two topics
+    (:class:`~gyro_calib.thermal.live.OrderedThermalCompensator`; at most
+    ``thermal_max_age_s`` of stamps and a few intervals later). The calibration may be
+    replaced between samples (the reference sample stays; held samples and the
+    temperature history are kept when the new model reduces temperatures the same way).
     """
 
-    def __init__(self, calibration: PulseCalibration, *, thermal_max_age_s: float = 10.0) -> None:
+    def __init__(self, calibration: PulseCalibration, *, thermal_max_age_s: float = 30.0) -> None:
         """Start with no reference sample.
 
         Args:
             calibration: K, bias or thermal model, ARW.
-            thermal_max_age_s: the newest complete temperature interval may end at most this
-                long before a pulse sample's stamp for its bias to be used, s.
+            thermal_max_age_s: with a thermal model, how far (in stamp time) beyond a
+                sample's averaging interval the temperatures deciding its bias may lie, s
+                (:class:`~gyro_calib.thermal.live.OrderedThermalCompensator`).
         """
-        self._tracker: ThermalBiasTracker | None = None
+        self._live: OrderedThermalCompensator | None = None
         self._calibration = calibration
-        self.thermal_max_age_ns = int(round(thermal_max_age_s * 1e9))
+        self.thermal_max_age_s = thermal_max_age_s
         self._last: tuple[int, float] | None = None
-        self._bias: tuple[int, float, float] | str | None = None
+        self.last_bias: tuple[float, float] | None = None
+        """The thermal bias (rad/s) and its uncertainty of the latest rate released."""
         self.calibration = calibration
 
     @property
@@ -273,50 +285,47 @@ class PulseRateConverter:
     def calibration(self, calibration: PulseCalibration) -> None:
         model = calibration.thermal_model
         if model is None:
-            self._tracker = None
-        elif self._tracker is None or (
-                self._tracker.model.averaging_interval_s, self._tracker.model.hdot_window_s) != (
-                model.averaging_interval_s, model.hdot_window_s):
-            from gyro_calib.thermal.compensate import ThermalBiasTracker
+            self._live = None
+        elif self._live is None or (
+                self._live.model.averaging_interval_s, self._live.model.hdot_window_s,
+                self._live.model.max_temperature_gap_s) != (
+                model.averaging_interval_s, model.hdot_window_s, model.max_temperature_gap_s):
+            from gyro_calib.thermal.live import OrderedThermalCompensator
 
-            self._tracker = ThermalBiasTracker(model)
+            self._live = OrderedThermalCompensator(model, max_wait_s=self.thermal_max_age_s)
         else:
-            self._tracker.model = model
+            self._live.model = model
         self._calibration = calibration
-        self._bias = None
 
-    def add_temperature(self, t_ns: int, celsius: float, frame_id: str) -> None:
-        """One /gyro/temperature reading (ignored without a thermal model)."""
-        if self._tracker is not None:
-            self._tracker.add_temperature(t_ns, celsius, frame_id)
-            self._bias = None  # recomputed at the next pulse sample
+    @property
+    def held(self) -> int:
+        """Pulse samples waiting for their thermal bias."""
+        return 0 if self._live is None else self._live.held
 
-    def thermal_bias(self, t_ns: int) -> tuple[float, float] | Rejection:
-        """The thermal model's bias and its uncertainty at ``t_ns``.
+    def add_temperature(self, t_ns: int, celsius: float, frame_id: str
+                        ) -> list[ImuAngularVelocity | Rejection]:
+        """One /gyro/temperature reading; the rates it releases (none without a model)."""
+        if self._live is None:
+            return []
+        return self._convert(self._live.add_temperature(t_ns, celsius, frame_id))
 
-        The thermal model's bias and its standard uncertainty for a sample at ``t_ns``,
-        or a Rejection saying why there is none (rad/s).
-        """
-        if self._tracker is None:
-            return Rejection(t_ns, 'no thermal model.')
-        if self._bias is None:
-            try:
-                self._bias = self._tracker.bias()
-            except GyroCalibError as exc:
-                self._bias = f'no thermal compensation: {exc}'
-        if isinstance(self._bias, str):
-            return Rejection(t_ns, self._bias)
-        end_ns, b, b_std = self._bias
-        if t_ns - end_ns > self.thermal_max_age_ns:
-            return Rejection(t_ns, (
-                f'no thermal compensation: the newest complete temperature interval ends '
-                f'{(t_ns - end_ns) / 1e9:.1f} s before this pulse sample (more than '
-                f'thermal_max_age_s = {self.thermal_max_age_ns / 1e9:g} s): /gyro/temperature '
-                'is late or silent.'))
-        return b, b_std
+    def add_pulse(self, t_ns: int, count: float) -> list[ImuAngularVelocity | Rejection]:
+        """One /gyro/pulses sample; the rates (or Rejections) it releases, in stamp order."""
+        if self._live is not None:
+            return self._convert(self._live.add_pulse(t_ns, count))
+        out = self._add_plain(t_ns, count)
+        return [] if out is None else [out]
 
     def add(self, t_ns: int, count: float) -> ImuAngularVelocity | Rejection | None:
-        """The rate since the previous sample, a Rejection saying why not, or None (first)."""
+        """The rate since the previous sample, a Rejection saying why not, or None.
+
+        The single-result form of :meth:`add_pulse` (None: nothing released — the first
+        sample, or, with a thermal model, a sample still held).
+        """
+        outs = self.add_pulse(t_ns, count)
+        return outs[-1] if outs else None
+
+    def _add_plain(self, t_ns: int, count: float) -> ImuAngularVelocity | Rejection | None:
         if not math.isfinite(count):
             return Rejection(t_ns, f'pulse count {count!r} at stamp {t_ns} ns is not finite.')
         last, self._last = self._last, (t_ns, count)
@@ -325,11 +334,17 @@ class PulseRateConverter:
         if t_ns <= last[0]:
             return Rejection(t_ns, f'stamp {t_ns} ns is not after the previous one, {last[0]} '
                                    'ns; it becomes the new reference.')
-        calibration = self._calibration
-        if calibration.thermal_model is not None:
-            bias = self.thermal_bias(t_ns)
-            if isinstance(bias, Rejection):
-                return bias
-            calibration = dataclasses.replace(calibration, bias_rad_s=bias[0],
-                                              bias_std=bias[1])
-        return angular_velocity_from_pulses(last[0], last[1], t_ns, count, calibration)
+        return angular_velocity_from_pulses(last[0], last[1], t_ns, count, self._calibration)
+
+    def _convert(self, outcomes: list[CompensatedPair | Rejection]
+                 ) -> list[ImuAngularVelocity | Rejection]:
+        out: list[ImuAngularVelocity | Rejection] = []
+        for o in outcomes:
+            if isinstance(o, Rejection):
+                out.append(o)
+                continue
+            self.last_bias = (o.bias_rad_s, o.bias_std)
+            cal = dataclasses.replace(self._calibration, bias_rad_s=o.bias_rad_s,
+                                      bias_std=o.bias_std)
+            out.append(angular_velocity_from_pulses(o.t0_ns, o.count0, o.t1_ns, o.count1, cal))
+        return out

@@ -16,12 +16,20 @@ file is logged and the calibration in use is kept (none: nothing is published).
 
 Thermal compensation (METHODS §D): when the file holds a ``thermal_model``, the node also
 subscribes /gyro/temperature (sensor_msgs/Temperature, frame_id cavity_a, cavity_b, shell)
-and subtracts the model's bias at the current temperatures instead of a constant bias
-(:mod:`gyro_calib.imu_conversion`). While the model cannot give a bias — no temperature yet,
-a stuck cavity sensor, temperatures older than ``thermal_max_age_s``, or a temperature
-outside the calibrated range by more than the model's margin — nothing is published, and
-the log says why once (and again when compensation resumes). A model fitted on another gyro
-than ``gyro_id`` (or than the file names) is refused like any bad file.
+and subtracts the model's bias instead of a constant bias. Each pulse sample is held, by its
+stamp, until the temperatures that decide its bias have arrived, and gets exactly the bias
+``gyro-calib compensate --out`` gives it, whatever the arrival order of the two topics
+(:class:`gyro_calib.thermal.live.OrderedThermalCompensator`). Latency, in stamp time: about
+one averaging interval plus the reorder window plus the longest run of identical readings
+(2–10 s with 1 Hz sensors; a sparse sensor's reading spacing), never more than
+``thermal_max_age_s`` beyond the sample's interval plus one interval and the reorder window
+(a temperature topic only behind is waited for; a stopped one: at most 200 000 samples are
+held). While the model cannot give a
+bias — no temperature, a stuck or silent cavity sensor, temperatures not decided within
+``thermal_max_age_s``, or a temperature outside the calibrated range by more than the
+model's margin — nothing is published, and the log says why once (and again when
+compensation resumes). A model fitted on another gyro than ``gyro_id`` (or than the file
+names) is refused like any bad file.
 """
 
 from __future__ import annotations
@@ -89,9 +97,10 @@ class ImuCorrectorNode(Node):
         declare_parameter_value(self, 'gyro_id', '', ParameterDescriptor(description=(
             "The gyro's serial or name: a thermal model fitted on another gyro is refused "
             "('' = not checked).")))
-        declare_parameter_value(self, 'thermal_max_age_s', 10.0, ParameterDescriptor(
-            description='With a thermal model: the newest complete temperature interval may '
-            'end at most this long before a pulse sample for its bias to be used, s.',
+        declare_parameter_value(self, 'thermal_max_age_s', 30.0, ParameterDescriptor(
+            description='With a thermal model: pulse samples wait, by stamp, for the '
+            'temperatures that decide their bias; those may lie at most this far (stamp time) '
+            'beyond the sample\'s averaging interval, else the sample is not published, s.',
             floating_point_range=[FloatingPointRange(from_value=1.0, to_value=3600.0)]))
         self.frame_id = self.get_parameter('frame_id').value
         self.gyro_id = self.get_parameter('gyro_id').value
@@ -182,32 +191,36 @@ class ImuCorrectorNode(Node):
         try:
             count = msg.position[msg.name.index(topics.GYRO_JOINT) if msg.name else 0]
         except (ValueError, IndexError):
-            out: ImuAngularVelocity | Rejection | None = Rejection(
-                t_ns, f'no position for joint "{topics.GYRO_JOINT}" (names {list(msg.name)}).')
-        else:
-            out = self.converter.add(t_ns, count)
-        if isinstance(out, Rejection) and out.reason.startswith('no thermal compensation'):
-            self._thermal_problem(out.reason)
+            self._publish([Rejection(t_ns, f'no position for joint "{topics.GYRO_JOINT}" '
+                                           f'(names {list(msg.name)}).')])
             return
-        if isinstance(out, ImuAngularVelocity) and self._thermal_state:
-            self._thermal_state = ''
-            bias = self.converter.thermal_bias(t_ns)
-            self.get_logger().info(
-                f'thermal compensation resumed at stamp {t_ns} ns'
-                + (f' (bias {bias[0] / RAD_S_PER_DEG_H:.4f} °/h)' if isinstance(bias, tuple)
-                   else '') + f'; publishing {GYRO_IMU} again.')
-        if isinstance(out, Rejection):
-            self._skipped += 1
-            if self._skipped % 100 == 1:
-                self.get_logger().warning(
-                    f'{self._skipped} pulse sample(s) skipped so far; latest: {out.reason}')
-        elif out is not None:
-            self.pub.publish(self._imu(out))
+        self._publish(self.converter.add_pulse(t_ns, count))
 
     def _on_temperature(self, msg: Temperature) -> None:
         if self.converter is not None:
-            self.converter.add_temperature(stamp_to_ns(msg.header.stamp), msg.temperature,
-                                           msg.header.frame_id)
+            self._publish(self.converter.add_temperature(
+                stamp_to_ns(msg.header.stamp), msg.temperature, msg.header.frame_id))
+
+    def _publish(self, outs: list[ImuAngularVelocity | Rejection]) -> None:
+        """Publish the released rates in stamp order; log why samples got none."""
+        for out in outs:
+            if isinstance(out, Rejection) and out.reason.startswith('no thermal compensation'):
+                self._thermal_problem(out.reason)
+                continue
+            if isinstance(out, ImuAngularVelocity) and self._thermal_state:
+                self._thermal_state = ''
+                bias = self.converter.last_bias if self.converter is not None else None
+                self.get_logger().info(
+                    f'thermal compensation resumed at stamp {out.stamp_ns} ns'
+                    + (f' (bias {bias[0] / RAD_S_PER_DEG_H:.4f} °/h)' if bias is not None
+                       else '') + f'; publishing {GYRO_IMU} again.')
+            if isinstance(out, Rejection):
+                self._skipped += 1
+                if self._skipped % 100 == 1:
+                    self.get_logger().warning(
+                        f'{self._skipped} pulse sample(s) skipped so far; latest: {out.reason}')
+            else:
+                self.pub.publish(self._imu(out))
 
     def _thermal_problem(self, reason: str) -> None:
         """Log why nothing is published, once per kind of reason (numbers aside)."""

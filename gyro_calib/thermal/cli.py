@@ -45,10 +45,12 @@ from gyro_calib.errors import ConfigError
 from gyro_calib.estimate import Estimate
 from gyro_calib.registry import IMU, JOINT_STATE, TEMPERATURE
 from gyro_calib.thermal.compensate import (
+    CompensatedPair,
     CompensationReducer,
     CompensationReport,
     check_identity,
     compensate_reduced,
+    pairs_with_bias,
 )
 from gyro_calib.thermal.model import ThermalBiasModel
 from gyro_calib.thermal.site import RAD_S_PER_DEG_H
@@ -276,30 +278,33 @@ def write_compensated_bag(result: BagCompensation, out: Path, *, calibration_fil
 
     def messages() -> Iterator[BagMessage]:
         samples = _pulse_samples(src)
-        last: tuple[int, float] | None = None
+        read: list[int] = []
+
+        def checked() -> Iterator[tuple[int, float]]:
+            for t_ns, count in samples:
+                read.append(t_ns)
+                yield t_ns, count
+
+        pairs = pairs_with_bias(checked(), k0, tint, bias, bias_std)
         for topic, _, log_ns, cdr in iter_raw_messages(src):
             if topic == GYRO_IMU:
                 continue  # replaced
             yield BagMessage(topic, log_ns, cdr)
             if topic != GYRO_PULSES:
                 continue
-            t_ns, count = next(samples)
+            pair = next(pairs)
             sec, nsec = struct.unpack_from('<iI', cdr, 4)  # header.stamp opens the body
-            if sec * 1_000_000_000 + nsec != t_ns:
+            if sec * 1_000_000_000 + nsec != read[-1]:
                 raise BagError(f'{src}: the pulse messages did not read back in the same order '
                                'as their columns; nothing written.')
-            if not math.isfinite(count):
+            if pair is None:
                 continue
-            prev, last = last, (t_ns, count)
-            if prev is None or t_ns <= prev[0]:
-                continue
-            i = (prev[0] + (t_ns - prev[0]) // 2) // tint - k0
-            if not (0 <= i < len(bias)) or not math.isfinite(bias[i]):
+            if not isinstance(pair, CompensatedPair):
                 counts['without'] += 1
                 continue
-            cal = dataclasses.replace(pcal, bias_rad_s=float(bias[i]),
-                                      bias_std=float(bias_std[i]))
-            out_msg = angular_velocity_from_pulses(prev[0], prev[1], t_ns, count, cal)
+            cal = dataclasses.replace(pcal, bias_rad_s=pair.bias_rad_s, bias_std=pair.bias_std)
+            out_msg = angular_velocity_from_pulses(pair.t0_ns, pair.count0, pair.t1_ns,
+                                                   pair.count1, cal)
             counts['written'] += 1
             yield BagMessage(GYRO_IMU, log_ns, imu.cdr(out_msg))
 

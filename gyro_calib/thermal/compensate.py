@@ -59,6 +59,8 @@ from gyro_calib.thermal.topics import SENSOR_CAVITY_A, SENSOR_CAVITY_B, SENSOR_S
 from gyro_calib.units import NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
+    from collections.abc import Iterable, Iterator
+
     import numpy.typing as npt
     from numpy.typing import ArrayLike
 
@@ -251,51 +253,65 @@ def check_identity(model: ThermalBiasModel, *, gyro_id: str = '',
             '100 ppm: the model belongs to another gyro or calibration.')
 
 
-def compensate_reduced(reducer: CompensationReducer, *, gyro_id: str = '',
-                       block_s: float = 100.0, out_of_range: str = 'raise'
-                       ) -> CompensationReport:
-    """The figures of a reduced recording.
+@dataclass(frozen=True, slots=True)
+class IntervalBias:
+    """The model's bias per interval of a table (:func:`interval_bias`).
 
-    The figures of a reduced recording (see :func:`compensate`, which calls it; call
-    :func:`check_identity` before reducing).
+    Attributes:
+        valid: the interval has a pulse rate, the temperatures the model needs and lies
+            inside the calibrated range (plus margin): its bias is used.
+        bias, bias_std: the model's bias and its standard uncertainty, rad/s (NaN where
+            not ``valid``).
+        variables: H, Ḣ, ΔT_ab, ΔT_cs per interval (:func:`thermal_variables`).
+        rejections: stuck or silent sensors, and spans outside the calibrated range.
+        any_in_data: some interval had a rate and the temperatures before the range check.
+    """
+
+    valid: npt.NDArray[np.bool_]
+    bias: npt.NDArray[np.float64]
+    bias_std: npt.NDArray[np.float64]
+    variables: dict[str, npt.NDArray[np.float64]]
+    rejections: tuple[Rejection, ...]
+    any_in_data: bool
+
+
+def interval_bias(table: IntervalTable, model: ThermalBiasModel, settings: IntervalSettings,
+                  *, out_of_range: str = 'skip') -> IntervalBias:
+    """The model's bias for every interval of ``table``, as compensation subtracts it.
+
+    Interpolates and checks the sensors (:func:`check_sensors`), forms H, causal Ḣ and the
+    gradients (METHODS §D.3, §D.5) and evaluates the model where the interval has a pulse
+    rate and every variable the model needs. Each interval's value depends only on the
+    intervals around it (the neighbouring readings, the Ḣ window, the equal-value run a
+    stuck check looks at), never on where the table starts, so the live corrector
+    (:class:`gyro_calib.thermal.live.OrderedThermalCompensator`) calls this on a window
+    and gets the offline numbers bit for bit.
 
     Raises:
-        TemperatureDataError, ModelMismatchError, ExtrapolationError, InsufficientDataError:
-            as :func:`compensate`.
+        ModelMismatchError: a sensor the model needs never read.
+        ExtrapolationError: ``out_of_range='raise'`` and an interval outside the calibrated
+            range plus margin.
     """
-    if out_of_range not in ('raise', 'skip'):
-        raise ConfigError(f"out_of_range = {out_of_range!r} is invalid: use 'raise' or 'skip'.")
-    model = reducer.model
-    model.check_gyro(gyro_id)
-    iset = reducer.settings
-    k_rad = model.scale_factor_rad_per_pulse
-    table = reducer.table()
-    pulse_rej = reducer.pulses.rejections
-    ids = tuple(sorted(reducer.frame_ids))
-    for sensor in (SENSOR_CAVITY_A, SENSOR_CAVITY_B):
-        col = table.temperatures_c.get(sensor)
-        if col is None or not np.any(np.isfinite(col)):
-            raise TemperatureDataError(
-                f'no finite /gyro/temperature reading from {sensor} (frame_ids seen: '
-                f'{", ".join(ids) or "none"}): the model needs H, the mean of cavity_a and '
-                'cavity_b.')
-    check = check_sensors(table, iset)
+    check = check_sensors(table, settings)
     present = tuple(s for s, c in check.temperatures_c.items() if np.any(np.isfinite(c)))
     model.check_sensors(present)
-    variables = thermal_variables(check.temperatures_c, iset)
-    rate = table.rate_rad_s(k_rad)
+    temps = dict(check.temperatures_c)
+    n = len(table)
+    for sensor in (SENSOR_CAVITY_A, SENSOR_CAVITY_B):
+        temps.setdefault(sensor, np.full(n, np.nan))
+    variables = thermal_variables(temps, settings)
+    rate = table.rate_rad_s(model.scale_factor_rad_per_pulse)
     valid = np.isfinite(rate)
     for v in ('H', *model.variables):
         valid &= np.isfinite(variables[v])
-    if not np.any(valid):
-        raise InsufficientDataError('no interval has both a valid pulse rate and the '
-                                    'temperatures the model needs.')
-    rejections = list(pulse_rej) + list(check.rejections)
+    rejections = list(check.rejections)
+    any_in_data = bool(np.any(valid))
     idx = np.nonzero(valid)[0]
     tint = int(round(table.interval_s * NS_PER_S))
     t_mid = table.t_mid_ns
     if out_of_range == 'raise':
-        model.check_range(variables['H'][idx], variables['Hdot'][idx], t_mid[idx])
+        if len(idx):
+            model.check_range(variables['H'][idx], variables['Hdot'][idx], t_mid[idx])
     else:
         lo, hi = model.h_range_c
         m = model.extrapolation_margin_c
@@ -314,13 +330,129 @@ def compensate_reduced(reducer: CompensationReducer, *, gyro_id: str = '',
                 f'calibrated range {lo:.2f}…{hi:.2f} °C ± {m:g} °C: not compensated.')))
         valid &= ~outside
         idx = np.nonzero(valid)[0]
-        if not len(idx):
-            raise InsufficientDataError('every interval lies outside the calibrated range.')
-    bias = np.full(len(table), np.nan)
-    bias_std = np.full(len(table), np.nan)
-    b_in, bs_in = model.bias_rad_s(variables['H'][idx], variables['Hdot'][idx],
-                                   variables['dTab'][idx], variables['dTcs'][idx], check=False)
-    bias[idx], bias_std[idx] = b_in, bs_in
+    bias = np.full(n, np.nan)
+    bias_std = np.full(n, np.nan)
+    if len(idx):
+        b_in, bs_in = model.bias_rad_s(variables['H'][idx], variables['Hdot'][idx],
+                                       variables['dTab'][idx], variables['dTcs'][idx],
+                                       check=False)
+        bias[idx], bias_std[idx] = b_in, bs_in
+    return IntervalBias(valid, bias, bias_std, variables, tuple(rejections), any_in_data)
+
+
+@dataclass(frozen=True, slots=True)
+class CompensatedPair:
+    """Two consecutive pulse samples and the model bias to subtract from their rate.
+
+    Attributes:
+        t0_ns, count0: the earlier sample. t1_ns, count1: the later one (the rate's stamp).
+        bias_rad_s, bias_std: the model bias of the interval holding the pair's midpoint
+            and its standard uncertainty, rad/s.
+    """
+
+    t0_ns: int
+    count0: float
+    t1_ns: int
+    count1: float
+    bias_rad_s: float
+    bias_std: float
+
+
+def pairs_with_bias(samples: Iterable[tuple[int, float]], k0: int, interval_ns: int,
+                    bias: npt.NDArray[np.float64], bias_std: npt.NDArray[np.float64]
+                    ) -> Iterator[CompensatedPair | Rejection | None]:
+    """Each pulse sample with the one before it and the bias of the pair's midpoint interval.
+
+    One item per sample, in order: None where it makes no pair (the first, a non-finite
+    count — the previous sample stays the reference —, a stamp not after the previous one
+    — it becomes the reference), a :class:`Rejection` where the interval holding the
+    midpoint has no bias (``bias[i]`` NaN or outside the table starting at interval
+    ``k0``), else the :class:`CompensatedPair`. ``gyro-calib compensate --out`` writes
+    these; the live corrector gives the same pairs.
+    """
+    last: tuple[int, float] | None = None
+    for t_ns, count in samples:
+        if not math.isfinite(count):
+            yield None
+            continue
+        prev, last = last, (t_ns, count)
+        if prev is None or t_ns <= prev[0]:
+            yield None
+            continue
+        i = (prev[0] + (t_ns - prev[0]) // 2) // interval_ns - k0
+        if not (0 <= i < len(bias)) or not math.isfinite(bias[i]):
+            yield Rejection(t_ns, 'no thermal compensation: the model gives no bias for the '
+                                  'interval holding this pair.')
+            continue
+        yield CompensatedPair(prev[0], prev[1], t_ns, count, float(bias[i]), float(bias_std[i]))
+
+
+def offline_pairs(model: ThermalBiasModel, pulse_t_ns: ArrayLike, pulse_counts: ArrayLike,
+                  temperature_t_ns: ArrayLike, temperature_c: ArrayLike,
+                  temperature_frame_id: ArrayLike | str
+                  ) -> list[CompensatedPair | Rejection | None]:
+    """:func:`pairs_with_bias` of a whole recording, out-of-range intervals skipped.
+
+    The offline reference of the live corrector: the recording reduced and compensated as
+    :func:`compensate` does (:func:`interval_bias` with ``out_of_range='skip'``), without
+    the figures (so a recording too short for them still gives its pairs).
+    """
+    reducer = CompensationReducer(model)
+    reducer.extend_pulses(pulse_t_ns, pulse_counts)
+    t = np.asarray(temperature_t_ns, np.int64)
+    if len(t):
+        reducer.extend_temperatures(t, temperature_c, temperature_frame_id)
+    reducer.process(flush=True)
+    table = reducer.table()
+    tint = reducer.settings.interval_ns
+    try:
+        ib = interval_bias(table, model, reducer.settings, out_of_range='skip')
+        bias, bias_std = ib.bias, ib.bias_std
+    except ModelMismatchError:
+        bias = bias_std = np.full(len(table), np.nan)
+    samples = zip(np.asarray(pulse_t_ns, np.int64).tolist(),
+                  np.asarray(pulse_counts, np.float64).tolist())
+    k0 = int(table.k[0]) if len(table) else 0
+    return list(pairs_with_bias(samples, k0, tint, bias, bias_std))
+
+
+def compensate_reduced(reducer: CompensationReducer, *, gyro_id: str = '',
+                       block_s: float = 100.0, out_of_range: str = 'raise'
+                       ) -> CompensationReport:
+    """The figures of a reduced recording.
+
+    The figures of a reduced recording (see :func:`compensate`, which calls it; call
+    :func:`check_identity` before reducing).
+
+    Raises:
+        TemperatureDataError, ModelMismatchError, ExtrapolationError, InsufficientDataError:
+            as :func:`compensate`.
+    """
+    if out_of_range not in ('raise', 'skip'):
+        raise ConfigError(f"out_of_range = {out_of_range!r} is invalid: use 'raise' or 'skip'.")
+    model = reducer.model
+    model.check_gyro(gyro_id)
+    table = reducer.table()
+    ids = tuple(sorted(reducer.frame_ids))
+    for sensor in (SENSOR_CAVITY_A, SENSOR_CAVITY_B):
+        col = table.temperatures_c.get(sensor)
+        if col is None or not np.any(np.isfinite(col)):
+            raise TemperatureDataError(
+                f'no finite /gyro/temperature reading from {sensor} (frame_ids seen: '
+                f'{", ".join(ids) or "none"}): the model needs H, the mean of cavity_a and '
+                'cavity_b.')
+    ib = interval_bias(table, model, reducer.settings, out_of_range=out_of_range)
+    if not np.any(ib.valid):
+        raise InsufficientDataError('every interval lies outside the calibrated range.'
+                                    if ib.any_in_data else
+                                    'no interval has both a valid pulse rate and the '
+                                    'temperatures the model needs.')
+    k_rad = model.scale_factor_rad_per_pulse
+    rate = table.rate_rad_s(k_rad)
+    valid, variables, bias, bias_std = ib.valid, ib.variables, ib.bias, ib.bias_std
+    rejections = list(reducer.pulses.rejections) + list(ib.rejections)
+    idx = np.nonzero(valid)[0]
+    t_mid = table.t_mid_ns
     earth = model.earth_rate_along_axis_rad_s
     nb = int(round(block_s / table.interval_s))
     shift = int((-table.k[0]) % nb)

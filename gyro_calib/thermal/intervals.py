@@ -212,6 +212,13 @@ class PulseIntervals:
             f'({b.n} interval(s)): {b.reason}; those intervals are not used.')))
         self._bad = None
 
+    def keep_since(self, k: int) -> None:
+        """Forget the reduced rows before interval ``k`` (live use keeps a window only)."""
+        cols = self._rows.arrays(3)
+        if len(cols[0]) and cols[0][0] < k:
+            sel = cols[0] >= k
+            self._rows = _Rows([tuple(c[sel] for c in cols)])
+
     def arrays(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64],
                               npt.NDArray[np.int64]]:
         """Interval index k, ΔN (NaN if invalid) and Δt (int ns, 0 if invalid)."""
@@ -280,6 +287,13 @@ class TemperatureIntervals:
         self._k_next = int(k_end)
         self.buffer.discard_before(int(k_end * tint))
         return n
+
+    def keep_since(self, k: int) -> None:
+        """Forget the reduced rows before interval ``k`` (live use keeps a window only)."""
+        cols = self._rows.arrays(4)
+        if len(cols[0]) and cols[0][0] < k:
+            sel = cols[0] >= k
+            self._rows = _Rows([tuple(c[sel] for c in cols)])
 
     def keep_last(self, n: int) -> None:
         """Forget all but the last ``n`` reduced rows (live use keeps a window only)."""
@@ -443,27 +457,34 @@ def interpolate_sensor(col: npt.NDArray[np.float64], offsets_ns: npt.NDArray[np.
     before the first and after the last reading the value stays NaN.
     """
     tint = interval_s * NS_PER_S
-    idx = np.arange(len(col), dtype=np.float64)
     fin = np.isfinite(col)
     off = np.full(len(col), 0.5 * tint) if offsets_ns is None else np.where(
         np.isfinite(offsets_ns), offsets_ns, 0.5 * tint)
-    t_pts = (idx * tint + off)[fin]
+    k_pts = np.nonzero(fin)[0]
+    o_pts = off[fin]
     v_pts = col[fin]
     out = col.copy()
-    if len(t_pts) < 2:
-        return out, SensorSampling(sensor, len(t_pts), math.nan, math.nan, 0, 0)
-    spacing = np.diff(t_pts) / NS_PER_S
+    if len(k_pts) < 2:
+        return out, SensorSampling(sensor, len(k_pts), math.nan, math.nan, 0, 0)
+    # every time is taken relative to a nearby reading (index differences × T + offsets), so
+    # a value depends only on its neighbours, not on where the table starts: a live window
+    # gives the offline numbers bit for bit
+    spacing = (np.diff(k_pts) * tint + np.diff(o_pts)) / NS_PER_S
     typical = float(np.median(spacing))
-    centres = idx * tint + 0.5 * tint
-    i = np.searchsorted(t_pts, centres, side='right')
-    inside = (~fin) & (i >= 1) & (i < len(t_pts))
+    idx = np.arange(len(col))
+    i = np.searchsorted(k_pts, idx, side='right')  # first reading after each interval
+    inside = (~fin) & (i >= 1) & (i < len(k_pts))
     ii = i[inside]
-    gap_ok = (t_pts[ii] - t_pts[ii - 1]) <= max_gap_s * NS_PER_S * (1 + 1e-12)
+    span = (k_pts[ii] - k_pts[ii - 1]) * tint + (o_pts[ii] - o_pts[ii - 1])
+    gap_ok = span <= max_gap_s * NS_PER_S * (1 + 1e-12)
     fill = np.zeros(len(col), bool)
-    fill[np.nonzero(inside)[0][gap_ok]] = True
-    out[fill] = np.interp(centres[fill], t_pts, v_pts)
+    rows = np.nonzero(inside)[0][gap_ok]
+    fill[rows] = True
+    a = ii[gap_ok] - 1
+    into = (rows - k_pts[a]) * tint + (0.5 * tint - o_pts[a])
+    out[rows] = v_pts[a] + (v_pts[a + 1] - v_pts[a]) * (into / span[gap_ok])
     bridged = (spacing > 2.5 * typical) & (spacing <= max_gap_s * (1 + 1e-12))
-    return out, SensorSampling(sensor, len(t_pts), typical, float(spacing.max()),
+    return out, SensorSampling(sensor, len(k_pts), typical, float(spacing.max()),
                                int(np.count_nonzero(fill)), int(np.count_nonzero(bridged)))
 
 

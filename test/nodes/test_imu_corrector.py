@@ -312,16 +312,42 @@ def _thermal_handoff(model: Any, *, file_gyro_id: str | None = None,
 
 
 def _feed(converter: PulseRateConverter, start_s: int, stop_s: int, celsius: float,
-          pulses_per_s: float = 3.7) -> list[Any]:
-    """Temperatures at 1 Hz (all three sensors) and pulses at 2 Hz; the converter's outputs."""
-    outs = []
+          pulses_per_s: float = 3.7, sent: list[Any] | None = None) -> list[Any]:
+    """Temperatures at 1 Hz and pulses at 2 Hz; the outputs released meanwhile, in order.
+
+    All three sensors read within ±0.01 °C of ``celsius`` (a real sensor's last digit
+    moves; one reading exactly the same for long is waited on, test_thermal_live).
+
+    The messages go to ``sent`` too: ('p', t, count) and ('t', t, °C, sensor).
+    """
+    outs: list[Any] = []
     for i in range(2 * start_s, 2 * stop_s):
         t = T0_NS + i * 500_000_000
         if i % 2 == 0:
-            for sensor in ('cavity_a', 'cavity_b', 'shell'):
-                converter.add_temperature(t, celsius, sensor)
-        outs.append((t, converter.add(t, math.floor(i * pulses_per_s / 2))))
+            for j, sensor in enumerate(('cavity_a', 'cavity_b', 'shell')):
+                c = celsius + 0.01 * ((i // 2 + j) % 3 - 1)
+                outs += converter.add_temperature(t, c, sensor)
+                if sent is not None:
+                    sent.append(('t', t, c, sensor))
+        count = float(math.floor(i * pulses_per_s / 2))
+        outs += converter.add_pulse(t, count)
+        if sent is not None:
+            sent.append(('p', t, count))
     return outs
+
+
+def _offline_rates(model: Any, cal: PulseCalibration, sent: list[Any]) -> dict[int, Any]:
+    """What gyro-calib compensate --out gives for the same messages, by stamp."""
+    from gyro_calib.thermal.compensate import CompensatedPair, offline_pairs
+
+    p = [m for m in sent if m[0] == 'p']
+    t = [m for m in sent if m[0] == 't']
+    pairs = offline_pairs(model, [m[1] for m in p], [m[2] for m in p], [m[1] for m in t],
+                          [m[2] for m in t], [m[3] for m in t])
+    return {o.t1_ns: angular_velocity_from_pulses(
+        o.t0_ns, o.count0, o.t1_ns, o.count1,
+        dataclasses.replace(cal, bias_rad_s=o.bias_rad_s, bias_std=o.bias_std))
+        for o in pairs if isinstance(o, CompensatedPair)}
 
 
 def test_thermal_model_file_alone_gives_k_and_the_bias_at_the_current_temperature() -> None:
@@ -331,40 +357,48 @@ def test_thermal_model_file_alone_gives_k_and_the_bias_at_the_current_temperatur
     assert cal.scale_factor_rad_per_pulse == K_RAD and cal.scale_factor_std == 0.0
     assert cal.thermal_model == model
     converter = PulseRateConverter(cal)
-    outs = _feed(converter, 0, 60, 5.0)
-    counts = [math.floor(i * 3.7 / 2) for i in range(len(outs))]
+    sent: list[Any] = []
+    outs = _feed(converter, 0, 90, 5.0, sent=sent)
+    rates = [o for o in outs if isinstance(o, ImuAngularVelocity)]
+    offline = _offline_rates(model, cal, sent)
+    assert rates == [offline[r.stamp_ns] for r in rates]  # the offline numbers, bit for bit
+    # only the first half Ḣ window (no rate offline either) and the held tail give none
+    assert len(rates) >= 2 * 90 - 2 * 31 - 2 * 6
     bias, bias_std = model.bias_rad_s(5.0)
-    n_rates = 0
-    for i in range(1, len(outs)):
-        out = outs[i][1]
-        if not isinstance(out, ImuAngularVelocity):
-            assert isinstance(out, Rejection)  # before both cavities have an interval
-            continue
-        n_rates += 1
-        expected = K_RAD * (counts[i] - counts[i - 1]) / 0.5 - bias[0]
-        assert out.angular_velocity_rad_s[2] == pytest.approx(expected, rel=1e-12, abs=1e-20)
-        assert out.covariance_rad2_s2[8] == pytest.approx(
-            K_RAD**2 / (6 * 0.25) + bias_std[0] ** 2, rel=1e-9)
-    assert n_rates >= len(outs) - 6  # only the first seconds wait for a temperature interval
+    for r in rates:
+        assert r.covariance_rad2_s2[8] == pytest.approx(
+            K_RAD**2 / (6 * 0.25) + bias_std[0] ** 2, rel=1e-6)
+        i = (r.stamp_ns - T0_NS) // 500_000_000
+        dn = math.floor(i * 3.7 / 2) - math.floor((i - 1) * 3.7 / 2)
+        used = K_RAD * dn / 0.5 - r.angular_velocity_rad_s[2]
+        # the model at H = 5 °C ± 0.01 °C (0.02 °/h per °C)
+        assert abs(used - bias[0]) <= 0.02 * 0.011 * math.pi / 180 / 3600
 
 
-def test_thermal_bias_is_refused_before_temperatures_outside_the_range_and_when_stale() -> None:
+def test_thermal_bias_is_refused_without_temperatures_outside_the_range_and_when_stale() -> None:
     model = _thermal_model()
     converter = PulseRateConverter(pulse_calibration(_thermal_handoff(model)),
                                    thermal_max_age_s=5.0)
-    converter.add(T0_NS, 0.0)
-    first = converter.add(T0_NS + 500_000_000, 2.0)
-    assert isinstance(first, Rejection) and 'no complete interval' in first.reason
-    inside = _feed(converter, 1, 40, 9.0)
-    assert isinstance(inside[-1][1], ImuAngularVelocity)
-    outside = _feed(converter, 40, 80, 13.5)  # 10 °C + 2 °C margin exceeded
-    assert isinstance(outside[-1][1], Rejection)
-    assert 'outside the calibrated range' in outside[-1][1].reason
-    assert '13.50 °C' in outside[-1][1].reason
-    back = _feed(converter, 80, 120, -11.0)  # within the margin
-    assert isinstance(back[-1][1], ImuAngularVelocity)
-    stale = converter.add(T0_NS + 140 * 10**9, 500.0)  # no temperature for 20 s
-    assert isinstance(stale, Rejection) and 'thermal_max_age_s = 5' in stale.reason
+    silent = []
+    for i in range(40):  # 20 s of pulses, no temperature yet: held (the topic may be late)
+        silent += converter.add_pulse(T0_NS - 30 * 10**9 + i * 500_000_000, 2.0 * i)
+    assert silent == [] and converter.held == 39
+    inside = _feed(converter, 0, 60, 9.0)  # temperatures from 30 s later: none for those
+    refused = [o for o in inside if o.stamp_ns < T0_NS - 10 * 10**9]
+    assert len(refused) == 39 and all(isinstance(o, Rejection) for o in refused)
+    assert 'thermal_max_age_s = 5 s' in refused[0].reason
+    assert isinstance(inside[-1], ImuAngularVelocity)
+    outside = _feed(converter, 60, 100, 13.5)  # 10 °C + 2 °C margin exceeded
+    assert isinstance(outside[-1], Rejection)
+    assert 'outside the calibrated range' in outside[-1].reason
+    assert 'H 13.5' in outside[-1].reason
+    back = _feed(converter, 100, 160, -11.0)  # within the margin
+    assert isinstance(back[-1], ImuAngularVelocity)
+    n_held = converter.held
+    stale = [o for i in range(40)  # no temperature after 160 s: nothing more comes out
+             for o in converter.add_pulse(T0_NS + 180 * 10**9 + i * 500_000_000, 1e6 + i)]
+    assert not [o for o in stale if isinstance(o, ImuAngularVelocity)]
+    assert converter.held >= n_held + 40 - len(stale)
 
 
 def test_thermal_model_of_another_gyro_is_refused() -> None:
