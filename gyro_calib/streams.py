@@ -279,14 +279,15 @@ class WatermarkMerge:
     itself reads none, so it is tested with any arrival timing.
 
     Attributes:
-        topics: the topics merged; each holds the watermark until it has delivered.
-        hold_s: wall time a sample waits at most for a silent topic, s.
+        topics: the topics merged; each holds the watermark while it delivers.
+        hold_s: wall time a topic may deliver nothing before it stops holding the others
+            (and a sample waits at most for it), s.
         reorder_ns: stamps a topic may deliver out of order by (kept back from W), ns.
         restart_ns: a stamp this far behind its topic's newest starts a new timeline, ns.
     """
 
     topics: tuple[str, ...]
-    hold_s: float = 2.0
+    hold_s: float = 5.0
     reorder_ns: int = 0
     restart_ns: int = 1_000_000_000
     released_ns: int | None = None

@@ -488,6 +488,9 @@ class FogCalibrator:
         cut = min(cut, self._cells.reduced_until_ns) - self._cells.cell_ns
         self._cells.discard_before(cut)
         self._index.discard_before(cut)
+        if self._late:  # late stamps before every open window were judged already
+            floor = cut - self._late_margin_ns()
+            self._late = [(topic, t) for topic, t in self._late if t >= floor]
 
     def stream_notes(self) -> list[str]:
         """One line per input stream with samples dropped or re-sorted.

@@ -89,7 +89,7 @@ def _values(msgtype: str, msg: Any) -> tuple[float, ...]:
 class _TopicBuffer:
     """Samples of one topic since the last hand-over, as TopicColumns rows."""
 
-    def __init__(self, topic: str, msgtype: str, inputs: LiveInputs | None = None) -> None:
+    def __init__(self, topic: str, msgtype: str, inputs: LiveInputs) -> None:
         self.topic, self.msgtype = topic, msgtype
         self.inputs = inputs
         self.stamps: list[int] = []
@@ -99,13 +99,10 @@ class _TopicBuffer:
         self._codes: dict[str, int] = {}
 
     def add(self, msg: Any) -> None:
-        """One message from the reader: into the stamp merge (or straight in without one)."""
+        """One message from the reader, into the stamp merge (:meth:`put` when released)."""
         header = msg if self.msgtype == HEADER else msg.header
-        stamp, row = stamp_to_ns(header.stamp), _values(self.msgtype, msg)
-        if self.inputs is not None:
-            self.inputs.add(self.topic, stamp, (row, header.frame_id))
-        else:
-            self.put(stamp, row, header.frame_id)
+        self.inputs.add(self.topic, stamp_to_ns(header.stamp),
+                        (_values(self.msgtype, msg), header.frame_id))
 
     def put(self, stamp: int, row: tuple[float, ...], frame_id: str) -> None:
         """One released sample, to be handed over by :meth:`take`."""
@@ -176,7 +173,6 @@ class LiveInputs:
         """One message of ``topic``: held until the watermark passes its stamp."""
         self.arrived += 1
         self.merge.add(topic, stamp, payload, self.now())
-
 
     def take(self, *, flush: bool = False) -> tuple[dict[str, TopicColumns],
                                                     list[tuple[str, int]]]:
