@@ -73,13 +73,21 @@ def node_parameters(bag: Path, method: str) -> dict[str, Any]:
     return {k: v for k, v in bench.items() if k in names and v is not None}
 
 
-def offline_gyro(bag: Path, method: str, out: Path, env: dict[str, str]) -> dict[str, Any]:
-    """The ``gyro`` section of the hand-off file ``gyro-calib`` writes offline."""
+def offline_gyro(bag: Path, method: str, out: Path,
+                 env: dict[str, str]) -> dict[str, Any] | None:
+    """The ``gyro`` section of the hand-off file ``gyro-calib`` writes offline.
+
+    None when it writes none (nothing to calibrate in the bag: exit status 1).
+    """
     cmd = (['noise', str(bag)] if method == 'noise'
            else ['calibrate', str(bag), '--method', method])
-    subprocess.run([sys.executable, '-m', 'gyro_calib.cli', *cmd, '--out', str(out),
-                    '--no-progress'], env=env, check=True, stdout=subprocess.DEVNULL,
-                   stderr=subprocess.DEVNULL, cwd=out.parent)
+    done = subprocess.run([sys.executable, '-m', 'gyro_calib.cli', *cmd, '--out', str(out),
+                           '--no-progress'], env=env, stdout=subprocess.DEVNULL,
+                          stderr=subprocess.PIPE, cwd=out.parent)
+    if done.returncode not in (0, 1):
+        raise RuntimeError(f'{" ".join(cmd)}: {done.stderr.decode(errors="replace")}')
+    if not out.exists():
+        return None
     return dict(yaml.safe_load(out.read_text())['gyro'])
 
 
@@ -168,11 +176,15 @@ def main(argv: list[str] | None = None) -> int:
                     workdir = Path(tmp) / f'run{run}'
                     workdir.mkdir()
                     got, log = live_run(bag, method, args.rate, workdir, env)
-                    late += any(mark in log for mark in LATE_MARKS)
+                    told = [line for line in log.splitlines()
+                            if any(mark in line for mark in LATE_MARKS)]
+                    late += bool(told)
+                    for line in told[:2]:
+                        print(f'  {name} run {run}: {line}', file=sys.stderr, flush=True)
                     if got != expected:
                         differ += 1
-                        diff = sorted(k for k in set(expected) | set(got or {})
-                                      if (got or {}).get(k) != expected.get(k))
+                        diff = sorted(k for k in set(expected or {}) | set(got or {})
+                                      if (got or {}).get(k) != (expected or {}).get(k))
                         print(f'  {name} run {run}: differs in {", ".join(diff[:6])}',
                               file=sys.stderr, flush=True)
                 per_run = (time.monotonic() - started) / args.runs
