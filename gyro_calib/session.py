@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 from gyro_calib.config import BENCH_SETTINGS, check_bench_setting, given
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Calibration, Provenance, method_calibration
+from gyro_calib.streams import late_summary
 from gyro_calib.units import format_stamp
 
 if TYPE_CHECKING:
@@ -256,6 +257,20 @@ class MethodSession(ABC):
     def notices(self) -> list[str]:
         """Stream events worth reporting (restarts, dropped samples)."""
         return []
+
+    def late_input(self, late: Sequence[tuple[str, int]]) -> list[str]:
+        """Samples a live node received after later stamps had been handed over; lines.
+
+        ``late`` holds (topic, stamp) of each (:class:`~gyro_calib.streams.WatermarkMerge`:
+        its reader lagged the others by more than the node's input hold). They were fed as
+        out-of-order data. A method that knows which of its windows needs which stamps
+        rejects those windows (FOG); by default one line says where the numbers may not be
+        those of a recording of the run.
+        """
+        return [f'{late_summary(late)} arrived after later stamps had been calibrated (the '
+                f'reader lagged more than the input hold): taken as out-of-order data; the '
+                f'windows around them may differ from the offline numbers of a recording — '
+                f'replay slower or give the node more CPU.']
 
     def needs(self) -> dict[str, str]:
         """What each quantity not yet measured still needs, roughly how much more data.

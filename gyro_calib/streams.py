@@ -9,6 +9,7 @@ jumped back by more than a threshold).
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -233,3 +234,178 @@ def feed_by_timeline(streams: Sequence[tuple[Callable[..., object], npt.NDArray[
                 part = slice(c[k], c[k + 1])
                 extend(t[part], *(np.asarray(v)[part] for v in values))
         process()
+
+
+@dataclass(slots=True)
+class _Held:
+    """Samples of one topic waiting for the watermark, in arrival order."""
+
+    stamps: list[int] = field(default_factory=list)
+    arrived_s: list[float] = field(default_factory=list)
+    payloads: list[object] = field(default_factory=list)
+
+
+@dataclass(slots=True)
+class WatermarkMerge:
+    """Order live input by stamp across topics: release only what no topic can still precede.
+
+    Several topics reach a live node by separate DDS readers, each in its writer's order but
+    with no order between them: under load one reader can run seconds behind the others,
+    and an unpaced replay turns those seconds into minutes of stamps. The merge holds every
+    sample and releases, in stamp order, those stamped at or before the **watermark**
+
+        W = min over topics of (newest stamp − ``reorder_ns``),
+
+    so the session sees the samples in the order of a recording, cut at W (docs/methods.md,
+    "Live input in stamp order"). While every topic delivers, W is pure stamps: once every
+    topic has delivered a sample newer than t, nothing older than t is still on its way
+    (each reader is in order), however far one reader lags another. A topic that has
+    delivered nothing for ``hold_s`` of wall time (a zero-index stream while the table
+    stands, a bench without injection) stops holding the others, and W is then the newest
+    stamp among the samples held ``hold_s`` or longer (and still no newer than what the
+    flowing topics delivered): a silent topic's next sample was waited for as long as a
+    reader may lag, so the wall clock decides when a result appears, not what it is.
+
+    A sample that arrives stamped at or before what was already released is **late** (a
+    silent topic's reader lagged more than ``hold_s``): it is released at once (the session
+    treats it as out-of-order data) and listed in :meth:`take_late`, so the window that
+    needs it can be rejected with a line instead of computed without it.
+
+    A stamp ``restart_ns`` or more before its topic's newest one is a restarted source (a
+    bag played again, a bench restarted): everything held is released, and the new
+    timeline is merged afresh (the session reports the restart itself).
+
+    The clock is the caller's (``now_s`` arguments, e.g. ``time.monotonic()``): the merge
+    itself reads none, so it is tested with any arrival timing.
+
+    Attributes:
+        topics: the topics merged; each holds the watermark while it delivers.
+        hold_s: wall time a topic may deliver nothing before it stops holding the others
+            (and a sample waits at most for it), s.
+        reorder_ns: stamps a topic may deliver out of order by (kept back from W), ns.
+        restart_ns: a stamp this far behind its topic's newest starts a new timeline, ns.
+    """
+
+    topics: tuple[str, ...]
+    hold_s: float = 5.0
+    reorder_ns: int = 0
+    restart_ns: int = 1_000_000_000
+    released_ns: int | None = None
+    """Every sample stamped at or before this was released (None: nothing yet)."""
+    _held: dict[str, _Held] = field(default_factory=dict)
+    _newest: dict[str, int] = field(default_factory=dict)
+    _last_arrival: dict[str, float] = field(default_factory=dict)
+    _ready: list[list[tuple[int, int, str, object]]] = field(default_factory=lambda: [[]])
+    _late: list[tuple[str, int]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        """One hold list per topic."""
+        self._held = {t: _Held() for t in self.topics}
+
+    def add(self, topic: str, t_ns: int, payload: object, now_s: float) -> None:
+        """One sample of ``topic`` stamped ``t_ns`` arrived at wall time ``now_s``."""
+        t_ns = int(t_ns)
+        newest = self._newest.get(topic)
+        if newest is not None and t_ns <= newest - self.restart_ns:
+            self._ready[-1].extend(self._take(None))  # the old timeline goes out whole
+            self._ready.append([])  # the new one after it, sorted apart
+            self._newest.clear()
+            self.released_ns = None
+        if self.released_ns is not None and t_ns <= self.released_ns:
+            self._late.append((topic, t_ns))
+            self._ready[-1].append((t_ns, self.topics.index(topic), topic, payload))
+        else:
+            held = self._held[topic]
+            held.stamps.append(t_ns)
+            held.arrived_s.append(float(now_s))
+            held.payloads.append(payload)
+        if newest is None or t_ns > newest:
+            self._newest[topic] = t_ns
+        self._last_arrival[topic] = float(now_s)
+
+    def watermark(self, now_s: float) -> int | None:
+        """W: the newest stamp that may be released at wall time ``now_s`` (None: none)."""
+        waited = now_s - self.hold_s
+        live = [self._newest[t] for t in self.topics
+                if t in self._newest and self._last_arrival[t] > waited]
+        marks: list[int] = []
+        if len(live) == len(self.topics):
+            marks.append(min(live) - self.reorder_ns)
+        else:  # a topic silent for hold_s: what waited that long, and no topic still flowing
+            waited_for = [max(h.stamps[:k]) for h in self._held.values()
+                          if (k := bisect_right(h.arrived_s, waited))]
+            if waited_for:
+                marks.append(min([max(waited_for), *(t - self.reorder_ns for t in live)]))
+        if self.released_ns is not None:
+            marks.append(self.released_ns)
+        return max(marks) if marks else None
+
+    def release(self, now_s: float, *, flush: bool = False) -> list[tuple[str, int, object]]:
+        """(topic, stamp, payload) of every sample the watermark passed, in stamp order.
+
+        With ``flush`` (the input ended) everything held is released.
+        """
+        mark = None if flush else self.watermark(now_s)
+        if flush or mark is not None:
+            out = self._take(mark)
+            if mark is not None:
+                self.released_ns = mark
+            elif out:
+                newest = max(t for t, *_ in out)
+                self.released_ns = (newest if self.released_ns is None
+                                    else max(self.released_ns, newest))
+            self._ready[-1].extend(out)
+        ready, self._ready = self._ready, [[]]
+        return [(topic, t, payload) for timeline in ready
+                for t, _, topic, payload in sorted(timeline, key=lambda r: (r[0], r[1]))]
+
+    def take_late(self) -> list[tuple[str, int]]:
+        """(topic, stamp) of the samples that arrived late since the last call."""
+        late, self._late = self._late, []
+        return late
+
+    def held(self) -> int:
+        """Samples waiting for the watermark (or to be returned by :meth:`release`)."""
+        return (sum(len(h.stamps) for h in self._held.values())
+                + sum(len(r) for r in self._ready))
+
+    def clear(self) -> None:
+        """Forget everything held and every stamp seen (a new session)."""
+        self._held = {t: _Held() for t in self.topics}
+        self._newest.clear()
+        self._last_arrival.clear()
+        self._ready = [[]]
+        self._late.clear()
+        self.released_ns = None
+
+    def _take(self, mark: int | None) -> list[tuple[int, int, str, object]]:
+        """Remove and return the held samples stamped at or before ``mark`` (None: all)."""
+        out: list[tuple[int, int, str, object]] = []
+        for i, (topic, held) in enumerate(self._held.items()):
+            if mark is None:
+                keep = [False] * len(held.stamps)
+            else:
+                keep = [t > mark for t in held.stamps]
+            if all(keep):
+                continue
+            out.extend((t, i, topic, p) for t, p, k in zip(held.stamps, held.payloads, keep)
+                       if not k)
+            self._held[topic] = _Held(
+                [t for t, k in zip(held.stamps, keep) if k],
+                [a for a, k in zip(held.arrived_s, keep) if k],
+                [p for p, k in zip(held.payloads, keep) if k])
+        return out
+
+
+def late_summary(late: Sequence[tuple[str, int]]) -> str:
+    """'3 /fog/output samples stamped t=… to t=…, 1 /rate_table/zero_index sample …'."""
+    by_topic: dict[str, list[int]] = {}
+    for topic, t in late:
+        by_topic.setdefault(topic, []).append(int(t))
+    parts = []
+    for topic, stamps in by_topic.items():
+        lo, hi = min(stamps), max(stamps)
+        when = (f'stamped t={lo / 1e9:.6f} s' if lo == hi
+                else f'stamped t={lo / 1e9:.6f} s to t={hi / 1e9:.6f} s')
+        parts.append(f'{len(stamps)} {topic} sample{"s" if len(stamps) > 1 else ""} {when}')
+    return ', '.join(parts)

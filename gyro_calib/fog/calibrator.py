@@ -54,10 +54,10 @@ from gyro_calib.fog.turntable import (
     measure_segment,
     pooled_noise,
 )
-from gyro_calib.streams import StampedBuffer, feed_by_timeline
+from gyro_calib.streams import StampedBuffer, feed_by_timeline, late_summary
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Sequence
 
     import numpy.typing as npt
     from numpy.typing import ArrayLike
@@ -119,6 +119,9 @@ class FogCalibrator:
     _fits: _Fits | None = None
     _seen: set[str] = field(default_factory=set)
     _newest_out: int | None = None
+    _late: list[tuple[str, int]] = field(default_factory=list)
+    _spans: list[tuple[int, int]] = field(default_factory=list)
+    """(start, end) of the constant-rate run each of :attr:`segments` was measured over."""
 
     def __post_init__(self) -> None:
         """Create the stream buffers, the output cells and the segment detector."""
@@ -198,6 +201,55 @@ class FogCalibrator:
         if self._index.extend(t, np.zeros(len(t))):
             self._restart(topics.RATE_TABLE_ZERO_INDEX)
 
+    def reject_late(self, late: Sequence[tuple[str, int]]) -> list[str]:
+        """Samples a live node received after later stamps were processed: reject their windows.
+
+        ``late`` holds (topic, stamp) (:class:`~gyro_calib.streams.WatermarkMerge`). A
+        segment or plateau within :meth:`_late_margin_ns` of one would not have been
+        measured as from a recording of the run: one already measured leaves the fits now,
+        one still open is rejected when it closes, each with a line (docs/methods.md, "Live
+        input in stamp order"). Returns the lines of what was rejected now.
+        """
+        self._late.extend((str(topic), int(t)) for topic, t in late)
+        lines: list[str] = []
+        for i, (seg, span) in enumerate(zip(self.segments, self._spans)):
+            why = self._late_reason(*span)
+            if i in self._excluded or why is None:
+                continue
+            self._excluded.add(i)
+            lines.append(f'segment at {rate_deg_s(seg.rate_rad_s)} {stamp_text(seg.start_ns)} '
+                         f'rejected: {why}')
+            self.rejections.append(Rejection(seg.start_ns, lines[-1]))
+        kept = []
+        for p in self.plateaus:
+            why = self._late_reason(p.start_ns, p.end_ns)
+            if why is None:
+                kept.append(p)
+                continue
+            lines.append(f'{p.describe()} rejected: {why}')
+            self.rejections.append(Rejection(p.start_ns, lines[-1]))
+        if lines:
+            self.plateaus[:] = kept
+            self._fits = None
+        return lines
+
+    def _late_margin_ns(self) -> int:
+        """How far around a window a late sample still changes it, ns.
+
+        The segment detector's guard (where a run's ends are decided) plus one output cell.
+        """
+        return int((self.settings.segment_guard_s + self.settings.cell_s) * 1e9)
+
+    def _late_reason(self, start_ns: int, end_ns: int) -> str | None:
+        """Why a late sample spoils the window [start, end] (None if none falls near it)."""
+        margin = self._late_margin_ns()
+        hits = [(topic, t) for topic, t in self._late if start_ns - margin <= t <= end_ns + margin]
+        if not hits:
+            return None
+        return (f'{late_summary(hits)} reached the node after later stamps had been processed '
+                f'(its reader lagged): measured without {"them" if len(hits) > 1 else "it"} '
+                f'it would differ from the recording; not used.')
+
     def _restart(self, topic: str) -> None:
         """A source restarted: drop what is pending, keep everything measured."""
         self._cells.clear()
@@ -215,6 +267,7 @@ class FogCalibrator:
         self._plateaus_done = 0
         self._plateau_reference = self._zero_reference = None
         self._newest_out = None
+        self._late.clear()  # stamps of the old timeline
         note = (f'{topic} restarted (stamps jumped back by more than '
                 f'{self.settings.restart_backstep_s:g} s): open segments and plateaus were '
                 f'dropped; {len(self.segments)} segment(s) and {len(self.plateaus)} plateau(s) '
@@ -284,6 +337,13 @@ class FogCalibrator:
                         or out_newest >= run.end_ns + lag):
                     break
             self._runs.pop(0)
+            late = self._late_reason(run.start_ns, run.end_ns)
+            if late is not None:
+                reason = (f'segment at {rate_deg_s(run.rate_rad_s)} {stamp_text(run.start_ns)} '
+                          f'rejected: {late}')
+                self.rejections.append(Rejection(run.start_ns, reason))
+                self._log.append(reason)
+                continue
             if self._injected_during(run.start_ns, run.end_ns):
                 reason = (f'segment at {rate_deg_s(run.rate_rad_s)} {stamp_text(run.start_ns)} '
                           f'overlaps a self-calibration injection: not used for the turntable '
@@ -298,6 +358,7 @@ class FogCalibrator:
                 self._log.append(result)
                 continue
             self.segments.append(result)
+            self._spans.append((run.start_ns, run.end_ns))
             self._fits = None
             how = (f'{result.revolutions} revolution(s) between zero-index events'
                    if result.revolutions else 'no whole revolutions (Earth-rate residual ≤ '
@@ -366,6 +427,9 @@ class FogCalibrator:
                 continue
             largest = float(np.max(np.abs(v_msgs[t_msgs <= end]))) if len(v_msgs) else 0.0
             reason = self._static_reason(start, end, value)
+            late = self._late_reason(start, end)
+            if late is not None:
+                reason = f'{describe_plateau(start, value)} rejected: {late}'
             measured: PlateauMeasurement | str
             if reason is None:
                 measured = measure_plateau(start, end, value, self._cells, self.settings,
@@ -424,6 +488,9 @@ class FogCalibrator:
         cut = min(cut, self._cells.reduced_until_ns) - self._cells.cell_ns
         self._cells.discard_before(cut)
         self._index.discard_before(cut)
+        if self._late:  # late stamps before every open window were judged already
+            floor = cut - self._late_margin_ns()
+            self._late = [(topic, t) for topic, t in self._late if t >= floor]
 
     def stream_notes(self) -> list[str]:
         """One line per input stream with samples dropped or re-sorted.

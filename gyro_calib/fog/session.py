@@ -43,6 +43,7 @@ from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.units import format_stamp
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
     from pathlib import Path
 
     from gyro_calib.bagio import SampleBatch
@@ -112,6 +113,10 @@ class FogSession(MethodSession):
         index = batch.stamps(topics.RATE_TABLE_ZERO_INDEX)
         if index is not None:
             cal.extend_zero_index(index)
+
+    def late_input(self, late: Sequence[tuple[str, int]]) -> list[str]:
+        """Reject every segment and plateau a late sample falls in (now or when it closes)."""
+        return self.calibrator.reject_late(late)
 
     def end_of_recording(self) -> None:
         """The recording ended: the next process() flushes.

@@ -29,7 +29,7 @@ from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
 from gyro_calib.errors import GyroCalibError, InsufficientDataError
 from gyro_calib.handoff import Provenance, merge_lines, method_calibration, update_calibration
 from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
-from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, SimScenarioBench, _TopicBuffer
+from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, LiveInputs, SimScenarioBench
 from gyro_calib.nodes.node_state import (
     RESUME_DESCRIPTION,
     RESUME_MAX_GAP_DESCRIPTION,
@@ -57,6 +57,7 @@ from gyro_calib.rbrlg.session import RbrlgSession, feed_calibrator, prior_k_tild
 from gyro_calib.rbrlg.stations import Station
 from gyro_calib.registry import HEADER, METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
+from gyro_calib.streams import late_summary
 from gyro_calib.topics import relative
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
@@ -132,10 +133,10 @@ class CalibrationNode(CalibrationNodeBase):
         self._handoff_missing: set[str] | None = None
         self._merge_told: set[str] = set()
         self._station_rejections_seen = 0
-        self._buffers: dict[str, _TopicBuffer] = {}
-        specs = []
+        self._live_inputs = LiveInputs(RBRLG_TOPICS)  # merged by stamp (WatermarkMerge)
+        self._buffers, specs = self._live_inputs.buffers, []
         for topic, msgtype in RBRLG_TOPICS.items():
-            buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
+            buf = self._buffers[topic]
             specs.append(InputSpec(_MESSAGE_CLASSES[msgtype], relative(topic), buf.add,
                                    EVENT_QOS if msgtype == HEADER else SENSOR_QOS))
         self.set_inputs(specs)
@@ -153,7 +154,7 @@ class CalibrationNode(CalibrationNodeBase):
         self.k_pub = pub(Float64, relative(topics.SCALE_FACTOR), RESULT_QOS)
         self.diag_pub = pub(DiagnosticArray, relative(topics.DIAGNOSTICS), 10)
         self.scenario = SimScenarioBench(self, METHODS['rbrlg'].bench_settings, self._on_bench)
-        self.create_timer(0.2, self._process)
+        self.create_timer(0.2, self._live_inputs.busy(self._process))
         self.create_timer(1.0, self._publish_diagnostics)
         self.get_logger().info(
             f'calibrating K̃ over m = {self.config.revolutions_per_window} revolution windows; '
@@ -174,9 +175,7 @@ class CalibrationNode(CalibrationNodeBase):
 
     def reset_calibration(self) -> str:
         """Start over: buffered samples dropped, a new calibrator, the state record emptied."""
-        dropped = sum(len(b.stamps) for b in self._buffers.values())
-        for buf in self._buffers.values():
-            buf.take()
+        dropped = self._live_inputs.clear()
         pairs, stations = len(self.bench.k_tilde.pairs), len(self.bench.stations.stations)
         self.bench = self._new_bench()
         self.calibrator = self.bench.k_tilde
@@ -215,6 +214,18 @@ class CalibrationNode(CalibrationNodeBase):
         self.state.record_batch(columns)
         feed_columns(self._extend, columns)
 
+    def _take_inputs(self) -> dict[str, TopicColumns]:
+        """The samples the stamp merge released, per topic; a line for any that came late."""
+        columns, late = self._live_inputs.take()
+        if late:
+            line = (f'{late_summary(late)} arrived after later stamps had been calibrated (the '
+                    'reader lagged more than the input hold): taken as out-of-order data; the '
+                    'windows around them may differ from the offline numbers of a recording '
+                    '— replay slower or give the node more CPU.')
+            self._last_rejection = line
+            self.get_logger().warning(line)
+        return columns
+
     def _extend(self, batch: SampleBatch) -> None:
         feed_calibrator(self.bench, batch)
 
@@ -224,7 +235,7 @@ class CalibrationNode(CalibrationNodeBase):
 
     def _process(self) -> None:
         self.state.resume_once(self._extend, self._replay_process)
-        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
+        self._feed(self._take_inputs())
         self._consume(*self.bench.process())
 
     def finish(self) -> None:
@@ -233,6 +244,7 @@ class CalibrationNode(CalibrationNodeBase):
         Shutdown: take in what is buffered, write the hand-off; the state directory is
         removed once θ, K and the bias are all measured (unless ``keep_state``).
         """
+        self._live_inputs.ended = True  # everything held, in stamp order
         self._process()
         self._publish_results()
         self.state.finish(complete=calibration_complete(self.bench.missing(),

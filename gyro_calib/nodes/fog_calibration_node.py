@@ -40,15 +40,10 @@ class FogCalibrationNode(MethodNode):
     def __init__(self) -> None:
         """Declare parameters, build the FOG session, wire topics and timers."""
         super().__init__('fog', 'fog_calibration_node', RESULT_TOPICS, FogSettings)
-        self.messages_taken = 0
 
     def received(self) -> int:
-        """Messages received so far (handed to the session or still buffered)."""
-        return self.messages_taken + sum(len(b.stamps) for b in self._buffers.values())
-
-    def _process(self) -> None:
-        self.messages_taken += sum(len(b.stamps) for b in self._buffers.values())
-        super()._process()
+        """Messages received so far (handed to the session, held or buffered)."""
+        return self._live_inputs.arrived
 
     # It spins the executor before the generic finish: called only by this node's main.
     def finish(self, executor: Any) -> None:  # type: ignore[override]
@@ -58,6 +53,7 @@ class FogCalibrationNode(MethodNode):
         counts a sample delivered once our reader has it, before our callback ran.
         """
         spin_until_quiet(executor, self.received)
+        self._live_inputs.ended = True  # everything held goes to the session, in stamp order
         session = self.session
         assert isinstance(session, FogSession)
         session.end_of_recording()

@@ -19,9 +19,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import yaml
@@ -48,6 +49,7 @@ from gyro_calib.nodes.node_state import (
 )
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
+    INPUT_HOLD_S,
     RESULT_QOS,
     SCENARIO_READER_QOS,
     SENSOR_QOS,
@@ -65,6 +67,7 @@ from gyro_calib.registry import (
     handoff_schema,
 )
 from gyro_calib.session import CalibrationOptions, MethodSession
+from gyro_calib.streams import WatermarkMerge
 from gyro_calib.topics import relative
 from gyro_calib.units import format_stamp
 
@@ -93,8 +96,9 @@ def _values(msgtype: str, msg: Any) -> tuple[float, ...]:
 class _TopicBuffer:
     """Samples of one topic since the last hand-over, as TopicColumns rows."""
 
-    def __init__(self, topic: str, msgtype: str) -> None:
+    def __init__(self, topic: str, msgtype: str, inputs: LiveInputs) -> None:
         self.topic, self.msgtype = topic, msgtype
+        self.inputs = inputs
         self.stamps: list[int] = []
         self.rows: list[tuple[float, ...]] = []
         self.frames: list[int] = []
@@ -102,13 +106,19 @@ class _TopicBuffer:
         self._codes: dict[str, int] = {}
 
     def add(self, msg: Any) -> None:
+        """One message from the reader, into the stamp merge (:meth:`put` when released)."""
         header = msg if self.msgtype == HEADER else msg.header
-        self.stamps.append(stamp_to_ns(header.stamp))
-        self.rows.append(_values(self.msgtype, msg))
-        code = self._codes.get(header.frame_id)
+        self.inputs.add(self.topic, stamp_to_ns(header.stamp),
+                        (_values(self.msgtype, msg), header.frame_id))
+
+    def put(self, stamp: int, row: tuple[float, ...], frame_id: str) -> None:
+        """One released sample, to be handed over by :meth:`take`."""
+        self.stamps.append(stamp)
+        self.rows.append(row)
+        code = self._codes.get(frame_id)
         if code is None:
-            code = self._codes[header.frame_id] = len(self.names)
-            self.names.append(header.frame_id)
+            code = self._codes[frame_id] = len(self.names)
+            self.names.append(frame_id)
         self.frames.append(code)
 
     def take(self) -> TopicColumns | None:
@@ -129,6 +139,68 @@ class _TopicBuffer:
                             values)
         self.stamps, self.rows, self.frames = [], [], []
         return cols
+
+
+class LiveInputs:
+    """Every input topic of a live calibration node, merged by stamp before the session.
+
+    Each reader's callback hands its message to one :class:`~gyro_calib.streams.WatermarkMerge`
+    (the wall clock it is given runs only while the node is free to take messages: time
+    spent in :meth:`busy` callbacks does not count towards :data:`INPUT_HOLD_S`);
+    :meth:`take` releases what the watermark passed into the per-topic buffers and hands it
+    over as columns, in the order of a recording.
+    """
+
+    def __init__(self, topic_types: Mapping[str, str]) -> None:
+        """One buffer per topic (topic → message type), one merge over them all."""
+        self.buffers = {topic: _TopicBuffer(topic, msgtype, self)
+                        for topic, msgtype in topic_types.items()}
+        self.merge = WatermarkMerge(tuple(topic_types), hold_s=INPUT_HOLD_S)
+        self.arrived = 0
+        """Messages the readers delivered so far."""
+        self.ended = False
+        """The input ended (the node is stopping): release everything held."""
+        self._busy_s = 0.0
+
+    def now(self) -> float:
+        """Monotonic wall time, s, less the time spent in :meth:`busy` callbacks."""
+        return time.monotonic() - self._busy_s
+
+    def busy(self, fn: Callable[[], None]) -> Callable[[], None]:
+        """``fn`` (a timer callback), its run time kept off the merge's clock."""
+        def timed() -> None:
+            start = time.monotonic()
+            try:
+                fn()
+            finally:
+                self._busy_s += time.monotonic() - start
+        return timed
+
+    def add(self, topic: str, stamp: int, payload: tuple[tuple[float, ...], str]) -> None:
+        """One message of ``topic``: held until the watermark passes its stamp."""
+        self.arrived += 1
+        self.merge.add(topic, stamp, payload, self.now())
+
+    def take(self, *, flush: bool = False) -> tuple[dict[str, TopicColumns],
+                                                    list[tuple[str, int]]]:
+        """What the watermark released, per topic; and the (topic, stamp) that came late."""
+        for topic, stamp, payload in self.merge.release(self.now(), flush=flush or self.ended):
+            row, frame_id = cast('tuple[tuple[float, ...], str]', payload)
+            self.buffers[topic].put(stamp, row, frame_id)
+        columns = {t: c for t, b in self.buffers.items() if (c := b.take()) is not None}
+        return columns, self.merge.take_late()
+
+    def pending(self) -> int:
+        """Messages received and not yet handed over (held or buffered)."""
+        return self.merge.held() + sum(len(b.stamps) for b in self.buffers.values())
+
+    def clear(self) -> int:
+        """Drop everything not yet handed over (a new session); how many were dropped."""
+        dropped = self.pending()
+        for buf in self.buffers.values():
+            buf.take()
+        self.merge.clear()
+        return dropped
 
 
 class MethodNode(CalibrationNodeBase):
@@ -210,7 +282,7 @@ class MethodNode(CalibrationNodeBase):
         self._merge_told: set[str] = set()
         self._fed = False
         self.scenario = SimScenarioBench(self, self.method.bench_settings, self._on_bench)
-        self.create_timer(float(p['process_period_s']), self._process)
+        self.create_timer(float(p['process_period_s']), self._inputs_busy(self._process))
         self.create_timer(1.0, self._publish_diagnostics)
         self._announce_inputs()
 
@@ -248,15 +320,22 @@ class MethodNode(CalibrationNodeBase):
         publishers' QoS (those of ``best_effort`` always best effort); by their names
         relative to the node's namespace, except those of ``as_given`` (a user's topic).
         """
-        self._buffers, specs = {}, []
+        self._live_inputs = LiveInputs(self.session.topics())
+        self._buffers, specs = self._live_inputs.buffers, []
         self._inputs_as_given = as_given
         for topic, msgtype in self.session.topics().items():
-            buf = self._buffers[topic] = _TopicBuffer(topic, msgtype)
+            buf = self._buffers[topic]
             specs.append(InputSpec(_MESSAGE_CLASSES[msgtype],
                                    topic if topic in as_given else relative(topic), buf.add,
                                    EVENT_QOS if msgtype == HEADER else SENSOR_QOS,
                                    topic in best_effort))
         self.set_inputs(specs)
+
+    def _inputs_busy(self, fn: Callable[[], None]) -> Callable[[], None]:
+        """``fn`` timed off the input merge's clock (the merge may be replaced: looked up)."""
+        def run() -> None:
+            self._live_inputs.busy(fn)()
+        return run
 
     def new_session(self) -> MethodSession:
         """A fresh session with the node's options (``~/reset``, cleanup)."""
@@ -264,9 +343,7 @@ class MethodNode(CalibrationNodeBase):
 
     def reset_calibration(self) -> str:
         """Start over: buffered samples dropped, a new session, the state record emptied."""
-        dropped = sum(len(b.stamps) for b in self._buffers.values())
-        for buf in self._buffers.values():
-            buf.take()
+        dropped = self._live_inputs.clear()
         measured = len(self.session.results())
         self.session = self.new_session()
         self._published, self._last_line, self._handoff_missing = {}, '', None
@@ -296,6 +373,20 @@ class MethodNode(CalibrationNodeBase):
         return SetParametersResult(successful=False, reason=(
             'calibration parameters are read at start-up; restart the node to change them.'))
 
+    def _take_inputs(self, *, flush: bool = False) -> dict[str, TopicColumns]:
+        """The samples the stamp merge released, per topic; a line for any that came late.
+
+        A late sample (its reader lagged more than :data:`INPUT_HOLD_S`) is handed over as
+        out-of-order data and the session told (:meth:`MethodSession.late_input`), which
+        rejects the window that needs it or says what it could not check.
+        """
+        columns, late = self._live_inputs.take(flush=flush)
+        if late:
+            for line in self.session.late_input(late):
+                self._last_line = line
+                self.get_logger().warning(line)
+        return columns
+
     def _feed(self, columns: dict[str, TopicColumns]) -> None:
         """Record the batch (state directory), then hand it to the session."""
         if not columns:
@@ -310,7 +401,7 @@ class MethodNode(CalibrationNodeBase):
 
     def _process(self) -> None:
         self.state.resume_once(self._session_feed, self.session.process)
-        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
+        self._feed(self._take_inputs())
         lines = self.session.process()
         for line in lines:
             self._last_line = line
@@ -337,7 +428,7 @@ class MethodNode(CalibrationNodeBase):
         the state directory is removed when nothing is missing (unless ``keep_state``).
         """
         self.state.resume_once(self._session_feed, self.session.process)
-        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
+        self._feed(self._take_inputs(flush=True))
         for line in self.session.process(flush=True):
             self.get_logger().info(line)
         self._write_handoff()

@@ -119,7 +119,7 @@ class NoiseNode(MethodNode):
         self.session, self._noise_options = session, options
         self.best_effort = best_effort
         self._rewire(topic)
-        self.create_timer(self.results_period_s, self._refresh)
+        self.create_timer(self.results_period_s, self._inputs_busy(self._refresh))
         self._last_terms = ''
         self.get_logger().info(
             f'noise: waiting for '
@@ -162,14 +162,14 @@ class NoiseNode(MethodNode):
     def _process(self) -> None:
         """Hand the buffered samples to the session (results come from :meth:`_refresh`)."""
         self.state.resume_once(self.session.feed, self.session.process)
-        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
+        self._feed(self._take_inputs())
         for line in self.session.process():
             self._last_line = line
             self.get_logger().info(line)
 
     def received(self) -> int:
         """Samples received so far (handed over or still buffered)."""
-        held = sum(len(b.stamps) for b in self._buffers.values())
+        held = self._live_inputs.pending()
         return held + sum(s.received for s in self.session.calibrator.ordering_stats().values())
 
     def _refresh(self) -> None:
@@ -211,6 +211,7 @@ class NoiseNode(MethodNode):
     def finish(self) -> int:  # type: ignore[override]  # main() exits with this status
         """End the record, publish the final terms, write the files; 0, or 1 on failure."""
         log = self.get_logger()
+        self._live_inputs.ended = True  # everything held goes to the session, in stamp order
         self._process()
         for line in self.session.process(flush=True):
             log.info(line)

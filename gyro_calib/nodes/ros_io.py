@@ -286,6 +286,15 @@ acknowledged messages (a bag of a two-bench run lost its last window pair with 0
 two test runs shared 2 cores)."""
 
 
+INPUT_HOLD_S = 5.0
+"""How long an input topic may deliver nothing before it stops holding the others, s
+(:class:`~gyro_calib.streams.WatermarkMerge`). While every topic delivers, live input is
+ordered by stamps alone; a sparse topic (zero-index, injection) whose next message lags the
+dense ones by less than this changes nothing, by more, the window that needed it is rejected
+with a line. It sets when results appear, never what they are. Measured: an unpaced replay
+into a FOG node on 2 shared cores delivered one topic up to 2.0 s behind another."""
+
+
 def spin_until_quiet(executor: Any, received: Callable[[], int], *,
                      quiet_s: float = DRAIN_QUIET_S, limit_s: float = 60.0) -> None:
     """Spin until ``received()`` has not changed for ``quiet_s`` (at most ``limit_s``).

@@ -49,7 +49,7 @@ class ThermalCalibrationNode(MethodNode):
         return super()._refuse_runtime_change(params)
 
     def _process(self) -> None:
-        got = any(b.stamps for b in self._buffers.values())
+        got = self._live_inputs.pending() > 0
         super()._process()
         now = time.monotonic()
         if got:
@@ -73,7 +73,7 @@ class ThermalCalibrationNode(MethodNode):
         self.unfitted = False
         self.state.resume_once(self.session.feed, self.session.process)
         # messages that arrived since the last hand-over (shut-down): recorded, then fed
-        self._feed({t: c for t, b in self._buffers.items() if (c := b.take()) is not None})
+        self._feed(self._take_inputs(flush=True))
         try:
             lines = self.session.process(flush=True)
         except GyroCalibError as exc:  # a sensor too sparse to interpolate: say so, fit nothing

@@ -200,3 +200,71 @@ def test_replayed_fog_bag_gives_exactly_the_offline_numbers(
     assert f'played {bag_info(bag).message_count} messages' in player.log(), player.log()
     _stop_and_flush(node, fog_listener)
     _assert_node_equals_offline(fog_listener, node, offline)
+
+
+@pytest.fixture
+def cpu_burners() -> Any:
+    """Two processes spinning the CPU for the test's duration (a loaded machine)."""
+    import subprocess
+    import sys
+
+    procs = [subprocess.Popen([sys.executable, '-c', 'while True: pass']) for _ in range(2)]
+    yield procs
+    for proc in procs:
+        proc.kill()
+        proc.wait()
+
+
+def test_unpaced_replay_beside_cpu_burners_gives_exactly_the_offline_numbers(
+        fog_listener: FogListener, nodes: list[NodeProcess], cpu_burners: Any) -> None:
+    # issue 24 part 5(a): this replay dropped 'too-late' zero-index events under load and
+    # its K differed in the 5th digit; the node now orders its input by stamp
+    bag = BAGS / 'fog_fault_silent_injection'
+    offline = calibrate_bags([bag]).sessions['fog']
+    node = launch('fog_calibration_node',
+                  {'latitude_deg': bag_info(bag).scenario['bench']['latitude_deg']})
+    nodes.append(node)
+    player = launch('bag_player', {'bag': str(bag), 'rate': 0.0})
+    nodes.append(player)
+    assert fog_listener.spin_until_exit(player, 300.0), '\n'.join(n.log() for n in nodes)
+    _stop_and_flush(node, fog_listener)
+    _assert_node_equals_offline(fog_listener, node, offline)
+    assert 'too-late' not in node.log() and 'reached the node after' not in node.log()
+
+
+def test_zero_index_events_later_than_the_hold_reject_segments_never_change_them(
+        nodes: list[NodeProcess]) -> None:
+    """Zero-index events played after the rest: segments rejected with a line, none altered."""
+    bag = BAGS / 'fog_turntable'
+    offline = calibrate_bags([bag]).sessions['fog']
+    offline_segments = {(format_stamp(s.start_ns), f'{s.output_rate_counts_s:.6f}')
+                        for s in offline.calibrator.segments}  # type: ignore[attr-defined]
+    node = launch('fog_calibration_node',
+                  {'latitude_deg': bag_info(bag).scenario['bench']['latitude_deg']})
+    nodes.append(node)
+    rest = [topics.FOG_OUTPUT, topics.RATE_TABLE_JOINT_STATES]
+    first = launch('bag_player', {'bag': str(bag), 'rate': 0.0, 'topics': rest})
+    nodes.append(first)
+    assert first.proc.wait(timeout=300) == 0, first.log()
+    time.sleep(6.0)  # longer than the input hold: the output and table went on without them
+    late = launch('bag_player', {'bag': str(bag), 'rate': 0.0,
+                                 'topics': [topics.RATE_TABLE_ZERO_INDEX]})
+    nodes.append(late)
+    assert late.proc.wait(timeout=120) == 0, late.log()
+    node.stop(timeout_s=120.0)
+    log = node.log()
+    assert node.proc.returncode == 0, log
+    rejected = [line for line in log.splitlines() if 'reached the node after' in line]
+    assert rejected and all(topics.RATE_TABLE_ZERO_INDEX in line and 'not used' in line
+                            for line in rejected), log
+    accepted, dropped = set(), set()
+    for line in log.splitlines():
+        if ': segment at ' not in line:
+            continue
+        stamp = 't=' + line.split(' t=', 1)[1].split(' s ', 1)[0] + ' s'
+        if 'reached the node after' in line:
+            dropped.add(stamp)
+        elif line.endswith('counts/s.'):
+            accepted.add((stamp, line.rsplit('output ', 1)[1].split(' ')[0]))
+    kept = {a for a in accepted if a[0] not in dropped}
+    assert kept and kept <= offline_segments, (kept - offline_segments, log)
