@@ -19,9 +19,11 @@ These are the honest figures. The paper's 0.0086 °/h after compensation is belo
 on a filtered signal; we do not report a filtered stability (wavelet denoising here
 leaves 100 s means essentially unchanged anyway).
 
-:class:`ThermalBiasTracker` is the live form for a corrector node: it takes temperature
-messages and returns the model bias of the latest complete interval, computed with the
-same reduction and the same causal Ḣ as offline.
+:func:`interval_bias` is the per-interval bias itself, and :func:`pairs_with_bias` /
+:func:`offline_pairs` give each pulse pair the bias of the interval holding its midpoint (what
+``gyro-calib compensate --out`` writes); ``imu_corrector`` gives the same numbers live
+(:class:`gyro_calib.thermal.live.OrderedThermalCompensator`). :class:`ThermalBiasTracker`
+gives the model bias of the latest complete interval from temperature messages alone.
 """
 
 from __future__ import annotations

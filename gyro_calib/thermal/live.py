@@ -13,18 +13,21 @@ METHODS §D.3, §D.5). Results depend only on message contents and header stamps
 sensors the model needs, interpolated between readings (§D.5), over the Ḣ window
 [i − n_Ḣ + 1, i], and on the stuck-sensor check of the runs of equal values there (a run
 found stuck is blanked whole, offline). It is *final* — no later message can change it —
-once, for each needed sensor, a reading after every run touching that window has been
-reduced (the run is closed on both sides), and the pulse interval i has been reduced (its
-rate is valid or not). Typically that is one averaging interval plus the reorder window
+once, for each needed sensor, the readings around that window have been reduced, every run
+of identical readings touching it that could be stuck (still open, or as long as
+``sensor_stuck_s``) has ended on both sides — over the sensors, as the stuck check compares a
+sensor with the others over its run — and the pulse interval i has been reduced (its rate
+is valid or not). Typically that is one averaging interval plus the reorder window
 plus the longest run of equal readings after i (2–10 s at 1 Hz sensors), or the reading
 spacing of a sparse sensor.
 
 **How long a pulse waits (``max_wait_s``, the node's ``thermal_max_age_s``).** A bias not
 final with the data of intervals up to i + ⌊max_wait_s/T⌋ is *not covered*: the pulse pair
-gets a :class:`Rejection` and no rate (offline a long stuck-looking run, or a sensor
-silent beyond the wait, is the usual cause; offline gives no number for a stuck span
-either). That decision uses the intervals up to that cut only, so it too is a function of
-the messages. It is taken when both streams' stamps have passed the cut (plus the reorder
+gets a :class:`Rejection` and no rate — usually a sensor silent, or reading exactly the same
+value, for longer than the wait: offline blanks such a run whole once it proves stuck, which
+cannot be known before it ends, so live gives no number rather than one offline might not.
+That decision uses the intervals up to that cut only, so it too is a function of the
+messages. It is taken when both streams' stamps have passed the cut (plus the reorder
 window). A temperature topic that is merely behind — an unpaced replay whose executor takes
 one topic's whole backlog first — is waited for, however far behind. Only as a memory guard,
 with more than ``max_held`` samples held (a temperature topic that stopped), the oldest are
