@@ -720,3 +720,39 @@ def test_a_sample_is_analysed_only_when_every_recorded_table_is_steady(
     cut.extend_pulses(b['t_gyro'][~either], b['counts'][~either])
     cut.process(flush=True)
     assert both.json_section()['axes'] == cut.json_section()['axes']
+
+
+@settings(max_examples=200 if STRESS else 10, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(rates=st.lists(st.floats(-3.0, 3.0), min_size=2, max_size=5), turning=st.booleans(),
+       nan_angles=st.floats(0.0, 0.1), nan_rates=st.floats(0.0, 0.2),
+       chunk=st.integers(1, 400), seed=st.integers(0, 2**16))
+def test_the_steady_segments_do_not_depend_on_how_the_states_arrive(
+        rates: list[float], turning: bool, nan_angles: float, nan_rates: float, chunk: int,
+        seed: int) -> None:
+    """One state at a time, in chunks or all at once: the same segments, bit for bit.
+
+    A rate profile through the given rates (linear between random knots), stamps with
+    ±1 ms jitter, angle noise of 3 µrad, some states without an angle or a rate.
+    """
+    from gyro_calib.noise.table import TableMotion
+
+    rng = np.random.default_rng(seed)
+    n = 1500
+    t = np.cumsum(rng.integers(4_000_000, 6_000_000, n)).astype(np.int64)
+    ts = (t - t[0]) / 1e9
+    knots = np.sort(rng.uniform(0.0, ts[-1], len(rates)))
+    rate = np.interp(ts, knots, rates)
+    angle = np.concatenate(([0.0], np.cumsum(np.diff(ts) * rate[1:]))) + rng.normal(0, 3e-6, n)
+    angle[rng.random(n) < nan_angles] = np.nan
+    given_rate = np.where(rng.random(n) < nan_rates, np.nan, rate + rng.normal(0, 1e-3, n))
+
+    def classified(size: int) -> tuple[object, ...]:
+        tm = TableMotion(1e-2, 2e-5, 1.0, 1e-4, turning)
+        for a in range(0, n, size):
+            tm.extend(t[a:a + size], angle[a:a + size], given_rate[a:a + size])
+        return (repr(tm.segments), tm.moving_states, repr(tm.changes()),
+                tm.decide(t, final=True)[1].tolist())
+
+    once = classified(n)
+    assert classified(1) == once and classified(chunk) == once

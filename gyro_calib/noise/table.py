@@ -332,9 +332,9 @@ class TableMotion:
             i = self._take(t, angle, rate, speed, i)
         self.states += len(t)
         self.last_ns = int(t[-1])
+        self._last_angle = float(angle[-1])  # the previous state's, NaN or not (_speeds)
         finite = np.flatnonzero(np.isfinite(angle))
         if len(finite):
-            self._last_angle = float(angle[finite[-1]])
             if self.keep_angles:
                 self._hist_t.append(t[finite])
                 self._hist_a.append(angle[finite])
@@ -356,7 +356,7 @@ class TableMotion:
             self._cur = None
             return
         self._cur = _Current(int(t[i]), int(t[i]))
-        self._absorb(self._cur, t[i:i + 1], angle[i:i + 1], rate[i:i + 1], speed[i:i + 1])
+        self._absorb_one(self._cur, int(t[i]), float(angle[i]), float(rate[i]), float(speed[i]))
 
     def _absorb(self, cur: _Current, t: IntArray, angle: FloatArray, rate: FloatArray,
                 speed: FloatArray) -> None:
@@ -382,12 +382,36 @@ class TableMotion:
             cur.peak = max(cur.peak, float(np.nanmax(speed)))
         cur.states += len(t)
         cur.last_ns = int(t[-1])
-        min_ns = self.min_steady_s * NS_PER_S
+        self._settle(cur, len(t))
+
+    def _absorb_one(self, cur: _Current, t: int, angle: float, rate: float,
+                    speed: float) -> None:
+        """:meth:`_absorb` of one state, in scalars (the same float operations, in order)."""
+        if math.isnan(cur.a0) and math.isfinite(angle):
+            cur.a0 = angle
+        if math.isfinite(angle):
+            x, y = (t - cur.first_ns) / NS_PER_S, angle - cur.a0
+            cur.n_a += 1
+            cur.s_t += x
+            cur.s_a += y
+            cur.s_tt += x * x
+            cur.s_ta += x * y
+        if math.isfinite(rate):
+            cur.n_r += 1
+            cur.s_r += rate
+        if math.isfinite(speed):
+            cur.peak = max(cur.peak, speed)
+        cur.states += 1
+        cur.last_ns = t
+        self._settle(cur, 1)
+
+    def _settle(self, cur: _Current, added: int) -> None:
+        """Confirm the current segment once it spans table_min_steady_s; keep it up to date."""
         if cur.confirmed:
             seg = self.segments[-1]
             seg.last_ns, seg.states, seg.rate_rad_s = cur.last_ns, cur.states, cur.rate()
-            self._steady_states += len(t)
-        elif cur.last_ns - cur.first_ns >= min_ns:
+            self._steady_states += added
+        elif cur.last_ns - cur.first_ns >= self.min_steady_s * NS_PER_S:
             cur.confirmed = True
             peak = self._pending_peak
             self.segments.append(SteadySegment(cur.first_ns, cur.last_ns, cur.states,
@@ -402,7 +426,12 @@ class TableMotion:
         if cur is None:
             self._start(t, angle, rate, speed, i)
             return i + 1
-        w = 16  # growing windows: a steady record costs O(n), a changing one O(16·n)
+        while i < len(t) and cur.states < 4:  # a young segment (a change breaks it at once)
+            if self._fails_one(cur, int(t[i]), float(angle[i]), float(rate[i])):
+                return self._break(cur, t, angle, rate, speed, i)
+            self._absorb_one(cur, int(t[i]), float(angle[i]), float(rate[i]), float(speed[i]))
+            i += 1
+        w = 16  # growing windows: a steady record costs O(n)
         while i < len(t):
             j = min(len(t), i + w)
             bad = np.flatnonzero(self._fails(cur, t[i:j], angle[i:j], rate[i:j]))
@@ -410,12 +439,42 @@ class TableMotion:
             if stop > i:
                 self._absorb(cur, t[i:stop], angle[i:stop], rate[i:stop], speed[i:stop])
             if stop < j:
-                if not cur.confirmed:  # broken before it was steady: part of the change
-                    self._pending_peak = _nanmax(self._pending_peak, cur.peak)
-                self._start(t, angle, rate, speed, stop)
-                return stop + 1
+                return self._break(cur, t, angle, rate, speed, stop)
             i, w = j, 2 * w
         return i
+
+    def _break(self, cur: _Current, t: IntArray, angle: FloatArray, rate: FloatArray,
+               speed: FloatArray, i: int) -> int:
+        """State i does not join: the segment ends, state i starts the next; return i + 1."""
+        if not cur.confirmed:  # broken before it was steady: part of the change
+            self._pending_peak = _nanmax(self._pending_peak, cur.peak)
+        self._start(t, angle, rate, speed, i)
+        return i + 1
+
+    def _fails_one(self, cur: _Current, t: int, angle: float, rate: float) -> bool:
+        """:meth:`_fails` of one state, in scalars (the same float operations, in order)."""
+        x = (t - cur.first_ns) / NS_PER_S
+        fa = math.isfinite(angle)
+        a0 = cur.a0 if not math.isnan(cur.a0) else (angle if fa else 0.0)
+        if self.turning:
+            mean_rate = cur.s_r / cur.n_r if cur.n_r > 0 else math.nan
+        else:
+            mean_rate = 0.0
+        rate_off = abs(rate - mean_rate) > self.rest_rate_rad_s  # NaN: no test
+        if not self.turning:  # flat through where the table came to rest
+            line, slope, has_line = 0.0, 0.0, True
+        else:
+            n_a = cur.n_a
+            den = n_a * cur.s_tt - cur.s_t * cur.s_t
+            slope = (n_a * cur.s_ta - cur.s_t * cur.s_a) / den if den > 0 else math.nan
+            if n_a < 2:
+                slope = mean_rate  # one angle: the given rate
+            line = (cur.s_a - slope * cur.s_t) / max(n_a, 1) + slope * x
+            has_line = n_a >= 1 and math.isfinite(slope)
+        tol = self.rest_angle_rad + abs(slope if math.isfinite(slope) else 0.0) \
+            * self.stamp_jitter_s
+        angle_off = fa and has_line and abs(angle - a0 - line) > tol
+        return bool(rate_off or angle_off)
 
     def _fails(self, cur: _Current, t: IntArray, angle: FloatArray,
                rate: FloatArray) -> BoolArray:
