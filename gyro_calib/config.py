@@ -183,7 +183,8 @@ def given(value: Any) -> bool:
 
 
 NODE_ONLY_PARAMETERS = ('config_file', 'output_file', 'process_period_s', 'fit_after_idle_s',
-                        'state_dir', 'keep_state', 'topic', 'calibration_file', 'kalibr_file',
+                        'state_dir', 'keep_state', 'resume', 'resume_max_gap_s', 'topic',
+                        'calibration_file', 'kalibr_file',
                         'plot_file', 'best_effort', 'results_period_s', 'managed',
                         'use_sim_time', 'start_type_description_service')
 """Node parameters a shared config file may hold that the offline front door does not use

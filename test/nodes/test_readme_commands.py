@@ -59,7 +59,8 @@ def readme_blocks() -> list[tuple[int, list[str]]]:
     return blocks
 
 
-README_FILES = {'spec.yaml': 'decision_rule:', 'fleet.yaml': 'gyros:'}
+README_FILES = {'spec.yaml': 'decision_rule:', 'fleet.yaml': 'gyros:',
+                'lab.yaml': 'certificate_number:'}
 """Files the README's commands name, written from the README's ```yaml block holding the key."""
 
 
