@@ -90,6 +90,24 @@ def test_a_silent_topic_holds_the_others_only_for_the_hold_and_late_ones_are_nam
         assert late == [] and released == sent
 
 
+def test_a_sparse_topic_is_not_silent_between_its_readings_on_a_live_bench() -> None:
+    """Real time: pulses every second, a temperature every minute reaching the node 8 s late.
+
+    Once the temperature has shown its cadence (two readings), its reader may lag by more
+    than the hold: the pulses' stamps must also run twice its largest gap past its newest.
+    """
+    arrivals = sorted([(float(t), 'pulses', t) for t in range(400)]
+                      + [(t + (8.0 if t > 60 else 0.0), 'temp', t) for t in range(0, 400, 60)])
+    merge = WatermarkMerge(('temp', 'pulses'), hold_s=5.0)
+    released: list[tuple[str, int]] = []
+    for now, name, t in arrivals:
+        released += [(n, s) for n, s, _ in merge.release(now)]
+        merge.add(name, t, None, now)
+    released += [(n, s) for n, s, _ in merge.release(math.inf, flush=True)]
+    assert merge.take_late() == []
+    assert released == sorted(released, key=lambda r: (r[1], r[0] == 'pulses'))
+
+
 def test_a_restarted_source_is_merged_afresh_after_the_old_timeline() -> None:
     merge = WatermarkMerge(('a', 'b'), hold_s=math.inf, restart_ns=10)
     for t in (100, 101, 102):
