@@ -254,10 +254,12 @@ class WatermarkMerge:
     and an unpaced replay turns those seconds into minutes of stamps. The merge holds every
     sample and releases, in stamp order, those stamped at or before the **watermark**
 
-        W = min over topics of (newest stamp − ``reorder_ns``),
+        W = min over topics of (newest stamp − ``reorder_ns``) − 1 ns,
 
     so the session sees the samples in the order of a recording, cut at W (docs/methods.md,
-    "Live input in stamp order"). While every topic delivers, W is pure stamps: once every
+    "Live input in stamp order"; the 1 ns holds back what shares the newest stamp: another
+    sensor on the same topic may read at that stamp too). While every topic delivers, W is
+    pure stamps: once every
     topic has delivered a sample newer than t, nothing older than t is still on its way
     (each reader is in order), however far one reader lags another. A topic that has
     delivered nothing for ``hold_s`` of wall time while the others' stamps ran on by more
@@ -338,14 +340,14 @@ class WatermarkMerge:
         live = [newest for t in self.topics if (newest := self._newest.get(t)) is not None
                 and (self._last_arrival[t] > waited
                      or ahead - newest <= self.gap_factor * self._max_gap.get(t, 0))]
-        marks: list[int] = []
+        marks: list[int] = []  # less 1 ns: more samples may share the stamp (other sensors)
         if len(live) == len(self.topics):
-            marks.append(min(live) - self.reorder_ns)
+            marks.append(min(live) - self.reorder_ns - 1)
         else:  # a topic silent for hold_s: what waited that long, and no topic still flowing
             waited_for = [max(h.stamps[:k]) for h in self._held.values()
                           if (k := bisect_right(h.arrived_s, waited))]
             if waited_for:
-                marks.append(min([max(waited_for), *(t - self.reorder_ns for t in live)]))
+                marks.append(min([max(waited_for), *(t - self.reorder_ns for t in live)]) - 1)
         if self.released_ns is not None:
             marks.append(self.released_ns)
         return max(marks) if marks else None

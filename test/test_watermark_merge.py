@@ -108,6 +108,19 @@ def test_a_sparse_topic_is_not_silent_between_its_readings_on_a_live_bench() -> 
     assert released == sorted(released, key=lambda r: (r[1], r[0] == 'pulses'))
 
 
+def test_readings_that_share_a_stamp_on_one_topic_are_never_late() -> None:
+    """Three temperature sensors read at the same stamps on one topic, pulses in between."""
+    merge = WatermarkMerge(('temp', 'pulses'), hold_s=math.inf)
+    late = []
+    for t in range(0, 50, 5):
+        merge.add('pulses', t + 5, None, 0.0)
+        for sensor in range(3):
+            merge.release(0.0)
+            merge.add('temp', t, sensor, 0.0)
+        late += merge.take_late()
+    assert late == []
+
+
 def test_a_restarted_source_is_merged_afresh_after_the_old_timeline() -> None:
     merge = WatermarkMerge(('a', 'b'), hold_s=math.inf, restart_ns=10)
     for t in (100, 101, 102):
@@ -117,8 +130,9 @@ def test_a_restarted_source_is_merged_afresh_after_the_old_timeline() -> None:
     merge.add('b', 5, None, 0.0)
     merge.add('a', 6, None, 0.0)
     out = [(n, t) for n, t, _ in merge.release(0.0)]
-    assert out == [('a', 100), ('b', 100), ('a', 101), ('b', 101), ('a', 102), ('b', 102),
-                   ('a', 5), ('b', 5)]
+    assert out == [('a', 100), ('b', 100), ('a', 101), ('b', 101), ('a', 102), ('b', 102)]
+    merge.add('b', 7, None, 0.0)
+    assert [(n, t) for n, t, _ in merge.release(0.0)] == [('a', 5), ('b', 5)]
     assert merge.take_late() == []
 
 
