@@ -9,6 +9,7 @@ jumped back by more than a threshold).
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_right
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -265,7 +266,8 @@ class WatermarkMerge:
     delivered nothing for ``hold_s`` of wall time while the others' stamps ran on by more
     than ``gap_factor`` times its own largest stamp gap (a zero-index stream while the table
     stands, a bench without injection; a temperature read every minute among 1 kHz pulses
-    is not silent between two readings) stops holding the others, and W is then the newest
+    is not silent between two readings), or every topic has paused that long (the end of a
+    recording), stops holding the others, and W is then the newest
     stamp among the samples held ``hold_s`` or longer (and still no newer than what the
     flowing topics delivered): a silent topic's next sample was waited for as long as a
     reader may lag, so the wall clock decides when a result appears, not what it is.
@@ -337,17 +339,20 @@ class WatermarkMerge:
         """W: the newest stamp that may be released at wall time ``now_s`` (None: none)."""
         waited = now_s - self.hold_s
         ahead = max(self._newest.values(), default=0)
+        paused = all(self._last_arrival.get(t, -math.inf) <= waited for t in self.topics)
         live = [newest for t in self.topics if (newest := self._newest.get(t)) is not None
-                and (self._last_arrival[t] > waited
-                     or ahead - newest <= self.gap_factor * self._max_gap.get(t, 0))]
+                and not paused and (self._last_arrival[t] > waited or ahead - newest
+                                    <= self.gap_factor * self._max_gap.get(t, 0))]
         marks: list[int] = []  # less 1 ns: more samples may share the stamp (other sensors)
         if len(live) == len(self.topics):
             marks.append(min(live) - self.reorder_ns - 1)
-        else:  # a topic silent for hold_s: what waited that long, and no topic still flowing
+        else:  # a topic silent (or all paused) for hold_s: what waited that long, and no
+            # topic still flowing
             waited_for = [max(h.stamps[:k]) for h in self._held.values()
                           if (k := bisect_right(h.arrived_s, waited))]
             if waited_for:
-                marks.append(min([max(waited_for), *(t - self.reorder_ns for t in live)]) - 1)
+                marks.append(min([max(waited_for),
+                                  *(t - self.reorder_ns - 1 for t in live)]))
         if self.released_ns is not None:
             marks.append(self.released_ns)
         return max(marks) if marks else None

@@ -121,6 +121,16 @@ def test_readings_that_share_a_stamp_on_one_topic_are_never_late() -> None:
     assert late == []
 
 
+def test_when_every_topic_pauses_for_the_hold_everything_held_goes_on() -> None:
+    """The end of a recording: a node that fits once its input went quiet gets all of it."""
+    merge = WatermarkMerge(('temp', 'pulses'), hold_s=5.0)
+    for t in range(10):
+        merge.add('pulses', t, None, 0.0)
+        merge.add('temp', t, None, 0.0)
+    assert [t for _, t, _ in merge.release(4.9)] == [t for t in range(9) for _ in '12']
+    assert [t for _, t, _ in merge.release(5.1)] == [9, 9] and merge.held() == 0
+
+
 def test_a_restarted_source_is_merged_afresh_after_the_old_timeline() -> None:
     merge = WatermarkMerge(('a', 'b'), hold_s=math.inf, restart_ns=10)
     for t in (100, 101, 102):
