@@ -9,6 +9,7 @@ jumped back by more than a threshold).
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_right
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -254,14 +255,19 @@ class WatermarkMerge:
     and an unpaced replay turns those seconds into minutes of stamps. The merge holds every
     sample and releases, in stamp order, those stamped at or before the **watermark**
 
-        W = min over topics of (newest stamp − ``reorder_ns``),
+        W = min over topics of (newest stamp − ``reorder_ns``) − 1 ns,
 
     so the session sees the samples in the order of a recording, cut at W (docs/methods.md,
-    "Live input in stamp order"). While every topic delivers, W is pure stamps: once every
+    "Live input in stamp order"; the 1 ns holds back what shares the newest stamp: another
+    sensor on the same topic may read at that stamp too). While every topic delivers, W is
+    pure stamps: once every
     topic has delivered a sample newer than t, nothing older than t is still on its way
     (each reader is in order), however far one reader lags another. A topic that has
-    delivered nothing for ``hold_s`` of wall time (a zero-index stream while the table
-    stands, a bench without injection) stops holding the others, and W is then the newest
+    delivered nothing for ``hold_s`` of wall time while the others' stamps ran on by more
+    than ``gap_factor`` times its own largest stamp gap (a zero-index stream while the table
+    stands, a bench without injection; a temperature read every minute among 1 kHz pulses
+    is not silent between two readings), or every topic has paused that long (the end of a
+    recording), stops holding the others, and W is then the newest
     stamp among the samples held ``hold_s`` or longer (and still no newer than what the
     flowing topics delivered): a silent topic's next sample was waited for as long as a
     reader may lag, so the wall clock decides when a result appears, not what it is.
@@ -282,12 +288,15 @@ class WatermarkMerge:
         topics: the topics merged; each holds the watermark while it delivers.
         hold_s: wall time a topic may deliver nothing before it stops holding the others
             (and a sample waits at most for it), s.
+        gap_factor: ...and only once the other topics' stamps have run this many times the
+            topic's largest gap between two of its own stamps past its newest.
         reorder_ns: stamps a topic may deliver out of order by (kept back from W), ns.
         restart_ns: a stamp this far behind its topic's newest starts a new timeline, ns.
     """
 
     topics: tuple[str, ...]
     hold_s: float = 5.0
+    gap_factor: float = 2.0
     reorder_ns: int = 0
     restart_ns: int = 1_000_000_000
     released_ns: int | None = None
@@ -295,6 +304,7 @@ class WatermarkMerge:
     _held: dict[str, _Held] = field(default_factory=dict)
     _newest: dict[str, int] = field(default_factory=dict)
     _last_arrival: dict[str, float] = field(default_factory=dict)
+    _max_gap: dict[str, int] = field(default_factory=dict)
     _ready: list[list[tuple[int, int, str, object]]] = field(default_factory=lambda: [[]])
     _late: list[tuple[str, int]] = field(default_factory=list)
 
@@ -319,6 +329,8 @@ class WatermarkMerge:
             held.stamps.append(t_ns)
             held.arrived_s.append(float(now_s))
             held.payloads.append(payload)
+        if newest is not None and t_ns > newest:
+            self._max_gap[topic] = max(self._max_gap.get(topic, 0), t_ns - newest)
         if newest is None or t_ns > newest:
             self._newest[topic] = t_ns
         self._last_arrival[topic] = float(now_s)
@@ -326,16 +338,21 @@ class WatermarkMerge:
     def watermark(self, now_s: float) -> int | None:
         """W: the newest stamp that may be released at wall time ``now_s`` (None: none)."""
         waited = now_s - self.hold_s
-        live = [self._newest[t] for t in self.topics
-                if t in self._newest and self._last_arrival[t] > waited]
-        marks: list[int] = []
+        ahead = max(self._newest.values(), default=0)
+        paused = all(self._last_arrival.get(t, -math.inf) <= waited for t in self.topics)
+        live = [newest for t in self.topics if (newest := self._newest.get(t)) is not None
+                and not paused and (self._last_arrival[t] > waited or ahead - newest
+                                    <= self.gap_factor * self._max_gap.get(t, 0))]
+        marks: list[int] = []  # less 1 ns: more samples may share the stamp (other sensors)
         if len(live) == len(self.topics):
-            marks.append(min(live) - self.reorder_ns)
-        else:  # a topic silent for hold_s: what waited that long, and no topic still flowing
+            marks.append(min(live) - self.reorder_ns - 1)
+        else:  # a topic silent (or all paused) for hold_s: what waited that long, and no
+            # topic still flowing
             waited_for = [max(h.stamps[:k]) for h in self._held.values()
                           if (k := bisect_right(h.arrived_s, waited))]
             if waited_for:
-                marks.append(min([max(waited_for), *(t - self.reorder_ns for t in live)]))
+                marks.append(min([max(waited_for),
+                                  *(t - self.reorder_ns - 1 for t in live)]))
         if self.released_ns is not None:
             marks.append(self.released_ns)
         return max(marks) if marks else None
@@ -374,6 +391,7 @@ class WatermarkMerge:
         self._held = {t: _Held() for t in self.topics}
         self._newest.clear()
         self._last_arrival.clear()
+        self._max_gap.clear()
         self._ready = [[]]
         self._late.clear()
         self.released_ns = None

@@ -90,6 +90,47 @@ def test_a_silent_topic_holds_the_others_only_for_the_hold_and_late_ones_are_nam
         assert late == [] and released == sent
 
 
+def test_a_sparse_topic_is_not_silent_between_its_readings_on_a_live_bench() -> None:
+    """Real time: pulses every second, a temperature every minute reaching the node 8 s late.
+
+    Once the temperature has shown its cadence (two readings), its reader may lag by more
+    than the hold: the pulses' stamps must also run twice its largest gap past its newest.
+    """
+    arrivals = sorted([(float(t), 'pulses', t) for t in range(400)]
+                      + [(t + (8.0 if t > 60 else 0.0), 'temp', t) for t in range(0, 400, 60)])
+    merge = WatermarkMerge(('temp', 'pulses'), hold_s=5.0)
+    released: list[tuple[str, int]] = []
+    for now, name, t in arrivals:
+        released += [(n, s) for n, s, _ in merge.release(now)]
+        merge.add(name, t, None, now)
+    released += [(n, s) for n, s, _ in merge.release(math.inf, flush=True)]
+    assert merge.take_late() == []
+    assert released == sorted(released, key=lambda r: (r[1], r[0] == 'pulses'))
+
+
+def test_readings_that_share_a_stamp_on_one_topic_are_never_late() -> None:
+    """Three temperature sensors read at the same stamps on one topic, pulses in between."""
+    merge = WatermarkMerge(('temp', 'pulses'), hold_s=math.inf)
+    late = []
+    for t in range(0, 50, 5):
+        merge.add('pulses', t + 5, None, 0.0)
+        for sensor in range(3):
+            merge.release(0.0)
+            merge.add('temp', t, sensor, 0.0)
+        late += merge.take_late()
+    assert late == []
+
+
+def test_when_every_topic_pauses_for_the_hold_everything_held_goes_on() -> None:
+    """The end of a recording: a node that fits once its input went quiet gets all of it."""
+    merge = WatermarkMerge(('temp', 'pulses'), hold_s=5.0)
+    for t in range(10):
+        merge.add('pulses', t, None, 0.0)
+        merge.add('temp', t, None, 0.0)
+    assert [t for _, t, _ in merge.release(4.9)] == [t for t in range(9) for _ in '12']
+    assert [t for _, t, _ in merge.release(5.1)] == [9, 9] and merge.held() == 0
+
+
 def test_a_restarted_source_is_merged_afresh_after_the_old_timeline() -> None:
     merge = WatermarkMerge(('a', 'b'), hold_s=math.inf, restart_ns=10)
     for t in (100, 101, 102):
@@ -99,8 +140,9 @@ def test_a_restarted_source_is_merged_afresh_after_the_old_timeline() -> None:
     merge.add('b', 5, None, 0.0)
     merge.add('a', 6, None, 0.0)
     out = [(n, t) for n, t, _ in merge.release(0.0)]
-    assert out == [('a', 100), ('b', 100), ('a', 101), ('b', 101), ('a', 102), ('b', 102),
-                   ('a', 5), ('b', 5)]
+    assert out == [('a', 100), ('b', 100), ('a', 101), ('b', 101), ('a', 102), ('b', 102)]
+    merge.add('b', 7, None, 0.0)
+    assert [(n, t) for n, t, _ in merge.release(0.0)] == [('a', 5), ('b', 5)]
     assert merge.take_late() == []
 
 

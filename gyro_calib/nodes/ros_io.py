@@ -288,7 +288,8 @@ two test runs shared 2 cores)."""
 
 INPUT_HOLD_S = 5.0
 """How long an input topic may deliver nothing before it stops holding the others, s
-(:class:`~gyro_calib.streams.WatermarkMerge`). While every topic delivers, live input is
+(:class:`~gyro_calib.streams.WatermarkMerge`; also the others' stamps must have run twice
+its largest stamp gap past its newest). While every topic delivers, live input is
 ordered by stamps alone; a sparse topic (zero-index, injection) whose next message lags the
 dense ones by less than this changes nothing, by more, the window that needed it is rejected
 with a line. It sets when results appear, never what they are. Measured: an unpaced replay
