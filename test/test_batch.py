@@ -511,3 +511,17 @@ def _gyro_record(gid: str, key: str, unit: str, value: float, std: float,
             'certificate': {'overall': verdict, 'quantities': [
                 {'key': key, 'unit': unit, 'value': value, 'std': std, 'value_si': value / f,
                  'std_si': std / f, 'verdict': verdict, 'limit': '≤ 5 °/h' if verdict else ''}]}}
+
+
+@pytest.mark.parametrize('address', ['notaurl', 'tcp://127.0.0.1:abc', 'http://127.0.0.1:8786'])
+def test_a_malformed_scheduler_address_is_refused_in_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], address: str) -> None:
+    manifest = tmp_path / 'fleet.yaml'
+    manifest.write_text(yaml.safe_dump({'gyros': [
+        {'id': 'A-1', 'bags': [str(BAGS / 'k_tilde_bench')]}]}))
+    status = main(['batch', str(manifest), '--out', str(tmp_path / 'out'),
+                   '--scheduler', address, '--no-progress'])
+    out, err = capsys.readouterr()
+    assert status == 2 and out == ''
+    assert len(err.strip().splitlines()) == 1 and 'tcp://HOST:PORT' in err, err
+    assert not (tmp_path / 'out').exists()

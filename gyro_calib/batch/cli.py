@@ -87,6 +87,9 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
         client, cluster = make_client(args.workers, args.scheduler)
     except OSError as exc:
         raise ConfigError(f'cannot reach the Dask scheduler {args.scheduler}: {exc}.') from None
+    except (ValueError, TypeError) as exc:  # a malformed address: Dask parses it first
+        raise ConfigError(f'--scheduler {args.scheduler!r} is not a Dask scheduler address '
+                          f'({exc}); give it as tcp://HOST:PORT.') from None
     bar = None
     try:
         if show:

@@ -186,6 +186,8 @@ class NodeState:
         self._resumed = True
         summary = self.record.summary()
         log = self.node.get_logger()
+        log.info(f'resuming from {self.directory}: the new data continue its record; replaying '
+                 f'{summary.messages} messages (the lines up to "resumed from" are the replay)')
         for recorded in self.record.replay():
             feed_columns(feed, recorded)
             for line in process():
