@@ -262,3 +262,22 @@ def test_numbers_read_in_the_unit_a_reader_checks() -> None:
     assert span == '2026-01-01 00:00:00.000 → 00:04:39.998 UTC (279.998 s)'
     html = render_html(build_certificate(noise, None))
     assert '1767225600' not in html
+
+
+def test_a_spec_that_lists_no_quantity_or_misspells_a_field_is_refused(tmp_path: Path) -> None:
+    """A spec that lists no quantity, or misspells a field, is refused with a hint.
+
+    The README walk: ``quantities: {}`` gave a certificate saying NO VERDICT; a typo gave no
+    hint.
+    """
+    from gyro_calib.errors import ConfigError
+    from gyro_calib.report.spec import load_spec
+
+    empty = tmp_path / 'empty_spec.yaml'
+    empty.write_text('quantities: {}\n')
+    with pytest.raises(ConfigError, match='lists no quantities.*leave --spec out'):
+        load_spec(empty)
+    typo = tmp_path / 'typo_spec.yaml'
+    typo.write_text('decison_rule: simple\nquantities: {k_tilde_rad_per_pulse: {min: 0}}\n')
+    with pytest.raises(ConfigError, match='did you mean decision_rule for decison_rule'):
+        load_spec(typo)

@@ -131,7 +131,15 @@ def spec_from_dict(data: Any, *, source: str = 'spec',
                           '(hand-off key → {unit, min, max}).')
     unknown = sorted(set(data) - {'decision_rule', 'quantities'})
     if unknown:
-        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in spec file {source}.')
+        near = {u: difflib.get_close_matches(u, ['decision_rule', 'quantities'], n=1)
+                for u in unknown}
+        hint = '; '.join(f'did you mean {near[u][0]} for {u}?' for u in unknown if near[u])
+        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in spec file {source}'
+                          + (f' ({hint})' if hint else '') + '.')
+    if not data['quantities']:
+        raise ConfigError(f'spec file {source} lists no quantities: give each limit under '
+                          '"quantities" (hand-off key → {unit, min, max}), or leave --spec out '
+                          'for a certificate without verdicts.')
     rule = data.get('decision_rule', DEFAULT_RULE)
     if rule not in RULES:
         raise ConfigError(f'decision_rule {rule!r} in spec file {source} is unknown; use one '
