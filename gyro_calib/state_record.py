@@ -40,6 +40,7 @@ import yaml
 
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.errors import GyroCalibError
+from gyro_calib.file_lock import FileLock, LockHeldError
 from gyro_calib.units import NS_PER_S, format_stamp
 
 FORMAT = 1
@@ -231,7 +232,7 @@ class StateLock:
         """A lock for the state directory ``directory`` (not yet taken)."""
         self.directory = directory
         self.path = directory.with_name(directory.name + '.lock')
-        self._fd: int | None = None
+        self._lock = FileLock(self.path)
 
     def acquire(self) -> None:
         """Take the directory for this process.
@@ -240,38 +241,22 @@ class StateLock:
             StateDirectoryInUseError: another live process holds it, or the place cannot be
                 written.
         """
-        import fcntl
-
-        if self._fd is not None:
-            return
+        started = time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            self._lock.acquire(f'pid {os.getpid()} (started {started})')
+        except LockHeldError as exc:
+            raise StateDirectoryInUseError(
+                f'state directory {self.directory} is being written by {exc.holder}: give '
+                'this node its own output_file or state_dir, or stop the other one.') from None
         except OSError as exc:
             raise StateDirectoryInUseError(
                 f'state directory {self.directory} cannot be written ({exc.strerror}): give '
                 'state_dir (or output_file) a writable place.') from exc
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            holder = os.read(fd, 200).decode(errors='replace').strip() or 'another process'
-            os.close(fd)
-            raise StateDirectoryInUseError(
-                f'state directory {self.directory} is being written by {holder}: give this '
-                'node its own output_file or state_dir, or stop the other one.') from None
-        os.ftruncate(fd, 0)
-        started = time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())
-        os.write(fd, f'pid {os.getpid()} (started {started})\n'.encode())
-        self._fd = fd
 
     def release(self, *, remove: bool = False) -> None:
         """Let another process take the directory; ``remove`` the lock file too."""
-        if self._fd is None:
-            return
-        if remove:
-            self.path.unlink(missing_ok=True)
-        os.close(self._fd)
-        self._fd = None
+        self._lock.release(remove=remove)
 
 
 class StateRecord:

@@ -1,6 +1,6 @@
 """One ``gyro-calib batch`` per output directory: an advisory ``flock`` on ``DIR/batch.lock``.
 
-As :class:`gyro_calib.state_record.StateLock`: the kernel releases the lock when the holder
+The shared :class:`gyro_calib.file_lock.FileLock`: the kernel releases the lock when the holder
 ends however it ends, so a killed run leaves no lock that blocks; the file names the holder
 (pid, host, start time) for the message a second run gets. A clean run removes the file, so
 a file found with no holder was left by a run that died: it is taken over with one line.
@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TextIO
 
 from gyro_calib.errors import ConfigError
+from gyro_calib.file_lock import FileLock, LockHeldError
 
 LOCK_NAME = 'batch.lock'
 
@@ -27,7 +28,7 @@ class BatchLock:
         """A lock for the output directory ``out_dir``."""
         self.out_dir = Path(out_dir)
         self.path = self.out_dir / LOCK_NAME
-        self._fd: int | None = None
+        self._lock = FileLock(self.path)
         self._created_dir = False
 
     def acquire(self, stream: TextIO | None = None) -> None:
@@ -39,9 +40,7 @@ class BatchLock:
         Raises:
             ConfigError: another live run holds it, or it cannot be written.
         """
-        import fcntl
-
-        if self._fd is not None:
+        if self._lock.held:
             return
         try:
             self.out_dir.mkdir()
@@ -51,45 +50,25 @@ class BatchLock:
         except OSError as exc:
             raise ConfigError(f'--out {self.out_dir} cannot be created ({exc.strerror}): give '
                               'a directory in an existing, writable place.') from None
-        while True:
-            try:
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
-            except OSError as exc:
-                self._undo_dir()
-                raise ConfigError(f'--out {self.out_dir} cannot be written ({exc.strerror}): '
-                                  'give a writable directory.') from None
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except OSError:
-                holder = _read(fd) or 'another process'
-                os.close(fd)
-                raise ConfigError(
-                    f'--out {self.out_dir} is being written by another gyro-calib batch '
-                    f'({holder}): wait for it to end or give another --out.') from None
-            try:  # the holder before us may have removed the file while we opened it
-                same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
-            except FileNotFoundError:
-                same = False
-            if same:
-                break
-            os.close(fd)
-        left = _read(fd)
+        started = time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())
+        try:
+            left = self._lock.acquire(f'pid {os.getpid()} on {socket.gethostname()}, '
+                                      f'started {started}')
+        except LockHeldError as exc:
+            raise ConfigError(
+                f'--out {self.out_dir} is being written by another gyro-calib batch '
+                f'({exc.holder}): wait for it to end or give another --out.') from None
+        except OSError as exc:
+            self._undo_dir()
+            raise ConfigError(f'--out {self.out_dir} cannot be written ({exc.strerror}): '
+                              'give a writable directory.') from None
         if left:
             print(f'gyro-calib: --out {self.out_dir}: taking over the lock left by {left}, '
                   'a run that ended without releasing it.', file=stream or sys.stderr)
-        started = time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f'pid {os.getpid()} on {socket.gethostname()}, started {started}\n'
-                  .encode(), 0)
-        self._fd = fd
 
     def release(self) -> None:
         """Remove the lock file and let another run take the directory."""
-        if self._fd is None:
-            return
-        self.path.unlink(missing_ok=True)
-        os.close(self._fd)
-        self._fd = None
+        self._lock.release(remove=True)
 
     def abandon(self) -> None:
         """Release, and remove the directory too if :meth:`acquire` created it and it is empty.
@@ -107,6 +86,3 @@ class BatchLock:
                 pass
             self._created_dir = False
 
-
-def _read(fd: int) -> str:
-    return ' '.join(os.pread(fd, 300, 0).decode(errors='replace').split())

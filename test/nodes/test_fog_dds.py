@@ -190,16 +190,22 @@ def test_live_fog_bench_gives_offline_samples_and_numbers_and_writes_the_handoff
 def test_replayed_fog_bag_gives_exactly_the_offline_numbers(
         name: str, fog_listener: FogListener, nodes: list[NodeProcess]) -> None:
     bag = BAGS / name
-    offline = calibrate_bags([bag]).sessions['fog']
+    node, player = _replay_unpaced(bag, fog_listener, nodes, 150.0)
+    assert f'played {bag_info(bag).message_count} messages' in player.log(), player.log()
+    _stop_and_flush(node, fog_listener)
+    _assert_node_equals_offline(fog_listener, node, calibrate_bags([bag]).sessions['fog'])
+
+
+def _replay_unpaced(bag: Path, fog_listener: FogListener, nodes: list[NodeProcess],
+                    timeout_s: float) -> tuple[NodeProcess, NodeProcess]:
+    """A FOG node and the bag played into it as fast as it goes, until the player ends."""
     node = launch('fog_calibration_node',
                   {'latitude_deg': bag_info(bag).scenario['bench']['latitude_deg']})
     nodes.append(node)
     player = launch('bag_player', {'bag': str(bag), 'rate': 0.0})
     nodes.append(player)
-    assert fog_listener.spin_until_exit(player, 150.0), '\n'.join(n.log() for n in nodes)
-    assert f'played {bag_info(bag).message_count} messages' in player.log(), player.log()
-    _stop_and_flush(node, fog_listener)
-    _assert_node_equals_offline(fog_listener, node, offline)
+    assert fog_listener.spin_until_exit(player, timeout_s), '\n'.join(n.log() for n in nodes)
+    return node, player
 
 
 @pytest.fixture
@@ -220,15 +226,9 @@ def test_unpaced_replay_beside_cpu_burners_gives_exactly_the_offline_numbers(
     # issue 24 part 5(a): this replay dropped 'too-late' zero-index events under load and
     # its K differed in the 5th digit; the node now orders its input by stamp
     bag = BAGS / 'fog_fault_silent_injection'
-    offline = calibrate_bags([bag]).sessions['fog']
-    node = launch('fog_calibration_node',
-                  {'latitude_deg': bag_info(bag).scenario['bench']['latitude_deg']})
-    nodes.append(node)
-    player = launch('bag_player', {'bag': str(bag), 'rate': 0.0})
-    nodes.append(player)
-    assert fog_listener.spin_until_exit(player, 300.0), '\n'.join(n.log() for n in nodes)
+    node, _ = _replay_unpaced(bag, fog_listener, nodes, 300.0)
     _stop_and_flush(node, fog_listener)
-    _assert_node_equals_offline(fog_listener, node, offline)
+    _assert_node_equals_offline(fog_listener, node, calibrate_bags([bag]).sessions['fog'])
     assert 'too-late' not in node.log() and 'reached the node after' not in node.log()
 
 
