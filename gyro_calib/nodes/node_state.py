@@ -131,9 +131,10 @@ class NodeState:
         self._resumed = False
         self._replay_into: tuple[Callable[[SampleBatch], None],
                                  Callable[[], list[str]]] | None = None
-        if self.record is not None and not resume and self.record.summary().messages:
+        held = self.record is not None and self.record.summary().messages > 0
+        if held and not resume:
             self._set_aside('parameter resume is false')
-        self._pending = self.record is not None and self.record.summary().messages > 0
+        self._pending = held and resume
         if self.record is not None:
             node.get_logger().info(
                 f'state directory: {directory} (the data consumed are recorded there and '
