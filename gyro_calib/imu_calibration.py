@@ -1,0 +1,254 @@
+"""A gyro triad's calibration: the hand-off's ``imu:`` section (format 4; METHODS §F).
+
+The layout (every number SI, unit in the key; ``_std`` the standard uncertainty, k = 1)::
+
+    imu:
+      channels: [x, y, z]                  # /imu/pulses JointState names, in row order
+      fixture_rotation: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+                                           # F: v_B = F·v_T, body frame from the inner table
+      scale_factor_rad_per_pulse: [Kx, Ky, Kz]          # K_i = 1/|r_i| (§F eq. (10))
+      scale_factor_rad_per_pulse_std: [...]
+      scale_factor_rad_per_pulse_dof: [...]             # optional: ν per channel (.inf)
+      sense_axes: [[...], [...], [...]]    # s_i, unit rows, body frame (§F eq. (10))
+      sense_axes_std_rad: [...]            # √trace C(s_i) per row: its direction's u, rad
+      misalignment_rad: [[0.0, m_xy, m_xz], [m_yx, 0.0, m_yz], [m_zx, m_zy, 0.0]]
+                                           # small-angle: s_i ≈ e_i + Σ_{j≠i} m_ij·e_j
+                                           # (m_ij = s_ij/s_ii), rad; the diagonal is 0
+      pulses_to_body_rad: [[...], [...], [...]]         # M = R⁻¹, rad/pulse (§F eq. (11))
+      pulses_to_body_rad_covariance: [[... 9 ...] × 9]  # of vec(M), row-major, (rad/pulse)²
+      bias_rad_s: [bx, by, bz]             # b in the body frame, ω_B = M·ṅ − b (§F eq. (14))
+      bias_rad_s_std: [...]
+      noise:                               # optional, per channel where measured (§E)
+        x: {angle_random_walk_rad_per_sqrt_s: ..., angle_random_walk_rad_per_sqrt_s_std: ...,
+            quantization_noise_rad: ..., ...}
+      thermal:                             # optional, per channel where measured (§D):
+        x: {...}                           # that channel's thermal_* keys as in ``gyro:``
+      missing: {bias_rad_s: the bias needs the site latitude ...}
+      not_measurable: {pulses_to_body_rad: channel y: ...}
+
+A quantity that was not measured is an absent key, with its reason under ``missing`` or
+``not_measurable`` (as the file's top level). ω_B = M·(Δcounts/Δt) − b is the calibrated body
+rate. :class:`ImuCalibration` is the section in memory; :func:`imu_from_section` checks and
+reads it (one :class:`~gyro_calib.handoff.HandoffError`-style message per problem, raised as
+:class:`ImuSectionError`), :meth:`ImuCalibration.to_section` writes it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from gyro_calib.errors import GyroCalibError
+
+Array = npt.NDArray[np.float64]
+
+UNIT_TOLERANCE = 1e-6
+"""|‖s_i‖ − 1| above this: a sense-axis row is not a unit vector."""
+
+SECTION_KEYS = ('channels', 'fixture_rotation', 'scale_factor_rad_per_pulse',
+                'scale_factor_rad_per_pulse_std', 'scale_factor_rad_per_pulse_dof',
+                'sense_axes', 'sense_axes_std_rad', 'misalignment_rad', 'pulses_to_body_rad',
+                'pulses_to_body_rad_covariance', 'bias_rad_s', 'bias_rad_s_std', 'noise',
+                'thermal', 'missing', 'not_measurable')
+"""Every key the ``imu:`` section may hold, in the order it is written."""
+
+
+class ImuSectionError(GyroCalibError):
+    """The ``imu:`` section of a hand-off file is malformed (one sentence naming the key)."""
+
+
+@dataclass(frozen=True, slots=True)
+class ImuCalibration:
+    """A triad's calibration (the ``imu:`` section; see the module docstring for the keys).
+
+    Attributes:
+        channels: the three channel names, in row order.
+        fixture_rotation: F (3×3, orthonormal), v_B = F·v_T.
+        scale_factor_rad_per_pulse: K_i (3,), rad/pulse; None if not measured.
+        scale_factor_rad_per_pulse_std: u(K_i) (3,); None with it.
+        scale_factor_rad_per_pulse_dof: ν per channel (3,); None if not stated.
+        sense_axes: s_i as unit rows (3×3), body frame; None if not measured.
+        sense_axes_std_rad: √trace C(s_i) per row (3,), rad; None with it.
+        pulses_to_body_rad: M (3×3), rad/pulse; None if not measurable.
+        pulses_to_body_rad_covariance: 9×9 covariance of vec(M) (row-major); None with M.
+        bias_rad_s: b (3,), body frame, rad/s; None if not measured.
+        bias_rad_s_std: u(b) (3,), rad/s; None with it.
+        noise: channel → that channel's noise keys (``angle_random_walk_rad_per_sqrt_s``, …).
+        thermal: channel → that channel's thermal keys, as the ``gyro:`` section's.
+        missing: key → why it is missing.
+        not_measurable: key → why this bench cannot give it.
+    """
+
+    channels: tuple[str, str, str]
+    fixture_rotation: Array = field(default_factory=lambda: np.eye(3))
+    scale_factor_rad_per_pulse: Array | None = None
+    scale_factor_rad_per_pulse_std: Array | None = None
+    scale_factor_rad_per_pulse_dof: Array | None = None
+    sense_axes: Array | None = None
+    sense_axes_std_rad: Array | None = None
+    pulses_to_body_rad: Array | None = None
+    pulses_to_body_rad_covariance: Array | None = None
+    bias_rad_s: Array | None = None
+    bias_rad_s_std: Array | None = None
+    noise: dict[str, dict[str, float]] = field(default_factory=dict)
+    thermal: dict[str, dict[str, Any]] = field(default_factory=dict)
+    missing: dict[str, str] = field(default_factory=dict)
+    not_measurable: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def misalignment_rad(self) -> Array | None:
+        """m_ij = s_ij/s_ii off the diagonal, 0 on it (small-angle form), rad; or None."""
+        if self.sense_axes is None:
+            return None
+        s = self.sense_axes
+        m = s / np.diag(s)[:, None]
+        np.fill_diagonal(m, 0.0)
+        return m
+
+    def to_section(self) -> dict[str, Any]:
+        """The ``imu:`` mapping to write: plain lists and floats, in SECTION_KEYS order."""
+        out: dict[str, Any] = {'channels': list(self.channels),
+                               'fixture_rotation': _rows(self.fixture_rotation)}
+        vectors = {'scale_factor_rad_per_pulse': self.scale_factor_rad_per_pulse,
+                   'scale_factor_rad_per_pulse_std': self.scale_factor_rad_per_pulse_std,
+                   'scale_factor_rad_per_pulse_dof': self.scale_factor_rad_per_pulse_dof,
+                   'sense_axes_std_rad': self.sense_axes_std_rad,
+                   'bias_rad_s': self.bias_rad_s, 'bias_rad_s_std': self.bias_rad_s_std}
+        matrices = {'sense_axes': self.sense_axes, 'misalignment_rad': self.misalignment_rad,
+                    'pulses_to_body_rad': self.pulses_to_body_rad,
+                    'pulses_to_body_rad_covariance': self.pulses_to_body_rad_covariance}
+        for key in SECTION_KEYS:
+            if key in vectors and vectors[key] is not None:
+                out[key] = [float(v) for v in np.asarray(vectors[key], dtype=float)]
+            elif key in matrices and matrices[key] is not None:
+                out[key] = _rows(np.asarray(matrices[key], dtype=float))
+        if self.noise:
+            out['noise'] = {c: {k: float(v) for k, v in d.items()} for c, d in self.noise.items()}
+        if self.thermal:
+            out['thermal'] = {c: dict(d) for c, d in self.thermal.items()}
+        if self.missing:
+            out['missing'] = dict(self.missing)
+        if self.not_measurable:
+            out['not_measurable'] = dict(self.not_measurable)
+        return out
+
+
+def _rows(matrix: Array) -> list[list[float]]:
+    return [[float(v) for v in row] for row in np.asarray(matrix, dtype=float)]
+
+
+def _array(section: Mapping[str, Any], key: str, shape: tuple[int, ...], source: str,
+           *, finite: bool = True) -> Array | None:
+    if key not in section:
+        return None
+    try:
+        value = np.asarray(section[key], dtype=float)
+    except (TypeError, ValueError):
+        raise ImuSectionError(f'{source}: imu.{key} must be numbers of shape {shape}; got '
+                              f'{section[key]!r:.80}.') from None
+    if value.shape != shape:
+        raise ImuSectionError(f'{source}: imu.{key} must have shape {shape}; it has '
+                              f'{value.shape}.')
+    if finite and not np.all(np.isfinite(value)):
+        raise ImuSectionError(f'{source}: imu.{key} holds a non-finite number.')
+    return value
+
+
+def _reasons(section: Mapping[str, Any], key: str, source: str) -> dict[str, str]:
+    value = section.get(key, {}) or {}
+    if not isinstance(value, Mapping) or not all(
+            isinstance(k, str) and isinstance(v, str) for k, v in value.items()):
+        raise ImuSectionError(f'{source}: imu.{key} must map key names to reasons (text).')
+    return dict(value)
+
+
+def _per_channel(section: Mapping[str, Any], key: str, channels: tuple[str, ...],
+                 source: str) -> dict[str, dict[str, Any]]:
+    value = section.get(key, {}) or {}
+    if not isinstance(value, Mapping) or not all(isinstance(v, Mapping) for v in value.values()):
+        raise ImuSectionError(f'{source}: imu.{key} must map channel names to mappings.')
+    unknown = [c for c in value if c not in channels]
+    if unknown:
+        raise ImuSectionError(f'{source}: imu.{key} names channel {unknown[0]!r}, which is '
+                              f'not one of the channels {list(channels)}.')
+    return {str(c): dict(v) for c, v in value.items()}
+
+
+def imu_from_section(section: Any, *, source: str = 'hand-off') -> ImuCalibration:
+    """Check and read an ``imu:`` section.
+
+    Raises:
+        ImuSectionError: unknown key (nearest named), wrong shape or non-finite number, a
+            value without its ``_std`` (or the reverse), a sense-axis row not a unit vector,
+            a fixture rotation not orthonormal, a covariance not symmetric with a
+            non-negative diagonal, or a channel list that is not three distinct names.
+    """
+    import difflib
+
+    if not isinstance(section, Mapping):
+        raise ImuSectionError(f'{source}: imu must be a mapping; got {type(section).__name__}.')
+    for key in section:
+        if key not in SECTION_KEYS:
+            near = difflib.get_close_matches(str(key), SECTION_KEYS, n=1)
+            hint = f' (did you mean {near[0]!r}?)' if near else ''
+            raise ImuSectionError(f'{source}: imu has an unknown key {key!r}{hint}.')
+    channels = section.get('channels')
+    if (not isinstance(channels, list) or len(channels) != 3
+            or not all(isinstance(c, str) and c for c in channels)
+            or len(set(channels)) != 3):
+        raise ImuSectionError(f'{source}: imu.channels must be three distinct channel names; '
+                              f'got {channels!r:.80}.')
+    names = (channels[0], channels[1], channels[2])
+    fixture = _array(section, 'fixture_rotation', (3, 3), source)
+    if fixture is None:
+        fixture = np.eye(3)
+    elif not np.allclose(fixture @ fixture.T, np.eye(3), atol=1e-9) or np.linalg.det(fixture) < 0:
+        raise ImuSectionError(f'{source}: imu.fixture_rotation is not a rotation (orthonormal, '
+                              'determinant +1).')
+    k = _array(section, 'scale_factor_rad_per_pulse', (3,), source)
+    k_std = _array(section, 'scale_factor_rad_per_pulse_std', (3,), source)
+    k_dof = _array(section, 'scale_factor_rad_per_pulse_dof', (3,), source, finite=False)
+    axes = _array(section, 'sense_axes', (3, 3), source)
+    axes_std = _array(section, 'sense_axes_std_rad', (3,), source)
+    m = _array(section, 'pulses_to_body_rad', (3, 3), source)
+    m_cov = _array(section, 'pulses_to_body_rad_covariance', (9, 9), source)
+    bias = _array(section, 'bias_rad_s', (3,), source)
+    bias_std = _array(section, 'bias_rad_s_std', (3,), source)
+    for value, std, name in ((k, k_std, 'scale_factor_rad_per_pulse'),
+                             (axes, axes_std, 'sense_axes'),
+                             (m, m_cov, 'pulses_to_body_rad'), (bias, bias_std, 'bias_rad_s')):
+        if (value is None) != (std is None):
+            which = 'its uncertainty' if std is None else 'the value'
+            raise ImuSectionError(f'{source}: imu.{name} is given without {which}; write both '
+                                  'or neither.')
+    for std, name in ((k_std, 'scale_factor_rad_per_pulse_std'),
+                      (axes_std, 'sense_axes_std_rad'), (bias_std, 'bias_rad_s_std')):
+        if std is not None and np.any(std < 0):
+            raise ImuSectionError(f'{source}: imu.{name} holds a negative uncertainty.')
+    if k is not None and np.any(k <= 0):
+        raise ImuSectionError(f'{source}: imu.scale_factor_rad_per_pulse must be > 0 per '
+                              'channel (a reversed channel is a sense axis pointing the other '
+                              'way, not a negative K).')
+    if k_dof is not None and (np.any(np.isnan(k_dof)) or np.any(k_dof < 0)):
+        raise ImuSectionError(f'{source}: imu.scale_factor_rad_per_pulse_dof must be ≥ 0 '
+                              '(.inf for ν = ∞).')
+    if axes is not None and np.any(np.abs(np.linalg.norm(axes, axis=1) - 1) > UNIT_TOLERANCE):
+        raise ImuSectionError(f'{source}: imu.sense_axes rows must be unit vectors (|s_i| = 1 '
+                              f'within {UNIT_TOLERANCE:g}).')
+    if m_cov is not None and (not np.allclose(m_cov, m_cov.T, rtol=1e-9, atol=0.0)
+                              or np.any(np.diag(m_cov) < 0)):
+        raise ImuSectionError(f'{source}: imu.pulses_to_body_rad_covariance must be symmetric '
+                              'with a non-negative diagonal.')
+    if m is not None and not math.isfinite(float(np.linalg.cond(m))):
+        raise ImuSectionError(f'{source}: imu.pulses_to_body_rad is singular.')
+    return ImuCalibration(
+        names, fixture, k, k_std, k_dof, axes, axes_std, m, m_cov, bias, bias_std,
+        {c: {str(kk): float(v) for kk, v in d.items()}
+         for c, d in _per_channel(section, 'noise', names, source).items()},
+        _per_channel(section, 'thermal', names, source),
+        _reasons(section, 'missing', source), _reasons(section, 'not_measurable', source))

@@ -1,0 +1,61 @@
+"""The hand-off's ``imu:`` section (format 4): read back as written, refused when malformed."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gyro_calib.imu_calibration import ImuCalibration, ImuSectionError, imu_from_section
+
+
+def _triad() -> ImuCalibration:
+    axes = np.array([[1.0, 2e-4, -1e-4], [-3e-4, 1.0, 5e-4], [1e-4, -2e-4, 1.0]])
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    k = np.array([4.1e-6, 4.2e-6, 4.0e-6])
+    m = np.linalg.inv(axes / k[:, None])
+    return ImuCalibration(('x', 'y', 'z'), np.eye(3), k, k * 1e-7, np.array([9.0, 9.0, np.inf]),
+                          axes, np.full(3, 2e-7), m, np.eye(9) * 1e-26,
+                          np.array([1e-6, -2e-6, 3e-6]), np.full(3, 1e-8),
+                          {'x': {'angle_random_walk_rad_per_sqrt_s': 1e-6}},
+                          missing={}, not_measurable={})
+
+
+def test_a_section_reads_back_as_written() -> None:
+    imu = _triad()
+    back = imu_from_section(imu.to_section())
+    assert back.channels == ('x', 'y', 'z')
+    assert back.pulses_to_body_rad is not None and imu.pulses_to_body_rad is not None
+    np.testing.assert_array_equal(back.pulses_to_body_rad, imu.pulses_to_body_rad)
+    np.testing.assert_array_equal(back.scale_factor_rad_per_pulse_dof, [9.0, 9.0, np.inf])
+    assert back.noise == {'x': {'angle_random_walk_rad_per_sqrt_s': 1e-6}}
+
+
+def test_misalignment_is_the_small_angle_form_of_the_sense_axes() -> None:
+    imu = _triad()
+    m = imu.misalignment_rad
+    assert m is not None and imu.sense_axes is not None
+    assert np.all(np.diag(m) == 0.0)
+    assert m[0, 1] == pytest.approx(imu.sense_axes[0, 1] / imu.sense_axes[0, 0])
+
+
+@pytest.mark.parametrize('change, words', [
+    ({'sense_axis': [[1.0, 0.0, 0.0]] * 3}, "unknown key 'sense_axis' (did you mean 'sense_axes'"),
+    ({'channels': ['x', 'x', 'z']}, 'three distinct channel names'),
+    ({'sense_axes': [[2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]}, 'unit vectors'),
+    ({'scale_factor_rad_per_pulse': [4e-6, -4e-6, 4e-6]}, 'must be > 0'),
+    ({'bias_rad_s_std': None}, 'bias_rad_s is given without its uncertainty'),
+    ({'pulses_to_body_rad': [[1.0, 0.0], [0.0, 1.0]]}, 'shape (3, 3)'),
+    ({'fixture_rotation': [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]]}, 'not a rotation'),
+    ({'noise': {'w': {}}}, "channel 'w'"),
+])
+def test_a_malformed_section_is_refused_naming_the_key(change: dict[str, object],
+                                                       words: str) -> None:
+    section = _triad().to_section()
+    for key, value in change.items():
+        if value is None:
+            section.pop(key)
+        else:
+            section[key] = value
+    with pytest.raises(ImuSectionError, match=None) as caught:
+        imu_from_section(section, source='h.yaml')
+    assert words in str(caught.value) and str(caught.value).startswith('h.yaml: ')
