@@ -33,10 +33,10 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from gyro_calib.bag_calibration import BagCalibration, calibrate_bags, json_document
-from gyro_calib.errors import GyroCalibError
+from gyro_calib.errors import ConfigError, GyroCalibError
 from gyro_calib.handoff import load_calibration, update_calibration
 from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
@@ -60,6 +60,13 @@ class _Parser(argparse.ArgumentParser):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         kwargs['allow_abbrev'] = False
         super().__init__(*args, **kwargs)
+
+    def error(self, message: str) -> NoReturn:
+        """One line, as every other bad input (argparse prints its usage block), exit 2."""
+        command = self.prog.removeprefix('gyro-calib').strip()
+        where = f'{command}: ' if command else ''
+        self.exit(EXIT_BAD_INPUT, f'gyro-calib: error: {where}{" ".join(message.split())}; '
+                                  f'see {self.prog} --help.\n')
 
 
 FLAG_METHODS: dict[str, tuple[str, ...]] = {
@@ -254,10 +261,13 @@ def _calibrate(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_file(args.out, '--out', follow_links=True)
         if args.out.exists():
-            from gyro_calib.handoff import load_calibration
+            from gyro_calib.handoff import HandoffError, load_calibration
 
-            # a file that cannot be updated: refused before work
-            load_calibration(args.out, handoff_schema())
+            try:  # a file that cannot be updated: refused before work
+                load_calibration(args.out, handoff_schema())
+            except HandoffError as exc:
+                raise ConfigError(f'--out {args.out} exists and cannot be updated: {exc} Give '
+                                  'a new path, or move the file away.') from None
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     if any(v is not None for v in (args.report, args.spec, args.lab, args.customer)):  # first
         from gyro_calib.report.cli import check_calibrate_report

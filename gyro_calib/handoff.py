@@ -906,6 +906,9 @@ def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
         HandoffError: naming ``source`` and the key, for a document that is not a mapping,
             an unknown ``format_version``, missing or unknown keys, wrong types or values.
     """
+    if data is None:
+        raise HandoffError(f'{source} is empty: a hand-off file holds a YAML mapping '
+                           '(format_version, gyro, methods).')
     if not isinstance(data, dict):
         raise HandoffError(f'{source} must hold a mapping, got {type(data).__name__}.')
     version = data.get('format_version')

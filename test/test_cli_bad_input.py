@@ -719,3 +719,55 @@ def test_batch_on_a_disk_that_fills_ends_in_one_line_and_leaves_no_partial_file(
     assert run.code == EXIT_BAD_INPUT and run.out == ''
     assert f'cannot write --out {out}' in line and 'File too large' in line, line
     assert not out.exists()
+
+
+# -- the mistakes of a new user's walk: usage errors, an empty --out, a misspelt column ------
+@pytest.mark.parametrize('argv, words', [
+    (['batch', 'm.csv', '--out', 'o', '--workers', 'abc'],
+     ('batch', '--workers', "'abc'", 'gyro-calib batch --help')),
+    (['calibrate'], ('calibrate', 'BAG', 'gyro-calib calibrate --help')),
+    (['frobnicate'], ("'frobnicate'", 'calibrate', 'gyro-calib --help')),
+])
+def test_a_usage_error_is_one_line_naming_the_flag_and_where_help_is(
+        argv: list[str], words: tuple[str, ...], capsys: pytest.CaptureFixture[str]) -> None:
+    run = gyro_calib(capsys, *argv)
+    line = the_one_error_line(run)  # argparse printed its usage block too
+    assert run.code == EXIT_BAD_INPUT and run.out == ''
+    for word in words:
+        assert word in line, line
+
+
+@pytest.mark.parametrize('content', [b'', b'# nothing yet\n', b'garbage: 1\n'])
+def test_an_existing_out_file_that_is_not_a_handoff_is_refused_naming_out(
+        content: bytes, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """An empty or foreign --out file: one line naming --out and what to do; left as it was."""
+    out = tmp_path / 'gyro.yaml'
+    out.write_bytes(content)
+    run = gyro_calib(capsys, 'calibrate', COMMITTED_BAG, '--out', out, '--no-progress')
+    line = the_one_error_line(run)
+    assert run.code == EXIT_BAD_INPUT and run.out == ''
+    assert f'--out {out}' in line and 'new path' in line, line
+    if not content.strip(b'# nothing yet\n'):
+        assert 'is empty' in line, line
+    assert out.read_bytes() == content and sorted(tmp_path.iterdir()) == [out]
+
+
+@pytest.mark.parametrize('manifest, words', [
+    ('gyro_id,bag\nA,bags/k_tilde_bench\n', ("unknown column 'bag'", "did you mean 'bags'")),
+    ('gyro_id,bags,latitude\nA,bags/k_tilde_bench,45\n',
+     ("unknown column 'latitude'", "did you mean 'latitude_deg'")),
+    ('- id: A\n  bag: bags/k_tilde_bench\n', ("unknown field 'bag'", "did you mean 'bags'")),
+    ('- id: A\n  bags: [bags/k_tilde_bench]\n  settings: {latitud_deg: 45}\n',
+     ("unknown setting 'latitud_deg'", "did you mean 'latitude_deg'")),
+])
+def test_a_misspelt_manifest_column_or_field_names_the_nearest_one(
+        manifest: str, words: tuple[str, ...], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / ('m.csv' if manifest.startswith('gyro_id') else 'm.yaml')
+    path.write_text(manifest, encoding='utf-8')
+    run = gyro_calib(capsys, 'batch', path, '--out', tmp_path / 'out')
+    line = the_one_error_line(run)
+    assert run.code == EXIT_BAD_INPUT and run.out == ''
+    for word in words:
+        assert word in line, line
+    assert not (tmp_path / 'out').exists()

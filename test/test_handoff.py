@@ -221,7 +221,8 @@ def test_load_raises_on_invalid_yaml(tmp_path: Path) -> None:
 def test_load_raises_on_document_that_is_not_a_mapping(tmp_path: Path, content: str) -> None:
     path = tmp_path / 'list.yaml'
     path.write_text(content)
-    with pytest.raises(HandoffError, match=f'calibration file {path} must hold a mapping'):
+    what = 'is empty' if not content else 'must hold a mapping'
+    with pytest.raises(HandoffError, match=f'calibration file {path} {what}'):
         load_calibration(path)
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -145,6 +146,21 @@ def load_manifest(path: Path) -> list[GyroJob]:
     return jobs
 
 
+CSV_FIELDS = ('gyro_id', 'bags', 'methods', 'customer')
+"""The columns of a CSV manifest besides the settings."""
+
+YAML_FIELDS = ('id', 'gyro_id', 'bags', 'methods', 'settings', 'customer')
+"""The fields of a YAML manifest entry."""
+
+
+def _nearest(name: str, known: Sequence[str]) -> str:
+    """' (did you mean 'X'?)' for the known name nearest ``name``, or ''."""
+    import difflib
+
+    near = difflib.get_close_matches(str(name), list(known), n=1, cutoff=0.6)
+    return f' (did you mean {near[0]!r}?)' if near else ''
+
+
 def _job(where: str, base: Path, gyro_id: Any, bags: Any, methods: Any,
          settings: Any, customer: Any = None) -> GyroJob:
     if not isinstance(gyro_id, (str, int)) or not str(gyro_id).strip():
@@ -169,8 +185,9 @@ def _job(where: str, base: Path, gyro_id: Any, bags: Any, methods: Any,
         if value is None or value == '':
             continue
         if name not in SETTINGS:
-            raise ConfigError(f'{where}: gyro {gid}: unknown setting {name!r}; the settings '
-                              f'are {", ".join(SETTINGS)}.')
+            raise ConfigError(f'{where}: gyro {gid}: unknown setting {name!r}'
+                              f'{_nearest(name, list(SETTINGS))}; the settings are '
+                              f'{", ".join(SETTINGS)}.')
         kind = SETTINGS[name]
         try:
             if kind is Path:
@@ -207,10 +224,12 @@ def _from_yaml(path: Path) -> list[GyroJob]:
         where = f'manifest {path}, entry {i + 1}'
         if not isinstance(entry, dict):
             raise ConfigError(f'{where} must be a mapping {{id, bags, methods, settings}}.')
-        unknown = sorted(set(entry) - {'id', 'gyro_id', 'bags', 'methods', 'settings',
-                                       'customer'})
+        unknown = sorted(set(map(str, entry)) - set(YAML_FIELDS))
         if unknown:
-            raise ConfigError(f'{where}: unknown field(s) {", ".join(unknown)}.')
+            raise ConfigError(f'{where}: unknown field {unknown[0]!r}'
+                              f'{_nearest(unknown[0], YAML_FIELDS + tuple(SETTINGS))}; the '
+                              f'fields are {", ".join(YAML_FIELDS)} (settings go under '
+                              '"settings:").')
         jobs.append(_job(where, path.parent, entry.get('id', entry.get('gyro_id')),
                          entry.get('bags'), entry.get('methods'), entry.get('settings') or {},
                          entry.get('customer')))
@@ -220,9 +239,18 @@ def _from_yaml(path: Path) -> list[GyroJob]:
 def _from_csv(path: Path) -> list[GyroJob]:
     try:
         with path.open(newline='', encoding='utf-8') as stream:
-            rows = list(csv.DictReader(stream))
+            reader = csv.DictReader(stream)
+            rows = list(reader)
+            header = [str(c).strip() for c in reader.fieldnames or []]
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise ConfigError(f'manifest {path} cannot be read as CSV: {exc}.') from None
+    columns = CSV_FIELDS + tuple(SETTINGS)
+    for column in header:  # a misspelt column is named before it makes a row look empty
+        if column and column not in columns:
+            raise ConfigError(f'manifest {path}: unknown column {column!r}'
+                              f'{_nearest(column, columns)}; the columns are '
+                              f'{", ".join(CSV_FIELDS)} and the settings '
+                              f'{", ".join(SETTINGS)}.')
     jobs = []
     for i, row in enumerate(rows):
         where = f'manifest {path}, line {i + 2}'
