@@ -11,7 +11,10 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -197,3 +200,82 @@ def test_a_format_4_file_is_read_and_a_malformed_one_refused_in_one_line(tmp_pat
     no_m['not_measurable'] = {'pulses_to_body_rad': 'channel y: its directions span 2-D only.'}
     with pytest.raises(ImuSectionError, match='M.* absent: channel y: its directions span'):
         triad_rate_model(load_imu_calibration(_write(tmp_path / 'no_m.yaml', no_m)))
+
+
+def _thermal_model(k_rad: float) -> Any:
+    """A hand-made model: bias = 0.3 °/h + 0.02 °/h per °C of H, calibrated −10…10 °C ± 2 °C."""
+    from gyro_calib.thermal.model import ThermalBiasModel
+    from gyro_calib.thermal.terms import VariableScaling
+
+    deg_h = math.pi / 180 / 3600
+    return ThermalBiasModel(
+        gyro_id='Z-1', terms=('H',), coefficients_rad_s=(0.3 * deg_h, 0.2 * deg_h),
+        covariance_rad2_s2=(((1e-3 * deg_h) ** 2, 0.0), (0.0, (1e-3 * deg_h) ** 2)),
+        scaling=VariableScaling({'H': 0.0, 'Hdot': 0.0, 'dTab': 0.0, 'dTcs': 0.0},
+                                {'H': 10.0, 'Hdot': 1e-3, 'dTab': 1.0, 'dTcs': 1.0}),
+        h_range_c=(-10.0, 10.0), hdot_range_c_s=(-1e-3, 1e-3), extrapolation_margin_c=2.0,
+        hdot_margin_fraction=0.5, scale_factor_rad_per_pulse=k_rad, latitude_deg=34.26,
+        sense_axis_elevation_deg=90.0, sense_axis_azimuth_deg=0.0,
+        earth_rate_along_axis_rad_s=15.041 * deg_h * math.sin(math.radians(34.26)),
+        averaging_interval_s=1.0, hdot_window_s=60.0, sensors=('cavity_a', 'cavity_b', 'shell'),
+        residual_std_rad_s=1e-8, fit_block_s=10.0, calibration_style='continuous',
+        covariance_kind='allan', n_used=100, dof=90)
+
+
+def _thermal_stream(seconds: int) -> list[tuple[Any, ...]]:
+    """Pulses at 2 Hz on x, y, z and the z channel's three sensors at 1 Hz near 5 °C."""
+    msgs: list[tuple[Any, ...]] = []
+    for i in range(2 * seconds):
+        t = T0_NS + i * 500_000_000
+        if i % 2 == 0:
+            msgs += [('t', 'z', t, 5.0 + 0.01 * ((i // 2 + j) % 3 - 1), s)
+                     for j, s in enumerate(('cavity_a', 'cavity_b', 'shell'))]
+        msgs.append(('p', t, [float(i * 3), float(i * 5 // 2), float(i * 7 // 2)]))
+    return msgs
+
+
+def _run(converter: TriadRateConverter, msgs: list[tuple[Any, ...]]) -> list[Any]:
+    out: list[Any] = []
+    for m in msgs:
+        out += (converter.add_pulses(m[1], ['x', 'y', 'z'], m[2]) if m[0] == 'p'
+                else converter.add_temperature(m[1], m[2], m[3], m[4]))
+    return out
+
+
+def test_a_channel_thermal_model_gives_its_bias_whatever_the_arrival_order() -> None:
+    """Channel z's bias comes from its model at its temperatures; x and y keep the file's.
+
+    Replayed with all temperatures first (an unpaced replay under load) the rates are the
+    same, bit for bit: they depend only on the messages and their stamps.
+    """
+    from gyro_calib.imu_conversion import channel_thermal_models
+
+    base = _triad()
+    k_z = float(triad_rate_model(base).scale_factor_rad_per_pulse[2])
+    model = _thermal_model(k_z)
+    cal = ImuCalibration(**{**{f: getattr(base, f) for f in base.__dataclass_fields__},
+                            'thermal': {'z': {'thermal_model': model.to_dict()}}})
+    rate_model = triad_rate_model(cal)
+    thermal = channel_thermal_models(cal, rate_model)
+    assert list(thermal) == ['z']
+    msgs = _thermal_stream(120)
+    live = [o for o in _run(TriadRateConverter(rate_model, thermal), msgs)
+            if isinstance(o, ImuAngularVelocity)]
+    temps_first = sorted(msgs, key=lambda m: m[0] == 'p')
+    replay = [o for o in _run(TriadRateConverter(rate_model, thermal), temps_first)
+              if isinstance(o, ImuAngularVelocity)]
+    assert len(live) > 100 and replay[:len(live)] == live
+    plain = TriadRateConverter(rate_model)
+    by_stamp = {o.stamp_ns: o for o in _run(plain, msgs) if isinstance(o, ImuAngularVelocity)}
+    r = np.linalg.inv(rate_model.m)
+    b_model = model.bias_rad_s(5.0)[0][0]
+    for o in live:
+        # the difference to the constant-bias rate is M·Δβ, Δβ only in channel z
+        d_beta = r @ (np.array(by_stamp[o.stamp_ns].angular_velocity_rad_s)
+                      - np.array(o.angular_velocity_rad_s))
+        assert abs(d_beta[0]) < 1e-9 * abs(d_beta[2]) and abs(d_beta[1]) < 1e-9 * abs(d_beta[2])
+        beta_file = (r @ rate_model.bias_rad_s)[2]
+        assert (d_beta[2] + beta_file) * k_z == pytest.approx(b_model, abs=0.02 * 0.011 * 4.85e-6)
+    with pytest.raises(ImuSectionError, match="channel 'z' was fitted with K"):
+        channel_thermal_models(cal, dataclasses.replace(
+            rate_model, scale_factor_rad_per_pulse=rate_model.scale_factor_rad_per_pulse * 1.001))
