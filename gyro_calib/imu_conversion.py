@@ -19,6 +19,20 @@ independent terms (GUM, first order):
 An absent angle random walk contributes nothing (the quantisation term then stands for
 the noise; for a rate-biased RLG at 1 kHz it is the larger one by orders of magnitude).
 
+A FOG (its hand-off has ``fog_scale_factor_counts_per_rad`` or the self-calibrated
+``fog_self_cal_scale_factor_counts_per_rad`` and no pulse-gyro K; METHODS §B) is converted
+the same way with K = 1/SF rad/count, u(K) = u(SF)/SF², the count's quantisation as above,
+and its scale-factor model (:func:`fog_pulse_calibration` says which SF applies and why):
+
+    ω = (K·Δn/Δt − b) / (1 + sgn·a/2)        asymmetry a = 2(K₊ − K₋)/(K₊ + K₋), the sign
+                                             that of K·Δn/Δt − b: K₊ = SF(1 + a/2) for
+                                             positive rates, K₋ = SF(1 − a/2) (§B.2 eq. (7))  (3)
+    u²(ω) = u²₍₂₎/(1 + sgn·a/2)² + (ω·u(a)/2)² + (NL·ω)²/3                                  (4)
+
+NL the IEEE nonlinearity, taken as a rectangular bound ±NL·|ω| on the rate (IEEE 952
+defines it relative to full-scale output, which the file does not hold: at full scale the
+two agree; below it this bound is the smaller one).
+
 Thermal compensation (METHODS §D). When the hand-off file holds a ``thermal_model``, b is
 not a constant but the model's bias b(H, Ḣ, gradients) at the gyro's temperatures:
 :class:`PulseRateConverter` also takes the /gyro/temperature readings, holds each pulse
@@ -94,6 +108,13 @@ class PulseCalibration:
         angle_random_walk_rad_per_sqrt_s: N, rad/√s (0 when the file has none).
         thermal_model: the temperature bias model (the file's ``thermal_model``), or None;
             when set, the bias comes from it live and ``bias_rad_s`` is not used.
+        asymmetry: a FOG's scale-factor asymmetry a = 2(K₊ − K₋)/(K₊ + K₋) (ppm/10⁶), 0 if
+            not measured; the rate is divided by 1 ± a/2 by its sign (module docstring (3)).
+        asymmetry_std: its standard uncertainty (relative).
+        nonlinearity: a FOG's IEEE nonlinearity NL (ppm/10⁶): a rectangular ±NL·|ω| term in
+            the variance (module docstring (4)); 0 if not measured.
+        scale_factor_note: which scale factor applies and why (a FOG: turntable or self-cal,
+            and the run it came from), for the log; '' for a pulse gyro.
     """
 
     scale_factor_rad_per_pulse: float
@@ -104,6 +125,15 @@ class PulseCalibration:
     bias_known: bool = False
     angle_random_walk_rad_per_sqrt_s: float = 0.0
     thermal_model: ThermalBiasModel | None = None
+    asymmetry: float = 0.0
+    asymmetry_std: float = 0.0
+    nonlinearity: float = 0.0
+    scale_factor_note: str = ''
+
+    @property
+    def is_fog(self) -> bool:
+        """The scale factor is a FOG's (counts/rad, taken as K = 1/SF rad/count)."""
+        return self.scale_factor_key.startswith('fog_')
 
 
 def scale_factor_line(c: PulseCalibration) -> str:
@@ -115,6 +145,11 @@ def scale_factor_line(c: PulseCalibration) -> str:
     """
     where = ('the scale factor the thermal_model was fitted with'
              if c.scale_factor_key == 'thermal_model' else c.scale_factor_key)
+    if c.is_fog:
+        sf = 1.0 / c.scale_factor_rad_per_pulse
+        sf_std = c.scale_factor_std * sf * sf
+        return (f'SF = {sf!r} ± {sf_std!r} counts/rad (from {where}; K = 1/SF = '
+                f'{c.scale_factor_rad_per_pulse!r} rad/count)')
     name = 'K̃' if c.scale_factor_key == 'k_tilde_rad_per_pulse' else 'K'
     return (f'{name} = {c.scale_factor_rad_per_pulse!r} ± {c.scale_factor_std!r} rad/pulse '
             f'(from {where})')
@@ -168,10 +203,87 @@ def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False,
                 f'{k_model!r} rad/pulse its thermal_model was fitted with by more than 100 ppm: '
                 'the model\'s bias belongs to that K. Refit the thermal model with this K.')
         return PulseCalibration(got[0], got[1], key, 0.0, 0.0, True, arw_value, model)
+    if calibration.measured(key) is None and any(
+            calibration.measured(k) is not None for k in (FOG_TURNTABLE_KEY, FOG_SELF_CAL_KEY)):
+        return fog_pulse_calibration(calibration)
     k, k_std = calibration.require(key, why=why)
     bias = calibration.measured('bias_rad_s')
     return PulseCalibration(k, k_std, key, bias[0] if bias else 0.0, bias[1] if bias else 0.0,
                             bias is not None, arw_value)
+
+
+FOG_TURNTABLE_KEY = 'fog_scale_factor_counts_per_rad'
+"""A FOG's turntable scale factor (IEEE 952 line fit against the table rates; METHODS §B.2)."""
+FOG_SELF_CAL_KEY = 'fog_self_cal_scale_factor_counts_per_rad'
+"""A FOG's ladder-wave self-calibrated scale factor (METHODS §B.4)."""
+PPM = 1e-6
+
+
+def fog_pulse_calibration(calibration: Calibration) -> PulseCalibration:
+    """A FOG's hand-off as a pulse conversion: K = 1/SF rad/count (module docstring (3)).
+
+    Which SF applies: the turntable's (``fog_scale_factor_counts_per_rad``) whenever the
+    file has it — it is measured against the table's rates, and the self-calibrated one is
+    anchored to the equivalence mapping and is its check (§B.4, ΔK); otherwise the
+    self-calibrated one (``fog_self_cal_scale_factor_counts_per_rad``), valid within its
+    linear range. With the turntable SF, its asymmetry (``fog_asymmetry_ppm``) is applied and
+    its nonlinearity (``fog_nonlinearity_ppm``) enters the variance; with the self-cal SF,
+    ``fog_self_cal_nonlinearity_ppm``. The polynomial coefficients
+    (``fog_scale_factor_quadratic_s_per_rad``, ``…_cubic_…``) are not applied: they come from
+    a separate fit (§B.2 eq. (8)) whose K₁ and intercept differ from the line's, so mixing them
+    with SF and the bias would be inconsistent; NL bounds what they describe. The bias is
+    ``fog_bias_rad_s`` (the Earth rate removed); ARW the noise method's
+    ``angle_random_walk_rad_per_sqrt_s``, else ``fog_angle_random_walk_rad_per_sqrt_s``.
+    """
+    turntable = calibration.measured(FOG_TURNTABLE_KEY)
+    self_cal = calibration.measured(FOG_SELF_CAL_KEY)
+    run = _run_phrase(calibration, FOG_TURNTABLE_KEY if turntable else FOG_SELF_CAL_KEY)
+    if turntable is not None:
+        key, (sf, sf_std) = FOG_TURNTABLE_KEY, turntable
+        asym = calibration.measured('fog_asymmetry_ppm') or (0.0, 0.0)
+        nl = calibration.measured('fog_nonlinearity_ppm') or (0.0, 0.0)
+        note = (f'the turntable scale factor applies ({run}): it is measured against the '
+                'table\'s rates (IEEE 952, METHODS §B.2)')
+        diff = calibration.measured('fog_self_cal_minus_turntable_scale_factor_counts_per_rad')
+        if self_cal is not None:
+            note += ('; the self-calibrated one is anchored to the equivalence mapping and is '
+                     'its check' + (f' (it differs by {diff[0]:+.6g} ± {diff[1]:.2g} counts/rad)'
+                                    if diff else ''))
+        if asym[0]:
+            note += f'; asymmetry {asym[0]:g} ppm applied by the sign of the rate'
+    else:
+        assert self_cal is not None
+        key, (sf, sf_std) = FOG_SELF_CAL_KEY, self_cal
+        asym = (0.0, 0.0)
+        nl = calibration.measured('fog_self_cal_nonlinearity_ppm') or (0.0, 0.0)
+        span = calibration.measured('fog_self_cal_linear_range_rad_s')
+        note = (f'the self-calibrated scale factor applies ({run}): the file has no turntable '
+                'scale factor; it holds within its linear range'
+                + (f' |ω| ≤ {span[0]:.4g} rad/s' if span else '')
+                + ' (beyond it the loop\'s front end leaves its small-signal region, '
+                'METHODS §B.4)')
+    if nl[0]:
+        note += f'; nonlinearity {nl[0]:g} ppm in the variance'
+    if sf <= 0.0:
+        raise HandoffError(f'the calibration\'s {key} = {sf!r} counts/rad is not > 0.')
+    bias = calibration.measured('fog_bias_rad_s')
+    arw = (calibration.measured('angle_random_walk_rad_per_sqrt_s')
+           or calibration.measured('fog_angle_random_walk_rad_per_sqrt_s'))
+    return PulseCalibration(
+        1.0 / sf, sf_std / (sf * sf), key, bias[0] if bias else 0.0, bias[1] if bias else 0.0,
+        bias is not None, arw[0] if arw else 0.0, None, asym[0] * PPM, asym[1] * PPM,
+        nl[0] * PPM, note)
+
+
+def _run_phrase(calibration: Calibration, key: str) -> str:
+    """'run SOURCE of CREATED' of the run that gave ``key`` (or 'run unknown')."""
+    from gyro_calib.registry import handoff_schema
+
+    try:
+        run = calibration.source_of(key, handoff_schema())
+    except (KeyError, GyroCalibError):
+        run = None
+    return 'run unknown' if run is None else f'from run {run.label()}'
 
 
 def thermal_model(calibration: Calibration, *, gyro_id: str = '') -> ThermalBiasModel | None:
@@ -240,10 +352,16 @@ def angular_velocity_from_pulses(t0_ns: int, count0: float, t1_ns: int, count1: 
                 + k * k / (6.0 * dt_s * dt_s)
                 + (measured_rad_s * k_std / k) ** 2
                 + c.bias_std ** 2)
+    rate = measured_rad_s - c.bias_rad_s
+    if c.asymmetry or c.nonlinearity:  # a FOG's scale-factor model, eqs. (3) and (4)
+        half = math.copysign(0.5, rate) * c.asymmetry
+        rate /= 1.0 + half
+        variance = (variance / (1.0 + half) ** 2 + (0.5 * rate * c.asymmetry_std) ** 2
+                    + (c.nonlinearity * rate) ** 2 / 3.0)
     u = UNKNOWN_AXIS_VARIANCE_RAD2_S2
     return ImuAngularVelocity(
         stamp_ns=t1_ns,
-        angular_velocity_rad_s=(0.0, 0.0, measured_rad_s - c.bias_rad_s),
+        angular_velocity_rad_s=(0.0, 0.0, rate),
         covariance_rad2_s2=(u, 0.0, 0.0, 0.0, u, 0.0, 0.0, 0.0, variance))
 
 
