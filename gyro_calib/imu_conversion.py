@@ -621,6 +621,10 @@ class TriadRateConverter:
             rejected = [h for h in heads if isinstance(h, Rejection)]
             if rejected:
                 out.append(Rejection(stamp, rejected[0].reason))
+                # the next pair starts at the latest finite sample up to here: older go
+                ref = max((t for t in self._counts if t <= stamp), default=None)
+                for t in [t for t in self._counts if ref is not None and t < ref]:
+                    del self._counts[t]
                 continue
             done = [h for h in heads if not isinstance(h, Rejection)]
             pairs = dict(zip(self._queues, done, strict=True))

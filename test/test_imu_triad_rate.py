@@ -279,3 +279,21 @@ def test_a_channel_thermal_model_gives_its_bias_whatever_the_arrival_order() -> 
     with pytest.raises(ImuSectionError, match="channel 'z' was fitted with K"):
         channel_thermal_models(cal, dataclasses.replace(
             rate_model, scale_factor_rad_per_pulse=rate_model.scale_factor_rad_per_pulse * 1.001))
+
+
+def test_a_thermal_triad_out_of_range_for_long_keeps_bounded_memory() -> None:
+    """Samples refused for a temperature outside the model's range are not kept."""
+    from gyro_calib.imu_conversion import channel_thermal_models
+
+    base = _triad()
+    k_z = float(triad_rate_model(base).scale_factor_rad_per_pulse[2])
+    cal = ImuCalibration(**{**{f: getattr(base, f) for f in base.__dataclass_fields__},
+                            'thermal': {'z': {'thermal_model': _thermal_model(k_z).to_dict()}}})
+    rate_model = triad_rate_model(cal)
+    converter = TriadRateConverter(rate_model, channel_thermal_models(cal, rate_model))
+    hot = [(m[0], m[1], m[2], m[3] + 20.0, m[4]) if m[0] == 't' else m
+           for m in _thermal_stream(300)]
+    outs = _run(converter, hot)
+    assert len(outs) > 400 and all(isinstance(o, Rejection) for o in outs)
+    assert 'outside the calibrated range' in outs[-1].reason
+    assert len(converter._counts) <= converter.held + 2
