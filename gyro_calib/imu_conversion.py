@@ -163,7 +163,8 @@ def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False,
         calibration: the hand-off file's content.
         use_k_tilde: take K̃ as the scale factor (θ = 0: a gyro whose fix-error angle was not
             measured); otherwise K = K̃·cos θ is required (or, with a thermal model, the K
-            the model was fitted with).
+            the model was fitted with). A FOG's file (no such key, but a FOG scale factor)
+            goes to :func:`fog_pulse_calibration` instead.
         gyro_id: the gyro this conversion is for ('' = not checked): a thermal model fitted
             on another gyro is refused.
 
