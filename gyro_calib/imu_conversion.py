@@ -19,6 +19,20 @@ independent terms (GUM, first order):
 An absent angle random walk contributes nothing (the quantisation term then stands for
 the noise; for a rate-biased RLG at 1 kHz it is the larger one by orders of magnitude).
 
+A FOG (its hand-off has ``fog_scale_factor_counts_per_rad`` or the self-calibrated
+``fog_self_cal_scale_factor_counts_per_rad`` and no pulse-gyro K; METHODS §B) is converted
+the same way with K = 1/SF rad/count, u(K) = u(SF)/SF², the count's quantisation as above,
+and its scale-factor model (:func:`fog_pulse_calibration` says which SF applies and why):
+
+    ω = (K·Δn/Δt − b) / (1 + sgn·a/2)        asymmetry a = 2(K₊ − K₋)/(K₊ + K₋), the sign
+                                             that of K·Δn/Δt − b: K₊ = SF(1 + a/2) for
+                                             positive rates, K₋ = SF(1 − a/2) (§B.2 eq. (7))  (3)
+    u²(ω) = u²₍₂₎/(1 + sgn·a/2)² + (ω·u(a)/2)² + (NL·ω)²/3                                  (4)
+
+NL the IEEE nonlinearity, taken as a rectangular bound ±NL·|ω| on the rate (IEEE 952
+defines it relative to full-scale output, which the file does not hold: at full scale the
+two agree; below it this bound is the smaller one).
+
 Thermal compensation (METHODS §D). When the hand-off file holds a ``thermal_model``, b is
 not a constant but the model's bias b(H, Ḣ, gradients) at the gyro's temperatures:
 :class:`PulseRateConverter` also takes the /gyro/temperature readings, holds each pulse
@@ -51,12 +65,24 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from gyro_calib.errors import StreamError
+import numpy as np
+
+from gyro_calib.errors import GyroCalibError, StreamError
 from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import Calibration, HandoffError
+from gyro_calib.imu_body_rate import (
+    Array,
+    TriadRateModel,
+    bias_with_channel_biases,
+    body_rate,
+    equal_variances,
+)
+from gyro_calib.imu_calibration import ImuCalibration, ImuSectionError
 
 if TYPE_CHECKING:
     from gyro_calib.thermal.compensate import CompensatedPair
@@ -82,6 +108,13 @@ class PulseCalibration:
         angle_random_walk_rad_per_sqrt_s: N, rad/√s (0 when the file has none).
         thermal_model: the temperature bias model (the file's ``thermal_model``), or None;
             when set, the bias comes from it live and ``bias_rad_s`` is not used.
+        asymmetry: a FOG's scale-factor asymmetry a = 2(K₊ − K₋)/(K₊ + K₋) (ppm/10⁶), 0 if
+            not measured; the rate is divided by 1 ± a/2 by its sign (module docstring (3)).
+        asymmetry_std: its standard uncertainty (relative).
+        nonlinearity: a FOG's IEEE nonlinearity NL (ppm/10⁶): a rectangular ±NL·|ω| term in
+            the variance (module docstring (4)); 0 if not measured.
+        scale_factor_note: which scale factor applies and why (a FOG: turntable or self-cal,
+            and the run it came from), for the log; '' for a pulse gyro.
     """
 
     scale_factor_rad_per_pulse: float
@@ -92,6 +125,15 @@ class PulseCalibration:
     bias_known: bool = False
     angle_random_walk_rad_per_sqrt_s: float = 0.0
     thermal_model: ThermalBiasModel | None = None
+    asymmetry: float = 0.0
+    asymmetry_std: float = 0.0
+    nonlinearity: float = 0.0
+    scale_factor_note: str = ''
+
+    @property
+    def is_fog(self) -> bool:
+        """The scale factor is a FOG's (counts/rad, taken as K = 1/SF rad/count)."""
+        return self.scale_factor_key.startswith('fog_')
 
 
 def scale_factor_line(c: PulseCalibration) -> str:
@@ -103,6 +145,11 @@ def scale_factor_line(c: PulseCalibration) -> str:
     """
     where = ('the scale factor the thermal_model was fitted with'
              if c.scale_factor_key == 'thermal_model' else c.scale_factor_key)
+    if c.is_fog:
+        sf = 1.0 / c.scale_factor_rad_per_pulse
+        sf_std = c.scale_factor_std * sf * sf
+        return (f'SF = {sf!r} ± {sf_std!r} counts/rad (from {where}; K = 1/SF = '
+                f'{c.scale_factor_rad_per_pulse!r} rad/count)')
     name = 'K̃' if c.scale_factor_key == 'k_tilde_rad_per_pulse' else 'K'
     return (f'{name} = {c.scale_factor_rad_per_pulse!r} ± {c.scale_factor_std!r} rad/pulse '
             f'(from {where})')
@@ -116,7 +163,8 @@ def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False,
         calibration: the hand-off file's content.
         use_k_tilde: take K̃ as the scale factor (θ = 0: a gyro whose fix-error angle was not
             measured); otherwise K = K̃·cos θ is required (or, with a thermal model, the K
-            the model was fitted with).
+            the model was fitted with). A FOG's file (no such key, but a FOG scale factor)
+            goes to :func:`fog_pulse_calibration` instead.
         gyro_id: the gyro this conversion is for ('' = not checked): a thermal model fitted
             on another gyro is refused.
 
@@ -156,10 +204,87 @@ def pulse_calibration(calibration: Calibration, *, use_k_tilde: bool = False,
                 f'{k_model!r} rad/pulse its thermal_model was fitted with by more than 100 ppm: '
                 'the model\'s bias belongs to that K. Refit the thermal model with this K.')
         return PulseCalibration(got[0], got[1], key, 0.0, 0.0, True, arw_value, model)
+    if calibration.measured(key) is None and any(
+            calibration.measured(k) is not None for k in (FOG_TURNTABLE_KEY, FOG_SELF_CAL_KEY)):
+        return fog_pulse_calibration(calibration)
     k, k_std = calibration.require(key, why=why)
     bias = calibration.measured('bias_rad_s')
     return PulseCalibration(k, k_std, key, bias[0] if bias else 0.0, bias[1] if bias else 0.0,
                             bias is not None, arw_value)
+
+
+FOG_TURNTABLE_KEY = 'fog_scale_factor_counts_per_rad'
+"""A FOG's turntable scale factor (IEEE 952 line fit against the table rates; METHODS §B.2)."""
+FOG_SELF_CAL_KEY = 'fog_self_cal_scale_factor_counts_per_rad'
+"""A FOG's ladder-wave self-calibrated scale factor (METHODS §B.4)."""
+PPM = 1e-6
+
+
+def fog_pulse_calibration(calibration: Calibration) -> PulseCalibration:
+    """A FOG's hand-off as a pulse conversion: K = 1/SF rad/count (module docstring (3)).
+
+    Which SF applies: the turntable's (``fog_scale_factor_counts_per_rad``) whenever the
+    file has it — it is measured against the table's rates, and the self-calibrated one is
+    anchored to the equivalence mapping and is its check (§B.4, ΔK); otherwise the
+    self-calibrated one (``fog_self_cal_scale_factor_counts_per_rad``), valid within its
+    linear range. With the turntable SF, its asymmetry (``fog_asymmetry_ppm``) is applied and
+    its nonlinearity (``fog_nonlinearity_ppm``) enters the variance; with the self-cal SF,
+    ``fog_self_cal_nonlinearity_ppm``. The polynomial coefficients
+    (``fog_scale_factor_quadratic_s_per_rad``, ``…_cubic_…``) are not applied: they come from
+    a separate fit (§B.2 eq. (8)) whose K₁ and intercept differ from the line's, so mixing them
+    with SF and the bias would be inconsistent; NL bounds what they describe. The bias is
+    ``fog_bias_rad_s`` (the Earth rate removed); ARW the noise method's
+    ``angle_random_walk_rad_per_sqrt_s``, else ``fog_angle_random_walk_rad_per_sqrt_s``.
+    """
+    turntable = calibration.measured(FOG_TURNTABLE_KEY)
+    self_cal = calibration.measured(FOG_SELF_CAL_KEY)
+    run = _run_phrase(calibration, FOG_TURNTABLE_KEY if turntable else FOG_SELF_CAL_KEY)
+    if turntable is not None:
+        key, (sf, sf_std) = FOG_TURNTABLE_KEY, turntable
+        asym = calibration.measured('fog_asymmetry_ppm') or (0.0, 0.0)
+        nl = calibration.measured('fog_nonlinearity_ppm') or (0.0, 0.0)
+        note = (f'the turntable scale factor applies ({run}): it is measured against the '
+                'table\'s rates (IEEE 952, METHODS §B.2)')
+        diff = calibration.measured('fog_self_cal_minus_turntable_scale_factor_counts_per_rad')
+        if self_cal is not None:
+            note += ('; the self-calibrated one is anchored to the equivalence mapping and is '
+                     'its check' + (f' (it differs by {diff[0]:+.6g} ± {diff[1]:.2g} counts/rad)'
+                                    if diff else ''))
+        if asym[0]:
+            note += f'; asymmetry {asym[0]:g} ppm applied by the sign of the rate'
+    else:
+        assert self_cal is not None
+        key, (sf, sf_std) = FOG_SELF_CAL_KEY, self_cal
+        asym = (0.0, 0.0)
+        nl = calibration.measured('fog_self_cal_nonlinearity_ppm') or (0.0, 0.0)
+        span = calibration.measured('fog_self_cal_linear_range_rad_s')
+        note = (f'the self-calibrated scale factor applies ({run}): the file has no turntable '
+                'scale factor; it holds within its linear range'
+                + (f' |ω| ≤ {span[0]:.4g} rad/s' if span else '')
+                + ' (beyond it the loop\'s front end leaves its small-signal region, '
+                'METHODS §B.4)')
+    if nl[0]:
+        note += f'; nonlinearity {nl[0]:g} ppm in the variance'
+    if sf <= 0.0:
+        raise HandoffError(f'the calibration\'s {key} = {sf!r} counts/rad is not > 0.')
+    bias = calibration.measured('fog_bias_rad_s')
+    arw = (calibration.measured('angle_random_walk_rad_per_sqrt_s')
+           or calibration.measured('fog_angle_random_walk_rad_per_sqrt_s'))
+    return PulseCalibration(
+        1.0 / sf, sf_std / (sf * sf), key, bias[0] if bias else 0.0, bias[1] if bias else 0.0,
+        bias is not None, arw[0] if arw else 0.0, None, asym[0] * PPM, asym[1] * PPM,
+        nl[0] * PPM, note)
+
+
+def _run_phrase(calibration: Calibration, key: str) -> str:
+    """'run SOURCE of CREATED' of the run that gave ``key`` (or 'run unknown')."""
+    from gyro_calib.registry import handoff_schema
+
+    try:
+        run = calibration.source_of(key, handoff_schema())
+    except (KeyError, GyroCalibError):
+        run = None
+    return 'run unknown' if run is None else f'from run {run.label()}'
 
 
 def thermal_model(calibration: Calibration, *, gyro_id: str = '') -> ThermalBiasModel | None:
@@ -228,10 +353,16 @@ def angular_velocity_from_pulses(t0_ns: int, count0: float, t1_ns: int, count1: 
                 + k * k / (6.0 * dt_s * dt_s)
                 + (measured_rad_s * k_std / k) ** 2
                 + c.bias_std ** 2)
+    rate = measured_rad_s - c.bias_rad_s
+    if c.asymmetry or c.nonlinearity:  # a FOG's scale-factor model, eqs. (3) and (4)
+        half = math.copysign(0.5, rate) * c.asymmetry
+        rate /= 1.0 + half
+        variance = (variance / (1.0 + half) ** 2 + (0.5 * rate * c.asymmetry_std) ** 2
+                    + (c.nonlinearity * rate) ** 2 / 3.0)
     u = UNKNOWN_AXIS_VARIANCE_RAD2_S2
     return ImuAngularVelocity(
         stamp_ns=t1_ns,
-        angular_velocity_rad_s=(0.0, 0.0, measured_rad_s - c.bias_rad_s),
+        angular_velocity_rad_s=(0.0, 0.0, rate),
         covariance_rad2_s2=(u, 0.0, 0.0, 0.0, u, 0.0, 0.0, 0.0, variance))
 
 
@@ -347,4 +478,170 @@ class PulseRateConverter:
             cal = dataclasses.replace(self._calibration, bias_rad_s=o.bias_rad_s,
                                       bias_std=o.bias_std)
             out.append(angular_velocity_from_pulses(o.t0_ns, o.count0, o.t1_ns, o.count1, cal))
+        return out
+
+
+# ------------------------------------------------------------ a gyro triad (METHODS §F.6)
+
+
+def channel_thermal_models(cal: ImuCalibration, model: TriadRateModel
+                           ) -> dict[str, ThermalBiasModel]:
+    """The ``imu.thermal.<channel>.thermal_model`` of each channel that has one.
+
+    Raises:
+        ImuSectionError: a channel's model is invalid, or was fitted with a scale factor
+            other than that channel's K_i = 1/|r_i| by more than 100 ppm.
+    """
+    from gyro_calib.thermal.model import ThermalBiasModel
+
+    out: dict[str, ThermalBiasModel] = {}
+    for i, channel in enumerate(model.channels):
+        data = cal.thermal.get(channel, {}).get('thermal_model')
+        if data is None:
+            continue
+        try:
+            m = ThermalBiasModel.from_dict(
+                data, source=f'the imu.thermal.{channel}.thermal_model of the calibration')
+        except GyroCalibError as exc:
+            raise ImuSectionError(str(exc)) from None
+        k = float(model.scale_factor_rad_per_pulse[i])
+        if abs(m.scale_factor_rad_per_pulse / k - 1.0) > 1e-4:
+            raise ImuSectionError(
+                f'the thermal_model of channel {channel!r} was fitted with K = '
+                f'{m.scale_factor_rad_per_pulse!r} rad/pulse, but the channel\'s K (1/|row| of '
+                f'M⁻¹) is {k!r}: more than 100 ppm apart; refit the model with this K.')
+        out[channel] = m
+    return out
+
+
+class TriadRateConverter:
+    """Streaming triad body rates for imu_corrector's triad mode (METHODS §F.6).
+
+    Feed ``/imu/pulses`` samples (:meth:`add_pulses`, names and positions as in the message)
+    and, where channels have thermal models, their temperatures (:meth:`add_temperature`) in
+    arrival order; each call returns the body rates (or :class:`Rejection` s) it releases,
+    in stamp order. A sample whose names are not the calibration's three channels (in any
+    order) is refused and not used. As :class:`PulseRateConverter`: a sample with a non-finite
+    count is skipped (the previous one stays the reference); a stamp not after the previous
+    one is refused and becomes the new reference. With thermal models, each such channel's
+    pulses go to its own :class:`~gyro_calib.thermal.live.OrderedThermalCompensator` and a
+    sample is released when every one of them has decided its bias (by stamps only), with
+    b and C_b of §F.6 eq. (19); if any has none the sample gets a Rejection.
+    """
+
+    def __init__(self, model: TriadRateModel,
+                 thermal: dict[str, ThermalBiasModel] | None = None, *,
+                 thermal_max_age_s: float = 30.0, equal: bool = False) -> None:
+        """Start with no reference sample.
+
+        Args:
+            model: M, its covariance, b, noise.
+            thermal: channel → its thermal model (channels without one use the section's b).
+            thermal_max_age_s: as :class:`PulseRateConverter`.
+            equal: publish :func:`~gyro_calib.imu_body_rate.equal_variances` (§F.6 eq. (18)).
+        """
+        from gyro_calib.thermal.live import OrderedThermalCompensator
+
+        self.model = model
+        self.equal = equal
+        self.thermal = dict(thermal or {})
+        self._live = {c: OrderedThermalCompensator(m, max_wait_s=thermal_max_age_s)
+                      for c, m in self.thermal.items()}
+        self._queues: dict[str, deque[CompensatedPair | Rejection]] = {
+            c: deque() for c in self._live}
+        self._counts: dict[int, Array] = {}
+        self._last: tuple[int, Array] | None = None
+
+    @property
+    def held(self) -> int:
+        """Samples waiting for their thermal biases."""
+        return max((c.held for c in self._live.values()), default=0)
+
+    def _ordered(self, t_ns: int, names: Sequence[str], positions: Sequence[float]
+                 ) -> Array | Rejection:
+        channels = self.model.channels
+        if sorted(names) != sorted(channels) or len(positions) != len(names):
+            return Rejection(t_ns, f'channel names {list(names)} (with {len(positions)} '
+                                   f'positions) do not match the calibration\'s channels '
+                                   f'{list(channels)}: sample not used.')
+        return np.array([float(positions[list(names).index(c)]) for c in channels])
+
+    def add_pulses(self, t_ns: int, names: Sequence[str], positions: Sequence[float]
+                   ) -> list[ImuAngularVelocity | Rejection]:
+        """One /imu/pulses sample; the rates (or Rejections) it releases, in stamp order."""
+        counts = self._ordered(t_ns, names, positions)
+        if isinstance(counts, Rejection):
+            return [counts]
+        if self._live:
+            if not np.all(np.isfinite(counts)):
+                counts = np.full(3, math.nan)
+            else:
+                self._counts[t_ns] = counts
+            for i, c in enumerate(self.model.channels):
+                if c in self._live:
+                    self._queues[c].extend(self._live[c].add_pulse(t_ns, float(counts[i])))
+            return self._release()
+        if not np.all(np.isfinite(counts)):
+            return [Rejection(t_ns, f'pulse counts {list(counts)} at stamp {t_ns} ns are not '
+                                    'all finite.')]
+        last, self._last = self._last, (t_ns, counts)
+        if last is None:
+            return []
+        if t_ns <= last[0]:
+            return [Rejection(t_ns, f'stamp {t_ns} ns is not after the previous one, {last[0]} '
+                                    'ns; it becomes the new reference.')]
+        return [self._rate(last[0], last[1], t_ns, counts)]
+
+    def add_temperature(self, channel: str, t_ns: int, celsius: float, frame_id: str
+                        ) -> list[ImuAngularVelocity | Rejection]:
+        """One temperature reading of a channel's sensor; the rates it releases."""
+        live = self._live.get(channel)
+        if live is None:
+            return []
+        self._queues[channel].extend(live.add_temperature(t_ns, celsius, frame_id))
+        return self._release()
+
+    def _rate(self, t0_ns: int, c0: Array, t1_ns: int, c1: Array,
+              channel_bias: dict[int, tuple[float, float]] | None = None
+              ) -> ImuAngularVelocity:
+        bias, c_b = (None, None) if not channel_bias else bias_with_channel_biases(
+            self.model, channel_bias)
+        omega, cov = body_rate(c0, c1, (t1_ns - t0_ns) / 1e9, self.model, bias_rad_s=bias,
+                               bias_covariance=c_b)
+        if self.equal:
+            cov = equal_variances(cov)
+        return ImuAngularVelocity(t1_ns, (float(omega[0]), float(omega[1]), float(omega[2])),
+                                  tuple(float(v) for v in cov.reshape(9)))
+
+    def _release(self) -> list[ImuAngularVelocity | Rejection]:
+        out: list[ImuAngularVelocity | Rejection] = []
+        queues = list(self._queues.values())
+        while all(queues):
+            heads = [q.popleft() for q in queues]
+            stamp = heads[0].stamp_ns if isinstance(heads[0], Rejection) else heads[0].t1_ns
+            rejected = [h for h in heads if isinstance(h, Rejection)]
+            if rejected:
+                out.append(Rejection(stamp, rejected[0].reason))
+                # the next pair starts at the latest finite sample up to here: older go
+                ref = max((t for t in self._counts if t <= stamp), default=None)
+                for t in [t for t in self._counts if ref is not None and t < ref]:
+                    del self._counts[t]
+                continue
+            done = [h for h in heads if not isinstance(h, Rejection)]
+            pairs = dict(zip(self._queues, done, strict=True))
+            t0 = done[0].t0_ns
+            c0, c1 = self._counts.get(t0), self._counts.get(stamp)
+            for t in [t for t in self._counts if t < t0]:
+                del self._counts[t]
+            if c0 is None or c1 is None or any((h.t0_ns, h.t1_ns) != (t0, stamp) for h in done):
+                out.append(Rejection(stamp, f'the channels\' thermal compensators disagree on '
+                                            f'the sample pair ending at {stamp} ns.'))
+                continue
+            bias: dict[int, tuple[float, float]] = {}
+            for i, c in enumerate(self.model.channels):
+                p = pairs.get(c)
+                if p is not None:
+                    k = self.thermal[c].scale_factor_rad_per_pulse
+                    bias[i] = (p.bias_rad_s / k, p.bias_std / k)
+            out.append(self._rate(t0, c0, stamp, c1, bias))
         return out

@@ -1,0 +1,300 @@
+"""imu_corrector without ROS: the hand-off file, the mode, the conversion and the log lines.
+
+:class:`ImuCorrector` is what the node (:mod:`gyro_calib.nodes.imu_corrector_node`) does with
+each message, minus the rclpy calls: the node hands it message contents (stamps in int ns) and
+publishes the (topic, :class:`~gyro_calib.imu_conversion.ImuAngularVelocity`) pairs it
+returns. It logs through ``node.get_logger()`` (a real node, or ``test/fake_node.py``).
+
+Modes, chosen by the hand-off file (re-read when it changes):
+
+- **single gyro** (a file without ``imu:``): ``/gyro/pulses`` (a pulse gyro, K or K̃) or
+  ``/fog/output`` (a FOG: ``fog_scale_factor_counts_per_rad`` or the self-calibrated one) →
+  :data:`GYRO_IMU`, z = sense axis (:mod:`gyro_calib.imu_conversion` eqs. (1)–(4));
+- **triad** (a format-4 file with ``imu:``): ``/imu/pulses`` → :data:`IMU_DATA`, the body rate
+  with its full 3×3 covariance (METHODS §F.6 eqs. (16)–(19)).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any, Protocol
+
+from gyro_calib import topics
+from gyro_calib.errors import GyroCalibError
+from gyro_calib.estimate import Rejection
+from gyro_calib.handoff import load_calibration
+from gyro_calib.imu_body_rate import has_imu_section, load_imu_calibration, triad_rate_model
+from gyro_calib.imu_conversion import (
+    ImuAngularVelocity,
+    PulseRateConverter,
+    TriadRateConverter,
+    channel_thermal_models,
+    pulse_calibration,
+    scale_factor_line,
+)
+from gyro_calib.registry import handoff_schema
+from gyro_calib.thermal.site import RAD_S_PER_DEG_H
+
+GYRO_IMU = '/gyro/imu'
+"""sensor_msgs/Imu: calibrated rate about the gyro's sense axis (z), rad/s, with covariance."""
+IMU_DATA = '/imu/data'
+"""sensor_msgs/Imu: a triad's calibrated body rate, rad/s, with its full 3×3 covariance."""
+IMU_PULSES = '/imu/pulses'
+"""sensor_msgs/JointState: a triad's three cumulative counts, name = the channel names."""
+REFUSED_EVERY = 1000
+"""A refused /imu/pulses sample of a kind already logged is logged again every this many."""
+
+Output = tuple[str, ImuAngularVelocity]
+
+
+def channel_temperature_topic(channel: str) -> str:
+    """The temperature topic of a triad channel: /imu/<channel>/temperature."""
+    return f'/imu/{channel}/temperature'
+
+
+class _Logger(Protocol):
+    def info(self, line: str) -> Any: ...
+    def warning(self, line: str) -> Any: ...
+    def error(self, line: str) -> Any: ...
+
+
+class _NodeLike(Protocol):
+    def get_logger(self) -> Any: ...
+
+
+class ImuCorrector:
+    """The node's behaviour, fed message contents (module docstring)."""
+
+    def __init__(self, node: _NodeLike, *, use_k_tilde: bool = False, gyro_id: str = '',
+                 thermal_max_age_s: float = 30.0, equal_variances: bool = False) -> None:
+        """Start with no calibration (nothing is published until a valid file is read)."""
+        self.node = node
+        self.use_k_tilde, self.gyro_id = use_k_tilde, gyro_id
+        self.thermal_max_age_s, self.equal_variances = thermal_max_age_s, equal_variances
+        self.converter: PulseRateConverter | None = None
+        self.triad: TriadRateConverter | None = None
+        self._file_key: tuple[int, int, int] | None = None
+        self._last_problem = ''
+        self._thermal_state = ''
+        self._skipped = 0
+        self._refused: dict[str, int] = {}
+
+    @property
+    def log(self) -> Any:
+        """The node's logger."""
+        return self.node.get_logger()
+
+    @property
+    def output(self) -> str:
+        """The Imu topic of the current mode."""
+        return IMU_DATA if self.triad is not None else GYRO_IMU
+
+    @property
+    def reads_fog(self) -> bool:
+        """Single-gyro mode with a FOG's calibration: counts come on /fog/output."""
+        return self.converter is not None and self.converter.calibration.is_fog
+
+    @property
+    def thermal_channels(self) -> tuple[str, ...]:
+        """Triad channels whose bias comes from a thermal model (they need temperatures)."""
+        return tuple(self.triad.thermal) if self.triad is not None else ()
+
+    # ------------------------------------------------------------------ file
+
+    def poll_file(self, path: str) -> None:
+        """Load the hand-off file if it changed (inode, mtime, size); log what is used."""
+        import os
+
+        if not path:
+            self._problem('parameter calibration_file is not set: give the hand-off YAML '
+                          '(-p calibration_file:=/path/gyro.yaml).')
+            return
+        try:
+            st = os.stat(path)
+            key: tuple[int, int, int] | None = (st.st_ino, st.st_mtime_ns, st.st_size)
+        except OSError:
+            key = None
+        if key is not None and key == self._file_key:
+            return
+        self._file_key = key
+        try:
+            if key is not None and has_imu_section(path):
+                self._load_triad(path)
+            else:
+                self._load_single(path)
+        except GyroCalibError as exc:
+            self._problem(str(exc))
+            return
+        self._last_problem = ''
+
+    def _load_single(self, path: str) -> None:
+        calibration = pulse_calibration(load_calibration(path, handoff_schema()),
+                                        use_k_tilde=self.use_k_tilde, gyro_id=self.gyro_id)
+        if self.converter is None or self.converter.calibration.is_fog != calibration.is_fog:
+            self.converter = PulseRateConverter(calibration,
+                                                thermal_max_age_s=self.thermal_max_age_s)
+        else:
+            self.converter.calibration = calibration
+        self.triad = None
+        c = calibration
+        source = topics.FOG_OUTPUT if c.is_fog else topics.GYRO_PULSES
+        self.log.info(
+            f'calibration loaded from {path}: {scale_factor_line(c)}, bias = '
+            + (f'{c.bias_rad_s!r} ± {c.bias_std!r} rad/s' if c.thermal_model is None
+               else 'from thermal_model') + f'; reading {source}, publishing {GYRO_IMU}')
+        if c.is_fog:
+            self.log.info(f'FOG: {c.scale_factor_note}.')
+        if self.equal_variances:
+            self.log.warning('equal_variances applies to triad mode only: a single gyro '
+                             'measures z alone (x and y carry no information).')
+        m = c.thermal_model
+        if m is not None:
+            self._thermal_state = ''
+            self.log.info(
+                f'thermal model of gyro {m.gyro_id or "(unnamed)"}: bias = b0 + '
+                f'{" + ".join(m.terms) or "(constant)"}, calibrated H {m.h_range_c[0]:.2f}…'
+                f'{m.h_range_c[1]:.2f} °C ± {m.extrapolation_margin_c:g} °C; the bias is '
+                f'taken live from {topics.GYRO_TEMPERATURE}'
+                + ('' if c.scale_factor_key != 'thermal_model' else
+                   '; K is the one the model was fitted with (its uncertainty is not in the '
+                   'file, so the Imu variance leaves it out)'))
+            if not self.gyro_id:
+                self.log.warning('parameter gyro_id is not set: the thermal model\'s '
+                                 'gyro identity is not checked.')
+        elif not c.bias_known:
+            self.log.warning('the calibration has no bias_rad_s'
+                             + (' (fog_bias_rad_s)' if c.is_fog else '')
+                             + ': the rates are NOT bias-corrected (calibrate with the site '
+                             'latitude).')
+        if c.angle_random_walk_rad_per_sqrt_s == 0.0:
+            self.log.warning('the calibration has no angle_random_walk_rad_per_sqrt_s: '
+                             'the Imu variance holds quantisation, K and bias only.')
+
+    def _load_triad(self, path: str) -> None:
+        cal = load_imu_calibration(path)
+        model = triad_rate_model(cal, source=f'calibration file {path}')
+        thermal = channel_thermal_models(cal, model)
+        old = self.triad
+        if old is not None and not thermal and not old.thermal:
+            old.model = model  # keep the reference sample
+        else:
+            self.triad = TriadRateConverter(model, thermal,
+                                            thermal_max_age_s=self.thermal_max_age_s,
+                                            equal=self.equal_variances)
+        self.converter = None
+        k = ', '.join(f'{c} {v:.6g}' for c, v in zip(
+            model.channels, model.scale_factor_rad_per_pulse, strict=True))
+        self.log.info(
+            f'triad calibration loaded from {path}: channels {list(model.channels)} '
+            f'(K = 1/|row of M⁻¹|: {k} rad/pulse), ω = M·ṅ − b with the full covariance '
+            '(METHODS §F.6)' + (', equal variances (the largest) on every axis'
+                                if self.equal_variances else '')
+            + f'; reading {IMU_PULSES}, publishing {IMU_DATA}')
+        if thermal:
+            self.log.info('thermal bias of channel(s) ' + ', '.join(
+                f'{c} from {channel_temperature_topic(c)}' for c in thermal))
+        if not model.bias_known:
+            self.log.warning('the calibration has no imu.bias_rad_s: the rates are NOT '
+                             'bias-corrected' + (f' ({cal.missing["bias_rad_s"]})'
+                                                 if 'bias_rad_s' in cal.missing else '.'))
+        no_arw = [c for c, n in zip(model.channels, model.arw_rad_per_sqrt_s, strict=True)
+                  if n == 0.0]
+        if no_arw:
+            self.log.warning(f'no angle random walk for channel(s) {", ".join(no_arw)} '
+                             '(imu.noise): their count noise is quantisation only.')
+
+    def _problem(self, message: str) -> None:
+        if message != self._last_problem:  # once per distinct problem, not every poll
+            self._last_problem = message
+            using = self.converter is not None or self.triad is not None
+            self.log.error(message + (
+                ' Keeping the calibration in use.' if using
+                else ' Nothing is published until a valid file appears.'))
+
+    # -------------------------------------------------------------- messages
+
+    def on_gyro_pulses(self, t_ns: int, names: list[str], positions: list[float]
+                       ) -> list[Output]:
+        """A /gyro/pulses message (used in single-gyro mode with a pulse gyro's file)."""
+        if self.converter is None or self.reads_fog:
+            return []
+        return self._single(t_ns, names, positions, topics.GYRO_JOINT)
+
+    def on_fog_output(self, t_ns: int, names: list[str], positions: list[float]
+                      ) -> list[Output]:
+        """A /fog/output message (used in single-gyro mode with a FOG's file)."""
+        if not self.reads_fog:
+            return []
+        return self._single(t_ns, names, positions, topics.FOG_JOINT)
+
+    def _single(self, t_ns: int, names: list[str], positions: list[float], joint: str
+                ) -> list[Output]:
+        assert self.converter is not None
+        try:
+            count = positions[names.index(joint) if names else 0]
+        except (ValueError, IndexError):
+            return self._outputs([Rejection(t_ns, f'no position for joint "{joint}" '
+                                                  f'(names {names}).')])
+        return self._outputs(self.converter.add_pulse(t_ns, count))
+
+    def on_temperature(self, t_ns: int, celsius: float, frame_id: str) -> list[Output]:
+        """A /gyro/temperature reading (single-gyro mode with a thermal model)."""
+        if self.converter is None:
+            return []
+        return self._outputs(self.converter.add_temperature(t_ns, celsius, frame_id))
+
+    def on_imu_pulses(self, t_ns: int, names: list[str], positions: list[float]
+                      ) -> list[Output]:
+        """An /imu/pulses message (triad mode)."""
+        if self.triad is None:
+            return []
+        return self._outputs(self.triad.add_pulses(t_ns, names, positions))
+
+    def on_channel_temperature(self, channel: str, t_ns: int, celsius: float,
+                               frame_id: str) -> list[Output]:
+        """A reading of /imu/<channel>/temperature (triad mode with thermal models)."""
+        if self.triad is None:
+            return []
+        return self._outputs(self.triad.add_temperature(channel, t_ns, celsius, frame_id))
+
+    def _outputs(self, outs: list[ImuAngularVelocity | Rejection]) -> list[Output]:
+        """The rates to publish, in stamp order; log why samples got none."""
+        topic = self.output
+        published: list[Output] = []
+        for out in outs:
+            if isinstance(out, Rejection) and out.reason.startswith('no thermal compensation'):
+                self._thermal_problem(out.reason)
+                continue
+            if isinstance(out, ImuAngularVelocity) and self._thermal_state:
+                self._thermal_state = ''
+                bias = self.converter.last_bias if self.converter is not None else None
+                self.log.info(
+                    f'thermal compensation resumed at stamp {out.stamp_ns} ns'
+                    + (f' (bias {bias[0] / RAD_S_PER_DEG_H:.4f} °/h)' if bias is not None
+                       else '') + f'; publishing {topic} again.')
+            if isinstance(out, Rejection):
+                self._rejected(out)
+            else:
+                published.append((topic, out))
+        return published
+
+    def _rejected(self, out: Rejection) -> None:
+        if out.reason.startswith('channel names'):
+            kind = re.sub(r'\d+', '#', out.reason)
+            n = self._refused[kind] = self._refused.get(kind, 0) + 1
+            if n % REFUSED_EVERY == 1:
+                self.log.warning(f'{IMU_PULSES}: {out.reason}'
+                                 + (f' ({n} such samples refused so far)' if n > 1 else ''))
+            return
+        self._skipped += 1
+        if self._skipped % 100 == 1:
+            self.log.warning(f'{self._skipped} pulse sample(s) skipped so far; latest: '
+                             f'{out.reason}')
+
+    def _thermal_problem(self, reason: str) -> None:
+        """Log why nothing is published, once per kind of reason (numbers aside)."""
+        kind = re.sub(r'[-+0-9.:]+', '#', reason)
+        if kind != self._thermal_state:
+            self._thermal_state = kind
+            self.log.warning(f'{reason} Publishing nothing on {self.output} until the '
+                             'thermal model can give the bias.')
