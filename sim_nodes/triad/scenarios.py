@@ -117,13 +117,15 @@ class TriadScenario:
         along the rate-table axis with 10 inner pairs (≈ 3·10⁻⁸ with this run's two) and
         2.5·10⁻⁷ for the other two (the stations alone), directions 0.04–0.06″. Remount: each
         bag measures one direction with two pairs (as the K̃ bench, 7·10⁻⁸ at three pairs);
-        the six together give the triad.
+        the six together give the triad. (test/test_triad_bags_estimator.py, bags cut naively:
+        two-axis u(K)/K 2.0, 2.3, 0.25·10⁻⁷, directions 0.03–0.05″, tilt ±0.025″; remount
+        u(K)/K 1.6–2.0·10⁻⁸, directions 0.005″.)
         """
         if self.kind == 'remount':
             return {'scale_factor_relative': [1e-7, 1e-7, 1e-7], 'sense_axis_arcsec': 0.5,
                     'bias_deg_h': 0.05}
         return {'scale_factor_relative': [1.5e-6, 1.5e-6, 1.5e-7], 'sense_axis_arcsec': 0.5,
-                'tilt_arcsec': 10.0, 'bias_deg_h': 0.05}
+                'tilt_arcsec': 0.5, 'bias_deg_h': 0.05}
 
     def expected_results(self) -> dict[str, Any]:
         """The expectations written beside the committed bag: truth, tolerances, counts."""
@@ -159,11 +161,13 @@ class TriadScenario:
 # with n = 1. A /imu/pulses message costs ≈ 40 bytes in the bag, so 1 kHz pulses over the
 # ≈ 150 s run would make 6.8 MB: the committed bag has 500 Hz pulses and 250 Hz joint states
 # (4.6 MB; `gyro-calib simulate triad_two_axis_bench --sample-rate-hz 1000` gives 1 kHz), and
-# the position table turns at 90 °/s (≈ 22 s a station).
+# the position table turns at 90 °/s (≈ 22 s a station), accelerating at 400 °/s² so that the
+# reference mark (37°) is crossed at constant rate in each run's first turn.
 _TABLE = RateTableConfig(sample_rate_hz=500.0, joint_state_decimation=2, seed=61)
 _GYROS = TriadConfig(seed=61)
 _MOUNT = TriadMountConfig(tilt_error_arcsec=12.0)
-_PROCEDURE = ThetaProcedureConfig(position_table_rate_deg_s=90.0, seed=61)
+_PROCEDURE = ThetaProcedureConfig(position_table_rate_deg_s=90.0, acceleration_deg_s2=400.0,
+                                  seed=61)
 # The remount bench: a single-axis table at 150 °/s, two forward/reverse pairs of 6
 # revolutions per mount, 500 Hz pulses and 250 Hz joint states.
 _REMOUNT_TABLE = RateTableConfig(sample_rate_hz=500.0, joint_state_decimation=2, seed=71)
