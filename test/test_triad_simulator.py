@@ -215,3 +215,23 @@ def test_remount_group_names_the_six_committed_mounts() -> None:
         f'triad_remount_bench_{s}' for s in ('px', 'mx', 'py', 'my', 'pz', 'mz'))
     assert {SCENARIOS[n].mount.mount_axis for n in GROUPS['triad_remount_bench']} == set(
         MOUNT_AXES)
+
+
+def test_simulate_the_remount_group_writes_one_bag_per_mount(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from gyro_calib.cli import main
+
+    out = tmp_path / 'remount'
+    assert main(['simulate', 'triad_remount_bench', '--out', str(out), '--sample-rate-hz', '50',
+                 '--seed', '9']) == 0
+    assert capsys.readouterr().out.startswith(f'wrote {out}')
+    names = sorted(p.name for p in out.iterdir())
+    assert names == sorted(GROUPS['triad_remount_bench'])
+    stored = {n: bag_info(out / n).scenario for n in names}
+    assert {s['bench']['mount_axis'] for s in stored.values()} == set(MOUNT_AXES)
+    assert len({s['gyros']['seed'] for s in stored.values()}) == 6  # independent noise
+    assert all(s['table']['sample_rate_hz'] == 50.0 for s in stored.values())
+    # the directory exists now: refused in one line, nothing written
+    assert main(['simulate', 'triad_remount_bench', '--out', str(out)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == '' and captured.err.count('\n') == 1
