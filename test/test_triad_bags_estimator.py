@@ -138,6 +138,10 @@ def _check(res: TriadResult, truth: dict[str, Any], tol: dict[str, Any]) -> None
         s = np.array([e.value for e in ch.sense_axis])
         angle = math.acos(min(1.0, float(s @ s_true[i]))) / RAD_PER_ARCSEC
         assert angle < tol['sense_axis_arcsec'], (ch.name, angle)
+        assert ch.bias_rad_s is not None, ch.bias_missing  # along s_i, Earth rate removed (§F.5)
+        bias_deg_h = ch.bias_rad_s.value / RAD_PER_ARCSEC  # ″/s = °/h
+        assert abs(bias_deg_h - truth['bias_deg_h_along_sense_axes'][i]) < tol['bias_deg_h'], (
+            ch.name, bias_deg_h)
 
 
 def test_two_axis_bag_gives_its_truth_through_the_estimator() -> None:

@@ -119,13 +119,14 @@ class TriadScenario:
         bag measures one direction with two pairs (as the K̃ bench, 7·10⁻⁸ at three pairs);
         the six together give the triad. (test/test_triad_bags_estimator.py, bags cut naively:
         two-axis u(K)/K 2.0, 2.3, 0.25·10⁻⁷, directions 0.03–0.05″, tilt ±0.025″; remount
-        u(K)/K 1.6–2.0·10⁻⁸, directions 0.005″.)
+        u(K)/K 1.6–2.0·10⁻⁸, directions 0.005″; bias along s_i ±0.015–0.020 °/h two-axis,
+        ±0.005 °/h remount.)
         """
         if self.kind == 'remount':
             return {'scale_factor_relative': [1e-7, 1e-7, 1e-7], 'sense_axis_arcsec': 0.5,
-                    'bias_deg_h': 0.05}
+                    'bias_deg_h': 0.03}
         return {'scale_factor_relative': [1.5e-6, 1.5e-6, 1.5e-7], 'sense_axis_arcsec': 0.5,
-                'tilt_arcsec': 0.5, 'bias_deg_h': 0.05}
+                'tilt_arcsec': 0.5, 'bias_deg_h': 0.1}
 
     def expected_results(self) -> dict[str, Any]:
         """The expectations written beside the committed bag: truth, tolerances, counts."""
