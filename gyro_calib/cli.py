@@ -550,11 +550,13 @@ def _methods(args: argparse.Namespace) -> int:
 
 
 def _simulate(args: argparse.Namespace) -> int:
-    from sim_nodes.scenarios import SCENARIOS
+    from sim_nodes.scenarios import GROUPS, SCENARIOS
 
     if args.list:
         for name, sc in SCENARIOS.items():
             print(f'{name:28} {sc.description}')
+        for name, members in GROUPS.items():
+            print(f'{name:28} One bag each (--out is a directory): {", ".join(members)}.')
         return EXIT_OK
     if args.scenario is None or args.out is None:
         print('gyro-calib: error: simulate needs SCENARIO and --out BAG '
@@ -564,9 +566,9 @@ def _simulate(args: argparse.Namespace) -> int:
     from sim_nodes.scenarios import scenario_parameters, write_scenario_bag_with
 
     check_new_directory(args.out, '--out')  # exists, no parent, cannot be written: refused
-    if args.scenario not in SCENARIOS:
+    if args.scenario not in SCENARIOS and args.scenario not in GROUPS:
         print(f'gyro-calib: error: unknown scenario {args.scenario!r}; known: '
-              f'{", ".join(SCENARIOS)}.', file=sys.stderr)
+              f'{", ".join([*SCENARIOS, *GROUPS])}.', file=sys.stderr)
         return EXIT_BAD_INPUT
     overrides = {k: v for k, v in (('seed', args.seed), ('duration_s', args.duration_s),
                                    ('sample_rate_hz', args.sample_rate_hz)) if v is not None}
@@ -585,7 +587,8 @@ def _simulate(args: argparse.Namespace) -> int:
 
         raise write_failed(exc, '--out', args.out) from None
     changed = ', '.join(f'{k} = {v}' for k, v in overrides.items())
-    print(f'wrote {args.out}' + (f' ({changed}; defaults: {scenario_parameters(args.scenario)})'
+    member = GROUPS.get(args.scenario, (args.scenario,))[0]
+    print(f'wrote {args.out}' + (f' ({changed}; defaults: {scenario_parameters(member)})'
                                  if changed else ''))
     return EXIT_OK
 

@@ -8,7 +8,7 @@ also publishes /position_table/joint_states and /position_table/zero_index, and 
 true motion of both tables on /sim/bench/true_motion.
 
 Parameters: every field of :class:`~sim_nodes.rate_table.RateTableConfig`, the
-``procedure.*`` fields of :class:`~sim_nodes.rbrlg.procedure.ThetaProcedureConfig`,
+``procedure.*`` fields of :class:`~sim_nodes.two_axis_procedure.ThetaProcedureConfig`,
 ``k_tilde_pairs``, ``real_time_factor`` (simulated seconds per wall second; 0 = as
 fast as the readers acknowledge), ``exit_when_done``, ``wait_for_subscribers`` and
 ``min_subscribers``.
@@ -41,11 +41,12 @@ from gyro_calib.nodes.ros_io import (
 )
 from gyro_calib.topics import relative
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator, TableChunk
-from sim_nodes.rbrlg.bench import CHUNK_SAMPLES, two_axis_simulators
-from sim_nodes.rbrlg.procedure import (
+from sim_nodes.rbrlg.bench import CHUNK_SAMPLES
+from sim_nodes.two_axis_procedure import (
     ThetaProcedureConfig,
     full_procedure_profiles,
     theta_procedure_profiles,
+    two_axis_simulators,
 )
 
 SCENARIOS = ('rate_bias', 'theta', 'full')

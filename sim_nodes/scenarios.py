@@ -14,7 +14,7 @@ from typing import Any
 
 SCENARIO_MODULES = ('sim_nodes.rbrlg.scenarios', 'sim_nodes.fog.bag_scenarios',
                     'sim_nodes.dither.bag_scenarios', 'sim_nodes.noise.bag_scenarios',
-                    'sim_nodes.thermal.bag_scenarios')
+                    'sim_nodes.thermal.bag_scenarios', 'sim_nodes.triad.scenarios')
 """The methods' scenario modules, in listing order."""
 
 
@@ -32,6 +32,12 @@ def _gather() -> dict[str, tuple[Any, Any]]:
 _ALL = _gather()
 SCENARIOS: dict[str, Any] = {name: sc for name, (sc, _) in _ALL.items()}
 """Scenario name → scenario (``.description``, ``.expected_results()``)."""
+
+GROUPS: dict[str, tuple[str, ...]] = {
+    group: members for name in SCENARIO_MODULES
+    for group, members in getattr(importlib.import_module(name), 'GROUPS', {}).items()}
+"""Names standing for several scenarios (``gyro-calib simulate NAME --out DIR``: one bag each
+in DIR), e.g. ``triad_remount_bench`` for the six mounts."""
 
 
 def write_scenario_bag(name: str, path: str | Path) -> Path:
@@ -156,7 +162,29 @@ def described_with(description: str, changed: list[tuple[str, Any, Any]]) -> str
 
 
 def write_scenario_bag_with(name: str, path: str | Path, overrides: dict[str, Any]) -> Path:
-    """Simulate scenario ``name`` with :func:`with_overrides` and write its bag at ``path``."""
+    """Simulate scenario ``name`` with :func:`with_overrides` and write its bag at ``path``.
+
+    For a group (:data:`GROUPS`), ``path`` becomes a directory holding one bag per member
+    (written under a temporary name and renamed when all are complete; a given seed becomes
+    SEED + 10·j for the j-th member, so the members' noise stays independent).
+    """
+    if name in GROUPS:
+        import shutil
+
+        path = Path(path)
+        tmp = path.with_name(f'.{path.name}.partial')
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir()
+        try:
+            for j, member in enumerate(GROUPS[name]):  # a given seed: SEED + 10·j for member j
+                own = ({**overrides, 'seed': overrides['seed'] + 10 * j} if 'seed' in overrides
+                       else overrides)
+                write_scenario_bag_with(member, tmp / member, own)
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+        tmp.rename(path)
+        return path
     _, module = _ALL[name]
     return module.write_scenario_bag(  # type: ignore[no-any-return]
         with_overrides(name, overrides), path)

@@ -20,6 +20,7 @@ from sim_nodes.rbrlg.procedure import (
 )
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
+from sim_nodes.two_axis_procedure import two_axis_simulators
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -113,26 +114,6 @@ class TwoAxisRecording:
 
 
 ThetaRecording = TwoAxisRecording
-
-
-def two_axis_simulators(rate_profile: MotionProfile, position_profile: MotionProfile,
-                        table: RateTableConfig, position_index_jitter_arcsec: float = -1.0,
-                        ) -> tuple[RateTableSimulator, RateTableSimulator]:
-    """Both tables of the two-axis bench on one clock.
-
-    Both tables of the two-axis bench on one clock; they share ``table``'s encoder and
-    sample settings. The position table's index jitter (its Δφ_ON) is
-    ``position_index_jitter_arcsec``, or the rate table's when negative.
-    """
-    import dataclasses
-
-    cfg = dataclasses.replace(table, duration_s=position_profile.duration_s)
-    jitter = (position_index_jitter_arcsec if position_index_jitter_arcsec >= 0
-              else cfg.zero_index_jitter_arcsec)
-    return (RateTableSimulator(cfg, profile=rate_profile),
-            RateTableSimulator(dataclasses.replace(cfg, seed=cfg.seed + 1000,
-                                                   zero_index_jitter_arcsec=jitter),
-                               profile=position_profile))
 
 
 def simulate_two_axis_bench(
