@@ -293,3 +293,27 @@ def test_select_input_takes_the_only_candidate_or_the_one_the_bag_stores() -> No
     assert select_input(one, CalibrationOptions(), where='b', listing='') == '/imu/data'
     stored = CalibrationOptions(scenario={'bench': {'topic': '/imu/raw'}})
     assert select_input(PRESENT, stored, where='b', listing='') == '/imu/raw'
+
+
+def test_terms_not_resolved_carry_their_2sigma_upper_bound_as_a_handoff_key(
+        imu_session: NoiseSession, tmp_path: Path) -> None:
+    """Issue 27 §1: an unresolved term's 2σ bound is machine-readable, never the term itself."""
+    from gyro_calib.handoff import load_calibration
+
+    values = imu_session.handoff_values()
+    missing = imu_session.missing()
+    bounds = {k: v for k, v in values.items() if k.endswith('_upper_bound_2sigma')}
+    k_key = imu_key('gyro_z', 'rate_random_walk_rad_per_s_sqrt_s')
+    assert k_key in missing and k_key not in values  # white noise only: K not resolved
+    assert values[k_key + '_upper_bound_2sigma'] > 0
+    for key, bound in bounds.items():
+        term = key.removesuffix('_upper_bound_2sigma')
+        assert term in missing and term not in values and bound >= 0
+    assert not any(k.removesuffix('_upper_bound_2sigma') in values for k in bounds)
+    record = imu_session.handoff('test.bag', gyro_id='imu-7')
+    assert record is not None
+    path = write_calibration(tmp_path / 'h.yaml', record)
+    loaded = load_calibration(path)
+    assert loaded.values[k_key + '_upper_bound_2sigma'] == pytest.approx(
+        values[k_key + '_upper_bound_2sigma'])
+    assert k_key in loaded.missing
