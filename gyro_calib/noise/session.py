@@ -491,8 +491,11 @@ class NoiseSession(MethodSession):
         return out
 
     def handoff_values(self) -> dict[str, Any]:
-        """The resolved terms (with ``_std``, ``_dof``) and, for each term not resolved, its
-        2σ upper bound as ``<key>_upper_bound_2sigma`` (machine-readable; issue 27 §1)."""
+        """The resolved terms, and each unresolved term's bound (``_upper_bound_2sigma``).
+
+        Resolved terms with ``_std`` and ``_dof``; for each term not resolved its 2σ upper
+        bound (METHODS §E), machine-readable for ``gyro-calib export`` (issue 27 §1).
+        """
         out = super().handoff_values()
         if out:
             for key, upper in self.upper_bounds().items():
