@@ -222,7 +222,9 @@ def test_openvins_raw_triad_stream_has_tw_times_rotation_equal_k0_m_inverse(
     text = export(triad_handoff, 'openvins', stream='raw', raw_scale_rad_per_pulse=k0)
     imu0 = read_opencv_yaml(text)['imu0']
     tw, r = np.asarray(imu0['Tw']), np.asarray(imu0['R_IMUtoGYRO'])
-    assert np.allclose(np.tril(tw, -1), 0.0) and np.all(np.diag(tw) > 0)  # kalibr model
+    assert np.allclose(np.triu(tw, 1), 0.0) and np.all(np.diag(tw) > 0)  # kalibr model
+    dw = np.linalg.inv(tw)  # OpenVINS keeps Dw's lower triangle (its kalibr model)
+    assert np.allclose(np.triu(dw, 1), 0.0, atol=1e-9 * np.abs(dw).max())
     np.testing.assert_allclose(r @ r.T, np.eye(3), atol=1e-6)
     assert np.linalg.det(r) == pytest.approx(1.0, abs=1e-6)
     np.testing.assert_allclose(tw @ r, k0 * np.linalg.inv(M_TRIAD), rtol=1e-5, atol=1e-6)

@@ -1,11 +1,12 @@
 """OpenVINS ``kalibr_imu_chain.yaml`` (``imu0:``, OpenCV ``%YAML:1.0``; METHODS §E, §F).
 
 Noise densities as Kalibr's (continuous; one per sensor, the largest axis). Intrinsics, the
-``kalibr`` model: OpenVINS takes the gyro reading as ω_m = Tw·R_IMUtoGYRO·ω_I + b + n with
-``Tw`` upper triangular. On the stream imu_corrector compensates (the default) ω_m = ω_B
+``kalibr`` model: OpenVINS takes the gyro reading as ω_m = Tw·R_IMUtoGYRO·ω_I + b + n and
+keeps the lower triangle of Dw = Tw⁻¹ (VioManagerOptions: the kalibr model), so Tw is
+written lower triangular. On the stream imu_corrector compensates (the default) ω_m = ω_B
 already: Tw = R_IMUtoGYRO = I. On a triad's raw stream published at a common scale factor
 K₀ (ω_m,i = K₀·ṅ_i, ``--raw-scale-rad-per-pulse``) the triad's ω_B = M·ṅ − b gives
-ω_m = K₀·M⁻¹·(ω_B + b): Tw·R_IMUtoGYRO = K₀·M⁻¹ (RQ decomposition), and the bias b is
+ω_m = K₀·M⁻¹·(ω_B + b): Tw·R_IMUtoGYRO = K₀·M⁻¹ (Tw lower triangular), and the bias b is
 OpenVINS's to estimate online (it has no initial-bias key). The accelerometer intrinsics
 are not measured here: Ta = R_IMUtoACC = I, Tg = 0, which OpenVINS reads as "none".
 """
@@ -25,7 +26,7 @@ from gyro_calib.export.common import (
     refuse,
 )
 from gyro_calib.export.opencv_yaml import with_header
-from gyro_calib.export.source import ExportSource, rq_rotation
+from gyro_calib.export.source import ExportSource, lower_times_rotation
 
 FORMAT = 'openvins'
 KEYS = ('T_i_b', 'accelerometer_noise_density', 'accelerometer_random_walk',
@@ -52,9 +53,9 @@ def intrinsics(src: ExportSource, options: ExportOptions) -> tuple[
         raise refuse(FORMAT, 'a raw triad stream needs the scale factor its driver publishes '
                      'the channel rates with; give --raw-scale-rad-per-pulse K0.')
     s = np.asarray(k0 * np.linalg.inv(src.imu.pulses_to_body_rad), dtype=np.float64)
-    tw, r = rq_rotation(s)
+    tw, r = lower_times_rotation(s)
     return tw, r, (f'Tw·R_IMUtoGYRO = K0·M⁻¹ (K0 = {k0:.10g} rad/pulse, M = '
-                   'imu.pulses_to_body_rad), RQ decomposition')
+                   'imu.pulses_to_body_rad), Tw lower triangular')
 
 
 def openvins_text(src: ExportSource, options: ExportOptions) -> str:
@@ -77,7 +78,7 @@ def openvins_text(src: ExportSource, options: ExportOptions) -> str:
     lines += [f'  rostopic: {options.topic}',
               '  time_offset: 0.0  # s; not measured by gyro_calib',
               f'  update_rate: {rate:.6f}  # Hz; --rate-hz',
-              '  model: kalibr  # Tw upper triangular']
+              '  model: kalibr  # OpenVINS keeps the lower triangle of Dw = Tw⁻¹']
     lines += _rows('Tw', tw, why)
     lines += _rows('R_IMUtoGYRO', r, why)
     lines += _rows('Ta', np.eye(3), 'identity: accelerometer intrinsics not measured')

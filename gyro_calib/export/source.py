@@ -222,19 +222,17 @@ def read_source(path: str | Path) -> ExportSource:
                         single)
 
 
-def rq_rotation(s: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64],
-                                                      npt.NDArray[np.float64]]:
-    """S = T·R with T upper triangular (positive diagonal) and R a rotation.
+def lower_times_rotation(s: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64],
+                                                              npt.NDArray[np.float64]]:
+    """S = T·R with T lower triangular (positive diagonal) and R a rotation (QR of Sᵀ).
 
     Raises:
         ExportError: det S ≤ 0 (no rotation R; a reversed channel).
     """
-    import scipy.linalg
-
     if not np.linalg.det(s) > 0:
         raise ExportError('the triad matrix has a non-positive determinant (a reversed '
                           'channel): it is not a scale-misalignment times a rotation. Nothing '
                           'was written.')
-    t, r = scipy.linalg.rq(s)
-    d = np.diag(np.sign(np.diag(t)))
-    return np.asarray(t @ d, dtype=float), np.asarray(d @ r, dtype=float)
+    q, u = np.linalg.qr(s.T)
+    d = np.diag(np.sign(np.diag(u)))
+    return np.asarray((d @ u).T, dtype=np.float64), np.asarray((q @ d).T, dtype=np.float64)
