@@ -3,7 +3,8 @@
 Autoware's imu_corrector subtracts ``angular_velocity_offset_<x|y|z>`` (rad/s) and writes
 ``angular_velocity_stddev_<xx|yy|zz>``² (rad/s, per message) into the message covariance.
 The per-sample standard deviation of white rate noise of density N at rate f is N·√f; the
-three are written equal (the largest axis: the consumers downstream take the largest).
+three are written equal, the largest axis's (one conservative number, as the issue asks
+where Autoware's code takes the maximum).
 On the compensated stream the offsets are 0.0: the bias — and the thermal bias, published
 live by ``thermal_bias_node`` for Autoware's ``gyro_bias_input`` — is removed upstream.
 ``acceleration_stddev`` (m/s²) is written when the accelerometers were measured.

@@ -1,4 +1,6 @@
-"""FAST-LIO ``mapping:`` covariances (ROS 2 layout; METHODS §E).
+"""FAST-LIO ``mapping:`` covariances (ROS 2 branch layout; METHODS §E).
+
+ROS 1 takes the same ``common:`` and ``mapping:`` blocks without ``/**: ros__parameters:``.
 
 FAST-LIO's filter adds Q per IMU step as a discrete covariance of the rate (and of the bias
 derivative, multiplied by Δt² in the step), so at sample rate f = 1/Δt:
