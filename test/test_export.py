@@ -335,3 +335,32 @@ class _nothing:
 
     def __exit__(self, *exc: object) -> None:
         return None
+
+
+def test_a_committed_imu_bag_exports_the_numbers_the_noise_methods_own_kalibr_file_has(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """End to end: noise run → hand-off → export; the same four densities as ``--kalibr``.
+
+    The bag's random walks are not resolved in 500 s: both files carry the 2σ bound, the
+    export reading it from the hand-off's ``_upper_bound_2sigma`` keys.
+    """
+    import gtsam
+
+    bag = Path(__file__).resolve().parents[1] / 'bags' / 'noise_imu_static'
+    handoff, own = tmp_path / 'h.yaml', tmp_path / 'k.yaml'
+    assert main(['noise', str(bag), '--kalibr', str(own), '--out', str(handoff)]) == 0
+    out = tmp_path / 'e.yaml'
+    assert main(['export', str(handoff), '--format', 'kalibr', '--out', str(out),
+                 '--rate-hz', '200']) == 0
+    capsys.readouterr()
+    mine, theirs = yaml.safe_load(out.read_text()), yaml.safe_load(own.read_text())
+    for key in ('accelerometer_noise_density', 'accelerometer_random_walk',
+                'gyroscope_noise_density', 'gyroscope_random_walk'):
+        assert mine[key] == theirs[key], key
+    assert '_upper_bound_2sigma' in out.read_text()
+    m = gtsam_matrices(export(handoff, 'gtsam'))
+    p = gtsam.PreintegrationCombinedParams.MakeSharedU(9.81)
+    p.setGyroscopeCovariance(m['gyroscope_covariance'])
+    p.setBiasOmegaCovariance(m['bias_omega_covariance'])
+    assert np.max(np.diag(p.getGyroscopeCovariance())) == pytest.approx(
+        theirs['gyroscope_noise_density'] ** 2, rel=1e-5)
