@@ -364,3 +364,24 @@ def test_a_committed_imu_bag_exports_the_numbers_the_noise_methods_own_kalibr_fi
     p.setBiasOmegaCovariance(m['bias_omega_covariance'])
     assert np.max(np.diag(p.getGyroscopeCovariance())) == pytest.approx(
         theirs['gyroscope_noise_density'] ** 2, rel=1e-5)
+
+
+def test_triad_noise_follows_each_channel_to_the_body_axis_its_sense_axis_is_along(
+        tmp_path: Path) -> None:
+    """Channels in any order: channel 'a' senses body z, 'b' x, 'c' y."""
+    from gyro_calib.export.source import read_source
+
+    axes = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    noise = {c: {'angle_random_walk_rad_per_sqrt_s': n,
+                 'angle_random_walk_rad_per_sqrt_s_std': 1e-7}
+             for c, n in (('a', 3e-4), ('b', 1e-4), ('c', 2e-4))}
+    imu = ImuCalibration(('a', 'b', 'c'), sense_axes=axes, sense_axes_std_rad=np.zeros(3),
+                         noise=noise)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        section = imu.to_section()
+    section.pop('misalignment_rad')  # s_ij/s_ii: undefined for a permuted triad (s_ii = 0)
+    path = tmp_path / 't.yaml'
+    path.write_text(yaml.safe_dump({'format_version': 4, 'imu': section}))
+    src = read_source(path)
+    assert {a: src.gyro[a]['N'].value for a in 'xyz'} == {'x': 1e-4, 'y': 2e-4, 'z': 3e-4}
+    assert src.gyro['z']['N'].key == 'imu.noise.a.angle_random_walk_rad_per_sqrt_s'

@@ -160,6 +160,22 @@ def load_yaml_mapping(path: Path) -> dict[str, Any]:
     return data
 
 
+def channel_of_axis(imu: ImuCalibration) -> dict[str, str]:
+    """Body axis → the channel whose sense axis lies along it (row order without axes).
+
+    The channel i with the largest |s_i| component on the axis (sense axes of a triad are
+    within a few degrees of body axes, in any order); row i ↔ axis i when the section has no
+    sense axes or they are not a permutation of the body axes.
+    """
+    default = dict(zip(AXES, imu.channels))
+    if imu.sense_axes is None:
+        return default
+    picks = np.argmax(np.abs(imu.sense_axes), axis=1)
+    if len(set(int(p) for p in picks)) != 3:
+        return default
+    return {AXES[int(p)]: imu.channels[i] for i, p in enumerate(picks)}
+
+
 def read_source(path: str | Path) -> ExportSource:
     """Read a hand-off file for export (see the module docstring).
 
@@ -189,11 +205,13 @@ def read_source(path: str | Path) -> ExportSource:
     gyro: dict[str, dict[str, Term]] = {a: {} for a in AXES}
     accel: dict[str, dict[str, Term]] = {a: {} for a in AXES}
     single = ''
+    along = channel_of_axis(imu) if imu is not None else {}
     for i, axis in enumerate(AXES):
         for sym, key in GYRO_TERMS.items():
             term = None
-            if imu is not None and imu.channels[i] in imu.noise:
-                term = _term(imu.noise[imu.channels[i]], key, f'imu.noise.{imu.channels[i]}.')
+            ch = along.get(axis)
+            if imu is not None and ch is not None and ch in imu.noise:
+                term = _term(imu.noise[ch], key, f'imu.noise.{ch}.')
             if term is None:
                 term = _term(values, f'imu_gyro_{axis}_{key}', 'gyro.')
             if term is None and imu is None:
