@@ -63,13 +63,14 @@ class ThermalBiasNode(Node):
         if not path:
             raise ConfigError('parameter calibration_file is not set: give the hand-off YAML '
                               'with a thermal_model (-p calibration_file:=/path/gyro.yaml).')
-        calibration = pulse_calibration(load_calibration(path, handoff_schema()),
-                                        gyro_id=str(self.get_parameter('gyro_id').value))
-        model = calibration.thermal_model
-        if model is None:
+        loaded = load_calibration(path, handoff_schema())
+        if 'thermal_model' not in loaded.values:
             raise ConfigError(f'{path} holds no thermal_model: there is no live bias to '
                               'publish (a constant bias goes in angular_velocity_offset_*; '
                               'gyro-calib export --format autoware).')
+        model = pulse_calibration(loaded, gyro_id=str(self.get_parameter('gyro_id').value)
+                                  ).thermal_model
+        assert model is not None
         self.frame_id = str(self.get_parameter('frame_id').value)
         self.pub = self.create_publisher(Vector3Stamped, relative(THERMAL_BIAS), BIAS_QOS)
         self.core = ThermalBiasPublisher(
