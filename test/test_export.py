@@ -358,6 +358,9 @@ def test_a_committed_imu_bag_exports_the_numbers_the_noise_methods_own_kalibr_fi
                 'gyroscope_noise_density', 'gyroscope_random_walk'):
         assert mine[key] == theirs[key], key
     assert '_upper_bound_2sigma' in out.read_text()
+    # without --rate-hz: the noise run's own sample rate, as its Kalibr file has it
+    plain = yaml.safe_load(export_text(handoff, 'kalibr', ExportOptions()))
+    assert plain['update_rate'] == pytest.approx(theirs['update_rate'], abs=1e-6)
     m = gtsam_matrices(export(handoff, 'gtsam'))
     p = gtsam.PreintegrationCombinedParams.MakeSharedU(9.81)
     p.setGyroscopeCovariance(m['gyroscope_covariance'])

@@ -44,7 +44,8 @@ def add_commands(sub: Any) -> None:
                    help='the file to write (replaced atomically if it exists)')
     p.add_argument('--rate-hz', type=_positive, metavar='HZ',
                    help='IMU sample rate the consumer receives (kalibr/openvins update_rate; '
-                   'fast-lio, autoware, robot-localization per-sample covariances)')
+                   'fast-lio, autoware, robot-localization per-sample covariances); default: '
+                   'the noise run\'s sample rate, where the hand-off keeps its curves')
     p.add_argument('--topic', default='/imu/data',
                    help='sensor_msgs/Imu topic the consumer subscribes to (default /imu/data)')
     p.add_argument('--stream', choices=STREAMS, default='compensated',

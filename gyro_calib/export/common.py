@@ -53,12 +53,15 @@ def refuse(fmt: str, message: str) -> ExportError:
     return ExportError(f'export --format {fmt}: {message} Nothing was written.')
 
 
-def need_rate(fmt: str, options: ExportOptions, what: str) -> float:
-    """The sample rate, or a refusal naming why the consumer needs it."""
-    if options.rate_hz is None:
-        raise refuse(fmt, f'{what} needs the IMU sample rate; give --rate-hz HZ (the rate of '
-                     f'{options.topic}).')
-    return options.rate_hz
+def need_rate(src: ExportSource, fmt: str, options: ExportOptions,
+              what: str) -> tuple[float, str]:
+    """The sample rate and where it came from (--rate-hz, else the noise run's), or a refusal."""
+    if options.rate_hz is not None:
+        return options.rate_hz, '--rate-hz'
+    if src.sample_rate_hz is not None:
+        return src.sample_rate_hz, 'the noise run\'s sample rate, 1/τ₀ of methods.noise.deviations'
+    raise refuse(fmt, f'{what} needs the IMU sample rate and the hand-off does not hold it '
+                 f'(no noise run\'s curves); give --rate-hz HZ (the rate of {options.topic}).')
 
 
 def axis_terms(src: ExportSource, fmt: str, sensor: str, sym: str,

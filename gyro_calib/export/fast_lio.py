@@ -32,10 +32,10 @@ def fast_lio_text(src: ExportSource, options: ExportOptions) -> str:
              ('b_acc_cov', 'accel', 'K', '(m/s^3)^2'), ('b_gyr_cov', 'gyro', 'K', '(rad/s^2)^2'))
     got = [(key, unit, *largest(src, FORMAT, sensor, sym, key))
            for key, sensor, sym, unit in slots]
-    rate = need_rate(FORMAT, options, 'a discrete covariance')
+    rate, rate_from = need_rate(src, FORMAT, options, 'a discrete covariance')
     body = ['/**:', '  ros__parameters:', '    common:', f'      imu_topic: "{options.topic}"',
             '    mapping:']
     for key, unit, value, why in got:
         body.append(f'      {key}: {number(value ** 2 * rate)}  # {unit}; {why}; squared × '
-                    f'f = {rate:g} Hz (discrete, per sample)')
+                    f'f = {rate:g} Hz ({rate_from}; discrete, per sample)')
     return '\n'.join(header(src, FORMAT, options) + body) + '\n'

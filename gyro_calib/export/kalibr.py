@@ -41,10 +41,10 @@ def kalibr_text(src: ExportSource, options: ExportOptions) -> str:
                          f'densities); {why}.')
         values.append(f'{key}: {number(value)}  # {unit}; {why}; continuous density, same '
                       'number')
-    rate = need_rate(FORMAT, options, 'update_rate')
+    rate, rate_from = need_rate(src, FORMAT, options, 'update_rate')
     lines = header(src, FORMAT, options, ['Kalibr takes one density per sensor: the largest '
                                           'axis (under-stating noise biases its fit).'])
     lines += values
     lines += [f'rostopic: {options.topic}',
-              f'update_rate: {rate:.6f}  # Hz; --rate-hz']
+              f'update_rate: {rate:.6f}  # Hz; {rate_from}']
     return '\n'.join(lines) + '\n'

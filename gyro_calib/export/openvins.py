@@ -69,7 +69,7 @@ def openvins_text(src: ExportSource, options: ExportOptions) -> str:
     for key, sensor, sym, unit in slots:
         value, why = largest(src, FORMAT, sensor, sym, key)
         values.append(f'  {key}: {number(value)}  # {unit}; {why}; continuous density')
-    rate = need_rate(FORMAT, options, 'update_rate')
+    rate, rate_from = need_rate(src, FORMAT, options, 'update_rate')
     tw, r, why = intrinsics(src, options)
     lines = header(src, FORMAT, options)
     lines += ['imu0:']
@@ -77,7 +77,7 @@ def openvins_text(src: ExportSource, options: ExportOptions) -> str:
     lines += values
     lines += [f'  rostopic: {options.topic}',
               '  time_offset: 0.0  # s; not measured by gyro_calib',
-              f'  update_rate: {rate:.6f}  # Hz; --rate-hz',
+              f'  update_rate: {rate:.6f}  # Hz; {rate_from}',
               '  model: kalibr  # OpenVINS keeps the lower triangle of Dw = Tw⁻¹']
     lines += _rows('Tw', tw, why)
     lines += _rows('R_IMUtoGYRO', r, why)

@@ -94,6 +94,8 @@ class ExportSource:
         imu: the triad's section, or None.
         upstream: what the raw stream still needs from upstream: (what, key) pairs.
         single_gyro_note: set when one gyro's terms stand for all three axes.
+        sample_rate_hz: the noise run's sample rate, 1/τ₀ of its stored curves
+            (``methods.noise.deviations``: τ₀ = tau_s[0]/m[0]); None without them.
     """
 
     path: str
@@ -105,6 +107,7 @@ class ExportSource:
     imu: ImuCalibration | None = None
     upstream: tuple[tuple[str, str], ...] = ()
     single_gyro_note: str = ''
+    sample_rate_hz: float | None = None
 
     def why(self, key: str) -> str:
         """The hand-off's reason a key is absent, or 'not in the hand-off'."""
@@ -237,7 +240,20 @@ def read_source(path: str | Path) -> ExportSource:
         kind = 'imu'
     gyro_id = str(data.get('gyro_id') or '')
     return ExportSource(str(p), gyro_id, kind, gyro, accel, missing, imu, tuple(upstream),
-                        single)
+                        single, _noise_sample_rate(data))
+
+
+def _noise_sample_rate(data: Mapping[str, Any]) -> float | None:
+    """1/τ₀ of the noise run's stored curves (τ₀ = tau_s[0]/m[0]), or None."""
+    try:
+        deviations = data['methods']['noise']['deviations']
+        for curve in deviations.values():
+            tau0 = float(curve['tau_s'][0]) / float(curve['m'][0])
+            if math.isfinite(tau0) and tau0 > 0:
+                return 1.0 / tau0
+    except (KeyError, TypeError, ValueError, IndexError, AttributeError, ZeroDivisionError):
+        return None
+    return None
 
 
 def lower_times_rotation(s: npt.NDArray[np.float64]) -> tuple[npt.NDArray[np.float64],
