@@ -317,3 +317,30 @@ def test_terms_not_resolved_carry_their_2sigma_upper_bound_as_a_handoff_key(
     assert loaded.values[k_key + '_upper_bound_2sigma'] == pytest.approx(
         values[k_key + '_upper_bound_2sigma'])
     assert k_key in loaded.missing
+
+
+def test_a_later_run_that_resolves_a_term_drops_its_upper_bound_in_the_file(
+        tmp_path: Path) -> None:
+    """The bound follows its term in a merge: a resolved K replaces the old bound."""
+    from gyro_calib.handoff import load_calibration, update_calibration
+
+    n_key, k_key = 'angle_random_walk_rad_per_sqrt_s', 'rate_random_walk_rad_per_s_sqrt_s'
+    bound = k_key + '_upper_bound_2sigma'
+    first = method_calibration('noise', {n_key: 1e-4, n_key + '_std': 1e-6, bound: 3e-6},
+                               Provenance('a.bag', 0, 10**12, {k_key: 'not resolved.'}))
+    path = tmp_path / 'h.yaml'
+    write_calibration(path, first)
+    assert load_calibration(path).values[bound] == 3e-6
+    second = method_calibration('noise', {n_key: 1e-4, n_key + '_std': 1e-6,
+                                          k_key: 1e-6, k_key + '_std': 1e-7},
+                                Provenance('b.bag', 2 * 10**12, 3 * 10**12, {}))
+    update_calibration(path, second)
+    values = load_calibration(path).values
+    assert values[k_key] == 1e-6 and bound not in values
+    # a later run that only bounds K leaves the file's measured K, without a bound beside it
+    third = method_calibration('noise', {n_key: 1e-4, n_key + '_std': 1e-6, bound: 5e-6},
+                               Provenance('c.bag', 4 * 10**12, 5 * 10**12,
+                                          {k_key: 'not resolved.'}))
+    update_calibration(path, third)
+    values = load_calibration(path).values
+    assert values[k_key] == 1e-6 and bound not in values
