@@ -32,6 +32,7 @@ setup(
             'rlg_sim = sim_nodes.rbrlg.rlg_node:main',
             'bench_demo = gyro_calib.nodes.bench_demo:main',
             'imu_corrector = gyro_calib.nodes.imu_corrector_node:main',
+            'thermal_bias_node = gyro_calib.nodes.thermal_bias_node:main',
             'gyro-calib = gyro_calib.cli:console_main',
             'bag_recorder = gyro_calib.nodes.bag_recorder:main',
             'bag_player = gyro_calib.nodes.bag_player:main',

@@ -6,6 +6,7 @@
     gyro-calib methods | --version
     gyro-calib report HANDOFF [BAG ...] --out DIR [--spec SPEC]   (certificate, HTML + PDF)
     gyro-calib batch MANIFEST --out DIR [--workers N | --scheduler URL] [--spec SPEC]
+    gyro-calib export HANDOFF --format F --out FILE   (a navigation stack's own keys)
 
 BAG is a rosbag2 directory, the .mcap file inside one or a lone .mcap file (read with its
 own summary), or a CSV/text table of a static record (:mod:`gyro_calib.bagio.tables`). Every
@@ -50,6 +51,7 @@ EXTRA_COMMANDS: tuple[str, ...] = (
     'gyro_calib.noise.cli',
     'gyro_calib.report.cli',
     'gyro_calib.batch.cli',
+    'gyro_calib.export.cli',
 )
 """Modules that add a method's own subcommands (their parsers and code stay in the method)."""
 

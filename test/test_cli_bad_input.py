@@ -503,6 +503,7 @@ OUTPUT_FLAGS = [
     OutputFlag('simulate', '--out', 'bag', ('simulate', 'k_tilde_bench')),
     OutputFlag('report', '--out', 'dir', ('report', NO_INPUT / 'h.yaml')),
     OutputFlag('batch', '--out', 'dir', ('batch', NO_INPUT / 'fleet.yaml')),
+    OutputFlag('export', '--out', 'file', ('export', NO_INPUT / 'h.yaml', '--format', 'gtsam')),
 ]
 """Every output flag of every ``gyro-calib`` subcommand (``info`` and ``methods`` write
 nothing; ``--json`` is stdout)."""

@@ -293,3 +293,54 @@ def test_select_input_takes_the_only_candidate_or_the_one_the_bag_stores() -> No
     assert select_input(one, CalibrationOptions(), where='b', listing='') == '/imu/data'
     stored = CalibrationOptions(scenario={'bench': {'topic': '/imu/raw'}})
     assert select_input(PRESENT, stored, where='b', listing='') == '/imu/raw'
+
+
+def test_terms_not_resolved_carry_their_2sigma_upper_bound_as_a_handoff_key(
+        imu_session: NoiseSession, tmp_path: Path) -> None:
+    """Issue 27 §1: an unresolved term's 2σ bound is machine-readable, never the term itself."""
+    from gyro_calib.handoff import load_calibration
+
+    values = imu_session.handoff_values()
+    missing = imu_session.missing()
+    bounds = {k: v for k, v in values.items() if k.endswith('_upper_bound_2sigma')}
+    k_key = imu_key('gyro_z', 'rate_random_walk_rad_per_s_sqrt_s')
+    assert k_key in missing and k_key not in values  # white noise only: K not resolved
+    assert values[k_key + '_upper_bound_2sigma'] > 0
+    for key, bound in bounds.items():
+        term = key.removesuffix('_upper_bound_2sigma')
+        assert term in missing and term not in values and bound >= 0
+    assert not any(k.removesuffix('_upper_bound_2sigma') in values for k in bounds)
+    record = imu_session.handoff('test.bag', gyro_id='imu-7')
+    assert record is not None
+    path = write_calibration(tmp_path / 'h.yaml', record)
+    loaded = load_calibration(path)
+    assert loaded.values[k_key + '_upper_bound_2sigma'] == pytest.approx(
+        values[k_key + '_upper_bound_2sigma'])
+    assert k_key in loaded.missing
+
+
+def test_a_later_run_that_resolves_a_term_drops_its_upper_bound_in_the_file(
+        tmp_path: Path) -> None:
+    """The bound follows its term in a merge: a resolved K replaces the old bound."""
+    from gyro_calib.handoff import load_calibration, update_calibration
+
+    n_key, k_key = 'angle_random_walk_rad_per_sqrt_s', 'rate_random_walk_rad_per_s_sqrt_s'
+    bound = k_key + '_upper_bound_2sigma'
+    first = method_calibration('noise', {n_key: 1e-4, n_key + '_std': 1e-6, bound: 3e-6},
+                               Provenance('a.bag', 0, 10**12, {k_key: 'not resolved.'}))
+    path = tmp_path / 'h.yaml'
+    write_calibration(path, first)
+    assert load_calibration(path).values[bound] == 3e-6
+    second = method_calibration('noise', {n_key: 1e-4, n_key + '_std': 1e-6,
+                                          k_key: 1e-6, k_key + '_std': 1e-7},
+                                Provenance('b.bag', 2 * 10**12, 3 * 10**12, {}))
+    update_calibration(path, second)
+    values = load_calibration(path).values
+    assert values[k_key] == 1e-6 and bound not in values
+    # a later run that only bounds K leaves the file's measured K, without a bound beside it
+    third = method_calibration('noise', {n_key: 1e-4, n_key + '_std': 1e-6, bound: 5e-6},
+                               Provenance('c.bag', 4 * 10**12, 5 * 10**12,
+                                          {k_key: 'not resolved.'}))
+    update_calibration(path, third)
+    values = load_calibration(path).values
+    assert values[k_key] == 1e-6 and bound not in values

@@ -50,4 +50,20 @@ IMU_KEYS = tuple(
     for axis in IMU_AXES for units in (units_for_axis(axis),) for k, symbol in enumerate(SYMBOLS))
 """The five terms of each of the six IMU axes (30 keys)."""
 
-HANDOFF_KEYS = SINGLE_GYRO_KEYS + IMU_KEYS
+UPPER_BOUND_SUFFIX = '_upper_bound_2sigma'
+"""``<term key>_upper_bound_2sigma``: the 2σ upper bound √(θ + 2σ(θ)) of a term the joint fit
+did not resolve (METHODS §E), same unit as the term; written only while the term is absent."""
+
+
+def upper_bound_keys(keys: tuple[HandoffKey, ...]) -> tuple[HandoffKey, ...]:
+    """The ``_upper_bound_2sigma`` twin of each term key (follows the term in a merge)."""
+    return tuple(HandoffKey(k.name + UPPER_BOUND_SUFFIX, METHOD,
+                            f'2σ upper bound of {k.description.split(" (")[0]} where the fit '
+                            'did not resolve it (absent when the term is)', 'nonnegative',
+                            has_std=False, follows=k.name,
+                            scales_with_scale_factor=k.scales_with_scale_factor)
+                 for k in keys)
+
+
+HANDOFF_KEYS = (SINGLE_GYRO_KEYS + IMU_KEYS + upper_bound_keys(SINGLE_GYRO_KEYS)
+                + upper_bound_keys(IMU_KEYS))

@@ -45,7 +45,7 @@ from gyro_calib import topics
 from gyro_calib.errors import ConfigError, InsufficientDataError, StreamError
 from gyro_calib.noise.calibrator import IMU_AXES, NoiseCalibrator
 from gyro_calib.noise.fit import NoiseFit
-from gyro_calib.noise.keys import METHOD, imu_key
+from gyro_calib.noise.keys import METHOD, UPPER_BOUND_SUFFIX, imu_key
 from gyro_calib.noise.settings import NoiseSettings
 from gyro_calib.noise.terms import SYMBOLS, units_for_axis
 from gyro_calib.session import CalibrationOptions, MethodSession
@@ -475,6 +475,32 @@ class NoiseSession(MethodSession):
             return {}
         return {self.hand_off_key(axis, key): est
                 for axis, terms in view.results().items() for key, est in terms.items()}
+
+    def upper_bounds(self) -> dict[str, float]:
+        """2σ upper bounds of the terms not resolved, by hand-off key (METHODS §E; SI)."""
+        view = self.view
+        if view is None:
+            return {}
+        out: dict[str, float] = {}
+        for axis, res in view.axis_results().items():
+            if res.fit is None:
+                continue
+            for key, upper in res.fit.upper_bounds.items():
+                if key not in res.fit.estimates and math.isfinite(upper) and upper >= 0:
+                    out[self.hand_off_key(axis, key)] = float(upper)
+        return out
+
+    def handoff_values(self) -> dict[str, Any]:
+        """The resolved terms, and each unresolved term's bound (``_upper_bound_2sigma``).
+
+        Resolved terms with ``_std`` and ``_dof``; for each term not resolved its 2σ upper
+        bound (METHODS §E), machine-readable for ``gyro-calib export`` (issue 27 §1).
+        """
+        out = super().handoff_values()
+        if out:
+            for key, upper in self.upper_bounds().items():
+                out[key + UPPER_BOUND_SUFFIX] = upper
+        return out
 
     def missing(self) -> dict[str, str]:
         """Every term not resolved (yet), by hand-off key, with the reason."""

@@ -1,0 +1,79 @@
+"""``gyro-calib export HANDOFF --format F --out FILE`` (thin: the writers are the core).
+
+    gyro-calib export HANDOFF --format {kalibr,openvins,gtsam,lio-sam,fast-lio,vins-fusion,
+                      autoware,robot-localization} --out FILE [--rate-hz HZ]
+                      [--topic TOPIC] [--stream {compensated,raw}]
+                      [--raw-scale-rad-per-pulse K0]
+
+The output path is checked before the hand-off is read; on any refusal (one line, exit 2)
+nothing is written and an existing FILE is left as it was; a FILE written is replaced
+atomically, as ``noise --kalibr`` replaces its imu.yaml.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from gyro_calib.errors import ConfigError
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f'{text!r} must be a positive number')
+    return value
+
+
+def add_commands(sub: Any) -> None:
+    """Add ``export`` to the ``gyro-calib`` subcommands."""
+    from gyro_calib.export import FORMATS, STREAMS
+
+    p = sub.add_parser('export', help="write the hand-off in a navigation stack's own keys "
+                       'and units (Kalibr, OpenVINS, GTSAM, LIO-SAM, FAST-LIO, VINS-Fusion, '
+                       'Autoware, robot_localization)')
+    p.add_argument('handoff', type=Path, metavar='HANDOFF', help='the hand-off YAML file')
+    p.add_argument('--format', required=True, choices=tuple(FORMATS), help='the consumer')
+    p.add_argument('--out', type=Path, required=True, metavar='FILE',
+                   help='the file to write (replaced atomically if it exists)')
+    p.add_argument('--rate-hz', type=_positive, metavar='HZ',
+                   help='IMU sample rate the consumer receives (kalibr/openvins update_rate; '
+                   'fast-lio, autoware, robot-localization per-sample covariances); default: '
+                   'the noise run\'s sample rate, where the hand-off keeps its curves')
+    p.add_argument('--topic', default='/imu/data',
+                   help='sensor_msgs/Imu topic the consumer subscribes to (default /imu/data)')
+    p.add_argument('--stream', choices=STREAMS, default='compensated',
+                   help='compensated (default): the consumer reads imu_corrector\'s output '
+                   '(scale factor, axes, bias, thermal applied upstream); raw: the driver\'s '
+                   'stream (refused where the consumer cannot represent the calibration)')
+    p.add_argument('--raw-scale-rad-per-pulse', type=_positive, metavar='K0',
+                   help='--stream raw, openvins, triad: the common scale factor the driver '
+                   'publishes each channel with (ω_i = K0·Δn_i/Δt)')
+    p.set_defaults(run=run_export)
+
+
+def run_export(args: argparse.Namespace) -> int:
+    """Check --out, read the hand-off, write the consumer's file; exit status."""
+    from gyro_calib.export import ExportOptions, export_text
+    from gyro_calib.outputs import check_output_file, write_text_atomically
+
+    if args.raw_scale_rad_per_pulse is not None and (args.stream != 'raw'
+                                                     or args.format != 'openvins'):
+        raise ConfigError('export: --raw-scale-rad-per-pulse applies to --format openvins '
+                          '--stream raw only; remove it. Nothing was written.')
+    out = check_output_file(args.out, '--out')
+    if args.handoff.absolute() == out:
+        raise ConfigError('export: --out is the hand-off file itself; give another file. '
+                          'Nothing was written.')
+    options = ExportOptions(rate_hz=args.rate_hz, topic=args.topic, stream=args.stream,
+                            raw_scale_rad_per_pulse=args.raw_scale_rad_per_pulse)
+    text = export_text(args.handoff, args.format, options)
+    write_text_atomically(out, text)
+    print(f'wrote {out} ({args.format}).', file=sys.stderr)
+    return 0

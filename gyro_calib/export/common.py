@@ -1,0 +1,151 @@
+"""Shared pieces of the format writers: options, the terms a consumer needs, comments.
+
+METHODS §E.5 eqs. (15)–(17). Every number an exporter writes carries a comment: the
+hand-off key it came from, its value in our (SI) units and the conversion (N in rad/√s is a
+continuous density in rad/s/√Hz; K in rad/s/√s is rad/s²/√Hz; a per-sample variance at rate
+f is N²·f). Bias instability B is never written where a random walk belongs (it is a flicker
+floor, not a random walk); a term the fit did not resolve is replaced by its 2σ upper bound,
+and the comment says so.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from gyro_calib.export.source import (
+    ACCEL_TERMS,
+    AXES,
+    GYRO_TERMS,
+    NAMES,
+    UNITS,
+    ExportError,
+    ExportSource,
+    Term,
+)
+
+STREAMS = ('compensated', 'raw')
+"""``compensated``: the consumer subscribes to gyro_calib's imu_corrector output (scale factor,
+axes, bias, thermal model applied upstream); ``raw``: to the sensor driver's own stream."""
+
+
+@dataclass(frozen=True, slots=True)
+class ExportOptions:
+    """What the hand-off does not say and a consumer needs.
+
+    Attributes:
+        rate_hz: the IMU's sample rate the consumer receives, Hz (discrete covariances,
+            update_rate); None if not given.
+        topic: the sensor_msgs/Imu topic the consumer subscribes to.
+        stream: one of :data:`STREAMS`.
+        raw_scale_rad_per_pulse: ``raw`` triad stream only: the driver's common scale factor
+            K₀ (its rate is K₀·Δn/Δt per channel), rad/pulse.
+    """
+
+    rate_hz: float | None = None
+    topic: str = '/imu/data'
+    stream: str = 'compensated'
+    raw_scale_rad_per_pulse: float | None = None
+
+
+def refuse(fmt: str, message: str) -> ExportError:
+    """The one-line refusal of format ``fmt``."""
+    return ExportError(f'export --format {fmt}: {message} Nothing was written.')
+
+
+def need_rate(src: ExportSource, fmt: str, options: ExportOptions,
+              what: str) -> tuple[float, str]:
+    """The sample rate and where it came from (--rate-hz, else the noise run's), or a refusal."""
+    if options.rate_hz is not None:
+        return options.rate_hz, '--rate-hz'
+    if src.sample_rate_hz is not None:
+        return src.sample_rate_hz, 'the noise run\'s sample rate, 1/τ₀ of methods.noise.deviations'
+    raise refuse(fmt, f'{what} needs the IMU sample rate and the hand-off does not hold it '
+                 f'(no noise run\'s curves); give --rate-hz HZ (the rate of {options.topic}).')
+
+
+def axis_terms(src: ExportSource, fmt: str, sensor: str, sym: str,
+               consumer_key: str) -> list[Term]:
+    """The term ``sym`` of each axis of ``sensor`` ('gyro' or 'accel'), or a refusal."""
+    table = src.gyro if sensor == 'gyro' else src.accel
+    terms = GYRO_TERMS if sensor == 'gyro' else ACCEL_TERMS
+    out = []
+    for axis in AXES:
+        term = table[axis].get(sym)
+        if term is None:
+            key = f'imu_{sensor}_{axis}_{terms[sym]}'
+            if sensor == 'gyro' and src.kind == 'gyro':
+                key = terms[sym]
+            if sensor == 'accel' and not any(table[a] for a in AXES):
+                raise refuse(fmt, f'{consumer_key} needs the accelerometer {NAMES[sym]} '
+                             f'({key} with the other axes), and this hand-off has no '
+                             'accelerometer term (a gyro-only calibration); run gyro-calib '
+                             'noise on the IMU\'s sensor_msgs/Imu topic with --out this '
+                             'hand-off, then export again. No zeros are written in its place.')
+            raise refuse(fmt, f'{consumer_key} needs {key} (the {sensor} {NAMES[sym]}, or its '
+                         f'{key}_upper_bound_2sigma): {src.why(key)}.')
+        out.append(term)
+    return out
+
+
+def largest(src: ExportSource, fmt: str, sensor: str, sym: str,
+            consumer_key: str) -> tuple[float, str]:
+    """The largest term over the three axes (a consumer with one scalar), and its comment."""
+    terms = axis_terms(src, fmt, sensor, sym, consumer_key)
+    best = max(terms, key=lambda t: t.value)
+    distinct = len({t.key for t in terms}) > 1
+    where = ' (largest of the three axes)' if distinct else ''
+    return best.value, best.text(UNITS[(sensor, sym)]) + where
+
+
+def bias_instability_notes(src: ExportSource) -> list[str]:
+    """Comment lines: the bias instability measured, and that it is not written."""
+    lines = []
+    for sensor, table in (('gyro', src.gyro), ('accel', src.accel)):
+        terms = [table[a]['B'] for a in AXES if 'B' in table[a]]
+        if terms:
+            best = max(terms, key=lambda t: t.value)
+            lines.append(f'{sensor} bias instability {best.text(UNITS[(sensor, "B")])} is '
+                         'a flicker floor, not a random walk: not written in any random-walk '
+                         'key.')
+    return lines
+
+
+def check_stream(src: ExportSource, fmt: str, options: ExportOptions, *,
+                 intrinsics: bool = False) -> None:
+    """Refuse a raw stream carrying what the consumer cannot represent.
+
+    With ``intrinsics`` (OpenVINS) the triad's M is representable, the rest is not.
+    """
+    if options.stream == 'compensated':
+        return
+    cannot = [(what, key) for what, key in src.upstream
+              if not (intrinsics and key == 'imu.pulses_to_body_rad')]
+    if cannot:
+        what, key = cannot[0]
+        raise refuse(fmt, f'{fmt} cannot represent {what} ({key}) on the raw stream; feed it '
+                     'the stream imu_corrector compensates upstream (--stream compensated).')
+
+
+def header(src: ExportSource, fmt: str, options: ExportOptions,
+           lines: Sequence[str] = ()) -> list[str]:
+    """The comment block every file starts with."""
+    stream = ('the stream compensated upstream by gyro_calib imu_corrector (scale factor, '
+              'axes, bias and thermal model removed there)' if options.stream == 'compensated'
+              else 'the sensor driver\'s raw stream')
+    out = [f'{fmt} parameters from gyro_calib hand-off {src.path}'
+           + (f' (gyro_id {src.gyro_id})' if src.gyro_id else '')
+           + f'; gyro-calib export --format {fmt}.',
+           f'Input: {options.topic}, {stream}.',
+           'Each number: the hand-off key it comes from, its value in SI, the conversion.']
+    if src.single_gyro_note:
+        out.append(src.single_gyro_note + '.')
+    out += list(lines)
+    out += bias_instability_notes(src)
+    return ['# ' + line for line in out]
+
+
+def number(value: float) -> str:
+    """A float YAML and OpenCV both read as a float (a dot in the mantissa)."""
+    text = f'{value:.6e}'
+    return text

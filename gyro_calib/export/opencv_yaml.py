@@ -1,0 +1,43 @@
+"""OpenCV ``FileStorage`` YAML (OpenVINS, VINS-Fusion): the ``%YAML:1.0`` header.
+
+OpenCV writes and expects a first line ``%YAML:1.0`` (a colon where YAML 1.1 has a space),
+which PyYAML rejects as a malformed directive. :func:`with_header` writes it;
+:func:`read_opencv_yaml` checks it and reads the rest as plain YAML (block mappings, flow
+sequences and ``#`` comments, the subset both OpenCV and these consumers use).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import yaml
+
+HEADER = '%YAML:1.0'
+
+
+class OpenCvYamlError(ValueError):
+    """The text is not an OpenCV YAML file (no ``%YAML:1.0`` first line, or bad YAML)."""
+
+
+def with_header(body: str) -> str:
+    """``%YAML:1.0``, a document start, then ``body``."""
+    return f'{HEADER}\n---\n{body}'
+
+
+def read_opencv_yaml(text: str) -> dict[str, Any]:
+    """The mapping of an OpenCV YAML text.
+
+    Raises:
+        OpenCvYamlError: the first line is not ``%YAML:1.0`` or the rest is not a mapping.
+    """
+    first, _, rest = text.partition('\n')
+    if first.strip() != HEADER:
+        raise OpenCvYamlError(f'the first line must be {HEADER} (OpenCV FileStorage); got '
+                              f'{first!r:.40}')
+    try:
+        data = yaml.safe_load(rest)
+    except yaml.YAMLError as exc:
+        raise OpenCvYamlError(f'not valid YAML after the header: {exc}') from None
+    if not isinstance(data, dict):
+        raise OpenCvYamlError('the document is not a mapping')
+    return data

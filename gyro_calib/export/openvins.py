@@ -1,0 +1,87 @@
+"""OpenVINS ``kalibr_imu_chain.yaml`` (``imu0:``, OpenCV ``%YAML:1.0``; METHODS §E, §F).
+
+Noise densities as Kalibr's (continuous; one per sensor, the largest axis). Intrinsics, the
+``kalibr`` model: OpenVINS takes the gyro reading as ω_m = Tw·R_IMUtoGYRO·ω_I + b + n and
+keeps the lower triangle of Dw = Tw⁻¹ (VioManagerOptions: the kalibr model), so Tw is
+written lower triangular. On the stream imu_corrector compensates (the default) ω_m = ω_B
+already: Tw = R_IMUtoGYRO = I. On a triad's raw stream published at a common scale factor
+K₀ (ω_m,i = K₀·ṅ_i, ``--raw-scale-rad-per-pulse``) the triad's ω_B = M·ṅ − b gives
+ω_m = K₀·M⁻¹·(ω_B + b): Tw·R_IMUtoGYRO = K₀·M⁻¹ (Tw lower triangular), and the bias b is
+OpenVINS's to estimate online (it has no initial-bias key). The accelerometer intrinsics
+are not measured here: Ta = R_IMUtoACC = I, Tg = 0, which OpenVINS reads as "none".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from gyro_calib.export.common import (
+    ExportOptions,
+    check_stream,
+    header,
+    largest,
+    need_rate,
+    number,
+    refuse,
+)
+from gyro_calib.export.opencv_yaml import with_header
+from gyro_calib.export.source import ExportSource, lower_times_rotation
+
+FORMAT = 'openvins'
+KEYS = ('T_i_b', 'accelerometer_noise_density', 'accelerometer_random_walk',
+        'gyroscope_noise_density', 'gyroscope_random_walk', 'rostopic', 'time_offset',
+        'update_rate', 'model', 'Tw', 'R_IMUtoGYRO', 'Ta', 'R_IMUtoACC', 'Tg')
+"""The ``imu0`` keys OpenVINS's parser asks for."""
+
+
+def _rows(name: str, m: npt.NDArray[np.float64], why: str) -> list[str]:
+    out = [f'  {name}:  # {why}']
+    out += [f'    - [{", ".join(number(float(v)) for v in row)}]' for row in m]
+    return out
+
+
+def intrinsics(src: ExportSource, options: ExportOptions) -> tuple[
+        npt.NDArray[np.float64], npt.NDArray[np.float64], str]:
+    """(Tw, R_IMUtoGYRO, why) for the stream the options name."""
+    if options.stream == 'compensated' or src.imu is None or src.imu.pulses_to_body_rad is None:
+        return np.eye(3), np.eye(3), ('identity: the stream is compensated upstream'
+                                      if options.stream == 'compensated'
+                                      else 'identity: the hand-off holds no triad M')
+    k0 = options.raw_scale_rad_per_pulse
+    if k0 is None or not k0 > 0:
+        raise refuse(FORMAT, 'a raw triad stream needs the scale factor its driver publishes '
+                     'the channel rates with; give --raw-scale-rad-per-pulse K0.')
+    s = np.asarray(k0 * np.linalg.inv(src.imu.pulses_to_body_rad), dtype=np.float64)
+    tw, r = lower_times_rotation(s)
+    return tw, r, (f'Tw·R_IMUtoGYRO = K0·M⁻¹ (K0 = {k0:.10g} rad/pulse, M = '
+                   'imu.pulses_to_body_rad), Tw lower triangular')
+
+
+def openvins_text(src: ExportSource, options: ExportOptions) -> str:
+    """The OpenVINS ``kalibr_imu_chain.yaml`` text with its ``%YAML:1.0`` header."""
+    check_stream(src, FORMAT, options, intrinsics=True)
+    slots = (('accelerometer_noise_density', 'accel', 'N', 'm/s^2/sqrt(Hz)'),
+             ('accelerometer_random_walk', 'accel', 'K', 'm/s^3/sqrt(Hz)'),
+             ('gyroscope_noise_density', 'gyro', 'N', 'rad/s/sqrt(Hz)'),
+             ('gyroscope_random_walk', 'gyro', 'K', 'rad/s^2/sqrt(Hz)'))
+    values = []
+    for key, sensor, sym, unit in slots:
+        value, why = largest(src, FORMAT, sensor, sym, key)
+        values.append(f'  {key}: {number(value)}  # {unit}; {why}; continuous density')
+    rate, rate_from = need_rate(src, FORMAT, options, 'update_rate')
+    tw, r, why = intrinsics(src, options)
+    lines = header(src, FORMAT, options)
+    lines += ['imu0:']
+    lines += _rows('T_i_b', np.eye(4), 'identity: the IMU frame is the body frame')
+    lines += values
+    lines += [f'  rostopic: {options.topic}',
+              '  time_offset: 0.0  # s; not measured by gyro_calib',
+              f'  update_rate: {rate:.6f}  # Hz; {rate_from}',
+              '  model: kalibr  # OpenVINS keeps the lower triangle of Dw = Tw⁻¹']
+    lines += _rows('Tw', tw, why)
+    lines += _rows('R_IMUtoGYRO', r, why)
+    lines += _rows('Ta', np.eye(3), 'identity: accelerometer intrinsics not measured')
+    lines += _rows('R_IMUtoACC', np.eye(3), 'identity: not measured')
+    lines += _rows('Tg', np.zeros((3, 3)), 'zero: g-sensitivity not measured')
+    return with_header('\n'.join(lines) + '\n')
