@@ -13,7 +13,8 @@ The layout (every number SI, unit in the key; ``_std`` the standard uncertainty,
       sense_axes_std_rad: [...]            # √trace C(s_i) per row: its direction's u, rad
       misalignment_rad: [[0.0, m_xy, m_xz], [m_yx, 0.0, m_yz], [m_zx, m_zy, 0.0]]
                                            # small-angle: s_i ≈ e_i + Σ_{j≠i} m_ij·e_j
-                                           # (m_ij = s_ij/s_ii), rad; the diagonal is 0
+                                           # (m_ij = s_ij/s_ii), rad; the diagonal is 0;
+                                           # absent when channel i is not along body axis i
       pulses_to_body_rad: [[...], [...], [...]]         # M = R⁻¹, rad/pulse (§F eq. (11))
       pulses_to_body_rad_covariance: [[... 9 ...] × 9]  # of vec(M), row-major, (rad/pulse)²
       bias_rad_s: [bx, by, bz]             # b in the body frame, ω_B = M·ṅ − b (§F eq. (14))
@@ -102,10 +103,17 @@ class ImuCalibration:
 
     @property
     def misalignment_rad(self) -> Array | None:
-        """m_ij = s_ij/s_ii off the diagonal, 0 on it (small-angle form), rad; or None."""
+        """m_ij = s_ij/s_ii off the diagonal, 0 on it (small-angle form), rad; or None.
+
+        None also when a channel is not nominally along its own body axis (|s_ii| not the
+        largest component of row i, e.g. channels listed as z, x, y): the small-angle form
+        about e_i does not apply, and the section then leaves the key out.
+        """
         if self.sense_axes is None:
             return None
         s = self.sense_axes
+        if np.any(np.argmax(np.abs(s), axis=1) != np.arange(3)):
+            return None
         m = s / np.diag(s)[:, None]
         np.fill_diagonal(m, 0.0)
         return m

@@ -59,3 +59,15 @@ def test_a_malformed_section_is_refused_naming_the_key(change: dict[str, object]
     with pytest.raises(ImuSectionError, match=None) as caught:
         imu_from_section(section, source='h.yaml')
     assert words in str(caught.value) and str(caught.value).startswith('h.yaml: ')
+
+
+def test_channels_not_along_their_own_body_axes_get_no_small_angle_misalignment() -> None:
+    """Channels listed z, x, y: s_ii ≈ 0, so m_ij = s_ij/s_ii would be inf; the key is left out."""
+    imu = _triad()
+    assert imu.sense_axes is not None
+    permuted = ImuCalibration(('z', 'x', 'y'), sense_axes=imu.sense_axes[[2, 0, 1]],
+                              sense_axes_std_rad=imu.sense_axes_std_rad)
+    assert permuted.misalignment_rad is None
+    section = permuted.to_section()
+    assert 'misalignment_rad' not in section and 'sense_axes' in section
+    assert imu_from_section(section).sense_axes is not None
