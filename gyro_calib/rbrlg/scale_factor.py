@@ -31,8 +31,8 @@ import numpy as np
 
 from gyro_calib.errors import InsufficientDataError, WindowError
 from gyro_calib.estimate import Estimate, Rejection
-from gyro_calib.rbrlg.windows import RevolutionWindow
 from gyro_calib.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, format_stamp
+from gyro_calib.windows import RevolutionWindow
 
 ONE_SIGMA_PROBABILITY = 0.8413447460685429
 """P(z < 1) of the standard normal: a ±1σ interval covers 68.27 %."""
