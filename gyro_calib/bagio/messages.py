@@ -26,6 +26,7 @@ CONTRACT_TYPES: dict[str, str] = {
     topics.FOG_INJECTION: JOINT_STATE,
     topics.VIBRATION_TABLE_JOINT_STATES: JOINT_STATE,
     topics.GYRO_TEMPERATURE: TEMPERATURE,
+    topics.IMU_PULSES: JOINT_STATE,
 }
 """Message type of every input topic of the contract (README "Topic contract"); the method
 registry's topics are exactly these, in this order (test/test_layers.py checks it)."""
