@@ -42,6 +42,7 @@ setup(
             'thermal_calibration_node = gyro_calib.nodes.thermal_calibration_node:main',
             'thermal_chamber_sim = sim_nodes.thermal.chamber_node:main',
             'noise_node = gyro_calib.nodes.noise_node:main',
+            'triad_calibration_node = gyro_calib.nodes.triad_calibration_node:main',
         ],
     },
 )

@@ -275,3 +275,60 @@ def test_paper_bench_precision_is_reported() -> None:
     for ch in r.channels:
         assert ch.sense_axis_covariance is not None
         assert math.sqrt(np.trace(ch.sense_axis_covariance)) / ARCSEC < 0.5
+
+
+def test_the_node_path_gives_the_offline_numbers_bit_for_bit() -> None:
+    """The node's input path gives the offline numbers, bit for bit.
+
+    Messages go through the node's LiveInputs as triad_calibration_node receives them (three
+    joints per /imu/pulses message, their names kept as the channel names).
+    """
+    from builtin_interfaces.msg import Time
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Header
+
+    from gyro_calib.nodes.method_node import LiveInputs
+
+    bench = Bench(inner_pairs=1, inner_turns=1, pulse_hz=500.0,
+                  stations_rad=(0.0, 2 * math.pi / 3, 4 * math.pi / 3))
+    triad = random_triad(np.random.default_rng(4))
+    rec = record(bench, triad, np.random.default_rng(4))
+    offline = TriadSession(options(bench))
+    for batch in batches(rec):
+        offline.feed(batch)
+    offline.process(flush=True)
+
+    def stamp(ns: int) -> Time:
+        return Time(sec=int(ns // 10**9), nanosec=int(ns % 10**9))
+
+    live = LiveInputs(METHODS['triad'].topics)
+    names = ['gx', 'gy', 'gz']
+    for t, c in zip(rec.pulse_t.tolist(), rec.counts.tolist(), strict=True):
+        msg = JointState(name=names, position=c)
+        msg.header.stamp = stamp(t)
+        live.buffers[topics.IMU_PULSES].add(msg)
+    for topic, t_arr, v in ((topics.RATE_TABLE_JOINT_STATES, rec.rate_t, rec.rate),
+                            (topics.POSITION_TABLE_JOINT_STATES, rec.position_t, rec.position)):
+        for t, (a, w) in zip(t_arr.tolist(), v.tolist(), strict=True):
+            msg = JointState(name=['table'], position=[a], velocity=[w])
+            msg.header.stamp = stamp(t)
+            live.buffers[topic].add(msg)
+    for topic, t_arr in ((topics.RATE_TABLE_ZERO_INDEX, rec.rate_index),
+                         (topics.POSITION_TABLE_ZERO_INDEX, rec.position_index)):
+        for t in t_arr.tolist():
+            live.buffers[topic].add(Header(stamp=stamp(t)))
+    columns, late = live.take(flush=True)
+    assert not late
+    node_session = TriadSession(options(bench))
+    node_session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), 0))
+    node_session.process(flush=True)
+    assert node_session.channels == ('gx', 'gy', 'gz')
+    a, b = offline.triad_result, node_session.triad_result
+    assert a is not None and b is not None and a.pulses_to_body_rad is not None
+    assert b.pulses_to_body_rad is not None
+    for ca, cb in zip(a.channels, b.channels, strict=True):
+        ka, kb = ca.scale_factor_rad_per_pulse, cb.scale_factor_rad_per_pulse
+        assert ka is not None and kb is not None
+        assert (ka.value, ka.std_uncertainty) == (kb.value, kb.std_uncertainty)
+    assert [[e.value for e in row] for row in a.pulses_to_body_rad] == \
+        [[e.value for e in row] for row in b.pulses_to_body_rad]

@@ -205,6 +205,8 @@ class TopicColumns:
     stamp_ns: npt.NDArray[np.int64]
     frame_id: FrameIds
     values: dict[str, npt.NDArray[np.float64]]
+    joint_names: tuple[str, ...] = ()
+    """A multi-joint JointState topic's joint names (``messages.JOINT_WIDTHS``), else ()."""
 
     def __len__(self) -> int:
         """Messages in the batch."""

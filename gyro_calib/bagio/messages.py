@@ -31,6 +31,11 @@ CONTRACT_TYPES: dict[str, str] = {
 """Message type of every input topic of the contract (README "Topic contract"); the method
 registry's topics are exactly these, in this order (test/test_layers.py checks it)."""
 
+JOINT_WIDTHS: dict[str, int] = {topics.IMU_PULSES: 3}
+"""JointState topics whose messages carry several joints: their ``position`` column is
+(n, width), the joints in message order (the triad's three channels); every other JointState
+topic has one joint."""
+
 _TOPIC_ORDER = {name: i for i, name in enumerate(CONTRACT_TYPES)}
 
 

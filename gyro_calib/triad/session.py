@@ -558,8 +558,8 @@ class TriadSession(MethodSession):
                 raise InsufficientDataError(
                     f'{topics.IMU_PULSES} must carry three channels per message (position '
                     f'of three joints); got {pos.shape[1] if pos.ndim == 2 else 1}.')
-            names = getattr(col, 'joint_names', None)
-            if names:
+            names = col.joint_names
+            if len(names) == 3:
                 self.channels = (str(names[0]), str(names[1]), str(names[2]))
             ok = np.all(np.isfinite(pos), axis=1)
             seg.pulses.add(col.stamp_ns[ok], pos[ok])
@@ -711,6 +711,10 @@ class TriadSession(MethodSession):
                 'station_offset_deg': math.degrees(b.station_offset_rad),
                 'revolutions_per_window': self.settings.revolutions_per_window,
                 'mount_axis': ','.join(s.mount_axis for s in self._segments if s.mount_axis)}
+
+    def handoff_values(self) -> dict[str, Any]:
+        """None at the top level: the results are the ``imu:`` section (:meth:`handoff`)."""
+        return {}
 
     def imu_calibration(self) -> ImuCalibration | None:
         """The hand-off's ``imu:`` section from the result (None before any result)."""
