@@ -332,3 +332,59 @@ def test_the_node_path_gives_the_offline_numbers_bit_for_bit() -> None:
         assert (ka.value, ka.std_uncertainty) == (kb.value, kb.std_uncertainty)
     assert [[e.value for e in row] for row in a.pulses_to_body_rad] == \
         [[e.value for e in row] for row in b.pulses_to_body_rad]
+
+
+def _write_bag(path: Path, rec: Recording, bench: Bench) -> None:
+    from gyro_calib.bagio.writer import BagMessage, ContractMessages, write_bag
+
+    cdr = ContractMessages()
+    msgs = [BagMessage(topics.IMU_PULSES, t, cdr.joints_state(t, ('gx', 'gy', 'gz'), c))
+            for t, c in zip(rec.pulse_t.tolist(), rec.counts.tolist(), strict=True)]
+    for topic, joint, t_arr, v in (
+            (topics.RATE_TABLE_JOINT_STATES, 'rate_table', rec.rate_t, rec.rate),
+            (topics.POSITION_TABLE_JOINT_STATES, 'position_table', rec.position_t,
+             rec.position)):
+        msgs += [BagMessage(topic, t, cdr.joint_state(t, joint, a, w))
+                 for t, (a, w) in zip(t_arr.tolist(), v.tolist(), strict=True)]
+    for topic, t_arr in ((topics.RATE_TABLE_ZERO_INDEX, rec.rate_index),
+                         (topics.POSITION_TABLE_ZERO_INDEX, rec.position_index)):
+        msgs += [BagMessage(topic, t, cdr.header(t, '')) for t in t_arr.tolist()]
+    msgs.sort(key=lambda m: m.log_time_ns)
+    bench_settings = {'tilt_deg': math.degrees(bench.tilt_rad), 'tilt_std_arcsec': 60.0,
+                      'position_table_revolutions': bench.position_turns,
+                      'revolutions_per_window': bench.inner_turns,
+                      'latitude_deg': bench.latitude_deg, 'heading_deg': bench.heading_deg}
+    write_bag(path, msgs, scenario={'bench': bench_settings})
+
+
+def test_gyro_calib_calibrate_a_triad_bag_prints_the_summary_and_writes_format_4(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`gyro-calib calibrate BAG --method triad --out H.yaml`: the numbers of the session."""
+    import json
+
+    from gyro_calib.cli import main as gyro_calib
+
+    bench = Bench(inner_pairs=1, inner_turns=1, pulse_hz=500.0,
+                  stations_rad=(0.0, 2 * math.pi / 3, 4 * math.pi / 3))
+    triad = random_triad(np.random.default_rng(4))
+    rec = record(bench, triad, np.random.default_rng(4))
+    bag = tmp_path / 'triad_bag'
+    _write_bag(bag, rec, bench)
+    out = tmp_path / 'h.yaml'
+    assert gyro_calib(['calibrate', str(bag), '--method', 'triad', '--out', str(out)]) == 0
+    text = capsys.readouterr().out
+    assert 'K_gx (″/pulse)' in text and 'ppm' in text and 's_gz·e_x (″)' in text
+    cal = load_calibration(out)
+    assert cal.format_version == 4 and cal.imu is not None
+    assert cal.imu.channels == ('gx', 'gy', 'gz')
+    offline = TriadSession(options(bench))
+    for batch in batches(rec):
+        offline.feed(batch)
+    offline.process(flush=True)
+    imu = offline.imu_calibration()
+    assert imu is not None and cal.imu.scale_factor_rad_per_pulse is not None
+    np.testing.assert_array_equal(cal.imu.scale_factor_rad_per_pulse,
+                                  imu.scale_factor_rad_per_pulse)
+    assert gyro_calib(['calibrate', str(bag), '--method', 'triad', '--json']) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert 'imu' in json.dumps(doc)
