@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import jsonschema
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -387,4 +388,9 @@ def test_gyro_calib_calibrate_a_triad_bag_prints_the_summary_and_writes_format_4
                                   imu.scale_factor_rad_per_pulse)
     assert gyro_calib(['calibrate', str(bag), '--method', 'triad', '--json']) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert 'imu' in json.dumps(doc)
+    schema = json.loads((Path(__file__).resolve().parents[1] / 'gyro_calib' / 'schema'
+                         / 'result.schema.json').read_text())
+    jsonschema.validate(doc, schema)
+    section = doc['methods']['triad']['imu']
+    assert section['channels'] == ['gx', 'gy', 'gz']
+    assert section['scale_factor_rad_per_pulse'] == list(imu.scale_factor_rad_per_pulse)
