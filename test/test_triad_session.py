@@ -405,3 +405,40 @@ def test_gyro_calib_calibrate_a_triad_bag_prints_the_summary_and_writes_format_4
     section = doc['methods']['triad']['imu']
     assert section['channels'] == ['gx', 'gy', 'gz']
     assert section['scale_factor_rad_per_pulse'] == list(cal.imu.scale_factor_rad_per_pulse)
+
+
+def test_gyro_calib_calibrate_three_remount_bags_each_with_its_mount_axis(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Three bags on a single-axis table (+x, +y, +z up, `mount_axis` stored in each)."""
+    from gyro_calib.bagio.writer import BagMessage, ContractMessages, write_bag
+    from gyro_calib.cli import main as gyro_calib
+
+    triad = random_triad(np.random.default_rng(21))
+    cdr = ContractMessages()
+    bags = []
+    for i, axis in enumerate(('+x', '+y', '+z')):
+        rec = record(Bench(remount_axis=axis, inner_pairs=1, inner_turns=1, pulse_hz=500.0),
+                     triad, np.random.default_rng(i))
+        msgs = [BagMessage(topics.IMU_PULSES, t, cdr.joints_state(t, ('x', 'y', 'z'), c))
+                for t, c in zip(rec.pulse_t.tolist(), rec.counts.tolist(), strict=True)]
+        msgs += [BagMessage(topics.RATE_TABLE_JOINT_STATES, t,
+                            cdr.joint_state(t, 'rate_table', a, w))
+                 for t, (a, w) in zip(rec.rate_t.tolist(), rec.rate.tolist(), strict=True)]
+        msgs += [BagMessage(topics.RATE_TABLE_ZERO_INDEX, t, cdr.header(t, ''))
+                 for t in rec.rate_index.tolist()]
+        msgs.sort(key=lambda m: m.log_time_ns)
+        bags.append(tmp_path / f'remount_{axis[1]}')
+        write_bag(bags[-1], msgs, scenario={'bench': {
+            'mount_axis': axis, 'revolutions_per_window': 1, 'latitude_deg': 40.0}})
+    out = tmp_path / 'h.yaml'
+    assert gyro_calib(['calibrate', *map(str, bags), '--method', 'triad', '--out',
+                       str(out)]) == 0
+    capsys.readouterr()
+    imu = load_calibration(out).imu
+    assert imu is not None and imu.scale_factor_rad_per_pulse is not None
+    assert imu.sense_axes is not None and imu.sense_axes_std_rad is not None
+    assert imu.scale_factor_rad_per_pulse_std is not None
+    assert np.all(np.abs(imu.scale_factor_rad_per_pulse - triad.scale_factor_rad_per_pulse)
+                  < SIGMAS * imu.scale_factor_rad_per_pulse_std)
+    assert np.all(np.linalg.norm(imu.sense_axes - triad.sense_axes, axis=1)
+                  < SIGMAS * imu.sense_axes_std_rad)
