@@ -28,6 +28,7 @@ NODE_MODULES = {
     'thermal_calibration_node': 'gyro_calib.nodes.thermal_calibration_node',
     'thermal_chamber_sim': 'sim_nodes.thermal.chamber_node',
     'noise_node': 'gyro_calib.nodes.noise_node',
+    'triad_calibration_node': 'gyro_calib.nodes.triad_calibration_node',
 }
 
 

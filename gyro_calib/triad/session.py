@@ -379,8 +379,12 @@ class Bench:
 
 
 def pair_windows(settings: TriadSettings, bench: Bench, windows: list[TriadWindow], *,
-                 mount_axis: str = '') -> tuple[list[tuple[TriadPair, str]], list[Rejection]]:
+                 mount_axis: str = '', final: bool = True,
+                 ) -> tuple[list[tuple[TriadPair, str]], list[Rejection]]:
     """Consecutive forward/reverse windows about one direction → pairs (eqs. (1)–(6), (13)).
+
+    ``final``: the data ended, so windows still waiting for their reverse are unpaired (live,
+    before the end, they wait).
 
     Returns:
         (pair, axis label) in time order, and the windows left unpaired with why.
@@ -419,7 +423,7 @@ def pair_windows(settings: TriadSettings, bench: Bench, windows: list[TriadWindo
                          + f' followed it within max_pair_gap_s = {settings.max_pair_gap_s:g} s.')
             stack = []
         stack.append(w)
-    for left in stack:
+    for left in stack if final else ():
         unpaired(left, 'no opposite-direction window followed it.')
     return pairs, rejections
 
@@ -515,7 +519,7 @@ class TriadSession(MethodSession):
         self._problem = ''
         self._analysed_to_ns: int | None = None
         self._newest_ns: int | None = None
-        self._dirty = False
+        self._dirty = self._fed = False
 
     # -- input ------------------------------------------------------------------------------
     def _mount_of(self, index: int) -> str:
@@ -575,27 +579,34 @@ class TriadSession(MethodSession):
             st = batch.stamps(topic)
             if st is not None and len(st):
                 stream.add(st, np.zeros((len(st), 1)))
+        if any(len(c) for c in batch.columns.values()):
+            self._dirty = self._fed = True
 
     def _seen(self, stamp: int) -> None:
         self._newest_ns = stamp if self._newest_ns is None else max(self._newest_ns, stamp)
-        self._dirty = True
+        self._dirty = self._fed = True
 
     # -- processing -------------------------------------------------------------------------
     def process(self, *, flush: bool = False) -> list[str]:
-        """Cut windows and pairs and solve (every ``analysis_period_s`` live; at the end)."""
+        """Cut windows and pairs and solve (at the end, and live).
+
+        Live: every ``analysis_period_s`` of data, and whenever the input paused (nothing fed
+        since the last call), so the numbers at the end of the data are the offline ones.
+        """
+        fed, self._fed = self._fed, False
         if not self._dirty:
             return []
-        if not flush and self._analysed_to_ns is not None and self._newest_ns is not None \
-                and self._newest_ns - self._analysed_to_ns < self.settings.analysis_period_s \
-                * NS_PER_S:
+        if not flush and fed and self._analysed_to_ns is not None \
+                and self._newest_ns is not None and self._newest_ns - self._analysed_to_ns \
+                < self.settings.analysis_period_s * NS_PER_S:
             return []
-        self._analyse()
+        self._analyse(flush)
         self._dirty = False
         self._analysed_to_ns = self._newest_ns
         lines, self._lines = self._lines, []
         return lines
 
-    def _analyse(self) -> None:
+    def _analyse(self, final: bool) -> None:
         rejections: list[Rejection] = []
         pairs: list[tuple[TriadPair, str]] = []
         s = self.settings
@@ -620,7 +631,8 @@ class TriadSession(MethodSession):
                                             pulses=p)
                 windows += got
                 rejections += rej + rej2
-            made, rej3 = pair_windows(s, self.bench, windows, mount_axis=seg.mount_axis)
+            made, rej3 = pair_windows(s, self.bench, windows, mount_axis=seg.mount_axis,
+                                      final=final or seg is not self._segments[-1])
             pairs += made
             rejections += rej3
         new = [r for r in rejections if r not in self._rejections]
