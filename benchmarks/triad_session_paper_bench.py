@@ -2,8 +2,9 @@
 
 Run (from the repository root):
 
-    PYTHONPATH=$PWD /work/main/.venv/bin/python benchmarks/triad_session_paper_bench.py          # ~3 min
-    PYTHONPATH=$PWD /work/main/.venv/bin/python benchmarks/triad_session_paper_bench.py --quick  # ~30 s
+    PYTHONPATH=$PWD python benchmarks/triad_session_paper_bench.py           # 20 runs, ~1 min
+    PYTHONPATH=$PWD python benchmarks/triad_session_paper_bench.py --quick   # 3 runs
+    PYTHONPATH=$PWD python benchmarks/triad_session_paper_bench.py --encoder-counts-per-rev 8388608
 
 Unlike benchmarks/triad_precision.py (the estimator fed pairs with ±½-pulse end errors), the
 streams here go through the session: counts quantised at 1 kHz, encoders at 250 Hz, zero-index
@@ -38,7 +39,8 @@ from gyro_calib.triad.session import TriadSession  # noqa: E402
 K_PAPER = 0.8428 * ARCSEC
 
 
-def one_run(seed: int, inner_pairs: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def one_run(seed: int, inner_pairs: int, encoder_counts_per_rev: int = 0,
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(|ΔK/K|, stated u(K)/K, |Δs| ″, stated √trace C(s) ″) per gyro for one run."""
     rng = np.random.default_rng(seed)
     t = random_triad(rng)
@@ -46,7 +48,8 @@ def one_run(seed: int, inner_pairs: int) -> tuple[np.ndarray, np.ndarray, np.nda
     rate = math.radians(150.0)
     bench = Bench(inner_pairs=inner_pairs, inner_turns=5, outer_rate_rad_s=rate,
                   outer_accel_rad_s2=2 * rate, outer_margin_turns=0.6,
-                  index_jitter_s=0.1 * ARCSEC / rate)
+                  index_jitter_s=0.1 * ARCSEC / rate,
+                  encoder_counts_per_rev=encoder_counts_per_rev)
     rec = record(bench, triad, rng)
     session = TriadSession(CalibrationOptions(
         latitude_deg=bench.latitude_deg, heading_deg=bench.heading_deg,
@@ -74,14 +77,17 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--quick', action='store_true', help='3 runs instead of 20')
     parser.add_argument('--inner-pairs', type=int, default=10)
+    parser.add_argument('--encoder-counts-per-rev', type=int, default=0,
+                        help='quantise both encoders (e.g. 8388608 = 2^23); 0 = exact')
     args = parser.parse_args()
     runs = 3 if args.quick else 20
     rows = []
     start = time.perf_counter()
-    print(f'paper bench through the session, {args.inner_pairs} inner pairs of 5 turns')
+    print(f'paper bench through the session, {args.inner_pairs} inner pairs of 5 turns, '
+          f'encoder {args.encoder_counts_per_rev or "exact"} counts/rev')
     print('seed | |ΔK/K| x, y, z | u(K)/K x, y, z | |Δs| ″ x, y, z | u(s) ″ x, y, z')
     for seed in range(runs):
-        dk, uk, ds, us = one_run(seed, args.inner_pairs)
+        dk, uk, ds, us = one_run(seed, args.inner_pairs, args.encoder_counts_per_rev)
         rows.append((dk, uk, ds, us))
         print(f'{seed:4d} | ' + ' '.join(f'{v:.1e}' for v in dk) + ' | '
               + ' '.join(f'{v:.1e}' for v in uk) + ' | '

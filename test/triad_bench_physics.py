@@ -93,6 +93,8 @@ class Bench:
     pulse_hz: float = 1000.0
     encoder_hz: float = 250.0
     index_jitter_s: float = 0.0
+    encoder_counts_per_rev: int = 0
+    """Encoder resolution (angle quantised to whole counts); 0 = exact angles."""
     with_position_table: bool = True
     remount_axis: str = ''
 
@@ -250,10 +252,17 @@ def record(bench: Bench, triad: Triad, rng: np.random.Generator) -> Recording:
     rate_index = jitter(_index(t, beta, bench.rate_mark_rad))
     pos_index = jitter(_index(t, chi, bench.position_mark_rad))
     with_pos = bench.with_position_table and not bench.remount_axis
+    def encoder(angle: Array) -> Array:
+        if bench.encoder_counts_per_rev > 0:
+            step = 2 * math.pi / bench.encoder_counts_per_rev
+            return np.round(angle / step) * step
+        return angle
+
     return Recording(
-        ns(t), counts, ns(te), np.column_stack((beta[::enc_stride], beta_rate[::enc_stride])),
+        ns(t), counts, ns(te),
+        np.column_stack((encoder(beta[::enc_stride]), beta_rate[::enc_stride])),
         ns(rate_index),
         ns(te) if with_pos else np.zeros(0, np.int64),
-        np.column_stack((chi[::enc_stride], chi_rate[::enc_stride])) if with_pos
+        np.column_stack((encoder(chi[::enc_stride]), chi_rate[::enc_stride])) if with_pos
         else np.zeros((0, 2)),
         ns(pos_index) if with_pos else np.zeros(0, np.int64))
