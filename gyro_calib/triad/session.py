@@ -380,18 +380,20 @@ class Bench:
 
 def pair_windows(settings: TriadSettings, bench: Bench, windows: list[TriadWindow], *,
                  mount_axis: str = '', final: bool = True,
-                 ) -> tuple[list[tuple[TriadPair, str]], list[Rejection]]:
+                 ) -> tuple[list[tuple[TriadPair, str]], list[Rejection], int]:
     """Consecutive forward/reverse windows about one direction → pairs (eqs. (1)–(6), (13)).
 
     ``final``: the data ended, so windows still waiting for their reverse are unpaired (live,
     before the end, they wait).
 
     Returns:
-        (pair, axis label) in time order, and the windows left unpaired with why.
+        (pair, axis label) in time order, the windows left unpaired with why, and the end
+        stamp of the last paired window (0 without pairs).
     """
     pairs: list[tuple[TriadPair, str]] = []
     rejections: list[Rejection] = []
     stack: list[TriadWindow] = []
+    last_end = 0
     station_tol = math.radians(0.01)
     gap_ns = int(settings.max_pair_gap_s * NS_PER_S)
 
@@ -415,6 +417,7 @@ def pair_windows(settings: TriadSettings, bench: Bench, windows: list[TriadWindo
                 rejections.append(Rejection(w.start_ns, made))
             else:
                 pairs.append(made)
+                last_end = max(last_end, w.end_ns)
             continue
         if stack and not (same_place(stack[-1], w) and stack[-1].direction == w.direction):
             for left in stack:
@@ -425,7 +428,7 @@ def pair_windows(settings: TriadSettings, bench: Bench, windows: list[TriadWindo
         stack.append(w)
     for left in stack if final else ():
         unpaired(left, 'no opposite-direction window followed it.')
-    return pairs, rejections
+    return pairs, rejections, last_end
 
 
 def _pair(bench: Bench, a: TriadWindow, b: TriadWindow,
@@ -520,6 +523,7 @@ class TriadSession(MethodSession):
         self._analysed_to_ns: int | None = None
         self._newest_ns: int | None = None
         self._dirty = self._fed = False
+        self._last_end_ns = 0
 
     # -- input ------------------------------------------------------------------------------
     def _mount_of(self, index: int) -> str:
@@ -609,6 +613,7 @@ class TriadSession(MethodSession):
     def _analyse(self, final: bool) -> None:
         rejections: list[Rejection] = []
         pairs: list[tuple[TriadPair, str]] = []
+        last_end = 0
         s = self.settings
         for seg in self._segments:
             p = seg.pulses.arrays(3)
@@ -631,14 +636,16 @@ class TriadSession(MethodSession):
                                             pulses=p)
                 windows += got
                 rejections += rej + rej2
-            made, rej3 = pair_windows(s, self.bench, windows, mount_axis=seg.mount_axis,
+            made, rej3, end = pair_windows(s, self.bench, windows, mount_axis=seg.mount_axis,
                                       final=final or seg is not self._segments[-1])
             pairs += made
+            last_end = max(last_end, end)
             rejections += rej3
         new = [r for r in rejections if r not in self._rejections]
         self._lines += [f'rejected: {r.reason}' for r in new]
         self._rejections = rejections
         self._pairs = pairs
+        self._last_end_ns = last_end
         outer = any(label.startswith('station') for _, label in pairs)
         params = (BenchParameter(TILT, self.bench.tilt_std_rad, fitted=True),) if outer else ()
         use = [pr if outer else dataclasses.replace(pr, direction_sensitivity=None)
@@ -708,11 +715,10 @@ class TriadSession(MethodSession):
         return list(self._rejections)
 
     def data_span_ns(self) -> tuple[int, int] | None:
-        """First to last stamp of the pairs' windows."""
+        """From the start of the first paired window to the end of the last."""
         if not self._pairs:
             return None
-        starts = [p.stamp_ns for p, _ in self._pairs]
-        return min(starts), max(starts)
+        return min(p.stamp_ns for p, _ in self._pairs), self._last_end_ns
 
     def conditions(self) -> dict[str, Any]:
         """The bench settings the result rests on."""
