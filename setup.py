@@ -44,6 +44,7 @@ setup(
             'thermal_chamber_sim = sim_nodes.thermal.chamber_node:main',
             'noise_node = gyro_calib.nodes.noise_node:main',
             'triad_sim = sim_nodes.triad.triad_node:main',
+            'triad_calibration_node = gyro_calib.nodes.triad_calibration_node:main',
         ],
     },
 )

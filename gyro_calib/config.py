@@ -166,6 +166,15 @@ BENCH_SETTINGS: dict[str, BenchSetting] = {s.name: s for s in (
     BenchSetting('fog_scale_factor_counts_per_rad', 'counts/rad', "A FOG's scale factor "
                  '(angle = count / SF), counts/rad.', low=0.0, low_open=True),
     BenchSetting('gyro_id', '', "The gyro's serial or name (hand-off identity).", kind=str),
+    BenchSetting('tilt_deg', '°', 'Triad: nominal tilt α between the rate-table axis and the '
+                 '(vertical) position-table axis, ° (METHODS §F.1); needed for station pairs.',
+                 low=0.0, high=90.0, low_open=True),
+    BenchSetting('tilt_std_arcsec', '″', 'Triad: stated standard uncertainty of the tilt α, ″ '
+                 '(the prior of its fit). Default 60.', low=0.0, high=36000.0, low_open=True),
+    BenchSetting('station_offset_deg', '°', 'Triad: ψ₀, the rate-table encoder zero from the '
+                 'tilt plane (β = ψ + ψ₀), °. Default 0.', low=-360.0, high=360.0),
+    BenchSetting('mount_axis', '', 'Triad, single-axis table (one bag per mount): the body axis '
+                 'along the table axis, pointing up: +x, -x, +y, -y, +z or -z.', kind=str),
 )}
 """Every bench setting, by name: the one range check of flags, config files, node parameters
 and the bench settings stored in bags."""

@@ -54,3 +54,17 @@ class Estimate:
     def relative_uncertainty(self) -> float:
         """Standard uncertainty divided by |value| (dimensionless)."""
         return self.std_uncertainty / abs(self.value)
+
+
+ONE_SIGMA_PROBABILITY = 0.8413447460685429
+"""P(z < 1) of the standard normal: a ±1σ interval covers 68.27 %."""
+
+
+def student_t_factor(dof: int) -> float:
+    """The t such that ±t·s/√n covers the mean as often as ±1σ covers a normal value (dof ≥ 1).
+
+    Shared by the methods (docs/methods.md §A eq. (3d), §F.5).
+    """
+    from scipy.stats import t
+
+    return float(t.ppf(ONE_SIGMA_PROBABILITY, dof))

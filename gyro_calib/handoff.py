@@ -88,16 +88,26 @@ import tempfile
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypedDict
+from typing import Any, NotRequired, TypedDict
 
 import yaml
 
 from gyro_calib import __version__
 from gyro_calib.errors import GyroCalibError
+from gyro_calib.imu_calibration import ImuCalibration, ImuSectionError, imu_from_section
 from gyro_calib.outputs import new_file_mode
 
 FORMAT_VERSION = 3
-"""The layout version this module writes; formats 1 and 2 are still read."""
+"""The layout version this module writes for one gyro; formats 1 and 2 are still read."""
+
+IMU_FORMAT_VERSION = 4
+"""The layout version of a file with an ``imu:`` section (a triad, METHODS §F; the section's
+layout: :mod:`gyro_calib.imu_calibration`); formats 1–3 are still read."""
+
+READ_VERSIONS = (1, 2, FORMAT_VERSION, IMU_FORMAT_VERSION)
+
+IMU_METHODS = ('triad',)
+"""Methods whose results are the ``imu:`` section (no top-level keys of their own)."""
 
 CONVENTIONS: dict[str, str] = {
     'axis': "every rate, angle and bias is about the gyro's sense (input) axis, positive "
@@ -278,6 +288,7 @@ class Calibration:
     gyro_id: str = ''
     gyro_calib_version: str = __version__
     format_version: int = FORMAT_VERSION
+    imu: ImuCalibration | None = None
 
     @property
     def missing(self) -> dict[str, str]:
@@ -377,7 +388,13 @@ class Calibration:
         for method, prov in self.methods.items():
             methods[method] = _merge_method(method, prov, self.values, older, values, schema,
                                             replace, lines)
-        merged = Calibration(values, methods, self.gyro_id or older.gyro_id)
+        imu = older.imu
+        if self.imu is not None:
+            imu = self.imu
+            lines.append('imu: the file\'s imu section (' + _imu_run(older) + ') replaced by '
+                         'this run\'s.' if older.imu is not None else
+                         'imu: added (K, sense axes, M and b of the triad).')
+        merged = Calibration(values, methods, self.gyro_id or older.gyro_id, imu=imu)
         findings = scale_factor_findings(merged, schema, new_methods=self.methods)
         while findings.problem and replace and findings.stale is not None:
             merged = _without_run(merged, *findings.stale, schema, lines)
@@ -392,6 +409,12 @@ class Calibration:
             lines.append(f'unchanged: {n} key(s) of method(s) {", ".join(others)}.')
         lines.extend(findings.notes)
         return merged
+
+
+def _imu_run(calibration: Calibration) -> str:
+    """The run the file's imu section came from, as a phrase."""
+    from_triad = calibration.methods.get('triad')
+    return f'run {from_triad.label()}' if from_triad is not None else 'an earlier run'
 
 
 def _without_run(calibration: Calibration, method: str, run: Provenance, why: str,
@@ -831,7 +854,7 @@ class ProvenanceYaml(TypedDict, total=False):
 
 
 class CalibrationYaml(TypedDict):
-    """On-disk shape of the whole hand-off file, format 3 (see the module docstring)."""
+    """On-disk shape of the whole hand-off file, format 3 or 4 (see the module docstring)."""
 
     format_version: int
     gyro_calib_version: str
@@ -841,11 +864,12 @@ class CalibrationYaml(TypedDict):
     missing: dict[str, str]
     not_measurable: dict[str, str]
     gyro: dict[str, Any]
+    imu: NotRequired[dict[str, Any]]
     methods: dict[str, ProvenanceYaml]
 
 
 _TOP_LEVEL = ('format_version', 'gyro_calib_version', 'gyro_id', 'conventions', 'complete',
-              'missing', 'not_measurable', 'gyro', 'methods')
+              'missing', 'not_measurable', 'gyro', 'imu', 'methods')
 _PROVENANCE_KEYS = ('source', 'created_utc', 'data_start_stamp_ns', 'data_end_stamp_ns',
                     'missing', 'conditions', 'keys', 'earlier_runs', 'deviations')
 
@@ -890,12 +914,20 @@ def calibration_to_yaml_dict(calibration: Calibration,
         entry = _run_yaml(prov, name, calibration, sch)
         entry['earlier_runs'] = [_run_yaml(e, name, calibration, sch) for e in prov.earlier]
         methods[name] = entry
-    return CalibrationYaml(
+    out = CalibrationYaml(
         format_version=FORMAT_VERSION, gyro_calib_version=calibration.gyro_calib_version,
         gyro_id=calibration.gyro_id, conventions=dict(CONVENTIONS),
         complete=calibration.complete, missing=calibration.missing,
         not_measurable=calibration.not_measurable,
         gyro={k: calibration.values[k] for k in keys}, methods=methods)
+    if calibration.imu is None:
+        return out
+    out['format_version'] = IMU_FORMAT_VERSION
+    out['imu'] = calibration.imu.to_section()
+    # the imu section goes after gyro:, before methods: (a TypedDict keeps insertion order)
+    moved = out.pop('methods')  # type: ignore[misc]
+    out['methods'] = moved
+    return out
 
 
 def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
@@ -914,9 +946,10 @@ def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
     version = data.get('format_version')
     if version == 1:
         return _from_format_1(data, source, _schema(schema))
-    if 'format_version' in data and version not in (2, FORMAT_VERSION):
+    if 'format_version' in data and version not in READ_VERSIONS:
         raise HandoffError(f'{source} has format_version {version!r}; this gyro_calib '
-                           f'({__version__}) reads format_version 1, 2 and {FORMAT_VERSION}.')
+                           f'({__version__}) reads format_version 1, 2, {FORMAT_VERSION} and '
+                           f'{IMU_FORMAT_VERSION}.')
     missing_top = [k for k in ('format_version', 'gyro', 'methods') if k not in data]
     if missing_top:
         raise HandoffError(f'field(s) {", ".join(missing_top)} missing in {source}.')
@@ -958,14 +991,24 @@ def calibration_from_yaml_dict(data: Any, *, source: str = 'mapping',
     gyro_id = data.get('gyro_id', '')
     if not isinstance(gyro_id, str):
         raise HandoffError(f'field gyro_id in {source} must be a string.')
+    imu = None
+    if 'imu' in data:
+        if version != IMU_FORMAT_VERSION:
+            raise HandoffError(f'{source} has an imu section but format_version {version!r}; '
+                               f'a file with an imu section is format_version '
+                               f'{IMU_FORMAT_VERSION}.')
+        try:
+            imu = imu_from_section(data['imu'], source=source)
+        except ImuSectionError as exc:
+            raise HandoffError(str(exc)) from None
     return Calibration(values, provenance, gyro_id, str(data.get('gyro_calib_version', '')),
-                       int(data['format_version']))  # = version, checked above
+                       int(data['format_version']), imu)  # = version, checked above
 
 
 def _provenance(name: str, entry: Any, source: str,
                 schema: Mapping[str, HandoffKey], *, nested: bool = False) -> Provenance:
     where = f'methods.{name} in {source}'
-    if name not in {k.method for k in schema.values()}:
+    if name not in {k.method for k in schema.values()} | set(IMU_METHODS):
         raise HandoffError(f'unknown method {name!r} under methods in {source}.')
     if not isinstance(entry, dict):
         raise HandoffError(f'{where} must be a mapping.')
@@ -1169,6 +1212,8 @@ def update_calibration(path: str | Path, calibration: Calibration,
             raise HandoffError(findings.problem)
         lines += [f'added: {k} = {_with_std(v, calibration.values.get(k + "_std"))}.'
                   for k, v in calibration.values.items() if not k.endswith(TWIN_SUFFIXES)]
+        if calibration.imu is not None:
+            lines.append('imu: added (K, sense axes, M and b of the triad).')
         lines += findings.notes
     written = write_calibration(target, calibration, sch)
     if report is not None:

@@ -149,6 +149,18 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            bench_settings=('scale_factor_rad_per_pulse', 'fog_scale_factor_counts_per_rad',
                            'gyro_id'),
            context=(topics.RATE_TABLE_JOINT_STATES, topics.POSITION_TABLE_JOINT_STATES)),
+    Method('triad', 'gyro triad (IMU): K, sense axes and M of three gyros, biases, on the '
+           'two-axis bench or by remounting (docs/methods.md §F)',
+           {topics.IMU_PULSES: JOINT_STATE, topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
+            topics.RATE_TABLE_ZERO_INDEX: HEADER,
+            topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE,
+            topics.POSITION_TABLE_ZERO_INDEX: HEADER},
+           (topics.IMU_PULSES, topics.RATE_TABLE_JOINT_STATES, topics.RATE_TABLE_ZERO_INDEX),
+           'gyro_calib.triad.session:TriadSession', 'gyro_calib.triad.keys',
+           separate_bags=True, node='triad_calibration_node',
+           settings='gyro_calib.triad.session:TriadSettings',
+           bench_settings=('latitude_deg', 'heading_deg', 'position_table_revolutions',
+                           'tilt_deg', 'tilt_std_arcsec', 'station_offset_deg', 'gyro_id')),
 )}
 """Every method, by name."""
 

@@ -13,6 +13,9 @@ RATE_TABLE_ZERO_INDEX = '/rate_table/zero_index'
 """std_msgs/Header: stamp = instant the reference mark passed (either direction)."""
 GYRO_PULSES = '/gyro/pulses'
 """sensor_msgs/JointState, name ['gyro']: cumulative pulse count (integer in float64)."""
+IMU_PULSES = '/imu/pulses'
+"""sensor_msgs/JointState, name = the triad's three channel names (default ['x', 'y', 'z']):
+position = cumulative pulse counts per channel (float64), header stamps as /gyro/pulses."""
 K_TILDE = '/gyro_calib/k_tilde'
 """std_msgs/Float64, transient-local: running K̃, rad/pulse."""
 DIAGNOSTICS = '/diagnostics'

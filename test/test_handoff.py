@@ -300,13 +300,13 @@ def test_load_raises_on_stamps_out_of_order(tmp_path: Path) -> None:
         load_calibration(path)
 
 
-@pytest.mark.parametrize('version', [4, 0, '1', None])
+@pytest.mark.parametrize('version', [5, 0, '1', None])
 def test_load_raises_on_unknown_format_version(tmp_path: Path, version: Any) -> None:
     data = _valid_dict()
     data['format_version'] = version
     path = _write_yaml(tmp_path / 'g.yaml', data)
     with pytest.raises(HandoffError, match=f'calibration file {path} has format_version '
-                                           f'{version!r}; .* reads format_version 1, 2 and 3'):
+                                           f'{version!r}; .* reads format_version 1, 2, 3 and 4'):
         load_calibration(path)
 
 

@@ -81,7 +81,14 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from gyro_calib.bagio import storage
 from gyro_calib.bagio.errors import BagError, CorruptBagError
-from gyro_calib.bagio.messages import HEADER, IMU, JOINT_STATE, TEMPERATURE, typestore
+from gyro_calib.bagio.messages import (
+    HEADER,
+    IMU,
+    JOINT_STATE,
+    JOINT_WIDTHS,
+    TEMPERATURE,
+    typestore,
+)
 from gyro_calib.errors import GyroCalibError
 
 if TYPE_CHECKING:
@@ -205,6 +212,8 @@ class TopicColumns:
     stamp_ns: npt.NDArray[np.int64]
     frame_id: FrameIds
     values: dict[str, npt.NDArray[np.float64]]
+    joint_names: tuple[str, ...] = ()
+    """A multi-joint JointState topic's joint names (``messages.JOINT_WIDTHS``), else ()."""
 
     def __len__(self) -> int:
         """Messages in the batch."""
@@ -333,6 +342,33 @@ def _joint_state_layout(payload: bytes) -> _Layout:
     return c.layout(fields)
 
 
+def _joints_layout(width: int) -> Callable[[bytes], _Layout]:
+    """JointState with ``width`` names and positions; velocity, effort of 0 or ``width``."""
+    def layout(payload: bytes) -> _Layout:
+        c = _Cursor(payload)
+        c.header()
+        if c.count() != width:
+            raise _NotNarrow
+        for _ in range(width):
+            c.string()
+        if c.count() != width:
+            raise _NotNarrow
+        c.align(8)
+        fields: list[tuple[str, int | None, int]] = [('position', c.skip(8 * width), width)]
+        for name in ('velocity', 'effort'):
+            n = c.count()
+            if n not in (0, width):
+                raise _NotNarrow
+            at = None
+            if n:
+                c.align(8)
+                at = c.skip(8 * n)
+            if name == 'velocity':
+                fields.append((name, at, 1))
+        return c.layout(fields)
+    return layout
+
+
 def _header_layout(payload: bytes) -> _Layout:
     c = _Cursor(payload)
     c.header()
@@ -375,6 +411,15 @@ def _first(values: Any) -> float:
 def _joint_state_values(msg: Any) -> tuple[int, str, tuple[Any, ...]]:
     return (_stamp_ns(msg.header.stamp), msg.header.frame_id,
             (_first(msg.position), _first(msg.velocity)))
+
+
+def _joints_values(width: int) -> Callable[[Any], tuple[int, str, tuple[Any, ...]]]:
+    def values(msg: Any) -> tuple[int, str, tuple[Any, ...]]:
+        pos = tuple(float(msg.position[k]) if len(msg.position) > k else math.nan
+                    for k in range(width))
+        return (_stamp_ns(msg.header.stamp), msg.header.frame_id,
+                (pos, _first(msg.velocity)))
+    return values
 
 
 def _header_values(msg: Any) -> tuple[int, str, tuple[Any, ...]]:
@@ -420,6 +465,17 @@ CODECS: dict[str, _Codec] = {
                         _temperature_layout, _temperature_values),
 }
 """The message types this module decodes, by ROS type name."""
+
+_JOINTS_CODECS = {width: _Codec((('position', width), ('velocity', 1)), _joints_layout(width),
+                                _joints_values(width))
+                  for width in set(JOINT_WIDTHS.values())}
+
+
+def codec_for(topic: str, msgtype: str) -> _Codec:
+    """The codec of a topic: its type's, or the multi-joint JointState's (JOINT_WIDTHS)."""
+    if msgtype == JOINT_STATE and topic in JOINT_WIDTHS:
+        return _JOINTS_CODECS[JOINT_WIDTHS[topic]]
+    return CODECS[msgtype]
 
 KNOWN_TYPES = frozenset(CODECS)
 
@@ -947,9 +1003,9 @@ class _Piece:
 
 def _decode_channel(raw: bytes, data: npt.NDArray[np.uint8], rec: _Records, msgtype: str,
                     cats: _Categories, deserialize: Callable[[bytes, str], Any],
-                    where: str) -> _Piece:
+                    where: str, topic: str = '') -> _Piece:
     """Decode one channel's messages of a chunk: fixed layouts by NumPy, others by rosbags."""
-    codec = CODECS[msgtype]
+    codec = codec_for(topic, msgtype)
     n = len(rec.payload_start)
     piece = _Piece(rec.log_time, rec.offset, np.zeros(n, dtype=np.int64),
                    np.zeros(n, dtype=np.int32),
@@ -1079,6 +1135,11 @@ class _Batcher:
         self.messages = 0
         self.fallback = 0
         self.last_log = -1
+        self.joint_names: dict[str, tuple[str, ...]] = {}
+
+    def names_from(self, topic: str, msg: Any) -> None:
+        """A multi-joint topic's joint names, from its first message."""
+        self.joint_names[topic] = tuple(str(n) for n in msg.name)
 
     def add(self, topic: str, log: npt.NDArray[np.int64], stamp: npt.NDArray[np.int64],
             codes: npt.NDArray[np.int32], values: dict[str, npt.NDArray[np.float64]],
@@ -1095,13 +1156,14 @@ class _Batcher:
         for topic, parts in self.parts.items():
             if not parts:
                 continue
-            names = [name for name, _ in CODECS[self.types[topic]].values]
+            names = [name for name, _ in codec_for(topic, self.types[topic]).values]
             columns[topic] = TopicColumns(
                 topic, self.types[topic],
                 np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
                 FrameIds(np.concatenate([p[2] for p in parts]),
                          tuple(self.cats[topic].names)),
-                {name: np.concatenate([p[3][name] for p in parts]) for name in names})
+                {name: np.concatenate([p[3][name] for p in parts]) for name in names},
+                self.joint_names.get(topic, ()))
             parts.clear()
         batch = ColumnBatch(columns, self.messages, self.last_log, self.fallback)
         self.messages = self.fallback = 0
@@ -1224,7 +1286,12 @@ def _iter_columnar(plan: ReadPlan, types: dict[str, str], batch_messages: int,
                     decoded[cid] += len(rec.log_time)
                     piece = _decode_channel(loaded.raw, loaded.data, rec, msgtype,
                                             batcher.cats[topic], _deserialize,
-                                            f'{plan.path}: {topic}')
+                                            f'{plan.path}: {topic}', topic)
+                    if topic in JOINT_WIDTHS and topic not in batcher.joint_names \
+                            and len(rec.payload_start):
+                        batcher.names_from(topic, _deserialize(
+                            loaded.raw[int(rec.payload_start[0]):int(rec.payload_start[0])
+                                       + int(rec.payload_length[0])], msgtype))
                     pieces.setdefault(topic, []).append((loaded.chunk.offset, piece))
             for topic, parts in pieces.items():
                 _add_in_order(batcher, topic, parts, window)
@@ -1292,7 +1359,9 @@ def _iter_rosbags(path: Path, reader: Any, types: dict[str, str], batch_messages
                     f'{path}: damaged: the {con.msgtype} message on {con.topic} logged at '
                     f'{log_ns} ns cannot be decoded ({type(exc).__name__}: '
                     f'{" ".join(str(exc).split())}).') from exc
-            stamp, frame_id, values = CODECS[con.msgtype].from_message(msg)
+            stamp, frame_id, values = codec_for(con.topic, con.msgtype).from_message(msg)
+            if con.topic in JOINT_WIDTHS and con.topic not in batcher.joint_names:
+                batcher.names_from(con.topic, msg)
             rows[con.topic].append((log_ns, stamp, batcher.cats[con.topic].code(frame_id),
                                     values))
             pending += 1
@@ -1314,7 +1383,7 @@ def _rows_batch(batcher: _Batcher,
     for topic, got in rows.items():
         if not got:
             continue
-        codec = CODECS[batcher.types[topic]]
+        codec = codec_for(topic, batcher.types[topic])
         values = {name: np.asarray([r[3][k] for r in got], dtype=np.float64)
                   for k, (name, _) in enumerate(codec.values)}
         batcher.add(topic, np.asarray([r[0] for r in got], dtype=np.int64),

@@ -26,9 +26,15 @@ CONTRACT_TYPES: dict[str, str] = {
     topics.FOG_INJECTION: JOINT_STATE,
     topics.VIBRATION_TABLE_JOINT_STATES: JOINT_STATE,
     topics.GYRO_TEMPERATURE: TEMPERATURE,
+    topics.IMU_PULSES: JOINT_STATE,
 }
 """Message type of every input topic of the contract (README "Topic contract"); the method
 registry's topics are exactly these, in this order (test/test_layers.py checks it)."""
+
+JOINT_WIDTHS: dict[str, int] = {topics.IMU_PULSES: 3}
+"""JointState topics whose messages carry several joints: their ``position`` column is
+(n, width), the joints in message order (the triad's three channels); every other JointState
+topic has one joint."""
 
 _TOPIC_ORDER = {name: i for i, name in enumerate(CONTRACT_TYPES)}
 

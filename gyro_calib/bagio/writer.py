@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -51,6 +51,16 @@ class ContractMessages:
             velocity=(self._empty if velocity is None
                       else np.array([velocity], dtype=np.float64)),
             effort=self._empty)
+        return bytes(self.store.serialize_cdr(msg, JOINT_STATE))
+
+    def joints_state(self, t_ns: int, joints: Sequence[str], positions: Sequence[float],
+                     frame_id: str = '') -> bytes:
+        """sensor_msgs/JointState of several joints (positions only; /imu/pulses)."""
+        sec, nsec = divmod(int(t_ns), 1_000_000_000)
+        msg = self._joint_state(
+            header=self._header(stamp=self._time(sec=sec, nanosec=nsec), frame_id=frame_id),
+            name=list(joints), position=np.asarray(positions, dtype=np.float64),
+            velocity=self._empty, effort=self._empty)
         return bytes(self.store.serialize_cdr(msg, JOINT_STATE))
 
     def header(self, t_ns: int, frame_id: str) -> bytes:

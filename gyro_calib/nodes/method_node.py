@@ -35,6 +35,7 @@ from std_msgs.msg import Float64, Header, String
 from gyro_calib import topics
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
+from gyro_calib.bagio.messages import JOINT_WIDTHS
 from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import merge_lines, update_calibration
@@ -80,11 +81,16 @@ declared twice: the session takes it from the options)."""
 _MESSAGE_CLASSES = {JOINT_STATE: JointState, HEADER: Header, IMU: Imu, TEMPERATURE: Temperature}
 
 
-def _values(msgtype: str, msg: Any) -> tuple[float, ...]:
-    """The columns :mod:`gyro_calib.bagio.columns` decodes, from one live message."""
+def _values(msgtype: str, msg: Any, width: int = 1) -> tuple[float, ...]:
+    """The columns :mod:`gyro_calib.bagio.columns` decodes, from one live message.
+
+    A JointState topic of ``width`` joints (:data:`~gyro_calib.bagio.messages.JOINT_WIDTHS`)
+    gives its first ``width`` positions (NaN where absent), then the first velocity.
+    """
     if msgtype == JOINT_STATE:
-        return (float(msg.position[0]) if len(msg.position) else math.nan,
-                float(msg.velocity[0]) if len(msg.velocity) else math.nan)
+        positions = tuple(float(msg.position[k]) if len(msg.position) > k else math.nan
+                          for k in range(width))
+        return (*positions, float(msg.velocity[0]) if len(msg.velocity) else math.nan)
     if msgtype == IMU:
         w, a = msg.angular_velocity, msg.linear_acceleration
         return (w.x, w.y, w.z, a.x, a.y, a.z)
@@ -104,12 +110,16 @@ class _TopicBuffer:
         self.frames: list[int] = []
         self.names: list[str] = []
         self._codes: dict[str, int] = {}
+        self.width = JOINT_WIDTHS.get(topic, 1) if msgtype == JOINT_STATE else 1
+        self.joint_names: tuple[str, ...] = ()
 
     def add(self, msg: Any) -> None:
         """One message from the reader, into the stamp merge (:meth:`put` when released)."""
         header = msg if self.msgtype == HEADER else msg.header
+        if self.width > 1 and len(msg.name) >= self.width:
+            self.joint_names = tuple(str(n) for n in msg.name[:self.width])
         self.inputs.add(self.topic, stamp_to_ns(header.stamp),
-                        (_values(self.msgtype, msg), header.frame_id))
+                        (_values(self.msgtype, msg, self.width), header.frame_id))
 
     def put(self, stamp: int, row: tuple[float, ...], frame_id: str) -> None:
         """One released sample, to be handed over by :meth:`take`."""
@@ -128,7 +138,8 @@ class _TopicBuffer:
         rows = np.asarray(self.rows, dtype=np.float64).reshape(len(t), -1)
         values: dict[str, np.ndarray] = {}
         if self.msgtype == JOINT_STATE:
-            values = {'position': rows[:, 0], 'velocity': rows[:, 1]}
+            w = self.width
+            values = {'position': rows[:, :w] if w > 1 else rows[:, 0], 'velocity': rows[:, w]}
         elif self.msgtype == IMU:
             values = {'angular_velocity_rad_s': rows[:, 0:3],
                       'linear_acceleration_m_s2': rows[:, 3:6]}
@@ -136,7 +147,7 @@ class _TopicBuffer:
             values = {'temperature_degc': rows[:, 0], 'variance_degc2': rows[:, 1]}
         cols = TopicColumns(self.topic, self.msgtype, t.copy(), t,
                             FrameIds(np.asarray(self.frames, dtype=np.int32), tuple(self.names)),
-                            values)
+                            values, self.joint_names)
         self.stamps, self.rows, self.frames = [], [], []
         return cols
 

@@ -29,6 +29,7 @@ NODE_MODULES = {
     'thermal_chamber_sim': 'sim_nodes.thermal.chamber_node',
     'noise_node': 'gyro_calib.nodes.noise_node',
     'triad_sim': 'sim_nodes.triad.triad_node',
+    'triad_calibration_node': 'gyro_calib.nodes.triad_calibration_node',
 }
 
 

@@ -13,25 +13,26 @@ arrival order and however far one stream lags.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gyro_calib import topics
-from gyro_calib.errors import InsufficientDataError, WindowError
+from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Estimate, Rejection
 from gyro_calib.rbrlg.config import KTildeConfig
 from gyro_calib.rbrlg.scale_factor import PairAccumulator, WindowPair
-from gyro_calib.rbrlg.windows import (
+from gyro_calib.streams import StampedBuffer, feed_by_timeline
+from gyro_calib.units import ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S, format_stamp
+from gyro_calib.windows import (
+    MAX_FIT_HALF_WIDTH_S,
     IndexEvent,
     RevolutionWindow,
     WholeRevolutionWindows,
-    count_at_instant,
+    fit_half_width_ns,
+    resolve_index_event,
 )
-from gyro_calib.streams import StampedBuffer, feed_by_timeline
-from gyro_calib.units import ARCSEC_PER_SQRT_S_PER_DEG_PER_SQRT_H, NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -43,23 +44,6 @@ TABLE_HISTORY_S = 60.0
 """joint_states kept before the oldest open event, s: enough to see whether a cruise held a
 whole revolution before its first zero-index event (a missing event)."""
 
-MAX_FIT_HALF_WIDTH_S = 2.0
-"""Widest fit span half-width around an index event, whatever the pulse stream's rate, s."""
-
-
-def _period_near(t_ns: np.ndarray, t_event: int, half_ns: int) -> float:
-    """Median sample period near an event, ns.
-
-    Median sample period (the upper median for an even count) of the stamps within
-    ±``half_ns`` of ``t_event`` (0 if fewer than 2), ns.
-    """
-    lo = int(np.searchsorted(t_ns, t_event - half_ns, 'left'))
-    hi = int(np.searchsorted(t_ns, t_event + half_ns, 'right'))
-    if hi - lo < 2:
-        return 0.0
-    d = np.diff(t_ns[lo:hi])
-    k = len(d) // 2
-    return float(np.partition(d, k)[k])
 
 
 @dataclass(frozen=True, slots=True)
@@ -214,19 +198,8 @@ class RateBiasCalibrator:
 
     def _fit_half_width_ns(self, t_event: int, p_t: np.ndarray,
                            period_ns: float | None = None) -> int:
-        """Half-width of the fits around an event.
-
-        Half-width of the fits around an event: ``fit_half_width_s``, widened so that a
-        slow pulse stream still gives ``min_fit_samples_per_side`` samples each side (its
-        period read from the samples within ±``fit_half_width_s``), at most MAX_FIT_HALF_WIDTH_S.
-        """
-        cfg = self.config
-        half_ns = int(cfg.fit_half_width_s * NS_PER_S)
-        period = _period_near(p_t, t_event, half_ns) if period_ns is None else period_ns
-        if period <= 0:
-            return half_ns
-        need = int((cfg.min_fit_samples_per_side + 1) * period * 1.02)
-        return max(half_ns, min(need, int(MAX_FIT_HALF_WIDTH_S * NS_PER_S)))
+        """Half-width of the fits around an event (shared ``fit_half_width_ns``)."""
+        return fit_half_width_ns(self.config, t_event, p_t, period_ns)
 
     def _stalled_stream(self, newest: list[int | None], stall_ns: int) -> bool:
         """True if the lagging stream stopped while the other ran on by ``stall_ns``.
@@ -245,56 +218,8 @@ class RateBiasCalibrator:
 
     def _resolve(self, t_event: int, p_t: np.ndarray, counts: np.ndarray,
                  s_t: np.ndarray, s_v: np.ndarray) -> IndexEvent:
-        """The table and the gyro at an event.
-
-        The table and the gyro at an event: encoder angle and pulse count by the same
-        local fit, the table rate and how much it varies over the fit span.
-        """
-        cfg = self.config
-        nominal_ns = int(cfg.fit_half_width_s * NS_PER_S)
-        pulse_period = _period_near(p_t, t_event, nominal_ns)
-        half_ns = self._fit_half_width_ns(t_event, p_t, pulse_period)
-        if half_ns != nominal_ns:
-            pulse_period = _period_near(p_t, t_event, half_ns)
-        half_s = half_ns / NS_PER_S
-        angle = rate = math.nan
-        angle_std = spread = 0.0
-        if len(s_t) >= 2 and s_t[0] <= t_event <= s_t[-1]:
-            x = (s_t - t_event).astype(np.float64)
-            rate = float(np.interp(0.0, x, s_v[:, 1]))
-            angle = float(np.interp(0.0, x, s_v[:, 0]))
-            sl = slice(int(np.searchsorted(s_t, t_event - half_ns, 'left')),
-                       int(np.searchsorted(s_t, t_event + half_ns, 'right')))
-            near = s_v[sl, 1]
-            if len(near) and rate != 0.0:
-                spread = float(np.max(np.abs(near - rate))) / abs(rate)
-            table_gap_s = max(cfg.max_fit_gap_s, 2.5 * _period_near(s_t, t_event, half_ns)
-                              / NS_PER_S)
-            try:
-                fit = count_at_instant(s_t, s_v[:, 0], t_event, half_width_s=half_s,
-                                       order=cfg.fit_order, min_samples_per_side=cfg.fit_order + 1,
-                                       max_gap_s=table_gap_s, stream='joint_states')
-            except WindowError:
-                pass  # too few encoder samples for a fit: the interpolated angle stands
-            else:
-                angle, angle_std = fit.value, fit.std_uncertainty
-        pulse_gap_s = max(cfg.max_fit_gap_s, 2.5 * pulse_period / NS_PER_S)
-        state: dict[str, Any] = dict(angle_std_rad=angle_std, rate_spread=spread,
-                                     half_width_ns=half_ns)
-        try:
-            count = count_at_instant(
-                p_t, counts, t_event, half_width_s=half_s, order=cfg.fit_order,
-                min_samples_per_side=cfg.min_fit_samples_per_side, max_gap_s=pulse_gap_s)
-        except WindowError as exc:
-            return IndexEvent(t_event, angle, rate, None, str(exc), **state)
-        if count.max_residual > cfg.max_fit_residual_pulses:
-            return IndexEvent(t_event, angle, rate, None, (
-                f'pulse counts around the zero-index event at {format_stamp(t_event)} deviate '
-                f'from a smooth fit by up to {count.max_residual:.1f} pulses (limit '
-                f'{cfg.max_fit_residual_pulses:g}) while the table rate held within '
-                f'{spread * 100:.3f} %: a count glitch, or gyro rate ripple too fast for '
-                f'fit_order={cfg.fit_order} over ±{half_s:g} s.'), **state)
-        return IndexEvent(t_event, angle, rate, count, **state)
+        """The table and the gyro at an event (:func:`~gyro_calib.windows.resolve_index_event`)."""
+        return resolve_index_event(self.config, t_event, p_t, counts, s_t, s_v)
 
     def _trim(self, t_event: int) -> None:
         """Keep only what an open window (or the next event's fit) can still need."""

@@ -114,7 +114,7 @@ def fix_error_angle_multi_station(
         InsufficientDataError: fewer than 3 stations, stations not spread in β (θ and β₀
             unobservable), or counts inconsistent with eq. (10).
     """
-    from gyro_calib.rbrlg.scale_factor import student_t_factor
+    from gyro_calib.estimate import student_t_factor
 
     if (scale_factor_arcsec_per_pulse is None) == (k_tilde_arcsec_per_pulse is None):
         raise ValueError('give exactly one of scale_factor_arcsec_per_pulse (K) and '

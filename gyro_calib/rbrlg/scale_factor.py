@@ -30,19 +30,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gyro_calib.errors import InsufficientDataError, WindowError
-from gyro_calib.estimate import Estimate, Rejection
-from gyro_calib.rbrlg.windows import RevolutionWindow
+from gyro_calib.estimate import Estimate, Rejection, student_t_factor
 from gyro_calib.units import ARCSEC_PER_RAD, ARCSEC_PER_REV, format_stamp
-
-ONE_SIGMA_PROBABILITY = 0.8413447460685429
-"""P(z < 1) of the standard normal: a ±1σ interval covers 68.27 %."""
-
-
-def student_t_factor(dof: int) -> float:
-    """The t such that ±t·s/√n covers the mean as often as ±1σ covers a normal value (dof ≥ 1)."""
-    from scipy.stats import t
-
-    return float(t.ppf(ONE_SIGMA_PROBABILITY, dof))
+from gyro_calib.windows import RevolutionWindow
 
 
 @dataclass(frozen=True, slots=True)

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from gyro_calib.rbrlg.scale_factor import WindowPair
-    from gyro_calib.rbrlg.windows import RevolutionWindow
+    from gyro_calib.windows import RevolutionWindow
 
 
 @dataclass(frozen=True, slots=True)

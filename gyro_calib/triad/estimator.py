@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gyro_calib.errors import InsufficientDataError
-from gyro_calib.estimate import Estimate, Rejection
+from gyro_calib.estimate import Estimate, Rejection, student_t_factor
 
 if TYPE_CHECKING:
     import numpy.typing as npt
@@ -42,8 +42,6 @@ BIRGE_PROBABILITY = 0.99
 """A complete prediction is widened by the Birge ratio only when the scatter exceeds it at
 this probability (χ²_ν/ν above its 99 % point): the prediction then misses a source."""
 
-ONE_SIGMA_PROBABILITY = 0.8413447460685429
-"""P(z < 1) of the standard normal."""
 
 COUNTS, SWEPT_ANGLE = 'counts', 'swept angle'
 """Budget sources: per-channel count noise of the pairs; the swept angle (encoder, index)."""
@@ -51,9 +49,7 @@ COUNTS, SWEPT_ANGLE = 'counts', 'swept angle'
 
 def _student_t(dof: int) -> float:
     """Student t with P(T_ν < t) = 0.8413 (docs/methods.md conventions; as §A eq. (3d))."""
-    from scipy.stats import t
-
-    return float(t.ppf(ONE_SIGMA_PROBABILITY, dof))
+    return student_t_factor(dof)
 
 
 @dataclass(frozen=True, slots=True)
