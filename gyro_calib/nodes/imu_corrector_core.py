@@ -39,7 +39,7 @@ GYRO_IMU = '/gyro/imu'
 """sensor_msgs/Imu: calibrated rate about the gyro's sense axis (z), rad/s, with covariance."""
 IMU_DATA = '/imu/data'
 """sensor_msgs/Imu: a triad's calibrated body rate, rad/s, with its full 3×3 covariance."""
-IMU_PULSES = '/imu/pulses'
+IMU_PULSES = topics.IMU_PULSES
 """sensor_msgs/JointState: a triad's three cumulative counts, name = the channel names."""
 REFUSED_EVERY = 1000
 """A refused /imu/pulses sample of a kind already logged is logged again every this many."""

@@ -30,8 +30,8 @@ from sim_nodes.triad.bench import TriadBench, TriadChunk
 from sim_nodes.triad.gyros import MOUNT_AXES, TriadConfig, TriadMountConfig
 from sim_nodes.two_axis_procedure import ThetaProcedureConfig
 
-IMU_PULSES = '/imu/pulses'
-"""The triad's pulse topic (gyro_calib.topics.IMU_PULSES once merged; issue 26 contract)."""
+IMU_PULSES = topics.IMU_PULSES
+"""The triad's pulse topic."""
 
 REMOUNT_GROUP = 'triad_remount_bench'
 """Name of the six remount scenarios together."""
