@@ -28,7 +28,11 @@ The layout (every number SI, unit in the key; ``_std`` the standard uncertainty,
       not_measurable: {pulses_to_body_rad: channel y: ...}
 
 A quantity that was not measured is an absent key, with its reason under ``missing`` or
-``not_measurable`` (as the file's top level). ω_B = M·(Δcounts/Δt) − b is the calibrated body
+``not_measurable`` (as the file's top level). A channel whose row is not measurable while the
+others are solved keeps its place in the per-channel lists as ``null`` (K, its ``_std`` and
+``_dof``, its sense-axis row and ``sense_axes_std_rad``), and ``not_measurable`` names it
+under ``scale_factor_rad_per_pulse``; M and b, which need all three rows, are then absent.
+ω_B = M·(Δcounts/Δt) − b is the calibrated body
 rate. :class:`ImuCalibration` is the section in memory; :func:`imu_from_section` checks and
 reads it (one :class:`~gyro_calib.handoff.HandoffError`-style message per problem, raised as
 :class:`ImuSectionError`), :meth:`ImuCalibration.to_section` writes it.
@@ -132,9 +136,10 @@ class ImuCalibration:
                     'pulses_to_body_rad_covariance': self.pulses_to_body_rad_covariance}
         for key in SECTION_KEYS:
             if key in vectors and vectors[key] is not None:
-                out[key] = [float(v) for v in np.asarray(vectors[key], dtype=float)]
+                out[key] = [_number(v) for v in np.asarray(vectors[key], dtype=float)]
             elif key in matrices and matrices[key] is not None:
-                out[key] = _rows(np.asarray(matrices[key], dtype=float))
+                rows = _rows(np.asarray(matrices[key], dtype=float))
+                out[key] = [None if any(math.isnan(v) for v in row) else row for row in rows]
         if self.noise:
             out['noise'] = {c: {k: float(v) for k, v in d.items()} for c, d in self.noise.items()}
         if self.thermal:
@@ -146,23 +151,33 @@ class ImuCalibration:
         return out
 
 
+def _number(value: float) -> float | None:
+    """A float to write; None (YAML null) for NaN: a channel not measured (∞ stays ∞)."""
+    return None if math.isnan(value) else float(value)
+
+
 def _rows(matrix: Array) -> list[list[float]]:
     return [[float(v) for v in row] for row in np.asarray(matrix, dtype=float)]
 
 
 def _array(section: Mapping[str, Any], key: str, shape: tuple[int, ...], source: str,
-           *, finite: bool = True) -> Array | None:
+           *, finite: bool = True, per_channel: bool = False) -> Array | None:
     if key not in section:
         return None
+    raw = section[key]
+    if per_channel and isinstance(raw, list):  # null: that channel was not measured
+        raw = [([math.nan] * shape[1] if len(shape) == 2 else math.nan) if v is None else v
+               for v in raw]
     try:
-        value = np.asarray(section[key], dtype=float)
+        value = np.asarray(raw, dtype=float)
     except (TypeError, ValueError):
         raise ImuSectionError(f'{source}: imu.{key} must be numbers of shape {shape}; got '
                               f'{section[key]!r:.80}.') from None
     if value.shape != shape:
         raise ImuSectionError(f'{source}: imu.{key} must have shape {shape}; it has '
                               f'{value.shape}.')
-    if finite and not np.all(np.isfinite(value)):
+    bad = ~np.isfinite(value) & ~np.isnan(value) if per_channel else ~np.isfinite(value)
+    if finite and np.any(bad):
         raise ImuSectionError(f'{source}: imu.{key} holds a non-finite number.')
     return value
 
@@ -185,6 +200,28 @@ def _per_channel(section: Mapping[str, Any], key: str, channels: tuple[str, ...]
         raise ImuSectionError(f'{source}: imu.{key} names channel {unknown[0]!r}, which is '
                               f'not one of the channels {list(channels)}.')
     return {str(c): dict(v) for c, v in value.items()}
+
+
+def _unsolved_channels(k: Array | None, k_std: Array | None, k_dof: Array | None,
+                       axes: Array | None, axes_std: Array | None, source: str) -> list[int]:
+    """The channels given as null (not measured); every per-channel list must agree."""
+    lists = {'scale_factor_rad_per_pulse': k, 'scale_factor_rad_per_pulse_std': k_std,
+             'scale_factor_rad_per_pulse_dof': k_dof,
+             'sense_axes': None if axes is None else np.where(np.isnan(axes).any(axis=1),
+                                                            np.nan, 0.0),
+             'sense_axes_std_rad': axes_std}
+    masks = {key: np.isnan(v) for key, v in lists.items() if v is not None}
+    if not masks:
+        return []
+    first_key, first = next(iter(masks.items()))
+    for key, mask in masks.items():
+        if not np.array_equal(mask, first):
+            raise ImuSectionError(f'{source}: imu.{key} and imu.{first_key} are null for '
+                                  'different channels; a channel not measured is null in every '
+                                  'per-channel list.')
+    if axes is not None and np.any(np.isnan(axes).any(axis=1) != np.isnan(axes).all(axis=1)):
+        raise ImuSectionError(f'{source}: imu.sense_axes has a row partly null.')
+    return [int(i) for i in np.flatnonzero(first)]
 
 
 def imu_from_section(section: Any, *, source: str = 'hand-off') -> ImuCalibration:
@@ -218,11 +255,12 @@ def imu_from_section(section: Any, *, source: str = 'hand-off') -> ImuCalibratio
     elif not np.allclose(fixture @ fixture.T, np.eye(3), atol=1e-9) or np.linalg.det(fixture) < 0:
         raise ImuSectionError(f'{source}: imu.fixture_rotation is not a rotation (orthonormal, '
                               'determinant +1).')
-    k = _array(section, 'scale_factor_rad_per_pulse', (3,), source)
-    k_std = _array(section, 'scale_factor_rad_per_pulse_std', (3,), source)
-    k_dof = _array(section, 'scale_factor_rad_per_pulse_dof', (3,), source, finite=False)
-    axes = _array(section, 'sense_axes', (3, 3), source)
-    axes_std = _array(section, 'sense_axes_std_rad', (3,), source)
+    k = _array(section, 'scale_factor_rad_per_pulse', (3,), source, per_channel=True)
+    k_std = _array(section, 'scale_factor_rad_per_pulse_std', (3,), source, per_channel=True)
+    k_dof = _array(section, 'scale_factor_rad_per_pulse_dof', (3,), source, finite=False,
+                   per_channel=True)
+    axes = _array(section, 'sense_axes', (3, 3), source, per_channel=True)
+    axes_std = _array(section, 'sense_axes_std_rad', (3,), source, per_channel=True)
     m = _array(section, 'pulses_to_body_rad', (3, 3), source)
     m_cov = _array(section, 'pulses_to_body_rad_covariance', (9, 9), source)
     bias = _array(section, 'bias_rad_s', (3,), source)
@@ -234,18 +272,29 @@ def imu_from_section(section: Any, *, source: str = 'hand-off') -> ImuCalibratio
             which = 'its uncertainty' if std is None else 'the value'
             raise ImuSectionError(f'{source}: imu.{name} is given without {which}; write both '
                                   'or neither.')
+    unsolved = _unsolved_channels(k, k_std, k_dof, axes, axes_std, source)
+    if unsolved and 'scale_factor_rad_per_pulse' not in _reasons(section, 'not_measurable',
+                                                                  source):
+        raise ImuSectionError(f'{source}: imu: channel {names[unsolved[0]]!r} has no value '
+                              '(null) but not_measurable.scale_factor_rad_per_pulse gives no '
+                              'reason.')
+    if unsolved and (m is not None or bias is not None):
+        raise ImuSectionError(f'{source}: imu: pulses_to_body_rad and bias_rad_s need all '
+                              f'three rows, but channel {names[unsolved[0]]!r} is null.')
     for std, name in ((k_std, 'scale_factor_rad_per_pulse_std'),
                       (axes_std, 'sense_axes_std_rad'), (bias_std, 'bias_rad_s_std')):
         if std is not None and np.any(std < 0):
             raise ImuSectionError(f'{source}: imu.{name} holds a negative uncertainty.')
-    if k is not None and np.any(k <= 0):
+    if k is not None and np.any(k[np.isfinite(k)] <= 0):
         raise ImuSectionError(f'{source}: imu.scale_factor_rad_per_pulse must be > 0 per '
                               'channel (a reversed channel is a sense axis pointing the other '
                               'way, not a negative K).')
-    if k_dof is not None and (np.any(np.isnan(k_dof)) or np.any(k_dof < 0)):
+    if k_dof is not None and np.any(k_dof[~np.isnan(k_dof)] < 0):
         raise ImuSectionError(f'{source}: imu.scale_factor_rad_per_pulse_dof must be ≥ 0 '
                               '(.inf for ν = ∞).')
-    if axes is not None and np.any(np.abs(np.linalg.norm(axes, axis=1) - 1) > UNIT_TOLERANCE):
+    solved = [i for i in range(3) if i not in unsolved]
+    if axes is not None and np.any(
+            np.abs(np.linalg.norm(axes[solved], axis=1) - 1) > UNIT_TOLERANCE):
         raise ImuSectionError(f'{source}: imu.sense_axes rows must be unit vectors (|s_i| = 1 '
                               f'within {UNIT_TOLERANCE:g}).')
     if m_cov is not None and (not np.allclose(m_cov, m_cov.T, rtol=1e-9, atol=0.0)

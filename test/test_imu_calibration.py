@@ -71,3 +71,24 @@ def test_channels_not_along_their_own_body_axes_get_no_small_angle_misalignment(
     section = permuted.to_section()
     assert 'misalignment_rad' not in section and 'sense_axes' in section
     assert imu_from_section(section).sense_axes is not None
+
+
+def test_a_channel_not_measured_is_null_in_every_per_channel_list_with_its_reason() -> None:
+    imu = _triad()
+    section = imu.to_section()
+    for key in ('pulses_to_body_rad', 'pulses_to_body_rad_covariance', 'bias_rad_s',
+                'bias_rad_s_std', 'misalignment_rad'):
+        section.pop(key)
+    for key in ('scale_factor_rad_per_pulse', 'scale_factor_rad_per_pulse_std',
+                'scale_factor_rad_per_pulse_dof', 'sense_axes', 'sense_axes_std_rad'):
+        section[key][1] = None
+    with pytest.raises(ImuSectionError, match="channel 'y' has no value"):
+        imu_from_section(section)
+    section['not_measurable'] = {'scale_factor_rad_per_pulse': 'channel y: 2 directions'}
+    back = imu_from_section(section)
+    assert back.scale_factor_rad_per_pulse is not None and back.sense_axes is not None
+    assert np.isnan(back.scale_factor_rad_per_pulse[1]) and np.isnan(back.sense_axes[1]).all()
+    assert back.to_section()['sense_axes'][1] is None
+    section['sense_axes_std_rad'][1] = 1e-7
+    with pytest.raises(ImuSectionError, match='null for different channels'):
+        imu_from_section(section)

@@ -20,6 +20,7 @@ from gyro_calib import topics
 from gyro_calib.bagio import JOINT_STATE, SampleBatch
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.handoff import load_calibration, update_calibration
+from gyro_calib.imu_calibration import imu_from_section
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.triad.session import TriadSession
@@ -194,6 +195,19 @@ def test_a_channel_whose_directions_do_not_span_3d_is_not_measurable_and_the_oth
     assert z.scale_factor_rad_per_pulse is not None
     assert r.pulses_to_body_rad is None
     assert 'imu.pulses_to_body_rad' in session.not_measurable()
+    # what was measured reaches the hand-off: z's K and sense axis, x's place null with why
+    section = session.imu_calibration()
+    assert section is not None
+    written = section.to_section()
+    assert written['scale_factor_rad_per_pulse'][0] is None and written['sense_axes'][0] is None
+    assert written['scale_factor_rad_per_pulse'][2] == z.scale_factor_rad_per_pulse.value
+    assert 'pulses_to_body_rad' not in written and 'bias_rad_s' not in written
+    assert 'span' in written['not_measurable']['scale_factor_rad_per_pulse'] or 'distinct' in \
+        written['not_measurable']['scale_factor_rad_per_pulse']
+    back = imu_from_section(written)
+    assert back.scale_factor_rad_per_pulse is not None
+    assert math.isnan(back.scale_factor_rad_per_pulse[0])
+    assert back.scale_factor_rad_per_pulse[2] == z.scale_factor_rad_per_pulse.value
 
 
 def test_remount_bags_one_mount_each_give_k_and_sense_axes(tmp_path: Path) -> None:

@@ -826,20 +826,22 @@ def imu_section(r: TriadResult, channels: tuple[str, str, str],
     missing: dict[str, str] = {}
     not_measurable: dict[str, str] = {}
     k = k_std = k_dof = axes = axes_std = None
-    if all(c.scale_factor_rad_per_pulse is not None and c.sense_axis is not None
-           for c in r.channels):
-        ks = [c.scale_factor_rad_per_pulse for c in r.channels]
-        k = np.array([e.value for e in ks if e is not None])
-        k_std = np.array([e.std_uncertainty for e in ks if e is not None])
-        k_dof = np.array([float(e.supported_dof) for e in ks if e is not None])
-        axes = np.array([[e.value for e in c.sense_axis] for c in r.channels
-                         if c.sense_axis is not None])
-        axes /= np.linalg.norm(axes, axis=1)[:, None]
-        axes_std = np.array([math.sqrt(max(float(np.trace(c.sense_axis_covariance)), 0.0))
-                             if c.sense_axis_covariance is not None else 0.0
-                             for c in r.channels])
-    else:
-        why = '; '.join(c.not_measurable for c in r.channels if c.not_measurable)
+    if any(c.scale_factor_rad_per_pulse is not None and c.sense_axis is not None
+           for c in r.channels):  # the solved channels; a channel not measured is NaN (null)
+        nan3 = (math.nan, math.nan, math.nan)
+        k, k_std, k_dof, axes_std = (np.full(3, math.nan) for _ in range(4))
+        axes = np.full((3, 3), math.nan)
+        for i, c in enumerate(r.channels):
+            e = c.scale_factor_rad_per_pulse
+            if e is None or c.sense_axis is None:
+                continue
+            k[i], k_std[i], k_dof[i] = e.value, e.std_uncertainty, float(e.supported_dof)
+            row = np.array([a.value for a in c.sense_axis] if c.sense_axis else nan3)
+            axes[i] = row / np.linalg.norm(row)
+            axes_std[i] = (math.sqrt(max(float(np.trace(c.sense_axis_covariance)), 0.0))
+                           if c.sense_axis_covariance is not None else 0.0)
+    why = '; '.join(c.not_measurable for c in r.channels if c.not_measurable)
+    if why:
         for key in ('scale_factor_rad_per_pulse', 'sense_axes'):
             not_measurable[key] = why
     m = m_cov = None
