@@ -67,10 +67,10 @@ def test_json_section_has_exactly_the_issue_shape(imu_cal: NoiseCalibrator) -> N
         assert set(axis) == {'tau_s', 'adev', 'adev_std', 'results', 'm', 'clusters',
                              'noise_alpha', 'adev_edf', 'mdev', 'mdev_std', 'mdev_edf',
                              'hdev', 'hdev_std', 'hdev_edf', 'totdev', 'totdev_std',
-                             'totdev_edf', 'fit'}
+                             'totdev_edf', 'fit', 'outliers'}
         n_tau = len(axis['tau_s'])
         assert n_tau > 10
-        assert all(len(axis[k]) == n_tau for k in axis if k not in ('results', 'fit'))
+        assert all(len(axis[k]) == n_tau for k in axis if k not in ('results', 'fit', 'outliers'))
         for entry in axis['results'].values():
             assert list(entry) == ['value', 'std', 'n']
     gx = section['axes']['gyro_x']
