@@ -12,11 +12,13 @@ than a block) takes its median and MAD from the last ``outlier_block_samples`` s
 the segment, itself included. When the MAD is 0 (most increments of a quantised count
 equal) the scale is 1.2533 · mean|d − median| (the same σ for Gaussian data).
 
-A spike is replaced by the median of the non-spike samples among its 8 nearest
-neighbours in the block (the block median when all are spikes): (E.5-2). The estimator
-takes a replaced sample exactly (the record stays evenly sampled, no segment is cut);
-a pulse or FOG count is rebuilt from the replaced increments, so the count after the
-spike is shifted by a constant, which no difference statistic sees.
+A rate spike is replaced by the median of the non-spike samples among its 8 nearest
+neighbours in the block (the block median when all are spikes): (E.5-2). A count's spike
+increments are repaired run by run (E.5-3): a transient (the run's sum is ordinary: a
+count read wrong and then right again) is interpolated across, a jump is replaced as
+(E.5-2) and so taken out of the count after it. The estimator takes a replaced sample
+exactly: the record stays evenly sampled and no segment is cut (a gap would end the
+segment and lose the longest averaging times).
 """
 
 from __future__ import annotations
@@ -87,6 +89,30 @@ def replace_spikes(d: FloatArray, spikes: BoolArray, center: float) -> FloatArra
     if has.any():
         repl[has] = np.nanmedian(vals[has], axis=1)
     out[idx] = repl
+    return out
+
+
+def repair_increments(d: FloatArray, spikes: BoolArray, center: float, scale: float,
+                      k: float) -> FloatArray:
+    """Increments of a count with its spikes repaired: (E.5-3).
+
+    A run of L consecutive spike increments whose sum lies within k·scale·√L of L·median
+    is a transient (a count read wrong, then right again: a glitch): the count across it is
+    interpolated linearly (each increment becomes the run's mean), so the count after it
+    is unchanged. Otherwise the run is a jump (pulses gained or lost): each increment is
+    replaced as (E.5-2), which takes the jump out of the count after it.
+    """
+    out = replace_spikes(d, spikes, center)
+    idx = np.flatnonzero(spikes)
+    if not len(idx):
+        return out
+    starts = np.concatenate(([0], np.flatnonzero(np.diff(idx) != 1) + 1))
+    length = np.diff(np.concatenate((starts, [len(idx)])))
+    total = np.add.reduceat(d[idx], starts)
+    glitch = np.abs(total - length * center) <= k * scale * np.sqrt(length)
+    mean = np.repeat(np.where(glitch, total / length, np.nan), length)
+    use = np.repeat(glitch, length)
+    out[idx[use]] = mean[use]
     return out
 
 
@@ -190,9 +216,10 @@ class OutlierScreen:
             clean = v - self._offset if self.kind == 'phase' else v
             return t, v, clean
         d_clean = d.copy()
-        d_clean[has] = replace_spikes(dv, spikes[has], center)
         if self.kind == 'rate':
+            d_clean[has] = replace_spikes(dv, spikes[has], center)
             return t, v, d_clean
+        d_clean[has] = repair_increments(dv, spikes[has], center, scale, self.sigma)
         change = np.where(has, d - d_clean, 0.0)
         shift = self._offset + np.cumsum(change)
         self._offset = float(shift[-1])
@@ -318,8 +345,10 @@ class OutlierReport:
         firsts = ', '.join(f'{ns // 1_000_000_000}.{ns % 1_000_000_000:09d} s ({z:.3g} σ)'
                            for ns, z in tl.first)
         if self.mode == 'remove':
-            tail = ('outliers = remove: each was replaced by the median of its neighbours; '
-                    f'keeping them would change {self.reverse_words()}')
+            how = ('each was replaced by the median of its neighbours' if self.statistic == 'rate'
+                   else 'the count was interpolated across each glitch and each jump taken out')
+            tail = f'outliers = remove: {how}; keeping them would change {self.reverse_words()}'
+
         else:
             tail = ('outliers = keep: the terms above are of the record as recorded; '
                     f'removing them would change {self.changes_words()}')
@@ -337,4 +366,5 @@ class OutlierReport:
 
 
 __all__ = ['FIRST_STAMPS', 'MAD_TO_SIGMA', 'OUTLIER_MODES', 'OutlierReport', 'OutlierScreen',
-           'OutlierTally', 'adev_at', 'flag_spikes', 'replace_spikes', 'robust_center_scale']
+           'OutlierTally', 'adev_at', 'flag_spikes', 'repair_increments', 'replace_spikes',
+           'robust_center_scale']
