@@ -264,7 +264,7 @@ def test_spiky_rlg_bag_finds_every_bit_error_and_removal_gives_the_gyro_terms(
     injected. With outliers = remove (the expected file's setting) the terms lie within their
     uncertainties of the truth (the coverage test above); kept, Q is 20× too large, and the
     report's 'removed' value is the gyro's. The run's conditions in the hand-off say which
-    treatment was used and what the other would change.
+    treatment was used and what the other would change, and so does the certificate.
     """
     exp = expected('noise_rlg_spikes')
     spikes = exp['spikes']
@@ -284,6 +284,10 @@ def test_spiky_rlg_bag_finds_every_bit_error_and_removal_gives_the_gyro_terms(
     run = yaml.safe_load(out.read_text(encoding='utf-8'))
     text = json.dumps(run)
     assert '"outliers": "keep"' in text and '"outliers_found": 80' in text
+    assert main(['report', str(out), '--out', str(tmp_path / 'certs'), '--no-pdf']) == 0
+    (html,) = (tmp_path / 'certs').glob('*.html')
+    page = html.read_text(encoding='utf-8')  # the certificate says which treatment was used
+    assert 'outliers</span> = keep' in page and 'outliers_found</span> = 80' in page
     truth, k = exp['truth']['gyro'], exp['coverage_factor']
     kept = session.calibrator  # the estimator took the repaired record; its shadow the raw
     q_removed = kept.results()['gyro']['quantization_noise_rad']

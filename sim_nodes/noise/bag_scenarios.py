@@ -1,4 +1,4 @@
-"""Committed noise-characterisation bags: static MEMS IMUs, a dithered RLG at rest, a turning RLG.
+"""Committed noise-characterisation bags: static MEMS IMUs, dithered RLGs at rest, a turning RLG.
 
 The scenarios (``bags/<name>/`` and ``bags/<name>.expected.yaml``, written by
 ``python bags/generate.py NAME``):
@@ -23,6 +23,12 @@ The scenarios (``bags/<name>/`` and ``bags/<name>.expected.yaml``, written by
     measure (``gyro-calib noise`` says so and stops) — quantisation is absent then, not
     fitted. The bias instability of a navigation RLG (0.003 °/h) needs hours; 280 s leave
     it absent, with its bound.
+``noise_rlg_spikes``
+    The dithered RLG of ``noise_rlg_static`` (another seed, 120 s, no gap) whose count
+    read-out has 40 one-sample bit errors: the count of that sample is off by ±2^b pulses
+    (5 ≤ b < 10), the next one right again (``spikes``, ``spike_bits``). Each gives two
+    increments beyond 8 robust σ (METHODS §E.5): 80 found; kept they make Q 20× too large;
+    the expected file asks for ``outliers: remove``, which gives Q and N of the gyro.
 ``noise_rlg_turning``
     A rate-biased RLG (no dither) on a rate table turning about its sense axis at a constant
     37.9 °/s, 100 s one way, a reversal at 100 °/s² (0.758 s), 100 s the other way: pulses
