@@ -48,6 +48,18 @@ OUTLIER_MODES = ('keep', 'remove')
 """``outliers``: keep the data as recorded (default) or replace the spikes."""
 
 
+def _robust(d: FloatArray) -> tuple[float, float, bool, FloatArray]:
+    """(median, robust σ, MAD was 0, |d − median|) of ``d``: (E.5-1)."""
+    if not len(d):
+        return math.nan, 0.0, False, np.zeros(0)
+    med = float(np.median(d))
+    dev = np.abs(d - med)
+    scale = MAD_TO_SIGMA * float(np.median(dev))
+    if scale > 0.0:
+        return med, scale, False, dev
+    return med, MEAN_ABS_TO_SIGMA * float(np.mean(dev)), True, dev
+
+
 def robust_center_scale(d: FloatArray) -> tuple[float, float, bool]:
     """Median and robust σ of ``d``: (E.5-1); scale 0 when all are equal.
 
@@ -55,21 +67,8 @@ def robust_center_scale(d: FloatArray) -> tuple[float, float, bool]:
         (median, 1.4826·MAD — or 1.2533·mean|d − median| when the MAD is 0 —, whether the
         MAD was 0).
     """
-    if not len(d):
-        return math.nan, 0.0, False
-    med = float(np.median(d))
-    dev = np.abs(d - med)
-    scale = MAD_TO_SIGMA * float(np.median(dev))
-    if scale > 0.0:
-        return med, scale, False
-    return med, MEAN_ABS_TO_SIGMA * float(np.mean(dev)), True
-
-
-def flag_spikes(d: FloatArray, center: float, scale: float, k: float) -> FloatArray:
-    """|d − center| / scale (robust σ) of every sample; 0 where scale is 0 (no spike)."""
-    if not scale > 0.0:
-        return np.zeros(len(d))
-    return np.asarray(np.abs(d - center) / scale, dtype=np.float64)
+    med, scale, mad_zero, _ = _robust(d)
+    return med, scale, mad_zero
 
 
 def replace_spikes(d: FloatArray, spikes: BoolArray, center: float) -> FloatArray:
@@ -128,7 +127,6 @@ class OutlierTally:
         first: (stamp, robust σ) of the first :data:`FIRST_STAMPS` spikes.
         blocks: blocks screened.
         mad_zero_blocks: blocks whose MAD was 0 (scale from the mean absolute deviation).
-        first_center: median of the first block.
         first_scale: robust σ of the first block.
     """
 
@@ -139,7 +137,6 @@ class OutlierTally:
     first: list[tuple[int, float]] = field(default_factory=list)
     blocks: int = 0
     mad_zero_blocks: int = 0
-    first_center: float = math.nan
     first_scale: float = math.nan
 
 
@@ -196,55 +193,58 @@ class OutlierScreen:
         """Screen the next n held samples: (stamps, values as recorded, values cleaned)."""
         t, v = self._take(n)
         if self.kind == 'rate':
-            d = v
-            has = np.ones(n, dtype=bool)
+            d = dv = v
+            has = None
         else:
             d = np.diff(np.concatenate(([self._prev], v)))
             has = np.isfinite(d)
+            dv = d[has]
             self._prev = float(v[-1])
-        dv = d[has]
         ref = dv
         if n < self.block and self._tail is not None:  # a short last block: the last W samples
             ref = np.concatenate((self._tail[len(self._tail) - (self.block - len(dv)):], dv))
-        center, scale, mad_zero = robust_center_scale(ref)
+        center, scale, mad_zero, dev = _robust(ref)
         self._tail = ref[-self.block:] if len(ref) >= self.block else ref
-        z = np.zeros(n)
-        z[has] = flag_spikes(dv, center, scale, self.sigma)
-        spikes = z > self.sigma
-        self._count(t, z, spikes, center, scale, int(np.count_nonzero(has)), mad_zero)
-        if not spikes.any():
+        if ref is not dv:
+            dev = np.abs(dv - center)
+        spikes_v = dev > self.sigma * scale if scale > 0.0 else np.zeros(len(dv), dtype=bool)
+        if has is None:
+            spikes, t_v = spikes_v, t
+        else:
+            spikes = np.zeros(n, dtype=bool)
+            spikes[has] = spikes_v
+            t_v = t[has]
+        self._count(t_v, dev, scale, spikes_v, mad_zero)
+        if not spikes_v.any():
             clean = v - self._offset if self.kind == 'phase' else v
             return t, v, clean
+        if has is None:
+            return t, v, replace_spikes(dv, spikes_v, center)
         d_clean = d.copy()
-        if self.kind == 'rate':
-            d_clean[has] = replace_spikes(dv, spikes[has], center)
-            return t, v, d_clean
-        d_clean[has] = repair_increments(dv, spikes[has], center, scale, self.sigma)
+        d_clean[has] = repair_increments(dv, spikes_v, center, scale, self.sigma)
         change = np.where(has, d - d_clean, 0.0)
         shift = self._offset + np.cumsum(change)
         self._offset = float(shift[-1])
         return t, v, v - shift
 
-    def _count(self, t: IntArray, z: FloatArray, spikes: BoolArray, center: float,
-               scale: float, screened: int, mad_zero: bool) -> None:
+    def _count(self, t: IntArray, dev: FloatArray, scale: float, spikes: BoolArray,
+               mad_zero: bool) -> None:
         tl = self.tally
         if tl.blocks == 0:
-            tl.first_center, tl.first_scale = center, scale
+            tl.first_scale = scale
         tl.blocks += 1
-        tl.screened += screened
+        tl.screened += len(dev)
         tl.mad_zero_blocks += int(mad_zero)
-        if len(z):
-            i = int(np.argmax(z))
-            if z[i] > tl.largest_sigma:
-                tl.largest_sigma, tl.largest_ns = float(z[i]), int(t[i])
+        if len(dev) and scale > 0.0:
+            i = int(np.argmax(dev))
+            z = float(dev[i]) / scale
+            if z > tl.largest_sigma:
+                tl.largest_sigma, tl.largest_ns = z, int(t[i])
         n = int(np.count_nonzero(spikes))
         tl.spikes += n
         if n and len(tl.first) < FIRST_STAMPS:
             for i in np.flatnonzero(spikes)[:FIRST_STAMPS - len(tl.first)]:
-                tl.first.append((int(t[i]), float(z[i])))
-
-
-
+                tl.first.append((int(t[i]), float(dev[i]) / scale))
 
 def adev_at(tau_s: FloatArray, adev: FloatArray, at_s: float = 1.0) -> float:
     """ADEV at ``at_s`` by log-log interpolation of the curve (NaN outside it)."""
@@ -366,5 +366,5 @@ class OutlierReport:
 
 
 __all__ = ['FIRST_STAMPS', 'MAD_TO_SIGMA', 'OUTLIER_MODES', 'OutlierReport', 'OutlierScreen',
-           'OutlierTally', 'adev_at', 'flag_spikes', 'repair_increments', 'replace_spikes',
+           'OutlierTally', 'adev_at', 'repair_increments', 'replace_spikes',
            'robust_center_scale']
