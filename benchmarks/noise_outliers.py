@@ -3,6 +3,7 @@
 Run (from the repository root, in the project's venv):
 
     nice -n 10 python benchmarks/noise_outliers.py [--samples 10000000] [--quick]
+        [--only TEXT ...] [--no-detection]
 
 For every committed noise scenario (``sim_nodes/noise/bag_scenarios.py``: each IMU axis,
 the dithered RLG, the turning RLG at its constant rate) and the noise mixtures of
@@ -160,14 +161,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--samples', type=int, default=10_000_000)
     parser.add_argument('--quick', action='store_true', help='10⁶ samples, detection skipped')
+    parser.add_argument('--only', action='append', default=[], metavar='TEXT',
+                        help='only the records whose name contains TEXT (repeatable)')
+    parser.add_argument('--no-detection', action='store_true', help='false alarms only')
     args = parser.parse_args()
+    chosen = {k: v for k, v in sources().items()
+              if not args.only or any(o in k for o in args.only)}
     n = 1_000_000 if args.quick else args.samples
     s = NoiseSettings()
     print(f'k = {s.outlier_sigma:g}, block = {s.outlier_block_samples} samples; '
           f'{n} clean samples per record')
     print(f'{"record":34s} {"false alarms":>12s} {"largest σ":>10s} {"s":>6s}')
     total = 0
-    for name, (kind, channels, source) in sources().items():
+    for name, (kind, channels, source) in chosen.items():
         t = time.perf_counter()
         rows = screen_clean(kind, channels, source, n, s)
         total += sum(a for a, _ in rows)
@@ -176,12 +182,12 @@ def main() -> None:
             label = f'{name} {ch}' if len(channels) > 1 else name
             print(f'{label:34s} {alarms:12d} {largest:10.3g} {secs:6.1f}', flush=True)
     print(f'false alarms in all: {total}', flush=True)
-    if args.quick:
+    if args.quick or args.no_detection:
         return
     print(f'\ndetection rate of {PER_SIZE} spikes per size (robust σ of each block; the first '
           'channel of each record)')
     print(f'{"record":34s} ' + ' '.join(f'{z:>6g}σ' for z in SIZES))
-    for name, (kind, _, source) in sources().items():
+    for name, (kind, _, source) in chosen.items():
         rates = detection(kind, source, s)
         print(f'{name:34s} ' + ' '.join(f'{rates[z]:7.3f}' for z in SIZES), flush=True)
 

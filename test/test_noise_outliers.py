@@ -22,7 +22,9 @@ from gyro_calib.cli import main
 from gyro_calib.errors import ConfigError
 from gyro_calib.noise import NoiseCalibrator, NoiseSettings, calibrate_noise
 from gyro_calib.noise.outliers import (
+    OutlierReport,
     OutlierScreen,
+    OutlierTally,
     repair_increments,
     replace_spikes,
     robust_center_scale,
@@ -233,3 +235,18 @@ def test_json_of_a_spiky_record_carries_the_report(capsys: pytest.CaptureFixture
     doc = json.loads(capsys.readouterr().out)
     rec = doc['methods']['noise']['axes']['gyro']['outliers']
     assert code == 0 and rec['sigma'] == 10.0 and rec['found'] == 80 and rec['mode'] == 'keep'
+
+
+@pytest.mark.parametrize('mode, words', [
+    ('keep', 'removing them would change ADEV(1 s) -50 %, Q not resolved without them, N -10 %'),
+    ('remove', 'keeping them would change ADEV(1 s) +100 %, Q resolved only with them, N +11.1 %'),
+])
+def test_the_change_reads_from_the_treatment_used_to_the_other(mode: str, words: str) -> None:
+    tally = OutlierTally(screened=1000, spikes=2, largest_sigma=40.0, largest_ns=5,
+                         first=[(5, 40.0), (9, 20.0)])
+    report = OutlierReport('gyro', mode, 8.0, 65536, 'increment', tally, (2.0, 1.0),
+                           {'q': (3.0, math.nan), 'n': (1.0, 0.9)}, {'q': 'Q', 'n': 'N'})
+    assert report.line().endswith(f'{words}.')
+    assert report.record()['terms'] == {
+        'q': {'recorded': 3.0, 'removed': None, 'change': None},
+        'n': {'recorded': 1.0, 'removed': 0.9, 'change': pytest.approx(-0.1)}}

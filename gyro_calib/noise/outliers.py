@@ -314,7 +314,7 @@ class OutlierReport:
                             for key, (k, r) in self.terms.items()}
         return out
 
-    def changes_words(self) -> str:
+    def changes_words(self, other: str = 'without them') -> str:
         """'ADEV(1 s) −16 %, N −17 %, B −3.1 %' (what removing the spikes changes)."""
         parts = []
         c = _change(*self.adev_1s)
@@ -326,8 +326,8 @@ class OutlierReport:
             if c is not None:
                 parts.append(f'{sym} {100 * c:+.3g} %')
             elif math.isfinite(k) != math.isfinite(r):
-                gone = ('resolved only without them' if math.isfinite(r)
-                        else 'not resolved without them')
+                gone = (f'resolved only {other}' if math.isfinite(r)
+                        else f'not resolved {other}')
                 parts.append(f'{sym} {gone}')
         return ', '.join(parts) or 'nothing measurable'
 
@@ -362,7 +362,7 @@ class OutlierReport:
         flipped = OutlierReport(self.axis, self.mode, self.sigma, self.block, self.statistic,
                                 self.tally, (self.adev_1s[1], self.adev_1s[0]),
                                 {k: (r, v) for k, (v, r) in self.terms.items()}, self.symbols)
-        return flipped.changes_words()
+        return flipped.changes_words('with them')
 
 
 __all__ = ['FIRST_STAMPS', 'MAD_TO_SIGMA', 'OUTLIER_MODES', 'OutlierReport', 'OutlierScreen',
