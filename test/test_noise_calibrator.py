@@ -265,7 +265,8 @@ def test_partial_overlap_memory_is_bounded(imu_record: tuple[np.ndarray, ...]) -
         # the tree grows one level per doubling
         levels = max(1, int(math.log2(n / TREE_BLOCK)) + 2)
         per_axis = (levels * (TREE_BLOCK + 4 * s.tree_min_averaging_factor)
-                    + 2 * (2 * s.total_deviation_points + 1)) * 8
+                    + 2 * (2 * s.total_deviation_points + 1)
+                    + 3 * s.outlier_block_samples) * 8  # the spike screen's block (§E.5)
         assert cal.sample_storage_bytes() <= 6 * per_axis
 
 

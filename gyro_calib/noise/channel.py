@@ -444,7 +444,11 @@ class ChannelAccumulator:
         return min(a for a, _ in spans), max(b for _, b in spans)
 
     def storage_bytes(self) -> int:
-        """Bytes of sample storage held: the live segment's tree (or store) and reservoirs."""
+        """Bytes of sample storage held (the live segment's store, reservoirs, screen, shadow).
+
+        The live segment's tree (or store) and reservoirs, the spike screen's open block
+        (§E.5) and the shadow's storage.
+        """
         total = sum(len(a) * 16 for a in self._learn_t)
         if self._live is not None:
             total += self._live.engine.nbytes()
@@ -452,6 +456,10 @@ class ChannelAccumulator:
                 total += self._live.reservoir.nbytes()
         if self._best_reservoir is not None:
             total += self._best_reservoir[1].nbytes
+        if self._screen is not None:  # the open block of the spike screen (§E.5)
+            total += self._screen.nbytes()
+        if self.shadow is not None:
+            total += self.shadow.storage_bytes()
         return total
 
     @property

@@ -166,6 +166,11 @@ class OutlierScreen:
         """Samples waiting for their block to fill."""
         return self._held
 
+    def nbytes(self) -> int:
+        """Bytes held: the open block's stamps and values, the last block's statistic."""
+        tail = self._tail.nbytes if self._tail is not None else 0
+        return sum(a.nbytes for a in (*self._t, *self._v)) + tail
+
     def push(self, t: IntArray, v: FloatArray) -> list[tuple[IntArray, FloatArray, FloatArray]]:
         """Samples of the open segment, in order; returns the blocks decided (see decide)."""
         self._t.append(t)
@@ -204,7 +209,7 @@ class OutlierScreen:
         if n < self.block and self._tail is not None:  # a short last block: the last W samples
             ref = np.concatenate((self._tail[len(self._tail) - (self.block - len(dv)):], dv))
         center, scale, mad_zero, dev = _robust(ref)
-        self._tail = ref[-self.block:] if len(ref) >= self.block else ref
+        self._tail = (ref[-self.block:] if len(ref) >= self.block else ref).copy()
         if ref is not dv:
             dev = np.abs(dv - center)
         spikes_v = dev > self.sigma * scale if scale > 0.0 else np.zeros(len(dv), dtype=bool)
