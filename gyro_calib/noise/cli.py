@@ -3,7 +3,7 @@
     gyro-calib noise BAG [BAG ...] [--topic T]
         [--scale-factor-rad-per-pulse K | --scale-factor-counts-per-rad S | --calibration FILE]
         [--config FILE] [--json] [--kalibr imu.yaml] [--plot DIR] [--out handoff.yaml]
-        [--gyro-id ID] [--progress | --no-progress]
+        [--outliers keep|remove] [--outlier-sigma K] [--gyro-id ID] [--progress | --no-progress]
 
 The input is ``/gyro/pulses`` (with K), ``/fog/output`` (with counts/rad) or any
 ``sensor_msgs/Imu`` topic (``--topic``; without it the one input the bag holds). The bags
@@ -14,7 +14,8 @@ Exit status: 0 terms measured (files written); 1 Allan deviations but no term re
 (the curves and each term's reason were measured: ``--json`` prints them, ``--plot`` draws
 them, ``--out`` gets the curves alone unless the file holds noise terms; no Kalibr file;
 the last line names a ``--taus`` list too short for a fit); 2 bad input in one line — a
-path that is not a bag, a topic absent or
+path that is not a bag, an ``--outliers`` other than keep or remove, an ``--outlier-sigma``
+that is not a positive number, a topic absent or
 of another type (the line lists the topics present with their types), a pulse or FOG
 stream without a scale factor, a channel that is constant or all NaN, a record too short
 for any term, an output path that cannot be written (checked before any work, writability
