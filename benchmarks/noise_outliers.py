@@ -13,6 +13,11 @@ runs (:class:`gyro_calib.noise.outliers.OutlierScreen`, default k and block): th
 alarms (goal: none at the default k), and the largest |d − median| in robust σ (the margin
 to k). Then spikes of 6 … 32 robust σ (of each block's own scale) are added to 10⁶ samples
 of each record, 500 of each size, and the detection rate is printed per size.
+
+Measured (k = 8, block 65 536, 10⁷ samples a record; docs/methods.md §E.5): no false alarm
+in any of the 27 channels; largest clean value 6.3 σ (noise_imu_static gyro_x), 2.4 σ for
+the RLG counts; detection 0.21–0.50 at 8 σ, 0.81–0.86 at 9 σ, 0.80–0.99 at 10 σ, ≥ 0.992
+at 12 σ, 1.000 from 16 σ.
 """
 
 from __future__ import annotations
