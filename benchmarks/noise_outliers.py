@@ -50,7 +50,8 @@ def _imu(name: str) -> Source:
     from sim_nodes.noise.bag_scenarios import SCENARIOS
 
     def chunks(n: int) -> Iterator[np.ndarray]:
-        gen = SCENARIOS[name].generator()  # type: ignore[union-attr]
+        scenario: Any = SCENARIOS[name]
+        gen = scenario.generator()
         done = 0
         while done < n:
             k = min(CHUNK, n - done)
@@ -83,11 +84,13 @@ def _rlg(name: str) -> Source:
     return chunks
 
 
-def _mixture(terms: tuple[float, ...], rate_hz: float, seed: int = 5) -> Source:
+def _mixture(terms: tuple[float, float, float, float, float], rate_hz: float,
+             seed: int = 5) -> Source:
     from sim_nodes.noise import AxisNoise, NoiseTerms
 
     def chunks(n: int) -> Iterator[np.ndarray]:
-        axis = AxisNoise(NoiseTerms(*terms), rate_hz, seed)
+        q, n_, b, k_, r = terms
+        axis = AxisNoise(NoiseTerms(q, n_, b, k_, r), rate_hz, seed)
         done = 0
         while done < n:
             k = min(CHUNK, n - done)
