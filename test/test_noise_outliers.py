@@ -54,11 +54,35 @@ def test_robust_scale_is_sigma_for_gaussian_data_and_ignores_spikes() -> None:
     assert abs(center) < 0.03 and scale == pytest.approx(2.0, rel=0.01) and not mad_zero
 
 
-def test_a_quantised_count_whose_mad_is_zero_takes_the_mean_absolute_deviation() -> None:
+def test_a_quantised_output_whose_mad_is_zero_takes_its_step_or_mean_deviation() -> None:
     d = np.zeros(1000)
-    d[::10] = 1.0  # 90 % of the increments equal: MAD 0
+    d[::10] = 1.0  # 90 % of the samples equal: MAD 0; the step 1 is common
     center, scale, mad_zero = robust_center_scale(d)
-    assert (center, mad_zero) == (0.0, True) and scale == pytest.approx(1.2533 * 0.1)
+    assert (center, scale, mad_zero) == (0.0, 1.0, True)
+    d[::10] = 0.0
+    d[:400:2] = 5.0  # 20 % at 5: the common step 5 exceeds 1.2533 · mean|d| = 1.25
+    d[1] = 0.5  # one value half a step off is not the step (held by < 0.1 %)
+    center, scale, mad_zero = robust_center_scale(d)
+    assert center == 0.0 and mad_zero and scale == pytest.approx(5.0)
+
+
+@pytest.mark.parametrize('sigma_lsb', [0.05, 0.3, 0.5])
+def test_noise_below_one_step_gives_no_false_alarm_and_its_spikes_are_found(
+        sigma_lsb: float) -> None:
+    """An output quantised to a step (LSB) larger than its noise: most samples equal, MAD 0.
+
+    The ±1-step values are noise, not spikes (the scale is at least the step; at 0.3 LSB
+    the mean absolute deviation alone flagged 381 656 of 4·10⁶ samples); 20-step spikes
+    are still found, also where no other sample leaves the median (0.05 LSB).
+    """
+    v = np.round(np.random.default_rng(4).normal(0.0, sigma_lsb, 400_000))
+    for spikes in (0, 8):
+        x = v.copy()
+        x[25_000::50_000][:spikes] += 20.0
+        screen = OutlierScreen('rate', 8.0, 65_536)
+        screen.push(np.arange(len(x)), x)
+        screen.end_segment()
+        assert screen.tally.spikes == spikes and screen.tally.mad_zero_blocks == 7
 
 
 def test_a_rate_spike_is_replaced_by_the_median_of_its_neighbours() -> None:

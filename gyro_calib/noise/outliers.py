@@ -9,8 +9,10 @@ sample of an Imu axis, the per-sample increment of a pulse or FOG count — is a
 
 (Stable32's outlier recognition, k = ``outlier_sigma``). A short last block (fewer samples
 than a block) takes its median and MAD from the last ``outlier_block_samples`` samples of
-the segment, itself included. When the MAD is 0 (most increments of a quantised count
-equal) the scale is 1.2533 · mean|d − median| (the same σ for Gaussian data).
+the segment, itself included. When the MAD is 0 (most samples of a quantised output equal)
+the scale is 1.2533 · mean|d − median| (the same σ for Gaussian data), and at least the
+data's step (an LSB, one pulse: the smallest non-zero |d − median| held by 0.1 % of the
+block's samples).
 
 A rate spike is replaced by the median of the non-spike samples among its 8 nearest
 neighbours in the block (the block median when all are spikes): (E.5-2). A count's spike
@@ -42,6 +44,9 @@ MEAN_ABS_TO_SIGMA = 1.2533
 """σ of a Gaussian per mean absolute deviation (√(π/2)): the scale when the MAD is 0."""
 NEIGHBOURS = 4
 """A spike is replaced by the median of the non-spike samples within this many each side."""
+STEP_SHARE = 1e-3
+"""A non-zero |d − median| held by at least this share of a block's samples is the data's
+step (when the MAD is 0), not a spike."""
 FIRST_STAMPS = 5
 """Stamps of the first spikes kept for the report."""
 OUTLIER_MODES = ('keep', 'remove')
@@ -57,15 +62,23 @@ def _robust(d: FloatArray) -> tuple[float, float, bool, FloatArray]:
     scale = MAD_TO_SIGMA * float(np.median(dev))
     if scale > 0.0:
         return med, scale, False, dev
-    return med, MEAN_ABS_TO_SIGMA * float(np.mean(dev)), True, dev
+    scale = MEAN_ABS_TO_SIGMA * float(np.mean(dev))
+    # the data's step (an LSB, one pulse) is the least scale: noise below one step shows as
+    # ±1-step values, not as spikes; the step is the smallest non-zero |d − median| that
+    # is common (at least STEP_SHARE of the samples: a spike is not a step)
+    values, counts = np.unique(dev[dev > 0.0], return_counts=True)
+    common = values[counts >= max(2.0, STEP_SHARE * len(d))]
+    if len(common):
+        scale = max(scale, float(common[0]))
+    return med, scale, True, dev
 
 
 def robust_center_scale(d: FloatArray) -> tuple[float, float, bool]:
     """Median and robust σ of ``d``: (E.5-1); scale 0 when all are equal.
 
     Returns:
-        (median, 1.4826·MAD — or 1.2533·mean|d − median| when the MAD is 0 —, whether the
-        MAD was 0).
+        (median, 1.4826·MAD — when the MAD is 0, 1.2533·mean|d − median| and at least the
+        data's step —, whether the MAD was 0).
     """
     med, scale, mad_zero, _ = _robust(d)
     return med, scale, mad_zero
