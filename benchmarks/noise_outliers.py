@@ -15,8 +15,8 @@ to k). Then spikes of 6 … 32 robust σ (of each block's own scale) are added t
 of each record, 500 of each size, and the detection rate is printed per size.
 
 Measured (k = 8, block 65 536, 10⁷ samples a record; docs/methods.md §E.5): no false alarm
-in any of the 27 channels; largest clean value 6.3 σ (noise_imu_static gyro_x), 2.4 σ for
-the RLG counts; detection 0.21–0.50 at 8 σ, 0.81–0.86 at 9 σ, 0.80–0.99 at 10 σ, ≥ 0.992
+in any of the 27 channels; largest clean value 6.3 σ (noise_imu_static gyro_x), ≤ 2.4 σ for
+the RLG counts; detection 0.21–0.50 at 8 σ, 0.81–0.86 at 9 σ, 0.96–1.000 at 10 σ, ≥ 0.992
 at 12 σ, 1.000 from 16 σ.
 """
 
