@@ -168,6 +168,12 @@ def test_the_report_says_how_many_how_large_where_and_what_removal_changes() -> 
     clean = cal.axis_result('gyro_y').outliers
     assert clean is not None and clean.line().startswith('gyro_y: spikes: none of 200000')
     assert 'adev_1s' not in clean.record()
+    reports = [r.outliers for r in cal.axis_results().values() if r.outliers is not None]
+    first, *others = OutlierReport.lines(reports)  # the axes without spikes: one line
+    assert first == line and len(others) == 1
+    assert others[0].startswith('gyro_y, gyro_z, accel_x, accel_y, accel_z: spikes: none '
+                                'beyond 8 robust σ (')
+    assert '; the largest: gyro_y ' in others[0]
 
 
 TERMS = {

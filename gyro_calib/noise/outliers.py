@@ -349,13 +349,17 @@ class OutlierReport:
                 parts.append(f'{sym} {gone}')
         return ', '.join(parts) or 'nothing measurable'
 
+    def rule(self) -> str:
+        """'beyond 8 robust σ (|d − median| > 8·1.4826·MAD, d = the rate, per block …)'."""
+        what = ('the rate' if self.statistic == 'rate'
+                else "the count's per-sample increment")
+        return (f'beyond {self.sigma:g} robust σ (|d − median| > {self.sigma:g}·1.4826·MAD, '
+                f'd = {what}, per block of {self.block} samples)')
+
     def line(self) -> str:
         """The summary line: always, spikes or none."""
         tl = self.tally
-        what = ('the rate' if self.statistic == 'rate'
-                else "the count's per-sample increment")
-        rule = (f'beyond {self.sigma:g} robust σ (|d − median| > {self.sigma:g}·1.4826·MAD, '
-                f'd = {what}, per block of {self.block} samples)')
+        rule = self.rule()
         if not tl.spikes:
             largest = f'; the largest {tl.largest_sigma:.3g} σ' if tl.screened else ''
             return f'{self.axis}: spikes: none of {tl.screened} samples {rule}{largest}.'
@@ -374,6 +378,19 @@ class OutlierReport:
                 f'{rule}; the largest {tl.largest_sigma:.4g} σ at '
                 f'{tl.largest_ns // 1_000_000_000}.{tl.largest_ns % 1_000_000_000:09d} s; '
                 f'the first at {firsts}; {tail}.')
+
+    @staticmethod
+    def lines(reports: list[OutlierReport]) -> list[str]:
+        """The summary lines of several axes: one per axis with spikes, one for all without."""
+        out = [r.line() for r in reports if r.tally.spikes]
+        clean = [r for r in reports if not r.tally.spikes]
+        if len(clean) == 1:
+            out.append(clean[0].line())
+        elif clean:
+            largest = ', '.join(f'{r.axis} {r.tally.largest_sigma:.3g} σ' for r in clean)
+            out.append(f'{", ".join(r.axis for r in clean)}: spikes: none '
+                       f'{clean[0].rule()}; the largest: {largest}.')
+        return out
 
     def reverse_words(self) -> str:
         """What keeping the spikes changes against the record with them removed."""

@@ -46,6 +46,7 @@ from gyro_calib.errors import ConfigError, InsufficientDataError, StreamError
 from gyro_calib.noise.calibrator import IMU_AXES, NoiseCalibrator
 from gyro_calib.noise.fit import NoiseFit
 from gyro_calib.noise.keys import METHOD, imu_key
+from gyro_calib.noise.outliers import OutlierReport
 from gyro_calib.noise.settings import NoiseSettings
 from gyro_calib.noise.terms import SYMBOLS, units_for_axis
 from gyro_calib.session import CalibrationOptions, MethodSession
@@ -680,8 +681,8 @@ class NoiseSession(MethodSession):
             if curve is not None and 'Q' in res.fit.symbols_resolved and self.kind != 'imu':
                 lines.append(f'{axis}: quantisation Q shows because the sub-pulse phase moves '
                              '(dither or rotation); a static, locked-in RLG shows none.')
-        lines += [res.outliers.line() for res in view.axis_results().values()
-                  if res.outliers is not None]
+        lines += OutlierReport.lines([res.outliers for res in view.axis_results().values()
+                                      if res.outliers is not None])
         if scaled:
             lines.append('the model fits the Allan variance worse than its scatter allows on '
                          f'{", ".join(scaled)}: those uncertainties were scaled up by √ratio.')
