@@ -1,7 +1,7 @@
 """The committed noise bags calibrated offline.
 
 The committed noise bags (noise_imu_static, noise_imu_band_limited, noise_rlg_static,
-noise_rlg_turning) calibrated offline through the
+noise_rlg_spikes, noise_rlg_turning) calibrated offline through the
 front door: terms within their stated uncertainties of the generators' truth, the ordering
 and gap counts, Kalibr keys and units, the JSON shape, the figure; and the messages' bytes
 equal rosbags' own serialisation. (Regeneration and size: test/test_bags.py.)
@@ -39,7 +39,8 @@ def expected(name: str) -> dict[str, Any]:
 def sessions() -> dict[str, NoiseSession]:
     out = {}
     for name in NAMES:
-        session = calibrate_bags([BAGS / name], methods=['noise']).sessions['noise']
+        session = calibrate_bags([BAGS / name], methods=['noise'], options=CalibrationOptions(
+            settings=expected(name).get('settings', {}))).sessions['noise']
         assert isinstance(session, NoiseSession)
         out[name] = session
     return out
@@ -253,3 +254,43 @@ def test_imu_with_its_own_decimation_filter_gives_b_with_its_tau_range(
         assert cut <= fit['tau_min_s'] <= tau_b['tau_min_s'] < tau_b['tau_max_s'] \
             <= fit['tau_max_s']
         assert tau_b['tau_min_s'] > 1.0  # B rests on the plateau, not on the bent short τ
+
+
+def test_spiky_rlg_bag_finds_every_bit_error_and_removal_gives_the_gyro_terms(
+        sessions: dict[str, NoiseSession], tmp_path: Path) -> None:
+    """noise_rlg_spikes: 40 one-sample bit errors of ±2^5 … 2^9 pulses in the count.
+
+    Each gives two increments beyond 8 robust σ (up, then back): 80 found, at the stamps
+    injected. With outliers = remove (the expected file's setting) the terms lie within their
+    uncertainties of the truth (the coverage test above); kept, Q is 20× too large, and the
+    report's 'removed' value is the gyro's. The run's conditions in the hand-off say which
+    treatment was used and what the other would change, and so does the certificate.
+    """
+    exp = expected('noise_rlg_spikes')
+    spikes = exp['spikes']
+    session = sessions['noise_rlg_spikes']
+    report = session.calibrator.axis_result('gyro').outliers
+    assert report is not None and report.mode == 'remove'
+    assert report.tally.spikes == spikes['increments'] == 80
+    first = [ns / 1e9 for ns, _ in report.tally.first]
+    glitch = [s for s0 in spikes['stamps_s'][:3] for s in (s0, s0 + 0.002)][:5]
+    assert first == pytest.approx(glitch, abs=1e-6)  # the samples lie 2 ms apart
+    assert session.conditions()['outliers'] == 'remove'
+    assert session.conditions()['outliers_found'] == 80
+    assert any(ln.startswith('gyro: spikes: 80 of 59999 samples') and 'outliers = remove'
+               in ln for ln in session.summary_lines())
+    out = tmp_path / 'h.yaml'
+    assert main(['noise', str(BAGS / 'noise_rlg_spikes'), '--json', '--out', str(out)]) == 0
+    run = yaml.safe_load(out.read_text(encoding='utf-8'))
+    text = json.dumps(run)
+    assert '"outliers": "keep"' in text and '"outliers_found": 80' in text
+    assert main(['report', str(out), '--out', str(tmp_path / 'certs'), '--no-pdf']) == 0
+    (html,) = (tmp_path / 'certs').glob('*.html')
+    page = html.read_text(encoding='utf-8')  # the certificate says which treatment was used
+    assert 'outliers</span> = keep' in page and 'outliers_found</span> = 80' in page
+    truth, k = exp['truth']['gyro'], exp['coverage_factor']
+    kept = session.calibrator  # the estimator took the repaired record; its shadow the raw
+    q_removed = kept.results()['gyro']['quantization_noise_rad']
+    raw = report.terms['quantization_noise_rad'][0]
+    assert raw > 10 * truth['quantization_noise_rad']
+    assert abs(q_removed.value - truth['quantization_noise_rad']) < k * q_removed.std_uncertainty

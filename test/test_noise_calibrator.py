@@ -67,10 +67,10 @@ def test_json_section_has_exactly_the_issue_shape(imu_cal: NoiseCalibrator) -> N
         assert set(axis) == {'tau_s', 'adev', 'adev_std', 'results', 'm', 'clusters',
                              'noise_alpha', 'adev_edf', 'mdev', 'mdev_std', 'mdev_edf',
                              'hdev', 'hdev_std', 'hdev_edf', 'totdev', 'totdev_std',
-                             'totdev_edf', 'fit'}
+                             'totdev_edf', 'fit', 'outliers'}
         n_tau = len(axis['tau_s'])
         assert n_tau > 10
-        assert all(len(axis[k]) == n_tau for k in axis if k not in ('results', 'fit'))
+        assert all(len(axis[k]) == n_tau for k in axis if k not in ('results', 'fit', 'outliers'))
         for entry in axis['results'].values():
             assert list(entry) == ['value', 'std', 'n']
     gx = section['axes']['gyro_x']
@@ -265,7 +265,8 @@ def test_partial_overlap_memory_is_bounded(imu_record: tuple[np.ndarray, ...]) -
         # the tree grows one level per doubling
         levels = max(1, int(math.log2(n / TREE_BLOCK)) + 2)
         per_axis = (levels * (TREE_BLOCK + 4 * s.tree_min_averaging_factor)
-                    + 2 * (2 * s.total_deviation_points + 1)) * 8
+                    + 2 * (2 * s.total_deviation_points + 1)
+                    + 3 * s.outlier_block_samples) * 8  # the spike screen's block (§E.6)
         assert cal.sample_storage_bytes() <= 6 * per_axis
 
 

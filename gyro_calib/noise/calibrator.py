@@ -56,6 +56,7 @@ from gyro_calib.noise.mixture import (
     uniform_quantisation_factor,
 )
 from gyro_calib.noise.ordering import OrderingStats, ReorderBuffer
+from gyro_calib.noise.outliers import OutlierReport, adev_at
 from gyro_calib.noise.settings import NoiseSettings
 from gyro_calib.noise.table import (
     RATE_TABLE_JOINT_STATES,
@@ -116,6 +117,8 @@ class AxisResult:
     others: dict[str, tuple[FloatArray, FloatArray, FloatArray]] | None = None
     edf: FloatArray | None = None
     shares: FloatArray | None = None
+    outliers: OutlierReport | None = None
+    """The spikes found and what removing them (or keeping them) changes (§E.6)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -849,7 +852,8 @@ class NoiseCalibrator:
         st = ch.stats
 
         def none(reason: str) -> AxisResult:
-            return AxisResult(ch.name, units, None, None, None, None, reason)
+            return AxisResult(ch.name, units, None, None, None, None, reason,
+                              outliers=self._outlier_report(ch, units, None, None))
 
         motion = self._motion_reason(stream)
         if st.samples == 0 and motion:
@@ -895,13 +899,7 @@ class NoiseCalibrator:
                         f'{s.max_tau_fraction:g} of a segment, so at least {need} samples in '
                         f'one segment.{motion}')
         context = 'pulses' if stream.topic == GYRO_PULSES else ''
-        fit = fit_noise_terms(curve, units, min_significance=s.min_term_significance,
-                              edge_significance=s.edge_term_significance,
-                              ramp_significance=s.ramp_term_significance,
-                              min_tau_s=s.fit_min_tau_s, max_tau_s=s.fit_max_tau_s,
-                              context=context, min_clusters=s.fit_min_clusters,
-                              exclude_band_limited=bool(s.fit_exclude_band_limited),
-                              tau_list=s.tau_spec if isinstance(s.tau_spec, tuple) else None)
+        fit = self._fit(curve, units, context)
         # error bars (§E.2): the EDF blended over the noise types by their shares at each τ
         model = self._noise_model(curve, fit, units)
         shares = curve_shares(curve, model)
@@ -916,7 +914,50 @@ class NoiseCalibrator:
         totdev = (self._totdev(ch, model, curve.tau0_s, stream.topic == GYRO_PULSES)
                   if curve.overlap == 'partial' else None)
         return AxisResult(ch.name, units, curve, fit, std, totdev, '', alpha, others, edf,
-                          shares)
+                          shares, self._outlier_report(ch, units, curve, fit, context))
+
+    def _fit(self, curve: AllanCurve, units: TermUnits, context: str) -> NoiseFit:
+        """The joint term fit of one curve with the settings' limits (§E.3)."""
+        s = self.settings
+        return fit_noise_terms(curve, units, min_significance=s.min_term_significance,
+                               edge_significance=s.edge_term_significance,
+                               ramp_significance=s.ramp_term_significance,
+                               min_tau_s=s.fit_min_tau_s, max_tau_s=s.fit_max_tau_s,
+                               context=context, min_clusters=s.fit_min_clusters,
+                               exclude_band_limited=bool(s.fit_exclude_band_limited),
+                               tau_list=s.tau_spec if isinstance(s.tau_spec, tuple) else None)
+
+    def _outlier_report(self, ch: ChannelAccumulator, units: TermUnits,
+                        curve: AllanCurve | None, fit: NoiseFit | None,
+                        context: str = '') -> OutlierReport | None:
+        """The spikes of one channel and what the other treatment of them gives (§E.6)."""
+        tally = ch.outlier_tally
+        if tally is None:
+            return None
+        s = self.settings
+        statistic = 'rate' if ch.kind == 'rate' else 'increment'
+        other = ch.shadow_curve()
+        if not tally.spikes or curve is None or other is None:
+            return OutlierReport(ch.name, s.outliers, s.outlier_sigma, s.outlier_block_samples,
+                                 statistic, tally)
+        main_1s = adev_at(curve.tau_s, curve.adev)
+        other_1s = adev_at(other.tau_s, other.adev)
+        other_fit = self._fit(other, units, context) if int(
+            np.count_nonzero(other.avar > 0)) >= 2 else None
+        terms: dict[str, tuple[float, float]] = {}
+        for key in units.keys:
+            a = fit.estimates.get(key) if fit is not None else None
+            b = other_fit.estimates.get(key) if other_fit is not None else None
+            if a is None and b is None:
+                continue
+            terms[key] = (float(a.value) if a is not None else math.nan,
+                          float(b.value) if b is not None else math.nan)
+        if s.outliers == 'remove':  # (recorded, removed) whichever the estimator took
+            main_1s, other_1s = other_1s, main_1s
+            terms = {k: (b, a) for k, (a, b) in terms.items()}
+        symbols = {key: SYMBOLS[k] for k, key in enumerate(units.keys)}
+        return OutlierReport(ch.name, s.outliers, s.outlier_sigma, s.outlier_block_samples,
+                             statistic, tally, (main_1s, other_1s), terms, symbols)
 
     def _noise_model(self, curve: AllanCurve, fit: NoiseFit,
                      units: TermUnits) -> FloatArray | None:
@@ -1008,6 +1049,8 @@ class NoiseCalibrator:
                 record[f'{name}_edf'] = _floats(nu)
             if res.fit is not None:
                 record['fit'] = res.fit.json_record(c)
+            if res.outliers is not None:
+                record['outliers'] = res.outliers.record()
             axes[axis] = record
         out: dict[str, Any] = {'axes': axes}
         table = self.table_record()

@@ -27,6 +27,7 @@ record whose stamps bunch (many intervals below half a period) is reported.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -37,6 +38,7 @@ from gyro_calib.estimate import Rejection
 from gyro_calib.noise.allan import AllanSums, AveragingGrid, TauGrid, total_variance_sums
 from gyro_calib.noise.curve import AllanCurve, CurvePool, SegmentSums
 from gyro_calib.noise.exact import ExactDeviations
+from gyro_calib.noise.outliers import OutlierScreen, OutlierTally
 from gyro_calib.noise.tree import AllanTree, FullOverlapStore, PhaseReservoir
 from gyro_calib.units import NS_PER_S
 
@@ -131,6 +133,12 @@ class ChannelAccumulator:
     _best_reservoir: tuple[int, FloatArray, int, float] | None = None
     _constant: bool = True
     _first_value: float = math.nan
+    screen_spikes: bool = True
+    """Screen the samples for spikes (METHODS §E.6); off in a shadow."""
+    _screen: OutlierScreen | None = None
+    shadow: ChannelAccumulator | None = None
+    """The record with the other treatment of its spikes ('remove' when the setting is
+    'keep', and the reverse), from the first spike on; None while there is none."""
 
     def __post_init__(self) -> None:
         """Build the averaging grid; take the nominal period from the settings if given."""
@@ -138,6 +146,17 @@ class ChannelAccumulator:
         self._grid = AveragingGrid.make(s.taus_per_octave, s.tree_min_averaging_factor)
         if s.sample_rate_hz > 0:
             self.nominal_period_ns = NS_PER_S / s.sample_rate_hz
+        if self.screen_spikes:
+            self._screen = OutlierScreen(self.kind, s.outlier_sigma, s.outlier_block_samples)
+
+    @property
+    def outlier_tally(self) -> OutlierTally | None:
+        """What the spike screen found so far (None when it is off)."""
+        return self._screen.tally if self._screen is not None else None
+
+    def shadow_curve(self) -> AllanCurve | None:
+        """Pooled Allan variance of the record with the other treatment of its spikes."""
+        return self.shadow.curve() if self.shadow is not None else None
 
     # -- input -----------------------------------------------------------------------------
     def feed(self, t_ns: IntArray, values: FloatArray) -> None:
@@ -213,6 +232,17 @@ class ChannelAccumulator:
             self._append(t[pos:], v[pos:])
 
     def _append(self, t: IntArray, v: FloatArray) -> None:
+        self._book(t, v)
+        if self.shadow is not None:
+            self.shadow._book(t, v)
+        if self._screen is None:
+            self._integrate(v)
+            return
+        for _, raw, clean in self._screen.push(t, v):
+            self._release(raw, clean)
+
+    def _book(self, t: IntArray, v: FloatArray) -> None:
+        """Open the live segment if none is; count the samples into it."""
         s = self.settings
         if self._live is None:
             engine: AllanTree | FullOverlapStore | ExactDeviations
@@ -232,14 +262,42 @@ class ChannelAccumulator:
             if self.kind == 'rate':
                 self._push(np.zeros(1))
         seg = self._live
+        seg.n_samples += len(t)
+        seg.last_ns = int(t[-1])
+
+    def _release(self, raw: FloatArray, clean: FloatArray) -> None:
+        """A screened block (METHODS §E.6): one version to the estimator, one to the shadow.
+
+        The shadow is created at the first spike as a copy of this channel so far.
+        """
+        main, other = (clean, raw) if self.settings.outliers == 'remove' else (raw, clean)
+        if self.shadow is None and not (clean is raw or np.array_equal(clean, raw)):
+            self.shadow = self._fork()
+        self._integrate(main)
+        if self.shadow is not None:
+            self.shadow._integrate(other)
+
+    def _fork(self) -> ChannelAccumulator:
+        """A copy of this channel without screen or shadow, writing its own scratch file."""
+        screen, self._screen = self._screen, None
+        try:
+            twin = copy.deepcopy(self)
+        finally:
+            self._screen = screen
+        if twin._live is not None and isinstance(twin._live.engine, ExactDeviations):
+            twin._live.engine.phase.thaw()
+        return twin
+
+    def _integrate(self, v: FloatArray) -> None:
+        """Values of the live segment into its phase: rate samples integrated (§E.1)."""
+        seg = self._live
+        assert seg is not None
         if self.kind == 'rate':
             x = np.cumsum(np.concatenate(([seg.carry], v - seg.ref)))[1:]
             seg.carry = float(x[-1])
         else:
             x = v - seg.ref
         self._push(x)
-        seg.n_samples += len(t)
-        seg.last_ns = int(t[-1])
 
     def _push(self, x: FloatArray) -> None:
         assert self._live is not None
@@ -322,6 +380,11 @@ class ChannelAccumulator:
         return ''
 
     def _close_live(self) -> None:
+        if self._screen is not None and self._live is not None:
+            for _, raw, clean in self._screen.end_segment():
+                self._release(raw, clean)
+        if self.shadow is not None:
+            self.shadow._close_live()
         seg = self._live
         self._live = None
         if seg is None:
@@ -381,7 +444,11 @@ class ChannelAccumulator:
         return min(a for a, _ in spans), max(b for _, b in spans)
 
     def storage_bytes(self) -> int:
-        """Bytes of sample storage held: the live segment's tree (or store) and reservoirs."""
+        """Bytes of sample storage held (the live segment's store, reservoirs, screen, shadow).
+
+        The live segment's tree (or store) and reservoirs, the spike screen's open block
+        (§E.6) and the shadow's storage.
+        """
         total = sum(len(a) * 16 for a in self._learn_t)
         if self._live is not None:
             total += self._live.engine.nbytes()
@@ -389,6 +456,10 @@ class ChannelAccumulator:
                 total += self._live.reservoir.nbytes()
         if self._best_reservoir is not None:
             total += self._best_reservoir[1].nbytes
+        if self._screen is not None:  # the open block of the spike screen (§E.6)
+            total += self._screen.nbytes()
+        if self.shadow is not None:
+            total += self.shadow.storage_bytes()
         return total
 
     @property

@@ -3,7 +3,7 @@
     gyro-calib noise BAG [BAG ...] [--topic T]
         [--scale-factor-rad-per-pulse K | --scale-factor-counts-per-rad S | --calibration FILE]
         [--config FILE] [--json] [--kalibr imu.yaml] [--plot DIR] [--out handoff.yaml]
-        [--gyro-id ID] [--progress | --no-progress]
+        [--outliers keep|remove] [--outlier-sigma K] [--gyro-id ID] [--progress | --no-progress]
 
 The input is ``/gyro/pulses`` (with K), ``/fog/output`` (with counts/rad) or any
 ``sensor_msgs/Imu`` topic (``--topic``; without it the one input the bag holds). The bags
@@ -14,7 +14,8 @@ Exit status: 0 terms measured (files written); 1 Allan deviations but no term re
 (the curves and each term's reason were measured: ``--json`` prints them, ``--plot`` draws
 them, ``--out`` gets the curves alone unless the file holds noise terms; no Kalibr file;
 the last line names a ``--taus`` list too short for a fit); 2 bad input in one line — a
-path that is not a bag, a topic absent or
+path that is not a bag, an ``--outliers`` other than keep or remove, an ``--outlier-sigma``
+that is not a positive number, a topic absent or
 of another type (the line lists the topics present with their types), a pulse or FOG
 stream without a scale factor, a channel that is constant or all NaN, a record too short
 for any term, an output path that cannot be written (checked before any work, writability
@@ -79,12 +80,50 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument('--taus', metavar='GRID',
                    help="the τ grid: default (octaves and decades), octave, decade, all, or "
                    "averaging times in s, e.g. '1,10,100' (setting taus)")
+    p.add_argument('--outliers', metavar='keep|remove',
+                   help='spikes (median ± k·1.4826·MAD): keep the record as recorded and '
+                   'report what removing them changes (default), or remove them (setting '
+                   'outliers)')
+    p.add_argument('--outlier-sigma', metavar='K',
+                   help='k of the spike test, robust standard deviations (default 8; setting '
+                   'outlier_sigma)')
     p.add_argument('--gyro-id', default='', help="the sensor's serial or name (hand-off)")
     p.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
                    help='progress bar on stderr (default: when stderr is a terminal)')
     p.set_defaults(run=run_noise, method=['noise'], latitude_deg=None, heading_deg=None,
                    position_table_revolutions=None, sense_axis_elevation_deg=None,
                    sense_axis_azimuth_deg=None)
+
+
+def _outlier_options(args: argparse.Namespace, options: Any) -> Any:
+    """--outliers and --outlier-sigma into the settings, checked before any bag is read.
+
+    Raises:
+        ConfigError: a mode other than keep or remove, or k not a positive number.
+    """
+    from gyro_calib.errors import ConfigError
+    from gyro_calib.noise.outliers import OUTLIER_MODES
+
+    given: dict[str, Any] = {}
+    if args.outliers is not None:
+        if args.outliers not in OUTLIER_MODES:
+            raise ConfigError(f'--outliers {args.outliers!r} is invalid: it must be keep (the '
+                              'record as recorded, the spikes reported) or remove (each '
+                              'replaced by the median of its neighbours). Nothing was read.')
+        given['outliers'] = args.outliers
+    if args.outlier_sigma is not None:
+        try:
+            k = float(args.outlier_sigma)
+        except ValueError:
+            k = float('nan')
+        if not (k > 0 and k != float('inf')):
+            raise ConfigError(f'--outlier-sigma {args.outlier_sigma!r} is invalid: it must be '
+                              'a positive number of robust standard deviations (default 8). '
+                              'Nothing was read.')
+        given['outlier_sigma'] = k
+    if not given:
+        return options
+    return dataclasses.replace(options, settings={**options.settings, **given})
 
 
 def run_noise(args: argparse.Namespace) -> int:
@@ -130,6 +169,7 @@ def run_noise(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise ConfigError(f'--taus: {exc}. Nothing was read.') from None
         options = dataclasses.replace(options, settings={**options.settings, 'taus': args.taus})
+    options = _outlier_options(args, options)
     # the input topic a bag stores (bench.topic) may come from any bag; every other stored
     # bench setting from the bags that hold the input read, never from another bag
     options = dataclasses.replace(options, topic=args.topic, scenario=next(

@@ -133,6 +133,29 @@ class ScratchPhase:
         new._frozen = self._file is not None
         return new
 
+    def thaw(self) -> None:
+        """Make a snapshot's copy a store of its own (a channel's shadow, METHODS §E.6).
+
+        Its points go into a scratch file of its own (one copy); new points are written there.
+        """
+        if not self._frozen or self._file is None:
+            return
+        fd, name = tempfile.mkstemp(prefix='gyro_calib_phase_', suffix='.f64',
+                                    dir=self.directory)
+        os.unlink(name)
+        old, self._file = self._file, fd
+        step = 1 << 20
+        for lo in range(0, self._start, step):
+            hi = min(lo + step, self._start)
+            chunk = np.empty(hi - lo)
+            got = os.preadv(old, [chunk.data.cast('B')], 8 * lo)
+            if got != 8 * (hi - lo):
+                raise OSError(f'short read from the phase scratch file ({got} bytes)')
+            self._write(chunk)
+        self._write(self._buf[:self._len])
+        os.close(old)
+        self._frozen = False
+
     @property
     def spilled(self) -> bool:
         """The points are in a scratch file."""

@@ -46,6 +46,7 @@ from gyro_calib.errors import ConfigError, InsufficientDataError, StreamError
 from gyro_calib.noise.calibrator import IMU_AXES, NoiseCalibrator
 from gyro_calib.noise.fit import NoiseFit
 from gyro_calib.noise.keys import METHOD, UPPER_BOUND_SUFFIX, imu_key
+from gyro_calib.noise.outliers import OutlierReport
 from gyro_calib.noise.settings import NoiseSettings
 from gyro_calib.noise.terms import SYMBOLS, units_for_axis
 from gyro_calib.session import CalibrationOptions, MethodSession
@@ -537,11 +538,36 @@ class NoiseSession(MethodSession):
         (/fog/output) with ``scale_factor_from``; nothing for an Imu (no scale factor).
         """
         inputs = self.calibrator.inputs()
+        out: dict[str, Any] = {}
         for stream, name, scale in (('pulses', 'scale_factor_rad_per_pulse', self.pulse_scale),
                                     ('fog', 'fog_scale_factor_counts_per_rad', self.fog_scale)):
             if stream in inputs and scale.known:
-                return {name: scale.value, 'scale_factor_from': scale.source}
-        return {}
+                out = {name: scale.value, 'scale_factor_from': scale.source}
+                break
+        return {**out, **self.outlier_conditions()}
+
+    def outlier_conditions(self) -> dict[str, Any]:
+        """The spike treatment the terms rest on, for the run's conditions (§E.6).
+
+        ``outliers`` (keep or remove), ``outlier_sigma``, ``outliers_found`` (all axes)
+        and ``outliers_report`` (each axis with spikes: how many, the largest, what the other
+        treatment changes; 'none' without spikes).
+        """
+        s = self.settings
+        view = self.view
+        reports = ([r.outliers for r in view.axis_results().values() if r.outliers is not None]
+                   if view is not None else [])
+        found = sum(r.tally.spikes for r in reports)
+        words = []
+        for r in reports:
+            if not r.tally.spikes:
+                continue
+            change = (r.changes_words() if s.outliers == 'keep' else r.reverse_words())
+            verb = 'removing' if s.outliers == 'keep' else 'keeping'
+            words.append(f'{r.axis}: {r.tally.spikes} of {r.tally.screened} (largest '
+                         f'{r.tally.largest_sigma:.4g} σ); {verb} them changes {change}')
+        return {'outliers': s.outliers, 'outlier_sigma': float(s.outlier_sigma),
+                'outliers_found': int(found), 'outliers_report': '; '.join(words) or 'none'}
 
     def check_measurable(self) -> None:
         """Raise unless at least one axis gives an Allan deviation in SI units.
@@ -681,6 +707,8 @@ class NoiseSession(MethodSession):
             if curve is not None and 'Q' in res.fit.symbols_resolved and self.kind != 'imu':
                 lines.append(f'{axis}: quantisation Q shows because the sub-pulse phase moves '
                              '(dither or rotation); a static, locked-in RLG shows none.')
+        lines += OutlierReport.lines([res.outliers for res in view.axis_results().values()
+                                      if res.outliers is not None])
         if scaled:
             lines.append('the model fits the Allan variance worse than its scatter allows on '
                          f'{", ".join(scaled)}: those uncertainties were scaled up by √ratio.')

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from gyro_calib.config import check_ranges
 from gyro_calib.errors import ConfigError
+from gyro_calib.noise.outliers import OUTLIER_MODES
 
 TABLE_REFERENCES = ('gyro', 'gyro_minus_table')
 """What the noise of a gyro on a turning table is computed from (``table_reference``)."""
@@ -117,6 +118,15 @@ class NoiseSettings:
     its stamp; when the table's states stop or lag more, the last one holds for it (counted
     in the summary), s."""
 
+    outliers: str = 'keep'
+    """Spikes (METHODS §E.6): 'keep' analyses the record as recorded and reports what
+    removing them would change; 'remove' replaces each by the median of its neighbours."""
+    outlier_sigma: float = 8.0
+    """k of the spike test |d − median| > k·1.4826·MAD (d: the rate sample, or the count's
+    per-sample increment), robust standard deviations."""
+    outlier_block_samples: int = 65536
+    """Samples per block of the spike test (median and MAD of each block of a segment)."""
+
     def __post_init__(self) -> None:
         """Validate every field once; raise ConfigError naming the field."""
         from gyro_calib.noise.allan import parse_taus
@@ -186,6 +196,13 @@ class NoiseSettings:
              and self.table_min_steady_s >= 0, 'zero or positive'),
             ('table_reference', self.table_reference in TABLE_REFERENCES,
              ' or '.join(repr(r) for r in TABLE_REFERENCES)),
+        ]
+        checks += [
+            ('outliers', self.outliers in OUTLIER_MODES,
+             ' or '.join(repr(m) for m in OUTLIER_MODES)),
+            ('outlier_sigma', math.isfinite(self.outlier_sigma) and self.outlier_sigma > 0,
+             'a positive number of robust standard deviations (default 8)'),
+            ('outlier_block_samples', self.outlier_block_samples >= 64, 'at least 64'),
         ]
         check_ranges(self, checks)  # one range check for every setting
 

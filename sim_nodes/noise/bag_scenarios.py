@@ -1,4 +1,4 @@
-"""Committed noise-characterisation bags: static MEMS IMUs, a dithered RLG at rest, a turning RLG.
+"""Committed noise-characterisation bags: static MEMS IMUs, dithered RLGs at rest, a turning RLG.
 
 The scenarios (``bags/<name>/`` and ``bags/<name>.expected.yaml``, written by
 ``python bags/generate.py NAME``):
@@ -23,6 +23,12 @@ The scenarios (``bags/<name>/`` and ``bags/<name>.expected.yaml``, written by
     measure (``gyro-calib noise`` says so and stops) — quantisation is absent then, not
     fitted. The bias instability of a navigation RLG (0.003 °/h) needs hours; 280 s leave
     it absent, with its bound.
+``noise_rlg_spikes``
+    The dithered RLG of ``noise_rlg_static`` (another seed, 120 s, no gap) whose count
+    read-out has 40 one-sample bit errors: the count of that sample is off by ±2^b pulses
+    (5 ≤ b < 10), the next one right again (``spikes``, ``spike_bits``). Each gives two
+    increments beyond 8 robust σ (METHODS §E.6): 80 found; kept they make Q 20× too large;
+    the expected file asks for ``outliers: remove``, which gives Q and N of the gyro.
 ``noise_rlg_turning``
     A rate-biased RLG (no dither) on a rate table turning about its sense axis at a constant
     37.9 °/s, 100 s one way, a reversal at 100 °/s² (0.758 s), 100 s the other way: pulses
@@ -354,7 +360,7 @@ class RlgBagScenario:
         sample_rate_hz, duration_s: pulse sampling, Hz; record length, s.
         latitude_deg: the site (vertical sense axis: Earth rate · sin latitude).
         dither_amplitude_rad, dither_frequency_hz: the mechanical dither (stripped).
-        gap_s: (start, end) of samples lost, s from the start.
+        gap_s: (start, end) of samples lost, s from the start ((0, 0): none).
         seed: generator seed.
     """
 
@@ -371,11 +377,27 @@ class RlgBagScenario:
     seed: int = 12
     coverage_factor: float = 3.5
     topic: str = GYRO_PULSES
+    spikes: int = 0
+    """One-sample bit errors in the count read-out: the count of that sample is off by
+    ±2^b pulses (b from ``spike_bits``), the next one right again (METHODS §E.6)."""
+    spike_bits: tuple[int, int] = (5, 10)
+    """The flipped bit b is drawn from b_lo ≤ b < b_hi."""
 
     @property
     def n_samples(self) -> int:
         """Samples generated (before the gap is cut out)."""
         return int(round(self.duration_s * self.sample_rate_hz))
+
+    def spike_errors(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+        """Sample indices (sorted, none at the ends or next to another) and count errors."""
+        if not self.spikes:
+            return np.zeros(0, dtype=np.int64), np.zeros(0)
+        rng = np.random.default_rng(self.seed + 7919)
+        pool = np.arange(2, self.n_samples - 2, 3, dtype=np.int64)  # never adjacent
+        at = np.sort(rng.choice(pool, self.spikes, replace=False))
+        bits = rng.integers(self.spike_bits[0], self.spike_bits[1], self.spikes)
+        sign = rng.choice(np.array([-1.0, 1.0]), self.spikes)
+        return at, sign * 2.0 ** bits
 
     def generator(self) -> RlgPulseGenerator:
         """A fresh generator of this gyro."""
@@ -405,10 +427,13 @@ class RlgBagScenario:
         """(topic, log time ns, CDR) in publication order."""
         template = pulse_template()
         gen = self.generator()
+        at, error = self.spike_errors()
         n, done = self.n_samples, 0
         while done < n:
             k = min(CHUNK, n - done)
             t, counts = gen.chunk(k)
+            here = (at >= done) & (at < done + k)
+            counts[at[here] - done] += error[here]
             keep = self._kept(t)
             t, counts = t[keep], counts[keep]
             rows = template.rows(t, counts)
@@ -435,13 +460,29 @@ class RlgBagScenario:
             'coverage_factor': self.coverage_factor, 'coverage_note': COVERAGE_NOTE,
             'must_resolve': {'gyro': [GYRO_KEYS[0], GYRO_KEYS[1]]},
             'counts': {'received': self.messages_count(), 'out_of_order': 0, 'duplicate': 0,
-                       'late': 0, 'restarts': 0, 'gaps': 1, 'segments': 2},
+                       'late': 0, 'restarts': 0, **self._gap_counts()},
+            **self._spike_record(),
         }
+
+    def _gap_counts(self) -> dict[str, int]:
+        inside = self.gap_s[0] < min(self.gap_s[1], self.duration_s)
+        return {'gaps': 1 if inside else 0, 'segments': 2 if inside else 1}
+
+    def _spike_record(self) -> dict[str, Any]:
+        """The bit errors injected: each gives two increments beyond k (up, then back)."""
+        if not self.spikes:
+            return {}
+        at, error = self.spike_errors()
+        period = int(round(NS_PER_S / self.sample_rate_hz))
+        stamps = [(START_NS + int(i) * period) / NS_PER_S for i in at]
+        return {'settings': {'outliers': 'remove'},
+                'spikes': {'bit_errors': int(len(at)), 'increments': 2 * int(len(at)),
+                           'pulses': [float(e) for e in error], 'stamps_s': stamps}}
 
     def description_dict(self) -> dict[str, Any]:
         """Stored in the bag: generator parameters, seed, gap, bench settings, truth."""
         description = self.description
-        if not self.gap_s[0] < self.duration_s:  # a shortened run ends before its gap
+        if self.gap_s[1] > self.gap_s[0] >= self.duration_s:  # a shortened run: no gap
             description += (f' The {self.gap_s[0]:g}–{self.gap_s[1]:g} s gap lies beyond this '
                             f'{self.duration_s:g} s record: it has none.')
         return {
@@ -451,6 +492,8 @@ class RlgBagScenario:
             'dither_amplitude_rad': self.dither_amplitude_rad,
             'dither_frequency_hz': self.dither_frequency_hz, 'dither_stripped': True,
             'gap_s': list(self.gap_s), 'seed': self.seed,
+            **({'spikes': self.spikes, 'spike_bits': list(self.spike_bits)}
+               if self.spikes else {}),
             'bench': self.bench_settings(), 'truth': self.truth(),
         }
 
@@ -648,6 +691,14 @@ SCENARIOS: dict[str, Scenario] = {s.name: s for s in (
         'stripped, a 2 s gap): Q = K/√12 and N resolve; a locked-in RLG would show neither.',
         NoiseTerms(random_walk=0.003 * DEG / 60.0, bias_instability=0.003 * DEG / 3600.0,
                    bias=0.005 * DEG / 3600.0)),
+    RlgBagScenario(
+        'noise_rlg_spikes', 'A dithered RLG at rest whose count read-out has 40 one-sample '
+        'bit errors (±2^5 … 2^9 pulses; /gyro/pulses, 500 Hz, 120 s, no gap): gyro-calib '
+        'noise finds the 80 increments beyond 8 robust σ, says what they do to the terms, and '
+        'with outliers = remove gives Q and N of the gyro.',
+        NoiseTerms(random_walk=0.003 * DEG / 60.0, bias_instability=0.003 * DEG / 3600.0,
+                   bias=0.005 * DEG / 3600.0), duration_s=120.0, gap_s=(0.0, 0.0),
+        seed=30, spikes=40),
     RlgTurningBagScenario(
         'noise_rlg_turning', 'A rate-biased RLG on a rate table turning at 37.9 °/s (no '
         'dither: the rotation keeps it out of lock-in; /gyro/pulses 250 Hz, '
