@@ -561,9 +561,12 @@ class SimScenarioBench:
             value, origin = options.setting_with_origin(name)
             if not origin.startswith('the bench settings') or not given(value):
                 continue
+            how = (f'pass -p {name}:={value!r}' if self.node.has_parameter(name) else
+                   f'set {name}: {value!r} under {self.node.get_name()}: ros__parameters: '
+                   'in the config_file')  # not a parameter of this node: -p is ignored
             line = (f'{topics.SIM_SCENARIO} gives {name} = {value!r}, which the parameters '
                     f'leave unset; not taken (results depend only on the data and the '
-                    f'parameters): pass -p {name}:={value!r} to use it.')
+                    f'parameters): {how} to use it.')
             if line not in self.told:
                 self.told.add(line)
                 self.node.get_logger().warning(line)
