@@ -126,6 +126,14 @@ CONVENTIONS: dict[str, str] = {
 }
 """What every number in the file is (written under ``conventions:``)."""
 
+IMU_CONVENTION = ('the imu: section is a triad of gyros in the IMU body frame (the inner-table '
+                  'frame through fixture_rotation): ω_B = M·ṅ − b, M = pulses_to_body_rad '
+                  '(rad/pulse), ṅ the three channels\' count rates in channels order, '
+                  'b = bias_rad_s (rad/s, body frame, Earth rate removed); sense_axes are unit '
+                  'rows in the body '
+                  'frame (docs/methods.md §F).')
+"""The ``conventions.imu`` line, written when the file has an ``imu:`` section."""
+
 MAX_DISAGREEMENT_SIGMA = 5.0
 """A run's value differing from the file's by more than this many combined standard
 uncertainties is not merged (another gyro, a changed gyro, or a wrong bench setting)."""
@@ -916,7 +924,8 @@ def calibration_to_yaml_dict(calibration: Calibration,
         methods[name] = entry
     out = CalibrationYaml(
         format_version=FORMAT_VERSION, gyro_calib_version=calibration.gyro_calib_version,
-        gyro_id=calibration.gyro_id, conventions=dict(CONVENTIONS),
+        gyro_id=calibration.gyro_id, conventions=dict(CONVENTIONS, **(
+            {'imu': IMU_CONVENTION} if calibration.imu is not None else {})),
         complete=calibration.complete, missing=calibration.missing,
         not_measurable=calibration.not_measurable,
         gyro={k: calibration.values[k] for k in keys}, methods=methods)

@@ -95,6 +95,8 @@ def _check_against_truth(session: TriadSession, handoff: Path, expected: dict[st
                   res.parameters[TILT].std_uncertainty / RAD_PER_ARCSEC, tol['tilt_arcsec'])
     cal = load_calibration(handoff)
     assert cal.format_version == 4 and cal.imu is not None
+    conventions = yaml.safe_load(handoff.read_text(encoding='utf-8'))['conventions']
+    assert 'ω_B = M·ṅ − b' in conventions['imu']  # the file says what its matrix is
     imu, expected_imu = cal.imu, session.imu_calibration()
     assert expected_imu is not None
     assert imu.channels == tuple(truth['channels'])
