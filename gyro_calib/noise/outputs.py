@@ -169,7 +169,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         if record is not None and targets.handoff is not None:
             report: list[str] = []
             path = update_calibration(targets.handoff, record, handoff_schema(), report=report)
-            notes = [line for line in report if line.startswith(SCALE_FACTOR_NOTE)]
+            notes = [line for line in report  # and what became of a triad's imu: section
+                     if line.startswith((SCALE_FACTOR_NOTE, 'imu:'))]
             written.append(('hand-off' + (f' ({"; ".join(notes)})' if notes else ''), path))
     finally:
         if figure_tmp is not None:
