@@ -91,7 +91,8 @@ def curves_record(session: NoiseSession, source: str, gyro_id: str = '') -> Cali
     span, tables = session.data_span_ns(), session.deviation_tables()
     if span is None or not tables:
         return None
-    missing = session.missing()
+    # a triad's reasons are per channel (imu.noise.<channel>.<key>), not top-level keys
+    missing = session.missing() if session.kind != 'triad' else {}
     cannot = {k: v for k, v in session.not_measurable().items() if k in missing}
     return method_calibration(
         session.name, {},
