@@ -257,3 +257,32 @@ def test_the_span_while_the_rate_table_swings_is_left_out_of_every_channel(
     assert imu is not None
     found = np.array([imu.noise[ch]['angle_random_walk_rad_per_sqrt_s'] for ch in CHANNELS])
     assert np.all(np.abs(found / ARW - 1) < 0.05), found  # kept in: off by orders of magnitude
+
+
+def test_the_node_input_path_gives_the_offline_terms_bit_for_bit(
+        triad_bag: Path, imu_yaml: Path) -> None:
+    """noise_node's LiveInputs (three joints per /imu/pulses message) → the bag's numbers."""
+    from sensor_msgs.msg import JointState
+
+    from gyro_calib.bag_calibration import calibrate_bags
+    from gyro_calib.bagio import SampleBatch
+    from gyro_calib.nodes.method_node import LiveInputs
+    from gyro_calib.noise.session import NoiseSession
+    from gyro_calib.session import CalibrationOptions
+
+    options = CalibrationOptions(topic=topics.IMU_PULSES, calibration_file=imu_yaml)
+    offline = calibrate_bags([triad_bag], methods=['noise'], options=options).sessions['noise']
+    session = NoiseSession(options)
+    live = LiveInputs(session.topics())
+    t, counts = counts_at_rest(0)
+    for ti, c in zip(t.tolist(), counts.tolist(), strict=True):
+        msg = JointState(name=list(CHANNELS), position=c)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ti, 10**9)
+        live.buffers[topics.IMU_PULSES].add(msg)
+    columns, late = live.take(flush=True)
+    assert not late
+    session.feed(SampleBatch(columns, sum(len(c) for c in columns.values()), 0))
+    session.process(flush=True)
+    got = {k: (e.value, e.std_uncertainty) for k, e in session.results().items()}
+    assert got == {k: (e.value, e.std_uncertainty) for k, e in offline.results().items()}
+    assert len(got) == 3

@@ -872,7 +872,9 @@ class NoiseSession(MethodSession):
             lines.append('the model fits the Allan variance worse than its scatter allows on '
                          f'{", ".join(scaled)}: those uncertainties were scaled up by √ratio.')
         if any(r.fit is not None for r in view.axis_results().values()):
-            lines.append('terms not resolved are absent (hand-off missing: with the reason); '
+            where = ('imu.noise.<channel> keeps its 2σ bound' if self.kind == 'triad'
+                     else 'hand-off missing: with the reason')
+            lines.append(f'terms not resolved are absent ({where}); '
                          'gyro-calib info BAG --method noise prints every reason.')
         return lines
 
