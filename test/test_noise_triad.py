@@ -20,6 +20,7 @@ import yaml
 
 from gyro_calib import topics
 from gyro_calib.handoff import (
+    Calibration,
     Provenance,
     load_calibration,
     method_calibration,
@@ -72,7 +73,7 @@ def triad_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def triad_record(*, noise: dict[str, dict[str, float]] | None = None) -> object:
+def triad_record(*, noise: dict[str, dict[str, float]] | None = None) -> Calibration:
     """A triad run's hand-off record: K, sense axes, M (and noise when given)."""
     m = np.linalg.inv(SENSE / K[:, None])
     imu = ImuCalibration(CHANNELS, scale_factor_rad_per_pulse=K,
@@ -87,7 +88,7 @@ def triad_record(*, noise: dict[str, dict[str, float]] | None = None) -> object:
 @pytest.fixture
 def imu_yaml(tmp_path: Path) -> Path:
     path = tmp_path / 'imu.yaml'
-    write_calibration(path, triad_record())  # type: ignore[arg-type]
+    write_calibration(path, triad_record())
     return path
 
 
@@ -178,10 +179,10 @@ def test_a_triad_run_after_a_noise_run_keeps_the_noise_and_the_reverse(tmp_path:
     assert only is not None and only.noise == noise and only.pulses_to_body_rad is None
     assert any('imu: added with the channels' in line for line in report)
     report.clear()
-    update_calibration(first_noise, triad_record(), report=report)  # type: ignore[arg-type]
+    update_calibration(first_noise, triad_record(), report=report)
     assert any('noise per channel kept' in line for line in report), report
     first_triad = tmp_path / 'b.yaml'
-    update_calibration(first_triad, triad_record())  # type: ignore[arg-type]
+    update_calibration(first_triad, triad_record())
     update_calibration(first_triad, noise_run)
     for path in (first_noise, first_triad):
         imu = load_calibration(path).imu
@@ -189,7 +190,7 @@ def test_a_triad_run_after_a_noise_run_keeps_the_noise_and_the_reverse(tmp_path:
         assert imu.pulses_to_body_rad is not None and imu.scale_factor_rad_per_pulse is not None
     # a triad run that measured noise itself brings its own
     own = {ch: {'angle_random_walk_rad_per_sqrt_s': 1e-6} for ch in CHANNELS}
-    update_calibration(first_triad, triad_record(noise=own))  # type: ignore[arg-type]
+    update_calibration(first_triad, triad_record(noise=own))
     imu = load_calibration(first_triad).imu
     assert imu is not None and imu.noise == own
 
@@ -198,7 +199,7 @@ def test_another_imus_channels_are_refused(tmp_path: Path) -> None:
     from gyro_calib.handoff import HandoffError
 
     path = tmp_path / 'h.yaml'
-    update_calibration(path, triad_record())  # type: ignore[arg-type]
+    update_calibration(path, triad_record())
     other = dataclasses.replace(method_calibration('noise', {}, Provenance('b', 3, 4)),
                                 imu=ImuCalibration(('a', 'b', 'c'), noise={
                                     'a': {'angle_random_walk_rad_per_sqrt_s': 1e-6}}))
