@@ -287,3 +287,25 @@ def test_the_node_input_path_gives_the_offline_terms_bit_for_bit(
     got = {k: (e.value, e.std_uncertainty) for k, e in session.results().items()}
     assert got == {k: (e.value, e.std_uncertainty) for k, e in offline.results().items()}
     assert len(got) == 3
+
+
+def test_each_channel_is_the_single_gyro_analysis_of_its_counts_with_its_k() -> None:
+    """A triad channel gives what /gyro/pulses with that channel's counts and K gives, exactly."""
+    from gyro_calib.noise.calibrator import NoiseCalibrator
+    from gyro_calib.noise.settings import NoiseSettings
+
+    t, counts = counts_at_rest(3)
+    triad = NoiseCalibrator(NoiseSettings(), triad=(CHANNELS, tuple(float(k) for k in K)))
+    triad.extend_triad(t, counts)
+    triad.process(flush=True)
+    for i, ch in enumerate(CHANNELS):
+        one = NoiseCalibrator(NoiseSettings(scale_factor_rad_per_pulse=float(K[i])))
+        one.extend_pulses(t, counts[:, i])
+        one.process(flush=True)
+        a, b = triad.axis_results()[ch], one.axis_results()['gyro']
+        assert a.curve is not None and b.curve is not None
+        np.testing.assert_array_equal(a.curve.adev, b.curve.adev)
+        assert a.fit is not None and b.fit is not None
+        assert {k: (e.value, e.std_uncertainty) for k, e in a.fit.estimates.items()} == \
+            {k: (e.value, e.std_uncertainty) for k, e in b.fit.estimates.items()}
+        assert a.fit.upper_bounds == b.fit.upper_bounds
