@@ -309,3 +309,18 @@ def test_each_channel_is_the_single_gyro_analysis_of_its_counts_with_its_k() -> 
         assert {k: (e.value, e.std_uncertainty) for k, e in a.fit.estimates.items()} == \
             {k: (e.value, e.std_uncertainty) for k, e in b.fit.estimates.items()}
         assert a.fit.upper_bounds == b.fit.upper_bounds
+
+
+def test_a_hand_off_of_other_channels_is_refused_in_one_line(
+        triad_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """K for channels x, y, z but the bag's joints are gx, gy, gz: another IMU's file."""
+    record = triad_record()
+    assert record.imu is not None
+    other = tmp_path / 'other.yaml'
+    write_calibration(other, dataclasses.replace(
+        record, imu=dataclasses.replace(record.imu, channels=('x', 'y', 'z'))))
+    before = other.read_bytes()
+    status, out, err = noise_cli(capsys, triad_bag, '--topic', '/imu/pulses', '--calibration',
+                                 other, '--out', other)
+    assert status == 2 and out == '' and other.read_bytes() == before
+    assert len(err.strip().splitlines()) == 1 and "['gx', 'gy', 'gz']" in err
