@@ -396,12 +396,7 @@ class Calibration:
         for method, prov in self.methods.items():
             methods[method] = _merge_method(method, prov, self.values, older, values, schema,
                                             replace, lines)
-        imu = older.imu
-        if self.imu is not None:
-            imu = self.imu
-            lines.append('imu: the file\'s imu section (' + _imu_run(older) + ') replaced by '
-                         'this run\'s.' if older.imu is not None else
-                         'imu: added (K, sense axes, M and b of the triad).')
+        imu = _merged_imu(self, older, lines)
         merged = Calibration(values, methods, self.gyro_id or older.gyro_id, imu=imu)
         findings = scale_factor_findings(merged, schema, new_methods=self.methods)
         while findings.problem and replace and findings.stale is not None:
@@ -417,6 +412,50 @@ class Calibration:
             lines.append(f'unchanged: {n} key(s) of method(s) {", ".join(others)}.')
         lines.extend(findings.notes)
         return merged
+
+
+def _merged_imu(new: Calibration, older: Calibration, lines: list[str]) -> ImuCalibration | None:
+    """The ``imu:`` section after a merge, each change said in a line.
+
+    A triad run (:data:`IMU_METHODS`) replaces the section but keeps the file's per-channel
+    ``noise`` and ``thermal`` where it brings none; any other run (the noise method on
+    ``/imu/pulses``) keeps the file's section and sets its ``noise`` (and ``thermal``) per
+    channel. A file without the section gets this run's.
+
+    Raises:
+        HandoffError: the run's channels are not the file's section's.
+    """
+    run, old = new.imu, older.imu
+    if run is None:
+        return old
+    if old is None:
+        lines.append('imu: added (K, sense axes, M and b of the triad).'
+                     if any(m in IMU_METHODS for m in new.methods) else
+                     f'imu: added with the channels {list(run.channels)} and their '
+                     f'{_per_channel_words(run)} only.')
+        return run
+    if set(run.channels) != set(old.channels):
+        raise HandoffError(f'the file\'s imu section has the channels {list(old.channels)}, '
+                           f'this run the channels {list(run.channels)}: another IMU? Not '
+                           'merging them (use another --out).')
+    if any(m in IMU_METHODS for m in new.methods):
+        kept = {name: getattr(old, name) for name in ('noise', 'thermal')
+                if getattr(old, name) and not getattr(run, name)}
+        lines.append('imu: the file\'s imu section (' + _imu_run(older) + ') replaced by this '
+                     'run\'s' + (f'; its {" and ".join(kept)} per channel kept (not measured '
+                                  'by this run).' if kept else '.'))
+        return dataclasses.replace(run, **kept)
+    changed = {name: getattr(run, name) for name in ('noise', 'thermal') if getattr(run, name)}
+    lines.append(f'imu: the file\'s section kept (K, sense axes, M, b); its '
+                 f'{_per_channel_words(run)} ' + ('replaced by this run\'s.' if any(
+                     getattr(old, n) for n in changed) else 'set by this run.'))
+    return dataclasses.replace(old, **changed)
+
+
+def _per_channel_words(imu: ImuCalibration) -> str:
+    """'noise', 'thermal' or 'noise and thermal' terms per channel of a section."""
+    return ' and '.join(n for n in ('noise', 'thermal') if getattr(imu, n)) + ' terms' \
+        if imu.noise or imu.thermal else 'no terms'
 
 
 def _imu_run(calibration: Calibration) -> str:
@@ -1222,7 +1261,7 @@ def update_calibration(path: str | Path, calibration: Calibration,
         lines += [f'added: {k} = {_with_std(v, calibration.values.get(k + "_std"))}.'
                   for k, v in calibration.values.items() if not k.endswith(TWIN_SUFFIXES)]
         if calibration.imu is not None:
-            lines.append('imu: added (K, sense axes, M and b of the triad).')
+            _merged_imu(calibration, Calibration({}, {}), lines)
         lines += findings.notes
     written = write_calibration(target, calibration, sch)
     if report is not None:

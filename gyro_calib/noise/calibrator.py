@@ -16,6 +16,9 @@ stream            message, fields             axis / unit
                   pulse count
 ``/fog/output``   cumulative output counts    ``gyro``: angle = count / SF, SF from
                                               ``fog_scale_factor_counts_per_rad``
+``/imu/pulses``   sensor_msgs/JointState,     one axis per channel, named by its joint:
+                  position[0:3] cumulative    angle_i = K_i·count_i (``extend_triad``)
+                  pulse counts (a triad)
 any Imu topic     sensor_msgs/Imu,            ``gyro_x``, ``gyro_y``, ``gyro_z`` (rad/s),
                   angular_velocity xyz,       ``accel_x``, ``accel_y``, ``accel_z`` (m/s²);
                   linear_acceleration xyz     rate samples integrated (rate·τ0)
@@ -80,6 +83,10 @@ GYRO_PULSES = '/gyro/pulses'
 """RLG pulse topic (shared contract name, repeated here so the method imports no other)."""
 FOG_OUTPUT = '/fog/output'
 """FOG output topic (cumulative output counts)."""
+IMU_PULSES = '/imu/pulses'
+"""A triad's pulse topic: three joints (the channels), cumulative counts (METHODS §F)."""
+PULSE_TOPICS = (GYRO_PULSES, IMU_PULSES)
+"""The pulse-count streams (whole pulses: uniform quantisation, lock-in notes)."""
 IMU_AXES = ('gyro_x', 'gyro_y', 'gyro_z', 'accel_x', 'accel_y', 'accel_z')
 """Axis names of an Imu stream, in column order."""
 
@@ -127,7 +134,7 @@ class StreamCounts:
 
     Attributes:
         topic: the input topic.
-        kind: 'pulses', 'fog' or 'imu'.
+        kind: 'pulses', 'fog', 'imu' or 'triad'.
         received: samples received.
         out_of_order: samples that arrived behind a newer stamp and were sorted in.
         duplicate: samples whose stamp was already held (dropped; the first kept).
@@ -201,15 +208,19 @@ class _Stream:
 class NoiseCalibrator:
     """Accumulates gyro/IMU streams into Allan deviations and IEEE 952 noise terms."""
 
-    def __init__(self, settings: NoiseSettings | None = None, *, imu_topic: str = 'imu') -> None:
+    def __init__(self, settings: NoiseSettings | None = None, *, imu_topic: str = 'imu',
+                 triad: tuple[tuple[str, ...], tuple[float, ...]] | None = None) -> None:
         """Start empty; streams are created by their first sample.
 
         Args:
             settings: analysis settings (defaults if None).
             imu_topic: name of the Imu topic, for log lines and reasons.
+            triad: the channel names of ``/imu/pulses`` and each channel's K_i (rad/pulse;
+                NaN: not known), for :meth:`extend_triad`.
         """
         self.settings = settings if settings is not None else NoiseSettings()
         self.imu_topic = imu_topic
+        self.triad = triad
         self._streams: dict[str, _Stream] = {}
         self._n_notices: dict[str, int] = {}
         self._n_rejections_reported = 0
@@ -243,6 +254,12 @@ class NoiseCalibrator:
             channels = [ChannelAccumulator('gyro', 'phase',
                                            1.0 / s.fog_scale_factor_counts_per_rad, s)]
             topic = FOG_OUTPUT
+        elif name == 'triad':
+            if self.triad is None:
+                raise StreamError(f'{IMU_PULSES}: the calibrator was made without the '
+                                  'channels and their K (triad=...).')
+            channels = [ChannelAccumulator(c, 'phase', k, s) for c, k in zip(*self.triad)]
+            topic = IMU_PULSES
         else:
             channels = [ChannelAccumulator(a, 'rate', 1.0, s) for a in IMU_AXES]
             topic = self.imu_topic
@@ -253,7 +270,7 @@ class NoiseCalibrator:
         return stream
 
     def inputs(self) -> tuple[str, ...]:
-        """The streams that arrived: 'pulses' (/gyro/pulses), 'fog' (/fog/output), 'imu'."""
+        """The streams that arrived: 'pulses', 'fog', 'imu', 'triad' (/imu/pulses)."""
         return tuple(self._streams)
 
     @staticmethod
@@ -435,6 +452,16 @@ class NoiseCalibrator:
         if c.shape != t.shape:
             raise StreamError(f'{GYRO_PULSES}: {len(t)} stamps but counts of shape {c.shape}.')
         self._extend('pulses', t, c[:, None])
+
+    def extend_triad(self, t_ns: ArrayLike, counts: ArrayLike) -> None:
+        """Triad samples (bag replay): stamps (int ns), counts (N × channels), K_i each."""
+        t = self._stamps(t_ns, IMU_PULSES)
+        c = np.asarray(counts, dtype=np.float64)
+        width = len(self.triad[0]) if self.triad is not None else 3
+        if c.shape != (len(t), width):
+            raise StreamError(f'{IMU_PULSES}: {len(t)} stamps need counts of shape '
+                              f'({len(t)}, {width}); got {c.shape}.')
+        self._extend('triad', t, c)
 
     def add_pulses(self, t_ns: int, count: float) -> None:
         """One RLG sample (live node)."""
@@ -874,7 +901,7 @@ class NoiseCalibrator:
                         f'non-finite (NaN or inf): the channel carries no data.')
         if ch.is_constant:
             lock = (' A static RLG inside its lock-in band without dither gives no pulses: '
-                    'dither it or turn it.' if stream.topic == GYRO_PULSES else '')
+                    'dither it or turn it.' if stream.topic in PULSE_TOPICS else '')
             return none(f'{ch.name} on {stream.topic} is constant (every finite sample equals '
                         f'{ch.first_value!r}): a stuck or disconnected channel shows no noise, '
                         f'so no term can be measured.{lock}')
@@ -882,6 +909,9 @@ class NoiseCalibrator:
             what = ('scale_factor_rad_per_pulse (CLI --scale-factor-rad-per-pulse, or '
                     '--calibration with a hand-off file holding scale_factor_rad_per_pulse)'
                     if stream.topic == GYRO_PULSES else
+                    f'K of channel {ch.name} (--calibration with a format-4 hand-off file '
+                    'whose imu: section holds scale_factor_rad_per_pulse)'
+                    if stream.topic == IMU_PULSES else
                     'fog_scale_factor_counts_per_rad')
             return none(f'{stream.topic} needs a scale factor to turn counts into rad and '
                         f'none was given: set {what}. No value in rad is reported.')
@@ -898,20 +928,20 @@ class NoiseCalibrator:
                         f'variance needs averaging times up to a fraction '
                         f'{s.max_tau_fraction:g} of a segment, so at least {need} samples in '
                         f'one segment.{motion}')
-        context = 'pulses' if stream.topic == GYRO_PULSES else ''
+        context = 'pulses' if stream.topic in PULSE_TOPICS else ''
         fit = self._fit(curve, units, context)
         # error bars (§E.2): the EDF blended over the noise types by their shares at each τ
         model = self._noise_model(curve, fit, units)
         shares = curve_shares(curve, model)
         alpha = dominant_alpha(shares)
-        edf = curve_edf(curve, shares, uniform_quantisation=stream.topic == GYRO_PULSES)
+        edf = curve_edf(curve, shares, uniform_quantisation=stream.topic in PULSE_TOPICS)
         std = adev_std(curve.adev, edf)
         others = {}
         for name, (var, _, _) in curve.others.items():
             dev = np.sqrt(var)
             nu = curve_edf(curve, curve_shares(curve, model, name), name)
             others[name] = (dev, adev_std(dev, nu), nu)
-        totdev = (self._totdev(ch, model, curve.tau0_s, stream.topic == GYRO_PULSES)
+        totdev = (self._totdev(ch, model, curve.tau0_s, stream.topic in PULSE_TOPICS)
                   if curve.overlap == 'partial' else None)
         return AxisResult(ch.name, units, curve, fit, std, totdev, '', alpha, others, edf,
                           shares, self._outlier_report(ch, units, curve, fit, context))

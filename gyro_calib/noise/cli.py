@@ -250,15 +250,16 @@ def run_noise(args: argparse.Namespace) -> int:
 
 
 def _holds_noise_terms(path: Path) -> bool:
-    """True when the hand-off file at ``path`` holds a noise term (of any run)."""
+    """True when the hand-off file at ``path`` holds a noise term (of any run, or imu.noise)."""
     from gyro_calib.handoff import load_calibration
     from gyro_calib.registry import handoff_schema
 
     if not path.exists():
         return False
     schema = handoff_schema()
-    values = load_calibration(path, schema).values
-    return any(getattr(schema.get(k), 'method', '') == 'noise' for k in values)
+    record = load_calibration(path, schema)
+    return (any(getattr(schema.get(k), 'method', '') == 'noise' for k in record.values)
+            or (record.imu is not None and bool(record.imu.noise)))  # a triad's imu.noise
 
 
 def _flush(human: io.StringIO, document: str | None, json_asked: bool) -> None:

@@ -91,7 +91,8 @@ def curves_record(session: NoiseSession, source: str, gyro_id: str = '') -> Cali
     span, tables = session.data_span_ns(), session.deviation_tables()
     if span is None or not tables:
         return None
-    missing = session.missing()
+    # a triad's reasons are per channel (imu.noise.<channel>.<key>), not top-level keys
+    missing = session.missing() if session.kind != 'triad' else {}
     cannot = {k: v for k, v in session.not_measurable().items() if k in missing}
     return method_calibration(
         session.name, {},
@@ -169,7 +170,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         if record is not None and targets.handoff is not None:
             report: list[str] = []
             path = update_calibration(targets.handoff, record, handoff_schema(), report=report)
-            notes = [line for line in report if line.startswith(SCALE_FACTOR_NOTE)]
+            notes = [line for line in report  # and what became of a triad's imu: section
+                     if line.startswith((SCALE_FACTOR_NOTE, 'imu:'))]
             written.append(('hand-off' + (f' ({"; ".join(notes)})' if notes else ''), path))
     finally:
         if figure_tmp is not None:

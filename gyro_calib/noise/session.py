@@ -16,7 +16,13 @@ input             message, fields             needs
 any Imu topic     sensor_msgs/Imu,            nothing (``topic``: the flag, node parameter
                   angular_velocity xyz,       or the bag's stored ``bench.topic``)
                   linear_acceleration xyz
+``/imu/pulses``   sensor_msgs/JointState,     K_i per channel: the ``imu:`` section of a
+                  three joints (the channels) format-4 hand-off file (``--calibration``,
+                  cumulative pulses           ``imu.scale_factor_rad_per_pulse``)
 ================  ==========================  ===========================================
+
+A triad (``/imu/pulses``) gives one axis per channel, named by the channel; its terms go to
+the hand-off's ``imu.noise.<channel>`` (the single-gyro keys), not to the top level.
 
 Results are flattened for the front door: a single gyro gives the five plain keys of
 :mod:`gyro_calib.noise.keys` (``angle_random_walk_rad_per_sqrt_s`` …), an IMU one key per
@@ -41,7 +47,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, TypeGuard
 
+import numpy as np
+
 from gyro_calib import topics
+from gyro_calib.config import given
 from gyro_calib.errors import ConfigError, InsufficientDataError, StreamError
 from gyro_calib.noise.calibrator import IMU_AXES, NoiseCalibrator
 from gyro_calib.noise.fit import NoiseFit
@@ -56,6 +65,7 @@ if TYPE_CHECKING:
 
     from gyro_calib.bagio import SampleBatch
     from gyro_calib.estimate import Estimate, Rejection
+    from gyro_calib.handoff import Calibration
     from gyro_calib.noise.calibrator import AxisResult
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
@@ -64,6 +74,9 @@ GYRO_PULSES = topics.GYRO_PULSES
 FOG_OUTPUT = topics.FOG_OUTPUT
 GYRO_TOPICS = {GYRO_PULSES: JOINT_STATE, FOG_OUTPUT: JOINT_STATE}
 """The single-axis gyro streams (topic → type)."""
+IMU_PULSES = topics.IMU_PULSES
+JOINT_TOPICS = {**GYRO_TOPICS, IMU_PULSES: JOINT_STATE}
+"""Every JointState input (the single-axis streams and a triad's three channels)."""
 TABLE_TOPICS = {topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
                 topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE}
 """Optional inputs: the rate table's and the position table's joint states. The samples
@@ -179,6 +192,44 @@ def fog_scale_factor(options: CalibrationOptions) -> ScaleFactor:
     return ScaleFactor(math.nan)
 
 
+@dataclass(frozen=True, slots=True)
+class TriadScales:
+    """The channels of ``/imu/pulses`` and K_i of each (METHODS §F), and where they came from.
+
+    Attributes:
+        channels: the channel names, in the hand-off's ``imu.channels`` order.
+        values: K_i, rad/pulse; NaN for a channel the file does not give.
+        source: the file they came from ('' when none).
+    """
+
+    channels: tuple[str, ...] = ('x', 'y', 'z')
+    values: tuple[float, ...] = (math.nan, math.nan, math.nan)
+    source: str = ''
+
+    @property
+    def known(self) -> bool:
+        """At least one channel has a finite positive K."""
+        return any(_positive(v) for v in self.values)
+
+
+def triad_scale_factors(options: CalibrationOptions) -> TriadScales:
+    """K_i of each ``/imu/pulses`` channel from ``--calibration`` (the ``imu:`` section).
+
+    Raises:
+        HandoffError: the hand-off file cannot be read or is invalid.
+    """
+    from gyro_calib.handoff import load_calibration
+
+    if options.calibration_file is None:
+        return TriadScales()
+    imu = load_calibration(options.calibration_file).imu
+    if imu is None or imu.scale_factor_rad_per_pulse is None:
+        return TriadScales(imu.channels) if imu is not None else TriadScales()
+    k = tuple(float(v) for v in imu.scale_factor_rad_per_pulse)
+    return TriadScales(imu.channels, k, f'imu.scale_factor_rad_per_pulse in '
+                                        f'{options.calibration_file}')
+
+
 def settings_values(options: CalibrationOptions) -> tuple[dict[str, Any], str]:
     """The settings given, and where they came from.
 
@@ -240,10 +291,10 @@ def input_topic(options: CalibrationOptions) -> str | None:
 
 
 def input_kind(topic: str | None) -> str:
-    """'pulses', 'fog', 'imu', or 'gyro' (either single-axis stream) for an input topic."""
+    """'pulses', 'fog', 'triad', 'imu', or 'gyro' (either single-axis stream) for a topic."""
     if topic is None:
         return 'gyro'
-    return {GYRO_PULSES: 'pulses', FOG_OUTPUT: 'fog'}.get(topic, 'imu')
+    return {GYRO_PULSES: 'pulses', FOG_OUTPUT: 'fog', IMU_PULSES: 'triad'}.get(topic, 'imu')
 
 
 def select_input(present: Mapping[str, tuple[str, int]], options: CalibrationOptions, *,
@@ -268,13 +319,13 @@ def select_input(present: Mapping[str, tuple[str, int]], options: CalibrationOpt
 
     asked = options.topic
     if asked:
-        want = GYRO_TOPICS.get(asked, IMU)
+        want = JOINT_TOPICS.get(asked, IMU)
         if asked not in present:
             raise MissingTopicError(f'{where}: no topic {asked} in the bag(s); they hold '
                                     f'{listing}.')
         msgtype, count = present[asked]
         if msgtype != want:
-            what = ('the pulse/FOG streams are JointState' if asked in GYRO_TOPICS else
+            what = ('the pulse/FOG streams are JointState' if asked in JOINT_TOPICS else
                     f'any other topic must be {IMU} (the pulse and FOG streams are '
                     f'{GYRO_PULSES} and {FOG_OUTPUT}, {JOINT_STATE})')
             raise WrongMessageTypeError(f'{where}: topic {asked} has type {msgtype}, but '
@@ -284,7 +335,7 @@ def select_input(present: Mapping[str, tuple[str, int]], options: CalibrationOpt
             raise MissingTopicError(f'{where}: topic {asked} holds no message; the bag(s) '
                                     f'hold {listing}.')
         return asked
-    candidates = [t for t, m in GYRO_TOPICS.items()
+    candidates = [t for t, m in JOINT_TOPICS.items()
                   if t in present and present[t][0] == m and present[t][1] > 0]
     candidates += sorted(t for t, (m, n) in present.items() if m == IMU and n > 0)
     stored = options.bench('topic', None)
@@ -319,6 +370,15 @@ def check_scale_factor(options: CalibrationOptions) -> ScaleFactor | None:
                 'file with scale_factor_rad_per_pulse or k_tilde_rad_per_pulse). No number in '
                 'rad is possible without it; nothing was written.')
         return k
+    if kind == 'triad':
+        ks = triad_scale_factors(merged)
+        if not ks.known:
+            raise ConfigError(
+                f'{IMU_PULSES} needs each channel\'s scale factor K_i to turn pulses into rad, '
+                'and none was given: pass --calibration FILE (a format-4 hand-off file whose '
+                'imu: section holds scale_factor_rad_per_pulse, from gyro-calib calibrate '
+                '--method triad). Nothing was written.')
+        return ScaleFactor(min(v for v in ks.values if _positive(v)), ks.source)
     if kind == 'fog':
         sf = fog_scale_factor(merged)
         if not sf.known:
@@ -351,7 +411,11 @@ class NoiseSession(MethodSession):
             else ScaleFactor(math.nan)
         self.fog_scale = fog_scale_factor(merged) if self.kind in ('fog', 'gyro') \
             else ScaleFactor(math.nan)
+        self.triad_scale = triad_scale_factors(merged) if self.kind == 'triad' \
+            else TriadScales()
         self.calibrator = NoiseCalibrator(self.settings, imu_topic=self.topic or 'imu')
+        if self.kind == 'triad' and self.triad_scale.known:
+            self.calibrator.triad = (self.triad_scale.channels, self.triad_scale.values)
         self.auto_refresh = True
         """Take a new snapshot whenever results are asked for after new data (offline);
         a live node sets False and calls :meth:`refresh` at its own pace."""
@@ -400,11 +464,39 @@ class NoiseSession(MethodSession):
             raise ConfigError(f'both {GYRO_PULSES} and {FOG_OUTPUT} carry samples; one noise '
                               'run characterises one gyro: choose one with --topic (node: '
                               'parameter topic).') from None
+        if self.kind == 'triad':
+            self._feed_triad(batch)
         if self.kind == 'imu':
             c = batch.columns.get(self.topic) if self.topic is not None else None
             if c is not None and c.msgtype == IMU:
                 cal.extend_imu(c.stamp_ns, c.values['angular_velocity_rad_s'],
                                c.values['linear_acceleration_m_s2'])
+
+    def _feed_triad(self, batch: SampleBatch) -> None:
+        """The three channels of ``/imu/pulses``, in the hand-off's channel order.
+
+        Raises:
+            ConfigError: the bag's joint names are not the hand-off's channels.
+        """
+        col = batch.columns.get(IMU_PULSES)
+        if col is None or not len(col):
+            return
+        pos = np.asarray(col.values['position'], dtype=np.float64)
+        if pos.ndim != 2:
+            pos = pos.reshape(len(pos), -1)
+        names = tuple(str(n) for n in col.joint_names) or tuple(
+            'xyz'[i] if pos.shape[1] == 3 else str(i) for i in range(pos.shape[1]))
+        cal = self.calibrator
+        if cal.triad is None:  # no K known: every channel's reason says so
+            cal.triad = (names, tuple(math.nan for _ in names))
+        want = cal.triad[0]
+        if sorted(names) != sorted(want):
+            raise ConfigError(f'{IMU_PULSES} carries the channels {list(names)}, but '
+                              f'{self.triad_scale.source or "the hand-off"} gives K for '
+                              f'{list(want)}: the file is of another IMU (or its channels are '
+                              'named otherwise); pass its own hand-off with --calibration.')
+        order = [names.index(c) for c in want]
+        cal.extend_triad(col.stamp_ns, pos[:, order])
 
     def process(self, *, flush: bool = False) -> list[str]:
         """Take in what is final; at ``flush`` the rest.
@@ -463,10 +555,19 @@ class NoiseSession(MethodSession):
 
     # -- results ----------------------------------------------------------------------------
     def hand_off_key(self, axis: str, term_key: str) -> str:
-        """The flattened key of one term: plain for a single gyro, per axis for an IMU."""
+        """The flattened key of one term.
+
+        Plain for a single gyro, per axis for an IMU, ``imu.noise.<channel>.<key>`` for a
+        triad's channel (where the hand-off holds it).
+        """
+        if self.kind == 'triad':
+            return f'imu.noise.{axis}.{term_key}'
         return imu_key(axis, term_key) if self.kind == 'imu' else term_key
 
     def _expected_axes(self) -> tuple[str, ...]:
+        if self.kind == 'triad':
+            got = self.calibrator.triad
+            return tuple(got[0]) if got is not None else self.triad_scale.channels
         return IMU_AXES if self.kind == 'imu' else ('gyro',)
 
     def results(self) -> dict[str, Estimate]:
@@ -497,11 +598,57 @@ class NoiseSession(MethodSession):
         Resolved terms with ``_std`` and ``_dof``; for each term not resolved its 2σ upper
         bound (METHODS §E), machine-readable for ``gyro-calib export`` (issue 27 §1).
         """
+        if self.kind == 'triad':
+            return {}  # the terms are the imu: section's noise (:meth:`handoff`)
         out = super().handoff_values()
         if out:
             for key, upper in self.upper_bounds().items():
                 out[key + UPPER_BOUND_SUFFIX] = upper
         return out
+
+    def triad_noise(self) -> dict[str, dict[str, float]]:
+        """A triad's terms per channel, as ``imu.noise.<channel>`` holds them.
+
+        Per channel the single-gyro keys (:mod:`gyro_calib.noise.keys`) with ``_std`` and
+        ``_dof``, and each unresolved term's 2σ bound (``_upper_bound_2sigma``; METHODS §E).
+        """
+        view = self.view
+        out: dict[str, dict[str, float]] = {}
+        for axis, res in (view.axis_results().items() if view is not None else ()):
+            if res.fit is None:
+                continue
+            terms: dict[str, float] = {}
+            for key in res.units.keys:
+                est = res.fit.estimates.get(key)
+                upper = res.fit.upper_bounds.get(key, math.nan)
+                if est is not None:
+                    terms[key] = float(est.value)
+                    terms[key + '_std'] = float(est.std_uncertainty)
+                    terms[key + '_dof'] = float(est.supported_dof)
+                elif math.isfinite(upper) and upper >= 0:
+                    terms[key + UPPER_BOUND_SUFFIX] = float(upper)
+            if terms:
+                out[axis] = terms
+        return out
+
+    def handoff(self, source: str, *, gyro_id: str = '') -> Calibration | None:
+        """This run's record; a triad's terms go to ``imu.noise.<channel>`` (format 4)."""
+        if self.kind != 'triad':
+            return super().handoff(source, gyro_id=gyro_id)
+        from gyro_calib.handoff import Provenance, method_calibration
+        from gyro_calib.imu_calibration import ImuCalibration
+
+        noise = self.triad_noise()
+        span = self.data_span_ns()
+        channels = self._expected_axes()
+        if not noise or span is None or len(channels) != 3:
+            return None
+        conditions = {k: v for k, v in self.conditions().items() if given(v)}
+        cal = method_calibration(self.name, {}, Provenance(
+            source, span[0], span[1], conditions=conditions,
+            deviations=self.deviation_tables()), gyro_id=gyro_id)
+        return dataclasses.replace(cal, imu=ImuCalibration(
+            (channels[0], channels[1], channels[2]), noise=noise))
 
     def missing(self) -> dict[str, str]:
         """Every term not resolved (yet), by hand-off key, with the reason."""
@@ -539,6 +686,11 @@ class NoiseSession(MethodSession):
         """
         inputs = self.calibrator.inputs()
         out: dict[str, Any] = {}
+        if 'triad' in inputs and self.triad_scale.known:
+            out = {'triad_scale_factors_rad_per_pulse': ', '.join(
+                f'{c} {k:.10g}' for c, k in zip(self.triad_scale.channels,
+                                                 self.triad_scale.values)),
+                   'scale_factor_from': self.triad_scale.source}
         for stream, name, scale in (('pulses', 'scale_factor_rad_per_pulse', self.pulse_scale),
                                     ('fog', 'fog_scale_factor_counts_per_rad', self.fog_scale)):
             if stream in inputs and scale.known:
@@ -652,6 +804,13 @@ class NoiseSession(MethodSession):
                 rate = f', {hz:.6g} Hz'
         if self.kind == 'imu':
             return f'input: {self.topic} ({IMU}), 6 axes{rate}.'
+        if self.kind == 'triad':
+            ks = self.triad_scale
+            known = '; '.join(f'K_{c} = {k:.10g}' for c, k in zip(ks.channels, ks.values)
+                              if _positive(k))
+            return (f'input: {IMU_PULSES} ({JOINT_STATE}), {len(ks.channels)} channels'
+                    f'{rate}' + (f'; {known} rad/pulse from {ks.source}' if known else '')
+                    + '.')
         parts = []
         if self.kind in ('pulses', 'gyro') and self.pulse_scale.known:
             parts.append(f'K = {self.pulse_scale.value:.10g} rad/pulse from '
@@ -713,7 +872,9 @@ class NoiseSession(MethodSession):
             lines.append('the model fits the Allan variance worse than its scatter allows on '
                          f'{", ".join(scaled)}: those uncertainties were scaled up by √ratio.')
         if any(r.fit is not None for r in view.axis_results().values()):
-            lines.append('terms not resolved are absent (hand-off missing: with the reason); '
+            where = ('imu.noise.<channel> keeps its 2σ bound' if self.kind == 'triad'
+                     else 'hand-off missing: with the reason')
+            lines.append(f'terms not resolved are absent ({where}); '
                          'gyro-calib info BAG --method noise prints every reason.')
         return lines
 
