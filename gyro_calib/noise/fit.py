@@ -24,10 +24,13 @@ Estimator:
    unresolved K read B 1.6σ high on average; keeping it gives 73 %/95 % coverage). The edge
    terms Q and R, whose usual value is none, are taken out of the model when below
    ``edge_significance`` (Q, 3σ) or ``ramp_significance`` (R, 5σ: see its argument) and
-   the rest refitted. A term is reported when θ_k ≥ ``min_significance``·σ(θ_k) (2σ; Q 3σ,
-   R 5σ). Each unreported term is absent with a reason naming the slope it would show,
-   its fitted θ ± σ and a 2σ upper bound. Terms reported near the threshold read high on
-   average (selection: they are reported because they came out high).
+   the rest refitted. On a pulse count (``context='pulses'``) Q stays in the model and its
+   covariance even at the bound 0: the whole-pulse rounding is there by construction, and
+   dropping it gave N its share and halved u(N) (METHODS §E.3). A term is reported when
+   θ_k ≥ ``min_significance``·σ(θ_k) (2σ; Q 3σ, R 5σ). Each unreported term is absent
+   with a reason naming the slope it would show, its fitted θ ± σ and a 2σ upper bound.
+   Terms reported near the threshold read high on average (selection: they are reported
+   because they came out high).
 
 Coefficients are √θ with standard uncertainty σ(θ)/(2√θ).
 
@@ -61,6 +64,8 @@ if TYPE_CHECKING:
 MAX_ITERATIONS = 40
 BAND_MARGIN_POINTS = 2
 """Points left out beyond where the band-limited misfit stops being significant."""
+BAND_MIN_DEPARTURE = 2.0
+"""Standard deviations the shortest τ must lie off the model for a band-limited range."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -152,7 +157,14 @@ class _Solution:
     """the covariance before the misfit scaling."""
 
 
-def _solve(curve: AllanCurve, used: npt.NDArray[np.bool_], active: list[int]) -> _Solution:
+def _solve(curve: AllanCurve, used: npt.NDArray[np.bool_], active: list[int],
+           pinned: tuple[int, ...] = ()) -> _Solution:
+    """IRLS fit (8) and sandwich covariance (9) of the terms ``active``.
+
+    A term held at the bound 0 leaves the covariance of the others, unless it is ``pinned``
+    (present by construction, §E.3: Q of a pulse count): then the others keep the
+    uncertainty of the model that has it.
+    """
     from scipy.optimize import lsq_linear  # imported on use: keeps the core import fast
 
     tau = curve.tau_s[used]
@@ -189,7 +201,7 @@ def _solve(curve: AllanCurve, used: npt.NDArray[np.bool_], active: list[int]) ->
     edf = _edf_at(curve, used, alpha)
     sd = _estimate_sd(noise, ramp, edf, lag_ratio)
     aw = a / sd[:, None]
-    free = theta_a > 0
+    free = (theta_a > 0) | np.isin(np.asarray(active), pinned)
     cov = np.zeros((5, 5))
     chi2_ratio, scale = math.nan, 1.0
     if np.any(free):
@@ -377,6 +389,7 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
                         notes=tuple(notes))
     tau_used = curve.tau_s[used]
     active = [SYMBOLS.index(s) for s in SYMBOLS if s in terms]
+    pinned = (SYMBOLS.index('Q'),) if context == 'pulses' else ()
     # at most as many terms as points less two: two degrees of freedom left to see whether
     # the model describes the curve (the terms left out are named in a note)
     cut: list[str] = []
@@ -390,7 +403,7 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
         best: tuple[float, list[int]] | None = None
         trials = []
         for combo in itertools.combinations(active, size):
-            trial = _solve(curve, used, list(combo))
+            trial = _solve(curve, used, list(combo), pinned)
             chi2 = float(trial.z @ trial.z)
             trials.append(trial)
             if best is None or chi2 < best[0]:
@@ -410,14 +423,18 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
                      '(two degrees of freedom are kept to check it; the terms kept describe '
                      'the curve best).')
     last: dict[int, tuple[float, float]] = {}
-    edges = [k for k in (SYMBOLS.index('Q'), SYMBOLS.index('R')) if k in active]
+    # a pulse count is whole pulses: its rounding (Q) is there by construction whenever the
+    # phase moves, so Q stays in the model as N, B and K do (§E.3); dropping an unresolved
+    # real Q gives N its share and halves u(N) (benchmarks/noise_pulse_coverage.py)
+    edge_terms = ('R',) if context == 'pulses' else ('Q', 'R')
+    edges = [k for k in (SYMBOLS.index(s) for s in edge_terms) if k in active]
     thresholds = [edge_significance, min_significance, min_significance, min_significance,
                   ramp_significance]
     if not eliminate_edges:
         thresholds = [min_significance] * 5
     sol = None
     for _ in range(2):
-        sol = _solve(curve, used, active)
+        sol = _solve(curve, used, active, pinned)
         if np.any(model_var > 0):
             sol.cov = sol.cov + np.diag(model_var)
             sol.cov_statistical = sol.cov_statistical + np.diag(model_var)
@@ -438,7 +455,7 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
             break
         # an edge term leaves the model only if that does not move the others: dropping
         # a real but unresolved term would bias its neighbours (N takes Q's share)
-        trial = _solve(curve, used, reduced)
+        trial = _solve(curve, used, reduced, pinned)
         if any(abs(float(trial.theta[k] - sol.theta[k])) > sigma[k] for k in reduced):
             notes.append('the edge term(s) ' + ', '.join(SYMBOLS[k] for k in drop)
                          + ' stay in the model although not resolved: leaving them out '
@@ -540,7 +557,12 @@ def _exclude_band_limited(curve: AllanCurve, used: npt.NDArray[np.bool_],
         if not sol.misfit or len(sol.z) == 0:
             break
         first = int(np.nonzero(used)[0][0])
-        z_first = float(sol.z[0]) if not dropped else z_first
+        if not dropped:
+            z_first = float(sol.z[0])
+            if abs(z_first) < BAND_MIN_DEPARTURE:
+                # the misfit lies elsewhere: a filter bends the shortest τ most, so this is
+                # not a band-limited range (the misfit scaling widens the uncertainties)
+                break
         dropped.append(float(curve.tau_s[first]))
         used[first] = False
     if not dropped:
