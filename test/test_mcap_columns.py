@@ -35,6 +35,7 @@ from gyro_calib.bagio.columns import (
     iter_column_batches,
     plan_bag,
 )
+from gyro_calib.bagio.messages import JOINT_WIDTHS
 
 BAGS = Path(__file__).resolve().parents[1] / 'bags'
 COMMITTED = sorted(p.name for p in BAGS.iterdir() if (p / 'metadata.yaml').is_file())
@@ -57,10 +58,14 @@ def _stamp(stamp: Any) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
-def _reference_row(msgtype: str, msg: Any) -> tuple[int, str, tuple[Any, ...]]:
+def _reference_row(msgtype: str, msg: Any, topic: str = '') -> tuple[int, str, tuple[Any, ...]]:
     if msgtype == HEADER:
         return _stamp(msg.stamp), msg.frame_id, ()
     head = (_stamp(msg.header.stamp), msg.header.frame_id)
+    if msgtype == JOINT_STATE and topic in JOINT_WIDTHS:  # one column per joint (/imu/pulses)
+        width = JOINT_WIDTHS[topic]
+        return (*head, (tuple(msg.position[:width]) if len(msg.position) else (math.nan,) * width,
+                        msg.velocity[0] if len(msg.velocity) else math.nan))  # velocity: one
     if msgtype == JOINT_STATE:
         return (*head, (msg.position[0] if len(msg.position) else math.nan,
                         msg.velocity[0] if len(msg.velocity) else math.nan))
@@ -93,7 +98,8 @@ def rosbags_columns(bag: Path, topic_types: Mapping[str, str], *, start: int | N
         if not cons:
             return {}
         for con, log_ns, raw in reader.messages(connections=cons, start=start, stop=stop):
-            stamp, frame, values = _reference_row(con.msgtype, deserialize(raw, con.msgtype))
+            stamp, frame, values = _reference_row(con.msgtype, deserialize(raw, con.msgtype),
+                                                  con.topic)
             rows.setdefault(con.topic, []).append((log_ns, stamp, frame, values))
     out = {}
     for topic, got in rows.items():
