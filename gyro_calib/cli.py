@@ -277,7 +277,11 @@ def _calibrate(args: argparse.Namespace) -> int:
         check_calibrate_report(args)
     check_calibration_file(args.calibration)
     infos, _ = bag_infos(args.bags, args.namespace)
-    refuse_unused_flags(args, [m.name for m in select_methods(infos, args.method)])
+    to_run = [m.name for m in select_methods(infos, args.method)]
+    refuse_unused_flags(args, to_run)
+    if args.report is not None and 'triad' in to_run:
+        raise ConfigError('--report: certificates do not cover a triad yet; calibrate it '
+                          'without --report (--out writes its imu: section to the hand-off).')
     show = sys.stderr.isatty() if args.progress is None else args.progress
     outcome = _run_with_progress(args, show)
     # the human text goes out only once the files are written: a refusal on the way (a

@@ -525,3 +525,24 @@ def test_a_malformed_scheduler_address_is_refused_in_one_line(
     assert status == 2 and out == ''
     assert len(err.strip().splitlines()) == 1 and 'tcp://HOST:PORT' in err, err
     assert not (tmp_path / 'out').exists()
+
+
+def test_a_triad_gyro_keeps_its_hand_off_and_says_why_there_is_no_certificate() -> None:
+    """A triad in a fleet keeps its hand-off; its row says why there is no certificate.
+
+    The hand-off with its imu: section is written, the row says certificates do not cover a
+    triad yet; the result was lost before.
+    """
+    from gyro_calib.batch.manifest import GyroJob
+    from gyro_calib.batch.tasks import finish_gyro, plan_gyro, run_method
+
+    job = GyroJob('IMU-1', (str(BAGS / 'triad_two_axis_bench'),), ('triad',))
+    plan = plan_gyro(job, '', '', True)
+    assert plan.methods == ('triad',), plan.error
+    result = finish_gyro(job, plan, None, False, 'IMU-1', run_method(job, 'triad'))
+    assert result.record['status'] == 'failed'
+    assert 'hand-off kept (IMU-1/IMU-1.yaml)' in result.record['reason']
+    assert 'certificates do not cover a triad' in result.record['reason']
+    handoff = yaml.safe_load(result.files['IMU-1/IMU-1.yaml'])
+    assert handoff['format_version'] == 4 and handoff['gyro_id'] == 'IMU-1'
+    assert len(handoff['imu']['scale_factor_rad_per_pulse']) == 3

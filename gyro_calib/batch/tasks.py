@@ -151,15 +151,20 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
             tuple({b.path: b for r in done for b in r.evidence.bags}.values()),
             done[0].evidence.settings)
         handoff_name = f'{stem}/{stem}.yaml'
+        handoff_bytes = (
+            '# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py\n'
+            + yaml.safe_dump(dict(calibration_to_yaml_dict(record, schema)), sort_keys=False,
+                             allow_unicode=True, width=100)).encode('utf-8')
+        if not record.values and record.imu is not None:  # a triad: the hand-off, no certificate
+            return GyroResult(job.gyro_id, {handoff_name: handoff_bytes}, {
+                **base, 'status': 'failed', 'reason': f'calibrated, hand-off kept '
+                f'({handoff_name}); no certificate: certificates do not cover a triad\'s imu: '
+                'section yet'})
         cert = build_certificate(record, evidence, spec, handoff_path=handoff_name,
                                  issue=issue, customer=job.customer)
         cert = _with_stem(cert, stem)
         html = render_html(cert)
-        files = {handoff_name: (
-            '# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py\n'
-            + yaml.safe_dump(dict(calibration_to_yaml_dict(record, schema)), sort_keys=False,
-                             allow_unicode=True, width=100)).encode('utf-8'),
-            f'{stem}/{stem}.html': html.encode('utf-8')}
+        files = {handoff_name: handoff_bytes, f'{stem}/{stem}.html': html.encode('utf-8')}
         if pdf:
             files[f'{stem}/{stem}.pdf'] = render_pdf(html)
         status = 'partial' if errors else 'ok'

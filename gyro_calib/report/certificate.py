@@ -374,6 +374,10 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         ConfigError: the hand-off holds no measured value; a hand-off value (or its u) is
             contradicted by the bags (:data:`CONTRADICTION_U`) and not accepted.
     """
+    if not calibration.values and calibration.imu is not None:
+        raise ConfigError(f'the hand-off file {handoff_path or "given"} holds a triad\'s imu: '
+                          'section only, and certificates do not cover a triad yet (its K, '
+                          'sense axes and M stay in the hand-off file): nothing to certify.')
     if not calibration.values:
         raise ConfigError(f'the hand-off file {handoff_path or "given"} holds no measured value '
                           '(gyro: is empty): there is nothing to certify; calibrate the gyro '
