@@ -72,8 +72,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 FLAG_METHODS: dict[str, tuple[str, ...]] = {
-    'latitude_deg': ('rbrlg', 'fog', 'thermal'),
-    'heading_deg': ('rbrlg',),
+    'latitude_deg': ('rbrlg', 'fog', 'thermal', 'triad'),
+    'heading_deg': ('rbrlg', 'triad'),
     'position_table_revolutions': ('rbrlg',),
     'scale_factor_rad_per_pulse': ('dither', 'thermal', 'noise'),
     'scale_factor_counts_per_rad': ('noise',),
@@ -256,6 +256,17 @@ def options_from_args(args: argparse.Namespace) -> CalibrationOptions:
 _options = options_from_args
 
 
+def _refuse_a_bag_given_twice(bags: Sequence[Path]) -> None:
+    """The same bag twice would count its data twice (and shrink every u by √2)."""
+    seen: dict[Path, Path] = {}
+    for bag in bags:
+        key = Path(bag).resolve()
+        if key in seen:
+            raise ConfigError(f'bag {bag} is given twice (as {seen[key]} too): its data would '
+                              'be counted twice; give each bag once.')
+        seen[key] = Path(bag)
+
+
 def _calibrate(args: argparse.Namespace) -> int:
     from gyro_calib.bag_calibration import bag_infos, select_methods
     from gyro_calib.outputs import check_output_file, check_plot_dir
@@ -276,6 +287,7 @@ def _calibrate(args: argparse.Namespace) -> int:
 
         check_calibrate_report(args)
     check_calibration_file(args.calibration)
+    _refuse_a_bag_given_twice(args.bags)
     infos, _ = bag_infos(args.bags, args.namespace)
     to_run = [m.name for m in select_methods(infos, args.method)]
     refuse_unused_flags(args, to_run)

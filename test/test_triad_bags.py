@@ -155,3 +155,30 @@ def test_a_remount_set_without_a_z_mount_is_not_measurable_and_says_why(
         line = next(x for x in captured.out.splitlines()
                     if x.startswith(f'imu.{channel}.scale_factor_rad_per_pulse: not measured'))
         assert 'do not span 3-D' in line and 'another remount axis' in line, line
+
+
+@pytest.mark.parametrize('bags, words', [
+    (['triad_two_axis_bench', 'triad_remount_bench_px'], 'calibrated separately'),
+    (['triad_remount_bench_px', 'triad_remount_bench_px', 'triad_remount_bench_py'],
+     'given twice'),
+])
+def test_mixed_procedures_or_a_bag_given_twice_are_refused_in_one_line(
+        bags: list[str], words: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A two-axis bag with a remount bag was a traceback; a bag twice counted its pairs twice."""
+    out = tmp_path / 'imu.yaml'
+    code = gyro_calib(['calibrate', *(str(BAGS / b) for b in bags), '--method', 'triad',
+                       '--out', str(out), '--no-progress'])
+    run = capsys.readouterr()
+    assert code == 2 and run.out == '' and len(run.err.strip().splitlines()) == 1, run.err
+    assert words in run.err and not out.exists()
+
+
+def test_the_site_latitude_and_heading_flags_reach_the_triad(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--latitude-deg / --heading-deg were refused for the triad although it uses them."""
+    out = tmp_path / 'imu.yaml'
+    assert gyro_calib(['calibrate', str(BAGS / 'triad_two_axis_bench'), '--method', 'triad',
+                       '--latitude-deg', '28.2', '--heading-deg', '0', '--out', str(out),
+                       '--no-progress']) == 0
+    conditions = yaml.safe_load(out.read_text(encoding='utf-8'))['methods']['triad']['conditions']
+    assert conditions['latitude_deg'] == 28.2 and conditions['heading_deg'] == 0.0

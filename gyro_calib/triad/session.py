@@ -542,6 +542,22 @@ class TriadSession(MethodSession):
                               f'{", ".join(REMOUNT_AXES)}.')
         return axis
 
+    def _check_one_procedure(self, first: Path) -> None:
+        """Two-axis and remount bags are not one calibration: refused before their data.
+
+        Raises:
+            ConfigError: the bags mix a remount (``mount_axis``) and a two-axis bench.
+        """
+        benches = self.options.stored_benches
+        mounts = [self._mount_of(i) for i in range(len(benches))] if benches else []
+        if any(mounts) and not all(mounts):
+            at = next(i for i, m in enumerate(mounts) if m)
+            two_axis = next(benches[i][0] for i, m in enumerate(mounts) if not m)
+            raise ConfigError(f'{benches[at][0]} is a remount bag (mount_axis {mounts[at]}) and '
+                              f'{two_axis} is not (no mount_axis: the two-axis bench); the two '
+                              'procedures are calibrated separately: give the remount bags '
+                              'together, and the two-axis bag alone.')
+
     def topics(self) -> dict[str, str]:
         """/imu/pulses and both tables' streams."""
         return dict(TOPICS)
@@ -552,6 +568,7 @@ class TriadSession(MethodSession):
         if index == 0:
             seg.label = str(path)
             seg.mount_axis = self._mount_of(0)
+            self._check_one_procedure(path)
             return
         self._segments.append(_Segment(str(path), self._mount_of(index)))
         self._dirty = True
