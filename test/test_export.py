@@ -387,3 +387,25 @@ def test_triad_noise_follows_each_channel_to_the_body_axis_its_sense_axis_is_alo
     src = read_source(path)
     assert {a: src.gyro[a]['N'].value for a in 'xyz'} == {'x': 1e-4, 'y': 2e-4, 'z': 3e-4}
     assert src.gyro['z']['N'].key == 'imu.noise.a.angle_random_walk_rad_per_sqrt_s'
+
+
+@pytest.mark.parametrize('victim', ['bag.mcap', 'bagdir/metadata.yaml', 'other_gyro.yaml'])
+def test_an_export_never_replaces_a_bag_or_a_hand_off_file(
+        victim: str, tmp_path: Path, imu_handoff: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """It replaced a 4 MB recording, a bag's metadata and another gyro's hand-off (exit 0)."""
+    out = tmp_path / victim
+    out.parent.mkdir(exist_ok=True)
+    if victim.endswith('metadata.yaml'):
+        (out.parent / 'bag.mcap').write_bytes(b'\x89MCAP0\r\n')
+        out.write_text('rosbag2_bagfile_information: {}\n', encoding='utf-8')
+    elif victim.endswith('.mcap'):
+        out.write_bytes(b'\x89MCAP0\r\n' + b'\0' * 64)
+    else:
+        out.write_bytes(imu_handoff.read_bytes())
+    before = out.read_bytes()
+    assert main(['export', str(imu_handoff), '--format', 'gtsam', '--out', str(out),
+                 '--rate-hz', '200']) == 2
+    run = capsys.readouterr()
+    assert run.out == '' and len(run.err.strip().splitlines()) == 1 and 'never replaces' in run.err
+    assert out.read_bytes() == before

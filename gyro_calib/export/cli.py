@@ -71,9 +71,36 @@ def run_export(args: argparse.Namespace) -> int:
     if args.handoff.absolute() == out:
         raise ConfigError('export: --out is the hand-off file itself; give another file. '
                           'Nothing was written.')
+    _refuse_to_overwrite_records(out)
     options = ExportOptions(rate_hz=args.rate_hz, topic=args.topic, stream=args.stream,
                             raw_scale_rad_per_pulse=args.raw_scale_rad_per_pulse)
     text = export_text(args.handoff, args.format, options)
     write_text_atomically(out, text)
     print(f'wrote {out} ({args.format}).', file=sys.stderr)
     return 0
+
+
+def _refuse_to_overwrite_records(out: Path) -> None:
+    """An existing bag file, a bag's metadata or a hand-off file is never replaced by an export.
+
+    Raises:
+        ConfigError: ``out`` is one of those (one line; nothing written).
+    """
+    if not out.is_file():
+        return
+    what = ''
+    if out.suffix.lower() in ('.mcap', '.db3'):
+        what = 'a recorded bag file'
+    elif out.name == 'metadata.yaml' and any(out.parent.glob('*.mcap')):
+        what = "a bag's metadata"
+    elif out.suffix.lower() in ('.yaml', '.yml'):
+        try:
+            head = out.read_text(encoding='utf-8', errors='replace')[:4096]
+        except OSError:
+            head = ''
+        if 'format_version:' in head and ('\ngyro:' in head or '\nmethods:' in head
+                                          or '\nimu:' in head):
+            what = 'a gyro_calib hand-off file'
+    if what:
+        raise ConfigError(f'export: --out {out} is {what}; an export never replaces it: give '
+                          'another file. Nothing was written.')
