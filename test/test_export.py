@@ -409,3 +409,26 @@ def test_an_export_never_replaces_a_bag_or_a_hand_off_file(
     run = capsys.readouterr()
     assert run.out == '' and len(run.err.strip().splitlines()) == 1 and 'never replaces' in run.err
     assert out.read_bytes() == before
+
+
+def test_a_per_sample_covariance_holds_the_angle_quantisation_of_a_pulse_gyro(
+        tmp_path: Path) -> None:
+    """Discrete consumers get N²·f + 2·Q²·f²; a dithered RLG's Q dominates (walk: 50× low).
+
+    The noise_rlg_spikes figures: N = 8.84e-7 rad/√s, Q = 1.18e-6 rad at 500 Hz give a
+    per-message σ of 8.3e-4 rad/s, not N·√f = 2.0e-5 rad/s.
+    """
+    n, q, f = 8.84e-7, 1.18e-6, 500.0
+    cal = method_calibration('noise', {
+        'angle_random_walk_rad_per_sqrt_s': n, 'angle_random_walk_rad_per_sqrt_s_std': 3.5e-8,
+        'quantization_noise_rad': q, 'quantization_noise_rad_std': 3.7e-9,
+        'rate_random_walk_rad_per_s_sqrt_s_upper_bound_2sigma': 1e-7},
+        Provenance('rlg.bag', 0, 10**12), gyro_id='RLG-1')
+    handoff = write_calibration(tmp_path / 'rlg.yaml', cal)
+    want = n * n * f + 2.0 * q * q * f * f
+    options = ExportOptions(rate_hz=f)
+    aw = yaml.safe_load(export_text(handoff, 'autoware', options))['/**']['ros__parameters']
+    assert aw['angular_velocity_stddev_zz'] == pytest.approx(math.sqrt(want), rel=1e-6)
+    assert aw['angular_velocity_stddev_zz'] > 30 * n * math.sqrt(f)
+    text = export_text(handoff, 'gtsam', options)
+    assert 'angle quantisation' in text and 'cannot hold it' in text  # continuous: said

@@ -15,6 +15,7 @@ from __future__ import annotations
 from gyro_calib.export.common import (
     ExportOptions,
     check_stream,
+    gyro_sample_variance,
     header,
     largest,
     need_rate,
@@ -30,15 +31,15 @@ KEYS = tuple(f'angular_velocity_offset_{a}' for a in AXES) + tuple(
 def autoware_text(src: ExportSource, options: ExportOptions) -> str:
     """The Autoware imu_corrector parameter text (see the module docstring)."""
     check_stream(src, FORMAT, options)
-    n, why = largest(src, FORMAT, 'gyro', 'N', 'angular_velocity_stddev_xx')
     rate, rate_from = need_rate(src, FORMAT, options, 'angular_velocity_stddev (per message)')
+    var, why = gyro_sample_variance(src, FORMAT, 'angular_velocity_stddev_xx', rate)
     offset_why = ('0.0: the bias is removed upstream by gyro_calib imu_corrector'
                   if options.stream == 'compensated'
                   else '0.0: no bias in the hand-off (the noise method measures none)')
     body = ['/**:', '  ros__parameters:']
     body += [f'    angular_velocity_offset_{a}: 0.0  # rad/s; {offset_why}' for a in AXES]
-    body += [f'    angular_velocity_stddev_{a}{a}: {number(n * rate ** 0.5)}  # rad/s; {why}; '
-             f'× √f (f = {rate:g} Hz, {rate_from}): per-message std, equal on the three '
+    body += [f'    angular_velocity_stddev_{a}{a}: {number(var ** 0.5)}  # rad/s; √[{why}] '
+             f'(f = {rate:g} Hz, {rate_from}): per-message std, equal on the three '
              'axes' for a in AXES]
     if any(src.accel[a] for a in AXES):
         na, why_a = largest(src, FORMAT, 'accel', 'N', 'acceleration_stddev')

@@ -98,9 +98,34 @@ def largest(src: ExportSource, fmt: str, sensor: str, sym: str,
     return best.value, best.text(UNITS[(sensor, sym)]) + where
 
 
+def gyro_sample_variance(src: ExportSource, fmt: str, consumer_key: str, rate_hz: float
+                         ) -> tuple[float, str]:
+    """Per-sample variance of the rate at f: N²·f + 2·Q²·f² (rad/s)² (§E.5 eq. (16)).
+
+    The angle quantisation Q of a pulse gyro adds 2·Q²·f² to each rate sample (its rate PSD
+    (4Q²/τ₀)·sin²(πfτ₀) integrated over the band); a dithered RLG's Q can dominate N²·f by
+    orders of magnitude. Q is taken where the hand-off holds it (or its 2σ bound).
+    """
+    n, why = largest(src, fmt, 'gyro', 'N', consumer_key)
+    variance = n * n * rate_hz
+    text = f'({why}) squared × f'
+    q_terms = [src.gyro[a]['Q'] for a in AXES if 'Q' in src.gyro[a]]
+    if q_terms:
+        q = max(q_terms, key=lambda t: t.value)
+        variance += 2.0 * q.value ** 2 * rate_hz ** 2
+        text += f' + 2·({q.text(UNITS[("gyro", "Q")])})² × f² (angle quantisation per sample)'
+    return variance, text
+
+
 def bias_instability_notes(src: ExportSource) -> list[str]:
     """Comment lines: the bias instability measured, and that it is not written."""
     lines = []
+    q_terms = [src.gyro[a]['Q'] for a in AXES if 'Q' in src.gyro[a]]
+    if q_terms:
+        best = max(q_terms, key=lambda t: t.value)
+        lines.append(f'gyro angle quantisation {best.text(UNITS[("gyro", "Q")])}: a continuous '
+                     'density cannot hold it; a per-sample variance adds 2·Q²·f² '
+                     '(discrete consumers: written there).')
     for sensor, table in (('gyro', src.gyro), ('accel', src.accel)):
         terms = [table[a]['B'] for a in AXES if 'B' in table[a]]
         if terms:

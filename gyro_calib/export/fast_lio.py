@@ -14,6 +14,7 @@ from __future__ import annotations
 from gyro_calib.export.common import (
     ExportOptions,
     check_stream,
+    gyro_sample_variance,
     header,
     largest,
     need_rate,
@@ -36,6 +37,11 @@ def fast_lio_text(src: ExportSource, options: ExportOptions) -> str:
     body = ['/**:', '  ros__parameters:', '    common:', f'      imu_topic: "{options.topic}"',
             '    mapping:']
     for key, unit, value, why in got:
+        if key == 'gyr_cov':  # with the angle quantisation per sample
+            var, text = gyro_sample_variance(src, FORMAT, key, rate)
+            body.append(f'      {key}: {number(var)}  # {unit}; {text}, f = {rate:g} Hz '
+                        f'({rate_from}; discrete, per sample)')
+            continue
         body.append(f'      {key}: {number(value ** 2 * rate)}  # {unit}; {why}; squared × '
                     f'f = {rate:g} Hz ({rate_from}; discrete, per sample)')
     return '\n'.join(header(src, FORMAT, options) + body) + '\n'

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from gyro_calib.export.common import (
     ExportOptions,
+    gyro_sample_variance,
     header,
     largest,
     need_rate,
@@ -35,16 +36,16 @@ def robot_localization_text(src: ExportSource, options: ExportOptions) -> str:
         raise refuse(FORMAT, 'robot_localization has no gyro-bias state: bias and thermal '
                      'compensation must be upstream; export for the compensated stream '
                      '(--stream compensated).')
-    n, why = largest(src, FORMAT, 'gyro', 'N', 'angular_velocity_covariance')
     rate, rate_from = need_rate(src, FORMAT, options,
                                 'the per-message angular_velocity_covariance')
+    var, why = gyro_sample_variance(src, FORMAT, 'angular_velocity_covariance', rate)
     accel = any(src.accel[a] for a in AXES)
     fused = {'vroll', 'vpitch', 'vyaw'} | ({'ax', 'ay', 'az'} if accel else set())
     flags = ['true' if name in fused else 'false' for name in CONFIG_ORDER]
     notes = ['robot_localization has no gyro-bias state: bias, scale factor, axes and thermal '
              'model are removed upstream by imu_corrector.',
-             f'angular_velocity_covariance of each message: diag {number(n * n * rate)} '
-             f'(rad/s)^2 = ({why}) squared × f = {rate:g} Hz ({rate_from}).']
+             f'angular_velocity_covariance of each message: diag {number(var)} '
+             f'(rad/s)^2 = {why}, f = {rate:g} Hz ({rate_from}).']
     if accel:
         na, why_a = largest(src, FORMAT, 'accel', 'N', 'linear_acceleration_covariance')
         notes.append(f'linear_acceleration_covariance of each message: diag '

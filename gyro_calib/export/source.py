@@ -33,15 +33,16 @@ AXES = ('x', 'y', 'z')
 UPPER_BOUND_SUFFIX = '_upper_bound_2sigma'
 
 GYRO_TERMS = {'N': 'angle_random_walk_rad_per_sqrt_s', 'B': 'bias_instability_rad_s',
-              'K': 'rate_random_walk_rad_per_s_sqrt_s'}
+              'K': 'rate_random_walk_rad_per_s_sqrt_s', 'Q': 'quantization_noise_rad'}
 """Gyro noise terms an export uses (IEEE Std 952; METHODS §E), by symbol."""
 ACCEL_TERMS = {'N': 'velocity_random_walk_m_s_per_sqrt_s', 'B': 'bias_instability_m_s2',
                'K': 'acceleration_random_walk_m_s2_per_sqrt_s'}
 """Accelerometer noise terms an export uses, by symbol."""
 UNITS = {('gyro', 'N'): 'rad/√s', ('gyro', 'B'): 'rad/s', ('gyro', 'K'): 'rad/s/√s',
+         ('gyro', 'Q'): 'rad',
          ('accel', 'N'): 'm/s/√s', ('accel', 'B'): 'm/s²', ('accel', 'K'): 'm/s²/√s'}
 NAMES = {'N': 'white-noise density (random walk)', 'B': 'bias instability',
-         'K': 'bias random walk'}
+         'K': 'bias random walk', 'Q': 'angle quantisation noise'}
 
 UPSTREAM_KEYS = {
     'scale_factor_rad_per_pulse': 'the pulse scale factor',
