@@ -8,6 +8,7 @@ and its ``write_scenario_bag(scenario, path)``); this module only gathers them.
 from __future__ import annotations
 
 import importlib
+import os
 import re
 from pathlib import Path
 from typing import Any
@@ -172,7 +173,7 @@ def write_scenario_bag_with(name: str, path: str | Path, overrides: dict[str, An
         import shutil
 
         path = Path(path)
-        tmp = path.with_name(f'.{path.name}.partial')
+        tmp = path.with_name(f'.{path.name}.partial-{os.getpid()}')  # this run's own
         shutil.rmtree(tmp, ignore_errors=True)
         tmp.mkdir()
         try:
@@ -183,7 +184,9 @@ def write_scenario_bag_with(name: str, path: str | Path, overrides: dict[str, An
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
-        tmp.rename(path)
+        from gyro_calib.bagio.writer import publish_directory
+
+        publish_directory(tmp, path)
         return path
     _, module = _ALL[name]
     return module.write_scenario_bag(  # type: ignore[no-any-return]

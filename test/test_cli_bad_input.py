@@ -772,3 +772,39 @@ def test_a_misspelt_manifest_column_or_field_names_the_nearest_one(
     for word in words:
         assert word in line, line
     assert not (tmp_path / 'out').exists()
+
+
+def test_two_simulate_runs_into_one_out_never_mix_and_the_loser_says_it_wrote_nothing(
+        tmp_path: Path) -> None:
+    """Two runs shared one staging directory: the bag held one run's data, the other's
+    metadata, and the run that said 'nothing was written' had supplied the data."""
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / 'twin'
+    env = {**os.environ, 'PYTHONPATH': str(Path(__file__).resolve().parent.parent)}
+    runs = [subprocess.Popen([sys.executable, '-m', 'gyro_calib.cli', 'simulate', 'k_tilde_bench',
+                              '--out', str(out), '--seed', str(seed)], env=env,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            for seed in (3, 4)]
+    results = [(r.wait(timeout=300), *r.communicate()) for r in runs]
+    codes = sorted(code for code, _, _ in results)
+    assert codes == [0, 2], results
+    loser = next(err for code, _, err in results if code == 2)
+    assert len(loser.strip().splitlines()) == 1 and ('wrote nothing' in loser
+                                                     or 'exists already' in loser), loser
+    winner_seed = next(seed for (code, _, _), seed in zip(results, (3, 4)) if code == 0)
+    meta = (out / 'metadata.yaml').read_text(encoding='utf-8')
+    assert f'seed: {winner_seed}' in meta.replace("'", '') or f"seed = {winner_seed}" in meta
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['twin']  # no staging left
+    ref = tmp_path / 'ref'  # the data are the winner's too (they were the other run's)
+    assert main(['simulate', 'k_tilde_bench', '--out', str(ref), '--seed', str(winner_seed)]) == 0
+    from rosbags.rosbag2 import Reader
+
+    def pulses(bag: Path) -> list[tuple[int, bytes]]:
+        with Reader(bag) as reader:
+            cons = [c for c in reader.connections if c.topic == '/gyro/pulses']
+            return [(t, bytes(raw)) for _, t, raw in reader.messages(connections=cons)]
+
+    assert pulses(out) == pulses(ref)

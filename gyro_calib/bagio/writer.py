@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -97,8 +98,8 @@ def write_bag(path: str | Path, messages: Iterable[BagMessage], *,
         raise BagError(f'{path}: exists already; not overwriting it.')
     types = {**CONTRACT_TYPES, **(types or {})}
     store = typestore()
-    tmp = path.with_name(f'.{path.name}.partial')
-    if tmp.exists():
+    tmp = path.with_name(f'.{path.name}.partial-{os.getpid()}')  # this run's own: two runs
+    if tmp.exists():                                            # into one path never mix
         shutil.rmtree(tmp)
     writer = Writer(tmp, version=9, storage_plugin=StoragePlugin.MCAP)
     writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
@@ -129,4 +130,22 @@ def write_bag(path: str | Path, messages: Iterable[BagMessage], *,
         store_custom_data(tmp, SCENARIO_KEY, scenario_text(scenario))
     for ns, part in (namespace_scenarios or {}).items():
         store_custom_data(tmp, scenario_key(ns), scenario_text(part))
-    tmp.rename(path)
+    publish_directory(tmp, path)
+
+
+def publish_directory(tmp: Path, path: Path) -> None:
+    """Rename the finished ``tmp`` to ``path``; if another run wrote ``path`` meanwhile, say so.
+
+    Raises:
+        BagError: ``path`` appeared while this run wrote (``tmp`` removed; nothing written).
+    """
+    import shutil
+
+    try:
+        if path.exists():
+            raise OSError
+        tmp.rename(path)  # fails onto a directory another run has filled
+    except OSError:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise BagError(f'{path}: another run wrote it while this one was writing; this run '
+                       'wrote nothing (give each run its own path).') from None
