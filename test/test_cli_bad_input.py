@@ -776,8 +776,11 @@ def test_a_misspelt_manifest_column_or_field_names_the_nearest_one(
 
 def test_two_simulate_runs_into_one_out_never_mix_and_the_loser_says_it_wrote_nothing(
         tmp_path: Path) -> None:
-    """Two runs shared one staging directory: the bag held one run's data, the other's
-    metadata, and the run that said 'nothing was written' had supplied the data."""
+    """Two simulate runs into one --out: one bag, all of it the winner's.
+
+    They shared one staging directory: the bag held one run's data and the other's metadata,
+    and the run that said 'nothing was written' had supplied the data.
+    """
     import os
     import subprocess
     import sys
