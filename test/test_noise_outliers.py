@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from gyro_calib.cli import main
@@ -184,7 +184,9 @@ TERMS = {
 }
 
 
-@settings(max_examples=6, deadline=None)
+@settings(max_examples=6, deadline=None, derandomize=True)  # CI sees the same benches each run
+@example(name='N + random walk (K)', seed=89, count=1, size=12.0)  # a term at its limit tips
+@example(name='Q + N', seed=1846, count=21, size=12.0)  # Q 6σ clean, a 2σ bound after removal
 @given(name=st.sampled_from(sorted(TERMS)), seed=st.integers(0, 10_000),
        count=st.integers(1, 60), size=st.floats(12.0, 1e4))
 def test_injected_spikes_are_all_found_none_on_clean_data_and_removal_restores_the_terms(
@@ -204,9 +206,13 @@ def test_injected_spikes_are_all_found_none_on_clean_data_and_removal_restores_t
     assert before.tally.spikes == 0  # no false alarm
     assert after.tally.spikes == count  # every one found, nothing else
     truth, got = base.results()['gyro_x'], removed.results()['gyro_x']
-    for key in set(got) ^ set(truth):  # a term at its resolution limit may tip either way
-        est = got.get(key) or truth[key]  # (seed 89, one 12σ spike: a 3.x σ rate ramp)
-        assert abs(est.value) <= 4.0 * est.std_uncertainty, (key, est)
+    bounds = {id(base): base.axis_result('gyro_x').fit.upper_bounds,
+              id(removed): removed.axis_result('gyro_x').fit.upper_bounds}
+    for key in set(got) ^ set(truth):  # resolved by one fit only: the other's 2σ upper bound
+        est, other = (got[key], base) if key in got else (truth[key], removed)  # must agree
+        bound = bounds[id(other)].get(key)  # (seed 89: a 3.x σ rate ramp; seed 1846: Q 6σ
+        assert bound is not None and bound >= est.value - 2.0 * est.std_uncertainty, (
+            key, est, bound)  # clean, ≤ 1.3e-6 at 2σ after removal: both true of Q = 1e-6)
     for key in set(got) & set(truth):
         assert abs(got[key].value - truth[key].value) <= truth[key].std_uncertainty, key
 
