@@ -811,16 +811,3 @@ def test_two_simulate_runs_into_one_out_never_mix_and_the_loser_says_it_wrote_no
             return [(t, bytes(raw)) for _, t, raw in reader.messages(connections=cons)]
 
     assert pulses(out) == pulses(ref)
-
-
-def test_noise_refuses_an_empty_out_file_before_any_work_naming_out(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """An empty --out: one line naming --out (noise said 'calibration file … is empty')."""
-    out = tmp_path / 'gyro.yaml'
-    out.write_bytes(b'')
-    bags = Path(__file__).resolve().parent.parent / 'bags'
-    run = gyro_calib(capsys, 'noise', bags / 'noise_rlg_spikes', '--out', out)
-    line = the_one_error_line(run)
-    assert run.code == EXIT_BAD_INPUT and run.out == ''
-    assert f'--out {out}' in line and 'is empty' in line and 'new path' in line, line
-    assert out.read_bytes() == b'' and sorted(tmp_path.iterdir()) == [out]

@@ -149,16 +149,6 @@ def run_noise(args: argparse.Namespace) -> int:
     targets = resolve_targets(args.kalibr, None, args.out, names=('--kalibr', '--plot', '--out'))
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     check_calibration_file(args.calibration)
-    if targets.handoff is not None and targets.handoff.is_file():  # before any work
-        from gyro_calib.errors import ConfigError as OutError
-        from gyro_calib.handoff import HandoffError, load_calibration
-        from gyro_calib.registry import handoff_schema
-
-        try:
-            load_calibration(targets.handoff, handoff_schema())
-        except HandoffError as exc:
-            raise OutError(f'--out {targets.handoff} exists and cannot be updated: {exc} Give '
-                           'a new path, or move the file away.') from None
     infos, _ = bag_infos(args.bags, args.namespace)
     present = merged_topics(infos)
     counts: dict[str, int] = {}
