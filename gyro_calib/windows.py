@@ -39,7 +39,7 @@ MAX_FIT_HALF_WIDTH_S = 2.0
 
 
 class WindowSettings(Protocol):
-    """The window and fit settings the cutter reads (KTildeConfig, :class:`WindowConfig`)."""
+    """The window and fit settings the cutter reads (rbrlg KTildeConfig, triad TriadSettings)."""
 
     @property
     def revolutions_per_window(self) -> int:
@@ -83,26 +83,6 @@ class WindowSettings(Protocol):
     @property
     def window_angle_source(self) -> str:
         """See rbrlg KTildeConfig."""
-
-
-@dataclass(frozen=True, slots=True)
-class WindowConfig:
-    """Window and fit settings with rbrlg's defaults (METHODS §A.2), for other methods."""
-
-    revolutions_per_window: int = 5
-    fit_half_width_s: float = 0.1
-    fit_order: int = 1
-    min_fit_samples_per_side: int = 20
-    max_fit_gap_s: float = 0.01
-    max_fit_residual_pulses: float = 5.0
-    rate_tolerance: float = 0.005
-    min_rate_deg_s: float = 1.0
-    window_angle_tolerance_arcsec: float = 60.0
-    index_angle_tolerance_arcsec: float = 30.0
-    max_table_gap_s: float = 0.1
-    max_pulse_gap_s: float = 0.5
-    pulse_jump_tolerance_pulses: float = 10.0
-    window_angle_source: str = 'encoder'
 
 
 @dataclass(frozen=True, slots=True)
