@@ -11,8 +11,11 @@ Pure core (no ROS import). Modules:
 * :mod:`spectral` — the paper's one-orientation spectral method, for comparison (import it
   from there: it pulls in scipy.signal, which the rest does not need);
 * :mod:`settings`, :mod:`calibrator` — the streaming :class:`DitherCalibrator` and
-  :func:`calibrate_dither`; :mod:`plots` — figures; :mod:`topics` — topic names;
-  :mod:`keys` — hand-off keys for the method registry.
+  :func:`calibrate_dither`, built from :mod:`block` (judge and reduce one block),
+  :mod:`components` (an orientation's sums → its component, clock lock, rocking allowance)
+  and :mod:`results` (summary, results, what is missing);
+* :mod:`plots` — figures; :mod:`topics` — topic names; :mod:`keys` — hand-off keys for the
+  method registry; :mod:`wording` — how angles, durations and stamps are written.
 """
 
 from __future__ import annotations

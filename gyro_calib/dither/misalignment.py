@@ -38,8 +38,8 @@ import math
 from dataclasses import dataclass
 
 from gyro_calib.dither.floor import DetectionFloor
-
-RAD_PER_ARCMIN = math.pi / 180.0 / 60.0
+from gyro_calib.dither.wording import RAD_PER_ARCMIN as RAD_PER_ARCMIN
+from gyro_calib.dither.wording import duration
 
 
 @dataclass(frozen=True, slots=True)
@@ -299,14 +299,6 @@ class Verdict:
         return {True: 'accept', False: 'reject', None: 'undecidable'}[self.accepted]
 
 
-def _fmt_duration(seconds: float) -> str:
-    if seconds < 120:
-        return f'{seconds:.0f} s'
-    if seconds < 7200:
-        return f'{seconds / 60:.0f} min'
-    return f'{seconds / 3600:.1f} h'
-
-
 def interval_verdict(interval: Interval, misalignment: Misalignment | None,
                      rocking: RockingAllowance, *, limit_rad: float, record_s: float,
                      sample_rate_hz: float, table_rate_amplitude_rad_s: float,
@@ -363,5 +355,5 @@ def interval_verdict(interval: Interval, misalignment: Misalignment | None,
                 else '')
     return Verdict(False, None, (
         f'{head} (needs σ(a) ≤ {target / am:.2f}′, now {sigma / am:.2f}′): record '
-        f'{_fmt_duration(more)} more in each orientation, or sample at {rate / 1000:.1f} kHz'
+        f'{duration(more)} more in each orientation, or sample at {rate / 1000:.1f} kHz'
         f'{amp_text} (if â stays at {value / am:.2f}′).'), more, rate, amp)

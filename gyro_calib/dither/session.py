@@ -52,6 +52,7 @@ from gyro_calib.dither.keys import (
 )
 from gyro_calib.dither.misalignment import RAD_PER_ARCMIN, Component
 from gyro_calib.dither.settings import DitherSettings, dither_settings_from_mapping
+from gyro_calib.dither.wording import arcmin, duration
 from gyro_calib.errors import ConfigError
 from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.units import NS_PER_S, RAD_PER_ARCSEC
@@ -67,18 +68,6 @@ TOPICS = {topics.GYRO_PULSES: JOINT_STATE, topics.VIBRATION_TABLE_JOINT_STATES: 
 NODE_NAME = 'dither_calibration_node'
 DEG_H_PER_RAD_S = 180.0 / math.pi * 3600.0
 """°/h per rad/s."""
-
-
-def _arcmin(value_rad: float) -> str:
-    return f'{value_rad / RAD_PER_ARCMIN:.2f}′'
-
-
-def _duration(seconds: float) -> str:
-    if seconds < 120:
-        return f'{seconds:.0f} s'
-    if seconds < 7200:
-        return f'{seconds / 60:.0f} min'
-    return f'{seconds / 3600:.1f} h'
 
 
 def _finite_or_none(value: Any) -> Any:
@@ -337,7 +326,7 @@ class DitherSession(MethodSession):
         target_what = (f'half the {s.max_misalignment_arcmin:g}′ limit at k = '
                        f'{s.verdict_coverage_factor:g}' if math.isnan(s.target_std_arcmin)
                        else 'target_std_arcmin')
-        lines = [f'target σ per component: {_arcmin(target)} ({target_what})']
+        lines = [f'target σ per component: {arcmin(target)} ({target_what})']
         for axis in AXES:
             c = comps.get(axis)
             if c is None:
@@ -365,7 +354,7 @@ class DitherSession(MethodSession):
         theta_pulses = rec.mean('dither_amplitude_pulses')
         s = cal.settings
         theta = (f'θ_d = {theta_pulses:.1f} pulses'
-                 + (f' = {_arcmin(theta_pulses * s.scale_factor_rad_per_pulse)}'
+                 + (f' = {arcmin(theta_pulses * s.scale_factor_rad_per_pulse)}'
                     if s.has_scale_factor else ''))
         arw_pulses = (math.radians(s.angle_random_walk_deg_sqrt_h) / 60.0
                       / s.scale_factor_rad_per_pulse if s.has_scale_factor else 0.0)
@@ -385,11 +374,11 @@ class DitherSession(MethodSession):
             f'table along {axis.upper()}: {c.n_blocks} blocks, {c.record_s:.0f} s of pulses at '
             f'{c.sample_rate_hz:.0f} Hz; table {fz:.3f} Hz, A = {amp:.3g} rad/s; dither '
             f'{fd:.3f} Hz, {theta}',
-            f'  detection floor of this record: σ_c = {_arcmin(floor.component_std_rad)} per '
-            f'component (quantisation {_arcmin(floor.quantisation_std_rad)}, angle random walk '
-            + (f'{_arcmin(floor.arw_std_rad)})' if arw_pulses else
+            f'  detection floor of this record: σ_c = {arcmin(floor.component_std_rad)} per '
+            f'component (quantisation {arcmin(floor.quantisation_std_rad)}, angle random walk '
+            + (f'{arcmin(floor.arw_std_rad)})' if arw_pulses else
                'not given: angle_random_walk_deg_sqrt_h, ~1e-5 of the variance on an RLG)'),
-            f'  for σ_c = {_arcmin(target)}: record {_duration(t_need)} in this orientation '
+            f'  for σ_c = {arcmin(target)}: record {duration(t_need)} in this orientation '
             f'(at A = {amp:.3g} rad/s, {c.sample_rate_hz:.0f} Hz), or sample at {rate} '
             f'(this {c.record_s:.0f} s record), or A ≥ {a_need:.3g} rad/s (this record and '
             'rate)',
@@ -427,11 +416,11 @@ class DitherSession(MethodSession):
                 return ('the rocking allowance is unbounded: '
                         + next(c.rocking_note for c in measured.values() if c.rocking_note) + '.')
             if m.rocking_bound_rad > m.random_std_rad:
-                return (f'the rocking allowance (±{_arcmin(m.rocking_bound_rad)} on a, an '
+                return (f'the rocking allowance (±{arcmin(m.rocking_bound_rad)} on a, an '
                         f'interval) dominates the record\'s statistical '
-                        f'{_arcmin(m.random_std_rad)}: measure the in-phase rocking '
+                        f'{arcmin(m.random_std_rad)}: measure the in-phase rocking '
                         '(rocking_treatment = model).')
-            return (f'the detection floor: u(a) = {_arcmin(m.std_rad)} falls as 1/√(f_s·T) '
+            return (f'the detection floor: u(a) = {arcmin(m.std_rad)} falls as 1/√(f_s·T) '
                     '(longer records, faster sampling) or 1/A (larger table amplitude).')
         return 'every quantity measured.'
 
