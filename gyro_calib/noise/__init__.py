@@ -4,7 +4,12 @@ Pure core (NumPy/SciPy, no ROS). Entry points:
 
 - :class:`~gyro_calib.noise.calibrator.NoiseCalibrator` / :func:`calibrate_noise`: streams
   ``/gyro/pulses``, ``/fog/output`` or an Imu topic into per-axis Allan deviations (memory
-  bounded independently of the record length) and jointly fitted noise terms.
+  bounded independently of the record length) and jointly fitted noise terms; built from
+  :mod:`~gyro_calib.noise.intake` (streams ordered, gated by the tables' motion, fed to
+  channels), :mod:`~gyro_calib.noise.table_report` (the tables' motion in words),
+  :mod:`~gyro_calib.noise.axis` (one axis from curve to terms) and
+  :mod:`~gyro_calib.noise.results` (results, missing terms, table, ``--json``);
+  :mod:`~gyro_calib.noise.topics` names the topics read.
 - :class:`~gyro_calib.noise.settings.NoiseSettings`: the settings.
 - :func:`~gyro_calib.noise.allan.overlapping_allan_deviation`,
   :func:`~gyro_calib.noise.allan.total_deviation`: batch statistics on arrays.

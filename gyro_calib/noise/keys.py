@@ -11,8 +11,8 @@ accelerometer axes ``accel_x`` … ``accel_z`` with the accelerometer keys (m/s,
 from __future__ import annotations
 
 from gyro_calib.handoff import HandoffKey
-from gyro_calib.noise.calibrator import IMU_AXES
 from gyro_calib.noise.terms import SYMBOLS, units_for_axis
+from gyro_calib.noise.topics import IMU_AXES
 
 METHOD = 'noise'
 
