@@ -130,66 +130,64 @@ def _from_handoff(path: Path, keys: tuple[str, ...]) -> tuple[float, str] | None
     return None
 
 
-def pulse_scale_factor(options: CalibrationOptions) -> ScaleFactor:
-    """K of ``/gyro/pulses``, rad/pulse, from the first source given.
+def _first_scale_factor(options: CalibrationOptions, given: float | None, *, flag: str,
+                        unit: str, key: str, handoff_keys: tuple[str, ...],
+                        settings_source: str, order: tuple[str, str]) -> ScaleFactor:
+    """The first scale factor given: the flag, hand-off file and settings in ``order``, the bag.
 
-    K of ``/gyro/pulses``, rad/pulse: the flag (node parameter), a hand-off file
-    (``scale_factor_rad_per_pulse``, else ``k_tilde_rad_per_pulse``), the settings (config
-    file), the bag's bench settings — the first given.
+    ``key`` names the setting, the flag's origin and the bag's bench-settings entry; ``flag``
+    and ``unit`` word the refusal of a bad flag value.
 
     Raises:
-        ConfigError: a given value is not positive and finite.
+        ConfigError: the flag's value is not positive and finite.
         HandoffError: the hand-off file cannot be read or is invalid.
     """
-    given = options.scale_factor_rad_per_pulse
     if given is not None:
         if not _positive(given):
-            raise ConfigError(f'scale_factor_rad_per_pulse = {given!r} is invalid: it must be a '
-                              'positive number of rad/pulse.')
-        return ScaleFactor(float(given), options.origin_of_given('scale_factor_rad_per_pulse'))
-    if options.calibration_file is not None:
-        got = _from_handoff(options.calibration_file,
-                            ('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'))
-        if got is not None:
-            return ScaleFactor(*got)
-    setting = options.settings.get('scale_factor_rad_per_pulse')
-    if _positive(setting):
-        return ScaleFactor(float(setting), 'the settings')
-    stored = options.bench('scale_factor_rad_per_pulse', None)
+            raise ConfigError(f'{flag} = {given!r} is invalid: it must be a positive number of '
+                              f'{unit}.')
+        return ScaleFactor(float(given), options.origin_of_given(key))
+    setting = options.settings.get(key)
+    for source in order:
+        if source == 'handoff' and options.calibration_file is not None:
+            got = _from_handoff(options.calibration_file, handoff_keys)
+            if got is not None:
+                return ScaleFactor(*got)
+        elif source == 'settings' and _positive(setting):
+            return ScaleFactor(float(setting), settings_source)
+    stored = options.bench(key, None)
     if _positive(stored):
         return ScaleFactor(float(stored), 'the bench settings stored in the bag')
     return ScaleFactor(math.nan)
+
+
+def pulse_scale_factor(options: CalibrationOptions) -> ScaleFactor:
+    """K of ``/gyro/pulses``, rad/pulse, from the first source given.
+
+    The flag (node parameter), a hand-off file (``scale_factor_rad_per_pulse``, else
+    ``k_tilde_rad_per_pulse``), the settings (config file), the bag's bench settings; raises
+    as :func:`_first_scale_factor`.
+    """
+    return _first_scale_factor(
+        options, options.scale_factor_rad_per_pulse, flag='scale_factor_rad_per_pulse',
+        unit='rad/pulse', key='scale_factor_rad_per_pulse',
+        handoff_keys=('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'),
+        settings_source='the settings', order=('handoff', 'settings'))
 
 
 def fog_scale_factor(options: CalibrationOptions) -> ScaleFactor:
     """Scale factor of ``/fog/output``, counts/rad, from the first source given.
 
-    Scale factor of ``/fog/output``, counts/rad: the flag, the setting
-    ``fog_scale_factor_counts_per_rad`` (node parameter, config file), a hand-off file
-    (``fog_scale_factor_counts_per_rad``), the bag's bench settings — the first given.
-
-    Raises:
-        ConfigError: a given value is not positive and finite.
-        HandoffError: the hand-off file cannot be read or is invalid.
+    The flag, the setting ``fog_scale_factor_counts_per_rad`` (node parameter, config file),
+    a hand-off file (``fog_scale_factor_counts_per_rad``), the bag's bench settings; raises
+    as :func:`_first_scale_factor`.
     """
-    given = options.scale_factor_counts_per_rad
-    if given is not None:
-        if not _positive(given):
-            raise ConfigError(f'scale_factor_counts_per_rad = {given!r} is invalid: it must be '
-                              'a positive number of counts/rad.')
-        return ScaleFactor(float(given),
-                           options.origin_of_given('fog_scale_factor_counts_per_rad'))
-    setting = options.settings.get('fog_scale_factor_counts_per_rad')
-    if _positive(setting):
-        return ScaleFactor(float(setting), 'fog_scale_factor_counts_per_rad (settings)')
-    if options.calibration_file is not None:
-        got = _from_handoff(options.calibration_file, ('fog_scale_factor_counts_per_rad',))
-        if got is not None:
-            return ScaleFactor(*got)
-    stored = options.bench('fog_scale_factor_counts_per_rad', None)
-    if _positive(stored):
-        return ScaleFactor(float(stored), 'the bench settings stored in the bag')
-    return ScaleFactor(math.nan)
+    return _first_scale_factor(
+        options, options.scale_factor_counts_per_rad, flag='scale_factor_counts_per_rad',
+        unit='counts/rad', key='fog_scale_factor_counts_per_rad',
+        handoff_keys=('fog_scale_factor_counts_per_rad',),
+        settings_source='fog_scale_factor_counts_per_rad (settings)',
+        order=('settings', 'handoff'))
 
 
 @dataclass(frozen=True, slots=True)
