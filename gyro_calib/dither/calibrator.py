@@ -80,7 +80,10 @@ from gyro_calib.units import NS_PER_S
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
+
 class _RecordingLike(Protocol):
+    """What :func:`calibrate_dither` reads of a recording (its arrays, or a simulator's)."""
+
     pulse_t_ns: ArrayLike
     pulse_counts: ArrayLike
     table_t_ns: ArrayLike
