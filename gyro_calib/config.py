@@ -48,20 +48,25 @@ def read_parameter_file(path: str | Path, *, node_name: str) -> dict[str, Any]:
 def field_descriptions(cls: type) -> dict[str, str]:
     """Attribute docstrings of a dataclass (the string right after each field), by field name.
 
-    They are the single source of the parameter descriptions the nodes declare.
+    They are the single source of the parameter descriptions the nodes declare. Fields a
+    dataclass inherits (e.g. :class:`gyro_calib.windows.WindowFields`) are described where
+    they are declared, base classes first.
     """
     import ast
     import inspect
     import textwrap
 
-    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
-    body = tree.body[0].body  # type: ignore[attr-defined]
     out: dict[str, str] = {}
-    for node, after in zip(body, body[1:]):
-        if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
-                and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
-                and isinstance(after.value.value, str)):
-            out[node.target.id] = ' '.join(after.value.value.split())
+    for klass in reversed(cls.__mro__):
+        if '__dataclass_fields__' not in vars(klass):
+            continue
+        tree = ast.parse(textwrap.dedent(inspect.getsource(klass)))
+        body = tree.body[0].body  # type: ignore[attr-defined]
+        for node, after in zip(body, body[1:]):
+            if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
+                    and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
+                    and isinstance(after.value.value, str)):
+                out[node.target.id] = ' '.join(after.value.value.split())
     return out
 
 
