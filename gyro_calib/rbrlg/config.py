@@ -13,7 +13,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypedDict
 
-from gyro_calib.config import RangeCheck, check_ranges, read_parameter_file
+from gyro_calib.config import (
+    RangeCheck,
+    check_ranges,
+    read_parameter_file,
+    settings_from_mapping,
+)
 from gyro_calib.errors import ConfigError
 from gyro_calib.windows import WindowFields
 
@@ -101,29 +106,8 @@ class KTildeConfig(WindowFields):
 def k_tilde_config_from_mapping(values: dict[str, Any], *,
                                 source: str = 'mapping') -> KTildeConfig:
     """Build a KTildeConfig from a mapping, rejecting unknown keys and wrong types."""
-    fields = {f.name: f for f in dataclasses.fields(KTildeConfig)}
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; '
-                          f'known fields: {", ".join(fields)}.')
-    kwargs: dict[str, Any] = {}
-    for name, value in values.items():
-        default = getattr(KTildeConfig(), name)
-        if isinstance(default, str):
-            if not isinstance(value, str):
-                raise ConfigError(f'field {name} in {source} must be a string, got {value!r}.')
-        elif isinstance(default, int) and not isinstance(default, bool):
-            if isinstance(value, bool) or not isinstance(value, int):
-                raise ConfigError(f'field {name} in {source} must be an integer, got {value!r}.')
-        elif isinstance(default, float):
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ConfigError(f'field {name} in {source} must be a number, got {value!r}.')
-            value = float(value)
-        kwargs[name] = value
-    try:
-        return KTildeConfig(**kwargs)
-    except ConfigError as exc:
-        raise ConfigError(f'{exc} (in {source})') from None
+    return settings_from_mapping(KTildeConfig, values, source=source, check_types=True,
+                                 known_sorted=False)
 
 
 def load_k_tilde_config(path: str | Path, *, node_name: str = 'calibration_node') -> KTildeConfig:

@@ -13,7 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from gyro_calib.config import RangeCheck, check_ranges
+from gyro_calib.config import RangeCheck, check_ranges, settings_from_mapping
 from gyro_calib.errors import ConfigError
 from gyro_calib.thermal.intervals import IntervalSettings
 from gyro_calib.thermal.terms import NAMED_SETS, candidate_terms
@@ -234,18 +234,4 @@ def thermal_settings_from_mapping(values: dict[str, object], *,
     Raises:
         ConfigError: an unknown key or an invalid value, naming ``source``.
     """
-    names = {f.name for f in dataclasses.fields(ThermalSettings)}
-    unknown = sorted(set(values) - names)
-    if unknown:
-        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; known fields: '
-                          f'{", ".join(sorted(names))}.')
-    defaults = ThermalSettings()
-    kwargs = dict(values)
-    for name, value in values.items():
-        if isinstance(getattr(defaults, name), float) and isinstance(value, int) \
-                and not isinstance(value, bool):
-            kwargs[name] = float(value)
-    try:
-        return ThermalSettings(**kwargs)  # type: ignore[arg-type]
-    except ConfigError as exc:
-        raise ConfigError(f'{exc} (in {source})') from None
+    return settings_from_mapping(ThermalSettings, values, source=source)
