@@ -8,10 +8,10 @@ is the single source of the parameter description its node declares.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import yaml
 
@@ -48,21 +48,78 @@ def read_parameter_file(path: str | Path, *, node_name: str) -> dict[str, Any]:
 def field_descriptions(cls: type) -> dict[str, str]:
     """Attribute docstrings of a dataclass (the string right after each field), by field name.
 
-    They are the single source of the parameter descriptions the nodes declare.
+    They are the single source of the parameter descriptions the nodes declare. Fields a
+    dataclass inherits (e.g. :class:`gyro_calib.windows.WindowFields`) are described where
+    they are declared, base classes first.
     """
     import ast
     import inspect
     import textwrap
 
-    tree = ast.parse(textwrap.dedent(inspect.getsource(cls)))
-    body = tree.body[0].body  # type: ignore[attr-defined]
     out: dict[str, str] = {}
-    for node, after in zip(body, body[1:]):
-        if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
-                and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
-                and isinstance(after.value.value, str)):
-            out[node.target.id] = ' '.join(after.value.value.split())
+    for klass in reversed(cls.__mro__):
+        if '__dataclass_fields__' not in vars(klass):
+            continue
+        tree = ast.parse(textwrap.dedent(inspect.getsource(klass)))
+        body = tree.body[0].body  # type: ignore[attr-defined]
+        for node, after in zip(body, body[1:]):
+            if (isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name)
+                    and isinstance(after, ast.Expr) and isinstance(after.value, ast.Constant)
+                    and isinstance(after.value.value, str)):
+                out[node.target.id] = ' '.join(after.value.value.split())
     return out
+
+
+SettingsT = TypeVar('SettingsT')
+
+
+def settings_from_mapping(cls: type[SettingsT], values: Mapping[str, Any], *, source: str,
+                          check_types: bool = False,
+                          known_sorted: bool = True) -> SettingsT:
+    """A method's settings dataclass from a mapping (YAML, ROS parameters), rejecting unknown keys.
+
+    An integer is taken for a field whose default is a float (YAML ``block_s: 2``). With
+    ``check_types`` every value must also be of its default's kind (a string, an integer, a
+    number), else ConfigError naming the field. The unknown-key message lists the known
+    fields, sorted (``known_sorted``) or in declaration order.
+
+    Raises:
+        ConfigError: an unknown field or an invalid value, naming the field and ``source``.
+    """
+    import dataclasses
+
+    names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+    unknown = sorted(set(values) - set(names))
+    if unknown:
+        known = sorted(names) if known_sorted else names
+        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; '
+                          f'known fields: {", ".join(known)}.')
+    defaults = cls()
+    kwargs: dict[str, Any] = {}
+    for name, value in values.items():
+        default = getattr(defaults, name)
+        if check_types:
+            _check_kind(name, value, default, source)
+        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        kwargs[name] = value
+    try:
+        return cls(**kwargs)
+    except ConfigError as exc:
+        raise ConfigError(f'{exc} (in {source})') from None
+
+
+def _check_kind(name: str, value: Any, default: Any, source: str) -> None:
+    """ConfigError unless ``value`` is of the kind of ``default`` (string, integer, number)."""
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ConfigError(f'field {name} in {source} must be a string, got {value!r}.')
+    elif isinstance(default, int) and not isinstance(default, bool):
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f'field {name} in {source} must be an integer, got {value!r}.')
+    elif isinstance(default, float):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f'field {name} in {source} must be a number, got {value!r}.')
 
 
 # ---------------------------------------------------------------------------------------

@@ -100,13 +100,18 @@ class Method:
                      else dataclasses.replace(k, follows=self.handoff_lead) for k in keys)
 
 
+_RATE_TABLE = (topics.RATE_TABLE_JOINT_STATES, topics.RATE_TABLE_ZERO_INDEX)
+"""The rate table's encoder and zero-index topics (revealing rbrlg and triad with the gyro's)."""
+_TWO_AXIS_BENCH = {topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
+                   topics.RATE_TABLE_ZERO_INDEX: HEADER,
+                   topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE,
+                   topics.POSITION_TABLE_ZERO_INDEX: HEADER}
+"""The two-axis bench's topics (rate table, position table) the rbrlg and triad methods read."""
+
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method('rbrlg', 'rate-biased RLG: K̃, θ, K = K̃·cos θ, bias (docs/methods.md §A)',
-           {topics.GYRO_PULSES: JOINT_STATE, topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
-            topics.RATE_TABLE_ZERO_INDEX: HEADER,
-            topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE,
-            topics.POSITION_TABLE_ZERO_INDEX: HEADER},
-           (topics.GYRO_PULSES, topics.RATE_TABLE_JOINT_STATES, topics.RATE_TABLE_ZERO_INDEX),
+           {topics.GYRO_PULSES: JOINT_STATE, **_TWO_AXIS_BENCH},
+           (topics.GYRO_PULSES, *_RATE_TABLE),
            'gyro_calib.rbrlg.session:RbrlgSession', 'gyro_calib.rbrlg.keys',
            node='calibration_node', settings='gyro_calib.rbrlg.config:KTildeConfig',
            bench_settings=('latitude_deg', 'heading_deg', 'position_table_revolutions',
@@ -151,11 +156,8 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            context=(topics.RATE_TABLE_JOINT_STATES, topics.POSITION_TABLE_JOINT_STATES)),
     Method('triad', 'gyro triad (IMU): K, sense axes and M of three gyros, biases, on the '
            'two-axis bench or by remounting (docs/methods.md §F)',
-           {topics.IMU_PULSES: JOINT_STATE, topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
-            topics.RATE_TABLE_ZERO_INDEX: HEADER,
-            topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE,
-            topics.POSITION_TABLE_ZERO_INDEX: HEADER},
-           (topics.IMU_PULSES, topics.RATE_TABLE_JOINT_STATES, topics.RATE_TABLE_ZERO_INDEX),
+           {topics.IMU_PULSES: JOINT_STATE, **_TWO_AXIS_BENCH},
+           (topics.IMU_PULSES, *_RATE_TABLE),
            'gyro_calib.triad.session:TriadSession', 'gyro_calib.triad.keys',
            separate_bags=True, node='triad_calibration_node',
            settings='gyro_calib.triad.session:TriadSettings',

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gyro_calib.config import BENCH_SETTINGS, check_bench_setting, given
+from gyro_calib.config import BENCH_SETTINGS, check_bench_setting, given, read_method_file
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Calibration, Provenance, method_calibration
 from gyro_calib.streams import late_summary
@@ -135,6 +135,29 @@ class CalibrationOptions:
         if key in BENCH_SETTINGS:
             value = check_bench_setting(key, value, origin)
         return value, origin
+
+    def method_settings(self, settings_cls: type, node_name: str, *,
+                        parameters: str = 'ROS parameters') -> tuple[dict[str, Any], str]:
+        """The method settings given, and where they came from.
+
+        The node's parameters (:attr:`settings`), then the values of the method's config
+        file (plain mapping or ROS 2 parameter file of ``node_name``), which win; and the
+        source messages name: the config file, else ``parameters``. The fields of
+        ``settings_cls`` are the method's settings (the bench settings and node-only
+        parameters a config file may hold are left out, see :func:`read_method_file`).
+
+        Raises:
+            ConfigError: the config file cannot be read or parsed, or holds no mapping.
+        """
+        import dataclasses
+
+        values = dict(self.settings)
+        source = parameters
+        if self.config_file is not None:
+            values.update(read_method_file(self.config_file, node_name=node_name, fields=[
+                f.name for f in dataclasses.fields(settings_cls)])[0])
+            source = str(self.config_file)
+        return values, source
 
     def bench(self, key: str, default: Any) -> Any:
         """A bench setting stored with the method's bags, else ``default`` (see :meth:`stored`)."""

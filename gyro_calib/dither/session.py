@@ -21,7 +21,6 @@ import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
-from gyro_calib.config import read_method_file
 from gyro_calib.dither import topics
 from gyro_calib.dither.calibrator import (
     AXES,
@@ -105,12 +104,7 @@ def dither_settings(options: CalibrationOptions) -> tuple[DitherSettings, str, s
     sentence saying where K came from (or that it is unknown), and that origin in a few words
     for the run's hand-off conditions (``scale_factor_from``; '' without K).
     """
-    values = dict(options.settings)
-    source = 'ROS parameters'
-    if options.config_file is not None:
-        values.update(read_method_file(options.config_file, node_name=NODE_NAME, fields=[
-            f.name for f in dataclasses.fields(DitherSettings)])[0])
-        source = str(options.config_file)
+    values, source = options.method_settings(DitherSettings, NODE_NAME)
     settings = dither_settings_from_mapping(values, source=source)
     if options.scale_factor_rad_per_pulse is not None:
         k, where = float(options.scale_factor_rad_per_pulse), 'K given'

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from gyro_calib.config import check_ranges
+from gyro_calib.config import check_ranges, settings_from_mapping
 from gyro_calib.errors import ConfigError
 
 ROCKING_TREATMENTS = ('bound', 'model', 'none')
@@ -176,18 +176,4 @@ def dither_settings_from_mapping(values: Mapping[str, Any], *,
     Raises:
         ConfigError: an unknown field or an invalid value, naming the field and ``source``.
     """
-    fields = {f.name: f for f in dataclasses.fields(DitherSettings)}
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; known fields: '
-                          f'{", ".join(sorted(fields))}.')
-    kwargs = {}
-    for name, value in values.items():
-        if (str(fields[name].type) == 'float' and isinstance(value, int)
-                and not isinstance(value, bool)):
-            value = float(value)
-        kwargs[name] = value
-    try:
-        return DitherSettings(**kwargs)
-    except ConfigError as exc:
-        raise ConfigError(f'{exc} (in {source})') from None
+    return settings_from_mapping(DitherSettings, values, source=source)

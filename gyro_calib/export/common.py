@@ -28,6 +28,12 @@ STREAMS = ('compensated', 'raw')
 """``compensated``: the consumer subscribes to gyro_calib's imu_corrector output (scale factor,
 axes, bias, thermal model applied upstream); ``raw``: to the sensor driver's own stream."""
 
+KALIBR_DENSITIES = (('accelerometer_noise_density', 'accel', 'N', 'm/s^2/sqrt(Hz)'),
+                    ('accelerometer_random_walk', 'accel', 'K', 'm/s^3/sqrt(Hz)'),
+                    ('gyroscope_noise_density', 'gyro', 'N', 'rad/s/sqrt(Hz)'),
+                    ('gyroscope_random_walk', 'gyro', 'K', 'rad/s^2/sqrt(Hz)'))
+"""Kalibr's continuous noise densities (Kalibr, OpenVINS): (key, sensor, term, unit)."""
+
 
 @dataclass(frozen=True, slots=True)
 class ExportOptions:

@@ -10,6 +10,7 @@ naming it, instead of written as zero.
 from __future__ import annotations
 
 from gyro_calib.export.common import (
+    KALIBR_DENSITIES,
     ExportOptions,
     check_stream,
     header,
@@ -29,12 +30,8 @@ KEYS = ('accelerometer_noise_density', 'accelerometer_random_walk', 'gyroscope_n
 def kalibr_text(src: ExportSource, options: ExportOptions) -> str:
     """The Kalibr ``imu.yaml`` text (see the module docstring)."""
     check_stream(src, FORMAT, options)
-    slots = (('accelerometer_noise_density', 'accel', 'N', 'm/s^2/sqrt(Hz)'),
-             ('accelerometer_random_walk', 'accel', 'K', 'm/s^3/sqrt(Hz)'),
-             ('gyroscope_noise_density', 'gyro', 'N', 'rad/s/sqrt(Hz)'),
-             ('gyroscope_random_walk', 'gyro', 'K', 'rad/s^2/sqrt(Hz)'))
     values = []
-    for key, sensor, sym, unit in slots:
+    for key, sensor, sym, unit in KALIBR_DENSITIES:
         value, why = largest(src, FORMAT, sensor, sym, key)
         if not value > 0:
             raise refuse(FORMAT, f'Kalibr refuses {key} = 0 (its reader takes only positive '

@@ -17,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gyro_calib.export.common import (
+    KALIBR_DENSITIES,
     ExportOptions,
     check_stream,
     header,
@@ -61,12 +62,8 @@ def intrinsics(src: ExportSource, options: ExportOptions) -> tuple[
 def openvins_text(src: ExportSource, options: ExportOptions) -> str:
     """The OpenVINS ``kalibr_imu_chain.yaml`` text with its ``%YAML:1.0`` header."""
     check_stream(src, FORMAT, options, intrinsics=True)
-    slots = (('accelerometer_noise_density', 'accel', 'N', 'm/s^2/sqrt(Hz)'),
-             ('accelerometer_random_walk', 'accel', 'K', 'm/s^3/sqrt(Hz)'),
-             ('gyroscope_noise_density', 'gyro', 'N', 'rad/s/sqrt(Hz)'),
-             ('gyroscope_random_walk', 'gyro', 'K', 'rad/s^2/sqrt(Hz)'))
     values = []
-    for key, sensor, sym, unit in slots:
+    for key, sensor, sym, unit in KALIBR_DENSITIES:
         value, why = largest(src, FORMAT, sensor, sym, key)
         values.append(f'  {key}: {number(value)}  # {unit}; {why}; continuous density')
     rate, rate_from = need_rate(src, FORMAT, options, 'update_rate')

@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gyro_calib import topics
-from gyro_calib.config import read_method_file
 from gyro_calib.fog.calibrator import (
     KEY_ARW,
     KEY_ASYMMETRY,
@@ -70,13 +69,7 @@ def fog_settings(options: CalibrationOptions) -> FogSettings:
     The FOG settings: the node's parameters, then the config file's values, then the
     latitude from the flags or the bag.
     """
-    values = dict(options.settings)
-    source = 'ROS parameters'
-    if options.config_file is not None:
-        names = [f.name for f in dataclasses.fields(FogSettings)]
-        values.update(read_method_file(options.config_file, node_name='fog_calibration_node',
-                                       fields=names)[0])
-        source = str(options.config_file)
+    values, source = options.method_settings(FogSettings, 'fog_calibration_node')
     settings = fog_settings_from_mapping(values, source=source) if values else FogSettings()
     latitude = options.latitude
     if math.isfinite(latitude):

@@ -10,7 +10,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from gyro_calib.config import check_ranges
+from gyro_calib.config import check_ranges, settings_from_mapping
 from gyro_calib.errors import ConfigError
 
 
@@ -165,19 +165,7 @@ class FogSettings:
 
 def fog_settings_from_mapping(values: dict[str, Any], *, source: str = 'mapping') -> FogSettings:
     """Build FogSettings from a mapping (YAML, ROS parameters), rejecting unknown keys."""
-    names = {f.name for f in dataclasses.fields(FogSettings)}
-    unknown = sorted(set(values) - names)
-    if unknown:
-        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; '
-                          f'known fields: {", ".join(sorted(names))}.')
     kwargs = dict(values)
     if 'mapping_rates_deg_s' in kwargs and isinstance(kwargs['mapping_rates_deg_s'], list):
         kwargs['mapping_rates_deg_s'] = tuple(kwargs['mapping_rates_deg_s'])
-    for name, value in kwargs.items():
-        default = getattr(FogSettings(), name)
-        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
-            kwargs[name] = float(value)
-    try:
-        return FogSettings(**kwargs)
-    except ConfigError as exc:
-        raise ConfigError(f'{exc} (in {source})') from None
+    return settings_from_mapping(FogSettings, kwargs, source=source)

@@ -237,14 +237,8 @@ def settings_values(options: CalibrationOptions) -> tuple[dict[str, Any], str]:
     Raises:
         ConfigError: the config file is unreadable, or names an unknown setting.
     """
-    from gyro_calib.config import read_method_file
-
-    values = dict(options.settings)
-    source = 'the node parameters'
-    if options.config_file is not None:
-        values.update(read_method_file(options.config_file, node_name=NODE_NAME, fields=[
-            f.name for f in dataclasses.fields(NoiseSettings)])[0])
-        source = str(options.config_file)
+    values, source = options.method_settings(NoiseSettings, NODE_NAME,
+                                             parameters='the node parameters')
     names = {f.name for f in dataclasses.fields(NoiseSettings)}
     unknown = sorted(set(values) - names)
     if unknown:

@@ -13,8 +13,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypedDict
 
-from gyro_calib.config import check_ranges, read_parameter_file
+from gyro_calib.config import (
+    RangeCheck,
+    check_ranges,
+    read_parameter_file,
+    settings_from_mapping,
+)
 from gyro_calib.errors import ConfigError
+from gyro_calib.windows import WindowFields
 
 
 class KTildeConfigFile(TypedDict, total=False):
@@ -43,38 +49,12 @@ class KTildeConfigFile(TypedDict, total=False):
 
 
 @dataclass(frozen=True, slots=True)
-class KTildeConfig:
-    """Settings of whole-revolution windowing and the K̃ estimate (METHODS §A.2)."""
+class KTildeConfig(WindowFields):
+    """Settings of whole-revolution windowing and the K̃ estimate (METHODS §A.2).
 
-    revolutions_per_window: int = 5
-    """m: whole revolutions in one window."""
-    fit_half_width_s: float = 0.1
-    """Half-width of the local least-squares fit of counts around an index instant, s."""
-    fit_order: int = 1
-    """Polynomial order of that fit (1 = line; 2 absorbs slow rate ripple)."""
-    min_fit_samples_per_side: int = 20
-    """Pulse samples needed on each side of an index instant."""
-    max_fit_gap_s: float = 0.01
-    """Largest gap between pulse samples allowed inside a fit span, s."""
-    max_fit_residual_pulses: float = 5.0
-    """Largest residual of the local fit before the index event is rejected, pulses."""
-    rate_tolerance: float = 0.005
-    """Allowed relative deviation of the table rate from its window median."""
-    min_rate_deg_s: float = 1.0
-    """Slowest table rate a window may be cut at, °/s."""
-    window_angle_tolerance_arcsec: float = 60.0
-    """Allowed |encoder angle of a window − m·360°|, ″ (encoder resolution + index jitter)."""
-    index_angle_tolerance_arcsec: float = 30.0
-    """Allowed distance of an index event's encoder angle from the reference mark, ″."""
-    max_table_gap_s: float = 0.1
-    """Largest gap in joint_states inside a window, s."""
-    max_pulse_gap_s: float = 0.5
-    """Largest gap in the pulse stream inside a window, s."""
-    pulse_jump_tolerance_pulses: float = 10.0
-    """Allowed step of a pulse increment from the window's median rate, pulses.
-
-    Plus rate_tolerance.
+    The window and fit fields come first, from :class:`~gyro_calib.windows.WindowFields`.
     """
+
     max_pair_gap_s: float = 60.0
     """Largest time between a window and the opposite-direction window it is paired with, s."""
     max_window_s: float = 600.0
@@ -108,21 +88,8 @@ class KTildeConfig:
             if isinstance(value, bool) or not isinstance(value, int if want_int else (int, float)):
                 kind = 'an integer' if want_int else 'a number'
                 raise ConfigError(f'{f.name} = {value!r} is invalid: it must be {kind}.')
-        checks: list[tuple[str, bool, str]] = [
-            ('revolutions_per_window', self.revolutions_per_window >= 1, 'at least 1'),
-            ('fit_half_width_s', self.fit_half_width_s > 0, 'positive'),
-            ('fit_order', self.fit_order in (1, 2), '1 or 2'),
-            ('min_fit_samples_per_side', self.min_fit_samples_per_side >= 2, 'at least 2'),
-            ('max_fit_gap_s', self.max_fit_gap_s > 0, 'positive'),
-            ('max_fit_residual_pulses', self.max_fit_residual_pulses > 0, 'positive'),
-            ('rate_tolerance', 0 < self.rate_tolerance < 1, 'between 0 and 1'),
-            ('min_rate_deg_s', self.min_rate_deg_s > 0, 'positive'),
-            ('window_angle_tolerance_arcsec', 0 < self.window_angle_tolerance_arcsec < 648000,
-             'between 0 and 648000 (half a revolution)'),
-            ('index_angle_tolerance_arcsec', self.index_angle_tolerance_arcsec > 0, 'positive'),
-            ('max_table_gap_s', self.max_table_gap_s > 0, 'positive'),
-            ('max_pulse_gap_s', self.max_pulse_gap_s > 0, 'positive'),
-            ('pulse_jump_tolerance_pulses', self.pulse_jump_tolerance_pulses > 0, 'positive'),
+        checks: list[RangeCheck] = [
+            *self.window_checks(angle_within_half_turn=True, jump_may_be_zero=False),
             ('max_pair_gap_s', self.max_pair_gap_s > 0, 'positive'),
             ('max_window_s', self.max_window_s > 0, 'positive'),
             ('min_pairs', self.min_pairs >= 2, 'at least 2 (a standard uncertainty needs two)'),
@@ -139,29 +106,8 @@ class KTildeConfig:
 def k_tilde_config_from_mapping(values: dict[str, Any], *,
                                 source: str = 'mapping') -> KTildeConfig:
     """Build a KTildeConfig from a mapping, rejecting unknown keys and wrong types."""
-    fields = {f.name: f for f in dataclasses.fields(KTildeConfig)}
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; '
-                          f'known fields: {", ".join(fields)}.')
-    kwargs: dict[str, Any] = {}
-    for name, value in values.items():
-        default = getattr(KTildeConfig(), name)
-        if isinstance(default, str):
-            if not isinstance(value, str):
-                raise ConfigError(f'field {name} in {source} must be a string, got {value!r}.')
-        elif isinstance(default, int) and not isinstance(default, bool):
-            if isinstance(value, bool) or not isinstance(value, int):
-                raise ConfigError(f'field {name} in {source} must be an integer, got {value!r}.')
-        elif isinstance(default, float):
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ConfigError(f'field {name} in {source} must be a number, got {value!r}.')
-            value = float(value)
-        kwargs[name] = value
-    try:
-        return KTildeConfig(**kwargs)
-    except ConfigError as exc:
-        raise ConfigError(f'{exc} (in {source})') from None
+    return settings_from_mapping(KTildeConfig, values, source=source, check_types=True,
+                                 known_sorted=False)
 
 
 def load_k_tilde_config(path: str | Path, *, node_name: str = 'calibration_node') -> KTildeConfig:

@@ -9,7 +9,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -58,11 +58,7 @@ def plot_rbrlg(calibrator: RbrlgCalibrator, out_dir: Path) -> list[Path]:
         ax.set_title(f'K̃ from {len(k)} forward/reverse pairs (docs/methods.md §A eq. (3))')
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-        path = out_dir / 'rbrlg_k_tilde_pairs.png'
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        written.append(path)
+        written.append(_save(fig, out_dir / 'rbrlg_k_tilde_pairs.png'))
     stations = calibrator.stations.stations
     res = calibrator.results()
     if stations and res.fix_error is not None:
@@ -89,9 +85,15 @@ def plot_rbrlg(calibrator: RbrlgCalibrator, out_dir: Path) -> list[Path]:
         bottom.set_xlabel('rate-table angle β (encoder), °')
         bottom.set_ylabel('residual, pulses')
         bottom.grid(alpha=0.3)
-        path = out_dir / 'rbrlg_stations.png'
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        written.append(path)
+        written.append(_save(fig, out_dir / 'rbrlg_stations.png'))
     return written
+
+
+def _save(fig: Any, path: Path) -> Path:
+    """Lay out, write and close a figure; its path."""
+    import matplotlib.pyplot as plt  # the caller chose the Agg backend
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -579,8 +579,7 @@ def check_sensors(table: IntervalTable, settings: IntervalSettings) -> SensorChe
                          if np.any(np.isfinite(o[a0:b])) else 0.0) for o in others)
             if moved >= settings.sensor_stuck_min_change_c:
                 temps[sensor][a0:b] = np.nan
-                t0 = int(table.k[a0]) * tint
-                t1 = int(table.k[b - 1] + 1) * tint
+                t0, t1 = _span_ns(table, a0, b, tint)
                 out.append(Rejection(t0, (
                     f'temperature sensor {sensor} reads exactly {col[a0]:.4g} °C from '
                     f'{format_stamp(t0)} to {format_stamp(t1)} ({(t1 - t0) / NS_PER_S:.0f} s) '
@@ -592,8 +591,7 @@ def check_sensors(table: IntervalTable, settings: IntervalSettings) -> SensorChe
         for a, b in true_runs(silent):
             if len(fin_idx) and (b <= fin_idx[0] or a > fin_idx[-1]) and b - a <= edge_n:
                 continue  # before the first or after the last reading: an edge, noted below
-            t0 = int(table.k[a]) * tint
-            t1 = int(table.k[b - 1] + 1) * tint
+            t0, t1 = _span_ns(table, a, b, tint)
             out.append(Rejection(t0, (
                 f'temperature sensor {sensor} gave no finite reading from {format_stamp(t0)} '
                 f'to {format_stamp(t1)} ({b - a} interval(s); dropped out or NaN, and no two '
@@ -601,6 +599,11 @@ def check_sensors(table: IntervalTable, settings: IntervalSettings) -> SensorChe
                 'around them): those intervals are not used.')))
     out.sort(key=lambda r: r.stamp_ns)
     return SensorCheck(temps, tuple(out), sampling, tuple(notes))
+
+
+def _span_ns(table: IntervalTable, a: int, b: int, tint: int) -> tuple[int, int]:
+    """(start of interval ``a``, end of interval ``b`` − 1) of ``table``, int ns."""
+    return int(table.k[a]) * tint, int(table.k[b - 1] + 1) * tint
 
 
 def thermal_variables(temperatures_c: dict[str, npt.NDArray[np.float64]],

@@ -132,18 +132,7 @@ def plot_thermal(calibrator_or_report: ThermalCalibrator | ThermalFitReport, out
     plt.close(fig)
 
     if validation is not None and len(validation.adev_tau_s):
-        fig, ax = plt.subplots(figsize=(7, 5))
-        ax.loglog(validation.adev_tau_s, validation.adev_raw_rad_s / DEG_H, 'o-', ms=3,
-                  label='raw')
-        ax.loglog(validation.adev_tau_s, validation.adev_compensated_rad_s / DEG_H, 'o-',
-                  ms=3, label='compensated')
-        ax.set_xlabel('τ (s)')
-        ax.set_ylabel('Allan deviation (°/h)')
-        ax.grid(True, which='both', alpha=0.3)
-        ax.legend()
-        paths.append(out_dir / 'thermal_allan.png')
-        fig.savefig(paths[-1], dpi=110)
-        plt.close(fig)
+        paths.append(_allan_figure(validation, out_dir / 'thermal_allan.png'))
     return paths
 
 
@@ -188,15 +177,22 @@ def plot_compensation(report: CompensationReport, out_dir: Path) -> list[Path]:
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
     if len(v.adev_tau_s):
-        fig, ax = plt.subplots(figsize=(7, 5))
-        ax.loglog(v.adev_tau_s, v.adev_raw_rad_s / DEG_H, 'o-', ms=3, label='raw')
-        ax.loglog(v.adev_tau_s, v.adev_compensated_rad_s / DEG_H, 'o-', ms=3,
-                  label='compensated')
-        ax.set_xlabel('τ (s)')
-        ax.set_ylabel('Allan deviation (°/h)')
-        ax.grid(True, which='both', alpha=0.3)
-        ax.legend()
-        paths.append(out_dir / 'thermal_compensation_allan.png')
-        fig.savefig(paths[-1], dpi=110)
-        plt.close(fig)
+        paths.append(_allan_figure(v, out_dir / 'thermal_compensation_allan.png'))
     return paths
+
+
+def _allan_figure(report: CompensationReport, path: Path) -> Path:
+    """Allan deviation of a compensated run before and after compensation, written to ``path``."""
+    import matplotlib.pyplot as plt  # the caller chose the Agg backend
+
+    fig, ax = plt.subplots(figsize=(7, 5))
+    ax.loglog(report.adev_tau_s, report.adev_raw_rad_s / DEG_H, 'o-', ms=3, label='raw')
+    ax.loglog(report.adev_tau_s, report.adev_compensated_rad_s / DEG_H, 'o-', ms=3,
+              label='compensated')
+    ax.set_xlabel('τ (s)')
+    ax.set_ylabel('Allan deviation (°/h)')
+    ax.grid(True, which='both', alpha=0.3)
+    ax.legend()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -36,7 +36,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from gyro_calib.bagio.messages import JOINT_STATE, TEMPERATURE
-from gyro_calib.config import read_method_file
 from gyro_calib.errors import ConfigError, GyroCalibError
 from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.thermal.calibrator import COEFFICIENT_PREFIX, ThermalCalibrator
@@ -76,12 +75,7 @@ def thermal_settings(options: CalibrationOptions) -> tuple[ThermalSettings, dict
         ConfigError: an unknown or invalid setting; HandoffError: an unreadable
             ``--calibration`` file, or one holding no scale factor when K is taken from it.
     """
-    values = dict(options.settings)
-    source = 'ROS parameters'
-    if options.config_file is not None:
-        values.update(read_method_file(options.config_file, node_name=NODE_NAME, fields=[
-            f.name for f in dataclasses.fields(ThermalSettings)])[0])
-        source = str(options.config_file)
+    values, source = options.method_settings(ThermalSettings, NODE_NAME)
     settings = thermal_settings_from_mapping(values, source=source)
     origin: dict[str, str] = {}
     changes: dict[str, Any] = {}

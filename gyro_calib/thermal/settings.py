@@ -13,7 +13,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from gyro_calib.config import RangeCheck, check_ranges
+from gyro_calib.config import RangeCheck, check_ranges, settings_from_mapping
 from gyro_calib.errors import ConfigError
 from gyro_calib.thermal.intervals import IntervalSettings
 from gyro_calib.thermal.terms import NAMED_SETS, candidate_terms
@@ -27,6 +27,8 @@ _LATITUDE_EXPECTED = ('set to the site latitude in degrees (−90…90) so the E
                       'the sense axis can be removed (--latitude-deg; node parameter '
                       'latitude_deg)')
 """Calibration styles: regression on block means of the whole run, or on soak points."""
+_INTERVALS = IntervalSettings()
+"""The defaults of the stream-reduction fields, declared once in :class:`IntervalSettings`."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -45,9 +47,9 @@ class ThermalSettings:
     """Azimuth of the sense axis' horizontal part, from North towards East, °."""
     earth_rate_deg_h: float = 15.041
     """Earth rotation rate, °/h."""
-    averaging_interval_s: float = 1.0
+    averaging_interval_s: float = _INTERVALS.averaging_interval_s
     """T: pulses and temperatures are reduced to means over intervals of this length, s."""
-    hdot_window_s: float = 60.0
+    hdot_window_s: float = _INTERVALS.hdot_window_s
     """Span of the causal least-squares slope that gives Ḣ, s."""
     fit_block_s: float = 10.0
     """Continuous style: the regression runs on means over blocks of this length, s."""
@@ -98,19 +100,19 @@ class ThermalSettings:
     """Temperatures closer than this count as one level in the check of distinct points, °C."""
     min_valid_fraction: float = 0.5
     """A fit block needs this share of valid intervals."""
-    reorder_window_s: float = 1.0
+    reorder_window_s: float = _INTERVALS.reorder_window_s
     """Samples of one stream may arrive this much after newer ones, s."""
-    restart_backstep_s: float = 5.0
+    restart_backstep_s: float = _INTERVALS.restart_backstep_s
     """A stamp this far back means the source restarted, s."""
-    max_pulse_gap_s: float = 1.0
+    max_pulse_gap_s: float = _INTERVALS.max_pulse_gap_s
     """A larger gap between pulse samples invalidates its interval, s."""
-    max_rate_deg_s: float = 100.0
+    max_rate_deg_s: float = _INTERVALS.max_rate_deg_s
     """A pulse step implying a faster rate is a counter glitch, °/s."""
-    sensor_stuck_s: float = 300.0
+    sensor_stuck_s: float = _INTERVALS.sensor_stuck_s
     """A sensor reading exactly constant this long while the others move is stuck, s."""
-    sensor_stuck_min_change_c: float = 0.5
+    sensor_stuck_min_change_c: float = _INTERVALS.sensor_stuck_min_change_c
     """... while another sensor moved at least this much, °C."""
-    max_temperature_gap_s: float = 120.0
+    max_temperature_gap_s: float = _INTERVALS.max_temperature_gap_s
     """Largest span between two readings of one temperature sensor across which it is
     interpolated onto the averaging intervals, s (sensors read at 0.01–1 Hz need no reading
     in every interval; a longer gap leaves its intervals unused)."""
@@ -209,14 +211,9 @@ class ThermalSettings:
             raise ConfigError('; '.join(missing) + '.')
 
     def interval_settings(self) -> IntervalSettings:
-        """The stream-reduction part of these settings."""
-        return IntervalSettings(
-            averaging_interval_s=self.averaging_interval_s, hdot_window_s=self.hdot_window_s,
-            reorder_window_s=self.reorder_window_s, restart_backstep_s=self.restart_backstep_s,
-            max_pulse_gap_s=self.max_pulse_gap_s, max_rate_deg_s=self.max_rate_deg_s,
-            sensor_stuck_s=self.sensor_stuck_s,
-            sensor_stuck_min_change_c=self.sensor_stuck_min_change_c,
-            max_temperature_gap_s=self.max_temperature_gap_s)
+        """The stream-reduction part of these settings (the fields of IntervalSettings)."""
+        return IntervalSettings(**{f.name: getattr(self, f.name)
+                                   for f in dataclasses.fields(IntervalSettings)})
 
 
 def _multiple(x: float, t: float) -> bool:
@@ -234,18 +231,4 @@ def thermal_settings_from_mapping(values: dict[str, object], *,
     Raises:
         ConfigError: an unknown key or an invalid value, naming ``source``.
     """
-    names = {f.name for f in dataclasses.fields(ThermalSettings)}
-    unknown = sorted(set(values) - names)
-    if unknown:
-        raise ConfigError(f'unknown field(s) {", ".join(unknown)} in {source}; known fields: '
-                          f'{", ".join(sorted(names))}.')
-    defaults = ThermalSettings()
-    kwargs = dict(values)
-    for name, value in values.items():
-        if isinstance(getattr(defaults, name), float) and isinstance(value, int) \
-                and not isinstance(value, bool):
-            kwargs[name] = float(value)
-    try:
-        return ThermalSettings(**kwargs)  # type: ignore[arg-type]
-    except ConfigError as exc:
-        raise ConfigError(f'{exc} (in {source})') from None
+    return settings_from_mapping(ThermalSettings, values, source=source)

@@ -44,7 +44,12 @@ from gyro_calib.triad.kinematics import (
     remount_direction,
 )
 from gyro_calib.units import ARCSEC_PER_RAD, NS_PER_S, RAD_PER_ARCSEC, format_stamp
-from gyro_calib.windows import RevolutionWindow, WholeRevolutionWindows, resolve_index_event
+from gyro_calib.windows import (
+    RevolutionWindow,
+    WholeRevolutionWindows,
+    WindowFields,
+    resolve_index_event,
+)
 
 if TYPE_CHECKING:
     from pathlib import Path
@@ -70,35 +75,14 @@ INNER, OUTER = 'inner', 'outer'
 
 
 @dataclass(frozen=True, slots=True)
-class TriadSettings:
-    """Window, pair and channel settings of the triad method (METHODS §F.2, §A.2's rules)."""
+class TriadSettings(WindowFields):
+    """Window, pair and channel settings of the triad method (METHODS §F.2, §A.2's rules).
 
-    revolutions_per_window: int = 5
-    """m: rate-table (inner-axis) revolutions per window; the bag's stored value wins."""
-    fit_half_width_s: float = 0.1
-    """Half-width of the local fits of counts and encoder at a zero-index event, s."""
-    fit_order: int = 1
-    """Polynomial order of those fits (1 or 2)."""
-    min_fit_samples_per_side: int = 20
-    """Pulse samples needed each side of a zero-index event."""
-    max_fit_gap_s: float = 0.01
-    """Largest gap inside a fit span, s."""
-    max_fit_residual_pulses: float = 5.0
-    """Largest residual of a local fit before the event is rejected for that channel, pulses."""
-    rate_tolerance: float = 0.005
-    """Allowed relative deviation of a table's rate from its window median."""
-    min_rate_deg_s: float = 1.0
-    """Slowest table rate a window may be cut at, °/s."""
-    window_angle_tolerance_arcsec: float = 60.0
-    """Allowed |encoder angle of a window − whole turns|, ″."""
-    index_angle_tolerance_arcsec: float = 30.0
-    """Allowed distance of a zero-index event from the reference mark, ″."""
-    max_table_gap_s: float = 0.1
-    """Largest gap in a table's joint_states inside a window, s."""
-    max_pulse_gap_s: float = 0.5
-    """Largest gap in /imu/pulses inside a window, s."""
-    pulse_jump_tolerance_pulses: float = 10.0
-    """Allowed step of a count increment from the window's median rate, pulses."""
+    The window and fit fields come first, from :class:`~gyro_calib.windows.WindowFields` (m:
+    rate-table, inner-axis, revolutions per window; the bag's stored value wins); the pulse
+    stream is /imu/pulses, a local fit's residual rejects the event for that channel alone.
+    """
+
     window_angle_source: str = 'encoder'
     """'encoder' (swept angle measured between the events) or 'nominal' (whole turns)."""
     max_pair_gap_s: float = 120.0
@@ -115,21 +99,7 @@ class TriadSettings:
     def __post_init__(self) -> None:
         """Range-check every field (ConfigError naming it)."""
         check_ranges(self, [
-            ('revolutions_per_window', self.revolutions_per_window >= 1, 'at least 1'),
-            ('fit_half_width_s', self.fit_half_width_s > 0, 'positive'),
-            ('fit_order', self.fit_order in (1, 2), '1 or 2'),
-            ('min_fit_samples_per_side', self.min_fit_samples_per_side >= 2, 'at least 2'),
-            ('max_fit_gap_s', self.max_fit_gap_s > 0, 'positive'),
-            ('max_fit_residual_pulses', self.max_fit_residual_pulses > 0, 'positive'),
-            ('rate_tolerance', 0 < self.rate_tolerance < 1, 'between 0 and 1'),
-            ('min_rate_deg_s', self.min_rate_deg_s > 0, 'positive'),
-            ('window_angle_tolerance_arcsec', self.window_angle_tolerance_arcsec > 0,
-             'positive'),
-            ('index_angle_tolerance_arcsec', self.index_angle_tolerance_arcsec > 0, 'positive'),
-            ('max_table_gap_s', self.max_table_gap_s > 0, 'positive'),
-            ('max_pulse_gap_s', self.max_pulse_gap_s > 0, 'positive'),
-            ('pulse_jump_tolerance_pulses', self.pulse_jump_tolerance_pulses >= 0,
-             'non-negative'),
+            *self.window_checks(angle_within_half_turn=False, jump_may_be_zero=True),
             ('window_angle_source', self.window_angle_source in ('encoder', 'nominal'),
              "'encoder' or 'nominal'"),
             ('max_pair_gap_s', self.max_pair_gap_s > 0, 'positive'),
