@@ -33,8 +33,8 @@ BASE = {'gyro_calib', 'gyro_calib.errors', 'gyro_calib.units', 'gyro_calib.topic
 SHIMS = {'gyro_calib.bag': 'gyro_calib.bagio', 'gyro_calib.mcap_columns': 'gyro_calib.bagio',
          'gyro_calib.table_input': 'gyro_calib.bagio'}
 """Old import paths of the bag layer: each may only re-export its target package's names."""
-BAGIO_ORDER = ('errors', 'messages', 'metadata', 'storage', 'columns', 'records', 'tables',
-               'writer', 'reader')
+BAGIO_ORDER = ('errors', 'messages', 'metadata', 'storage', 'layouts', 'plan', 'chunks',
+               'payloads', 'columns', 'records', 'tables', 'writer', 'reader')
 """Inside the bag layer: each module imports only those before it (the package re-exports)."""
 
 
