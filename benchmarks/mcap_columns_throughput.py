@@ -77,7 +77,7 @@ def generate_imu_bag(path: Path, hours: float, seed: int = 11) -> None:
 
     from gyro_calib.bagio import BagMessage, write_bag
     from gyro_calib.bagio import typestore as _typestore
-    from gyro_calib.bagio.columns import IMU, TEMPERATURE
+    from gyro_calib.bagio.messages import IMU, TEMPERATURE
 
     store = _typestore()
     t = store.types
@@ -124,7 +124,7 @@ def generate_imu_bag(path: Path, hours: float, seed: int = 11) -> None:
 def topic_types(bag: Path) -> dict[str, str]:
     """Every topic of the bag whose type the columnar decoder knows."""
     from gyro_calib.bagio import bag_info
-    from gyro_calib.bagio.columns import KNOWN_TYPES
+    from gyro_calib.bagio.layouts import KNOWN_TYPES
 
     return {t.name: t.msgtype for t in bag_info(bag).topics.values()
             if t.msgtype in KNOWN_TYPES}
@@ -132,7 +132,8 @@ def topic_types(bag: Path) -> dict[str, str]:
 
 def measure(bag: Path) -> None:
     """Child process: decode the whole bag, print one JSON line of figures."""
-    from gyro_calib.bagio.columns import iter_column_batches, plan_bag
+    from gyro_calib.bagio.columns import iter_column_batches
+    from gyro_calib.bagio.plan import plan_bag
 
     types = topic_types(bag)
     t0, c0 = time.perf_counter(), time.process_time()
@@ -170,7 +171,8 @@ def exactness(bag: Path, windows: int) -> None:
     import numpy as np
 
     from gyro_calib.bagio import bag_info
-    from gyro_calib.bagio.columns import iter_column_batches, plan_bag
+    from gyro_calib.bagio.columns import iter_column_batches
+    from gyro_calib.bagio.plan import plan_bag
 
     types = topic_types(bag)
     info = bag_info(bag)

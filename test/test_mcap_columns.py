@@ -22,20 +22,16 @@ import numpy as np
 import pytest
 
 from gyro_calib.bagio import CONTRACT_TYPES, BagMessage, CorruptBagError, write_bag
-from gyro_calib.bagio.columns import (
-    HEADER,
-    IMU,
-    JOINT_STATE,
-    TEMPERATURE,
+from gyro_calib.bagio.columns import iter_column_batches
+from gyro_calib.bagio.errors import (
     CountMismatchError,
     DamagedChunkError,
     MessageDecodeError,
     UnindexedChunksError,
     UnsupportedMessageTypeError,
-    iter_column_batches,
-    plan_bag,
 )
-from gyro_calib.bagio.messages import JOINT_WIDTHS
+from gyro_calib.bagio.messages import HEADER, IMU, JOINT_STATE, JOINT_WIDTHS, TEMPERATURE
+from gyro_calib.bagio.plan import plan_bag
 
 BAGS = Path(__file__).resolve().parents[1] / 'bags'
 COMMITTED = sorted(p.name for p in BAGS.iterdir() if (p / 'metadata.yaml').is_file())

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from gyro_calib.bag import bag_info, iter_sample_batches
 from gyro_calib.bag_calibration import method_options
+from gyro_calib.bagio import bag_info, iter_sample_batches
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions, MethodSession
 

@@ -4,16 +4,18 @@ It knows bags and message layouts only, in one direction (each module imports on
 before it): its named errors (:mod:`~gyro_calib.bagio.errors`), the message types and the
 contract's topic → type table (:mod:`~gyro_calib.bagio.messages`), the scenario stored in a
 bag (:mod:`~gyro_calib.bagio.metadata`), opening bags (:mod:`~gyro_calib.bagio.storage`),
-the columnar MCAP decoder (:mod:`~gyro_calib.bagio.columns`), what a bag holds and the
-decoded batches (:mod:`~gyro_calib.bagio.records`), CSV/text tables read wherever a bag is
-(:mod:`~gyro_calib.bagio.tables`), writing (:mod:`~gyro_calib.bagio.writer`) and reading
-(:mod:`~gyro_calib.bagio.reader`). It never imports the method registry, the sessions or
-the methods: the layers above hand it the topics they want (issue 19 §5;
-``test/test_layers.py`` keeps it so).
+the columnar MCAP decoder (its steps :mod:`~gyro_calib.bagio.layouts`,
+:mod:`~gyro_calib.bagio.plan`, :mod:`~gyro_calib.bagio.chunks`,
+:mod:`~gyro_calib.bagio.payloads`, and the reader :mod:`~gyro_calib.bagio.columns`), what a
+bag holds and the decoded batches (:mod:`~gyro_calib.bagio.records`), CSV/text tables read
+wherever a bag is (:mod:`~gyro_calib.bagio.tables`), writing
+(:mod:`~gyro_calib.bagio.writer`) and reading (:mod:`~gyro_calib.bagio.reader`). It never
+imports the method registry, the sessions or the methods: the layers above hand it the
+topics they want (issue 19 §5; ``test/test_layers.py`` keeps it so).
 
 This package re-exports the public names of its modules (what ``gyro_calib.bag`` gave).
 The old import paths ``gyro_calib.bag``, ``gyro_calib.mcap_columns`` and
-``gyro_calib.table_input`` are kept for compatibility as re-exports only.
+``gyro_calib.table_input`` are deprecated: they re-export and warn for one more release.
 """
 
 from gyro_calib.bagio.errors import (

@@ -32,6 +32,7 @@ from gyro_calib.bagio.errors import (
     MissingTopicError,
     WrongMessageTypeError,
 )
+from gyro_calib.bagio.layouts import CODECS
 from gyro_calib.bagio.messages import CONTRACT_TYPES
 from gyro_calib.bagio.metadata import SCENARIO_KEY, parse_scenario_text
 from gyro_calib.bagio.records import BagInfo, SampleBatch, TopicInfo
@@ -87,7 +88,7 @@ def header_stamp_spans(path: str | Path, info: BagInfo) -> dict[str, tuple[int, 
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
     """
     types = {t.name: t.msgtype for t in info.topics.values()
-             if t.msgtype in mcap_columns.CODECS and t.count}
+             if t.msgtype in CODECS and t.count}
     spans: dict[str, tuple[int, int, int]] = {}
     steps: dict[str, list[float]] = {}
     if not types:

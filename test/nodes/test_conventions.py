@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from gyro_calib.bag import iter_sample_batches
+from gyro_calib.bagio import iter_sample_batches
 from gyro_calib.handoff import load_calibration
 
 from .dds_harness import NodeProcess, launch

@@ -10,8 +10,8 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from gyro_calib.bag import bag_info
 from gyro_calib.bag_calibration import calibrate_bags
+from gyro_calib.bagio import bag_info
 from gyro_calib.handoff import load_calibration
 from gyro_calib.rbrlg.calibrator import calibrate_k_tilde
 from gyro_calib.units import RAD_PER_ARCSEC
