@@ -364,8 +364,8 @@ def test_a_fleet_under_a_lab_gets_one_number_per_certificate_and_its_customer(
 
     from dask.distributed import Client, LocalCluster
 
-    from gyro_calib.batch.cli import lab_and_customers
     from gyro_calib.batch.run import run_batch
+    from gyro_calib.cli.batch import lab_and_customers
 
     manifest = tmp_path / 'fleet.csv'
     manifest.write_text(f'gyro_id,bags,customer\nF-1,{FOG},ACME Nav\nF-2,{FOG},\n',

@@ -1,6 +1,6 @@
 """``gyro-calib`` on bad input: one line on stderr, exit status 2, no output file touched.
 
-The rule (gyro_calib/cli.py, "Exit status"): whatever is wrong with the input, the
+The rule (gyro_calib/cli/__init__.py, "Exit status"): whatever is wrong with the input, the
 offline command
 
 * prints exactly ONE line on stderr, starting ``gyro-calib: error:``, that names the

@@ -18,7 +18,7 @@ Pure core (NumPy/SciPy, no ROS). Entry points:
 - :func:`~gyro_calib.noise.plots.plot_noise` (imported on use: matplotlib).
 - :class:`~gyro_calib.noise.session.NoiseSession`: the method behind the front door
   (registry, ``gyro-calib calibrate --method noise``, ``gyro-calib noise``
-  (:mod:`gyro_calib.noise.cli`), ``noise_node``); :mod:`gyro_calib.noise.outputs` writes
+  (:mod:`gyro_calib.cli.noise`), ``noise_node``); :mod:`gyro_calib.noise.outputs` writes
   its files; :mod:`gyro_calib.noise.keys` holds the hand-off keys (per axis for an IMU).
 """
 

@@ -34,18 +34,17 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from gyro_calib.cli.arguments import check_calibration_file, namespace_argument, options_from_args
+from gyro_calib.cli.calibrate import json_default, summary_text
+
 if TYPE_CHECKING:
     from gyro_calib.bag_calibration import BagCalibration
 
 EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_INTERRUPTED = 0, 1, 130
-MIN_FIT_POINTS = 8
-"""Fewest usable τ a term fit needs (:func:`gyro_calib.noise.fit.fit_noise_terms`)."""
 
 
 def add_commands(subparsers: Any) -> None:
     """Add ``noise`` to ``gyro-calib``'s subcommands."""
-    from gyro_calib.cli import namespace_argument
-
     p = subparsers.add_parser(
         'noise', help='noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml',
         description='Overlapping Allan deviation (IEEE Std 952/647) of a gyro or IMU and its '
@@ -95,48 +94,17 @@ def add_commands(subparsers: Any) -> None:
                    sense_axis_azimuth_deg=None)
 
 
-def _outlier_options(args: argparse.Namespace, options: Any) -> Any:
-    """--outliers and --outlier-sigma into the settings, checked before any bag is read.
-
-    Raises:
-        ConfigError: a mode other than keep or remove, or k not a positive number.
-    """
-    from gyro_calib.errors import ConfigError
-    from gyro_calib.noise.outliers import OUTLIER_MODES
-
-    given: dict[str, Any] = {}
-    if args.outliers is not None:
-        if args.outliers not in OUTLIER_MODES:
-            raise ConfigError(f'--outliers {args.outliers!r} is invalid: it must be keep (the '
-                              'record as recorded, the spikes reported) or remove (each '
-                              'replaced by the median of its neighbours). Nothing was read.')
-        given['outliers'] = args.outliers
-    if args.outlier_sigma is not None:
-        try:
-            k = float(args.outlier_sigma)
-        except ValueError:
-            k = float('nan')
-        if not (k > 0 and k != float('inf')):
-            raise ConfigError(f'--outlier-sigma {args.outlier_sigma!r} is invalid: it must be '
-                              'a positive number of robust standard deviations (default 8). '
-                              'Nothing was read.')
-        given['outlier_sigma'] = k
-    if not given:
-        return options
-    return dataclasses.replace(options, settings={**options.settings, **given})
-
-
 def run_noise(args: argparse.Namespace) -> int:
     """Check the input, calibrate the bags, print, write the files asked for."""
     from gyro_calib.bag_calibration import bag_infos, json_document, merged_topics
     from gyro_calib.bagio import topics_present
-    from gyro_calib.cli import (
-        _json_default,
-        check_calibration_file,
-        options_from_args,
-        summary_text,
-    )
     from gyro_calib.noise.outputs import resolve_targets, write_outputs
+    from gyro_calib.noise.run import (
+        holds_noise_terms,
+        outlier_settings,
+        refuse_scale_flag_of_another_input,
+        why_no_term,
+    )
     from gyro_calib.noise.session import (
         FIGURE_NAME,
         NoiseSession,
@@ -145,6 +113,7 @@ def run_noise(args: argparse.Namespace) -> int:
         select_input,
     )
     from gyro_calib.outputs import check_plot_dir, make_plot_dir
+    from gyro_calib.registry import handoff_schema
 
     targets = resolve_targets(args.kalibr, None, args.out, names=('--kalibr', '--plot', '--out'))
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
@@ -169,7 +138,9 @@ def run_noise(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise ConfigError(f'--taus: {exc}. Nothing was read.') from None
         options = dataclasses.replace(options, settings={**options.settings, 'taus': args.taus})
-    options = _outlier_options(args, options)
+    given = outlier_settings(args.outliers, args.outlier_sigma)
+    if given:
+        options = dataclasses.replace(options, settings={**options.settings, **given})
     # the input topic a bag stores (bench.topic) may come from any bag; every other stored
     # bench setting from the bags that hold the input read, never from another bag
     options = dataclasses.replace(options, topic=args.topic, scenario=next(
@@ -179,7 +150,9 @@ def run_noise(args: argparse.Namespace) -> int:
     own = [i for i in infos if topic in i.topics and i.topics[topic].count > 0]
     options = dataclasses.replace(options, topic=topic, stored_benches=_benches(own),
                                   scenario=next((i.scenario for i in own if i.scenario), {}))
-    _refuse_scale_flag_of_another_input(args, input_kind(topic), topic)
+    refuse_scale_flag_of_another_input(
+        input_kind(topic), topic, scale_factor_rad_per_pulse=args.scale_factor_rad_per_pulse,
+        scale_factor_counts_per_rad=args.scale_factor_counts_per_rad)
     check_scale_factor(options)
     if targets.kalibr is not None and input_kind(topic) != 'imu':
         from gyro_calib.errors import ConfigError
@@ -196,12 +169,12 @@ def run_noise(args: argparse.Namespace) -> int:
     human = io.StringIO()
     print(summary_text(outcome), file=human)
     document = (json.dumps(json_document(outcome, 'noise'), indent=1, allow_nan=False,
-                           default=_json_default) if args.json else None)
+                           default=json_default) if args.json else None)
     resolved = bool(session.results())
     kept = ''
     if not resolved:  # the curves were measured: written (--out, --plot), not Kalibr's terms
         targets = dataclasses.replace(targets, kalibr=None)
-        if targets.handoff is not None and _holds_noise_terms(targets.handoff):
+        if targets.handoff is not None and holds_noise_terms(targets.handoff, handoff_schema()):
             kept = f'; {targets.handoff} keeps its noise terms (not replaced by curves alone)'
             targets = dataclasses.replace(targets, handoff=None)
     created = plot_dir is not None and not plot_dir.exists()
@@ -239,7 +212,7 @@ def run_noise(args: argparse.Namespace) -> int:
         print(f'{what} written: {path}', file=human)
     _flush(human, document, args.json)
     if not resolved:
-        print(f'gyro-calib: no noise term is resolved ({_why_no_term(args, session)}); '
+        print(f'gyro-calib: no noise term is resolved ({why_no_term(session, args.taus)}); '
               + (f'the curves are written ({", ".join(f"{w} {p}" for w, p in written)})'
                  if written else 'nothing written')
               + kept + ('; no Kalibr file without a term' if args.kalibr is not None else '')
@@ -249,48 +222,11 @@ def run_noise(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _holds_noise_terms(path: Path) -> bool:
-    """True when the hand-off file at ``path`` holds a noise term (of any run, or imu.noise)."""
-    from gyro_calib.handoff import load_calibration
-    from gyro_calib.registry import handoff_schema
-
-    if not path.exists():
-        return False
-    schema = handoff_schema()
-    record = load_calibration(path, schema)
-    return (any(getattr(schema.get(k), 'method', '') == 'noise' for k in record.values)
-            or (record.imu is not None and bool(record.imu.noise)))  # a triad's imu.noise
-
-
 def _flush(human: io.StringIO, document: str | None, json_asked: bool) -> None:
     """Print the human summary (stderr with ``--json``) and then the document."""
     (sys.stderr if json_asked else sys.stdout).write(human.getvalue())
     if document is not None:
         print(document)
-
-
-def _why_no_term(args: argparse.Namespace, session: Any) -> str:
-    """Why no term came out, in a phrase for the failing line.
-
-    A fixed τ list (setting ``taus``) that leaves fewer usable τ than a fit needs is named,
-    with the flag or setting it came from; else the reasons above are pointed to.
-    """
-    spec = session.settings.tau_spec
-    fits = [r.fit for r in session.axis_results().values() if r.fit is not None]
-    if not isinstance(spec, tuple) or not fits or any(f.estimates for f in fits):
-        return 'see the reasons above'
-    usable = max(int(f.used.sum()) for f in fits)
-    if usable >= MIN_FIT_POINTS:
-        return 'see the reasons above'
-    setting = (f'--taus {args.taus}' if args.taus is not None else
-               f'the setting taus = {", ".join(f"{t:g}" for t in spec)} (--config)')
-    if len(spec) < MIN_FIT_POINTS:
-        return (f'{setting} lists {len(spec)} averaging time(s), fewer than the '
-                f'{MIN_FIT_POINTS} a term fit needs, so no record can give a term: list at '
-                'least 8 τ, or leave taus at its default grid')
-    return (f'{setting}: {usable} of its {len(spec)} averaging times are usable on this '
-            f'record, fewer than the {MIN_FIT_POINTS} a term fit needs: list more within the '
-            'record, or leave taus at its default grid')
 
 
 def _benches(infos: Sequence[Any]) -> tuple[tuple[str, dict[str, Any]], ...]:
@@ -304,26 +240,6 @@ def _benches(infos: Sequence[Any]) -> tuple[tuple[str, dict[str, Any]], ...]:
         bench = info.scenario.get('bench')
         out.append((str(info.path), bench if isinstance(bench, dict) else {}))
     return tuple(out)
-
-
-def _refuse_scale_flag_of_another_input(args: argparse.Namespace, kind: str,
-                                        topic: str) -> None:
-    """A scale-factor flag for an input that is not the one read is refused, not ignored.
-
-    Raises:
-        ConfigError: naming the flag, the input read and the input the flag is for.
-    """
-    from gyro_calib.errors import ConfigError
-
-    for flag, dest, fits in (('--scale-factor-rad-per-pulse', 'scale_factor_rad_per_pulse',
-                              ('pulses', 'gyro')),
-                             ('--scale-factor-counts-per-rad', 'scale_factor_counts_per_rad',
-                              ('fog', 'gyro'))):
-        if getattr(args, dest, None) is not None and kind not in fits:
-            meant = '/gyro/pulses' if 'pulse' in flag else '/fog/output'
-            raise ConfigError(f'{flag} applies to {meant}, but the input read is {topic} '
-                              f'({kind}); it would be ignored. Drop it (or choose the input '
-                              'with --topic). Nothing was read.')
 
 
 def _calibrate(args: argparse.Namespace, options: Any) -> BagCalibration:

@@ -20,6 +20,14 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from gyro_calib.cli.arguments import (
+    EXIT_OK,
+    check_output_dir,
+    lab_arguments,
+    load_spec_arg,
+    method_arguments,
+    options_from_args,
+)
 from gyro_calib.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -29,13 +37,9 @@ if TYPE_CHECKING:
     from gyro_calib.report.lab import Issue, Lab
     from gyro_calib.report.spec import Spec
 
-EXIT_OK = 0
-
 
 def add_commands(sub: Any) -> None:
     """Add ``report`` to the ``gyro-calib`` subcommands."""
-    from gyro_calib.cli import method_arguments
-
     rep = sub.add_parser('report', help='the calibration certificate of a gyro (HTML + PDF)')
     rep.add_argument('handoff', type=Path, metavar='HANDOFF', help='the hand-off YAML file')
     rep.add_argument('bags', nargs='*', type=Path, metavar='BAG',
@@ -53,36 +57,6 @@ def add_commands(sub: Any) -> None:
                      'give others (each such row says what the bags give); default: refuse')
     method_arguments(rep)
     rep.set_defaults(run=run_report)
-
-
-def lab_arguments(parser: argparse.ArgumentParser, where: str = '--out DIR') -> None:
-    """``--lab`` and ``--customer``: who issues the certificate, and for whom."""
-    parser.add_argument('--lab', type=Path, metavar='LAB',
-                        help='the issuing laboratory (YAML: name, address, signatory, '
-                        f'traceability, certificate_number); default: lab.yaml in {where}; '
-                        'without one the certificate is a DRAFT')
-    parser.add_argument('--customer', metavar='TEXT',
-                        help='the customer the certificate names (name and contact)')
-
-
-def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--report DIR`` and ``--spec`` for ``gyro-calib calibrate``."""
-    parser.add_argument('--report', type=Path, metavar='DIR',
-                        help='write the certificate (<gyro_id>.html and .pdf) into DIR')
-    parser.add_argument('--spec', type=Path, metavar='SPEC',
-                        help='with --report: acceptance limits and decision rule (YAML)')
-    lab_arguments(parser, '--report DIR')
-
-
-def check_output_dir(path: Path, what: str = '--out') -> Path:
-    """The output directory, checked before any work.
-
-    The output directory, checked before any work (the rule of :mod:`gyro_calib.outputs`:
-    created when absent, in an existing parent; a file is refused).
-    """
-    from gyro_calib.outputs import check_plot_dir
-
-    return check_plot_dir(path, what)
 
 
 def check_calibrate_report(args: argparse.Namespace) -> None:
@@ -109,18 +83,8 @@ def lab_and_customer(args: argparse.Namespace, out_dir: Path) -> tuple[Lab | Non
     return lab, check_customer(args.customer, lab)
 
 
-def load_spec_arg(path: Path | None) -> Spec | None:
-    """The spec file of ``--spec`` (checked before any work), or None."""
-    if path is None:
-        return None
-    from gyro_calib.report.spec import load_spec
-
-    return load_spec(path)
-
-
 def run_report(args: argparse.Namespace) -> int:
     """``gyro-calib report``: load, (re-)run the bags, build and write the certificate."""
-    from gyro_calib.cli import options_from_args
     from gyro_calib.handoff import load_calibration
     from gyro_calib.registry import handoff_schema
 
@@ -206,7 +170,6 @@ def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
     ``calibrate --report DIR``: the certificate of the run just made (the hand-off file of
     ``--out`` as merged, else this run's record).
     """
-    from gyro_calib.cli import options_from_args
     from gyro_calib.handoff import load_calibration
     from gyro_calib.registry import handoff_schema
     from gyro_calib.report.evidence import evidence_from_outcome

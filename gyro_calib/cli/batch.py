@@ -17,6 +17,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from gyro_calib.cli.arguments import check_output_dir, lab_arguments, load_spec_arg
 from gyro_calib.errors import ConfigError
 
 EXIT_OK, EXIT_SOME_FAILED, EXIT_INTERRUPTED = 0, 1, 130
@@ -45,8 +46,6 @@ def add_commands(sub: Any) -> None:
     bat.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
                      help='progress bar over gyros on stderr (default: when stderr is a '
                      'terminal)')
-    from gyro_calib.report.cli import lab_arguments
-
     lab_arguments(bat)  # --customer: for the gyros whose manifest entry names none
     bat.set_defaults(run=run)
 
@@ -56,7 +55,6 @@ def run(args: argparse.Namespace) -> int:
     from gyro_calib.batch.lock import BatchLock
     from gyro_calib.batch.manifest import load_manifest
     from gyro_calib.batch.run import check_earlier_runs
-    from gyro_calib.report.cli import check_output_dir, load_spec_arg
 
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f'--workers {args.workers} is invalid: it must be at least 1.')

@@ -1,0 +1,191 @@
+"""What several ``gyro-calib`` subcommands share: flags, their checks, the one-line parser.
+
+Their flags, the checks made on them before any work, and the parser that reports a
+usage error in one line:
+
+- :class:`Parser`: argparse with abbreviations off and a one-line error (exit 2);
+- :func:`method_arguments`, :func:`namespace_argument`, :func:`options_from_args`: the
+  settings flags of every calibrating subcommand (calibrate, info, report) and the
+  :class:`~gyro_calib.session.CalibrationOptions` they make;
+- :func:`refuse_unused_flags`, :func:`check_calibration_file`: a flag no method run uses,
+  a ``--calibration`` file, refused before any work;
+- :func:`calibrate_arguments`, :func:`lab_arguments`, :func:`check_output_dir`,
+  :func:`load_spec_arg`: the certificate's flags (calibrate --report, report, batch).
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NoReturn
+
+from gyro_calib.errors import ConfigError
+from gyro_calib.registry import METHODS, handoff_schema
+from gyro_calib.session import CalibrationOptions
+
+if TYPE_CHECKING:
+    from gyro_calib.report.spec import Spec
+
+EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with abbreviations off (``--lat`` is not silently ``--latitude-deg``)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        """As argparse's, with ``allow_abbrev=False`` whatever is passed."""
+        kwargs['allow_abbrev'] = False
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str) -> NoReturn:
+        """One line, as every other bad input (argparse prints its usage block), exit 2."""
+        command = self.prog.removeprefix('gyro-calib').strip()
+        where = f'{command}: ' if command else ''
+        self.exit(EXIT_BAD_INPUT, f'gyro-calib: error: {where}{" ".join(message.split())}; '
+                                  f'see {self.prog} --help.\n')
+
+
+FLAG_METHODS: dict[str, tuple[str, ...]] = {
+    'latitude_deg': ('rbrlg', 'fog', 'thermal', 'triad'),
+    'heading_deg': ('rbrlg', 'triad'),
+    'position_table_revolutions': ('rbrlg',),
+    'scale_factor_rad_per_pulse': ('dither', 'thermal', 'noise'),
+    'scale_factor_counts_per_rad': ('noise',),
+    'calibration': ('rbrlg', 'dither', 'thermal', 'noise'),
+    'sense_axis_elevation_deg': ('thermal',),
+    'sense_axis_azimuth_deg': ('thermal',),
+}
+"""Flag (argparse dest) → the methods that use it; a flag none of the methods run uses is
+refused (:func:`refuse_unused_flags`). ``--config`` and ``--gyro-id`` serve every method."""
+
+
+def _flag(dest: str) -> str:
+    return '--' + dest.replace('_', '-')
+
+
+def refuse_unused_flags(args: argparse.Namespace, methods: Sequence[str]) -> None:
+    """Refuse a settings flag that none of ``methods`` uses.
+
+    Raises:
+        ConfigError: naming the flag, the methods run and the methods it applies to.
+    """
+    for dest, users in FLAG_METHODS.items():
+        if getattr(args, dest, None) is None or any(m in users for m in methods):
+            continue
+        run = (f' to the method(s) run here ({", ".join(methods)})' if methods else
+               ': no method runs on these bags')
+        raise ConfigError(f'{_flag(dest)} does not apply{run}; it is used by '
+                          f'{", ".join(users)}. Drop it, or choose the method with --method. '
+                          'Nothing was read.')
+    if not methods:  # the flags that serve every method serve none here
+        for dest, flag in (('config', '--config'), ('gyro_id', '--gyro-id')):
+            if getattr(args, dest, None):
+                raise ConfigError(f'{flag} does not apply: no method runs on these bags. Drop '
+                                  'it, or choose the method with --method. Nothing was read.')
+
+
+def check_calibration_file(path: Path | None) -> None:
+    """Load a ``--calibration`` hand-off file before any work.
+
+    Load a ``--calibration`` hand-off file before any work, whether or not the methods
+    run use it, so a wrong file is never silently ignored.
+
+    Raises:
+        HandoffError: the file is missing, unreadable or invalid.
+    """
+    if path is None:
+        return
+    from gyro_calib.handoff import load_calibration
+
+    load_calibration(path, handoff_schema())
+
+
+
+def method_arguments(parser: argparse.ArgumentParser) -> None:
+    """The flags every calibrating subcommand shares (methods, settings, site, scale factors)."""
+    parser.add_argument('--method', action='append', choices=list(METHODS), metavar='NAME',
+                        help=f'run only these methods ({", ".join(METHODS)}); repeatable')
+    parser.add_argument('--config', type=Path, help="the method's settings YAML (the node's "
+                        'config_file: plain mapping or ROS 2 parameter file)')
+    parser.add_argument('--latitude-deg', type=float,
+                        help='site latitude, ° (default: the bench settings stored in the '
+                        'bag, else unknown: bias not separated from Earth rate)')
+    parser.add_argument('--heading-deg', type=float,
+                        help='rbrlg: heading of the position-table base x axis, from East '
+                        'towards North (0 = East, 90 = North; = 90 − an azimuth), °')
+    parser.add_argument('--position-table-revolutions', type=int,
+                        help='rbrlg: n, position-table revolutions each way per station')
+    parser.add_argument('--scale-factor-rad-per-pulse', type=float,
+                        help="a pulse gyro's scale factor K, rad/pulse (dither, thermal, noise)")
+    parser.add_argument('--scale-factor-counts-per-rad', type=float,
+                        help="a FOG's scale factor, counts/rad (noise)")
+    parser.add_argument('--calibration', type=Path, metavar='FILE',
+                        help='a hand-off file to take the scale factor (and gyro id) from')
+    parser.add_argument('--sense-axis-elevation-deg', type=float,
+                        help='thermal: sense-axis elevation on the static base, ° (default 90: '
+                        'vertical)')
+    parser.add_argument('--sense-axis-azimuth-deg', type=float,
+                        help='thermal: sense-axis azimuth, from North towards East (0 = '
+                        'North, 90 = East; = 90 − a heading), °')
+    parser.add_argument('--gyro-id', default='', help="the gyro's serial or name (hand-off)")
+    namespace_argument(parser)
+
+
+def namespace_argument(parser: argparse.ArgumentParser) -> None:
+    """``--namespace NS``: read the topics of the bench in namespace NS."""
+    parser.add_argument('--namespace', metavar='NS',
+                        help="read the method's topics under NS (e.g. /bench2, for a bag "
+                        'recorded from several benches; default: the root, or the one '
+                        'namespace the bag holds)')
+
+
+def options_from_args(args: argparse.Namespace) -> CalibrationOptions:
+    """The CalibrationOptions of the common flags (also used by method subcommands)."""
+    return CalibrationOptions(
+        latitude_deg=args.latitude_deg, heading_deg=args.heading_deg, config_file=args.config,
+        position_table_revolutions=args.position_table_revolutions,
+        scale_factor_rad_per_pulse=args.scale_factor_rad_per_pulse,
+        scale_factor_counts_per_rad=args.scale_factor_counts_per_rad,
+        calibration_file=args.calibration,
+        sense_axis_elevation_deg=args.sense_axis_elevation_deg,
+        sense_axis_azimuth_deg=args.sense_axis_azimuth_deg, gyro_id=args.gyro_id)
+
+
+def lab_arguments(parser: argparse.ArgumentParser, where: str = '--out DIR') -> None:
+    """``--lab`` and ``--customer``: who issues the certificate, and for whom."""
+    parser.add_argument('--lab', type=Path, metavar='LAB',
+                        help='the issuing laboratory (YAML: name, address, signatory, '
+                        f'traceability, certificate_number); default: lab.yaml in {where}; '
+                        'without one the certificate is a DRAFT')
+    parser.add_argument('--customer', metavar='TEXT',
+                        help='the customer the certificate names (name and contact)')
+
+
+def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--report DIR`` and ``--spec`` for ``gyro-calib calibrate``."""
+    parser.add_argument('--report', type=Path, metavar='DIR',
+                        help='write the certificate (<gyro_id>.html and .pdf) into DIR')
+    parser.add_argument('--spec', type=Path, metavar='SPEC',
+                        help='with --report: acceptance limits and decision rule (YAML)')
+    lab_arguments(parser, '--report DIR')
+
+
+def check_output_dir(path: Path, what: str = '--out') -> Path:
+    """The output directory, checked before any work.
+
+    The output directory, checked before any work (the rule of :mod:`gyro_calib.outputs`:
+    created when absent, in an existing parent; a file is refused).
+    """
+    from gyro_calib.outputs import check_plot_dir
+
+    return check_plot_dir(path, what)
+
+
+def load_spec_arg(path: Path | None) -> Spec | None:
+    """The spec file of ``--spec`` (checked before any work), or None."""
+    if path is None:
+        return None
+    from gyro_calib.report.spec import load_spec
+
+    return load_spec(path)

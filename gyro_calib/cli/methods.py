@@ -1,0 +1,29 @@
+"""``gyro-calib methods``: the calibration methods, their topics and what each needs."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from gyro_calib.cli.arguments import EXIT_OK
+from gyro_calib.registry import METHODS
+
+
+def add_commands(sub: Any) -> None:
+    """Add ``methods`` to the ``gyro-calib`` subcommands."""
+    methods = sub.add_parser('methods', help='list the calibration methods and their topics')
+    methods.set_defaults(run=run_methods)
+
+
+def run_methods(args: argparse.Namespace) -> int:
+    """``gyro-calib methods``: each method, its topics and which it needs."""
+    for m in METHODS.values():
+        print(f'{m.name:8} {m.title}' + ('' if m.auto else '  [runs when asked: --method '
+                                              f'{m.name} or gyro-calib {m.name}]'))
+        for topic, msgtype in m.topics.items():
+            need = ('needed' if topic in m.reveal else 'optional, beside the input'
+                    if topic in m.context else 'one of these' if not m.reveal else 'optional')
+            print(f'           {topic:32} {msgtype:28} {need}')
+        if m.any_topic:
+            print(f'           {"any topic (--topic)":32} {m.any_topic:28} one of these')
+    return EXIT_OK
