@@ -7,8 +7,9 @@ Imports are read statically (``ast``), module-level and function-level alike,
 ``TYPE_CHECKING`` ones included.
 
 0 base        gyro_calib (the package), errors, units, topics (names only)
-1 bag I/O     gyro_calib.bagio.* (and the old paths bag, mcap_columns, table_input,
-              kept as re-exports only); inside it, one direction too (:data:`BAGIO_ORDER`)
+1 bag I/O     gyro_calib.bagio.* (and the old paths bag, mcap_columns, table_input:
+              deprecated re-exports, kept one release); inside it, one direction too
+              (:data:`BAGIO_ORDER`)
 2 core        config, estimate, outputs, streams, handoff, state_record and any other
               top-level module not named here
 3 session     gyro_calib.session (the shared session interface)
@@ -16,7 +17,7 @@ Imports are read statically (``ast``), module-level and function-level alike,
               test_*_imports, test_thermal_properties)
 5 registry    gyro_calib.registry, and imu_conversion (applies several methods' results)
 6 drivers     bag_calibration (the offline driver), bag_compensation (a thermal model
-              applied to bags), noise.outputs (a noise run's files)
+              applied to bags)
 7 front doors gyro_calib.cli.* (the ``gyro-calib`` command: one module per subcommand),
               nodes.*, report.*, batch.*, and sim_nodes.* (simulators and scenario bags);
               they may import one another, never in a circle
@@ -42,8 +43,7 @@ ROOT = Path(__file__).resolve().parents[1]
 METHODS = ('rbrlg', 'fog', 'dither', 'thermal', 'noise', 'triad')
 LAYERS = ('base', 'bag I/O', 'core', 'session', 'methods', 'registry', 'drivers',
           'front doors')
-DRIVERS = {'gyro_calib.bag_calibration', 'gyro_calib.bag_compensation',
-           'gyro_calib.noise.outputs'}
+DRIVERS = {'gyro_calib.bag_calibration', 'gyro_calib.bag_compensation'}
 FRONT_DOORS = ('cli', 'nodes', 'report', 'batch')
 """gyro_calib's front-door packages (with sim_nodes)."""
 BASE = {'gyro_calib', 'gyro_calib.errors', 'gyro_calib.units', 'gyro_calib.topics'}

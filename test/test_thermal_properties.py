@@ -149,11 +149,10 @@ SHARED_CORE = {'gyro_calib.errors', 'gyro_calib.estimate', 'gyro_calib.streams',
                'gyro_calib.units', 'gyro_calib.handoff', 'gyro_calib.topics',
                'gyro_calib.session', 'gyro_calib.config', 'gyro_calib.bagio',
                'gyro_calib.rate_table', 'sim_nodes.motion', 'sim_nodes.rate_table',
-               'gyro_calib.registry', 'gyro_calib.bag_calibration', 'gyro_calib.imu_conversion',
-               'gyro_calib.outputs', 'gyro_calib.bag', 'gyro_calib.bagio',
+               'gyro_calib.outputs',
                'gyro_calib.bagio.columns', 'gyro_calib.bagio.tables', 'gyro_calib.bagio.messages'}
-# the shared front door (ROS-free by test_core_imports_no_rclpy), never another method;
-# imu_conversion is the shared corrector core that ``gyro-calib compensate --out`` reuses
+# the shared core below the methods, never another method, the registry or a driver
+# (issue 28: ``compensate``'s bag work moved to the driver gyro_calib.bag_compensation)
 
 
 def _imports(path: Path) -> set[str]:

@@ -183,8 +183,8 @@ def run_noise(args: argparse.Namespace) -> int:
     written: list[tuple[str, Path]] = []
     asked = sum(p is not None for p in (targets.kalibr, targets.plot, targets.handoff))
     try:
-        write_outputs(session, targets, source=outcome.source, gyro_id=args.gyro_id,
-                      progress=written, curves_only=not resolved)
+        write_outputs(session, targets, source=outcome.source, schema=handoff_schema(),
+                      gyro_id=args.gyro_id, progress=written, curves_only=not resolved)
     except KeyboardInterrupt:
         _flush(human, None, args.json)
         if not written:

@@ -44,6 +44,7 @@ from gyro_calib.noise.keys import METHOD
 from gyro_calib.noise.outputs import resolve_targets, write_outputs
 from gyro_calib.noise.session import IMU, NoiseSession, check_scale_factor
 from gyro_calib.noise.settings import NoiseSettings
+from gyro_calib.registry import handoff_schema
 from gyro_calib.session import CalibrationOptions
 
 NODE_NAME = 'noise_node'
@@ -219,7 +220,7 @@ class NoiseNode(MethodNode):
         try:
             self.session.check_measurable()
             written = write_outputs(self.session, self.targets, source='live',
-                                    gyro_id=self.gyro_id)
+                                    schema=handoff_schema(), gyro_id=self.gyro_id)
         except (GyroCalibError, OSError) as exc:
             log.error(f'noise: files not written: {" ".join(str(exc).split())}')
             return 1

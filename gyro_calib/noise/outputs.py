@@ -10,6 +10,7 @@ another gyro, a directory that does not exist) leaves every target as it was.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -17,7 +18,7 @@ from typing import TYPE_CHECKING
 from gyro_calib.errors import ConfigError, InsufficientDataError
 
 if TYPE_CHECKING:
-    from gyro_calib.handoff import Calibration
+    from gyro_calib.handoff import Calibration, HandoffKey
     from gyro_calib.noise.session import NoiseSession
 
 
@@ -103,7 +104,8 @@ def curves_record(session: NoiseSession, source: str, gyro_id: str = '') -> Cali
 
 
 def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
-                  gyro_id: str = '', progress: list[tuple[str, Path]] | None = None,
+                  schema: Mapping[str, HandoffKey], gyro_id: str = '',
+                  progress: list[tuple[str, Path]] | None = None,
                   curves_only: bool = False) -> list[tuple[str, Path]]:
     """Prepare every file asked for, then put them in place; return (what, absolute path).
 
@@ -111,6 +113,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         session: a finished (flushed) or snapshot noise session.
         targets: from :func:`resolve_targets`.
         source: the provenance of the hand-off values ('live' or the bag paths).
+        schema: every method's hand-off keys (the front door passes
+            ``gyro_calib.registry.handoff_schema()``: a method room does not read the registry).
         gyro_id: the sensor's serial or name (hand-off identity).
         progress: filled with each file as it is put in place (so a caller interrupted
             while writing knows what was written).
@@ -126,7 +130,6 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
     """
     from gyro_calib.handoff import SCALE_FACTOR_NOTE, load_calibration, update_calibration
     from gyro_calib.outputs import temporary_beside, with_filename, write_text_atomically
-    from gyro_calib.registry import handoff_schema
 
     kalibr_text = session.kalibr_text() if targets.kalibr is not None else None
     record = None
@@ -138,8 +141,7 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             raise InsufficientDataError(f'no noise term was measured: the hand-off file '
                                         f'{targets.handoff} is not written.')
         if targets.handoff.exists():  # refuse before writing anything (other gyro, invalid)
-            record.merged_into(load_calibration(targets.handoff, handoff_schema()),
-                               handoff_schema())
+            record.merged_into(load_calibration(targets.handoff, schema), schema)
     figure_tmp = None
     if targets.plot is not None:
         view = session.view
@@ -169,7 +171,7 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             written.append(('figure', targets.plot))
         if record is not None and targets.handoff is not None:
             report: list[str] = []
-            path = update_calibration(targets.handoff, record, handoff_schema(), report=report)
+            path = update_calibration(targets.handoff, record, schema, report=report)
             notes = [line for line in report  # and what became of a triad's imu: section
                      if line.startswith((SCALE_FACTOR_NOTE, 'imu:'))]
             written.append(('hand-off' + (f' ({"; ".join(notes)})' if notes else ''), path))
