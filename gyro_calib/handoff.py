@@ -84,7 +84,6 @@ import dataclasses
 import datetime
 import math
 import os
-import tempfile
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -95,7 +94,7 @@ import yaml
 from gyro_calib import __version__
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.imu_calibration import ImuCalibration, ImuSectionError, imu_from_section
-from gyro_calib.outputs import new_file_mode
+from gyro_calib.outputs import write_text_atomically
 
 FORMAT_VERSION = 3
 """The layout version this module writes for one gyro; formats 1 and 2 are still read."""
@@ -1176,7 +1175,8 @@ def write_calibration(path: str | Path, calibration: Calibration,
     """Write ``calibration`` to ``path`` atomically: the old file or the new, never a mix.
 
     A temporary file in the same directory is written, flushed and fsynced, renamed onto
-    the target by ``os.replace`` and the directory is fsynced. The file keeps the mode of
+    the target by ``os.replace`` (:func:`gyro_calib.outputs.write_text_atomically`, the one
+    output writer) and the directory is fsynced. The file keeps the mode of
     the file it replaces (new files: 0666 & ~umask, :mod:`gyro_calib.outputs`). Symbolic
     links are followed: the link's target is replaced.
 
@@ -1192,26 +1192,11 @@ def write_calibration(path: str | Path, calibration: Calibration,
     text = ('# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py\n'
             + yaml.dump(dict(calibration_to_yaml_dict(calibration, schema)), Dumper=_Dumper,
                         sort_keys=False, allow_unicode=True, width=100))
-    tmp: str | None = None
     try:
-        mode = new_file_mode(target)
-        fd, tmp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=target.parent)
-        with os.fdopen(fd, 'w', encoding='utf-8') as stream:
-            stream.write(text)
-            stream.flush()
-            os.fchmod(stream.fileno(), mode)
-            os.fsync(stream.fileno())
-        os.replace(tmp, target)
-        tmp = None
+        write_text_atomically(target, text)
     except OSError as exc:
         raise HandoffError(f'cannot write calibration file {target}: '
                            f'{exc.strerror or exc}.') from None
-    finally:
-        if tmp is not None:  # failed (or interrupted) before the rename
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
     try:
         _fsync_directory(target.parent)
     except OSError as exc:
