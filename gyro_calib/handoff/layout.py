@@ -40,7 +40,7 @@ class ProvenanceYaml(TypedDict, total=False):
 
 
 class CalibrationYaml(TypedDict):
-    """On-disk shape of the whole hand-off file, format 3 or 4 (see the module docstring)."""
+    """On-disk shape of the whole hand-off file, format 3 or 4 (see :mod:`gyro_calib.handoff`)."""
 
     format_version: int
     gyro_calib_version: str
