@@ -171,28 +171,53 @@ def make_plot_dir(path: Path) -> Path:
 
 
 def write_text_atomically(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` atomically with the mode of :func:`new_file_mode`.
+    """Write ``text`` to ``path`` atomically, as UTF-8 (:func:`write_bytes_atomically`).
 
     Raises:
         OSError: the file cannot be written (the target is then untouched).
+    """
+    return write_bytes_atomically(path, text.encode('utf-8'))
+
+
+def write_bytes_atomically(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically with the mode of :func:`new_file_mode`.
+
+    The one writer of every output file: a temporary file beside the target, written,
+    flushed and fsynced, then renamed onto it (``os.replace``), so a reader sees the old
+    file or the new one, never half of one. A failure (or an interrupt) removes the
+    temporary file.
+
+    Returns:
+        The absolute path written.
+
+    Raises:
+        OSError: the file cannot be written (the target is then untouched), naming it.
     """
     target = Path(path).absolute()
     mode = new_file_mode(target)
     fd, tmp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=target.parent)
     try:
-        with os.fdopen(fd, 'w', encoding='utf-8') as f:
-            f.write(text)
-            f.flush()
-            os.fchmod(f.fileno(), mode)
-            os.fsync(f.fileno())
+        with os.fdopen(fd, 'wb') as stream:
+            stream.write(data)
+            stream.flush()
+            os.fchmod(stream.fileno(), mode)
+            os.fsync(stream.fileno())
         os.replace(tmp, target)
     except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
+        _remove_quietly(tmp)
         raise with_filename(exc, target) from None
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        _remove_quietly(tmp)
         raise
     return target
+
+
+def _remove_quietly(path: str) -> None:
+    """Remove a temporary file left by a failed write (a failure to do so is not the news)."""
+    try:
+        os.unlink(path)
+    except OSError:
+        pass
 
 
 def temporary_beside(target: Path, suffix: str = '') -> Path:

@@ -405,17 +405,12 @@ class StateRecord:
     def close(self) -> None:
         """Sync and close the files (the record stays for a later resume)."""
         self.sync()
-        for f in self._files.values():
-            f.close()
-        self._files.clear()
+        self._close_files()
 
     def clear(self) -> None:
         """Remove the record (``reset``); the next sample recorded starts a new one."""
         self.remove()
-        self._layouts.clear()
-        self._index.clear()
-        self._frames.clear()
-        self._batch = 0
+        self._forget()
 
     def set_aside(self) -> Path:
         """Move the record to ``<directory>.superseded-<UTC time>`` and start an empty one.
@@ -423,22 +418,27 @@ class StateRecord:
         Nothing of it is deleted or used; a second move in the same second gets ``-2``,
         ``-3`` … so no record ever overwrites another.
         """
-        for f in self._files.values():
-            f.close()
-        self._files.clear()
+        self._close_files()
         aside = set_aside(self.directory)
-        self._layouts.clear()
-        self._index.clear()
-        self._frames.clear()
-        self._batch = 0
+        self._forget()
         return aside
 
     def remove(self) -> None:
         """Close the files and remove the state directory (a completed calibration)."""
+        self._close_files()
+        shutil.rmtree(self.directory, ignore_errors=True)
+
+    def _close_files(self) -> None:
         for f in self._files.values():
             f.close()
         self._files.clear()
-        shutil.rmtree(self.directory, ignore_errors=True)
+
+    def _forget(self) -> None:
+        """Start an empty record: no topic, no frame name, no batch recorded yet."""
+        self._layouts.clear()
+        self._index.clear()
+        self._frames.clear()
+        self._batch = 0
 
     # -- reading --------------------------------------------------------------------------
 

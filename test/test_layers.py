@@ -287,7 +287,7 @@ def test_the_hand_off_schema_is_handed_down(monkeypatch: pytest.MonkeyPatch) -> 
 
     values = {'k_tilde_rad_per_pulse': 1e-6, 'k_tilde_rad_per_pulse_std': 1e-12}
     prov = handoff.Provenance('live', 0, 1, {})
-    monkeypatch.setattr(handoff, '_DEFAULT_SCHEMA', [])
+    monkeypatch.setattr(handoff.schema, '_DEFAULT_SCHEMA', [])
     with pytest.raises(RuntimeError, match='pass schema='):
         handoff.method_calibration('rbrlg', values, prov)
     record = handoff.method_calibration('rbrlg', values, prov, schema=handoff_schema())

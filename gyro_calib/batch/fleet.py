@@ -156,7 +156,7 @@ def fleet_rows(records: Sequence[dict[str, Any]], spec_limits: Mapping[str, Any]
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
-    from gyro_calib.report.certificate import write_bytes_atomically
+    from gyro_calib.outputs import write_bytes_atomically
 
     write_bytes_atomically(path, data)
 

@@ -20,9 +20,7 @@ from __future__ import annotations
 import base64
 import datetime
 import math
-import os
 import re
-import tempfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from importlib import resources
@@ -34,6 +32,7 @@ import yaml
 from gyro_calib import __version__
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Calibration, HandoffKey
+from gyro_calib.outputs import write_bytes_atomically
 from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.report.conditions import calibration_date, temperature_text
 from gyro_calib.report.evidence import MethodEvidence, RunEvidence
@@ -606,33 +605,6 @@ def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> 
         if created and not any(out_dir.iterdir()):
             out_dir.rmdir()
         raise
-
-
-def write_bytes_atomically(path: Path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` atomically.
-
-    Write ``data`` to ``path``: temporary file beside it, fsync, rename; the mode of
-    :func:`gyro_calib.outputs.new_file_mode` (the user's umask, or the replaced file's).
-    """
-    from gyro_calib.outputs import new_file_mode, with_filename
-
-    target = Path(path).absolute()
-    mode = new_file_mode(target)
-    fd, tmp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=target.parent)
-    try:
-        with os.fdopen(fd, 'wb') as stream:
-            stream.write(data)
-            stream.flush()
-            os.fchmod(stream.fileno(), mode)
-            os.fsync(stream.fileno())
-        os.replace(tmp, target)
-    except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
-        raise with_filename(exc, target) from None
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return target
 
 
 def certificate_record(cert: Certificate) -> dict[str, Any]:

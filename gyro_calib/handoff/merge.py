@@ -1,0 +1,208 @@
+"""How one run's values merge into a file's, key by key, each change said in a line.
+
+Each quantity is kept from the run that measured it best (the keys that follow it go with
+it); a value differing from the file's by more than :data:`MAX_DISAGREEMENT_SIGMA` combined
+standard uncertainties is refused; the ``imu:`` section is replaced or completed
+(:func:`_merged_imu`). :meth:`Calibration.merged_into
+<gyro_calib.handoff.calibration.Calibration.merged_into>` applies these rules.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+from gyro_calib.handoff.runs import CalibrationLike, Provenance, _run_keys
+from gyro_calib.handoff.schema import (
+    IMU_METHODS,
+    TWIN_SUFFIXES,
+    HandoffError,
+    HandoffKey,
+    _numbers,
+    _ordered,
+    _pop_twins,
+)
+from gyro_calib.imu_calibration import ImuCalibration
+
+MAX_DISAGREEMENT_SIGMA = 5.0
+"""A run's value differing from the file's by more than this many combined standard
+uncertainties is not merged (another gyro, a changed gyro, or a wrong bench setting)."""
+
+
+SAME_RUN = '(same run, updated).'
+"""How a merge line ends when a live node rewrote the values of its own run."""
+
+
+def merge_lines(report: Iterable[str]) -> list[str]:
+    """The lines of a merge report worth telling (a node's rewrites of its own run left out)."""
+    return [line for line in report if not line.endswith(SAME_RUN)]
+
+
+def _merged_imu(new: CalibrationLike, older: CalibrationLike,
+                lines: list[str]) -> ImuCalibration | None:
+    """The ``imu:`` section after a merge, each change said in a line.
+
+    A triad run (:data:`IMU_METHODS`) replaces the section but keeps the file's per-channel
+    ``noise`` and ``thermal`` where it brings none; any other run (the noise method on
+    ``/imu/pulses``) keeps the file's section and sets its ``noise`` (and ``thermal``) per
+    channel. A file without the section gets this run's.
+
+    Raises:
+        HandoffError: the run's channels are not the file's section's.
+    """
+    run, old = new.imu, older.imu
+    if run is None:
+        return old
+    if old is None:
+        lines.append('imu: added (K, sense axes, M and b of the triad).'
+                     if any(m in IMU_METHODS for m in new.methods) else
+                     f'imu: added with the channels {list(run.channels)} and their '
+                     f'{_per_channel_words(run)} only.')
+        return run
+    if set(run.channels) != set(old.channels):
+        raise HandoffError(f'the file\'s imu section has the channels {list(old.channels)}, '
+                           f'this run the channels {list(run.channels)}: another IMU? Not '
+                           'merging them (use another --out).')
+    if any(m in IMU_METHODS for m in new.methods):
+        kept = {name: getattr(old, name) for name in ('noise', 'thermal')
+                if getattr(old, name) and not getattr(run, name)}
+        lines.append('imu: the file\'s imu section (' + _imu_run(older) + ') replaced by this '
+                     'run\'s' + (f'; its {" and ".join(kept)} per channel kept (not measured '
+                                  'by this run).' if kept else '.'))
+        return dataclasses.replace(run, **kept)
+    changed = {name: getattr(run, name) for name in ('noise', 'thermal') if getattr(run, name)}
+    lines.append(f'imu: the file\'s section kept (K, sense axes, M, b); its '
+                 f'{_per_channel_words(run)} ' + ('replaced by this run\'s.' if any(
+                     getattr(old, n) for n in changed) else 'set by this run.'))
+    return dataclasses.replace(old, **changed)
+
+
+def _per_channel_words(imu: ImuCalibration) -> str:
+    """'noise', 'thermal' or 'noise and thermal' terms per channel of a section."""
+    return ' and '.join(n for n in ('noise', 'thermal') if getattr(imu, n)) + ' terms' \
+        if imu.noise or imu.thermal else 'no terms'
+
+
+def _imu_run(calibration: CalibrationLike) -> str:
+    """The run the file's imu section came from, as a phrase."""
+    from_triad = calibration.methods.get('triad')
+    return f'run {from_triad.label()}' if from_triad is not None else 'an earlier run'
+
+
+def _lead(key: str, schema: Mapping[str, HandoffKey]) -> str:
+    spec = schema.get(key)
+    return spec.follows if spec is not None and spec.follows else key
+
+
+def _with_std(value: Any, std: Any) -> str:
+    if isinstance(value, dict):
+        return '(a mapping)'
+    return f'{value!r}' + (f' ± {std:.3g}' if std is not None else '')
+
+
+def _merge_method(method: str, prov: Provenance, new_values: Mapping[str, Any],
+                  older: CalibrationLike, values: dict[str, Any], schema: Mapping[str, HandoffKey],
+                  replace: bool, lines: list[str]) -> Provenance:
+    """Merge one method's run into ``values`` (changed in place); its new provenance."""
+    new_keys = _run_keys(prov, method, new_values, schema)
+    old_latest = older.methods.get(method)
+    old_runs: list[Provenance] = []
+    if old_latest is not None:
+        old_runs = [dataclasses.replace(r, earlier=()) for r in (old_latest, *old_latest.earlier)]
+    old_owner: dict[str, int] = {}
+    for i, run in enumerate(old_runs):
+        for key in _run_keys(run, method, older.values, schema):
+            old_owner.setdefault(key, i)
+    for key, i in list(old_owner.items()):  # a live run rewriting itself: its latest word
+        if old_runs[i].same_run(prov) and key not in new_keys:
+            lines.append(f'withdrawn: {key} {SAME_RUN}')
+            values.pop(key, None)
+            _pop_twins(values, key)
+            del old_owner[key]
+    groups: dict[str, list[str]] = {}
+    for key in sorted(new_keys | set(old_owner)):
+        groups.setdefault(_lead(key, schema), []).append(key)
+    taken: set[str] = set()
+    kept: set[str] = set()
+    for lead, members in groups.items():
+        if lead not in new_keys and lead not in old_owner:  # no lead either side: key by key
+            for key in members:
+                _merge_group(key, [key], key in new_keys, prov, new_values, older, values,
+                             old_runs, old_owner, new_keys, replace, lines, taken, kept,
+                             not getattr(schema.get(key), 'bench_specific', False))
+            continue
+        _merge_group(lead, members, lead in new_keys, prov, new_values, older, values,
+                     old_runs, old_owner, new_keys, replace, lines, taken, kept,
+                     not getattr(schema.get(lead), 'bench_specific', False))
+    earlier = []
+    for i, run in enumerate(old_runs):
+        mine = _ordered((k for k in kept if old_owner[k] == i), schema)
+        if mine:
+            earlier.append(dataclasses.replace(run, keys=mine))
+    return dataclasses.replace(prov, keys=_ordered(taken, schema), earlier=tuple(earlier))
+
+
+def _merge_group(lead: str, members: list[str], new_has: bool, prov: Provenance,
+                 new_values: Mapping[str, Any], older: CalibrationLike, values: dict[str, Any],
+                 old_runs: list[Provenance], old_owner: dict[str, int], new_keys: set[str],
+                 replace: bool, lines: list[str], taken: set[str], kept: set[str],
+                 comparable: bool = True) -> None:
+    """Merge one group (a lead key and the keys that follow it): the run's or the file's."""
+    old_has = any(k in old_owner for k in members)
+    take_new = new_has
+    why = ''
+    if new_has and lead in new_keys and lead in old_owner:
+        old_run = old_runs[old_owner[lead]]
+        v_new, v_old = new_values[lead], older.values[lead]
+        u_new, u_old = new_values.get(lead + '_std'), older.values.get(lead + '_std')
+        if prov.same_run(old_run) or replace:
+            why = SAME_RUN[1:-2] if prov.same_run(old_run) else 'replace asked'
+        elif u_new is not None and u_old is not None and _numbers(v_new, v_old):
+            spread = math.hypot(u_new, u_old)
+            z = abs(v_new - v_old) / spread if spread > 0 else (
+                0.0 if v_new == v_old else math.inf)
+            if z > MAX_DISAGREEMENT_SIGMA and comparable:
+                raise HandoffError(
+                    f'{lead}: this run gives {_with_std(v_new, u_new)} ({prov.source}), the '
+                    f'file holds {_with_std(v_old, u_old)} ({old_run.source}): they differ '
+                    f'by {z:.1f} combined standard uncertainties (a changed gyro, another '
+                    f'gyro, or a wrong bench setting?); nothing written. Check, then give '
+                    f'--replace to take this run\'s values, or use another --out.')
+            take_new = u_new <= u_old
+            why = ('more precise' if u_new < u_old else 'as precise, newer') if take_new \
+                else f'this run\'s {_with_std(v_new, u_new)} is less precise (--replace ' \
+                'takes it)'
+        else:
+            why = 'newer run'
+    elif new_has and not old_has:
+        why = ''
+    elif not new_has:
+        why = 'not measured by this run'
+    for key in members:
+        std = key + '_std'
+        old_text = (f'{_with_std(older.values[key], older.values.get(std))} from '
+                    f'{old_runs[old_owner[key]].source}') if key in old_owner else ''
+        if take_new:
+            if key in new_keys:
+                verb = 'replaced' if key in old_owner else 'added'
+                was = f' — was {old_text}' if old_text else ''
+                new_text = _with_std(new_values[key], new_values.get(std))
+                lines.append(f'{verb}: {key} = {new_text} from {prov.source}{was}'
+                             + (f' ({why})' if why else '') + '.')
+                values[key] = new_values[key]
+                _pop_twins(values, key)
+                for twin in (key + suffix for suffix in TWIN_SUFFIXES):
+                    if twin in new_values:
+                        values[twin] = new_values[twin]
+                taken.add(key)
+            elif key in old_owner:
+                lines.append(f'dropped: {key} = {old_text} — it goes with {lead}, now from '
+                             f'{prov.source}, which did not measure it.')
+                values.pop(key, None)
+                _pop_twins(values, key)
+        elif key in old_owner:
+            reason = why if key == lead or not new_has else f'goes with {lead}, kept'
+            lines.append(f'kept: {key} = {old_text} ({reason}).')
+            kept.add(key)
