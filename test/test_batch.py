@@ -29,7 +29,8 @@ import yaml
 from gyro_calib.batch.manifest import load_manifest
 from gyro_calib.batch.run import run_batch
 from gyro_calib.cli import main
-from gyro_calib.handoff import load_calibration
+from gyro_calib.handoff import calibration_text, load_calibration
+from gyro_calib.registry import handoff_schema
 from gyro_calib.report.spec import load_spec
 
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
@@ -92,6 +93,11 @@ def test_each_gyro_equals_calibrating_it_alone(fleet: dict[str, Any], tmp_path: 
         assert main(argv) == 0
         batch = load_calibration(out / gid / f'{gid}.yaml')
         assert batch.values == load_calibration(alone).values
+        # one writer: the batch's file is in the layout `calibrate --out` writes (issue 28)
+        assert (out / gid / f'{gid}.yaml').read_text(encoding='utf-8') == calibration_text(
+            batch, handoff_schema())
+        assert alone.read_text(encoding='utf-8') == calibration_text(
+            load_calibration(alone), handoff_schema())
         assert batch.gyro_id == gid
         assert (out / gid / f'{gid}.html').exists()
     capsys.readouterr()

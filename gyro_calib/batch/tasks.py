@@ -128,10 +128,9 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
         if not done:
             return GyroResult(job.gyro_id, {}, {**base, 'status': 'failed',
                                                 'reason': '; '.join(errors) or 'no method'})
-        import yaml
 
         from gyro_calib.batch.fleet import spc_quantity
-        from gyro_calib.handoff import calibration_to_yaml_dict
+        from gyro_calib.handoff import calibration_text
         from gyro_calib.registry import handoff_schema
         from gyro_calib.report.certificate import (
             build_certificate,
@@ -151,10 +150,7 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
             tuple({b.path: b for r in done for b in r.evidence.bags}.values()),
             done[0].evidence.settings)
         handoff_name = f'{stem}/{stem}.yaml'
-        handoff_bytes = (
-            '# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py\n'
-            + yaml.safe_dump(dict(calibration_to_yaml_dict(record, schema)), sort_keys=False,
-                             allow_unicode=True, width=100)).encode('utf-8')
+        handoff_bytes = calibration_text(record, schema).encode('utf-8')
         if not record.values and record.imu is not None:  # a triad: the hand-off, no certificate
             return GyroResult(job.gyro_id, {handoff_name: handoff_bytes}, {
                 **base, 'status': 'failed', 'reason': f'calibrated, hand-off kept '

@@ -1,6 +1,6 @@
 """What an export reads from a hand-off file: noise terms per axis, the triad's M, refusals.
 
-A hand-off (``gyro_calib/handoff.py``, formats 1–4) is read here as plain YAML — the
+A hand-off (``gyro_calib/handoff/``, formats 1–4) is read here as plain YAML — the
 ``imu:`` section through :func:`gyro_calib.imu_calibration.imu_from_section` — so that a
 triad file (format 4) and a single-gyro file (format 3) give one :class:`ExportSource`:
 

@@ -122,7 +122,7 @@ from gyro_calib.handoff.schema import (
     install_default_schema,
     keys_table,
 )
-from gyro_calib.handoff.write import update_calibration, write_calibration
+from gyro_calib.handoff.write import calibration_text, update_calibration, write_calibration
 
 __all__ = [
     'CONVENTIONS', 'DEVIATION_FIELDS', 'FORMAT_VERSION', 'IMU_CONVENTION', 'IMU_FORMAT_VERSION',
@@ -133,5 +133,5 @@ __all__ = [
     'ScaleFactorFindings', 'calibration_from_yaml_dict', 'calibration_to_yaml_dict',
     'install_default_schema', 'keys_table', 'load_calibration', 'merge_lines',
     'method_calibration', 'scale_factor_findings', 'scale_factor_inconsistency',
-    'update_calibration', 'write_calibration',
+    'calibration_text', 'update_calibration', 'write_calibration',
 ]

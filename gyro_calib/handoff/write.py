@@ -23,6 +23,14 @@ from gyro_calib.handoff.schema import TWIN_SUFFIXES, HandoffError, HandoffKey, _
 from gyro_calib.outputs import write_text_atomically
 
 
+def calibration_text(calibration: Calibration,
+                     schema: Mapping[str, HandoffKey] | None = None) -> str:
+    """The hand-off file's text: the one layout every writer uses (``--out``, nodes, batch)."""
+    return ('# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py\n'
+            + yaml.dump(dict(calibration_to_yaml_dict(calibration, schema)), Dumper=_Dumper,
+                        sort_keys=False, allow_unicode=True, width=100))
+
+
 def write_calibration(path: str | Path, calibration: Calibration,
                       schema: Mapping[str, HandoffKey] | None = None) -> Path:
     """Write ``calibration`` to ``path`` atomically: the old file or the new, never a mix.
@@ -42,11 +50,8 @@ def write_calibration(path: str | Path, calibration: Calibration,
             directory fsync failed, as the message then says).
     """
     target = Path(path).resolve()
-    text = ('# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py\n'
-            + yaml.dump(dict(calibration_to_yaml_dict(calibration, schema)), Dumper=_Dumper,
-                        sort_keys=False, allow_unicode=True, width=100))
     try:
-        write_text_atomically(target, text)
+        write_text_atomically(target, calibration_text(calibration, schema))
     except OSError as exc:
         raise HandoffError(f'cannot write calibration file {target}: '
                            f'{exc.strerror or exc}.') from None
