@@ -41,6 +41,7 @@ import yaml
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.file_lock import FileLock, LockHeldError
+from gyro_calib.outputs import write_text_atomically
 from gyro_calib.units import NS_PER_S, format_stamp
 
 FORMAT = 1
@@ -322,12 +323,8 @@ class StateRecord:
                'topics': [self._layouts[t].as_yaml() for t in
                           sorted(self._index, key=self._index.__getitem__)]}
         self.directory.mkdir(parents=True, exist_ok=True)
-        tmp = self.directory / (STATE_FILE + '.tmp')
-        with open(tmp, 'w', encoding='utf-8') as f:
-            yaml.safe_dump(doc, f, sort_keys=False, allow_unicode=True)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, self.directory / STATE_FILE)
+        write_text_atomically(self.directory / STATE_FILE,  # the one output writer
+                              yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
 
     def _read_frames(self, index: int) -> list[str]:
         path = self.directory / f'{index}.frames.jsonl'
