@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 from rclpy.node import Node
@@ -81,14 +81,21 @@ class PacedSimulatorNode(SimulatorNode):
     """A simulator streaming a run chunk by chunk, paced, once its readers are there.
 
     Subclasses call :meth:`declare_run_parameters` where their parameters are declared,
-    and give :attr:`all_publishers`, :attr:`total_s`, :meth:`simulated_s`,
-    :meth:`run_finished`, :meth:`publish_next`, :meth:`start_line` and :attr:`progress_what`
-    (and, with topics no recorder reads, :meth:`gate_publishers` and
-    :meth:`internal_publishers`).
+    and give :attr:`all_publishers`, :attr:`total_s` and :attr:`progress_what`; their run
+    either as an iterator of chunks (``_chunks``, each published by ``_publish``, which
+    counts ``_n_published`` samples of ``sample_rate_hz``) or by :meth:`run_finished` and
+    :meth:`publish_next` (and :meth:`simulated_s` when not counted in samples). With topics
+    no recorder reads, :meth:`gate_publishers` and :meth:`internal_publishers`.
     """
 
     unpaced_chunks = 5
     """Chunks published per timer tick when unpaced (the readers' acknowledgements pace)."""
+    samples_what = ''
+    """What the samples counted are ('pulse samples'), for 'run finished: N pulse samples'."""
+    sample_rate_hz: float
+    """Rate of the samples counted in ``_n_published``, Hz."""
+    _chunks: Iterator[Any]
+    """The run's chunks (for a run given as an iterator)."""
 
     def __init__(self, node_name: str) -> None:
         """The node; its timer ticks once it is spun (after the subclass has set up)."""
@@ -98,6 +105,9 @@ class PacedSimulatorNode(SimulatorNode):
         """Why publishing stopped before the end of the run ('' = it did not)."""
         self._wall_start: float | None = None
         self._progress: ProgressLog | None = None
+        self._n_published = 0
+        """Samples published so far."""
+        self._exhausted = False
         self.create_timer(0.005, self._tick)
 
     def declare_run_parameters(self, *, paced: str = PACED, exit_when_done: str = EXIT,
@@ -141,24 +151,37 @@ class PacedSimulatorNode(SimulatorNode):
         raise NotImplementedError
 
     def start_line(self) -> str:
-        """The line logged when the run starts."""
-        raise NotImplementedError
+        """The line logged when the run starts: '<what>: simulating T s at <pace>'."""
+        return f'{self.progress_what}: simulating {self.total_s:g} s at {self.pace_line()}'
 
     def finished_line(self) -> str:
-        """The line logged when the run is over."""
-        return 'run finished'
+        """The line logged when the run is over: 'run finished[: N <samples_what>]'."""
+        return 'run finished' + (f': {self._n_published} {self.samples_what}'
+                                 if self.samples_what else '')
 
     def simulated_s(self) -> float:
         """Simulated seconds published so far (pacing and progress)."""
-        raise NotImplementedError
+        return self._n_published / self.sample_rate_hz
 
     def run_finished(self) -> bool:
-        """Whether the whole run has been published."""
-        raise NotImplementedError
+        """Whether the whole run has been published (the chunks ran out)."""
+        return self._exhausted
 
     def publish_next(self) -> None:
         """Publish the next chunk of the run (or find that none is left)."""
+        chunk = next(self._chunks, None)
+        if chunk is None:
+            self.run_ended()
+            self._exhausted = True
+        else:
+            self._publish(chunk)
+
+    def _publish(self, chunk: Any) -> None:
+        """Publish one chunk of ``_chunks``, adding its samples to ``_n_published``."""
         raise NotImplementedError
+
+    def run_ended(self) -> None:
+        """Publish what follows the last chunk (nothing by default)."""
 
     def pace_line(self) -> str:
         """'2× real time', or "the readers' pace" unpaced."""

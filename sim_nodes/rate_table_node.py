@@ -110,7 +110,7 @@ class RateTableNode(PacedSimulatorNode):
                 self.create_publisher(Header, relative(index_topic), EVENT_QOS), joint))
         self.truth_pub = self.create_publisher(JointState, relative(truth_topic), SENSOR_QOS)
         self.publish_scenario(scenario_yaml(scenario, self.config, procedure, int(k_pairs)))
-        self._n_published = 0
+        self.sample_rate_hz = self.config.sample_rate_hz
 
     @property
     def all_publishers(self) -> list[Publisher[Any]]:
@@ -138,10 +138,6 @@ class RateTableNode(PacedSimulatorNode):
     def start_line(self) -> str:
         """'simulating T s at F× real time'."""
         return f'simulating {self.total_s:g} s at {self.real_time_factor:g}× real time'
-
-    def simulated_s(self) -> float:
-        """Simulated seconds published."""
-        return self._n_published / self.config.sample_rate_hz
 
     def run_finished(self) -> bool:
         """Whether the master table's run is over."""

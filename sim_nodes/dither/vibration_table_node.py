@@ -101,7 +101,7 @@ class VibrationTableNode(PacedSimulatorNode):
         self.table_pub = self.create_publisher(
             JointState, relative(topics.VIBRATION_TABLE_JOINT_STATES), SENSOR_QOS)
         self.publish_scenario(scenario_yaml(self.gyro_config, self.table_config, self.bench))
-        self._n_published = 0
+        self.sample_rate_hz = self.bench.sample_rate_hz
 
     @property
     def all_publishers(self) -> list[Publisher[Any]]:
@@ -117,10 +117,6 @@ class VibrationTableNode(PacedSimulatorNode):
         """'simulating T s with the table along Z at F× real time'."""
         return (f'simulating {self.bench.duration_s:g} s with the table along '
                 f'{self.table_config.axis.upper()} at {self.real_time_factor:g}× real time')
-
-    def simulated_s(self) -> float:
-        """Simulated seconds published."""
-        return self._n_published / self.bench.sample_rate_hz
 
     def run_finished(self) -> bool:
         """Whether the bench's run is over."""

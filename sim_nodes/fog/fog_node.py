@@ -84,6 +84,8 @@ def declare_fields(node: Node, cls: type, prefix: str = '') -> dict[str, Any]:
 class FogBenchNode(PacedSimulatorNode):
     """Streams a FOG scenario's bench at a paced rate."""
 
+    samples_what = 'output samples'
+
     def __init__(self) -> None:
         """Declare parameters, build the scenario and start the pacing timer."""
         super().__init__('fog_sim')
@@ -122,8 +124,6 @@ class FogBenchNode(PacedSimulatorNode):
         self.index_pub = pub(Header, relative(topics.RATE_TABLE_ZERO_INDEX), EVENT_QOS)
         self.publish_scenario(self.scenario.description_dict())
         self.sample_rate_hz = table.output_rate_hz
-        self._n_published = 0
-        self._exhausted = False
 
     @property
     def all_publishers(self) -> list[Publisher[Any]]:
@@ -140,30 +140,9 @@ class FogBenchNode(PacedSimulatorNode):
         """The scenario kind."""
         return str(self.scenario.kind)
 
-    def start_line(self) -> str:
-        """'<kind>: simulating T s at <pace>'."""
-        return f'{self.scenario.kind}: simulating {self.total_s:g} s at {self.pace_line()}'
-
-    def finished_line(self) -> str:
-        """'run finished: N output samples'."""
-        return f'run finished: {self._n_published} output samples'
-
-    def simulated_s(self) -> float:
-        """Simulated seconds published."""
-        return self._n_published / self.sample_rate_hz
-
-    def run_finished(self) -> bool:
-        """Whether the bench gave its last chunk (and the last injections went out)."""
-        return self._exhausted
-
-    def publish_next(self) -> None:
-        """The next chunk of the bench; at its end, the injections that remain."""
-        chunk = next(self._chunks, None)
-        if chunk is None:
-            self._publish_injections(None)
-            self._exhausted = True
-        else:
-            self._publish(chunk)
+    def run_ended(self) -> None:
+        """The injections that remain after the last chunk."""
+        self._publish_injections(None)
 
     def _publish_injections(self, until_ns: int | None) -> None:
         """Injection messages stamped up to ``until_ns`` (None: all that remain)."""

@@ -64,6 +64,8 @@ def scenario_with(name: str, seed: int, sample_rate_hz: float) -> TriadScenario:
 class TriadBenchNode(PacedSimulatorNode):
     """Streams a triad scenario's bench at a paced rate."""
 
+    samples_what = 'pulse samples'
+
     def __init__(self) -> None:
         """Declare parameters, build the scenario and start the pacing timer."""
         super().__init__('triad_sim')
@@ -94,8 +96,6 @@ class TriadBenchNode(PacedSimulatorNode):
             self.position_index_pub = pub(Header, relative(topics.POSITION_TABLE_ZERO_INDEX),
                                           EVENT_QOS)
         self.publish_scenario(self.scenario.description_dict())
-        self._n_published = 0
-        self._exhausted = False
 
     @property
     def all_publishers(self) -> list[Publisher[Any]]:
@@ -112,30 +112,6 @@ class TriadBenchNode(PacedSimulatorNode):
     def progress_what(self) -> str:
         """The scenario name."""
         return str(self.scenario.name)
-
-    def start_line(self) -> str:
-        """'<scenario>: simulating T s at <pace>'."""
-        return f'{self.scenario.name}: simulating {self.duration_s:g} s at {self.pace_line()}'
-
-    def finished_line(self) -> str:
-        """'run finished: N pulse samples'."""
-        return f'run finished: {self._n_published} pulse samples'
-
-    def simulated_s(self) -> float:
-        """Simulated seconds published."""
-        return self._n_published / self.sample_rate_hz
-
-    def run_finished(self) -> bool:
-        """Whether the bench gave its last chunk."""
-        return self._exhausted
-
-    def publish_next(self) -> None:
-        """The next chunk of the bench (none left: the run is over)."""
-        chunk = next(self._chunks, None)
-        if chunk is None:
-            self._exhausted = True
-        else:
-            self._publish(chunk)
 
     def _publish(self, chunk: TriadChunk) -> None:
         for t_ns, counts in zip(chunk.pulse_t_ns.tolist(), chunk.pulse_counts.tolist()):
