@@ -53,6 +53,7 @@ from gyro_calib.nodes.ros_io import (
     RESULT_QOS,
     SCENARIO_READER_QOS,
     SENSOR_QOS,
+    declare_dataclass_parameters,
     described_parameter,
     run_node,
     stamp_to_ns,
@@ -226,18 +227,9 @@ class MethodNode(CalibrationNodeBase):
         """
         super().__init__(node_name)
         self.method = METHODS[method]
-        settings: dict[str, Any] = {}
-        if settings_cls is not None:
-            defaults = settings_cls()
-            for f in dataclasses.fields(settings_cls):
-                if f.name in GENERIC_PARAMETERS:
-                    continue  # declared once below, taken by the session from the options
-                default = getattr(defaults, f.name)
-                if isinstance(default, tuple):
-                    default = list(default)
-                value = described_parameter(self, f.name, default,
-                                            _description(settings_cls, f.name))
-                settings[f.name] = tuple(value) if isinstance(default, list) else value
+        settings: dict[str, Any] = {} if settings_cls is None else declare_dataclass_parameters(
+            self, settings_cls, skip=GENERIC_PARAMETERS)  # those: declared once below, taken
+        #                                                   by the session from the options
         p = {name: described_parameter(self, name, default, text) for name, default, text in (
             ('config_file', '', 'YAML file with the settings; its values win over parameters.'),
             ('output_file', '', 'INS hand-off YAML, updated atomically whenever the results '
@@ -522,12 +514,6 @@ class SimScenarioBench:
             if line not in self.told:
                 self.told.add(line)
                 self.node.get_logger().warning(line)
-
-
-def _description(cls: type, name: str) -> str:
-    from gyro_calib.config import field_descriptions
-
-    return field_descriptions(cls).get(name, '')
 
 
 def run_method_node(method: str, node_name: str, result_topics: Mapping[str, str],

@@ -24,16 +24,13 @@ import dataclasses
 from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.node import Node
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import JointState
 
-from gyro_calib.config import field_descriptions
 from gyro_calib.dither import topics
 from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     declare_dataclass_parameters,
-    described_parameter,
     ns_to_stamp,
     publish_paced,
 )
@@ -59,15 +56,6 @@ def scenario_yaml(gyro: DitheredGyroConfig, table: VibrationTableConfig,
         'truth': dither_truth(gyro, table)}, sort_keys=True)
 
 
-def _declare_table(node: Node) -> dict[str, Any]:
-    """``table.*`` parameters: every VibrationTableConfig field but ``axis``."""
-    descriptions = field_descriptions(VibrationTableConfig)
-    defaults = VibrationTableConfig()
-    return {f.name: described_parameter(node, 'table.' + f.name, getattr(defaults, f.name),
-                                        descriptions.get(f.name, ''))
-            for f in dataclasses.fields(VibrationTableConfig) if f.name != 'axis'}
-
-
 class VibrationTableNode(PacedSimulatorNode):
     """Streams the bench simulator's chunks at a paced rate."""
 
@@ -83,7 +71,9 @@ class VibrationTableNode(PacedSimulatorNode):
             dynamic_typing=True)).value
         orientation = 'y' if orientation is True else str(orientation).strip().lower()
         try:
-            self.table_config = VibrationTableConfig(axis=orientation, **_declare_table(self))
+            table = declare_dataclass_parameters(self, VibrationTableConfig, 'table.',
+                                                 skip=('axis',))
+            self.table_config = VibrationTableConfig(axis=orientation, **table)
             self.gyro_config = DitheredGyroConfig(
                 **declare_dataclass_parameters(self, DitheredGyroConfig))
             self.bench = DitherBenchConfig(**declare_dataclass_parameters(self, DitherBenchConfig))

@@ -24,21 +24,19 @@ every field of :class:`~sim_nodes.fog.config.FogConfig` (the gyro), ``table.*`` 
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 from collections.abc import Iterator
 from typing import Any
 
-from rclpy.node import Node
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 
-from gyro_calib.config import field_descriptions
 from gyro_calib.fog import topics
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     SENSOR_QOS,
+    declare_dataclass_parameters,
     described_parameter,
     ns_to_stamp,
     number_list_parameter,
@@ -60,27 +58,6 @@ CHUNK_S = 0.1
 """Simulated time per published chunk, s (does not change a sample)."""
 
 
-def declare_fields(node: Node, cls: type, prefix: str = '') -> dict[str, Any]:
-    """Declare one described parameter per field of ``cls``; return the values read.
-
-    Tuple fields become list-of-number parameters (an empty default would otherwise be typed
-    as a byte array, and integer lists would refuse floats).
-    """
-    descriptions = field_descriptions(cls)
-    defaults = cls()
-    values: dict[str, Any] = {}
-    for f in dataclasses.fields(cls):
-        default = getattr(defaults, f.name)
-        text = descriptions.get(f.name, '')
-        if isinstance(default, tuple):
-            value = number_list_parameter(node, prefix + f.name, default, text)
-            kind = int if str(f.type).startswith('tuple[int') else float
-            values[f.name] = tuple(kind(v) for v in value)
-        else:
-            values[f.name] = described_parameter(node, prefix + f.name, default, text)
-    return values
-
-
 class FogBenchNode(PacedSimulatorNode):
     """Streams a FOG scenario's bench at a paced rate."""
 
@@ -93,9 +70,11 @@ class FogBenchNode(PacedSimulatorNode):
         kind = param('scenario', 'turntable', f'One of {", ".join(KINDS)}.')
         model = param('model', 'equivalent', "FOG loop model: 'equivalent' (long runs) or "
                       "'loop' (every transit time τ).")
-        gyro = FogConfig(**declare_fields(self, FogConfig))
-        table = TableSettings(**declare_fields(self, TableSettings, 'table.'))
-        ladder = SelfCalLadder(**declare_fields(self, SelfCalLadder, 'ladder.'))
+        # tuple fields as number lists: [] and integer lists taken
+        fields = functools.partial(declare_dataclass_parameters, self, number_lists=True)
+        gyro = FogConfig(**fields(FogConfig))
+        table = TableSettings(**fields(TableSettings, 'table.'))
+        ladder = SelfCalLadder(**fields(SelfCalLadder, 'ladder.'))
         lists = {name: number_list_parameter(self, name, default, text)
                  for name, default, text in (
                      ('turntable.rates_deg_s', IEEE_RATES_DEG_S, 'Turntable rates in order, '
