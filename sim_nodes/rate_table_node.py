@@ -17,29 +17,23 @@ fast as the readers acknowledge), ``exit_when_done``, ``wait_for_subscribers`` a
 from __future__ import annotations
 
 import functools
-import time
+from typing import Any
 
-from rclpy.node import Node
+from rclpy.publisher import Publisher
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Header, String
+from std_msgs.msg import Header
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
-    SCENARIO_QOS,
     SENSOR_QOS,
-    ProgressLog,
-    StartGate,
-    acknowledge_tail,
     declare_dataclass_parameters,
     described_parameter,
     ns_to_stamp,
     publish_paced,
-    run_node,
-    simulation_done,
-    stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative
+from sim_nodes.node_skeleton import BOTH_READERS, PacedSimulatorNode, run_simulator
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator, TableChunk
 from sim_nodes.rbrlg.bench import CHUNK_SAMPLES
 from sim_nodes.two_axis_procedure import (
@@ -65,8 +59,11 @@ def scenario_yaml(kind: str, table: RateTableConfig, procedure: ThetaProcedureCo
                       for k, v in dataclasses.asdict(procedure).items()}}, sort_keys=True)
 
 
-class RateTableNode(Node):
+class RateTableNode(PacedSimulatorNode):
     """Streams the table simulators' chunks at a paced rate."""
+
+    unpaced_chunks = 20
+    progress_what = 'rate table'
 
     def __init__(self) -> None:
         """Declare parameters, build the scenario and start the pacing timer."""
@@ -79,19 +76,16 @@ class RateTableNode(Node):
         scenario = param('scenario', 'rate_bias', f'One of {", ".join(SCENARIOS)}.')
         k_pairs = param('k_tilde_pairs', 4, 'Forward/reverse rate-table pairs of the K̃ phase '
                         '(scenario full).')
-        self.real_time_factor = param('real_time_factor', 1.0,
-                                      'Simulated seconds per wall-clock second (0 = unpaced).')
-        self.exit_when_done = param('exit_when_done', True,
-                                    'Shut the node down once the run has been simulated.')
-        self.wait_for_subscribers = param(
-            'wait_for_subscribers', True, 'Start only once the gyro and a reader of every '
-            'table topic are connected, so nothing is lost at the start.')
-        self.min_subscribers = int(param(
-            'min_subscribers', 1, 'Readers each table topic needs before the run starts '
-            '(2 when a bag recorder and a calibration node must both hear it from the start).'))
+        self.declare_run_parameters(
+            paced='Simulated seconds per wall-clock second (0 = unpaced).',
+            exit_when_done='Shut the node down once the run has been simulated.',
+            wait='Start only once the gyro and a reader of every table topic are connected, '
+            'so nothing is lost at the start.',
+            readers='Readers each table topic needs before the run starts' + BOTH_READERS)
         if scenario not in SCENARIOS:
             raise SystemExit(f'rate_table_sim: scenario {scenario!r} is not one of {SCENARIOS}')
-        self.tables: list[tuple[RateTableSimulator, object, object, str]] = []
+        self.tables: list[tuple[RateTableSimulator, Publisher[JointState],
+                                Publisher[Header], str]] = []
         if scenario == 'rate_bias':
             sims = [RateTableSimulator(self.config)]
             truth_topic = topics.RATE_TABLE_TRUE_MOTION
@@ -115,54 +109,43 @@ class RateTableNode(Node):
                 sim, self.create_publisher(JointState, relative(js_topic), SENSOR_QOS),
                 self.create_publisher(Header, relative(index_topic), EVENT_QOS), joint))
         self.truth_pub = self.create_publisher(JointState, relative(truth_topic), SENSOR_QOS)
-        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(String(
-            data=scenario_yaml(scenario, self.config, procedure, int(k_pairs))))
-        self._n_published = 0
-        self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers,
-                                     min_readers=self.min_subscribers,
-                                     logger=self.get_logger())
-        self._progress: ProgressLog | None = None
-        self.done = False
-        self.stalled = ''  # why publishing stopped before the end ('' = it did not)
-        self.create_timer(0.005, self._tick)
+        self.publish_scenario(scenario_yaml(scenario, self.config, procedure, int(k_pairs)))
+        self.sample_rate_hz = self.config.sample_rate_hz
 
     @property
-    def all_publishers(self) -> list:  # noqa: D401
+    def all_publishers(self) -> list[Publisher[Any]]:
         """Every publisher of the node (for the final acknowledgement wait)."""
         return [self.truth_pub, *self.sensor_publishers]
 
     @property
-    def sensor_publishers(self) -> list:  # noqa: D401
+    def sensor_publishers(self) -> list[Publisher[Any]]:
         """The table topics a recorder and a calibrator read (each needs min_subscribers)."""
         return [p for _, js, ix, _ in self.tables for p in (js, ix)]
 
-    @stops_on_stalled_readers
-    def _tick(self) -> None:
-        master = self.tables[0][0]
-        if self._wall_start is None:
-            if not self._start_gate.open(self.sensor_publishers, internal=[self.truth_pub]):
-                return  # readers first (see StartGate)
-            self._wall_start = self._start_gate.opened_at
-            total_s = master.n_samples_total / self.config.sample_rate_hz
-            self.get_logger().info(f'simulating {total_s:g} s at '
-                                   f'{self.real_time_factor:g}× real time')
-            self._progress = ProgressLog(self.get_logger(), 'rate table', total_s)
-        rate = self.config.sample_rate_hz
-        budget = 20 if self.real_time_factor <= 0 else None
-        while not master.finished and (budget is None or budget > 0):
-            if budget is None:
-                sim_due = (time.monotonic() - self._wall_start) * self.real_time_factor
-                if self._n_published / rate > sim_due:
-                    break
-            else:
-                budget -= 1
-            self._publish([sim.step(CHUNK_SAMPLES) for sim, *_ in self.tables])
-        if self._progress is not None:
-            self._progress.update(self._n_published / rate)
-        if master.finished and not self.done:
-            self.done = True
-            self.get_logger().info('run finished')
+    def gate_publishers(self) -> list[Publisher[Any]]:
+        """The table topics (each needs min_subscribers readers)."""
+        return self.sensor_publishers
+
+    def internal_publishers(self) -> list[Publisher[Any]]:
+        """The true motion, read by the gyro simulator alone."""
+        return [self.truth_pub]
+
+    @property
+    def total_s(self) -> float:
+        """The run's simulated seconds."""
+        return self.tables[0][0].n_samples_total / self.config.sample_rate_hz
+
+    def start_line(self) -> str:
+        """'simulating T s at F× real time'."""
+        return f'simulating {self.total_s:g} s at {self.real_time_factor:g}× real time'
+
+    def run_finished(self) -> bool:
+        """Whether the master table's run is over."""
+        return self.tables[0][0].finished
+
+    def publish_next(self) -> None:
+        """One chunk of every table."""
+        self._publish([sim.step(CHUNK_SAMPLES) for sim, *_ in self.tables])
 
     def _publish(self, chunks: list[TableChunk]) -> None:
         first = chunks[0]
@@ -190,8 +173,7 @@ class RateTableNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the table simulator until its run is done (or it is shut down)."""
-    run_node('rate_table_sim', RateTableNode, args, done=simulation_done,
-             on_stop=acknowledge_tail)
+    run_simulator('rate_table_sim', RateTableNode, args)
 
 
 if __name__ == '__main__':

@@ -14,21 +14,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import SetParametersResult
+from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import Float64
 
 from gyro_calib import topics
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import TopicColumns
 from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
-from gyro_calib.errors import GyroCalibError, InsufficientDataError
-from gyro_calib.handoff import Provenance, merge_lines, method_calibration, update_calibration
-from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
+from gyro_calib.errors import InsufficientDataError
+from gyro_calib.handoff import Provenance, method_calibration
+from gyro_calib.nodes.conventions import CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, LiveInputs, SimScenarioBench
 from gyro_calib.nodes.node_state import (
     RESUME_DESCRIPTION,
@@ -43,7 +42,6 @@ from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     RESULT_QOS,
     SENSOR_QOS,
-    changes_line,
     declare_dataclass_parameters,
     described_parameter,
     run_node,
@@ -62,7 +60,7 @@ from gyro_calib.topics import relative
 from gyro_calib.units import ARCSEC_PER_RAD, RAD_PER_ARCSEC
 
 if TYPE_CHECKING:
-    from rclpy.parameter import Parameter
+    pass
 
 
 class CalibrationNode(CalibrationNodeBase):
@@ -129,9 +127,6 @@ class CalibrationNode(CalibrationNodeBase):
                                    f'″/pulse ± {prior.std_uncertainty:.3g} from {prior_source}')
         self.bench = self._new_bench()
         self.calibrator = self.bench.k_tilde
-        self._last_rejection = ''
-        self._handoff_missing: set[str] | None = None
-        self._merge_told: set[str] = set()
         self._station_rejections_seen = 0
         self._live_inputs = LiveInputs(RBRLG_TOPICS)  # merged by stamp (WatermarkMerge)
         self._buffers, specs = self._live_inputs.buffers, []
@@ -163,45 +158,29 @@ class CalibrationNode(CalibrationNodeBase):
 
     def _on_bench(self, stored: tuple[tuple[str, Mapping[str, Any]], ...]) -> None:
         """A simulator published its bench: report parameters that differ, take its gyro id."""
-        gyro_id = self.scenario.check(dataclasses.replace(self.options, stored_benches=stored))
-        if gyro_id and not self.gyro_id:
-            self.gyro_id = gyro_id
-            self.get_logger().info(f'gyro_id {gyro_id!r} taken from {topics.SIM_SCENARIO} '
-                                   '(parameter gyro_id not given).')
+        self.take_gyro_id(self.scenario.check(
+            dataclasses.replace(self.options, stored_benches=stored)))
 
-    def _refuse_runtime_change(self, params: list[Parameter[Any]]) -> SetParametersResult:
-        return SetParametersResult(successful=False, reason=(
-            'calibration parameters are read at start-up; restart the node to change them.'))
-
-    def reset_calibration(self) -> str:
-        """Start over: buffered samples dropped, a new calibrator, the state record emptied."""
-        dropped = self._live_inputs.clear()
+    def start_over(self) -> str:
+        """A new calibrator (``~/reset``, cleanup); the window pairs and stations it had."""
         pairs, stations = len(self.bench.k_tilde.pairs), len(self.bench.stations.stations)
         self.bench = self._new_bench()
         self.calibrator = self.bench.k_tilde
-        self._last_rejection, self._handoff_missing = '', None
         self._station_rejections_seen = 0
-        self.state.reset()
-        return (f'new session: {pairs} window pair(s), {stations} station(s) and {dropped} '
-                'buffered samples discarded, state record emptied (the hand-off file is '
-                'kept).')
+        return f'{pairs} window pair(s), {stations} station(s)'
 
     def consume_now(self) -> None:
         """Hand the buffered samples to the calibrator and do what they allow."""
         self._process()
 
-    def save_calibration(self) -> tuple[bool, str]:
-        """Write the hand-off file now with what is measured."""
-        if not self.output_file:
-            return False, "output_file is '': nothing to write to."
+    def measured_anything(self) -> bool:
+        """Whether K̃ (at least) is measured, over a known data span."""
         values = handoff_values(self.bench.results(), self.bench)
-        if not values or self.bench.data_span_ns() is None:
-            return False, f'nothing measured yet: {self.output_file} not written.'
-        self._handoff_missing = None  # say the state of the file once more
-        self._write_handoff(self.bench.results())
-        missing = self.bench.missing()
-        return True, (f'{self.output_file} written'
-                      + (f'; still missing: {", ".join(missing)}' if missing else ' (complete)'))
+        return bool(values) and self.bench.data_span_ns() is not None
+
+    def saved_summary(self) -> tuple[str, Collection[str]]:
+        """Nothing to add to 'written'; the keys still missing."""
+        return '', self.bench.missing()
 
     def _feed(self, columns: dict[str, TopicColumns]) -> None:
         """Record a batch, then hand it to the calibrator.
@@ -222,7 +201,7 @@ class CalibrationNode(CalibrationNodeBase):
                     'reader lagged more than the input hold): taken as out-of-order data; the '
                     'windows around them may differ from the offline numbers of a recording '
                     '— replay slower or give the node more CPU.')
-            self._last_rejection = line
+            self._last_line = line
             self.get_logger().warning(line)
         return columns
 
@@ -258,7 +237,7 @@ class CalibrationNode(CalibrationNodeBase):
     def _report_stations(self, stations: list[Station]) -> None:
         log = self.get_logger()
         for rejection in self.bench.stations.rejections[self._station_rejections_seen:]:
-            self._last_rejection = rejection.reason
+            self._last_line = rejection.reason
             log.warning(f'skipped: {rejection.reason}')
         self._station_rejections_seen = len(self.bench.stations.rejections)
         for st in stations:
@@ -272,7 +251,7 @@ class CalibrationNode(CalibrationNodeBase):
         for notice in update.notices:
             log.warning(notice)
         for rejection in update.rejections:
-            self._last_rejection = rejection.reason
+            self._last_line = rejection.reason
             log.warning(f'skipped: {rejection.reason}')
         for w in update.windows:
             log.info(f'window accepted: {"+" if w.direction > 0 else "-"}{w.revolutions} rev, '
@@ -291,8 +270,8 @@ class CalibrationNode(CalibrationNodeBase):
     def _publish_results(self) -> None:
         """θ and K once both phases gave them (or why not); the hand-off; the diagnostics."""
         res = self.bench.results()
-        if res.fix_error_problem and res.fix_error_problem != self._last_rejection:
-            self._last_rejection = res.fix_error_problem
+        if res.fix_error_problem and res.fix_error_problem != self._last_line:
+            self._last_line = res.fix_error_problem
             self.get_logger().warning(res.fix_error_problem)
         if res.fix_error is not None and res.scale_factor_arcsec_per_pulse is not None:
             theta, k = res.fix_error.fix_error_angle_rad, res.scale_factor_arcsec_per_pulse
@@ -302,53 +281,26 @@ class CalibrationNode(CalibrationNodeBase):
                 f'θ = {theta.value * ARCSEC_PER_RAD:.3f}″ ± '
                 f'{theta.std_uncertainty * ARCSEC_PER_RAD:.3f}″ ({theta.n_used} stations); '
                 f'K = {k.value:.10f} ″/pulse ± {k.relative_uncertainty * 1e6:.4f} ppm')
-        self._write_handoff(res)
+        self._write_handoff()
         self._publish_diagnostics()
 
-    def _write_handoff(self, results: object) -> None:
+    def _write_handoff(self) -> None:
         """Write whatever is measured (from K̃ on), saying once what is still missing."""
-        values = handoff_values(results, self.bench)  # type: ignore[arg-type]
+        values = handoff_values(self.bench.results(), self.bench)
         span = self.bench.data_span_ns()
-        if not self.output_file or not values or span is None:
+        if not values or span is None:
             return
         cannot = self.bench.not_measurable()
         missing = {k: v for k, v in self.bench.missing().items() if k not in cannot}
         conditions = {k: v for k, v in self.bench.conditions().items() if given(v)}
-        try:
-            record = method_calibration('rbrlg', values, Provenance(
-                'live', span[0], span[1], missing, conditions=conditions,
-                not_measurable=cannot), gyro_id=self.gyro_id, schema=handoff_schema())
-            report: list[str] = []
-            path = update_calibration(self.output_file, record, handoff_schema(),
-                                      report=report)
-        except GyroCalibError as exc:
-            self._last_rejection = str(exc)
-            self.get_logger().error(f'hand-off file not written: {exc}')
-            return
-        change = changes_line(self._handoff_missing, missing)
-        self._handoff_missing = set(missing)
-        if change is not None:
-            self.get_logger().info(f'calibration written to {path}: {change}')
-        for line in merge_lines(report):
-            if line not in self._merge_told:
-                self.get_logger().info(f'hand-off {line}')
-        self._merge_told = set(merge_lines(report))
+        self.write_handoff_record(lambda: (method_calibration('rbrlg', values, Provenance(
+            'live', span[0], span[1], missing, conditions=conditions, not_measurable=cannot),
+            gyro_id=self.gyro_id, schema=handoff_schema()), missing))
 
     def _publish_diagnostics(self) -> None:
-        _, _, values = calibration_status(self.bench, self._last_rejection)
-        progress = RbrlgSession.around(self.bench).progress()
-        for key, need in progress.needs.items():
-            values['needs: ' + key] = need
-        for i, problem in enumerate(progress.problems):
-            values[f'problem {i + 1}'] = problem
-        values.update(self.input_values())
-        status = DiagnosticStatus(
-            name='gyro_calib: k_tilde', hardware_id=self.gyro_id or 'gyro',
-            message=progress.message, level=LEVELS[progress.level],
-            values=[KeyValue(key=k, value=v) for k, v in values.items()])
-        array = DiagnosticArray(status=[status])
-        array.header.stamp = self.get_clock().now().to_msg()
-        self.diag_pub.publish(array)
+        _, _, values = calibration_status(self.bench, self._last_line)
+        self.publish_status('gyro_calib: k_tilde', values,
+                            RbrlgSession.around(self.bench).progress())
 
 
 def main(args: list[str] | None = None) -> None:

@@ -6,7 +6,10 @@ and :class:`~gyro_calib.nodes.calibration_node.CalibrationNode`. It gives them:
 - inputs that follow their publishers' QoS (:mod:`gyro_calib.nodes.adaptive_qos`), by names
   relative to the node's namespace;
 - services (std_srvs/Trigger) ``~/reset`` (start over: a new session, the state directory
-  emptied) and ``~/save`` (write the hand-off file now, with what is measured);
+  emptied) and ``~/save`` (write the hand-off file now, with what is measured): one
+  :meth:`~CalibrationNodeBase.reset_calibration` and one
+  :meth:`~CalibrationNodeBase.save_calibration` for every node, the hand-off written by one
+  :meth:`~CalibrationNodeBase.write_handoff_record`;
 - an opt-in managed (lifecycle) mode, parameter ``managed`` (default false, as
   robot_localization does): the node then starts unconfigured; configure → activate starts
   consuming (the inputs are subscribed), deactivate pauses (what arrived is handed to the
@@ -17,18 +20,29 @@ and :class:`~gyro_calib.nodes.calibration_node.CalibrationNode`. It gives them:
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from diagnostic_msgs.msg import DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.lifecycle import LifecycleNodeMixin, LifecycleState, TransitionCallbackReturn
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
 from std_srvs.srv import Trigger
 
+from gyro_calib import topics
+from gyro_calib.errors import GyroCalibError
+from gyro_calib.handoff import Calibration, merge_lines, update_calibration
 from gyro_calib.nodes.adaptive_qos import RELIABLE, AdaptiveSubscription
-from gyro_calib.nodes.ros_io import described_parameter
+from gyro_calib.nodes.ros_io import changes_line, described_parameter
+from gyro_calib.registry import handoff_schema
+
+if TYPE_CHECKING:
+    from gyro_calib.nodes.method_node import LiveInputs
+    from gyro_calib.nodes.node_state import NodeState
+    from gyro_calib.session import Progress
 
 SUCCESS = TransitionCallbackReturn.SUCCESS
 
@@ -55,8 +69,10 @@ class InputSpec:
 class CalibrationNodeBase(LifecycleNodeMixin, Node):
     """A calibration node: adaptive inputs, ``~/reset`` and ``~/save``, optional lifecycle.
 
-    Subclasses give their inputs with :meth:`set_inputs` and implement
-    :meth:`reset_calibration`, :meth:`save_calibration` and :meth:`consume_now`.
+    Subclasses give their inputs with :meth:`set_inputs`, set ``_live_inputs``, ``state``,
+    ``output_file``, ``gyro_id`` and ``diag_pub``, and implement :meth:`start_over`,
+    :meth:`measured_anything`, :meth:`_write_handoff`, :meth:`saved_summary` and
+    :meth:`consume_now`; ``~/reset`` and ``~/save`` are the same for all.
     """
 
     def __init__(self, node_name: str) -> None:
@@ -111,17 +127,118 @@ class CalibrationNodeBase(LifecycleNodeMixin, Node):
         return out
 
     # -- what subclasses do ---------------------------------------------------------------
-    def reset_calibration(self) -> str:
-        """Start over (new session, empty state record); one line saying what was dropped."""
+    _live_inputs: LiveInputs
+    """The inputs merged by stamp (set by the subclass before it is spun)."""
+    state: NodeState
+    """The durable record of the data consumed."""
+    output_file: str
+    gyro_id: str
+    diag_pub: Publisher[DiagnosticArray]
+    _last_line = ''
+    """The last problem or notice, for the diagnostics."""
+    _handoff_missing: set[str] | None = None
+    """The keys the hand-off file lacked when last written (None: say its state again)."""
+    _merge_told: frozenset[str] = frozenset()
+    """The merge lines already logged."""
+
+    def start_over(self) -> str:
+        """A new session or calibrator; what was discarded, e.g. '3 measured quantities'."""
         raise NotImplementedError
 
-    def save_calibration(self) -> tuple[bool, str]:
-        """Write the hand-off now with what is measured: (written, one line)."""
+    def measured_anything(self) -> bool:
+        """Whether anything is measured that the hand-off file could hold."""
+        raise NotImplementedError
+
+    def _write_handoff(self) -> None:
+        """Write whatever is measured (through :meth:`write_handoff_record`)."""
+        raise NotImplementedError
+
+    def saved_summary(self) -> tuple[str, Collection[str]]:
+        """After a save: what the file was written with (' with …' or ''), the keys missing."""
         raise NotImplementedError
 
     def consume_now(self) -> None:
         """Hand what the inputs buffered to the calibrator (deactivate, save)."""
         raise NotImplementedError
+
+    # -- reset and save, one for every node -----------------------------------------------
+    def reset_calibration(self) -> str:
+        """Start over: buffered samples dropped, a new session, the state record emptied."""
+        dropped = self._live_inputs.clear()
+        discarded = self.start_over()
+        self._last_line, self._handoff_missing = '', None
+        self.state.reset()
+        return (f'new session: {discarded} and {dropped} buffered samples discarded, state '
+                'record emptied (the hand-off file is kept).')
+
+    def save_calibration(self) -> tuple[bool, str]:
+        """Write the hand-off file now with what is measured: (written, one line)."""
+        if not self.output_file:
+            return False, "output_file is '': nothing to write to."
+        if not self.measured_anything():
+            return False, f'nothing measured yet: {self.output_file} not written.'
+        self._handoff_missing = None  # say the state of the file once more
+        self._write_handoff()
+        what, missing = self.saved_summary()
+        return True, (f'{self.output_file} written{what}'
+                      + (f'; still missing: {", ".join(missing)}' if missing else ' (complete)'))
+
+    def write_handoff_record(self, make: Callable[[], tuple[Calibration, Collection[str]] | None]
+                             ) -> None:
+        """Merge the record ``make`` gives into ``output_file``.
+
+        Merge the record ``make`` gives (None: nothing to write) into ``output_file``,
+        saying once what is still missing (its second item) and each new merge line; a
+        refused record or file is logged, not raised.
+        """
+        if not self.output_file:
+            return
+        try:
+            made = make()
+            if made is None:
+                return
+            record, missing = made
+            report: list[str] = []
+            path = update_calibration(self.output_file, record, handoff_schema(),
+                                      report=report)
+        except GyroCalibError as exc:
+            self._last_line = str(exc)
+            self.get_logger().error(f'hand-off file not written: {exc}')
+            return
+        change = changes_line(self._handoff_missing, missing)
+        self._handoff_missing = set(missing)
+        if change is not None:
+            self.get_logger().info(f'calibration written to {path}: {change}')
+        for line in merge_lines(report):
+            if line not in self._merge_told:
+                self.get_logger().info(f'hand-off {line}')
+        self._merge_told = frozenset(merge_lines(report))
+
+    def _refuse_runtime_change(self, params: list[Any]) -> SetParametersResult:
+        return SetParametersResult(successful=False, reason=(
+            'calibration parameters are read at start-up; restart the node to change them.'))
+
+    def take_gyro_id(self, gyro_id: str | None) -> None:
+        """Take the gyro id a simulator's bench gives when the parameters give none."""
+        if gyro_id and not self.gyro_id:
+            self.gyro_id = gyro_id
+            self.get_logger().info(f'gyro_id {gyro_id!r} taken from {topics.SIM_SCENARIO} '
+                                   '(parameter gyro_id not given).')
+
+    def publish_status(self, name: str, values: dict[str, str], progress: Progress) -> None:
+        """Publish one DiagnosticStatus: ``values``, the progress's needs and problems, inputs."""
+        for key, need in progress.needs.items():
+            values['needs: ' + key] = need
+        for i, problem in enumerate(progress.problems):
+            values[f'problem {i + 1}'] = problem
+        values.update(self.input_values())
+        status = DiagnosticStatus(
+            name=name, hardware_id=self.gyro_id or 'gyro',
+            message=progress.message, level=LEVELS[progress.level],
+            values=[KeyValue(key=k, value=v) for k, v in values.items()])
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self.get_clock().now().to_msg()
+        self.diag_pub.publish(array)
 
     # -- services -------------------------------------------------------------------------
     def _on_reset(self, _request: Trigger.Request, response: Trigger.Response

@@ -20,14 +20,13 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
 import yaml
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import SetParametersResult
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState, Temperature
 from std_msgs.msg import Float64, Header, String
@@ -38,8 +37,8 @@ from gyro_calib.bagio.columns import FrameIds, TopicColumns
 from gyro_calib.bagio.messages import JOINT_WIDTHS
 from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
 from gyro_calib.errors import GyroCalibError
-from gyro_calib.handoff import merge_lines, update_calibration
-from gyro_calib.nodes.conventions import LEVELS, CalibrationNodeBase, InputSpec
+from gyro_calib.handoff import Calibration
+from gyro_calib.nodes.conventions import CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.node_state import (
     RESUME_DESCRIPTION,
     RESUME_MAX_GAP_DESCRIPTION,
@@ -54,7 +53,7 @@ from gyro_calib.nodes.ros_io import (
     RESULT_QOS,
     SCENARIO_READER_QOS,
     SENSOR_QOS,
-    changes_line,
+    declare_dataclass_parameters,
     described_parameter,
     run_node,
     stamp_to_ns,
@@ -65,7 +64,6 @@ from gyro_calib.registry import (
     JOINT_STATE,
     METHODS,
     TEMPERATURE,
-    handoff_schema,
 )
 from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.streams import WatermarkMerge
@@ -229,18 +227,9 @@ class MethodNode(CalibrationNodeBase):
         """
         super().__init__(node_name)
         self.method = METHODS[method]
-        settings: dict[str, Any] = {}
-        if settings_cls is not None:
-            defaults = settings_cls()
-            for f in dataclasses.fields(settings_cls):
-                if f.name in GENERIC_PARAMETERS:
-                    continue  # declared once below, taken by the session from the options
-                default = getattr(defaults, f.name)
-                if isinstance(default, tuple):
-                    default = list(default)
-                value = described_parameter(self, f.name, default,
-                                            _description(settings_cls, f.name))
-                settings[f.name] = tuple(value) if isinstance(default, list) else value
+        settings: dict[str, Any] = {} if settings_cls is None else declare_dataclass_parameters(
+            self, settings_cls, skip=GENERIC_PARAMETERS)  # those: declared once below, taken
+        #                                                   by the session from the options
         p = {name: described_parameter(self, name, default, text) for name, default, text in (
             ('config_file', '', 'YAML file with the settings; its values win over parameters.'),
             ('output_file', '', 'INS hand-off YAML, updated atomically whenever the results '
@@ -288,9 +277,6 @@ class MethodNode(CalibrationNodeBase):
                              for key, topic in result_topics.items()}
         self.diag_pub = self.create_publisher(DiagnosticArray, relative(topics.DIAGNOSTICS), 10)
         self._published: dict[str, float] = {}
-        self._last_line = ''
-        self._handoff_missing: set[str] | None = None
-        self._merge_told: set[str] = set()
         self._fed = False
         self.scenario = SimScenarioBench(self, self.method.bench_settings, self._on_bench)
         self.create_timer(float(p['process_period_s']), self._inputs_busy(self._process))
@@ -318,10 +304,7 @@ class MethodNode(CalibrationNodeBase):
         if gyro_id is None:
             return
         self.scenario.tell_unset(options)
-        if not self.gyro_id and gyro_id:
-            self.gyro_id = gyro_id
-            self.get_logger().info(f'gyro_id {gyro_id!r} taken from {topics.SIM_SCENARIO} '
-                                   '(parameter gyro_id not given).')
+        self.take_gyro_id(gyro_id)
 
     def _subscribe_inputs(self, *, best_effort: tuple[str, ...] = (),
                           as_given: tuple[str, ...] = ()) -> None:
@@ -352,37 +335,26 @@ class MethodNode(CalibrationNodeBase):
         """A fresh session with the node's options (``~/reset``, cleanup)."""
         return self.method.make_session(self.options)
 
-    def reset_calibration(self) -> str:
-        """Start over: buffered samples dropped, a new session, the state record emptied."""
-        dropped = self._live_inputs.clear()
+    def start_over(self) -> str:
+        """A new session (``~/reset``, cleanup); how many quantities were measured."""
         measured = len(self.session.results())
         self.session = self.new_session()
-        self._published, self._last_line, self._handoff_missing = {}, '', None
-        self.state.reset()
-        return (f'new session: {measured} measured quantities and {dropped} buffered '
-                'samples discarded, state record emptied (the hand-off file is kept).')
+        self._published = {}
+        return f'{measured} measured quantities'
 
     def consume_now(self) -> None:
         """Hand the buffered samples to the session and do what they allow."""
         self._process()
 
-    def save_calibration(self) -> tuple[bool, str]:
-        """Write the hand-off file now with what is measured."""
-        if not self.output_file:
-            return False, "output_file is '': nothing to write to."
-        record = self.session.handoff('live', gyro_id=self.gyro_id)
-        if record is None:
-            return False, f'nothing measured yet: {self.output_file} not written.'
-        self._handoff_missing = None  # say the state of the file once more
-        self._write_handoff()
-        missing = record.missing
-        return True, (f'{self.output_file} written with {len(self.session.results())} '
-                      'measured quantities' + (f'; still missing: {", ".join(missing)}'
-                                               if missing else ' (complete)'))
+    def measured_anything(self) -> bool:
+        """Whether the session has a hand-off record (something measured)."""
+        return self.session.handoff('live', gyro_id=self.gyro_id) is not None
 
-    def _refuse_runtime_change(self, params: list[Any]) -> SetParametersResult:
-        return SetParametersResult(successful=False, reason=(
-            'calibration parameters are read at start-up; restart the node to change them.'))
+    def saved_summary(self) -> tuple[str, Collection[str]]:
+        """' with N measured quantities' and the keys the record misses."""
+        record = self.session.handoff('live', gyro_id=self.gyro_id)
+        return (f' with {len(self.session.results())} measured quantities',
+                record.missing if record is not None else ())
 
     def _take_inputs(self, *, flush: bool = False) -> dict[str, TopicColumns]:
         """The samples the stamp merge released, per topic; a line for any that came late.
@@ -447,27 +419,10 @@ class MethodNode(CalibrationNodeBase):
                                                           self.session.not_measurable()))
 
     def _write_handoff(self) -> None:
-        if not self.output_file:
-            return
-        try:
-            record = self.session.handoff('live', gyro_id=self.gyro_id)
-            if record is None:
-                return
-            report: list[str] = []
-            path = update_calibration(self.output_file, record, handoff_schema(),
-                                      report=report)
-        except GyroCalibError as exc:
-            self._last_line = str(exc)
-            self.get_logger().error(f'hand-off file not written: {exc}')
-            return
-        change = changes_line(self._handoff_missing, record.missing)
-        self._handoff_missing = set(record.missing)
-        if change is not None:
-            self.get_logger().info(f'calibration written to {path}: {change}')
-        for line in merge_lines(report):
-            if line not in self._merge_told:
-                self.get_logger().info(f'hand-off {line}')
-        self._merge_told = set(merge_lines(report))
+        def record() -> tuple[Calibration, Collection[str]] | None:
+            made = self.session.handoff('live', gyro_id=self.gyro_id)
+            return None if made is None else (made, made.missing)
+        self.write_handoff_record(record)
 
     def _publish_diagnostics(self) -> None:
         results = self.session.results()
@@ -482,19 +437,8 @@ class MethodNode(CalibrationNodeBase):
         if rejections:
             r = rejections[-1]
             values['last_rejection'] = f'{format_stamp(r.stamp_ns)}: {r.reason}'
-        progress = self.session.progress()
-        for key, need in progress.needs.items():
-            values['needs: ' + key] = need
-        for i, problem in enumerate(progress.problems):
-            values[f'problem {i + 1}'] = problem
-        values.update(self.input_values())
-        status = DiagnosticStatus(
-            name=f'gyro_calib: {self.method.name}', hardware_id=self.gyro_id or 'gyro',
-            message=progress.message, level=LEVELS[progress.level],
-            values=[KeyValue(key=k, value=v) for k, v in values.items()])
-        array = DiagnosticArray(status=[status])
-        array.header.stamp = self.get_clock().now().to_msg()
-        self.diag_pub.publish(array)
+        self.publish_status(f'gyro_calib: {self.method.name}', values,
+                            self.session.progress())
 
 
 class SimScenarioBench:
@@ -570,12 +514,6 @@ class SimScenarioBench:
             if line not in self.told:
                 self.told.add(line)
                 self.node.get_logger().warning(line)
-
-
-def _description(cls: type, name: str) -> str:
-    from gyro_calib.config import field_descriptions
-
-    return field_descriptions(cls).get(name, '')
 
 
 def run_method_node(method: str, node_name: str, result_topics: Mapping[str, str],

@@ -7,7 +7,7 @@ import math
 import signal
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from rcl_interfaces.msg import ParameterDescriptor
@@ -174,20 +174,34 @@ def described_parameter(node: Node, name: str, default: Any, description: str) -
                                    ParameterDescriptor(description=description))
 
 
-def declare_dataclass_parameters(node: Node, cls: type, prefix: str = '') -> dict[str, Any]:
+def declare_dataclass_parameters(node: Node, cls: type, prefix: str = '', *,
+                                 skip: Collection[str] = (),
+                                 number_lists: bool = False) -> dict[str, Any]:
     """Declare one described parameter per field of ``cls``; return the values read.
 
     Ranges are checked by the dataclass itself (one validation for node, CLI and tests).
+    Fields named in ``skip`` are not declared (the node declares or sets them otherwise).
+    With ``number_lists``, tuple fields are list-of-number parameters
+    (:func:`number_list_parameter`: ``[]`` and integer lists taken), each number made the
+    field's element type (int for ``tuple[int, ...]``, else float).
     """
     descriptions = field_descriptions(cls)
     defaults = cls()
     values: dict[str, Any] = {}
     for f in dataclasses.fields(cls):
+        if f.name in skip:
+            continue
         default = getattr(defaults, f.name)
-        desc = ParameterDescriptor(description=descriptions.get(f.name, ''))
+        text = descriptions.get(f.name, '')
+        if number_lists and isinstance(default, tuple):
+            kind = int if str(f.type).startswith('tuple[int') else float
+            values[f.name] = tuple(kind(v) for v in number_list_parameter(
+                node, prefix + f.name, default, text))
+            continue
         if isinstance(default, tuple):  # ROS arrays are lists
             default = list(default)
-        value = declare_parameter_value(node, prefix + f.name, default, desc)
+        value = declare_parameter_value(node, prefix + f.name, default,
+                                        ParameterDescriptor(description=text))
         values[f.name] = tuple(value) if isinstance(default, list) else value
     return values
 

@@ -38,10 +38,12 @@ from gyro_calib.bagio import BagMessage, ContractMessages, topic_sort_key, write
 from gyro_calib.dither.coning import coning_drift
 from gyro_calib.dither.floor import detection_floor
 from gyro_calib.units import NS_PER_S
+from sim_nodes import scenario_files
 from sim_nodes.dither.bench import DitherBenchConfig
 from sim_nodes.dither.gyro import DitheredGyroConfig
 from sim_nodes.dither.scenarios import DitherRecording, dither_truth, simulate_dither_run
 from sim_nodes.dither.vibration_table import VibrationTableConfig
+from sim_nodes.scenario_files import named
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 
@@ -335,25 +337,13 @@ def stream_messages(rec: DitherRecording) -> Iterator[BagMessage]:
 
 def write_scenario_bag(scenario: DitherScenario | str, path: str | Path) -> Path:
     """Simulate ``scenario`` and write its bag at ``path`` (which must not exist)."""
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
+    scenario = named(scenario, SCENARIOS)
     write_bag(path, stream_messages(simulate_scenario(scenario)),
               scenario=scenario.description_dict())
     return Path(path)
 
 
-def write_scenario_files(scenario: DitherScenario | str, directory: str | Path) -> Path:
-    """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in ``directory``."""
-    import yaml
-
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
-    directory = Path(directory)
-    bag = write_scenario_bag(scenario, directory / scenario.name)
-    expected = directory / f'{scenario.name}.expected.yaml'
-    expected.write_text('# Expected calibration of the bag beside this file (sim_nodes/dither/'
-                        'bag_scenarios.py; regenerate with bags/generate.py).\n'
-                        + yaml.safe_dump(scenario.expected_results(), sort_keys=False,
-                                         allow_unicode=True), encoding='utf-8')
-    return bag
+write_scenario_files = scenario_files.files_writer(
+    SCENARIOS, write_scenario_bag, source='sim_nodes/dither/bag_scenarios.py')
+"""Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in a directory."""
 

@@ -21,36 +21,25 @@ wall second; 0 = as fast as the readers acknowledge), ``exit_when_done``,
 from __future__ import annotations
 
 import dataclasses
-import functools
-import time
 from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.node import Node
+from rclpy.publisher import Publisher
 from sensor_msgs.msg import JointState
-from std_msgs.msg import String
 
-from gyro_calib.config import field_descriptions
 from gyro_calib.dither import topics
 from gyro_calib.nodes.ros_io import (
-    SCENARIO_QOS,
     SENSOR_QOS,
-    ProgressLog,
-    StartGate,
-    acknowledge_tail,
     declare_dataclass_parameters,
-    described_parameter,
     ns_to_stamp,
     publish_paced,
-    run_node,
-    simulation_done,
-    stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative
 from sim_nodes.dither.bench import DitherBenchConfig, DitherBenchSimulator, DitherChunk
 from sim_nodes.dither.gyro import DitheredGyroConfig
 from sim_nodes.dither.scenarios import dither_truth
 from sim_nodes.dither.vibration_table import VibrationTableConfig
+from sim_nodes.node_skeleton import BOTH_READERS, PacedSimulatorNode, run_simulator
 
 CHUNK_S = 0.05
 """Simulated time per chunk (the pacing granularity), s; chunking never changes a sample."""
@@ -67,94 +56,65 @@ def scenario_yaml(gyro: DitheredGyroConfig, table: VibrationTableConfig,
         'truth': dither_truth(gyro, table)}, sort_keys=True)
 
 
-def _declare_table(node: Node) -> dict[str, Any]:
-    """``table.*`` parameters: every VibrationTableConfig field but ``axis``."""
-    descriptions = field_descriptions(VibrationTableConfig)
-    defaults = VibrationTableConfig()
-    return {f.name: described_parameter(node, 'table.' + f.name, getattr(defaults, f.name),
-                                        descriptions.get(f.name, ''))
-            for f in dataclasses.fields(VibrationTableConfig) if f.name != 'axis'}
-
-
-class VibrationTableNode(Node):
+class VibrationTableNode(PacedSimulatorNode):
     """Streams the bench simulator's chunks at a paced rate."""
+
+    unpaced_chunks = 20
+    progress_what = 'vibration table'
 
     def __init__(self) -> None:
         """Declare parameters, build the bench and start the pacing timer."""
         super().__init__('vibration_table_sim')
-        param = functools.partial(described_parameter, self)
-        orientation = self.declare_parameter('orientation', 'z', ParameterDescriptor(
+        orientation: Any = self.declare_parameter('orientation', 'z', ParameterDescriptor(
             description='Case axis the table axis is along: "z" or "y" (the joint_states '
             'frame_id). rcl reads an unquoted y as the YAML boolean true; it is taken as "y".',
             dynamic_typing=True)).value
         orientation = 'y' if orientation is True else str(orientation).strip().lower()
         try:
-            self.table_config = VibrationTableConfig(axis=orientation, **_declare_table(self))
+            table = declare_dataclass_parameters(self, VibrationTableConfig, 'table.',
+                                                 skip=('axis',))
+            self.table_config = VibrationTableConfig(axis=orientation, **table)
             self.gyro_config = DitheredGyroConfig(
                 **declare_dataclass_parameters(self, DitheredGyroConfig))
             self.bench = DitherBenchConfig(**declare_dataclass_parameters(self, DitherBenchConfig))
         except ValueError as exc:
             raise SystemExit(f'vibration_table_sim: {exc}') from None
-        self.real_time_factor = float(param('real_time_factor', 1.0, 'Simulated seconds per '
-                                            'wall-clock second (0 = as fast as the readers '
-                                            'acknowledge).'))
-        self.exit_when_done = bool(param('exit_when_done', True,
-                                         'Shut the node down once the run has been simulated.'))
-        self.wait_for_subscribers = bool(param(
-            'wait_for_subscribers', True, 'Start only once /gyro/pulses and '
-            '/vibration_table/joint_states have a reader, so nothing is lost at the start.'))
-        self.min_subscribers = int(param(
-            'min_subscribers', 1, 'Readers each topic needs before the run starts (2 when a '
-            'bag recorder and a calibration node must both hear it from the start).'))
+        self.declare_run_parameters(
+            exit_when_done='Shut the node down once the run has been simulated.',
+            wait='Start only once /gyro/pulses and /vibration_table/joint_states have a '
+            'reader, so nothing is lost at the start.',
+            readers='Readers each topic needs before the run starts' + BOTH_READERS)
         self.sim = DitherBenchSimulator(self.gyro_config, self.table_config, self.bench)
         self.chunk_samples = max(1, int(round(CHUNK_S * self.bench.sample_rate_hz)))
         self.pulse_pub = self.create_publisher(JointState, relative(topics.GYRO_PULSES),
                                                SENSOR_QOS)
         self.table_pub = self.create_publisher(
             JointState, relative(topics.VIBRATION_TABLE_JOINT_STATES), SENSOR_QOS)
-        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(String(
-            data=scenario_yaml(self.gyro_config, self.table_config, self.bench)))
-        self._n_published = 0
-        self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers,
-                                     min_readers=self.min_subscribers,
-                                     logger=self.get_logger())
-        self._progress: ProgressLog | None = None
-        self.done = False
-        self.stalled = ''  # why publishing stopped before the end ('' = it did not)
-        self.create_timer(0.005, self._tick)
+        self.publish_scenario(scenario_yaml(self.gyro_config, self.table_config, self.bench))
+        self.sample_rate_hz = self.bench.sample_rate_hz
 
     @property
-    def all_publishers(self) -> list[Any]:
+    def all_publishers(self) -> list[Publisher[Any]]:
         """The sensor publishers (for the final acknowledgement wait)."""
         return [self.pulse_pub, self.table_pub]
 
-    @stops_on_stalled_readers
-    def _tick(self) -> None:
-        if self._wall_start is None:
-            if not self._start_gate.open(self.all_publishers):
-                return  # readers first (see StartGate)
-            self._wall_start = self._start_gate.opened_at
-            self.get_logger().info(
-                f'simulating {self.bench.duration_s:g} s with the table along '
+    @property
+    def total_s(self) -> float:
+        """The run's simulated seconds."""
+        return float(self.bench.duration_s)
+
+    def start_line(self) -> str:
+        """'simulating T s with the table along Z at F× real time'."""
+        return (f'simulating {self.bench.duration_s:g} s with the table along '
                 f'{self.table_config.axis.upper()} at {self.real_time_factor:g}× real time')
-        rate = self.bench.sample_rate_hz
-        budget = 20 if self.real_time_factor <= 0 else None
-        while not self.sim.finished and (budget is None or budget > 0):
-            if budget is None:
-                sim_due = (time.monotonic() - self._wall_start) * self.real_time_factor
-                if self._n_published / rate > sim_due:
-                    break
-            else:
-                budget -= 1
-            self._publish(self.sim.step(self.chunk_samples))
-        if self._progress is None:
-            self._progress = ProgressLog(self.get_logger(), 'vibration table',
-                                         self.bench.duration_s)
-        self._progress.update(self._n_published / rate)
-        if self.sim.finished and not self.done:
-            self.done = True
-            self.get_logger().info('run finished')
+
+    def run_finished(self) -> bool:
+        """Whether the bench's run is over."""
+        return bool(self.sim.finished)
+
+    def publish_next(self) -> None:
+        """The next chunk of the bench."""
+        self._publish(self.sim.step(self.chunk_samples))
 
     def _publish(self, chunk: DitherChunk) -> None:
         frame = self.table_config.axis
@@ -178,8 +138,7 @@ class VibrationTableNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the vibration table simulator until its run is done (or it is shut down)."""
-    run_node('vibration_table_sim', VibrationTableNode, args, done=simulation_done,
-             on_stop=acknowledge_tail)
+    run_simulator('vibration_table_sim', VibrationTableNode, args)
 
 
 if __name__ == '__main__':

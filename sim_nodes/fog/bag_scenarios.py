@@ -35,6 +35,7 @@ import numpy as np
 
 from gyro_calib import topics
 from gyro_calib.bagio import BagMessage, ContractMessages, topic_sort_key, write_bag
+from sim_nodes import scenario_files
 from sim_nodes.fog.config import FogConfig
 from sim_nodes.fog.front_end import FrontEnd
 from sim_nodes.fog.scenarios import (
@@ -48,6 +49,7 @@ from sim_nodes.fog.scenarios import (
     turntable_bench,
 )
 from sim_nodes.fog.sensing import SenseAxis
+from sim_nodes.scenario_files import named
 
 KINDS = ('turntable', 'mapping_self_cal')
 """The procedures a FOG scenario runs."""
@@ -274,7 +276,8 @@ def predicted_line_std(config: FogConfig, rates_deg_s: Sequence[float], hold_s: 
 
     def cov(x: np.ndarray) -> np.ndarray:
         op = np.linalg.solve(x.T @ (weights[:, None] * x), x.T * weights)
-        return (op * np.asarray(var)) @ op.T
+        out: np.ndarray = (op * np.asarray(var)) @ op.T
+        return out
 
     line = cov(np.column_stack((w, np.ones_like(w))))
     bias_var = line[1, 1]
@@ -289,7 +292,7 @@ def predicted_line_std(config: FogConfig, rates_deg_s: Sequence[float], hold_s: 
 _TABLE = TableSettings(output_rate_hz=200.0)
 # 200 Hz output: a 1 kHz run of this length would not fit in 5 MB; the count quantisation
 # still averages in the ±0.1 s local fits (≥ 40 samples) and the ARW floor is unchanged.
-_SHORT_MAPPING = {'mapping_hold_s': 15.0}
+_SHORT_MAPPING: dict[str, Any] = {'mapping_hold_s': 15.0}
 
 def _null_time_constant_s(config: FogConfig) -> float:
     """The loop's first-order time constant about the null balance, s (front-end physics)."""
@@ -437,26 +440,14 @@ def write_recording_bag(rec: FogRecording, path: str | Path, *,
 
 def write_scenario_bag(scenario: FogScenario | str, path: str | Path) -> Path:
     """Simulate ``scenario`` and write its bag at ``path`` (which must not exist)."""
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
+    scenario = named(scenario, SCENARIOS)
     rec = scenario.bench().record()
     return write_recording_bag(rec, path, scenario=scenario.description_dict())
 
 
-def write_scenario_files(scenario: FogScenario | str, directory: str | Path) -> Path:
-    """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in ``directory``."""
-    import yaml
-
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
-    directory = Path(directory)
-    bag = write_scenario_bag(scenario, directory / scenario.name)
-    expected = directory / f'{scenario.name}.expected.yaml'
-    expected.write_text('# Expected calibration of the bag beside this file (sim_nodes/fog/'
-                        'bag_scenarios.py; regenerate with bags/generate.py).\n'
-                        + yaml.safe_dump(scenario.expected_results(), sort_keys=False,
-                                         allow_unicode=True), encoding='utf-8')
-    return bag
+write_scenario_files = scenario_files.files_writer(
+    SCENARIOS, write_scenario_bag, source='sim_nodes/fog/bag_scenarios.py')
+"""Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in a directory."""
 
 
 # -- the live node's scenario ------------------------------------------------------------------

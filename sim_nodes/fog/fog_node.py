@@ -24,34 +24,25 @@ every field of :class:`~sim_nodes.fog.config.FogConfig` (the gyro), ``table.*`` 
 
 from __future__ import annotations
 
-import dataclasses
 import functools
-import time
 from collections.abc import Iterator
 from typing import Any
 
-from rclpy.node import Node
+from rclpy.publisher import Publisher
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Header, String
+from std_msgs.msg import Header
 
-from gyro_calib.config import field_descriptions
 from gyro_calib.fog import topics
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
-    SCENARIO_QOS,
     SENSOR_QOS,
-    ProgressLog,
-    StartGate,
-    acknowledge_tail,
+    declare_dataclass_parameters,
     described_parameter,
     ns_to_stamp,
     number_list_parameter,
     publish_paced,
-    run_node,
-    simulation_done,
-    stops_on_stalled_readers,
 )
-from gyro_calib.topics import RATE_TABLE_JOINT, SIM_SCENARIO, relative
+from gyro_calib.topics import RATE_TABLE_JOINT, relative
 from sim_nodes.fog.bag_scenarios import KINDS, FogScenario, scenario_from_parameters
 from sim_nodes.fog.config import FogConfig
 from sim_nodes.fog.scenarios import (
@@ -61,34 +52,16 @@ from sim_nodes.fog.scenarios import (
     SelfCalLadder,
     TableSettings,
 )
+from sim_nodes.node_skeleton import PacedSimulatorNode, run_simulator
 
 CHUNK_S = 0.1
 """Simulated time per published chunk, s (does not change a sample)."""
 
 
-def declare_fields(node: Node, cls: type, prefix: str = '') -> dict[str, Any]:
-    """Declare one described parameter per field of ``cls``; return the values read.
-
-    Tuple fields become list-of-number parameters (an empty default would otherwise be typed
-    as a byte array, and integer lists would refuse floats).
-    """
-    descriptions = field_descriptions(cls)
-    defaults = cls()
-    values: dict[str, Any] = {}
-    for f in dataclasses.fields(cls):
-        default = getattr(defaults, f.name)
-        text = descriptions.get(f.name, '')
-        if isinstance(default, tuple):
-            value = number_list_parameter(node, prefix + f.name, default, text)
-            kind = int if str(f.type).startswith('tuple[int') else float
-            values[f.name] = tuple(kind(v) for v in value)
-        else:
-            values[f.name] = described_parameter(node, prefix + f.name, default, text)
-    return values
-
-
-class FogBenchNode(Node):
+class FogBenchNode(PacedSimulatorNode):
     """Streams a FOG scenario's bench at a paced rate."""
+
+    samples_what = 'output samples'
 
     def __init__(self) -> None:
         """Declare parameters, build the scenario and start the pacing timer."""
@@ -97,9 +70,11 @@ class FogBenchNode(Node):
         kind = param('scenario', 'turntable', f'One of {", ".join(KINDS)}.')
         model = param('model', 'equivalent', "FOG loop model: 'equivalent' (long runs) or "
                       "'loop' (every transit time τ).")
-        gyro = FogConfig(**declare_fields(self, FogConfig))
-        table = TableSettings(**declare_fields(self, TableSettings, 'table.'))
-        ladder = SelfCalLadder(**declare_fields(self, SelfCalLadder, 'ladder.'))
+        # tuple fields as number lists: [] and integer lists taken
+        fields = functools.partial(declare_dataclass_parameters, self, number_lists=True)
+        gyro = FogConfig(**fields(FogConfig))
+        table = TableSettings(**fields(TableSettings, 'table.'))
+        ladder = SelfCalLadder(**fields(SelfCalLadder, 'ladder.'))
         lists = {name: number_list_parameter(self, name, default, text)
                  for name, default, text in (
                      ('turntable.rates_deg_s', IEEE_RATES_DEG_S, 'Turntable rates in order, '
@@ -108,16 +83,7 @@ class FogBenchNode(Node):
                       '°/s ([] = no mapping phase).'))}
         hold = param('turntable.hold_s', 60.0, 'Time at each turntable rate, s.')
         mapping_hold = param('mapping.hold_s', 60.0, 'Time at each mapping rate, s.')
-        self.real_time_factor = float(param('real_time_factor', 1.0, 'Simulated seconds per '
-                                            'wall-clock second (0 = as fast as the readers '
-                                            'acknowledge).'))
-        self.exit_when_done = bool(param('exit_when_done', True, 'Shut the node down once the '
-                                         'run has been simulated and acknowledged.'))
-        self.wait_for_subscribers = bool(param(
-            'wait_for_subscribers', True, 'Start only once every topic has min_subscribers '
-            'readers, so nothing is lost at the start.'))
-        self.min_subscribers = int(param('min_subscribers', 1, 'Readers each topic needs '
-                                         'before the run starts.'))
+        self.declare_run_parameters()
         if kind not in KINDS:
             raise SystemExit(f'fog_sim: scenario {kind!r} is not one of {KINDS}')
         self.scenario: FogScenario = scenario_from_parameters(
@@ -135,56 +101,27 @@ class FogBenchNode(Node):
         self.injection_pub = pub(JointState, relative(topics.FOG_INJECTION), SENSOR_QOS)
         self.table_pub = pub(JointState, relative(topics.RATE_TABLE_JOINT_STATES), SENSOR_QOS)
         self.index_pub = pub(Header, relative(topics.RATE_TABLE_ZERO_INDEX), EVENT_QOS)
-        import yaml
-
-        self.create_publisher(String, relative(SIM_SCENARIO), SCENARIO_QOS).publish(String(
-            data=yaml.safe_dump(self.scenario.description_dict(), sort_keys=True)))
+        self.publish_scenario(self.scenario.description_dict())
         self.sample_rate_hz = table.output_rate_hz
-        self._n_published = 0
-        self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers, min_readers=self.min_subscribers,
-                                     logger=self.get_logger())
-        self._progress: ProgressLog | None = None
-        self.done = False
-        self.stalled = ''  # why publishing stopped before the end ('' = it did not)
-        self.create_timer(0.005, self._tick)
 
     @property
-    def all_publishers(self) -> list[Any]:
+    def all_publishers(self) -> list[Publisher[Any]]:
         """The stream publishers (for the start and the final acknowledgement waits)."""
         return [self.output_pub, self.injection_pub, self.table_pub, self.index_pub]
 
-    @stops_on_stalled_readers
-    def _tick(self) -> None:
-        if self.done:
-            return
-        if self._wall_start is None:
-            if not self._start_gate.open(self.all_publishers):
-                return  # readers first (see StartGate)
-            self._wall_start = self._start_gate.opened_at
-            self.get_logger().info(
-                f'{self.scenario.kind}: simulating {self.bench.n_samples / self.sample_rate_hz:g}'
-                f' s at ' + (f'{self.real_time_factor:g}× real time' if self.real_time_factor
-                             > 0 else "the readers' pace"))
-            self._progress = ProgressLog(self.get_logger(), self.scenario.kind,
-                                         self.bench.n_samples / self.sample_rate_hz)
-        budget = 5 if self.real_time_factor <= 0 else None
-        while budget is None or budget > 0:
-            if budget is None:
-                due = (time.monotonic() - self._wall_start) * self.real_time_factor
-                if self._n_published / self.sample_rate_hz > due:
-                    return
-            else:
-                budget -= 1
-            chunk = next(self._chunks, None)
-            if chunk is None:
-                self._publish_injections(None)
-                self.done = True
-                self.get_logger().info(f'run finished: {self._n_published} output samples')
-                return
-            self._publish(chunk)
-            if self._progress is not None:
-                self._progress.update(self._n_published / self.sample_rate_hz)
+    @property
+    def total_s(self) -> float:
+        """The scenario's simulated seconds."""
+        return self.bench.n_samples / self.sample_rate_hz
+
+    @property
+    def progress_what(self) -> str:
+        """The scenario kind."""
+        return str(self.scenario.kind)
+
+    def run_ended(self) -> None:
+        """The injections that remain after the last chunk."""
+        self._publish_injections(None)
 
     def _publish_injections(self, until_ns: int | None) -> None:
         """Injection messages stamped up to ``until_ns`` (None: all that remain)."""
@@ -220,8 +157,7 @@ class FogBenchNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the FOG bench until its run is done (or it is shut down)."""
-    run_node('fog_sim', FogBenchNode, args, done=simulation_done,
-             on_stop=acknowledge_tail)
+    run_simulator('fog_sim', FogBenchNode, args)
 
 
 if __name__ == '__main__':

@@ -68,6 +68,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from sim_nodes import scenario_files
 from sim_nodes.noise.sensors import (
     NS_PER_S,
     STANDARD_GRAVITY_M_S2,
@@ -75,6 +76,7 @@ from sim_nodes.noise.sensors import (
     NoiseTerms,
     RlgPulseGenerator,
 )
+from sim_nodes.scenario_files import named
 
 IMU = 'sensor_msgs/msg/Imu'
 JOINT_STATE = 'sensor_msgs/msg/JointState'
@@ -714,8 +716,7 @@ def write_scenario_bag(scenario: Scenario | str,
     """Simulate ``scenario`` and write its bag at ``path`` (which must not exist)."""
     from gyro_calib.bagio import BagMessage, write_bag
 
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
+    scenario = named(scenario, SCENARIOS)
     msgtype = IMU if isinstance(scenario, ImuBagScenario) else JOINT_STATE
     types = {scenario.topic: msgtype}
     if isinstance(scenario, RlgTurningBagScenario):
@@ -726,21 +727,10 @@ def write_scenario_bag(scenario: Scenario | str,
     return Path(path)
 
 
-def write_scenario_files(scenario: Scenario | str,
-                         directory: str | Path) -> Path:
-    """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in ``directory``."""
-    import yaml
-
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
-    directory = Path(directory)
-    bag = write_scenario_bag(scenario, directory / scenario.name)
-    (directory / f'{scenario.name}.expected.yaml').write_text(
-        '# Expected noise characterisation of the bag beside this file '
-        '(sim_nodes/noise/bag_scenarios.py; regenerate with bags/generate.py).\n'
-        + yaml.safe_dump(scenario.expected_results(), sort_keys=False, allow_unicode=True),
-        encoding='utf-8')
-    return bag
+write_scenario_files = scenario_files.files_writer(
+    SCENARIOS, write_scenario_bag, source='sim_nodes/noise/bag_scenarios.py',
+    what='noise characterisation')
+"""Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in a directory."""
 
 
 __all__ = ['ImuBagScenario', 'RlgBagScenario', 'RlgTurningBagScenario', 'SCENARIOS',

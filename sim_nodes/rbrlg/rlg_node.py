@@ -14,13 +14,10 @@ import math
 import time
 
 import numpy as np
-from rclpy.node import Node
 from sensor_msgs.msg import JointState
-from std_msgs.msg import String
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
-    SCENARIO_QOS,
     SENSOR_QOS,
     ProgressLog,
     declare_dataclass_parameters,
@@ -31,6 +28,7 @@ from gyro_calib.nodes.ros_io import (
     stamp_to_ns,
 )
 from gyro_calib.topics import relative
+from sim_nodes.node_skeleton import SimulatorNode
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
 
@@ -50,7 +48,7 @@ def scenario_yaml(gyro: RingLaserGyroConfig, mount: TiltedMountConfig) -> str:
                   'fix_error_angle_arcsec': gyro.fix_error_angle_arcsec}}, sort_keys=True)
 
 
-class RingLaserGyroNode(Node):
+class RingLaserGyroNode(SimulatorNode):
     """Turns true-motion batches into pulse samples."""
 
     def __init__(self) -> None:
@@ -75,8 +73,7 @@ class RingLaserGyroNode(Node):
             JointState, relative(topics.RATE_TABLE_TRUE_MOTION), self._on_truth, SENSOR_QOS)
         self.create_subscription(
             JointState, relative(topics.BENCH_TRUE_MOTION), self._on_truth, SENSOR_QOS)
-        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(
-            String(data=scenario_yaml(self.config, self.mount)))
+        self.publish_scenario(scenario_yaml(self.config, self.mount))
         self._first_ns: int | None = None
         self._published = 0
         self._progress = ProgressLog(self.get_logger(), 'rlg_sim: bench time', math.nan)

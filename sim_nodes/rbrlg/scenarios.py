@@ -28,6 +28,7 @@ import numpy.typing as npt
 from gyro_calib import topics
 from gyro_calib.bagio import BagMessage, ContractMessages, topic_sort_key, write_bag
 from gyro_calib.units import RAD_PER_ARCSEC
+from sim_nodes import scenario_files
 from sim_nodes.rate_table import RateTableConfig
 from sim_nodes.rbrlg.bench import (
     TwoAxisRecording,
@@ -38,6 +39,7 @@ from sim_nodes.rbrlg.bench import (
 from sim_nodes.rbrlg.procedure import ThetaProcedureConfig
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig
+from sim_nodes.scenario_files import named
 
 KINDS = ('rate_bias', 'full')
 
@@ -310,24 +312,12 @@ def stream_messages(streams: _Streams) -> Iterator[BagMessage]:
 
 def write_scenario_bag(scenario: Scenario | str, path: str | Path) -> Path:
     """Simulate ``scenario`` and write its bag at ``path`` (which must not exist)."""
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
+    scenario = named(scenario, SCENARIOS)
     streams = simulate_streams(scenario)
     write_bag(path, stream_messages(streams), scenario=scenario.description_dict())
     return Path(path)
 
 
-def write_scenario_files(scenario: Scenario | str, directory: str | Path) -> Path:
-    """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in ``directory``."""
-    import yaml
-
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
-    directory = Path(directory)
-    bag = write_scenario_bag(scenario, directory / scenario.name)
-    expected = directory / f'{scenario.name}.expected.yaml'
-    expected.write_text('# Expected calibration of the bag beside this file (sim_nodes/'
-                        'scenarios.py; regenerate with bags/generate.py).\n'
-                        + yaml.safe_dump(scenario.expected_results(), sort_keys=False,
-                                         allow_unicode=True), encoding='utf-8')
-    return bag
+write_scenario_files = scenario_files.files_writer(
+    SCENARIOS, write_scenario_bag, source='sim_nodes/scenarios.py')
+"""Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in a directory."""

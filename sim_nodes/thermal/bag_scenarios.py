@@ -27,6 +27,8 @@ import numpy as np
 
 from gyro_calib.bagio import TEMPERATURE, BagMessage, ContractMessages, write_bag
 from gyro_calib.topics import GYRO_JOINT, GYRO_PULSES, GYRO_TEMPERATURE
+from sim_nodes import scenario_files
+from sim_nodes.scenario_files import named
 from sim_nodes.thermal.scenarios import ChamberRunConfig, ThermalRun
 
 CHUNK_S = 600.0
@@ -198,23 +200,11 @@ SCENARIOS: dict[str, ThermalScenario] = {s.name: s for s in (
 
 def write_scenario_bag(scenario: ThermalScenario | str, path: str | Path) -> Path:
     """Simulate ``scenario`` and write its bag at ``path`` (which must not exist)."""
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
+    scenario = named(scenario, SCENARIOS)
     write_bag(path, run_messages(scenario.config.run()), scenario=scenario.description_dict())
     return Path(path)
 
 
-def write_scenario_files(scenario: ThermalScenario | str, directory: str | Path) -> Path:
-    """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in ``directory``."""
-    import yaml
-
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
-    directory = Path(directory)
-    bag = write_scenario_bag(scenario, directory / scenario.name)
-    expected = directory / f'{scenario.name}.expected.yaml'
-    expected.write_text('# Expected calibration of the bag beside this file (sim_nodes/thermal/'
-                        'bag_scenarios.py; regenerate with bags/generate.py).\n'
-                        + yaml.safe_dump(scenario.expected_results(), sort_keys=False,
-                                         allow_unicode=True), encoding='utf-8')
-    return bag
+write_scenario_files = scenario_files.files_writer(
+    SCENARIOS, write_scenario_bag, source='sim_nodes/thermal/bag_scenarios.py')
+"""Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in a directory."""

@@ -18,53 +18,43 @@ chamber time then take seconds), ``chunk_s`` (simulated seconds per published ch
 from __future__ import annotations
 
 import functools
-import time
+from typing import Any
 
 import numpy as np
-from rclpy.node import Node
+from rclpy.publisher import Publisher
 from sensor_msgs.msg import JointState, Temperature
-from std_msgs.msg import String
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
-    SCENARIO_QOS,
     SENSOR_QOS,
-    ProgressLog,
-    StartGate,
-    acknowledge_tail,
     declare_dataclass_parameters,
     described_parameter,
     ns_to_stamp,
     publish_paced,
-    run_node,
-    simulation_done,
-    stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative
+from sim_nodes.node_skeleton import BOTH_READERS, PacedSimulatorNode, run_simulator
 from sim_nodes.thermal.gyro import ThermalChunk
 from sim_nodes.thermal.scenarios import ChamberRunConfig
 
 
-class ThermalChamberNode(Node):
+class ThermalChamberNode(PacedSimulatorNode):
     """Streams a chamber run's chunks at a paced rate."""
+
+    unpaced_chunks = 1
+    progress_what = 'chamber'
 
     def __init__(self) -> None:
         """Declare parameters, set up the run and start the pacing timer."""
         super().__init__('thermal_chamber_sim')
         param = functools.partial(described_parameter, self)
         self.config = ChamberRunConfig(**declare_dataclass_parameters(self, ChamberRunConfig))
-        self.real_time_factor = float(param(
-            'real_time_factor', 1.0, 'Simulated seconds per wall-clock second (0 = as fast as '
-            'the readers acknowledge).'))
         self.chunk_s = float(param('chunk_s', 10.0, 'Simulated seconds per published chunk.'))
-        self.exit_when_done = bool(param('exit_when_done', True,
-                                         'Shut the node down once the run has been published.'))
-        self.wait_for_subscribers = bool(param(
-            'wait_for_subscribers', True, 'Start only once /gyro/pulses and /gyro/temperature '
-            'each have a reader, so nothing is lost at the start.'))
-        self.min_subscribers = int(param(
-            'min_subscribers', 1, 'Readers each topic needs before the run starts (2 when a '
-            'bag recorder and a calibration node must both hear it from the start).'))
+        self.declare_run_parameters(
+            exit_when_done='Shut the node down once the run has been published.',
+            wait='Start only once /gyro/pulses and /gyro/temperature each have a reader, so '
+            'nothing is lost at the start.',
+            readers='Readers each topic needs before the run starts' + BOTH_READERS)
         if not self.chunk_s > 0:
             raise ValueError(f'chunk_s = {self.chunk_s!r} must be positive')
         self.run = self.config.run()
@@ -72,58 +62,47 @@ class ThermalChamberNode(Node):
                                                SENSOR_QOS)
         self.temp_pub = self.create_publisher(Temperature, relative(topics.GYRO_TEMPERATURE),
                                               SENSOR_QOS)
-        import yaml
-
-        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(
-            String(data=yaml.safe_dump(self.run.scenario, sort_keys=True)))
+        self.publish_scenario(self.run.scenario)
         self._step_ns = int(round(self.chunk_s * 1e9))
         self._until_ns = self.run.simulator.start_time_ns - 1
-        self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers,
-                                     min_readers=self.min_subscribers,
-                                     logger=self.get_logger())
-        self._progress: ProgressLog | None = None
         self.published = 0
-        self.done = False
-        self.stalled = ''
-        """Why publishing stopped before the end of the run ('' = it did not)."""
-        self.create_timer(0.005, self._tick)
 
     @property
-    def all_publishers(self) -> list:
+    def all_publishers(self) -> list[Publisher[Any]]:
         """The sensor publishers (for the final acknowledgement wait)."""
         return [self.pulse_pub, self.temp_pub]
 
-    @stops_on_stalled_readers
-    def _tick(self) -> None:
-        if self._wall_start is None:
-            if not self._start_gate.open(self.all_publishers):
-                return  # readers first (see StartGate)
-            self._wall_start = self._start_gate.opened_at
-            sim = self.run.simulator
-            self.get_logger().info(
-                f'{self.run.scenario["name"]}: simulating '
+    @property
+    def total_s(self) -> float:
+        """The programme's simulated seconds."""
+        sim = self.run.simulator
+        return (sim.end_time_ns - sim.start_time_ns) / 1e9
+
+    def start_line(self) -> str:
+        """'<scenario>: simulating H h of chamber time at <pace>'."""
+        sim = self.run.simulator
+        return (f'{self.run.scenario["name"]}: simulating '
                 f'{(sim.end_time_ns - sim.start_time_ns) / 3.6e12:.2f} h of chamber time at '
-                + (f'{self.real_time_factor:g}× real time' if self.real_time_factor > 0
-                   else 'the pace of the readers'))
-            self._progress = ProgressLog(self.get_logger(), 'chamber',
-                                         (sim.end_time_ns - sim.start_time_ns) / 1e9)
-        budget = 1 if self.real_time_factor <= 0 else None
-        start_ns = self.run.simulator.start_time_ns
-        while not self.run.finished and (budget is None or budget > 0):
-            if budget is None:
-                sim_due_ns = (time.monotonic() - self._wall_start) * self.real_time_factor * 1e9
-                if self._until_ns + 1 - start_ns > sim_due_ns:
-                    break
-            else:
-                budget -= 1
-            self._until_ns += self._step_ns
-            self._publish(self.run.advance(self._until_ns))
-        if self._progress is not None:
-            self._progress.update((self._until_ns - start_ns) / 1e9)
-        if self.run.finished and not self.done:
-            self.done = True
-            self.get_logger().info(f'run finished: {self.published} messages published')
+                + (f'{self.real_time_factor:g}× real time'
+                                         if self.real_time_factor > 0
+                                         else 'the pace of the readers'))
+
+    def finished_line(self) -> str:
+        """'run finished: N messages published'."""
+        return f'run finished: {self.published} messages published'
+
+    def simulated_s(self) -> float:
+        """Simulated seconds published (through the last chunk's end)."""
+        return (self._until_ns + 1 - self.run.simulator.start_time_ns) / 1e9
+
+    def run_finished(self) -> bool:
+        """Whether the programme is over."""
+        return bool(self.run.finished)
+
+    def publish_next(self) -> None:
+        """The next ``chunk_s`` of the run, in stamp order."""
+        self._until_ns += self._step_ns
+        self._publish(self.run.advance(self._until_ns))
 
     def _publish(self, chunk: ThermalChunk) -> None:
         n_p = len(chunk.pulse_t_ns)
@@ -150,8 +129,7 @@ class ThermalChamberNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the chamber simulator until its run is done (or it is shut down)."""
-    run_node('thermal_chamber_sim', ThermalChamberNode, args, done=simulation_done,
-             on_stop=acknowledge_tail)
+    run_simulator('thermal_chamber_sim', ThermalChamberNode, args)
 
 
 if __name__ == '__main__':

@@ -25,7 +25,9 @@ import numpy as np
 from gyro_calib import topics
 from gyro_calib.bagio import JOINT_STATE, BagMessage, ContractMessages, typestore, write_bag
 from gyro_calib.units import NS_PER_S
+from sim_nodes import scenario_files
 from sim_nodes.rate_table import RateTableConfig
+from sim_nodes.scenario_files import named
 from sim_nodes.triad.bench import TriadBench, TriadChunk
 from sim_nodes.triad.gyros import MOUNT_AXES, TriadConfig, TriadMountConfig
 from sim_nodes.two_axis_procedure import ThetaProcedureConfig
@@ -254,28 +256,16 @@ def stream_messages(rec: TriadChunk, channels: tuple[str, ...]) -> Iterator[BagM
 
 def write_scenario_bag(scenario: TriadScenario | str, path: str | Path) -> Path:
     """Simulate ``scenario`` and write its bag at ``path`` (which must not exist)."""
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
+    scenario = named(scenario, SCENARIOS)
     rec = scenario.bench().record()
     write_bag(path, stream_messages(rec, scenario.gyros.channels),
               types={IMU_PULSES: JOINT_STATE}, scenario=scenario.description_dict())
     return Path(path)
 
 
-def write_scenario_files(scenario: TriadScenario | str, directory: str | Path) -> Path:
-    """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in ``directory``."""
-    import yaml
-
-    if isinstance(scenario, str):
-        scenario = SCENARIOS[scenario]
-    directory = Path(directory)
-    bag = write_scenario_bag(scenario, directory / scenario.name)
-    (directory / f'{scenario.name}.expected.yaml').write_text(
-        '# Expected triad calibration of the bag beside this file (sim_nodes/triad/'
-        'scenarios.py; regenerate with bags/generate.py).\n'
-        + yaml.safe_dump(scenario.expected_results(), sort_keys=False, allow_unicode=True),
-        encoding='utf-8')
-    return bag
+write_scenario_files = scenario_files.files_writer(
+    SCENARIOS, write_scenario_bag, source='sim_nodes/triad/scenarios.py', what='triad calibration')
+"""Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in a directory."""
 
 
 __all__ = ['GROUPS', 'IMU_PULSES', 'SCENARIOS', 'TriadScenario', 'write_scenario_bag',

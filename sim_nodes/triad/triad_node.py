@@ -23,30 +23,23 @@ second; 0 = as fast as the readers acknowledge), ``exit_when_done``,
 from __future__ import annotations
 
 import functools
-import time
 from collections.abc import Iterator
 from typing import Any
 
-from rclpy.node import Node
+from rclpy.publisher import Publisher
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Header, String
+from std_msgs.msg import Header
 
 from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
-    SCENARIO_QOS,
     SENSOR_QOS,
-    ProgressLog,
-    StartGate,
-    acknowledge_tail,
     described_parameter,
     ns_to_stamp,
     publish_paced,
-    run_node,
-    simulation_done,
-    stops_on_stalled_readers,
 )
 from gyro_calib.topics import relative
+from sim_nodes.node_skeleton import PacedSimulatorNode, run_simulator
 from sim_nodes.triad.bench import CHUNK_SAMPLES, TriadChunk
 from sim_nodes.triad.scenarios import IMU_PULSES, SCENARIOS, TriadScenario
 
@@ -68,8 +61,10 @@ def scenario_with(name: str, seed: int, sample_rate_hz: float) -> TriadScenario:
     return scenario
 
 
-class TriadBenchNode(Node):
+class TriadBenchNode(PacedSimulatorNode):
     """Streams a triad scenario's bench at a paced rate."""
+
+    samples_what = 'pulse samples'
 
     def __init__(self) -> None:
         """Declare parameters, build the scenario and start the pacing timer."""
@@ -79,16 +74,7 @@ class TriadBenchNode(Node):
         seed = int(param('seed', -1, "Seed of the run (−1 = the scenario's; else each of the "
                                      "scenario's seeds becomes seed + k)."))
         rate = float(param('sample_rate_hz', 0.0, "Pulse sample rate, Hz (0 = the scenario's)."))
-        self.real_time_factor = float(param('real_time_factor', 1.0, 'Simulated seconds per '
-                                            'wall-clock second (0 = as fast as the readers '
-                                            'acknowledge).'))
-        self.exit_when_done = bool(param('exit_when_done', True, 'Shut the node down once the '
-                                         'run has been simulated and acknowledged.'))
-        self.wait_for_subscribers = bool(param(
-            'wait_for_subscribers', True, 'Start only once every topic has min_subscribers '
-            'readers, so nothing is lost at the start.'))
-        self.min_subscribers = int(param('min_subscribers', 1, 'Readers each topic needs '
-                                         'before the run starts.'))
+        self.declare_run_parameters()
         if name not in SCENARIOS:
             raise SystemExit(f'triad_sim: scenario {name!r} is not one of '
                              f'{", ".join(SCENARIOS)}')
@@ -109,55 +95,23 @@ class TriadBenchNode(Node):
                                     SENSOR_QOS)
             self.position_index_pub = pub(Header, relative(topics.POSITION_TABLE_ZERO_INDEX),
                                           EVENT_QOS)
-        import yaml
-
-        self.create_publisher(String, relative(topics.SIM_SCENARIO), SCENARIO_QOS).publish(
-            String(data=yaml.safe_dump(self.scenario.description_dict(), sort_keys=True)))
-        self._n_published = 0
-        self._wall_start: float | None = None
-        self._start_gate = StartGate(self.wait_for_subscribers, min_readers=self.min_subscribers,
-                                     logger=self.get_logger())
-        self._progress: ProgressLog | None = None
-        self.done = False
-        self.stalled = ''  # why publishing stopped before the end ('' = it did not)
-        self.create_timer(0.005, self._tick)
+        self.publish_scenario(self.scenario.description_dict())
 
     @property
-    def all_publishers(self) -> list[Any]:
+    def all_publishers(self) -> list[Publisher[Any]]:
         """The stream publishers (for the start and the final acknowledgement waits)."""
         return [p for p in (self.pulse_pub, self.rate_pub, self.rate_index_pub,
                             self.position_pub, self.position_index_pub) if p is not None]
 
-    @stops_on_stalled_readers
-    def _tick(self) -> None:
-        if self.done:
-            return
-        if self._wall_start is None:
-            if not self._start_gate.open(self.all_publishers):
-                return  # readers first (see StartGate)
-            self._wall_start = self._start_gate.opened_at
-            self.get_logger().info(
-                f'{self.scenario.name}: simulating {self.duration_s:g} s at '
-                + (f'{self.real_time_factor:g}× real time' if self.real_time_factor > 0
-                   else "the readers' pace"))
-            self._progress = ProgressLog(self.get_logger(), self.scenario.name, self.duration_s)
-        budget = 5 if self.real_time_factor <= 0 else None
-        while budget is None or budget > 0:
-            if budget is None:
-                assert self._wall_start is not None
-                due = (time.monotonic() - self._wall_start) * self.real_time_factor
-                if self._n_published / self.sample_rate_hz > due:
-                    return
-            else:
-                budget -= 1
-            chunk = next(self._chunks, None)
-            if chunk is None:
-                self.done = True
-                self.get_logger().info(f'run finished: {self._n_published} pulse samples')
-                return
-            self._publish(chunk)
-            if self._progress is not None:
-                self._progress.update(self._n_published / self.sample_rate_hz)
+    @property
+    def total_s(self) -> float:
+        """The scenario's simulated seconds."""
+        return float(self.duration_s)
+
+    @property
+    def progress_what(self) -> str:
+        """The scenario name."""
+        return str(self.scenario.name)
 
     def _publish(self, chunk: TriadChunk) -> None:
         for t_ns, counts in zip(chunk.pulse_t_ns.tolist(), chunk.pulse_counts.tolist()):
@@ -190,8 +144,7 @@ class TriadBenchNode(Node):
 
 def main(args: list[str] | None = None) -> None:
     """Run the triad bench until its run is done (or it is shut down)."""
-    run_node('triad_sim', TriadBenchNode, args, done=simulation_done,
-             on_stop=acknowledge_tail)
+    run_simulator('triad_sim', TriadBenchNode, args)
 
 
 if __name__ == '__main__':
