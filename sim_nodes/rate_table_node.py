@@ -33,9 +33,9 @@ from gyro_calib.nodes.ros_io import (
     publish_paced,
 )
 from gyro_calib.topics import relative
-from sim_nodes.node_skeleton import BOTH_READERS, PacedSimulatorNode, run_simulator
 from sim_nodes.rate_table import RateTableConfig, RateTableSimulator, TableChunk
 from sim_nodes.rbrlg.bench import CHUNK_SAMPLES
+from sim_nodes.simulator_node import BOTH_READERS, PacedSimulatorNode, run_simulator
 from sim_nodes.two_axis_procedure import (
     ThetaProcedureConfig,
     full_procedure_profiles,

@@ -28,7 +28,8 @@ from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.handoff import Provenance, method_calibration
 from gyro_calib.nodes.conventions import CalibrationNodeBase, InputSpec
-from gyro_calib.nodes.method_node import _MESSAGE_CLASSES, LiveInputs, SimScenarioBench
+from gyro_calib.nodes.live_inputs import MESSAGE_CLASSES, LiveInputs
+from gyro_calib.nodes.method_node import SimScenarioBench
 from gyro_calib.nodes.node_state import (
     RESUME_DESCRIPTION,
     RESUME_MAX_GAP_DESCRIPTION,
@@ -132,7 +133,7 @@ class CalibrationNode(CalibrationNodeBase):
         self._buffers, specs = self._live_inputs.buffers, []
         for topic, msgtype in RBRLG_TOPICS.items():
             buf = self._buffers[topic]
-            specs.append(InputSpec(_MESSAGE_CLASSES[msgtype], relative(topic), buf.add,
+            specs.append(InputSpec(MESSAGE_CLASSES[msgtype], relative(topic), buf.add,
                                    EVENT_QOS if msgtype == HEADER else SENSOR_QOS))
         self.set_inputs(specs)
         self.state = NodeState(self, 'rbrlg', self.gyro_id,

@@ -40,7 +40,7 @@ from gyro_calib.nodes.ros_io import changes_line, described_parameter
 from gyro_calib.registry import handoff_schema
 
 if TYPE_CHECKING:
-    from gyro_calib.nodes.method_node import LiveInputs
+    from gyro_calib.nodes.live_inputs import LiveInputs
     from gyro_calib.nodes.node_state import NodeState
     from gyro_calib.session import Progress
 

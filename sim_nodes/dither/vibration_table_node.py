@@ -39,7 +39,7 @@ from sim_nodes.dither.bench import DitherBenchConfig, DitherBenchSimulator, Dith
 from sim_nodes.dither.gyro import DitheredGyroConfig
 from sim_nodes.dither.scenarios import dither_truth
 from sim_nodes.dither.vibration_table import VibrationTableConfig
-from sim_nodes.node_skeleton import BOTH_READERS, PacedSimulatorNode, run_simulator
+from sim_nodes.simulator_node import BOTH_READERS, PacedSimulatorNode, run_simulator
 
 CHUNK_S = 0.05
 """Simulated time per chunk (the pacing granularity), s; chunking never changes a sample."""

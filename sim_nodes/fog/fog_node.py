@@ -52,7 +52,7 @@ from sim_nodes.fog.scenarios import (
     SelfCalLadder,
     TableSettings,
 )
-from sim_nodes.node_skeleton import PacedSimulatorNode, run_simulator
+from sim_nodes.simulator_node import PacedSimulatorNode, run_simulator
 
 CHUNK_S = 0.1
 """Simulated time per published chunk, s (does not change a sample)."""

@@ -28,9 +28,9 @@ from gyro_calib.nodes.ros_io import (
     stamp_to_ns,
 )
 from gyro_calib.topics import relative
-from sim_nodes.node_skeleton import SimulatorNode
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSimulator
 from sim_nodes.rbrlg.two_axis_gyro import TiltedMountConfig, TwoAxisGyroSimulator
+from sim_nodes.simulator_node import SimulatorNode
 
 
 def scenario_yaml(gyro: RingLaserGyroConfig, mount: TiltedMountConfig) -> str:

@@ -33,7 +33,7 @@ from gyro_calib.nodes.ros_io import (
     publish_paced,
 )
 from gyro_calib.topics import relative
-from sim_nodes.node_skeleton import BOTH_READERS, PacedSimulatorNode, run_simulator
+from sim_nodes.simulator_node import BOTH_READERS, PacedSimulatorNode, run_simulator
 from sim_nodes.thermal.gyro import ThermalChunk
 from sim_nodes.thermal.scenarios import ChamberRunConfig
 

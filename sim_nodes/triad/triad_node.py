@@ -39,7 +39,7 @@ from gyro_calib.nodes.ros_io import (
     publish_paced,
 )
 from gyro_calib.topics import relative
-from sim_nodes.node_skeleton import PacedSimulatorNode, run_simulator
+from sim_nodes.simulator_node import PacedSimulatorNode, run_simulator
 from sim_nodes.triad.bench import CHUNK_SAMPLES, TriadChunk
 from sim_nodes.triad.scenarios import IMU_PULSES, SCENARIOS, TriadScenario
 

@@ -1,7 +1,7 @@
 """One simulator-node skeleton (issue 28): every simulator node is built on it.
 
 Start-up, the run parameters, the start gate, the pacing, the progress and the end of a run
-are written once (:mod:`sim_nodes.node_skeleton`); a simulator node keeps only its physics
+are written once (:mod:`sim_nodes.simulator_node`); a simulator node keeps only its physics
 and its messages. A toy simulator on the skeleton shows what every one of them does.
 """
 
@@ -37,14 +37,14 @@ def _source(module: str) -> str:
 def _node_modules() -> list[str]:
     """The modules of sim_nodes that are ROS nodes (they use rclpy or the skeleton)."""
     return [m.name for m in pkgutil.walk_packages(sim_nodes.__path__, 'sim_nodes.')
-            if m.name != 'sim_nodes.node_skeleton'
-            and any(word in _source(m.name) for word in ('rclpy', 'sim_nodes.node_skeleton'))]
+            if m.name != 'sim_nodes.simulator_node'
+            and any(word in _source(m.name) for word in ('rclpy', 'sim_nodes.simulator_node'))]
 
 
 def test_every_simulator_node_is_built_on_the_skeleton() -> None:
     from rclpy.node import Node
 
-    from sim_nodes.node_skeleton import PacedSimulatorNode, SimulatorNode
+    from sim_nodes.simulator_node import PacedSimulatorNode, SimulatorNode
 
     modules = _node_modules()
     assert {'sim_nodes.rate_table_node', 'sim_nodes.rbrlg.rlg_node',
@@ -72,7 +72,7 @@ TOY = textwrap.dedent('''
     from sensor_msgs.msg import JointState
 
     from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, publish_paced
-    from sim_nodes.node_skeleton import PacedSimulatorNode, run_simulator
+    from sim_nodes.simulator_node import PacedSimulatorNode, run_simulator
 
     published = []
 
