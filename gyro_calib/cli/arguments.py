@@ -101,6 +101,27 @@ def check_calibration_file(path: Path | None) -> None:
     load_calibration(path, handoff_schema())
 
 
+def check_handoff_out(path: Path, gyro_id: str = '') -> None:
+    """An existing ``--out`` hand-off file that this run can update, checked before any work.
+
+    Raises:
+        ConfigError: the file is empty, not YAML, not a hand-off file, or (``gyro_id``
+            given) the hand-off file of another gyro; one line naming ``--out``.
+    """
+    if not path.exists():
+        return
+    from gyro_calib.handoff import HandoffError, load_calibration
+
+    try:
+        held = load_calibration(path, handoff_schema()).gyro_id
+    except HandoffError as exc:
+        raise ConfigError(f'--out {path} exists and cannot be updated: {exc} Give a new path, '
+                          'or move the file away.') from None
+    if gyro_id and held and held != gyro_id:
+        raise ConfigError(f'--out {path} exists and cannot be updated: the file holds gyro '
+                          f'{held!r}, this calibration is for gyro {gyro_id!r}; not merging '
+                          'them. Give a new path, or move the file away.')
+
 
 def method_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags every calibrating subcommand shares (methods, settings, site, scale factors)."""

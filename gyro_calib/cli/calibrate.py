@@ -26,6 +26,7 @@ from gyro_calib.cli.arguments import (
     EXIT_OK,
     calibrate_arguments,
     check_calibration_file,
+    check_handoff_out,
     method_arguments,
     options_from_args,
     refuse_unused_flags,
@@ -75,14 +76,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
 
     if args.out is not None:
         check_output_file(args.out, '--out', follow_links=True)
-        if args.out.exists():
-            from gyro_calib.handoff import HandoffError, load_calibration
-
-            try:  # a file that cannot be updated: refused before work
-                load_calibration(args.out, handoff_schema())
-            except HandoffError as exc:
-                raise ConfigError(f'--out {args.out} exists and cannot be updated: {exc} Give '
-                                  'a new path, or move the file away.') from None
+        check_handoff_out(args.out)  # a file that cannot be updated: refused before work
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     if any(v is not None for v in (args.report, args.spec, args.lab, args.customer)):  # first
         from gyro_calib.cli.report import check_calibrate_report

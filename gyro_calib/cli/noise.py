@@ -19,7 +19,8 @@ that is not a positive number, a topic absent or
 of another type (the line lists the topics present with their types), a pulse or FOG
 stream without a scale factor, a channel that is constant or all NaN, a record too short
 for any term, an output path that cannot be written (checked before any work, writability
-included). On any failure no file is written or overwritten; a disk that fills while writing
+included), an existing ``--out`` file this run cannot update (empty, not a hand-off file, or
+another ``--gyro-id``'s: checked after the bag, topic and scale factor, before any work). On any failure no file is written or overwritten; a disk that fills while writing
 ends in one line naming the output and what was written before it.
 """
 
@@ -34,7 +35,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from gyro_calib.cli.arguments import check_calibration_file, namespace_argument, options_from_args
+from gyro_calib.cli.arguments import (
+    check_calibration_file,
+    check_handoff_out,
+    namespace_argument,
+    options_from_args,
+)
 from gyro_calib.cli.calibrate import json_default, summary_text
 
 if TYPE_CHECKING:
@@ -159,6 +165,8 @@ def run_noise(args: argparse.Namespace) -> int:
 
         raise ConfigError(f"--kalibr: Kalibr's imu.yaml describes an IMU; {topic} is a "
                           'single-axis gyro (use --out or --json). Nothing was read.')
+    if targets.handoff is not None:  # after the bag, topic and scale-factor checks: before work
+        check_handoff_out(args.out, args.gyro_id)
 
     outcome = _calibrate(args, options)
     session = outcome.sessions['noise']
