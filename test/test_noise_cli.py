@@ -245,12 +245,12 @@ def test_an_out_file_that_cannot_be_updated_is_refused_before_any_work_naming_ou
         bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
         monkeypatch: pytest.MonkeyPatch, what: str, text: str) -> None:
     """As calibrate: one line naming --out and what to do, exit 2, nothing written."""
-    import gyro_calib.cli.noise
+    import gyro_calib.bag_calibration
 
-    def no_work(*_: Any) -> None:
+    def no_work(*_: Any, **__: Any) -> None:
         raise AssertionError('the bag was calibrated before --out was checked')
 
-    monkeypatch.setattr(gyro_calib.cli.noise, '_calibrate', no_work)
+    monkeypatch.setattr(gyro_calib.bag_calibration, 'calibrate_bags', no_work)
     out, kalibr = tmp_path / 'handoff.yaml', tmp_path / 'imu.yaml'
     if what == 'another gyro':
         write_calibration(out, Calibration({}, {}, gyro_id='imu-A'), handoff_schema())

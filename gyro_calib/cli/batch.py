@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from gyro_calib.cli.arguments import check_output_dir, lab_arguments, load_spec_arg
+from gyro_calib.cli.progress import show_progress
 from gyro_calib.errors import ConfigError
 
 EXIT_OK, EXIT_SOME_FAILED, EXIT_INTERRUPTED = 0, 1, 130
@@ -80,7 +81,7 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
     """Start or reach the cluster, run the fleet, print the summary (the lock is held)."""
     from gyro_calib.batch.run import make_client, print_summary, run_batch
 
-    show = sys.stderr.isatty() if args.progress is None else args.progress
+    show = show_progress(args.progress)
     try:
         client, cluster = make_client(args.workers, args.scheduler)
     except OSError as exc:

@@ -20,8 +20,9 @@ of another type (the line lists the topics present with their types), a pulse or
 stream without a scale factor, a channel that is constant or all NaN, a record too short
 for any term, an output path that cannot be written (checked before any work, writability
 included), an existing ``--out`` file this run cannot update (empty, not a hand-off file, or
-another ``--gyro-id``'s: checked after the bag, topic and scale factor, before any work). On any failure no file is written or overwritten; a disk that fills while writing
-ends in one line naming the output and what was written before it.
+another ``--gyro-id``'s: checked after the bag, topic and scale factor, before any work).
+On any failure no file is written or overwritten; a disk that fills while writing ends in
+one line naming the output and what was written before it.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from gyro_calib.cli.arguments import (
     check_calibration_file,
@@ -42,9 +43,7 @@ from gyro_calib.cli.arguments import (
     options_from_args,
 )
 from gyro_calib.cli.calibrate import json_default, summary_text
-
-if TYPE_CHECKING:
-    from gyro_calib.bag_calibration import BagCalibration
+from gyro_calib.cli.progress import progress_bar
 
 EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_INTERRUPTED = 0, 1, 130
 
@@ -102,7 +101,7 @@ def add_commands(subparsers: Any) -> None:
 
 def run_noise(args: argparse.Namespace) -> int:
     """Check the input, calibrate the bags, print, write the files asked for."""
-    from gyro_calib.bag_calibration import bag_infos, json_document, merged_topics
+    from gyro_calib.bag_calibration import bag_infos, calibrate_bags, json_document, merged_topics
     from gyro_calib.bagio import topics_present
     from gyro_calib.noise.outputs import resolve_targets, write_outputs
     from gyro_calib.noise.run import (
@@ -168,7 +167,9 @@ def run_noise(args: argparse.Namespace) -> int:
     if targets.handoff is not None:  # after the bag, topic and scale-factor checks: before work
         check_handoff_out(args.out, args.gyro_id)
 
-    outcome = _calibrate(args, options)
+    with progress_bar(args.progress, 'noise') as progress:
+        outcome = calibrate_bags(args.bags, methods=['noise'], options=options,
+                                 progress=progress, namespace=args.namespace)
     session = outcome.sessions['noise']
     assert isinstance(session, NoiseSession)
     session.check_measurable()
@@ -248,20 +249,3 @@ def _benches(infos: Sequence[Any]) -> tuple[tuple[str, dict[str, Any]], ...]:
         bench = info.scenario.get('bench')
         out.append((str(info.path), bench if isinstance(bench, dict) else {}))
     return tuple(out)
-
-
-def _calibrate(args: argparse.Namespace, options: Any) -> BagCalibration:
-    from gyro_calib.bag_calibration import calibrate_bags
-
-    show = sys.stderr.isatty() if args.progress is None else args.progress
-    if not show:
-        return calibrate_bags(args.bags, methods=['noise'], options=options,
-                              namespace=args.namespace)
-    from tqdm import tqdm
-
-    with tqdm(total=1000, desc='noise', unit='‰', file=sys.stderr,
-              bar_format='{desc} {percentage:3.0f}%|{bar}| {elapsed}<{remaining}') as bar:
-        def progress(fraction: float) -> None:
-            bar.update(int(fraction * 1000) - bar.n)
-        return calibrate_bags(args.bags, methods=['noise'], options=options, progress=progress,
-                              namespace=args.namespace)
