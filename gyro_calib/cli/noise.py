@@ -32,7 +32,6 @@ import dataclasses
 import io
 import json
 import sys
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -101,7 +100,13 @@ def add_commands(subparsers: Any) -> None:
 
 def run_noise(args: argparse.Namespace) -> int:
     """Check the input, calibrate the bags, print, write the files asked for."""
-    from gyro_calib.bag_calibration import bag_infos, calibrate_bags, json_document, merged_topics
+    from gyro_calib.bag_calibration import (
+        bag_infos,
+        calibrate_bags,
+        json_document,
+        merged_topics,
+        stored_benches,
+    )
     from gyro_calib.bagio import topics_present
     from gyro_calib.noise.outputs import resolve_targets, write_outputs
     from gyro_calib.noise.run import (
@@ -149,11 +154,11 @@ def run_noise(args: argparse.Namespace) -> int:
     # the input topic a bag stores (bench.topic) may come from any bag; every other stored
     # bench setting from the bags that hold the input read, never from another bag
     options = dataclasses.replace(options, topic=args.topic, scenario=next(
-        (i.scenario for i in infos if i.scenario), {}), stored_benches=_benches(infos))
+        (i.scenario for i in infos if i.scenario), {}), stored_benches=stored_benches(infos))
     topic = select_input({t: (m, counts.get(t, 0)) for t, m in present.items()}, options,
                          where=where, listing=listing)
     own = [i for i in infos if topic in i.topics and i.topics[topic].count > 0]
-    options = dataclasses.replace(options, topic=topic, stored_benches=_benches(own),
+    options = dataclasses.replace(options, topic=topic, stored_benches=stored_benches(own),
                                   scenario=next((i.scenario for i in own if i.scenario), {}))
     refuse_scale_flag_of_another_input(
         input_kind(topic), topic, scale_factor_rad_per_pulse=args.scale_factor_rad_per_pulse,
@@ -236,16 +241,3 @@ def _flush(human: io.StringIO, document: str | None, json_asked: bool) -> None:
     (sys.stderr if json_asked else sys.stdout).write(human.getvalue())
     if document is not None:
         print(document)
-
-
-def _benches(infos: Sequence[Any]) -> tuple[tuple[str, dict[str, Any]], ...]:
-    """(bag, its stored bench settings or {}) of each bag.
-
-    (bag, its stored bench settings or {}) of each bag: a bag storing none still counts,
-    so another bag's settings never stand in for it.
-    """
-    out = []
-    for info in infos:
-        bench = info.scenario.get('bench')
-        out.append((str(info.path), bench if isinstance(bench, dict) else {}))
-    return tuple(out)
