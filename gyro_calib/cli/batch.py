@@ -17,7 +17,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gyro_calib.cli.arguments import check_output_dir, lab_arguments, load_spec_arg
+from gyro_calib.cli.arguments import (
+    check_output_dir,
+    lab_and_customer,
+    lab_arguments,
+    load_spec_arg,
+)
 from gyro_calib.cli.progress import show_progress
 from gyro_calib.errors import ConfigError
 
@@ -132,13 +137,10 @@ def lab_and_customers(args: argparse.Namespace, jobs: list[Any]) -> tuple[Any, l
     """
     import dataclasses
 
-    from gyro_calib.report.lab import check_customer, find_lab
-
-    lab = find_lab(args.lab, args.out)
-    default = check_customer(args.customer, None)
+    lab, default = lab_and_customer(args, args.out, per_gyro=True)
     out = []
     for job in jobs:
-        customer = job.customer or default or (lab.customer if lab is not None else '')
+        customer = job.customer or default
         if lab is not None and not customer:
             raise ConfigError(f'gyro {job.gyro_id}: a certificate issued by {lab.name} names '
                               'its customer (ISO/IEC 17025 7.8.2.1 e): give a customer column '
