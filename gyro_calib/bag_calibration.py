@@ -134,6 +134,15 @@ def merged_topics(infos: Sequence[BagInfo]) -> dict[str, str]:
     return out
 
 
+def topic_counts(infos: Sequence[BagInfo]) -> dict[str, int]:
+    """Topic → its message count summed over all bags."""
+    counts: dict[str, int] = {}
+    for info in infos:
+        for t in info.topics.values():
+            counts[t.name] = counts.get(t.name, 0) + t.count
+    return counts
+
+
 def own_bags(method: Method, infos: Sequence[BagInfo]) -> list[BagInfo]:
     """The bags that are the method's own.
 

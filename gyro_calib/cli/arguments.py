@@ -29,7 +29,9 @@ if TYPE_CHECKING:
     from gyro_calib.report.lab import Lab
     from gyro_calib.report.spec import Spec
 
-EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+"""``gyro-calib``'s exit statuses: done; nothing (or not everything) calibrated; bad input
+(one line on stderr); interrupted (Ctrl-C)."""
 
 
 class Parser(argparse.ArgumentParser):

@@ -18,6 +18,9 @@ from pathlib import Path
 from typing import Any
 
 from gyro_calib.cli.arguments import (
+    EXIT_INTERRUPTED,
+    EXIT_NOT_CALIBRATED,
+    EXIT_OK,
     check_output_dir,
     lab_and_customer,
     lab_arguments,
@@ -26,7 +29,7 @@ from gyro_calib.cli.arguments import (
 from gyro_calib.cli.progress import show_progress
 from gyro_calib.errors import ConfigError
 
-EXIT_OK, EXIT_SOME_FAILED, EXIT_INTERRUPTED = 0, 1, 130
+EXIT_SOME_FAILED = EXIT_NOT_CALIBRATED  # some gyro failed (its row says why)
 
 
 def add_commands(sub: Any) -> None:

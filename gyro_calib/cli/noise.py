@@ -36,6 +36,9 @@ from pathlib import Path
 from typing import Any
 
 from gyro_calib.cli.arguments import (
+    EXIT_INTERRUPTED,
+    EXIT_NOT_CALIBRATED,
+    EXIT_OK,
     check_calibration_file,
     check_handoff_out,
     namespace_argument,
@@ -43,8 +46,6 @@ from gyro_calib.cli.arguments import (
 )
 from gyro_calib.cli.calibrate import json_default, summary_text
 from gyro_calib.cli.progress import progress_bar
-
-EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_INTERRUPTED = 0, 1, 130
 
 
 def add_commands(subparsers: Any) -> None:
@@ -106,6 +107,7 @@ def run_noise(args: argparse.Namespace) -> int:
         json_document,
         merged_topics,
         stored_benches,
+        topic_counts,
     )
     from gyro_calib.bagio import topics_present
     from gyro_calib.noise.outputs import resolve_targets, write_outputs
@@ -130,10 +132,7 @@ def run_noise(args: argparse.Namespace) -> int:
     check_calibration_file(args.calibration)
     infos, _ = bag_infos(args.bags, args.namespace)
     present = merged_topics(infos)
-    counts: dict[str, int] = {}
-    for info in infos:
-        for t in info.topics.values():
-            counts[t.name] = counts.get(t.name, 0) + t.count
+    counts = topic_counts(infos)
     where = ' + '.join(str(i.path) for i in infos)
     listing = topics_present(dataclasses.replace(
         infos[0], topics={k: dataclasses.replace(v, count=counts[k])
