@@ -134,6 +134,15 @@ def merged_topics(infos: Sequence[BagInfo]) -> dict[str, str]:
     return out
 
 
+def topic_counts(infos: Sequence[BagInfo]) -> dict[str, int]:
+    """Topic → its message count summed over all bags."""
+    counts: dict[str, int] = {}
+    for info in infos:
+        for t in info.topics.values():
+            counts[t.name] = counts.get(t.name, 0) + t.count
+    return counts
+
+
 def own_bags(method: Method, infos: Sequence[BagInfo]) -> list[BagInfo]:
     """The bags that are the method's own.
 
@@ -150,6 +159,22 @@ def own_bags(method: Method, infos: Sequence[BagInfo]) -> list[BagInfo]:
         method.any_topic and any(t.msgtype == method.any_topic for t in i.topics.values()))]
 
 
+def stored_benches(infos: Sequence[BagInfo], *,
+                   every_bag: bool = True) -> tuple[tuple[str, dict[str, Any]], ...]:
+    """(bag, its stored bench settings ``scenario.bench``) of each bag, in order.
+
+    A bag storing none counts with ``{}``, so another bag's settings never stand in for it
+    (:meth:`~gyro_calib.session.CalibrationOptions.stored`); with ``every_bag=False`` it is
+    left out.
+    """
+    out = []
+    for info in infos:
+        bench = info.scenario.get('bench')
+        if isinstance(bench, dict) or every_bag:
+            out.append((str(info.path), bench if isinstance(bench, dict) else {}))
+    return tuple(out)
+
+
 def method_options(options: CalibrationOptions, method: Method,
                    infos: Sequence[BagInfo]) -> CalibrationOptions:
     """Options for one method, with its bags' bench settings.
@@ -162,9 +187,7 @@ def method_options(options: CalibrationOptions, method: Method,
     """
     changes: dict[str, Any] = {}
     if not options.stored_benches and not options.scenario:
-        benches = tuple((str(i.path), i.scenario['bench']) for i in own_bags(method, infos)
-                        if isinstance(i.scenario.get('bench'), dict))
-        changes['stored_benches'] = benches
+        changes['stored_benches'] = stored_benches(own_bags(method, infos), every_bag=False)
         first = next((i.scenario for i in own_bags(method, infos) if i.scenario), {})
         changes['scenario'] = first
     if options.config_file is not None and method.node and not options.config_bench:

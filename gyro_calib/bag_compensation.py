@@ -103,7 +103,7 @@ def _stored_identity(infos: Sequence[Any], gyro_id: str) -> tuple[str, Any]:
             another holds them); the bags store different gyro ids (``--gyro-id`` decides) or
             different K (compensate them separately), naming the setting and the bags.
     """
-    from gyro_calib.bag_calibration import own_bags
+    from gyro_calib.bag_calibration import own_bags, stored_benches
     from gyro_calib.registry import METHODS
     from gyro_calib.session import CalibrationOptions
 
@@ -115,11 +115,7 @@ def _stored_identity(infos: Sequence[Any], gyro_id: str) -> tuple[str, Any]:
                           f'{" and ".join(TOPICS)} in it, while {own[0].path} holds them); '
                           'gyro-calib compensate reads the pulses and temperatures of one run: '
                           'give its bags only.')
-    benches: list[tuple[str, dict[str, Any]]] = []
-    for info in own:
-        bench = info.scenario.get('bench')
-        benches.append((str(info.path), bench if isinstance(bench, dict) else {}))
-    options = CalibrationOptions(stored_benches=tuple(benches))
+    options = CalibrationOptions(stored_benches=stored_benches(own))
     try:
         if not gyro_id:
             gyro_id = str(options.bench('gyro_id', '') or '')

@@ -72,3 +72,24 @@ def test_noise_refuses_bags_that_store_different_inputs_naming_topic(
     assert out == '' and err.count('\n') == 1
     assert 'topic' in err and 'noise_rlg_static' in err and 'noise_imu_static' in err
     assert 'give --topic' in err
+
+
+def test_stored_benches_keep_every_bag_in_order_and_a_bag_storing_none_counts_empty() -> None:
+    """One (bag, stored bench) list for noise, compensate and the methods' options.
+
+    A bag storing no bench counts with {} (another bag's settings never stand in for it);
+    the methods' options (every_bag=False) leave it out, as they always did.
+    """
+    from types import SimpleNamespace
+
+    from gyro_calib.bag_calibration import stored_benches, topic_counts
+
+    def bag(path: str, scenario: dict[str, object], **counts: int) -> SimpleNamespace:
+        return SimpleNamespace(path=Path(path), scenario=scenario, topics={
+            name: SimpleNamespace(name=f'/{name}', count=n) for name, n in counts.items()})
+
+    bags = [bag('a', {'bench': {'gyro_id': 'A'}}, imu=3), bag('b', {}, imu=4, table=1),
+            bag('c', {'bench': 'not a mapping'})]
+    assert stored_benches(bags) == (('a', {'gyro_id': 'A'}), ('b', {}), ('c', {}))
+    assert stored_benches(bags, every_bag=False) == (('a', {'gyro_id': 'A'}),)
+    assert topic_counts(bags) == {'/imu': 7, '/table': 1}

@@ -17,6 +17,8 @@ import yaml
 
 from gyro_calib.bagio import BagMessage, ContractMessages, write_bag
 from gyro_calib.cli import main
+from gyro_calib.handoff import Calibration, write_calibration
+from gyro_calib.registry import handoff_schema
 from sim_nodes.noise.bag_scenarios import imu_template
 
 START_NS = 1_700_000_000_000_000_000
@@ -93,18 +95,25 @@ def outputs(tmp_path: Path) -> dict[str, Path]:
     """Files that exist before the run.
 
     Files that exist before the run: a failing run must leave them as they are (the
-    figure is noise_adev.png in the --plot directory).
+    figure is noise_adev.png in the --plot directory; the hand-off file is one a run could
+    update, so the bad input found in the data is what a run reports).
     """
     (tmp_path / 'figs').mkdir()
     files = {'kalibr': tmp_path / 'imu.yaml', 'plot': tmp_path / 'figs' / 'noise_adev.png',
              'out': tmp_path / 'handoff.yaml'}
     for path in files.values():
         path.write_text(f'before {path.name}\n')
+    write_calibration(files['out'], Calibration({}, {}), handoff_schema())
+    BEFORE[files['out']] = files['out'].read_text()
     return files
 
 
+BEFORE: dict[Path, str] = {}
+"""The text of each pre-existing file that is not ``before NAME``."""
+
+
 def unchanged(files: dict[str, Path]) -> bool:
-    return (all(p.read_text() == f'before {p.name}\n' for p in files.values())
+    return (all(p.read_text() == BEFORE.get(p, f'before {p.name}\n') for p in files.values())
             and sorted(p.name for p in files['out'].parent.iterdir())
             == ['figs', 'handoff.yaml', 'imu.yaml']
             and [p.name for p in files['plot'].parent.iterdir()] == ['noise_adev.png'])
@@ -224,6 +233,37 @@ def test_a_handoff_file_of_another_gyro_is_refused_and_nothing_is_written(
                          '--kalibr', kalibr)
     assert status == 2 and "holds gyro 'imu-A'" in one_line_error(err)
     assert out.read_text() == before and not kalibr.exists()
+
+
+@pytest.mark.parametrize('what, text', [
+    ('empty', 'is empty'),
+    ('not YAML', 'is not valid YAML'),
+    ('not a hand-off', 'must hold a mapping'),
+    ('another gyro', "the file holds gyro 'imu-A', this calibration is for gyro 'imu-B'"),
+])
+def test_an_out_file_that_cannot_be_updated_is_refused_before_any_work_naming_out(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch, what: str, text: str) -> None:
+    """As calibrate: one line naming --out and what to do, exit 2, nothing written."""
+    import gyro_calib.bag_calibration
+
+    def no_work(*_: Any, **__: Any) -> None:
+        raise AssertionError('the bag was calibrated before --out was checked')
+
+    monkeypatch.setattr(gyro_calib.bag_calibration, 'calibrate_bags', no_work)
+    out, kalibr = tmp_path / 'handoff.yaml', tmp_path / 'imu.yaml'
+    if what == 'another gyro':
+        write_calibration(out, Calibration({}, {}, gyro_id='imu-A'), handoff_schema())
+    else:
+        out.write_text({'empty': '', 'not YAML': 'gyro: [\n', 'not a hand-off': 'notes\n'}[what])
+    before = out.read_text()
+    status, stdout, err = run(capsys, bags['imu'], '--out', out, '--gyro-id', 'imu-B',
+                              '--kalibr', kalibr)
+    line = one_line_error(err)
+    assert status == 2 and stdout == '', err
+    assert line.startswith(f'gyro-calib: error: --out {out} exists and cannot be updated: ')
+    assert text in line and line.endswith('Give a new path, or move the file away.'), line
+    assert out.read_text() == before and sorted(tmp_path.iterdir()) == [out]
 
 
 def test_a_good_imu_run_writes_every_file_and_prints_their_paths(

@@ -49,7 +49,7 @@ from gyro_calib.cli import (
     report,
     simulate,
 )
-from gyro_calib.cli.arguments import EXIT_BAD_INPUT, Parser
+from gyro_calib.cli.arguments import EXIT_BAD_INPUT, EXIT_INTERRUPTED, Parser
 from gyro_calib.cli.calibrate import summary_text
 from gyro_calib.errors import GyroCalibError
 
@@ -75,7 +75,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print('gyro-calib: interrupted; nothing written.', file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 

@@ -9,8 +9,9 @@ usage error in one line:
   :class:`~gyro_calib.session.CalibrationOptions` they make;
 - :func:`refuse_unused_flags`, :func:`check_calibration_file`: a flag no method run uses,
   a ``--calibration`` file, refused before any work;
-- :func:`calibrate_arguments`, :func:`lab_arguments`, :func:`check_output_dir`,
-  :func:`load_spec_arg`: the certificate's flags (calibrate --report, report, batch).
+- :func:`calibrate_arguments`, :func:`lab_arguments`, :func:`lab_and_customer`,
+  :func:`check_output_dir`, :func:`load_spec_arg`: the certificate's flags (calibrate
+  --report, report, batch).
 """
 
 from __future__ import annotations
@@ -25,9 +26,12 @@ from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.session import CalibrationOptions
 
 if TYPE_CHECKING:
+    from gyro_calib.report.lab import Lab
     from gyro_calib.report.spec import Spec
 
-EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+"""``gyro-calib``'s exit statuses: done; nothing (or not everything) calibrated; bad input
+(one line on stderr); interrupted (Ctrl-C)."""
 
 
 class Parser(argparse.ArgumentParser):
@@ -101,6 +105,27 @@ def check_calibration_file(path: Path | None) -> None:
     load_calibration(path, handoff_schema())
 
 
+def check_handoff_out(path: Path, gyro_id: str = '') -> None:
+    """An existing ``--out`` hand-off file that this run can update, checked before any work.
+
+    Raises:
+        ConfigError: the file is empty, not YAML, not a hand-off file, or (``gyro_id``
+            given) the hand-off file of another gyro; one line naming ``--out``.
+    """
+    if not path.exists():
+        return
+    from gyro_calib.handoff import HandoffError, load_calibration
+
+    try:
+        held = load_calibration(path, handoff_schema()).gyro_id
+    except HandoffError as exc:
+        raise ConfigError(f'--out {path} exists and cannot be updated: {exc} Give a new path, '
+                          'or move the file away.') from None
+    if gyro_id and held and held != gyro_id:
+        raise ConfigError(f'--out {path} exists and cannot be updated: the file holds gyro '
+                          f'{held!r}, this calibration is for gyro {gyro_id!r}; not merging '
+                          'them. Give a new path, or move the file away.')
+
 
 def method_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags every calibrating subcommand shares (methods, settings, site, scale factors)."""
@@ -160,6 +185,24 @@ def lab_arguments(parser: argparse.ArgumentParser, where: str = '--out DIR') -> 
                         'without one the certificate is a DRAFT')
     parser.add_argument('--customer', metavar='TEXT',
                         help='the customer the certificate names (name and contact)')
+
+
+def lab_and_customer(args: argparse.Namespace, out_dir: Path, *,
+                     per_gyro: bool = False) -> tuple[Lab | None, str]:
+    """The issuing lab (``--lab``, else ``lab.yaml`` in ``out_dir``) and the customer.
+
+    The customer: ``--customer``, else the lab file's. ``per_gyro`` (batch: a manifest may
+    name each gyro's customer): a lab without a customer is left to the caller to refuse.
+
+    Raises:
+        ConfigError: a malformed lab file, an empty ``--customer``, or (not ``per_gyro``) a
+            lab without a customer (one line).
+    """
+    from gyro_calib.report.lab import check_customer, find_lab
+
+    lab = find_lab(args.lab, out_dir)
+    customer = check_customer(args.customer, None if per_gyro else lab)
+    return lab, customer or (lab.customer if lab is not None else '')
 
 
 def calibrate_arguments(parser: argparse.ArgumentParser) -> None:

@@ -17,10 +17,19 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gyro_calib.cli.arguments import check_output_dir, lab_arguments, load_spec_arg
+from gyro_calib.cli.arguments import (
+    EXIT_INTERRUPTED,
+    EXIT_NOT_CALIBRATED,
+    EXIT_OK,
+    check_output_dir,
+    lab_and_customer,
+    lab_arguments,
+    load_spec_arg,
+)
+from gyro_calib.cli.progress import show_progress
 from gyro_calib.errors import ConfigError
 
-EXIT_OK, EXIT_SOME_FAILED, EXIT_INTERRUPTED = 0, 1, 130
+EXIT_SOME_FAILED = EXIT_NOT_CALIBRATED  # some gyro failed (its row says why)
 
 
 def add_commands(sub: Any) -> None:
@@ -80,7 +89,7 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
     """Start or reach the cluster, run the fleet, print the summary (the lock is held)."""
     from gyro_calib.batch.run import make_client, print_summary, run_batch
 
-    show = sys.stderr.isatty() if args.progress is None else args.progress
+    show = show_progress(args.progress)
     try:
         client, cluster = make_client(args.workers, args.scheduler)
     except OSError as exc:
@@ -131,13 +140,10 @@ def lab_and_customers(args: argparse.Namespace, jobs: list[Any]) -> tuple[Any, l
     """
     import dataclasses
 
-    from gyro_calib.report.lab import check_customer, find_lab
-
-    lab = find_lab(args.lab, args.out)
-    default = check_customer(args.customer, None)
+    lab, default = lab_and_customer(args, args.out, per_gyro=True)
     out = []
     for job in jobs:
-        customer = job.customer or default or (lab.customer if lab is not None else '')
+        customer = job.customer or default
         if lab is not None and not customer:
             raise ConfigError(f'gyro {job.gyro_id}: a certificate issued by {lab.name} names '
                               'its customer (ISO/IEC 17025 7.8.2.1 e): give a customer column '

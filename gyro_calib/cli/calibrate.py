@@ -26,10 +26,12 @@ from gyro_calib.cli.arguments import (
     EXIT_OK,
     calibrate_arguments,
     check_calibration_file,
+    check_handoff_out,
     method_arguments,
     options_from_args,
     refuse_unused_flags,
 )
+from gyro_calib.cli.progress import progress_bar
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import load_calibration, update_calibration
 from gyro_calib.registry import METHODS, handoff_schema
@@ -75,14 +77,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
 
     if args.out is not None:
         check_output_file(args.out, '--out', follow_links=True)
-        if args.out.exists():
-            from gyro_calib.handoff import HandoffError, load_calibration
-
-            try:  # a file that cannot be updated: refused before work
-                load_calibration(args.out, handoff_schema())
-            except HandoffError as exc:
-                raise ConfigError(f'--out {args.out} exists and cannot be updated: {exc} Give '
-                                  'a new path, or move the file away.') from None
+        check_handoff_out(args.out)  # a file that cannot be updated: refused before work
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     if any(v is not None for v in (args.report, args.spec, args.lab, args.customer)):  # first
         from gyro_calib.cli.report import check_calibrate_report
@@ -96,8 +91,10 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if args.report is not None and 'triad' in to_run:
         raise ConfigError('--report: certificates do not cover a triad yet; calibrate it '
                           'without --report (--out writes its imu: section to the hand-off).')
-    show = sys.stderr.isatty() if args.progress is None else args.progress
-    outcome = _run_with_progress(args, show)
+    options = options_from_args(args)
+    with progress_bar(args.progress, 'calibrating') as progress:
+        outcome = calibrate_bags(args.bags, methods=args.method, options=options,
+                                 progress=progress, namespace=args.namespace)
     # the human text goes out only once the files are written: a refusal on the way (a
     # hand-off the run cannot be merged into, a full disk) leaves one line on stderr and
     # nothing on stdout
@@ -189,21 +186,6 @@ def json_default(value: Any) -> Any:
     if hasattr(value, 'tolist'):
         return value.tolist()
     raise TypeError(f'{type(value).__name__} is not JSON serialisable')
-
-
-def _run_with_progress(args: argparse.Namespace, show: bool) -> BagCalibration:
-    options = options_from_args(args)
-    if not show:
-        return calibrate_bags(args.bags, methods=args.method, options=options,
-                              namespace=args.namespace)
-    from tqdm import tqdm
-
-    with tqdm(total=1000, desc='calibrating', unit='‰', file=sys.stderr,
-              bar_format='{desc} {percentage:3.0f}%|{bar}| {elapsed}<{remaining}') as bar:
-        def progress(fraction: float) -> None:
-            bar.update(int(fraction * 1000) - bar.n)
-        return calibrate_bags(args.bags, methods=args.method, options=options,
-                              progress=progress, namespace=args.namespace)
 
 
 def summary_text(outcome: BagCalibration) -> str:

@@ -47,14 +47,11 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
     An automatic method runs when its revealing topics are all there with their types; a
     method that runs only when asked (noise) is offered for each input it could read.
     """
-    from gyro_calib.bag_calibration import merged_topics
+    from gyro_calib.bag_calibration import merged_topics, topic_counts
     from gyro_calib.registry import methods_revealed
 
     present = merged_topics(infos)
-    counts: dict[str, int] = {}
-    for info in infos:
-        for t in info.topics.values():
-            counts[t.name] = counts.get(t.name, 0) + t.count
+    counts = topic_counts(infos)
     revealed = {m.name for m in methods_revealed(
         {t: m for t, m in present.items() if counts.get(t)})}
     out: dict[str, dict[str, Any]] = {}

@@ -19,8 +19,10 @@ that is not a positive number, a topic absent or
 of another type (the line lists the topics present with their types), a pulse or FOG
 stream without a scale factor, a channel that is constant or all NaN, a record too short
 for any term, an output path that cannot be written (checked before any work, writability
-included). On any failure no file is written or overwritten; a disk that fills while writing
-ends in one line naming the output and what was written before it.
+included), an existing ``--out`` file this run cannot update (empty, not a hand-off file, or
+another ``--gyro-id``'s: checked after the bag, topic and scale factor, before any work).
+On any failure no file is written or overwritten; a disk that fills while writing ends in
+one line naming the output and what was written before it.
 """
 
 from __future__ import annotations
@@ -30,17 +32,20 @@ import dataclasses
 import io
 import json
 import sys
-from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from gyro_calib.cli.arguments import check_calibration_file, namespace_argument, options_from_args
+from gyro_calib.cli.arguments import (
+    EXIT_INTERRUPTED,
+    EXIT_NOT_CALIBRATED,
+    EXIT_OK,
+    check_calibration_file,
+    check_handoff_out,
+    namespace_argument,
+    options_from_args,
+)
 from gyro_calib.cli.calibrate import json_default, summary_text
-
-if TYPE_CHECKING:
-    from gyro_calib.bag_calibration import BagCalibration
-
-EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_INTERRUPTED = 0, 1, 130
+from gyro_calib.cli.progress import progress_bar
 
 
 def add_commands(subparsers: Any) -> None:
@@ -96,7 +101,14 @@ def add_commands(subparsers: Any) -> None:
 
 def run_noise(args: argparse.Namespace) -> int:
     """Check the input, calibrate the bags, print, write the files asked for."""
-    from gyro_calib.bag_calibration import bag_infos, json_document, merged_topics
+    from gyro_calib.bag_calibration import (
+        bag_infos,
+        calibrate_bags,
+        json_document,
+        merged_topics,
+        stored_benches,
+        topic_counts,
+    )
     from gyro_calib.bagio import topics_present
     from gyro_calib.noise.outputs import resolve_targets, write_outputs
     from gyro_calib.noise.run import (
@@ -120,10 +132,7 @@ def run_noise(args: argparse.Namespace) -> int:
     check_calibration_file(args.calibration)
     infos, _ = bag_infos(args.bags, args.namespace)
     present = merged_topics(infos)
-    counts: dict[str, int] = {}
-    for info in infos:
-        for t in info.topics.values():
-            counts[t.name] = counts.get(t.name, 0) + t.count
+    counts = topic_counts(infos)
     where = ' + '.join(str(i.path) for i in infos)
     listing = topics_present(dataclasses.replace(
         infos[0], topics={k: dataclasses.replace(v, count=counts[k])
@@ -144,11 +153,11 @@ def run_noise(args: argparse.Namespace) -> int:
     # the input topic a bag stores (bench.topic) may come from any bag; every other stored
     # bench setting from the bags that hold the input read, never from another bag
     options = dataclasses.replace(options, topic=args.topic, scenario=next(
-        (i.scenario for i in infos if i.scenario), {}), stored_benches=_benches(infos))
+        (i.scenario for i in infos if i.scenario), {}), stored_benches=stored_benches(infos))
     topic = select_input({t: (m, counts.get(t, 0)) for t, m in present.items()}, options,
                          where=where, listing=listing)
     own = [i for i in infos if topic in i.topics and i.topics[topic].count > 0]
-    options = dataclasses.replace(options, topic=topic, stored_benches=_benches(own),
+    options = dataclasses.replace(options, topic=topic, stored_benches=stored_benches(own),
                                   scenario=next((i.scenario for i in own if i.scenario), {}))
     refuse_scale_flag_of_another_input(
         input_kind(topic), topic, scale_factor_rad_per_pulse=args.scale_factor_rad_per_pulse,
@@ -159,8 +168,12 @@ def run_noise(args: argparse.Namespace) -> int:
 
         raise ConfigError(f"--kalibr: Kalibr's imu.yaml describes an IMU; {topic} is a "
                           'single-axis gyro (use --out or --json). Nothing was read.')
+    if targets.handoff is not None:  # after the bag, topic and scale-factor checks: before work
+        check_handoff_out(args.out, args.gyro_id)
 
-    outcome = _calibrate(args, options)
+    with progress_bar(args.progress, 'noise') as progress:
+        outcome = calibrate_bags(args.bags, methods=['noise'], options=options,
+                                 progress=progress, namespace=args.namespace)
     session = outcome.sessions['noise']
     assert isinstance(session, NoiseSession)
     session.check_measurable()
@@ -227,33 +240,3 @@ def _flush(human: io.StringIO, document: str | None, json_asked: bool) -> None:
     (sys.stderr if json_asked else sys.stdout).write(human.getvalue())
     if document is not None:
         print(document)
-
-
-def _benches(infos: Sequence[Any]) -> tuple[tuple[str, dict[str, Any]], ...]:
-    """(bag, its stored bench settings or {}) of each bag.
-
-    (bag, its stored bench settings or {}) of each bag: a bag storing none still counts,
-    so another bag's settings never stand in for it.
-    """
-    out = []
-    for info in infos:
-        bench = info.scenario.get('bench')
-        out.append((str(info.path), bench if isinstance(bench, dict) else {}))
-    return tuple(out)
-
-
-def _calibrate(args: argparse.Namespace, options: Any) -> BagCalibration:
-    from gyro_calib.bag_calibration import calibrate_bags
-
-    show = sys.stderr.isatty() if args.progress is None else args.progress
-    if not show:
-        return calibrate_bags(args.bags, methods=['noise'], options=options,
-                              namespace=args.namespace)
-    from tqdm import tqdm
-
-    with tqdm(total=1000, desc='noise', unit='‰', file=sys.stderr,
-              bar_format='{desc} {percentage:3.0f}%|{bar}| {elapsed}<{remaining}') as bar:
-        def progress(fraction: float) -> None:
-            bar.update(int(fraction * 1000) - bar.n)
-        return calibrate_bags(args.bags, methods=['noise'], options=options, progress=progress,
-                              namespace=args.namespace)

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 from gyro_calib.cli.arguments import (
     EXIT_OK,
     check_output_dir,
+    lab_and_customer,
     lab_arguments,
     load_spec_arg,
     method_arguments,
@@ -69,18 +70,6 @@ def check_calibrate_report(args: argparse.Namespace) -> None:
     check_output_dir(args.report, '--report')
     load_spec_arg(args.spec)
     lab_and_customer(args, args.report)
-
-
-def lab_and_customer(args: argparse.Namespace, out_dir: Path) -> tuple[Lab | None, str]:
-    """The issuing lab (``--lab``, else ``lab.yaml`` in ``out_dir``) and the customer.
-
-    Raises:
-        ConfigError: a malformed lab file, or a lab without a customer (one line).
-    """
-    from gyro_calib.report.lab import check_customer, find_lab
-
-    lab = find_lab(args.lab, out_dir)
-    return lab, check_customer(args.customer, lab)
 
 
 def run_report(args: argparse.Namespace) -> int:
