@@ -2,8 +2,10 @@
 
 kinematics    rotation directions u in the body frame (eqs. 1–3), Earth rate along u (eq. 13),
               forward/reverse windows reduced to a pair (eqs. 5–6)
+records       what the estimator takes and gives: TriadPair, BenchParameter, TriadResult …
 estimator     rows r_i = s_i/K_i by least squares (eqs. 7–9), K_i, s_i, M = R⁻¹ (eq. 10) with
-              covariance and budget (eqs. 11–12), not-measurable rank test, bias (eq. 14)
+              covariance and budget (eqs. 11–12), not-measurable rank test
+bias          the biases from the pair sums, the Earth rate along u removed (eq. 14)
 settings      the window, pair and channel settings (TriadSettings) and the bench (Bench)
 intake        the bench topics read, one segment per bag (mount)
 quantisation  the quantisation floor of a window's count (eq. 6a)

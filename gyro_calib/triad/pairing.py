@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
     from gyro_calib.triad.cutting import TriadWindow
-    from gyro_calib.triad.estimator import TriadPair
+    from gyro_calib.triad.records import TriadPair
     from gyro_calib.triad.settings import Bench, TriadSettings
 
     Array = npt.NDArray[np.float64]

@@ -20,7 +20,7 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
     from gyro_calib.estimate import Estimate
-    from gyro_calib.triad.estimator import TriadResult
+    from gyro_calib.triad.records import TriadResult
 
     Array = npt.NDArray[np.float64]
 

@@ -65,7 +65,7 @@ if TYPE_CHECKING:
     from gyro_calib.estimate import Estimate, Rejection
     from gyro_calib.handoff import Calibration
     from gyro_calib.imu_calibration import ImuCalibration
-    from gyro_calib.triad.estimator import TriadPair, TriadResult
+    from gyro_calib.triad.records import TriadPair, TriadResult
 
 __all__ = ['DEG_H', 'HEADER', 'INNER', 'JOINT_STATE', 'MIN_COUNT_STD_PULSES', 'NODE_NAME',
            'OUTER', 'TOPICS', 'Bench', 'TriadSession', 'TriadSettings', 'TriadWindow',

@@ -11,11 +11,12 @@ import dataclasses
 from typing import TYPE_CHECKING
 
 from gyro_calib.errors import InsufficientDataError
-from gyro_calib.triad.estimator import BenchParameter, TriadResult, triad_calibration
+from gyro_calib.triad.estimator import triad_calibration
 from gyro_calib.triad.kinematics import TILT
+from gyro_calib.triad.records import BenchParameter, TriadResult
 
 if TYPE_CHECKING:
-    from gyro_calib.triad.estimator import TriadPair
+    from gyro_calib.triad.records import TriadPair
 
 
 def solve_pairs(pairs: list[tuple[TriadPair, str]], channels: tuple[str, str, str],
