@@ -14,24 +14,38 @@ accepted directions do not span 3-D (eq. 9's rank test) is not measurable. Then
 
 with the covariance propagated to first order and split by source (eq. 12), and the bias from
 the pair sums with the Earth rate along u removed (eq. 14).
+
+What goes in and comes out (:class:`TriadPair`, :class:`TriadResult` …) is
+:mod:`~gyro_calib.triad.records`, the biases :mod:`~gyro_calib.triad.bias`; this module
+re-exports their names.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.estimate import Estimate, Rejection, student_t_factor
+from gyro_calib.triad.bias import biases
+from gyro_calib.triad.records import (
+    BenchParameter,
+    BudgetLine,
+    ChannelResult,
+    TriadPair,
+    TriadResult,
+)
 
 if TYPE_CHECKING:
     import numpy.typing as npt
 
     Array = npt.NDArray[np.float64]
+
+__all__ = ['BIRGE_PROBABILITY', 'COUNTS', 'RANK_THRESHOLD', 'SWEPT_ANGLE', 'BenchParameter',
+           'BudgetLine', 'ChannelResult', 'TriadPair', 'TriadResult', 'triad_calibration']
 
 RANK_THRESHOLD = 0.05
 """Smallest singular value of the √d-normalised matrix of a channel's d distinct directions
@@ -51,128 +65,6 @@ def _student_t(dof: int) -> float:
     """Student t with P(T_ν < t) = 0.8413 (docs/methods.md conventions; as §A eq. (3d))."""
     return student_t_factor(dof)
 
-
-@dataclass(frozen=True, slots=True)
-class TriadPair:
-    """One forward/reverse pair about one direction, all channels (METHODS §F eqs. 5–6).
-
-    Attributes:
-        direction: u, unit rotation direction of the forward window in the body frame (3,).
-        swept_angle_rad: φ, the angle swept each way (2π·m for m whole turns), rad.
-        count_difference: ΔN = N⁺ − N⁻ per channel (3,), pulses (eq. 5 for unequal T±).
-        count_difference_std: its standard uncertainty per channel (3,), pulses.
-        swept_angle_std_rad: standard uncertainty of φ, common to the channels, rad.
-        direction_sensitivity: ∂u/∂p (3, q) for the bench parameters given to
-            :func:`triad_calibration`, or None (u exact).
-        sum_rate: (N⁺ + N⁻)/(T⁺ + T⁻) per channel (3,), pulses/s, for the bias; or None.
-        sum_rate_std: its standard uncertainty (3,), pulses/s; or None.
-        excess_rate_rad_s: (A⁺ − A⁻)/(T⁺ + T⁻), rad/s (0 for equal angles).
-        earth_rate_along_u_rad_s: Ω_u = ω_E·u (eq. 13), rad/s; NaN if unknown.
-        stamp_ns: start stamp, int ns.
-        rejected: per channel, why this pair is not used for it ('' = used).
-    """
-
-    direction: Array
-    swept_angle_rad: float
-    count_difference: Array
-    count_difference_std: Array
-    swept_angle_std_rad: float = 0.0
-    direction_sensitivity: Array | None = None
-    sum_rate: Array | None = None
-    sum_rate_std: Array | None = None
-    excess_rate_rad_s: float = 0.0
-    earth_rate_along_u_rad_s: float = math.nan
-    stamp_ns: int = 0
-    rejected: tuple[str, str, str] = ('', '', '')
-
-
-@dataclass(frozen=True, slots=True)
-class BenchParameter:
-    """A bench setting the directions u depend on (column of ``direction_sensitivity``).
-
-    Attributes:
-        name: e.g. 'tilt α'.
-        std_rad: standard uncertainty of the stated setting, rad (a systematic).
-        fitted: estimate a correction from the data (the stated value ± std as prior);
-            otherwise its uncertainty is only propagated.
-    """
-
-    name: str
-    std_rad: float
-    fitted: bool = False
-
-
-@dataclass(frozen=True, slots=True)
-class BudgetLine:
-    """Standard uncertainty contributed by one source (METHODS §F eq. 12).
-
-    Attributes:
-        source: 'counts', 'swept angle' or a bench parameter's name.
-        scale_factor_relative: u(K_i)/K_i per channel (3,), NaN where not measurable.
-        direction_rad: rms angle error of s_i per channel, √trace C(s_i), rad (3,).
-        matrix: u(M_jk) (3, 3), rad/pulse (NaN without M).
-    """
-
-    source: str
-    scale_factor_relative: Array
-    direction_rad: Array
-    matrix: Array
-
-
-@dataclass(frozen=True, slots=True)
-class ChannelResult:
-    """One gyro of the triad.
-
-    Attributes:
-        name: the channel name.
-        row_pulse_per_rad: r_i = s_i/K_i, three components, pulses/rad (eq. 8).
-        scale_factor_rad_per_pulse: K_i = 1/|r_i| (eq. 10), rad/pulse.
-        sense_axis: s_i, three components of the unit sense axis (body frame) (eq. 10).
-        sense_axis_covariance: 3×3 covariance of s_i (rank 2: across s_i only).
-        bias_rad_s: the gyro's bias along s_i, K_i·β_i (eq. 14), rad/s; None if not measured.
-        not_measurable: why r_i is not solved ('' when it is).
-        bias_missing: why the bias is not measured ('' when it is).
-        rejected: pairs not used for this channel, with their reasons.
-    """
-
-    name: str
-    row_pulse_per_rad: tuple[Estimate, Estimate, Estimate] | None
-    scale_factor_rad_per_pulse: Estimate | None
-    sense_axis: tuple[Estimate, Estimate, Estimate] | None
-    sense_axis_covariance: Array | None
-    bias_rad_s: Estimate | None
-    not_measurable: str = ''
-    bias_missing: str = ''
-    rejected: tuple[Rejection, ...] = ()
-
-
-@dataclass(frozen=True, slots=True)
-class TriadResult:
-    """Everything the triad method measures (METHODS §F).
-
-    Attributes:
-        channels: one :class:`ChannelResult` per channel, in the input order.
-        pulses_to_body_rad: M = R⁻¹, 3×3 Estimates, rad/pulse (eq. 11); None if not measurable.
-        pulses_to_body_covariance: 9×9 covariance of M (row-major), (rad/pulse)²; or None.
-        bias_body_rad_s: b = M·β (ω_B = M·ṅ − b), three Estimates, rad/s; or None.
-        parameters: fitted bench parameters: name → correction to the stated value, rad.
-        budget: standard uncertainty per source (eq. 12).
-        birge_ratio: √(χ²/ν) of the joint fit (NaN with no degree of freedom).
-        basis: what the covariance rests on.
-        not_measurable: why M is not reported ('' when it is).
-        bias_missing: why b is not reported ('' when it is).
-    """
-
-    channels: tuple[ChannelResult, ...]
-    pulses_to_body_rad: tuple[tuple[Estimate, ...], ...] | None
-    pulses_to_body_covariance: Array | None
-    bias_body_rad_s: tuple[Estimate, Estimate, Estimate] | None
-    parameters: dict[str, Estimate] = field(default_factory=dict)
-    budget: tuple[BudgetLine, ...] = ()
-    birge_ratio: float = math.nan
-    basis: str = ''
-    not_measurable: str = ''
-    bias_missing: str = ''
 
 
 def _span_problem(name: str, directions: list[Array], threshold: float) -> str:
@@ -454,7 +346,7 @@ class _Solver:
             m_est = tuple(tuple(Estimate(float(mmat[i, j]), float(m_std[i, j]), n_all, dof, (),
                                          basis) for j in range(3)) for i in range(3))
         budget = tuple(BudgetLine(s, budget_k[s], budget_s[s], budget_m[s]) for s in sources)
-        chans, bias_body, bias_missing = _biases(self.pairs, chans, self.col, x, m_est,
+        chans, bias_body, bias_missing = biases(self.pairs, chans, self.col, x, m_est,
                                                  k_values)
         return TriadResult(tuple(chans), m_est, m_cov, bias_body, params, budget,
                            math.sqrt(birge2) if dof > 0 else math.nan, basis, not_measurable,
@@ -469,71 +361,3 @@ def _block_diag(blocks: list[Array], n: int) -> Array:
         out[i:i + m, i:i + m] = b
         i += m
     return out
-
-
-def _mean(values: list[float], stds: list[float]) -> tuple[float, float, str]:
-    """Mean and its standard uncertainty: scatter × Student t, or the prediction (§A (3d))."""
-    n = len(values)
-    arr = np.asarray(values)
-    mean = float(arr.mean())
-    predicted = math.sqrt(float(np.mean(np.square(stds)))) / math.sqrt(n)
-    if n < 2:
-        return mean, predicted, 'predicted from the counts of 1 pair'
-    t = _student_t(n - 1)
-    scatter = t * float(arr.std(ddof=1)) / math.sqrt(n)
-    if scatter >= predicted:
-        return mean, scatter, f'scatter of {n} pairs × Student t {t:.3f} ({n - 1} dof)'
-    return mean, predicted, f'predicted from the counts of {n} pairs'
-
-
-def _biases(pairs: Sequence[TriadPair], chans: list[ChannelResult], col: dict[int, int],
-            x: Array, m_est: tuple[tuple[Estimate, ...], ...] | None, k_values: Array,
-            ) -> tuple[list[ChannelResult], tuple[Estimate, Estimate, Estimate] | None, str]:
-    """β_i = mean over pairs of Σ − (r_i·u)(excess + Ω_u); b_i = K_i·β_i; b = M·β (eq. 14)."""
-    out: list[ChannelResult] = []
-    beta = np.full(3, np.nan)
-    beta_var = np.full(3, np.nan)
-    missing = ''
-    for c, ch in enumerate(chans):
-        if c not in col:
-            out.append(ch)
-            continue
-        r = x[col[c]:col[c] + 3]
-        vals, stds = [], []
-        why = ''
-        for p in pairs:
-            if p.rejected[c] or p.sum_rate is None:
-                continue
-            if not math.isfinite(p.earth_rate_along_u_rad_s):
-                why = ('the bias needs the site latitude (and heading) to remove the Earth rate '
-                       'along each rotation direction.')
-                break
-            vals.append(float(p.sum_rate[c]) - float(r @ p.direction)
-                        * (p.excess_rate_rad_s + p.earth_rate_along_u_rad_s))
-            stds.append(float(p.sum_rate_std[c]) if p.sum_rate_std is not None else 0.0)
-        if not why and not vals:
-            why = 'no pair carries the count sums (N⁺ + N⁻) the bias needs.'
-        if why:
-            missing = missing or why
-            out.append(_replace_bias(ch, None, why))
-            continue
-        mean, std, basis = _mean(vals, stds)
-        beta[c], beta_var[c] = mean, std * std
-        k = float(k_values[c])
-        out.append(_replace_bias(ch, Estimate(k * mean, k * std, len(vals), len(vals) - 1, (),
-                                              basis), ''))
-    if m_est is None or not np.all(np.isfinite(beta)):
-        return out, None, missing or 'b = M·β needs all three rows and biases.'
-    mmat = np.array([[e.value for e in row] for row in m_est])
-    b = mmat @ beta
-    b_std = np.sqrt(np.diag(mmat @ np.diag(beta_var) @ mmat.T))
-    n = min(e.n_used for ch in out if ch.bias_rad_s is not None for e in (ch.bias_rad_s,))
-    return out, (Estimate(float(b[0]), float(b_std[0]), n, n - 1),
-                 Estimate(float(b[1]), float(b_std[1]), n, n - 1),
-                 Estimate(float(b[2]), float(b_std[2]), n, n - 1)), ''
-
-
-def _replace_bias(ch: ChannelResult, bias: Estimate | None, why: str) -> ChannelResult:
-    return ChannelResult(ch.name, ch.row_pulse_per_rad, ch.scale_factor_rad_per_pulse,
-                         ch.sense_axis, ch.sense_axis_covariance, bias, ch.not_measurable, why,
-                         ch.rejected)

@@ -24,7 +24,7 @@ if TYPE_CHECKING:
     import numpy.typing as npt
     from numpy.typing import ArrayLike
 
-    from gyro_calib.triad.estimator import TriadPair
+    from gyro_calib.triad.records import TriadPair
 
 TILT = 'tilt α'
 """Name of the bench parameter α (the outer axis ON from the rate-table axis oZ)."""
@@ -139,7 +139,7 @@ def pair_from_windows(
         stamp_ns: start stamp of the pair (for rejection lines).
         rejected: per channel, why that channel's windows are not used ('' = used).
     """
-    from gyro_calib.triad.estimator import TriadPair
+    from gyro_calib.triad.records import TriadPair
 
     n_p = np.asarray(forward_counts, dtype=np.float64)
     n_m = np.asarray(reverse_counts, dtype=np.float64)
