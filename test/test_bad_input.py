@@ -38,7 +38,7 @@ from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig, RingLaserGyroSi
 if TYPE_CHECKING:
     from pathlib import Path
 
-    from gyro_calib.rbrlg.windows import RevolutionWindow
+    from gyro_calib.windows import RevolutionWindow
 
 CLEAN_TABLE = RateTableConfig(duration_s=150.0, zero_index_jitter_arcsec=0.0)
 CLEAN_GYRO = RingLaserGyroConfig(angle_random_walk_deg_sqrt_h=0.0)

@@ -80,3 +80,15 @@ def test_gyro_calib_table_input_gives_the_tables(monkeypatch: pytest.MonkeyPatch
     star = _star(old)
     assert {'is_table', 'table_info', 'iter_table_batches', 'read_table'} <= set(star)
     assert star == _star(gyro_calib.bagio.tables)
+
+
+def test_gyro_calib_rbrlg_windows_gives_the_shared_windows(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The windows' old path (before the triad shared them) warns and gives the same objects."""
+    import gyro_calib.windows
+
+    old = _import_afresh('gyro_calib.rbrlg.windows', 'gyro_calib.windows;', monkeypatch)
+    star = _star(old)
+    assert sorted(star) == sorted(old.__all__)
+    for name in old.__all__:
+        assert star[name] is getattr(gyro_calib.windows, name), name

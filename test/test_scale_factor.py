@@ -9,8 +9,8 @@ import pytest
 from gyro_calib.errors import InsufficientDataError, WindowError
 from gyro_calib.estimate import Estimate
 from gyro_calib.rbrlg.scale_factor import k_tilde_from_windows, mean_estimate, scale_factor
-from gyro_calib.rbrlg.windows import RevolutionWindow
 from gyro_calib.units import RAD_PER_ARCSEC
+from gyro_calib.windows import RevolutionWindow
 
 K_PAPER = 0.84279066          # ″/pulse
 THETA_PAPER = 646.75          # ″

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from gyro_calib.errors import WindowError
-from gyro_calib.rbrlg.windows import count_at_instant
+from gyro_calib.windows import count_at_instant
 
 RATE_PULSES_S = 640_712.345  # 150 °/s at K ≈ 0.8428 ″/pulse
 
