@@ -71,7 +71,7 @@ def layer(module: str) -> int:
         return 6
     if sub in METHODS:
         return 4
-    if module in ('gyro_calib.registry', 'gyro_calib.imu_conversion'):
+    if module == 'gyro_calib.registry' or sub == 'imu_conversion':
         return 5
     if sub in FRONT_DOORS:
         return 7
