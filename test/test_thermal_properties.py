@@ -149,6 +149,7 @@ SHARED_CORE = {'gyro_calib.errors', 'gyro_calib.estimate', 'gyro_calib.streams',
                'gyro_calib.units', 'gyro_calib.handoff', 'gyro_calib.topics',
                'gyro_calib.session', 'gyro_calib.config', 'gyro_calib.bagio',
                'gyro_calib.rate_table', 'sim_nodes.motion', 'sim_nodes.rate_table',
+               'sim_nodes.scenario_files',
                'gyro_calib.outputs',
                'gyro_calib.bagio.columns', 'gyro_calib.bagio.tables', 'gyro_calib.bagio.messages'}
 # the shared core below the methods, never another method, the registry or a driver

@@ -27,8 +27,7 @@ import numpy as np
 
 from gyro_calib.bagio import TEMPERATURE, BagMessage, ContractMessages, write_bag
 from gyro_calib.topics import GYRO_JOINT, GYRO_PULSES, GYRO_TEMPERATURE
-from sim_nodes import scenario_files
-from sim_nodes.scenario_files import named
+from sim_nodes.scenario_files import files_writer, named
 from sim_nodes.thermal.scenarios import ChamberRunConfig, ThermalRun
 
 CHUNK_S = 600.0
@@ -205,6 +204,6 @@ def write_scenario_bag(scenario: ThermalScenario | str, path: str | Path) -> Pat
     return Path(path)
 
 
-write_scenario_files = scenario_files.files_writer(
+write_scenario_files = files_writer(
     SCENARIOS, write_scenario_bag, source='sim_nodes/thermal/bag_scenarios.py')
 """Write ``<name>/`` (the bag) and ``<name>.expected.yaml`` in a directory."""
