@@ -36,6 +36,12 @@ record ended now — what ``gyro-calib noise`` would say of the samples so far, 
 Offline a snapshot is taken whenever results are asked for after new data; a live node
 sets :attr:`NoiseSession.auto_refresh` to False and calls :meth:`NoiseSession.refresh`
 at its own pace (a snapshot costs a copy and a fit per axis).
+
+Built from :mod:`~gyro_calib.noise.inputs` (which topic a run reads),
+:mod:`~gyro_calib.noise.scale_factors` (K, counts/rad, K_i and where each came from),
+:mod:`~gyro_calib.noise.options` (the settings read from the options; the scale-factor check)
+and :mod:`~gyro_calib.noise.session_report` (what a run says); this module holds
+:class:`NoiseSession` (input, snapshots, results, hand-off) and re-exports their names.
 """
 
 from __future__ import annotations

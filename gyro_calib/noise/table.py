@@ -55,6 +55,10 @@ The rate table's encoder angle can also be subtracted from the gyro's angle (``t
 counting the same way): :meth:`TableMotion.angle_at` interpolates the angle linearly between
 the states at each gyro stamp (along the segment's line beyond the first or last state), which
 removes table-rate wander (servo wobble) that a constant rate does not.
+
+Built from :mod:`~gyro_calib.noise.table_spans` (steady segments, the changes between, the
+segment being built) and :mod:`~gyro_calib.noise.table_motion` (:class:`TableMotion`); this
+module holds the topics and :class:`TableGate` and re-exports their names.
 """
 
 from __future__ import annotations
