@@ -110,7 +110,7 @@ def test_calibration_node_resumes_its_windows_after_a_kill(
     first = launch('calibration_node', params)
     nodes.append(first)
     nodes.append(launch('rlg_sim', {'seed': 7}))
-    table = launch('rate_table_sim', {'duration_s': 120.0, 'seed': 7, 'real_time_factor': 8.0,
+    table = launch('rate_table_sim', {'duration_s': 120.0, 'seed': 7, 'real_time_factor': 6.0,
                                       'sample_rate_hz': 250.0})
     nodes.append(table)
     deadline = time.monotonic() + 120
