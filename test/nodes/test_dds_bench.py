@@ -31,7 +31,7 @@ def test_live_k_tilde_equals_offline_core_result(listener: ResultListener,
     nodes.append(launch('calibration_node', {'output_file': str(tmp_path / 'gyro.yaml')}))
     nodes.append(launch('rlg_sim', {'seed': seed}))
     table = launch('rate_table_sim', {'duration_s': duration, 'seed': seed,
-                                      'real_time_factor': SPEED})
+                                      'real_time_factor': 2 * SPEED})
     nodes.append(table)
     expected, n_pairs = _offline_k_tilde_rad(duration, seed)
     assert n_pairs == 2
@@ -54,7 +54,7 @@ def test_live_k_tilde_equals_offline_core_result(listener: ResultListener,
 
 def test_node_keeps_its_pairs_when_the_simulator_restarts(listener: ResultListener,
                                                           nodes: list[NodeProcess]) -> None:
-    duration = 70.0  # two pairs per run; 250 Hz: restarts, not the sample rate, are tested
+    duration = 60.0  # two pairs per run; 250 Hz: restarts, not the sample rate, are tested
     nodes.append(launch('calibration_node', {}))
     nodes.append(launch('rlg_sim', {'seed': 3}))
     for run in (1, 2):
