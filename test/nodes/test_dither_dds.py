@@ -119,16 +119,16 @@ def test_live_bench_z_then_y_gives_the_offline_numbers_bit_for_bit(
 
 def test_replayed_bags_give_exactly_the_offline_numbers(
         dither_listener: DitherListener, nodes: list[NodeProcess], tmp_path: Path) -> None:
-    # the committed dither_z / dither_y benches cut to 16 s each (8 blocks): the node's
-    # per-message cost, not the estimator, sets this test's time
+    # the committed dither_z / dither_y benches cut to 10 s each (5 blocks, as the live
+    # bench): the node's per-message cost, not the estimator, sets this test's time
     bags = []
-    for name, start_s in (('dither_z', 0.0), ('dither_y', 17.0)):
+    for name, start_s in (('dither_z', 0.0), ('dither_y', 11.0)):
         scenario = SCENARIOS[name]
-        bench = dataclasses.replace(scenario.bench, duration_s=16.0,
+        bench = dataclasses.replace(scenario.bench, duration_s=10.0,
                                     start_time_ns=int(start_s * 1e9))
-        bags.append(write_scenario_bag(dataclasses.replace(scenario, name=f'{name}_16s',
+        bags.append(write_scenario_bag(dataclasses.replace(scenario, name=f'{name}_10s',
                                                            bench=bench),
-                                       tmp_path / f'{name}_16s'))
+                                       tmp_path / f'{name}_10s'))
     offline = calibrate_bags(bags, methods=['dither'],
                              options=CalibrationOptions(scale_factor_rad_per_pulse=K))
     expected = _diagnostics(offline.sessions['dither'].results())

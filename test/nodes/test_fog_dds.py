@@ -6,6 +6,7 @@ node, give the offline numbers bit for bit; the live bench publishes the offline
 
 from __future__ import annotations
 
+import dataclasses
 import signal
 import time
 from pathlib import Path
@@ -20,7 +21,12 @@ from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.bagio import bag_info, iter_sample_batches
 from gyro_calib.session import MethodSession
 from gyro_calib.units import format_stamp
-from sim_nodes.fog.bag_scenarios import scenario_from_parameters, write_recording_bag
+from sim_nodes.fog.bag_scenarios import (
+    SCENARIOS,
+    scenario_from_parameters,
+    write_recording_bag,
+    write_scenario_bag,
+)
 from sim_nodes.fog.config import FogConfig
 from sim_nodes.fog.scenarios import SelfCalLadder, TableSettings
 
@@ -186,10 +192,24 @@ def test_live_fog_bench_gives_offline_samples_and_numbers_and_writes_the_handoff
     assert set(written['not_measurable']) == set(cannot)
 
 
-@pytest.mark.parametrize('name', ['fog_fault_silent_injection', 'fog_turntable'])
+@pytest.fixture(scope='module')
+def short_turntable_bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The committed fog_turntable bench (ten rates, asymmetry) holding 8 s per rate, not 30.
+
+    28 626 messages instead of 81 446: the node's per-message cost sets the replays' time, and
+    what they check (live equals offline, late zero-index events) needs the ten segments, not
+    their length. The committed bag itself is calibrated offline by test_fog_bags.
+    """
+    scenario = dataclasses.replace(SCENARIOS['fog_turntable'], name='fog_turntable_8s',
+                                   hold_s=8.0)
+    return write_scenario_bag(scenario, tmp_path_factory.mktemp('fog') / scenario.name)
+
+
+@pytest.mark.parametrize('name', ['fog_fault_silent_injection', 'fog_turntable_8s'])
 def test_replayed_fog_bag_gives_exactly_the_offline_numbers(
-        name: str, fog_listener: FogListener, nodes: list[NodeProcess]) -> None:
-    bag = BAGS / name
+        name: str, fog_listener: FogListener, nodes: list[NodeProcess],
+        short_turntable_bag: Path) -> None:
+    bag = short_turntable_bag if name == short_turntable_bag.name else BAGS / name
     node, player = _replay_unpaced(bag, fog_listener, nodes, 150.0)
     assert f'played {bag_info(bag).message_count} messages' in player.log(), player.log()
     _stop_and_flush(node, fog_listener)
@@ -233,9 +253,9 @@ def test_unpaced_replay_beside_cpu_burners_gives_exactly_the_offline_numbers(
 
 
 def test_zero_index_events_later_than_the_hold_reject_segments_never_change_them(
-        nodes: list[NodeProcess]) -> None:
+        nodes: list[NodeProcess], short_turntable_bag: Path) -> None:
     """Zero-index events played after the rest: segments rejected with a line, none altered."""
-    bag = BAGS / 'fog_turntable'
+    bag = short_turntable_bag
     offline = calibrate_bags([bag]).sessions['fog']
     offline_segments = {(format_stamp(s.start_ns), f'{s.output_rate_counts_s:.6f}')
                         for s in offline.calibrator.segments}  # type: ignore[attr-defined]

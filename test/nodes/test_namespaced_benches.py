@@ -21,7 +21,7 @@ from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
 
 from .dds_harness import NodeProcess, launch
 
-DURATION_S, RATE_HZ, SPEED = 70.0, 250.0, 10.0
+DURATION_S, RATE_HZ, SPEED = 60.0, 250.0, 10.0
 """Two window pairs per bench at 250 Hz (K̃ needs two), ten times real time."""
 BENCHES = {'/bench1': (31, 0.84279066), '/bench2': (32, 0.8391)}
 """namespace → (seed, the gyro's true scale factor, ″/pulse): two different gyros."""

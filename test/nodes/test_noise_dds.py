@@ -48,15 +48,21 @@ def _offline(bag: Path, out: Path) -> dict[str, Any]:
 
 def test_replayed_imu_bag_gives_the_offline_terms_and_sigint_leaves_complete_files(
         tmp_path: Path, nodes: list[NodeProcess]) -> None:
-    # the committed noise_imu_static scenario (disorder included) cut to 200 s: the node's
+    # the committed noise_imu_static scenario (disorder included) cut to 100 s: the node's
     # per-message cost, not the analysis, sets this test's time
     bag = write_scenario_bag(dataclasses.replace(SCENARIOS['noise_imu_static'],
-                                                 name='noise_imu_200s', duration_s=200.0),
-                             tmp_path / 'noise_imu_200s')
+                                                 name='noise_imu_100s', duration_s=100.0),
+                             tmp_path / 'noise_imu_100s')
     doc = _offline(bag, tmp_path / 'offline')
     expected = {imu_key(axis, key): r for axis, a in doc['methods']['noise']['axes'].items()
                 for key, r in a['results'].items()}
-    assert len(expected) >= 9  # N and B of three gyro axes, N of three accelerometer axes
+    # N of all six axes, and B of a gyro and of an accelerometer axis
+    assert {k for k in expected if 'random_walk' in k} == {
+        imu_key(f'{sensor}_{axis}', f'{walk}_random_walk_{unit}') for axis in 'xyz'
+        for sensor, walk, unit in (('gyro', 'angle', 'rad_per_sqrt_s'),
+                                   ('accel', 'velocity', 'm_s_per_sqrt_s'))}
+    assert any(k.startswith('imu_gyro') and 'bias_instability' in k for k in expected)
+    assert any(k.startswith('imu_accel') and 'bias_instability' in k for k in expected)
 
     live = tmp_path / 'live'
     live.mkdir()

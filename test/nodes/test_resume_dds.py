@@ -138,13 +138,16 @@ def test_calibration_node_resumes_its_windows_after_a_kill(
 
 def _k_tilde_run(params: dict, gyro: dict, table: dict, nodes: list[NodeProcess]
                  ) -> NodeProcess:
-    """One gyro on the K̃ bench: node started first, bench run, Ctrl-C once K̃ is out."""
+    """One gyro on the K̃ bench: node started first, bench run, Ctrl-C once K̃ is out.
+
+    ``table`` holds ``duration_s``: long enough for the two window pairs K̃ needs.
+    """
     node = launch('calibration_node', params)
     nodes.append(node)
     sim = launch('rlg_sim', gyro)
     nodes.append(sim)
-    bench = launch('rate_table_sim', {'duration_s': 100.0, 'real_time_factor': 6.0,
-                                      'sample_rate_hz': 250.0, **table})
+    bench = launch('rate_table_sim', {'real_time_factor': 8.0, 'sample_rate_hz': 250.0,
+                                      **table})
     nodes.append(bench)
     bench.proc.wait(timeout=180)
     deadline = time.monotonic() + 60
@@ -167,14 +170,14 @@ def test_a_second_gyro_run_with_defaults_never_resumes_the_first_gyros_record(
     """
     handoff = tmp_path / 'gyro_calibration.yaml'
     params = {'output_file': str(handoff)}  # the state directory beside it, by default
-    first = _k_tilde_run(params, {'seed': 3}, {'seed': 3}, nodes)
+    first = _k_tilde_run(params, {'seed': 3}, {'seed': 3, 'duration_s': 60.0}, nodes)
     assert first.proc.returncode == 0, first.log()
     state = tmp_path / 'gyro_calibration.yaml.state'
     assert StateRecord(state, {}).summary().messages > 0, first.log()
     second = _k_tilde_run(
         params, {'seed': 4, 'scale_factor_arcsec_per_pulse': 2.3,
                  'fix_error_angle_arcsec': 300.0, 'latitude_deg': 45.0},
-        {'seed': 4, 'rate_deg_s': 120.0}, nodes)
+        {'seed': 4, 'rate_deg_s': 120.0, 'duration_s': 85.0}, nodes)
     logs = '\n'.join(n.log() for n in nodes)
     assert second.proc.returncode == 0, logs
     assert 'resumed from' not in second.log(), logs
