@@ -13,7 +13,10 @@ from __future__ import annotations
 import fcntl
 import os
 import tempfile
+from pathlib import Path
 from typing import IO
+
+import pytest
 
 # Every front door imports the method registry, which installs its hand-off key schema as
 # the default of gyro_calib.handoff (the hand-off module never imports the registry: issue
@@ -45,3 +48,17 @@ else:
 # Set before any test imports rclpy or starts a node: every child process inherits it.
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ['ROS_DOMAIN_ID'] = str(_DOMAIN)
+
+
+def pytest_collection_modifyitems(config: object, items: list[pytest.Item]) -> None:
+    """Groups for pytest-xdist's ``--dist loadgroup`` (pytest.ini runs two workers).
+
+    A file's tests stay on one worker (its module fixtures are built once), and every DDS
+    test (``test/nodes``) runs on one worker, one at a time, as in a serial run; the other
+    worker runs the rest beside it (the nodes' numbers do not depend on load: stamps, not
+    wall clocks).
+    """
+    for item in items:
+        path = Path(str(item.path))
+        group = 'dds' if path.parent.name == 'nodes' else path.name
+        item.add_marker(pytest.mark.xdist_group(group))
