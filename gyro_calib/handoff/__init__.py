@@ -13,7 +13,7 @@ placeholder number. Method-specific keys carry the method's prefix (``fog_…``,
 
 Example (``format_version: 3``)::
 
-    # gyro_calib INS hand-off calibration; layout: gyro_calib/handoff.py
+    # gyro_calib INS hand-off calibration; layout: gyro_calib/handoff/ (README: The hand-off file)
     format_version: 3
     gyro_calib_version: 0.2.0
     gyro_id: A-1                         # serial or name; binds: another gyro's run is refused
