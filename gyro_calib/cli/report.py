@@ -49,7 +49,8 @@ def add_commands(sub: Any) -> None:
                      help='the bags it was calibrated from (for degrees of freedom, budgets, '
                      'rejections, figures, hashes)')
     rep.add_argument('--out', type=Path, required=True, metavar='DIR',
-                     help='directory for <gyro_id>.html and <gyro_id>.pdf')
+                     help='directory for <gyro_id>.html and <gyro_id>.pdf (a draft there is '
+                     'replaced; an issued certificate never is)')
     rep.add_argument('--spec', type=Path, metavar='SPEC',
                      help='acceptance limits and decision rule (YAML); without it no verdicts')
     rep.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
