@@ -12,6 +12,11 @@ locked register: two processes reserving at once never get the same number, and 
 one, missing key, bad pattern) or a lab certificate without customer is refused in one line,
 exit 2, before any work, by ``report``, ``calibrate --report`` and ``batch``. The manifest's
 ``customer`` column reaches each gyro's certificate of a fleet, each under its own number.
+An issued certificate in the output directory is never replaced nor mixed with another run's
+files (``report`` with or without bags, lab or PDF, ``calibrate --report``: one line, exit 2,
+before any work, no number taken); a draft is replaced with a line saying so (its PDF removed
+under ``--no-pdf``). A run refused for a contradicted hand-off takes no number; a write that
+fails after the number was reserved names the number that stays reserved, unused.
 """
 
 from __future__ import annotations
@@ -416,3 +421,86 @@ def test_lab_file_loads_with_defaults_and_its_own_register(tmp_path: Path) -> No
     assert reserve_number(lab, 'G', 'c').number.endswith('-00001')
     assert reserve_number(lab, 'G', 'c').number.endswith('-00002')
     assert (tmp_path / 'numbers' / 'reg.tsv').exists()
+
+
+def _register_lines(register: Path) -> list[str]:
+    if not register.exists():
+        return []
+    return [ln for ln in register.read_text(encoding='utf-8').splitlines()
+            if not ln.startswith('#')]
+
+
+def test_an_issued_certificate_is_never_replaced_a_draft_is_said_replaced(
+        bench: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    lab = write_lab(tmp_path / 'lab', customer=CUSTOMER)
+    register = tmp_path / 'lab' / 'certificate_numbers.tsv'
+    issued = tmp_path / 'certs'
+    assert main(['report', str(bench['handoff']), '--out', str(issued), '--lab', str(lab)]) == 0
+    before = {p.name: p.read_bytes() for p in issued.iterdir()}
+    assert sorted(before) == ['F-7.html', 'F-7.pdf']
+    capsys.readouterr()
+    import gyro_calib.cli.report as report_cli
+
+    def no_work(*_: Any, **__: Any) -> None:
+        raise AssertionError('the bags were run before the refusal')
+    monkeypatch.setattr(report_cli, 'evidence_from_bags', no_work)
+    for argv in (['report', str(bench['handoff']), '--out', str(issued), '--no-pdf'],
+                 ['report', str(bench['handoff']), str(FOG), '--out', str(issued)],
+                 ['report', str(bench['handoff']), '--out', str(issued), '--lab', str(lab)],
+                 ['calibrate', str(FOG), '--gyro-id', 'F-7', '--report', str(issued),
+                  '--out', str(tmp_path / 'new.yaml')]):
+        assert main(argv) == 2, argv
+        captured = capsys.readouterr()
+        assert captured.out == '' and len(captured.err.strip().splitlines()) == 1, argv
+        assert f'{issued / "F-7.html"} is the issued certificate GML-' in captured.err
+        assert 'give another --' in captured.err and 'or move F-7.html and F-7.pdf' in captured.err
+        assert {p.name: p.read_bytes() for p in issued.iterdir()} == before
+        assert len(_register_lines(register)) == 1  # no number burned
+    assert not (tmp_path / 'new.yaml').exists()
+    (issued / 'F-7.html').unlink()  # a PDF alone: issued or not cannot be told
+    assert main(['report', str(bench['handoff']), '--out', str(issued), '--no-pdf']) == 2
+    assert 'F-7.pdf is there without its F-7.html' in capsys.readouterr().err
+    drafts = tmp_path / 'drafts'
+    assert main(['report', str(bench['handoff']), '--out', str(drafts)]) == 0
+    capsys.readouterr()
+    assert main(['report', str(bench['handoff']), '--out', str(drafts), '--no-pdf']) == 0
+    assert capsys.readouterr().out.splitlines() == [
+        f'replaced the draft {drafts / "F-7.html"} of an earlier run',
+        f'removed its {drafts / "F-7.pdf"} (--no-pdf: it would not match the new HTML)',
+        f'certificate written: {drafts / "F-7.html"}']
+    assert sorted(p.name for p in drafts.iterdir()) == ['F-7.html']
+    assert main(['report', str(bench['handoff']), '--out', str(drafts), '--lab', str(lab),
+                 '--no-pdf']) == 0  # a draft may be replaced by the issued certificate
+    assert 'GML-' in (drafts / 'F-7.html').read_text(encoding='utf-8')
+    assert len(_register_lines(register)) == 2
+
+
+def test_a_refused_run_burns_no_number_a_failed_write_says_its_number_stays_reserved(
+        bench: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / 'out'
+    write_lab(out, customer=CUSTOMER)  # found in the output directory
+    register = out / 'certificate_numbers.tsv'
+    data = yaml.safe_load(bench['handoff'].read_text(encoding='utf-8'))
+    key = next(k for k in data['gyro'] if f'{k}_std' in data['gyro'])
+    data['gyro'][key] += 100 * data['gyro'][f'{key}_std']
+    contradicted = tmp_path / 'F-7.yaml'
+    contradicted.write_text(yaml.safe_dump(data, allow_unicode=True), encoding='utf-8')
+    assert main(['report', str(contradicted), str(FOG), '--out', str(out), '--no-pdf']) == 2
+    assert 'contradicted by the bags' in capsys.readouterr().err
+    assert _register_lines(register) == []
+    assert sorted(p.name for p in out.iterdir()) == ['lab.yaml', 'mark.png']
+
+    def disk_full(path: Path, data: bytes) -> Path:
+        raise OSError(28, 'No space left on device', str(path))
+    monkeypatch.setattr('gyro_calib.report.certificate.write_bytes_atomically', disk_full)
+    assert main(['report', str(bench['handoff']), '--out', str(out), '--no-pdf']) == 2
+    captured = capsys.readouterr()
+    assert captured.out == '' and len(captured.err.strip().splitlines()) == 1
+    (line,) = _register_lines(register)
+    number = line.split('\t')[1]
+    assert 'No space left on device' in captured.err
+    assert f'Certificate number {number} stays reserved in {register}, unused' in captured.err
+    assert sorted(p.name for p in out.iterdir()) == ['certificate_numbers.tsv', 'lab.yaml',
+                                                     'mark.png']

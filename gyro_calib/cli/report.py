@@ -10,6 +10,8 @@ input hashes; without, the certificate rests on the hand-off file alone and says
 lab file (``--lab``, or ``lab.yaml`` in DIR; :mod:`gyro_calib.report.lab`) the certificate is
 issued by that laboratory under the next number of its register; without, it is a draft. A
 hand-off value the bags contradict is refused (exit 2) unless ``--accept-handoff-values``.
+An issued certificate already in DIR is never replaced (refused before any work); a draft is,
+said in a line. Every refusal comes before the number is reserved (none is burned by it).
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ if TYPE_CHECKING:
     from gyro_calib.bag_calibration import BagCalibration
     from gyro_calib.handoff import Calibration
     from gyro_calib.report.evidence import RunEvidence
-    from gyro_calib.report.lab import Issue, Lab
+    from gyro_calib.report.lab import Lab
     from gyro_calib.report.spec import Spec
 
 
@@ -47,7 +49,8 @@ def add_commands(sub: Any) -> None:
                      help='the bags it was calibrated from (for degrees of freedom, budgets, '
                      'rejections, figures, hashes)')
     rep.add_argument('--out', type=Path, required=True, metavar='DIR',
-                     help='directory for <gyro_id>.html and <gyro_id>.pdf')
+                     help='directory for <gyro_id>.html and <gyro_id>.pdf (a draft there is '
+                     'replaced; an issued certificate never is)')
     rep.add_argument('--spec', type=Path, metavar='SPEC',
                      help='acceptance limits and decision rule (YAML); without it no verdicts')
     rep.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
@@ -70,35 +73,44 @@ def check_calibrate_report(args: argparse.Namespace) -> None:
     check_output_dir(args.report, '--report')
     load_spec_arg(args.spec)
     lab_and_customer(args, args.report)
+    from gyro_calib.report.certificate import certificate_stem, replacing
+
+    gyro_id = args.gyro_id
+    if not gyro_id and args.out is not None and Path(args.out).is_file():
+        from gyro_calib.handoff import load_calibration
+        from gyro_calib.handoff.schema import HandoffError
+        from gyro_calib.registry import handoff_schema
+
+        try:
+            gyro_id = load_calibration(args.out, handoff_schema()).gyro_id
+        except (ConfigError, HandoffError):
+            pass  # calibrate names what is wrong with it
+    where = '(this run; no --out file)' if args.out is None else str(args.out)
+    replacing(args.report, certificate_stem(gyro_id, where), flag='--report')
 
 
 def run_report(args: argparse.Namespace) -> int:
     """``gyro-calib report``: load, (re-)run the bags, build and write the certificate."""
     from gyro_calib.handoff import load_calibration
     from gyro_calib.registry import handoff_schema
+    from gyro_calib.report.certificate import certificate_stem, replacing
 
     check_output_dir(args.out)
     spec = load_spec_arg(args.spec)
     lab, customer = lab_and_customer(args, args.out)
     calibration = load_calibration(args.handoff, handoff_schema())
+    replacing(args.out, certificate_stem(calibration.gyro_id, str(args.handoff)), pdf=args.pdf)
     evidence = None
     if args.bags:
         options = options_from_args(args)
         if not options.gyro_id and calibration.gyro_id:
             options = dataclasses.replace(options, gyro_id=calibration.gyro_id)
         evidence = evidence_from_bags(args.bags, calibration, options, args.method)
-    try:
-        paths = write_report(calibration, evidence, spec, args.out,
-                             handoff_path=str(args.handoff), pdf=args.pdf,
-                             issue=issue_for(lab, calibration, customer, str(args.handoff)),
+    for line in write_report(calibration, evidence, spec, args.out,
+                             handoff_path=str(args.handoff), pdf=args.pdf, lab=lab,
                              customer=customer,
-                             accept_handoff_values=args.accept_handoff_values)
-    except OSError as exc:  # disk full: each document is written whole or not at all
-        from gyro_calib.outputs import write_failed
-
-        raise write_failed(exc, '--out', args.out) from None
-    for path in paths:
-        print(f'certificate written: {path}')
+                             accept_handoff_values=args.accept_handoff_values):
+        print(line)
     return EXIT_OK
 
 
@@ -129,27 +141,48 @@ def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
     return evidence_from_outcome(outcome, options)
 
 
-def issue_for(lab: Lab | None, calibration: Calibration, customer: str,
-              handoff_path: str) -> Issue | None:
-    """The certificate's issue: the next number of the lab's register (None: a draft)."""
-    if lab is None:
-        return None
-    from gyro_calib.report.lab import reserve_number
-
-    return reserve_number(lab, calibration.gyro_id or Path(handoff_path).stem, customer)
-
-
 def write_report(calibration: Calibration, evidence: RunEvidence | None, spec: Spec | None,
                  out_dir: Path, *, handoff_path: str = '', pdf: bool = True,
-                 issue: Issue | None = None, customer: str = '',
-                 accept_handoff_values: bool = False) -> list[Path]:
-    """Build the certificate and write its HTML (and PDF) into ``out_dir``."""
-    from gyro_calib.report.certificate import build_certificate, write_certificate
+                 lab: Lab | None = None, customer: str = '',
+                 accept_handoff_values: bool = False, flag: str = '--out') -> list[str]:
+    """Build the certificate and write its HTML (and PDF) into ``out_dir``; the lines to print.
+
+    Every check that can refuse the run (the hand-off's content, the bags' contradictions,
+    an issued certificate already in ``out_dir``: :func:`~gyro_calib.report.certificate.
+    replacing`) comes before the lab's next certificate number is reserved, so a refused
+    run burns no number; a write that fails after it (disk full) says which number stays
+    reserved, unused.
+
+    Raises:
+        ConfigError: as :func:`~gyro_calib.report.certificate.build_certificate` and
+            :func:`~gyro_calib.report.certificate.replacing`; a failed write.
+    """
+    from gyro_calib.outputs import write_failed
+    from gyro_calib.report.certificate import (
+        build_certificate,
+        replacing,
+        with_issue,
+        write_certificate,
+    )
 
     cert = build_certificate(calibration, evidence, spec, handoff_path=handoff_path,
-                             issue=issue, customer=customer,
-                             accept_handoff_values=accept_handoff_values)
-    return write_certificate(cert, out_dir, pdf=pdf)
+                             customer=customer, accept_handoff_values=accept_handoff_values)
+    lines = replacing(out_dir, cert.file_stem, pdf=pdf, flag=flag)
+    issue = None
+    if lab is not None:
+        from gyro_calib.report.lab import reserve_number
+
+        issue = reserve_number(lab, calibration.gyro_id or Path(handoff_path).stem, customer)
+        cert = with_issue(cert, issue)
+    try:
+        paths = write_certificate(cert, out_dir, pdf=pdf)
+    except OSError as exc:  # disk full: each document is written whole or not at all
+        error = write_failed(exc, flag, out_dir)
+        if issue is not None:
+            error = ConfigError(f'{error} Certificate number {issue.number} stays reserved in '
+                                f'{issue.lab.counter}, unused (numbers are never reused).')
+        raise error from None
+    return [*lines, *(f'certificate written: {path}' for path in paths)]
 
 
 def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
@@ -179,7 +212,6 @@ def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
     human = sys.stdout if human is None else human
     evidence = evidence_from_outcome(outcome, options_from_args(args))
     lab, customer = lab_and_customer(args, args.report)
-    for path in write_report(record, evidence, load_spec_arg(args.spec), args.report,
-                             handoff_path=where, issue=issue_for(lab, record, customer, where),
-                             customer=customer):
-        print(f'certificate written: {path}', file=human)
+    for line in write_report(record, evidence, load_spec_arg(args.spec), args.report,
+                             handoff_path=where, lab=lab, customer=customer, flag='--report'):
+        print(line, file=human)

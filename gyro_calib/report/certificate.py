@@ -18,11 +18,13 @@ one it is a draft and says so on every page.
 from __future__ import annotations
 
 import base64
+import dataclasses
 import datetime
 import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from html import unescape
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -502,7 +504,7 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                 else 'not known: no bias was separated from the Earth rate' if lats
                 else 'not recorded in the hand-off file (give the bags to see the settings)')
     created = sorted(p.created_utc for p in calibration.methods.values())
-    stem = _file_stem(calibration.gyro_id or Path(handoff_path).stem or 'gyro')
+    stem = certificate_stem(calibration.gyro_id, handoff_path)
     calculated = ' … '.join(dict.fromkeys([created[0], created[-1]])) if created else '?'
     when = (calibration_date([(b.start_ns, b.end_ns) for b in evidence.bags], calculated)
             if evidence else calibration_date(
@@ -558,6 +560,59 @@ def _file_stem(name: str) -> str:
     return re.sub(r'[^A-Za-z0-9._-]', '_', name).strip('.') or 'gyro'
 
 
+def certificate_stem(gyro_id: str | None, handoff_path: str = '') -> str:
+    """The certificate's file stem: the gyro id, else the hand-off file's stem."""
+    return _file_stem(gyro_id or Path(handoff_path).stem or 'gyro')
+
+
+_NUMBER_CELL = re.compile(r'<td id="certificate-number">([^<]*)</td>')
+
+
+def replacing(out_dir: Path, stem: str, *, pdf: bool = True, flag: str = '--out') -> list[str]:
+    """What writing ``<stem>.html`` (and ``.pdf``) into ``out_dir`` replaces: one line each.
+
+    A draft (its number cell says "none: …") may be replaced by another run's certificate;
+    its PDF goes with it (replaced, or removed under ``--no-pdf`` so that no draft PDF of
+    another run stays beside the new HTML).
+
+    Raises:
+        ConfigError: ``<stem>.html`` is an issued certificate (it carries a certificate
+            number: never replaced, nor mixed with another run's files), is not a
+            certificate, or ``<stem>.pdf`` is there without its HTML (whether it is issued
+            cannot be told).
+    """
+    html, pdf_path = out_dir / f'{stem}.html', out_dir / f'{stem}.pdf'
+    away = (f'give another {flag} DIR, or move {html.name} and {pdf_path.name} out of '
+            f'{out_dir} first')
+    if not html.exists():
+        if pdf_path.exists():
+            raise ConfigError(f'{pdf_path} is there without its {html.name}, so whether it is '
+                              f'an issued certificate cannot be told; {away}.')
+        return []
+    try:
+        found = _NUMBER_CELL.search(html.read_text(encoding='utf-8', errors='replace'))
+    except OSError as exc:
+        raise ConfigError(f'{html} cannot be read ({exc.strerror}); {away}.') from None
+    if found is None:
+        raise ConfigError(f'{html} is not a certificate of gyro_calib (it has no certificate-'
+                          f'number cell) and is not replaced; {away}.')
+    number = unescape(found.group(1)).strip()
+    if not number.startswith('none'):
+        raise ConfigError(f'{html} is the issued certificate {number}: an issued certificate '
+                          f'is never replaced nor mixed with another run\'s files; {away}.')
+    lines = [f'replaced the draft {html} of an earlier run']
+    if pdf_path.exists():
+        lines.append(f'replaced its {pdf_path}' if pdf else
+                     f'removed its {pdf_path} (--no-pdf: it would not match the new HTML)')
+    return lines
+
+
+def with_issue(cert: Certificate, issue: Issue) -> Certificate:
+    """``cert`` issued under ``issue`` (its number, customer and date of issue)."""
+    return dataclasses.replace(cert, issue=issue, customer=issue.customer,
+                               issued_utc=issue.issued_utc)
+
+
 def render_html(cert: Certificate) -> str:
     """The certificate as one self-contained HTML document (no external resource)."""
     import jinja2
@@ -600,11 +655,15 @@ def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> 
     created = not out_dir.exists()
     out_dir.mkdir(exist_ok=True)  # checked before any work; parents are never created
     try:
-        return [write_bytes_atomically(path, data) for path, data in documents]
+        written = [write_bytes_atomically(path, data) for path, data in documents]
     except BaseException:
         if created and not any(out_dir.iterdir()):
             out_dir.rmdir()
         raise
+    stale = out_dir / f'{cert.file_stem}.pdf'
+    if not pdf and stale.exists():  # a draft's (see :func:`replacing`): it would not match
+        stale.unlink()
+    return written
 
 
 def certificate_record(cert: Certificate) -> dict[str, Any]:
