@@ -108,9 +108,9 @@ def run_calibrate(args: argparse.Namespace) -> int:
             ledger.watch(f'{flag} {given}', path, label, directory=flag != '--out')
     try:
         status = _calibrate_outputs(args, outcome, human, document, plot_dir, ledger)
-    except KeyboardInterrupt:
-        if ledger.complete():  # every file is in place: what was measured is printed too
-            (sys.stderr if args.json else sys.stdout).write(human.getvalue())
+    except KeyboardInterrupt:  # what was measured and written is printed, the document
+        (sys.stderr if args.json else sys.stdout).write(human.getvalue())
+        if ledger.complete():  # once every file is in place
             sys.stdout.write(document.getvalue())
         raise  # main() names the files written, each whole, and those not written
     (sys.stderr if args.json else sys.stdout).write(human.getvalue())
