@@ -55,3 +55,32 @@ def test_calibrate_interrupted_before_any_file_says_nothing_written(
     out, err = capsys.readouterr()
     assert status == 130 and out == '' and list(tmp_path.iterdir()) == []
     assert err.strip().splitlines()[-1] == 'gyro-calib: interrupted; nothing written.'
+
+
+def test_a_ctrl_c_while_the_interpreter_shuts_down_after_the_command_does_not_kill_it(
+        tmp_path: Path) -> None:
+    """README walk: `noise ... --json` stopped once its files and JSON were out exited 130.
+
+    Python gives SIGINT back to its default action while the interpreter shuts down, so a
+    late Ctrl-C killed the finished command; here one lands in the module teardown.
+    """
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / 'late.py'
+    script.write_text(
+        'import os, signal\n'
+        'class Late:\n'
+        '    def __del__(self) -> None:  # at interpreter teardown\n'
+        '        os.kill(os.getpid(), signal.SIGINT)\n'
+        'late = Late()\n'
+        'import gyro_calib.cli as cli\n'
+        'cli.main = lambda argv=None: 0\n'
+        'cli.console_main()\n')
+    root = str(Path(__file__).resolve().parents[1])
+    env = {**os.environ, 'PYTHONPATH': os.pathsep.join(
+        [root, *filter(None, [os.environ.get('PYTHONPATH')])])}
+    done = subprocess.run([sys.executable, str(script)], env=env, capture_output=True,
+                          text=True, timeout=60)
+    assert done.returncode == 0, done.stderr

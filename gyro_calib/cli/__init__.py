@@ -37,6 +37,7 @@ methods below them expose plain functions and data, never argparse.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from collections.abc import Sequence
 
@@ -96,5 +97,12 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def console_main() -> None:
-    """Console-script wrapper for setuptools."""
-    sys.exit(main())
+    """Console-script wrapper for setuptools.
+
+    Once :func:`main` has returned every output is out: a Ctrl-C then is ignored. (Python
+    gives SIGINT back to the default action while the interpreter shuts down, so a late
+    Ctrl-C would otherwise kill a finished command with 130, silently.)
+    """
+    status = main()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.exit(status)
