@@ -39,3 +39,15 @@ def test_info_without_flags_still_describes_a_bag_no_method_runs_on(
         capsys: pytest.CaptureFixture[str]) -> None:
     assert gyro_calib(['info', str(BAGS / 'noise_imu_static')]) == 0
     assert '/imu/data' in capsys.readouterr().out
+
+
+def test_info_with_a_method_whose_topics_the_bag_lacks_prints_nothing_on_stdout(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Bad input (``--method fog``, no FOG topics): one line on stderr, stdout empty.
+
+    README walk: the bag's description used to go to stdout before the error.
+    """
+    assert gyro_calib(['info', str(BAGS / 'theta_four_position'), '--method', 'fog']) == 2
+    out, err = capsys.readouterr()
+    assert out == ''
+    assert err.count('\n') == 1 and 'method fog needs topic /fog/output' in err

@@ -404,6 +404,40 @@ def test_an_interrupt_after_every_file_was_written_says_so_and_exits_0(
     assert f'interrupted after every file was written (hand-off {target})' in err
 
 
+
+@pytest.mark.parametrize('where', ['written_line', '_flush'])
+def test_an_interrupt_while_the_results_are_printed_says_so_and_exits_0(
+        where: str, bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C while the results go out, every file in place: said, whole JSON, exit 0.
+
+    README walk: it was a silent 130 with the document printed.
+    """
+    import gyro_calib.cli.noise as noise
+    import gyro_calib.noise.outputs as outputs
+
+    module = outputs if where == 'written_line' else noise
+    real = getattr(module, where)
+    calls = []
+
+    def interrupted(*args: Any, **kwargs: Any) -> Any:  # one Ctrl-C, after the first call
+        result = real(*args, **kwargs)
+        calls.append(args)
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+        return result
+
+    monkeypatch.setattr(module, where, interrupted)
+    kalibr, handoff = tmp_path / 'k.yaml', tmp_path / 'h.yaml'
+    status, out, err = run(capsys, bags['imu'], '--kalibr', kalibr, '--plot', tmp_path / 'np',
+                           '--out', handoff, '--json')
+    assert status == 0 and kalibr.exists() and handoff.exists()
+    assert json.loads(out)['methods']['noise']['results']  # the whole document, once
+    last = err.strip().splitlines()[-1]
+    assert last.startswith('gyro-calib: interrupted after every file was written (')
+    assert f'hand-off {handoff}' in last and f'Kalibr imu.yaml {kalibr}' in last
+    assert f'hand-off written: {handoff}' in err
+
 def test_the_handoff_file_holds_every_deviation_per_tau_equal_to_allantools(
         bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``--out`` keeps the curves: ADEV, MDEV, HDEV, TOTDEV per τ with std and EDF (issue 18)."""

@@ -22,6 +22,8 @@ listing what is still missing); 1 nothing could be calibrated; 2 bad input (path
 type, configuration, an output path that cannot be written), reported in one line. On any
 failure no output file is written or overwritten — except an output that fails while being
 written (disk full): one line then names it and what was written before it, each whole.
+Ctrl-C names the files already written, each whole, and those not written (exit 130), or
+says every file was written and exits as done (:mod:`gyro_calib.cli.interrupt`).
 
 The front door, one module per subcommand (each ``add_commands(subparsers)`` and its
 ``run_*``): :mod:`~gyro_calib.cli.calibrate`, :mod:`~gyro_calib.cli.info`,
@@ -35,6 +37,7 @@ methods below them expose plain functions and data, never argparse.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from collections.abc import Sequence
 
@@ -49,8 +52,9 @@ from gyro_calib.cli import (
     report,
     simulate,
 )
-from gyro_calib.cli.arguments import EXIT_BAD_INPUT, EXIT_INTERRUPTED, Parser
+from gyro_calib.cli.arguments import EXIT_BAD_INPUT, Parser
 from gyro_calib.cli.calibrate import summary_text
+from gyro_calib.cli.interrupt import Ledger
 from gyro_calib.errors import GyroCalibError
 
 __all__ = ['console_main', 'main', 'summary_text']
@@ -62,6 +66,7 @@ COMMANDS = (calibrate, info, methods, compensate, noise, report, batch, export, 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gyro-calib`` console script; returns the exit status."""
     args = _parser().parse_args(argv)
+    args.ledger = Ledger()  # what the command writes, for the interrupt line
     try:
         return int(args.run(args))
     except GyroCalibError as exc:
@@ -73,10 +78,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f'gyro-calib: error: {" ".join(os_error_text(exc).split())}; stopped there.',
               file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print('gyro-calib: interrupted; nothing written.', file=sys.stderr)
-        return EXIT_INTERRUPTED
-
+    except KeyboardInterrupt:  # every writer is atomic: name the complete files, and the rest
+        line, status = args.ledger.interrupted()
+        print(line, file=sys.stderr)
+        return int(status)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -92,5 +97,12 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def console_main() -> None:
-    """Console-script wrapper for setuptools."""
-    sys.exit(main())
+    """Console-script wrapper for setuptools.
+
+    Once :func:`main` has returned every output is out: a Ctrl-C then is ignored. (Python
+    gives SIGINT back to the default action while the interpreter shuts down, so a late
+    Ctrl-C would otherwise kill a finished command with 130, silently.)
+    """
+    status = main()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    sys.exit(status)

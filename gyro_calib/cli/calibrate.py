@@ -31,6 +31,7 @@ from gyro_calib.cli.arguments import (
     options_from_args,
     refuse_unused_flags,
 )
+from gyro_calib.cli.interrupt import Ledger
 from gyro_calib.cli.progress import progress_bar
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import load_calibration, update_calibration
@@ -99,14 +100,26 @@ def run_calibrate(args: argparse.Namespace) -> int:
     # hand-off the run cannot be merged into, a full disk) leaves one line on stderr and
     # nothing on stdout
     human, document = io.StringIO(), io.StringIO()
-    status = _calibrate_outputs(args, outcome, human, document, plot_dir)
+    ledger = args.ledger if hasattr(args, 'ledger') else Ledger()  # main() gives one
+    for flag, given, path, label in (('--out', args.out, args.out, 'hand-off'),
+                                     ('--plot', args.plot, plot_dir, 'figure'),
+                                     ('--report', args.report, args.report, 'certificate')):
+        if path is not None:
+            ledger.watch(f'{flag} {given}', path, label, directory=flag != '--out')
+    try:
+        status = _calibrate_outputs(args, outcome, human, document, plot_dir, ledger)
+    except KeyboardInterrupt:  # what was measured and written is printed, the document
+        (sys.stderr if args.json else sys.stdout).write(human.getvalue())
+        if ledger.complete():  # once every file is in place
+            sys.stdout.write(document.getvalue())
+        raise  # main() names the files written, each whole, and those not written
     (sys.stderr if args.json else sys.stdout).write(human.getvalue())
     sys.stdout.write(document.getvalue())
     return status
 
 
 def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human: Any,
-                       document: Any, plot_dir: Path | None) -> int:
+                       document: Any, plot_dir: Path | None, ledger: Ledger) -> int:
     """Summary, hand-off, figures, certificate and JSON of a finished calibration.
 
     An output that fails while being written (disk full) ends the command in one line
@@ -121,12 +134,18 @@ def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human:
             print(json.dumps(json_document(outcome), indent=1, allow_nan=False,
                              default=json_default), file=document)
     if not outcome.calibrated_anything:
+        ledger.status = EXIT_NOT_CALIBRATED
         print_json()
         print('gyro-calib: nothing could be calibrated from the bag(s); nothing written.',
               file=sys.stderr)
         return EXIT_NOT_CALIBRATED
     # the hand-off first: the measured values are kept whatever happens to a figure
     status = _write_handoff(args, outcome, human) if args.out is not None else EXIT_OK
+    ledger.status = status
+    if status != EXIT_OK:  # no hand-off value (said), so no certificate either
+        ledger.drop(args.out)
+        if args.report is not None:
+            ledger.drop(args.report)
     written = [f'--out {args.out}'] if status == EXIT_OK and args.out is not None else []
     if plot_dir is not None:
         try:
@@ -134,6 +153,7 @@ def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human:
                 path for session in outcome.sessions.values() for path in session.plot(stage)])
         except OSError as exc:
             raise write_failed(exc, '--plot', plot_dir, written) from None
+        ledger.finished(plot_dir)
         for path in figures:
             print(f'figure written: {path.resolve()}', file=human)
         written.append(f'--plot {plot_dir}')
@@ -142,6 +162,7 @@ def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human:
 
         try:
             report_after_calibrate(args, outcome, human)
+            ledger.finished(args.report)
         except OSError as exc:
             raise write_failed(exc, '--report', args.report, written) from None
     print_json()

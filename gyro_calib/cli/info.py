@@ -10,6 +10,7 @@ runs the methods that would run to show what they read, reject and are limited b
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
 import sys
@@ -128,7 +129,9 @@ def run_info(args: argparse.Namespace) -> int:
 
     check_calibration_file(args.calibration)
     infos, namespace_note = bag_infos(args.bags, args.namespace)
-    human = sys.stderr if args.json else sys.stdout
+    # the text goes out once the methods have run: bad input found on the way (--method
+    # NAME without its topics) is one line on stderr and nothing on stdout
+    human = io.StringIO()
     if namespace_note:
         print(f'note: {namespace_note}', file=human)
     descriptions = [bag_description(i) for i in infos]
@@ -161,6 +164,8 @@ def run_info(args: argparse.Namespace) -> int:
     for name, p in prospects.items():
         doc['methods'].setdefault(name, {'results': {}, 'missing': {}, 'rejections': []})
         doc['methods'][name]['prospect'] = p
+    text = json.dumps(doc, indent=1, allow_nan=False, default=json_default) if args.json else ''
+    (sys.stderr if args.json else sys.stdout).write(human.getvalue())
     if args.json:
-        print(json.dumps(doc, indent=1, allow_nan=False, default=json_default))
+        print(text)
     return EXIT_OK

@@ -36,7 +36,6 @@ from pathlib import Path
 from typing import Any
 
 from gyro_calib.cli.arguments import (
-    EXIT_INTERRUPTED,
     EXIT_NOT_CALIBRATED,
     EXIT_OK,
     check_calibration_file,
@@ -45,6 +44,7 @@ from gyro_calib.cli.arguments import (
     options_from_args,
 )
 from gyro_calib.cli.calibrate import json_default, summary_text
+from gyro_calib.cli.interrupt import Ledger
 from gyro_calib.cli.progress import progress_bar
 
 
@@ -110,7 +110,12 @@ def run_noise(args: argparse.Namespace) -> int:
         topic_counts,
     )
     from gyro_calib.bagio import topics_present
-    from gyro_calib.noise.outputs import resolve_targets, write_outputs
+    from gyro_calib.noise.outputs import (
+        resolve_targets,
+        write_outputs,
+        written_line,
+        written_name,
+    )
     from gyro_calib.noise.run import (
         holds_noise_terms,
         outlier_settings,
@@ -194,22 +199,28 @@ def run_noise(args: argparse.Namespace) -> int:
     if plot_dir is not None:
         targets = dataclasses.replace(targets, plot=make_plot_dir(plot_dir) / FIGURE_NAME)
     written: list[tuple[str, Path]] = []
-    asked = sum(p is not None for p in (targets.kalibr, targets.plot, targets.handoff))
+    ledger = args.ledger if hasattr(args, 'ledger') else Ledger()  # main() gives one
+    for flag, given, path, label in (('--kalibr', args.kalibr, targets.kalibr, 'Kalibr imu.yaml'),
+                                     ('--plot', args.plot, targets.plot, 'figure'),
+                                     ('--out', args.out, targets.handoff, 'hand-off')):
+        if path is not None:
+            ledger.watch(f'{flag} {given}', path, label)
+    ledger.status = EXIT_OK if resolved else EXIT_NOT_CALIBRATED
+    flushed, printed = False, 0
     try:
         write_outputs(session, targets, source=outcome.source, schema=handoff_schema(),
                       gyro_id=args.gyro_id, progress=written, curves_only=not resolved)
-    except KeyboardInterrupt:
-        _flush(human, None, args.json)
-        if not written:
-            raise
-        names = ', '.join(f'{what} {path}' for what, path in written)
-        if len(written) == asked:  # the work is done: say so, exit as done
-            print(f'gyro-calib: interrupted after every file was written ({names}).',
-                  file=sys.stderr)
-            return EXIT_OK if resolved else EXIT_NOT_CALIBRATED
-        print(f'gyro-calib: interrupted while writing; written: {names}; the others were '
-              'not written.', file=sys.stderr)
-        return EXIT_INTERRUPTED
+        for what, path in written:
+            print(written_line(what, path), file=human)
+            printed += 1
+        flushed = True  # from here on the text may be part printed: not printed again
+        _flush(human, document, args.json)
+    except KeyboardInterrupt:  # main() names the files written, each whole, and the others
+        if not flushed:  # what was measured and written; the document once every file is
+            for what, path in written[printed:]:
+                print(written_line(what, path), file=human)
+            _flush(human, document if ledger.complete() else None, args.json)
+        raise
     except OSError as exc:
         from gyro_calib.outputs import write_failed
 
@@ -217,16 +228,14 @@ def run_noise(args: argparse.Namespace) -> int:
         failed = (('--kalibr', args.kalibr) if named == targets.kalibr else
                   ('--plot', args.plot) if targets.plot is not None
                   and named.parent == targets.plot.parent else ('--out', args.out))
-        raise write_failed(exc, *failed, [f'{what} {path}' for what, path in written]) from None
+        raise write_failed(exc, *failed, [written_name(what, path) for what, path in written]
+                           ) from None
     finally:
         if created and plot_dir is not None and not any(plot_dir.iterdir()):
             plot_dir.rmdir()  # the run made it and wrote nothing into it
-    for what, path in written:
-        print(f'{what} written: {path}', file=human)
-    _flush(human, document, args.json)
     if not resolved:
         print(f'gyro-calib: no noise term is resolved ({why_no_term(session, args.taus)}); '
-              + (f'the curves are written ({", ".join(f"{w} {p}" for w, p in written)})'
+              + (f'the curves are written ({", ".join(written_name(w, p) for w, p in written)})'
                  if written else 'nothing written')
               + kept + ('; no Kalibr file without a term' if args.kalibr is not None else '')
               + '.',

@@ -179,3 +179,15 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
         if figure_tmp is not None:
             figure_tmp.unlink(missing_ok=True)
     return written
+
+
+def written_name(what: str, path: Path) -> str:
+    """One entry of :func:`write_outputs` as ``'hand-off PATH (its notes)'``."""
+    label, sep, notes = what.partition(' (')
+    return f'{label} {path}' + (f' ({notes}' if sep else '')
+
+
+def written_line(what: str, path: Path) -> str:
+    """One entry of :func:`write_outputs` as ``'hand-off written: PATH (its notes)'``."""
+    label, sep, notes = what.partition(' (')
+    return f'{label} written: {path}' + (f' ({notes}' if sep else '')
