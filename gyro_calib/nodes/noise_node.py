@@ -41,7 +41,7 @@ from gyro_calib.errors import ConfigError, GyroCalibError
 from gyro_calib.nodes.method_node import GENERIC_PARAMETERS, MethodNode
 from gyro_calib.nodes.ros_io import described_parameter, run_node, spin_until_quiet
 from gyro_calib.noise.keys import METHOD
-from gyro_calib.noise.outputs import resolve_targets, write_outputs
+from gyro_calib.noise.outputs import resolve_targets, write_outputs, written_line
 from gyro_calib.noise.session import IMU, NoiseSession, check_scale_factor
 from gyro_calib.noise.settings import NoiseSettings
 from gyro_calib.registry import handoff_schema
@@ -226,7 +226,7 @@ class NoiseNode(MethodNode):
             return 1
         log.info(self._terms_line(0.0).replace('running terms', 'final terms', 1))
         for what, path in written:
-            log.info(f'{what} written: {path}')
+            log.info(written_line(what, path))
         self.state.finish(complete=True)
         return 0
 
