@@ -592,17 +592,38 @@ def _register(out: Path) -> list[str]:
     return [line.split('\t')[1] for line in text.splitlines() if not line.startswith('#')]
 
 
+def issued_number(html: Path) -> str:
+    """The certificate number printed in a certificate's HTML."""
+    import re
+
+    found = re.search(r'<td id="certificate-number">([^<]*)</td>', html.read_text('utf-8'))
+    assert found is not None
+    return found.group(1)
+
+
+@pytest.mark.parametrize('how', ['--force', 'gyro changed', 'lab file changed'])
 def test_a_reissued_certificate_names_the_one_it_replaces_and_moves_its_files_aside(
-        tmp_path: Path, local_client: Any, capsys: pytest.CaptureFixture[str]) -> None:
-    from gyro_calib.batch.run import issued_number, print_summary
+        how: str, tmp_path: Path, local_client: Any,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import dataclasses
+
+    from gyro_calib.batch.run import print_summary
+    from gyro_calib.report.lab import load_lab
 
     lab, jobs, out = _lab_fleet(tmp_path)
     first = run_batch(jobs, out, client=local_client, pdf=True, lab=lab)
     old = first.records[0]['certificate']['certificate_number']
     assert old and issued_number(out / 'F-1' / 'F-1.html') == old
     assert 'replaces' not in first.records[0]
-    # --force (as a changed gyro or lab file) re-issues: never silently, never mixed
-    again = run_batch(jobs, out, client=local_client, pdf=False, lab=lab, force=True)
+    if how == 'gyro changed':
+        jobs = [dataclasses.replace(jobs[0], customer='Other Nav')]
+    elif how == 'lab file changed':
+        (out / 'lab.yaml').write_text(yaml.safe_dump(
+            {**LAB_FILE, 'signatory': {'name': 'Dr B. Example', 'function': 'Head'}}))
+        lab = load_lab(out / 'lab.yaml')
+    # a re-run gyro is re-issued under a new number: never silently, never mixed
+    again = run_batch(jobs, out, client=local_client, pdf=False, lab=lab,
+                      force=how == '--force')
     rec, = again.records
     new = rec['certificate']['certificate_number']
     assert new != old and _register(out) == [old, new]
@@ -641,13 +662,13 @@ def test_a_gyro_that_fails_under_a_lab_burns_no_certificate_number(
 
 def test_a_failure_after_the_number_is_reserved_names_the_number_in_the_row(
         tmp_path: Path, local_client: Any, monkeypatch: pytest.MonkeyPatch) -> None:
-    import gyro_calib.batch.tasks as tasks
+    import gyro_calib.report.certificate as certificate
 
     def broken(*args: Any) -> Any:
         raise OSError('no fonts for the PDF')
 
     lab, jobs, out = _lab_fleet(tmp_path)
-    monkeypatch.setattr(tasks, '_rendered', broken)
+    monkeypatch.setattr(certificate, 'render_html', broken)
     outcome = run_batch(jobs, out, client=local_client, pdf=False, lab=lab)
     number, = _register(out)
     rec, = outcome.records
@@ -657,3 +678,23 @@ def test_a_failure_after_the_number_is_reserved_names_the_number_in_the_row(
     assert 'no fonts for the PDF' in rec['reason']
     with (out / 'fleet.csv').open(encoding='utf-8') as f:
         assert number in next(csv.DictReader(f))['reason']
+
+
+def test_a_rerun_that_fails_keeps_the_issued_certificate_and_says_so(
+        tmp_path: Path, local_client: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    import gyro_calib.batch.run as batch_run
+    from gyro_calib.batch.tasks import MethodRun
+
+    lab, jobs, out = _lab_fleet(tmp_path)
+    first = run_batch(jobs, out, client=local_client, pdf=False, lab=lab)
+    old = first.records[0]['certificate']['certificate_number']
+    html = (out / 'F-1' / 'F-1.html').read_bytes()
+    monkeypatch.setattr(batch_run, 'run_method', lambda job, method: MethodRun(
+        job.gyro_id, method, error=f'{method}: the bench stopped'))
+    again = run_batch(jobs, out, client=local_client, pdf=False, lab=lab, force=True)
+    rec, = again.records
+    assert rec['status'] == 'failed' and 'replaces' not in rec
+    assert rec['reason'] == (f'fog: the bench stopped; the issued certificate {old} of an '
+                             'earlier run stays in F-1/ (not replaced)')
+    assert (out / 'F-1' / 'F-1.html').read_bytes() == html
+    assert _register(out) == [old]

@@ -328,6 +328,10 @@ def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
     replaces = _supersede(folder, record['stem'], list(result.files))
     if replaces:
         record['replaces'] = replaces
+    stands = issued_number(folder / f'{record["stem"]}.html') if not replaces else ''
+    if stands and record.get('status') == 'failed':
+        record['reason'] = (f'{record.get("reason", "")}; the issued certificate {stands} of '
+                            f'an earlier run stays in {record["stem"]}/ (not replaced)')
     for rel, data in result.files.items():
         _atomic_write(out_dir / rel, data)
     if record.get('status') == 'failed':
