@@ -2,9 +2,11 @@
 
 Per gyro: one plan task (hash the bags, skip when unchanged, pick the methods), one task per
 method (the streaming bag calibration), one finish task (hand-off file and certificate as
-bytes) that depends on them. The parent schedules, writes what the finish tasks return, and
-never opens a bag. Ctrl-C cancels what is pending and keeps what finished; every other gyro
-is a row ``not run (interrupted)``.
+bytes) that depends on them; under a lab the finish task returns the certificate built but
+unnumbered, the parent reserves its number and one issue task renders it. The parent
+schedules, writes what the tasks return, and never opens a bag. Ctrl-C cancels what is
+pending and keeps what finished; every other gyro is a row ``not run (interrupted)`` (one
+whose number was reserved names it).
 """
 
 from __future__ import annotations
