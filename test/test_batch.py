@@ -552,3 +552,149 @@ def test_a_triad_gyro_keeps_its_hand_off_and_says_why_there_is_no_certificate() 
     handoff = yaml.safe_load(result.files['IMU-1/IMU-1.yaml'])
     assert handoff['format_version'] == 4 and handoff['gyro_id'] == 'IMU-1'
     assert len(handoff['imu']['scale_factor_rad_per_pulse']) == 3
+
+
+LAB_FILE = {'laboratory': {'name': 'Gyro Metrology Laboratory', 'address': '1 Bench Road'},
+            'signatory': {'name': 'Dr A. Example', 'function': 'Head of calibration'},
+            'traceability': {k: f'{k} traced, cert. T-1.' for k in (
+                'rate_table', 'encoder', 'clock', 'temperature_sensors')},
+            'certificate_number': 'GML-{year}-{seq:05d}', 'customer': 'ACME Nav'}
+
+
+@pytest.fixture(scope='module')
+def local_client() -> Iterator[Any]:
+    """An in-process cluster: the tasks run in this process (monkeypatching reaches them)."""
+    import logging
+
+    from dask.distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                      dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
+            Client(cluster) as c:
+        yield c
+
+
+def _lab_fleet(tmp: Path, gyros: tuple[str, ...] = ('F-1',)) -> tuple[Any, list[Any], Path]:
+    from gyro_calib.report.lab import load_lab
+
+    out = tmp / 'out'
+    out.mkdir()
+    (out / 'lab.yaml').write_text(yaml.safe_dump(LAB_FILE), encoding='utf-8')
+    manifest = tmp / 'fleet.csv'
+    manifest.write_text('gyro_id,bags,customer\n' + ''.join(
+        f'{g},{BAGS / "fog_turntable"},ACME Nav\n' for g in gyros), encoding='utf-8')
+    return load_lab(out / 'lab.yaml'), load_manifest(manifest), out
+
+
+def _register(out: Path) -> list[str]:
+    path = out / 'certificate_numbers.tsv'
+    text = path.read_text(encoding='utf-8') if path.exists() else ''
+    return [line.split('\t')[1] for line in text.splitlines() if not line.startswith('#')]
+
+
+def issued_number(html: Path) -> str:
+    """The certificate number printed in a certificate's HTML."""
+    import re
+
+    found = re.search(r'<td id="certificate-number">([^<]*)</td>', html.read_text('utf-8'))
+    assert found is not None
+    return found.group(1)
+
+
+@pytest.mark.parametrize('how', ['--force', 'gyro changed', 'lab file changed'])
+def test_a_reissued_certificate_names_the_one_it_replaces_and_moves_its_files_aside(
+        how: str, tmp_path: Path, local_client: Any,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import dataclasses
+
+    from gyro_calib.batch.run import print_summary
+    from gyro_calib.report.lab import load_lab
+
+    lab, jobs, out = _lab_fleet(tmp_path)
+    first = run_batch(jobs, out, client=local_client, pdf=True, lab=lab)
+    old = first.records[0]['certificate']['certificate_number']
+    assert old and issued_number(out / 'F-1' / 'F-1.html') == old
+    assert 'replaces' not in first.records[0]
+    if how == 'gyro changed':
+        jobs = [dataclasses.replace(jobs[0], customer='Other Nav')]
+    elif how == 'lab file changed':
+        (out / 'lab.yaml').write_text(yaml.safe_dump(
+            {**LAB_FILE, 'signatory': {'name': 'Dr B. Example', 'function': 'Head'}}))
+        lab = load_lab(out / 'lab.yaml')
+    # a re-run gyro is re-issued under a new number: never silently, never mixed
+    again = run_batch(jobs, out, client=local_client, pdf=False, lab=lab,
+                      force=how == '--force')
+    rec, = again.records
+    new = rec['certificate']['certificate_number']
+    assert new != old and _register(out) == [old, new]
+    assert rec['replaces'] == old
+    assert json.loads((out / 'F-1' / 'record.json').read_text())['replaces'] == old
+    assert issued_number(out / 'F-1' / 'F-1.html') == new
+    assert not (out / 'F-1' / 'F-1.pdf').exists()  # the old PDF is not left beside the new
+    kept = out / 'F-1' / 'superseded'
+    assert sorted(p.name for p in kept.iterdir()) == [f'F-1-{old}.html', f'F-1-{old}.pdf']
+    assert issued_number(kept / f'F-1-{old}.html') == old
+    with (out / 'fleet.csv').open(encoding='utf-8') as f:
+        assert {r['replaces'] for r in csv.DictReader(f)} == {old}
+    line = json.loads((out / 'fleet.jsonl').read_text(encoding='utf-8').splitlines()[0])
+    assert line['replaces'] == old
+    assert f'replaces the issued certificate {old}' in (out / 'fleet.html').read_text()
+    capsys.readouterr()
+    print_summary(again)
+    assert (f'F-1: ok (certificate {new} replaces the issued certificate {old}; its files '
+            'moved to F-1/superseded/)') in capsys.readouterr().out
+
+
+def test_a_gyro_that_fails_under_a_lab_burns_no_certificate_number(
+        tmp_path: Path, local_client: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    import gyro_calib.batch.run as batch_run
+    from gyro_calib.batch.tasks import MethodRun
+
+    def failing(job: Any, method: str) -> MethodRun:
+        return MethodRun(job.gyro_id, method, error=f'{method}: the bench stopped')
+
+    lab, jobs, out = _lab_fleet(tmp_path, ('F-1', 'F-2'))
+    monkeypatch.setattr(batch_run, 'run_method', failing)
+    outcome = run_batch(jobs, out, client=local_client, pdf=False, lab=lab)
+    assert outcome.failed == ['F-1', 'F-2']
+    assert _register(out) == []  # the finish task refused both before any number
+
+
+def test_a_failure_after_the_number_is_reserved_names_the_number_in_the_row(
+        tmp_path: Path, local_client: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    import gyro_calib.report.certificate as certificate
+
+    def broken(*args: Any) -> Any:
+        raise OSError('no fonts for the PDF')
+
+    lab, jobs, out = _lab_fleet(tmp_path)
+    monkeypatch.setattr(certificate, 'render_html', broken)
+    outcome = run_batch(jobs, out, client=local_client, pdf=False, lab=lab)
+    number, = _register(out)
+    rec, = outcome.records
+    assert rec['status'] == 'failed'
+    assert f'certificate number {number} was reserved' in rec['reason']
+    assert 'stays reserved in the register, unused' in rec['reason']
+    assert 'no fonts for the PDF' in rec['reason']
+    with (out / 'fleet.csv').open(encoding='utf-8') as f:
+        assert number in next(csv.DictReader(f))['reason']
+
+
+def test_a_rerun_that_fails_keeps_the_issued_certificate_and_says_so(
+        tmp_path: Path, local_client: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    import gyro_calib.batch.run as batch_run
+    from gyro_calib.batch.tasks import MethodRun
+
+    lab, jobs, out = _lab_fleet(tmp_path)
+    first = run_batch(jobs, out, client=local_client, pdf=False, lab=lab)
+    old = first.records[0]['certificate']['certificate_number']
+    html = (out / 'F-1' / 'F-1.html').read_bytes()
+    monkeypatch.setattr(batch_run, 'run_method', lambda job, method: MethodRun(
+        job.gyro_id, method, error=f'{method}: the bench stopped'))
+    again = run_batch(jobs, out, client=local_client, pdf=False, lab=lab, force=True)
+    rec, = again.records
+    assert rec['status'] == 'failed' and 'replaces' not in rec
+    assert rec['reason'] == (f'fog: the bench stopped; the issued certificate {old} of an '
+                             'earlier run stays in F-1/ (not replaced)')
+    assert (out / 'F-1' / 'F-1.html').read_bytes() == html
+    assert _register(out) == [old]

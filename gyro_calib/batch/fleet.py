@@ -29,8 +29,11 @@ import numpy as np
 COLUMNS = ('gyro_id', 'status', 'overall', 'key', 'method', 'unit', 'value', 'std', 'k', 'U',
            'n', 'dof', 'limit', 'verdict', 'in_handoff', 'inputs_sha256', 'reason',
            'lsl', 'usl', 'display_unit', 'display_value', 'display_std', 'display_U',
-           'display_lsl', 'display_usl', 'fleet_run')
-"""The columns of fleet.csv and fleet.parquet (new ones appended, old ones in place)."""
+           'display_lsl', 'display_usl', 'fleet_run', 'replaces')
+"""The columns of fleet.csv and fleet.parquet (new ones appended, old ones in place).
+
+``replaces``: the number of the issued certificate this gyro's certificate replaced ('' none).
+"""
 
 FLOAT_COLUMNS = frozenset({'value', 'std', 'k', 'U', 'lsl', 'usl', 'display_value',
                            'display_std', 'display_U', 'display_lsl', 'display_usl'})
@@ -145,7 +148,8 @@ def fleet_rows(records: Sequence[dict[str, Any]], spec_limits: Mapping[str, Any]
         cert = rec.get('certificate') or {}
         common = {'gyro_id': rec['gyro_id'], 'status': rec.get('status', ''),
                   'overall': cert.get('overall', ''), 'inputs_sha256': inputs_digest(rec),
-                  'reason': rec.get('reason', ''), 'fleet_run': fleet_run}
+                  'reason': rec.get('reason', ''), 'fleet_run': fleet_run,
+                  'replaces': rec.get('replaces', '')}
         quantities = cert.get('quantities') or []
         if not quantities:
             rows.append({c: common.get(c) for c in COLUMNS})
@@ -406,6 +410,8 @@ def _gyro_table(records: Sequence[dict[str, Any]]) -> str:
         body.append(f'<tr class="{esc(rec.get("status", ""))}"><td>{esc(rec["gyro_id"])}</td>'
                     f'<td>{esc(rec.get("status", ""))}</td>'
                     f'<td>{esc((rec.get("certificate") or {}).get("overall", "") or "—")}</td>'
-                    f'<td>{cert_link}</td><td>{esc(rec.get("reason", ""))}</td></tr>')
+                    f'<td>{cert_link}</td><td>{esc(rec.get("reason", ""))}'
+                    + (f' (replaces the issued certificate {esc(rec["replaces"])})'
+                       if rec.get('replaces') else '') + '</td></tr>')
     body.append('</table>')
     return ''.join(body)

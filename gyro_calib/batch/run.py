@@ -2,9 +2,11 @@
 
 Per gyro: one plan task (hash the bags, skip when unchanged, pick the methods), one task per
 method (the streaming bag calibration), one finish task (hand-off file and certificate as
-bytes) that depends on them. The parent schedules, writes what the finish tasks return, and
-never opens a bag. Ctrl-C cancels what is pending and keeps what finished; every other gyro
-is a row ``not run (interrupted)``.
+bytes) that depends on them; under a lab the finish task returns the certificate built but
+unnumbered, the parent reserves its number and one issue task renders it. The parent
+schedules, writes what the tasks return, and never opens a bag. Ctrl-C cancels what is
+pending and keeps what finished; every other gyro is a row ``not run (interrupted)`` (one
+whose number was reserved names it).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 import signal
 import sys
 import threading
@@ -27,7 +30,9 @@ from gyro_calib.batch.manifest import GyroJob, gyro_stem
 from gyro_calib.batch.tasks import (
     GyroResult,
     Plan,
+    burned,
     finish_gyro,
+    issue_gyro,
     plan_gyro,
     reason,
     run_method,
@@ -144,8 +149,12 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
     files into ``out_dir``. When interrupted, what finished is kept and every other gyro is
     a row ``not run (interrupted)``; the fleet files say the run was interrupted. With a
     ``lab`` (:class:`~gyro_calib.report.lab.Lab`) each certificate made is issued under the
-    next number of its register, reserved here in the parent when the gyro's finish task is
-    submitted; an unchanged gyro keeps its certificate and number.
+    next number of its register, reserved here in the parent once the gyro's finish task has
+    built its certificate (every check that can refuse the gyro done: a failed gyro burns no
+    number; a failure after it names the number in the gyro's reason); an unchanged gyro
+    keeps its certificate and number. A re-run gyro whose folder holds an issued certificate
+    replaces it: its record's ``replaces`` names the old number, whose files are moved to
+    ``<stem>/superseded/`` (see :func:`_store`).
 
     Raises:
         ConfigError: a gyro's folder holds another gyro's earlier results (nothing run).
@@ -161,6 +170,7 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
     skipped: list[str] = []
     by_id = {j.gyro_id: j for j in jobs}
     pending: dict[str, tuple[str, str, Any]] = {}
+    reserved: dict[str, str] = {}  # gyro → the number reserved for its certificate
     queue = as_completed()
     submitted: list[Any] = []
     for job in jobs:
@@ -179,7 +189,9 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
             try:
                 result = fut.result()
             except Exception as exc:  # noqa: BLE001  (a worker died: that gyro's row says so)
-                records[gid] = _failed(job, stems[gid], f'task {kind} failed: {reason(exc)}')
+                why = f'task {kind} failed: {reason(exc)}'
+                records[gid] = _failed(job, stems[gid], burned(reserved[gid], why)
+                                       if gid in reserved else why)
                 done += 1
             else:
                 if kind == 'plan':
@@ -195,14 +207,20 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
                         runs = [client.submit(run_method, job, m, pure=False,
                                               key=f'{m}-{stems[gid]}-{os.urandom(4).hex()}')
                                 for m in plan.methods]
-                        issue = (None if lab is None else
-                                 reserve_number(lab, gid, job.customer))
                         fin = client.submit(finish_gyro, job, plan, spec, pdf, stems[gid], *runs,
-                                            issue=issue, pure=False,
+                                            defer_issue=lab is not None, pure=False,
                                             key=f'finish-{stems[gid]}-{os.urandom(4).hex()}')
                         pending[fin.key] = ('finish', gid, fin)
                         submitted += [*runs, fin]
                         queue.add(fin)
+                elif kind == 'finish' and lab is not None and result.certificate is not None:
+                    issue = reserve_number(lab, gid, job.customer)  # all checks passed
+                    reserved[gid] = issue.number
+                    fut2 = client.submit(issue_gyro, result, issue, spec, pdf, pure=False,
+                                         key=f'issue-{stems[gid]}-{os.urandom(4).hex()}')
+                    pending[fut2.key] = ('issue', gid, fut2)
+                    submitted.append(fut2)
+                    queue.add(fut2)
                 else:
                     records[gid] = _store(out_dir, result)
                     done += 1
@@ -213,8 +231,14 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
         with _sigint_deferred():
             client.cancel([f for f in submitted if f.status != 'finished'])
             for kind, gid, fut in pending.values():  # finished, not yet taken from the queue
-                if kind == 'finish' and fut.status == 'finished' and gid not in records:
+                if gid in records:
+                    continue
+                if fut.status == 'finished' and (kind == 'issue' or kind == 'finish' and (
+                        fut.result().certificate is None)):
                     records[gid] = _store(out_dir, fut.result())
+                elif gid in reserved:
+                    records[gid] = {**_not_run(by_id[gid], stems[gid]), 'reason': burned(
+                        reserved[gid], 'the run was stopped before its certificate was made')}
             client.cancel(submitted)
     with _sigint_deferred():  # a second Ctrl-C must not leave the fleet files half-updated
         ordered = [records[j.gyro_id] if j.gyro_id in records
@@ -250,15 +274,66 @@ def _failed(job: GyroJob, stem: str, why: str, plan: Plan | None = None) -> dict
                        (plan.inputs.items() if plan else ())}, 'errors': [why]}
 
 
+_NUMBER_CELL = re.compile(r'<td id="certificate-number">([^<]*)</td>')
+
+
+def issued_number(html_path: Path) -> str:
+    """The number of the issued certificate ``html_path`` ('' if none, a draft or unreadable)."""
+    from html import unescape
+
+    try:
+        found = _NUMBER_CELL.search(html_path.read_text(encoding='utf-8', errors='replace'))
+    except OSError:
+        return ''
+    number = unescape(found.group(1)).strip() if found else ''
+    return '' if number.startswith('none') else number
+
+
+SUPERSEDED = 'superseded'
+"""The folder in a gyro's folder that keeps the files of its replaced issued certificates."""
+
+
+def _supersede(folder: Path, stem: str, new_files: Sequence[str]) -> str:
+    """Move an issued certificate of an earlier run out of the way of this run's files.
+
+    When this run writes a certificate (``new_files``: the relative paths it writes) into a
+    folder holding an issued one, the old HTML and PDF move to ``superseded/<stem>-<number>``
+    (never mixed with the new, never lost); a draft's PDF that the new files do not replace
+    is removed. Returns the old certificate's number ('' if it was none or a draft).
+    """
+    html, pdf = folder / f'{stem}.html', folder / f'{stem}.pdf'
+    if f'{stem}/{stem}.html' not in new_files:
+        return ''
+    number = issued_number(html)
+    if number:
+        keep = folder / SUPERSEDED
+        keep.mkdir(exist_ok=True)
+        name = re.sub(r'[^A-Za-z0-9._-]', '_', f'{stem}-{number}')
+        for old in (html, pdf):
+            if old.exists():
+                old.replace(keep / f'{name}{old.suffix}')
+    elif pdf.exists() and f'{stem}/{stem}.pdf' not in new_files:
+        pdf.unlink()  # a draft's PDF beside the new HTML would not match it
+    return number
+
+
 def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
     """Write a finished gyro's files, then its record.
 
     Write a finished gyro's files (each atomically), then its record (last: a record means
-    the files are there).
+    the files are there). An issued certificate of an earlier run that the new one replaces
+    is moved aside (:func:`_supersede`) and named in the record's ``replaces``.
     """
     record = dict(result.record)
     folder = out_dir / record['stem']
     folder.mkdir(exist_ok=True)
+    replaces = _supersede(folder, record['stem'], list(result.files))
+    if replaces:
+        record['replaces'] = replaces
+    stands = issued_number(folder / f'{record["stem"]}.html') if not replaces else ''
+    if stands and record.get('status') == 'failed':
+        record['reason'] = (f'{record.get("reason", "")}; the issued certificate {stands} of '
+                            f'an earlier run stays in {record["stem"]}/ (not replaced)')
     for rel, data in result.files.items():
         _atomic_write(out_dir / rel, data)
     if record.get('status') == 'failed':
@@ -279,6 +354,10 @@ def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
         skipped = ' (unchanged: skipped)' if rec['gyro_id'] in outcome.skipped else ''
         verdict = f' {cert["overall"]}' if cert.get('overall') else ''
         why = f': {rec["reason"]}' if rec.get('reason') else ''
+        if rec.get('replaces') and rec['gyro_id'] not in outcome.skipped:
+            now = cert.get('certificate_number') or 'a draft'
+            why += (f' (certificate {now} replaces the issued certificate {rec["replaces"]}; '
+                    f'its files moved to {rec["stem"]}/{SUPERSEDED}/)')
         print(f'{rec["gyro_id"]}: {rec.get("status")}{verdict}{skipped}{why}', file=stream)
     n_ok = sum(r.get('status') == 'ok' for r in outcome.records)
     not_run = len(outcome.not_run)

@@ -53,11 +53,16 @@ class MethodRun:
 
 @dataclass(frozen=True, slots=True)
 class GyroResult:
-    """A finished gyro: the files to write (relative path → bytes) and its record."""
+    """A finished gyro: the files to write (relative path → bytes) and its record.
+
+    ``certificate``: the certificate built but not yet issued nor rendered (a finish task
+    under a lab: the parent reserves its number, then :func:`issue_gyro` renders it).
+    """
 
     gyro_id: str
     files: dict[str, bytes]
     record: dict[str, Any]
+    certificate: Any = None
 
 
 def reason(exc: BaseException) -> str:
@@ -114,10 +119,13 @@ def run_method(job: GyroJob, method: str) -> MethodRun:
 
 
 def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
-                *runs: MethodRun, issue: Any = None) -> GyroResult:
+                *runs: MethodRun, issue: Any = None, defer_issue: bool = False) -> GyroResult:
     """Merge the methods' hand-off parts, render the hand-off file and the certificate.
 
     ``issue``: the laboratory and certificate number the parent reserved (None: a draft).
+    ``defer_issue``: build the certificate, and return it unrendered in the result's
+    ``certificate`` (every check that can refuse the gyro done) for the parent to reserve
+    its number and :func:`issue_gyro` to render it: a gyro that fails burns no number.
     """
     errors = [r.error for r in runs if r.error]
     done = [r for r in runs if not r.error]
@@ -129,15 +137,9 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
             return GyroResult(job.gyro_id, {}, {**base, 'status': 'failed',
                                                 'reason': '; '.join(errors) or 'no method'})
 
-        from gyro_calib.batch.fleet import spc_quantity
         from gyro_calib.handoff import calibration_text
         from gyro_calib.registry import handoff_schema
-        from gyro_calib.report.certificate import (
-            build_certificate,
-            certificate_record,
-            render_html,
-            render_pdf,
-        )
+        from gyro_calib.report.certificate import build_certificate
         from gyro_calib.report.evidence import RunEvidence
 
         schema = handoff_schema()
@@ -159,19 +161,53 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
         cert = build_certificate(record, evidence, spec, handoff_path=handoff_name,
                                  issue=issue, customer=job.customer)
         cert = _with_stem(cert, stem)
-        html = render_html(cert)
-        files = {handoff_name: handoff_bytes, f'{stem}/{stem}.html': html.encode('utf-8')}
-        if pdf:
-            files[f'{stem}/{stem}.pdf'] = render_pdf(html)
         status = 'partial' if errors else 'ok'
-        cert_record = certificate_record(cert)
-        limits = spec.limits if spec is not None else {}
-        cert_record['quantities'] = [spc_quantity(q, limits.get(q['key']))
-                                     for q in cert_record['quantities']]
-        return GyroResult(job.gyro_id, files, {**base, 'status': status, 'reason':
-                                               '; '.join(errors), 'certificate': cert_record})
+        record_ = {**base, 'status': status, 'reason': '; '.join(errors)}
+        if defer_issue:
+            return GyroResult(job.gyro_id, {handoff_name: handoff_bytes}, record_, cert)
+        return _rendered(GyroResult(job.gyro_id, {handoff_name: handoff_bytes}, record_),
+                         cert, spec, pdf)
     except Exception as exc:  # noqa: BLE001  (as above)
         return GyroResult(job.gyro_id, {}, {**base, 'status': 'failed', 'reason': reason(exc)})
+
+
+def _rendered(result: GyroResult, cert: Any, spec: Any, pdf: bool) -> GyroResult:
+    """``result`` with the certificate's HTML (and PDF) among its files and its rows."""
+    from gyro_calib.batch.fleet import spc_quantity
+    from gyro_calib.report.certificate import certificate_record, render_html, render_pdf
+
+    stem = cert.file_stem
+    html = render_html(cert)
+    files = {**result.files, f'{stem}/{stem}.html': html.encode('utf-8')}
+    if pdf:
+        files[f'{stem}/{stem}.pdf'] = render_pdf(html)
+    cert_record = certificate_record(cert)
+    limits = spec.limits if spec is not None else {}
+    cert_record['quantities'] = [spc_quantity(q, limits.get(q['key']))
+                                 for q in cert_record['quantities']]
+    return GyroResult(result.gyro_id, files, {**result.record, 'certificate': cert_record})
+
+
+def burned(number: str, why: str) -> str:
+    """The reason of a gyro whose reserved certificate number stays unused."""
+    return (f'certificate number {number} was reserved, then {why}; it stays reserved in the '
+            'register, unused (numbers are never reused)')
+
+
+def issue_gyro(result: GyroResult, issue: Any, spec: Any, pdf: bool) -> GyroResult:
+    """Issue the certificate a deferred finish task built under ``issue`` and render it.
+
+    A failure here (after the number was reserved) is the gyro's row naming that number.
+    """
+    try:
+        from gyro_calib.report.certificate import with_issue
+
+        return _rendered(GyroResult(result.gyro_id, result.files, result.record),
+                         with_issue(result.certificate, issue), spec, pdf)
+    except Exception as exc:  # noqa: BLE001  (as above)
+        return GyroResult(result.gyro_id, {}, {
+            **result.record, 'status': 'failed',
+            'reason': burned(issue.number, f'the certificate could not be made: {reason(exc)}')})
 
 
 def _with_stem(cert: Any, stem: str) -> Any:

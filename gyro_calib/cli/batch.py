@@ -8,6 +8,10 @@ Exit status: 0 every gyro calibrated; 1 some gyro failed (its row says why; the 
 are done); 2 bad input (manifest, spec, output directory, ids whose files would collide) or
 another run writes the output directory (``DIR/batch.lock``), nothing written; 130
 interrupted (what finished is kept; every other gyro is a row ``not run (interrupted)``).
+
+Under a lab file a certificate number is reserved only after the gyro's certificate is built
+(a failed gyro burns none; a failure after it names the number); a re-issued certificate names
+the issued one it replaces (its ``replaces``), whose files move to ``<gyro>/superseded/``.
 """
 
 from __future__ import annotations
@@ -49,7 +53,8 @@ def add_commands(sub: Any) -> None:
     bat.add_argument('--spec', type=Path, metavar='SPEC',
                      help='acceptance limits and decision rule (YAML) for the certificates')
     bat.add_argument('--force', action='store_true',
-                     help='recalibrate gyros whose inputs and settings are unchanged')
+                     help='recalibrate gyros whose inputs and settings are unchanged (under '
+                     'a lab: new certificate numbers; each names the one it replaces)')
     bat.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
                      help='a PDF beside each HTML certificate (default: yes)')
     bat.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
