@@ -274,19 +274,17 @@ def _failed(job: GyroJob, stem: str, why: str, plan: Plan | None = None) -> dict
                        (plan.inputs.items() if plan else ())}, 'errors': [why]}
 
 
-_NUMBER_CELL = re.compile(r'<td id="certificate-number">([^<]*)</td>')
 
 
 def issued_number(html_path: Path) -> str:
     """The number of the issued certificate ``html_path`` ('' if none, a draft or unreadable)."""
-    from html import unescape
+    from gyro_calib.report.certificate import number_cell
 
     try:
-        found = _NUMBER_CELL.search(html_path.read_text(encoding='utf-8', errors='replace'))
+        number = number_cell(html_path.read_text(encoding='utf-8', errors='replace'))
     except OSError:
         return ''
-    number = unescape(found.group(1)).strip() if found else ''
-    return '' if number.startswith('none') else number
+    return '' if number is None or number.startswith('none') else number
 
 
 SUPERSEDED = 'superseded'

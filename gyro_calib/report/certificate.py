@@ -568,6 +568,12 @@ def certificate_stem(gyro_id: str | None, handoff_path: str = '') -> str:
 _NUMBER_CELL = re.compile(r'<td id="certificate-number">([^<]*)</td>')
 
 
+def number_cell(html_text: str) -> str | None:
+    """A certificate's number cell, unescaped ('none: …' on a draft); None if it has none."""
+    found = _NUMBER_CELL.search(html_text)
+    return unescape(found.group(1)).strip() if found else None
+
+
 def replacing(out_dir: Path, stem: str, *, pdf: bool = True, flag: str = '--out') -> list[str]:
     """What writing ``<stem>.html`` (and ``.pdf``) into ``out_dir`` replaces: one line each.
 
@@ -590,13 +596,12 @@ def replacing(out_dir: Path, stem: str, *, pdf: bool = True, flag: str = '--out'
                               f'an issued certificate cannot be told; {away}.')
         return []
     try:
-        found = _NUMBER_CELL.search(html.read_text(encoding='utf-8', errors='replace'))
+        number = number_cell(html.read_text(encoding='utf-8', errors='replace'))
     except OSError as exc:
         raise ConfigError(f'{html} cannot be read ({exc.strerror}); {away}.') from None
-    if found is None:
+    if number is None:
         raise ConfigError(f'{html} is not a certificate of gyro_calib (it has no certificate-'
                           f'number cell) and is not replaced; {away}.')
-    number = unescape(found.group(1)).strip()
     if not number.startswith('none'):
         raise ConfigError(f'{html} is the issued certificate {number}: an issued certificate '
                           f'is never replaced nor mixed with another run\'s files; {away}.')
