@@ -55,12 +55,13 @@ def test_triad_mode_publishes_body_rates_with_full_covariance_on_imu_data(
         bench = rclpy.create_node('test_triad_bench', context=context)
         pub = bench.create_publisher(JointState, '/imu/pulses', SENSOR_QOS)
         got: list[Any] = []
-        bench.create_subscription(Imu, '/imu/data', got.append, SENSOR_QOS)
+        sub = bench.create_subscription(Imu, '/imu/data', got.append, SENSOR_QOS)
         executor = make_executor(context)
         executor.add_node(bench)
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and not (
-                pub.get_subscription_count() > 0 and 'publishing /imu/data' in node.log()):
+        while time.monotonic() < deadline and not (  # matched both ways (best effort)
+                pub.get_subscription_count() > 0 and sub.get_publisher_count() > 0
+                and 'publishing /imu/data' in node.log()):
             executor.spin_once(timeout_sec=0.05)
         assert 'publishing /imu/data' in node.log(), node.log()
         rng = np.random.default_rng(8)
@@ -127,12 +128,13 @@ def test_triad_channel_thermal_bias_comes_from_its_own_temperature_topic(
         pulses = bench.create_publisher(JointState, '/imu/pulses', SENSOR_QOS)
         temps = bench.create_publisher(Temperature, '/imu/z/temperature', SENSOR_QOS)
         got: list[Any] = []
-        bench.create_subscription(Imu, '/imu/data', got.append, SENSOR_QOS)
+        sub = bench.create_subscription(Imu, '/imu/data', got.append, SENSOR_QOS)
         executor = make_executor(context)
         executor.add_node(bench)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and not (
                 pulses.get_subscription_count() > 0 and temps.get_subscription_count() > 0
+                and sub.get_publisher_count() > 0
                 and 'thermal bias of channel(s) z from /imu/z/temperature' in node.log()):
             executor.spin_once(timeout_sec=0.05)
         assert temps.get_subscription_count() > 0, node.log()
