@@ -29,6 +29,10 @@ class _Output:
     directory: bool
     done: bool = False
 
+    def in_place(self) -> bool:
+        """A file output replaced since it was watched, a directory output finished."""
+        return self.done if self.directory else dict(_key(self.path)) != self.before
+
 
 @dataclass
 class Ledger:
@@ -69,8 +73,7 @@ class Ledger:
 
     def complete(self) -> bool:
         """Every output asked for is in place."""
-        return all(out.done if out.directory else dict(_key(out.path)) != out.before
-                   for out in self.outputs)
+        return all(out.in_place() for out in self.outputs)
 
     def interrupted(self) -> tuple[str, int]:
         """The one line for an interrupt now, and the exit status."""
@@ -80,8 +83,7 @@ class Ledger:
                     self.status)
         if not names:
             return 'gyro-calib: interrupted; nothing written.', EXIT_INTERRUPTED
-        missing = ', '.join(out.flag for out in self.outputs if not (
-            out.done if out.directory else dict(_key(out.path)) != out.before))
+        missing = ', '.join(out.flag for out in self.outputs if not out.in_place())
         return (f'gyro-calib: interrupted; written (complete): {names}; not written: '
                 f'{missing}.', EXIT_INTERRUPTED)
 
