@@ -16,7 +16,6 @@ import hashlib
 import json
 import logging
 import os
-import re
 import signal
 import sys
 import threading
@@ -299,6 +298,8 @@ def _supersede(folder: Path, stem: str, new_files: Sequence[str]) -> str:
     (never mixed with the new, never lost); a draft's PDF that the new files do not replace
     is removed. Returns the old certificate's number ('' if it was none or a draft).
     """
+    from gyro_calib.report.certificate import certificate_stem
+
     html, pdf = folder / f'{stem}.html', folder / f'{stem}.pdf'
     if f'{stem}/{stem}.html' not in new_files:
         return ''
@@ -306,7 +307,7 @@ def _supersede(folder: Path, stem: str, new_files: Sequence[str]) -> str:
     if number:
         keep = folder / SUPERSEDED
         keep.mkdir(exist_ok=True)
-        name = re.sub(r'[^A-Za-z0-9._-]', '_', f'{stem}-{number}')
+        name = certificate_stem(f'{stem}-{number}')  # the certificates' own file-name rule
         for old in (html, pdf):
             if old.exists():
                 old.replace(keep / f'{name}{old.suffix}')
