@@ -4,6 +4,11 @@ OpenCV writes and expects a first line ``%YAML:1.0`` (a colon where YAML 1.1 has
 which PyYAML rejects as a malformed directive. :func:`with_header` writes it;
 :func:`read_opencv_yaml` checks it and reads the rest as plain YAML (block mappings, flow
 sequences and ``#`` comments, the subset both OpenCV and these consumers use).
+
+OpenCV's YAML reader keeps an inline ``# comment`` inside a plain (unquoted) string scalar:
+``model: kalibr  # note`` reads ``'kalibr  # note'``. Every string is therefore written
+double-quoted (:func:`opencv_string`), after which OpenCV, like YAML, ends the scalar at the
+closing quote; numbers end at the first blank either way.
 """
 
 from __future__ import annotations
@@ -17,6 +22,19 @@ HEADER = '%YAML:1.0'
 
 class OpenCvYamlError(ValueError):
     """The text is not an OpenCV YAML file (no ``%YAML:1.0`` first line, or bad YAML)."""
+
+
+def opencv_string(value: str) -> str:
+    """``value`` double-quoted, so OpenCV's reader stops at the quote, not at a comment.
+
+    Raises:
+        ValueError: ``value`` holds a quote, backslash or line break (no topic or model
+            name does; OpenCV and YAML would read such a string differently).
+    """
+    if any(c in value for c in '"\\\n\r'):
+        raise ValueError(f'{value!r}: a quote, backslash or line break cannot be written '
+                         'as an OpenCV string')
+    return f'"{value}"'
 
 
 def with_header(body: str) -> str:

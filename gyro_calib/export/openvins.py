@@ -26,7 +26,7 @@ from gyro_calib.export.common import (
     number,
     refuse,
 )
-from gyro_calib.export.opencv_yaml import with_header
+from gyro_calib.export.opencv_yaml import opencv_string, with_header
 from gyro_calib.export.source import ExportSource, lower_times_rotation
 
 FORMAT = 'openvins'
@@ -59,6 +59,15 @@ def intrinsics(src: ExportSource, options: ExportOptions) -> tuple[
                    'imu.pulses_to_body_rad), Tw lower triangular')
 
 
+def topic_string(fmt: str, topic: str) -> str:
+    """The topic as an OpenCV string (quoted), or a one-line refusal."""
+    try:
+        return opencv_string(topic)
+    except ValueError:
+        raise refuse(fmt, f'--topic {topic!r} is not a ROS topic name (a quote, backslash or '
+                     'line break); give the topic as ROS names it.') from None
+
+
 def openvins_text(src: ExportSource, options: ExportOptions) -> str:
     """The OpenVINS ``kalibr_imu_chain.yaml`` text with its ``%YAML:1.0`` header."""
     check_stream(src, FORMAT, options, intrinsics=True)
@@ -72,10 +81,11 @@ def openvins_text(src: ExportSource, options: ExportOptions) -> str:
     lines += ['imu0:']
     lines += _rows('T_i_b', np.eye(4), 'identity: the IMU frame is the body frame')
     lines += values
-    lines += [f'  rostopic: {options.topic}',
+    lines += [f'  rostopic: {topic_string(FORMAT, options.topic)}',
               '  time_offset: 0.0  # s; not measured by gyro_calib',
               f'  update_rate: {rate:.6f}  # Hz; {rate_from}',
-              '  model: kalibr  # OpenVINS keeps the lower triangle of Dw = Tw⁻¹']
+              '  # model: OpenVINS keeps the lower triangle of Dw = Tw⁻¹ (kalibr model)',
+              f'  model: {opencv_string("kalibr")}']
     lines += _rows('Tw', tw, why)
     lines += _rows('R_IMUtoGYRO', r, why)
     lines += _rows('Ta', np.eye(3), 'identity: accelerometer intrinsics not measured')

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from gyro_calib.export.common import ExportOptions, check_stream, header, largest, number
 from gyro_calib.export.opencv_yaml import with_header
+from gyro_calib.export.openvins import topic_string
 from gyro_calib.export.source import ExportSource
 
 FORMAT = 'vins-fusion'
@@ -22,7 +23,7 @@ def vins_fusion_text(src: ExportSource, options: ExportOptions) -> str:
     check_stream(src, FORMAT, options)
     slots = (('acc_n', 'accel', 'N', 'm/s^2/sqrt(Hz)'), ('gyr_n', 'gyro', 'N', 'rad/s/sqrt(Hz)'),
              ('acc_w', 'accel', 'K', 'm/s^3/sqrt(Hz)'), ('gyr_w', 'gyro', 'K', 'rad/s^2/sqrt(Hz)'))
-    body = ['imu: 1', f'imu_topic: "{options.topic}"']
+    body = ['imu: 1', f'imu_topic: {topic_string(FORMAT, options.topic)}']
     for key, sensor, sym, unit in slots:
         value, why = largest(src, FORMAT, sensor, sym, key)
         body.append(f'{key}: {number(value)}  # {unit}; {why}; continuous density as '
