@@ -113,3 +113,31 @@ def vins_fusion_config(text: str) -> dict[str, Any]:
     for key in ('acc_n', 'acc_w', 'gyr_n', 'gyr_w', 'g_norm'):
         out[key] = fs.getNode(key).real()
     return out
+
+
+def ros_parameters(text: str, node_name: str, declared: dict[str, Any]) -> dict[str, Any]:
+    """The parameters a ROS 2 node gets from ``--ros-args --params-file FILE``.
+
+    rcl's YAML parser reads the file (as ``ros2 run … --params-file`` hands it over) for a
+    node named ``node_name``; each of ``declared`` is declared with its default, as the
+    consumer's C++ ``declare_parameter<T>(name, default)`` does, so a value of another type
+    than the default's raises ``InvalidParameterTypeException`` as it does in the consumer.
+    """
+    import rclpy
+    from rclpy.context import Context
+
+    with tempfile.NamedTemporaryFile('w', suffix='.yaml', delete=False,
+                                     encoding='utf-8') as f:
+        f.write(text)
+    context = Context()
+    rclpy.init(args=['--ros-args', '--params-file', f.name], context=context)
+    try:
+        node = rclpy.create_node(node_name, context=context)
+        try:
+            return {name: node.declare_parameter(name, default).value
+                    for name, default in declared.items()}
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+        Path(f.name).unlink()

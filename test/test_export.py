@@ -230,12 +230,13 @@ def test_openvins_raw_triad_stream_has_tw_times_rotation_equal_k0_m_inverse(
     np.testing.assert_allclose(tw @ r, k0 * np.linalg.inv(M_TRIAD), rtol=1e-5, atol=1e-6)
 
 
-def test_vins_fusion_keys_are_continuous_with_the_opencv_header(imu_handoff: Path) -> None:
+def test_vins_fusion_keys_are_per_sample_with_the_opencv_header(imu_handoff: Path) -> None:
+    """gyr_n = N·√(2f), gyr_w = K·√f (METHODS §E.5 eq. (18); its midpoint propagation)."""
     text = export(imu_handoff, 'vins-fusion')
     data = read_opencv_yaml(text)
     assert {'acc_n', 'gyr_n', 'acc_w', 'gyr_w', 'imu_topic'} <= set(data)
-    assert data['gyr_n'] == pytest.approx(max(N_G.values()))
-    assert data['gyr_w'] == pytest.approx(K_G_BOUND_Z)
+    assert data['gyr_n'] == pytest.approx(max(N_G.values()) * math.sqrt(2 * RATE))
+    assert data['gyr_w'] == pytest.approx(K_G_BOUND_Z * math.sqrt(RATE))
     assert 'scale it up' in text
 
 

@@ -11,9 +11,17 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import numpy.typing as npt
 import pytest
-from consumer_readers import OPENVINS_MODELS, opencv_tree, openvins_imu0, vins_fusion_config
-from test_export import export
+from consumer_readers import (
+    OPENVINS_MODELS,
+    opencv_tree,
+    openvins_imu0,
+    ros_parameters,
+    vins_fusion_config,
+)
+from test_export import K_A, K_G_BOUND_Z, N_A, N_G, RATE, export
 
 from gyro_calib.export.opencv_yaml import read_opencv_yaml
 
@@ -48,3 +56,161 @@ def test_openvins_starts_with_a_model_it_knows_and_the_topic_given(
 def test_vins_fusion_reads_use_imu_and_the_topic_given(imu_handoff: Path) -> None:
     cfg = vins_fusion_config(export(imu_handoff, 'vins-fusion', topic='/imu/data'))
     assert cfg['imu'] == 1 and cfg['imu_topic'] == '/imu/data'
+
+
+# -- 2. Each consumer's own propagation at rest: N²·T and K²·T -------------------------------
+#
+# The propagation of each consumer at rest (zero rate, zero specific force, identity
+# attitude), with the numbers its reader took from our file: the variance it carries after
+# T seconds must be the one our terms predict, N²·T (rotation, gyro white noise alone) and
+# K²·T (gyro bias). Largest axis: N_G['y'], the z axis's 2σ bound for K.
+
+T_S = 2.0
+STEPS = int(T_S * RATE)
+DT = 1.0 / RATE
+N, K = max(N_G.values()), K_G_BOUND_Z
+NA, KA = max(N_A.values()), max(K_A.values())
+
+
+def propagate(f: npt.NDArray[np.float64], g: npt.NDArray[np.float64],
+              q: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+    """P ← F·P·Fᵀ + G·Q·Gᵀ, STEPS times from P = 0."""
+    p = np.zeros_like(f)
+    for _ in range(STEPS):
+        p = f @ p @ f.T + g @ q @ g.T
+    return p
+
+
+def test_vins_fusion_midpoint_preintegration_carries_n2t_and_k2t(imu_handoff: Path) -> None:
+    """integration_base.h midPointIntegration at rest (lines 100–134), noise of lines 30–36.
+
+    States δp, δθ, δv, δb_a, δb_g (0, 3, 6, 9, 12); noise n_a0, n_g0, n_a1, n_g1, n_ba, n_bg.
+    """
+    cfg = vins_fusion_config(export(imu_handoff, 'vins-fusion'))
+    i3, dt = np.eye(3), DT
+    f = np.eye(15)
+    f[0:3, 6:9] = i3 * dt                       # line 103
+    f[0:3, 9:12] = -0.25 * 2 * i3 * dt * dt     # line 104
+    f[3:6, 12:15] = -i3 * dt                    # line 107
+    f[6:9, 9:12] = -0.5 * 2 * i3 * dt           # line 111
+    v = np.zeros((15, 18))
+    v[0:3, 0:3] = v[0:3, 6:9] = 0.25 * i3 * dt * dt  # lines 118, 120
+    v[3:6, 3:6] = v[3:6, 9:12] = 0.5 * i3 * dt       # lines 122–123
+    v[6:9, 0:3] = v[6:9, 6:9] = 0.5 * i3 * dt        # lines 124, 126
+    v[9:12, 12:15] = v[12:15, 15:18] = i3 * dt       # lines 128–129
+
+    def noise(acc_n: float, gyr_n: float, acc_w: float, gyr_w: float) -> Any:
+        return np.diag(np.repeat([acc_n, gyr_n, acc_n, gyr_n, acc_w, gyr_w], 3) ** 2)
+
+    white = propagate(f, v, noise(cfg['acc_n'], cfg['gyr_n'], 0.0, 0.0))
+    walk = propagate(f, v, noise(0.0, 0.0, cfg['acc_w'], cfg['gyr_w']))
+    assert white[3, 3] == pytest.approx(N ** 2 * T_S, rel=1e-6)
+    assert white[6, 6] == pytest.approx(NA ** 2 * T_S, rel=1e-6)
+    assert walk[12, 12] == pytest.approx(K ** 2 * T_S, rel=1e-6)
+    assert walk[9, 9] == pytest.approx(KA ** 2 * T_S, rel=1e-6)
+
+
+def test_openvins_discrete_propagation_carries_n2t_and_k2t(imu_handoff: Path) -> None:
+    """OpenVINS Propagator.cpp at rest; states δθ, δb_g, noise n_g, n_bg.
+
+    Qc = σ²/Δt (lines 462–466), G θ-block −Δt·R·Dw, bias block Δt·I (lines 956, 960);
+    Qd = G·Qc·Gᵀ (line 470).
+    """
+    imu0 = openvins_imu0(export(imu_handoff, 'openvins'))
+    dw = np.linalg.inv(imu0['Tw'])
+    g = np.zeros((6, 6))
+    g[0:3, 0:3] = -DT * imu0['R_IMUtoGYRO'].T @ dw
+    g[3:6, 3:6] = DT * np.eye(3)
+    q = np.diag(np.repeat([imu0['gyroscope_noise_density'] ** 2 / DT,
+                           imu0['gyroscope_random_walk'] ** 2 / DT], 3))
+    p = propagate(np.eye(6), g, q)
+    assert p[0, 0] == pytest.approx(N ** 2 * T_S, rel=1e-6)
+    assert p[3, 3] == pytest.approx(K ** 2 * T_S, rel=1e-6)
+
+
+FAST_LIO_DECLARED = {'common.imu_topic': '/livox/imu', 'mapping.gyr_cov': 0.1,
+                     'mapping.acc_cov': 0.1, 'mapping.b_gyr_cov': 0.0001,
+                     'mapping.b_acc_cov': 0.0001}
+"""FAST-LIO ROS2 branch laserMapping.cpp:810, 819–822 (node ``laser_mapping``, line 799)."""
+
+
+def test_fast_lio_esekf_carries_n2t_and_k2t(imu_handoff: Path) -> None:
+    """FAST-LIO's esekf at rest, with the parameters rclpy hands node laser_mapping.
+
+    IMU_Processing.hpp:280–284 Q = diag(cov_gyr, cov_acc, cov_bias_gyr, cov_bias_acc);
+    esekfom.hpp:381 P += (Δt·f_w)·Q·(Δt·f_w)ᵀ; use-ikfom.hpp:83–86 f_w: −I on δθ ← n_g,
+    I on δb_g ← n_bg.
+    """
+    p = ros_parameters(export(imu_handoff, 'fast-lio'), 'laser_mapping', FAST_LIO_DECLARED)
+    fw = np.zeros((6, 6))
+    fw[0:3, 0:3], fw[3:6, 3:6] = -np.eye(3), np.eye(3)
+    q = np.diag(np.repeat([p['mapping.gyr_cov'], p['mapping.b_gyr_cov']], 3))
+    cov = propagate(np.eye(6), DT * fw, q)
+    assert cov[0, 0] == pytest.approx(N ** 2 * T_S, rel=1e-6)
+    assert cov[3, 3] == pytest.approx(K ** 2 * T_S, rel=1e-6)
+
+
+def test_gtsam_preintegration_carries_n2t_and_k2t(imu_handoff: Path) -> None:
+    """GTSAM itself: PreintegratedCombinedMeasurements over T at rest from our matrices."""
+    import gtsam
+
+    from gyro_calib.export.gtsam import gtsam_matrices
+
+    m = gtsam_matrices(export(imu_handoff, 'gtsam'))
+    params = gtsam.PreintegrationCombinedParams.MakeSharedU(0.0)
+    params.setGyroscopeCovariance(m['gyroscope_covariance'])
+    params.setAccelerometerCovariance(m['accelerometer_covariance'])
+    params.setIntegrationCovariance(m['integration_covariance'])
+    params.setBiasOmegaCovariance(m['bias_omega_covariance'])
+    params.setBiasAccCovariance(m['bias_acc_covariance'])
+    pim = gtsam.PreintegratedCombinedMeasurements(params, gtsam.imuBias.ConstantBias())
+    for _ in range(STEPS):
+        pim.integrateMeasurement(np.zeros(3), np.zeros(3), DT)
+    cov = pim.preintMeasCov()  # δθ 0:3, δp 3:6, δv 6:9, δb_a 9:12, δb_g 12:15
+    np.testing.assert_allclose(np.diag(cov)[12:15], np.array(
+        [2e-6 ** 2, 3e-6 ** 2, K ** 2]) * T_S, rtol=1e-6)
+    # the rotation's own white-noise part: the bias walk adds K²·T³/3 on top of N²·T
+    k2 = np.diag(m['bias_omega_covariance'])
+    np.testing.assert_allclose(np.diag(cov)[0:3] - k2 * T_S ** 3 / 3,
+                               [N_G[a] ** 2 * T_S for a in 'xyz'], rtol=2e-5)
+
+
+LIO_SAM_DECLARED = {'imuTopic': 'imu/data', 'imuAccNoise': 9e-4, 'imuGyrNoise': 1.6e-4,
+                    'imuAccBiasN': 5e-4, 'imuGyrBiasN': 7e-5}
+"""LIO-SAM ros2 branch include/lio_sam/utility.hpp:159, 223–229."""
+
+
+def test_lio_sam_gtsam_parameters_carry_n2t_and_k2t(imu_handoff: Path) -> None:
+    """LIO-SAM's GTSAM parameters from what rclpy hands its node.
+
+    imuPreintegration.cpp (ros2): gyroscopeCovariance = imuGyrNoise²·I (line 250); the
+    bias between-factor σ = √Δt_ij·imuGyrBiasN (lines 259, 409); node
+    ``lio_sam_imu_preintegration`` (line 225).
+    """
+    import gtsam
+
+    p = ros_parameters(export(imu_handoff, 'lio-sam'), 'lio_sam_imu_preintegration',
+                       LIO_SAM_DECLARED)
+    params = gtsam.PreintegrationParams.MakeSharedU(0.0)
+    params.setGyroscopeCovariance(np.eye(3) * p['imuGyrNoise'] ** 2)
+    params.setAccelerometerCovariance(np.eye(3) * p['imuAccNoise'] ** 2)
+    params.setIntegrationCovariance(np.eye(3) * 1e-8)
+    pim = gtsam.PreintegratedImuMeasurements(params, gtsam.imuBias.ConstantBias())
+    for _ in range(STEPS):
+        pim.integrateMeasurement(np.zeros(3), np.zeros(3), DT)
+    assert pim.preintMeasCov()[0, 0] == pytest.approx(N ** 2 * T_S, rel=1e-6)
+    assert (np.sqrt(pim.deltaTij()) * p['imuGyrBiasN']) ** 2 == pytest.approx(
+        K ** 2 * T_S, rel=1e-6)
+
+
+def test_kalibr_discrete_sigma_carries_n2t(imu_handoff: Path) -> None:
+    """Kalibr's discrete σ, each sample's rate error integrated over Δt.
+
+    kalibr_common/ConfigReader.py:491: σ_discrete = N/√(1/update_rate).
+    """
+    import yaml
+
+    data = yaml.safe_load(export(imu_handoff, 'kalibr'))
+    sigma = data['gyroscope_noise_density'] / np.sqrt(1.0 / data['update_rate'])
+    assert sigma ** 2 * DT ** 2 * STEPS == pytest.approx(N ** 2 * T_S, rel=1e-6)
+    assert data['gyroscope_random_walk'] ** 2 * T_S == pytest.approx(K ** 2 * T_S, rel=1e-6)

@@ -1,6 +1,6 @@
 """Shared pieces of the format writers: options, the terms a consumer needs, comments.
 
-METHODS §E.5 eqs. (15)–(17). Every number an exporter writes carries a comment: the
+METHODS §E.5 eqs. (15)–(19). Every number an exporter writes carries a comment: the
 hand-off key it came from, its value in our (SI) units and the conversion (N in rad/√s is a
 continuous density in rad/s/√Hz; K in rad/s/√s is rad/s²/√Hz; a per-sample variance at rate
 f is N²·f). Bias instability B is never written where a random walk belongs (it is a flicker
