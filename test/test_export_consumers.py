@@ -214,3 +214,42 @@ def test_kalibr_discrete_sigma_carries_n2t(imu_handoff: Path) -> None:
     sigma = data['gyroscope_noise_density'] / np.sqrt(1.0 / data['update_rate'])
     assert sigma ** 2 * DT ** 2 * STEPS == pytest.approx(N ** 2 * T_S, rel=1e-6)
     assert data['gyroscope_random_walk'] ** 2 * T_S == pytest.approx(K ** 2 * T_S, rel=1e-6)
+
+
+# -- 7. Autoware: what its schema requires ---------------------------------------------------
+
+AUTOWARE_SCHEMA: dict[str, Any] = {
+    'type': 'object', 'required': ['/**'],
+    'properties': {'/**': {'type': 'object', 'required': ['ros__parameters'], 'properties': {
+        'ros__parameters': {
+            'type': 'object',
+            'required': [f'angular_velocity_offset_{a}' for a in 'xyz']
+            + [f'angular_velocity_stddev_{a}{a}' for a in 'xyz'] + ['acceleration_stddev'],
+            'properties': {k: {'type': 'number'} for k in
+                           [f'angular_velocity_offset_{a}' for a in 'xyz']
+                           + [f'angular_velocity_stddev_{a}{a}' for a in 'xyz']
+                           + ['acceleration_stddev']}}}}}}
+"""The constraints of autoware_universe sensing/autoware_imu_corrector/schema/
+imu_corrector.schema.json (required keys, their JSON types), restated."""
+AUTOWARE_DECLARED = {**{f'angular_velocity_offset_{a}': 0.0 for a in 'xyz'},
+                     **{f'angular_velocity_stddev_{a}{a}': 0.03 for a in 'xyz'},
+                     'acceleration_stddev': 10000.0}
+"""imu_corrector_core.cpp, ImuCorrector constructor: declare_parameter<double> each, node
+``imu_corrector``."""
+
+
+@pytest.mark.parametrize('handoff', ['gyro_only_handoff', 'imu_handoff', 'triad_handoff'])
+def test_autoware_file_meets_its_schema_and_its_node_reads_it(
+        handoff: str, request: pytest.FixtureRequest) -> None:
+    import jsonschema
+    import yaml
+
+    text = export(request.getfixturevalue(handoff), 'autoware')
+    jsonschema.validate(yaml.safe_load(text), AUTOWARE_SCHEMA)
+    p = ros_parameters(text, 'imu_corrector', AUTOWARE_DECLARED)
+    assert p['angular_velocity_stddev_xx'] == p['angular_velocity_stddev_zz'] > 0
+    if handoff == 'imu_handoff':
+        assert p['acceleration_stddev'] == pytest.approx(NA * np.sqrt(RATE), rel=1e-6)
+    elif handoff == 'gyro_only_handoff':
+        assert p['acceleration_stddev'] == 10000.0  # Autoware's own, said in the comment
+        assert 'no accelerometer term' in text
