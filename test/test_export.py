@@ -269,7 +269,7 @@ def test_autoware_stddevs_are_equal_per_message_and_offsets_zero_upstream(
     sd = [p[f'angular_velocity_stddev_{a}{a}'] for a in 'xyz']
     assert sd[0] == sd[1] == sd[2] == pytest.approx(1.0e-4 * math.sqrt(RATE), rel=1e-6)
     assert [p[f'angular_velocity_offset_{a}'] for a in 'xyz'] == [0.0, 0.0, 0.0]
-    assert 'acceleration_stddev' not in p
+    assert p['acceleration_stddev'] == 10000.0  # Autoware's own default: required (issue 36)
 
 
 def test_robot_localization_fuses_rates_only_and_says_it_has_no_bias_state(
