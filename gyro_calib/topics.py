@@ -16,6 +16,12 @@ GYRO_PULSES = '/gyro/pulses'
 IMU_PULSES = '/imu/pulses'
 """sensor_msgs/JointState, name = the triad's three channel names (default ['x', 'y', 'z']):
 position = cumulative pulse counts per channel (float64), header stamps as /gyro/pulses."""
+GYRO_IMU = '/gyro/imu'
+"""sensor_msgs/Imu from imu_corrector (single gyro): the calibrated rate about the sense axis
+(z), rad/s, with covariance."""
+IMU_DATA = '/imu/data'
+"""sensor_msgs/Imu from imu_corrector (triad): the calibrated body rate, rad/s, with its full
+3×3 covariance."""
 K_TILDE = '/gyro_calib/k_tilde'
 """std_msgs/Float64, transient-local: running K̃, rad/pulse."""
 DIAGNOSTICS = '/diagnostics'

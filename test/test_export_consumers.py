@@ -23,6 +23,7 @@ from consumer_readers import (
 )
 from test_export import K_A, K_G_BOUND_Z, N_A, N_G, RATE, export
 
+from gyro_calib.export import ExportOptions, export_text
 from gyro_calib.export.opencv_yaml import read_opencv_yaml
 
 pytest_plugins = ['test_export']
@@ -253,3 +254,34 @@ def test_autoware_file_meets_its_schema_and_its_node_reads_it(
     elif handoff == 'gyro_only_handoff':
         assert p['acceleration_stddev'] == 10000.0  # Autoware's own, said in the comment
         assert 'no accelerometer term' in text
+
+
+# -- 6. robot_localization subscribes what imu_corrector publishes ---------------------------
+
+def robot_localization_declared() -> dict[str, Any]:
+    """What robot_localization's ekf node declares for imu0 (ros2 1cb95337, src/ros_filter.cpp).
+
+    imu0 as PARAMETER_STRING (1529), imu0_differential, _relative (1540–1545),
+    _remove_gravitational_acceleration (1575–1578), imu0_config: 15 booleans
+    (loadUpdateConfig, 2618–2623); node ekf_filter_node (src/ekf_node.cpp:42).
+    """
+    from rclpy.parameter import Parameter
+
+    return {'imu0': Parameter.Type.STRING, 'imu0_differential': False, 'imu0_relative': False,
+            'imu0_remove_gravitational_acceleration': False, 'imu0_config': [False] * 15}
+
+
+@pytest.mark.parametrize(('handoff', 'published'), [('gyro_only_handoff', '/gyro/imu'),
+                                                    ('triad_handoff', '/imu/data')])
+def test_robot_localization_subscribes_the_topic_imu_corrector_publishes(
+        handoff: str, published: str, request: pytest.FixtureRequest) -> None:
+    """imu_corrector publishes /gyro/imu for a single gyro, /imu/data for a triad."""
+    from gyro_calib.nodes.imu_corrector_core import GYRO_IMU, IMU_DATA
+
+    assert published in (GYRO_IMU, IMU_DATA)
+    text = export_text(request.getfixturevalue(handoff), 'robot-localization',
+                       ExportOptions(rate_hz=RATE))
+    p = ros_parameters(text, 'ekf_filter_node', robot_localization_declared())
+    assert p['imu0'] == published
+    assert len(p['imu0_config']) == 15
+    assert f'Input: {published}' in text

@@ -46,8 +46,10 @@ def add_commands(sub: Any) -> None:
                    help='IMU sample rate the consumer receives (kalibr/openvins update_rate; '
                    'fast-lio, autoware, robot-localization per-sample covariances); default: '
                    'the noise run\'s sample rate, where the hand-off keeps its curves')
-    p.add_argument('--topic', default='/imu/data',
-                   help='sensor_msgs/Imu topic the consumer subscribes to (default /imu/data)')
+    p.add_argument('--topic', default='',
+                   help='sensor_msgs/Imu topic the consumer subscribes to (default: the one '
+                   'imu_corrector publishes for this hand-off, /gyro/imu for a single gyro, '
+                   '/imu/data for a triad or IMU)')
     p.add_argument('--stream', choices=STREAMS, default='compensated',
                    help='compensated (default): the consumer reads imu_corrector\'s output '
                    '(scale factor, axes, bias, thermal applied upstream); raw: the driver\'s '

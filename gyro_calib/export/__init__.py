@@ -8,10 +8,11 @@ comment with its source key, SI value and conversion (:mod:`gyro_calib.export.co
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 from gyro_calib.export.autoware import autoware_text
-from gyro_calib.export.common import STREAMS, ExportOptions
+from gyro_calib.export.common import STREAMS, ExportOptions, default_topic
 from gyro_calib.export.fast_lio import fast_lio_text
 from gyro_calib.export.gtsam import gtsam_text
 from gyro_calib.export.kalibr import kalibr_text
@@ -40,7 +41,8 @@ def export_text(handoff: str | Path, fmt: str, options: ExportOptions) -> str:
     Raises:
         ExportError: one line: the file cannot be read, or the consumer cannot take it.
     """
-    return FORMATS[fmt](read_source(handoff), options)
+    src = read_source(handoff)
+    return FORMATS[fmt](src, replace(options, topic=default_topic(src, options)))
 
 
 __all__ = ['ExportError', 'ExportOptions', 'ExportSource', 'FORMATS', 'STREAMS', 'export_text',

@@ -13,6 +13,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from gyro_calib import topics
 from gyro_calib.export.source import (
     ACCEL_TERMS,
     AXES,
@@ -42,16 +43,31 @@ class ExportOptions:
     Attributes:
         rate_hz: the IMU's sample rate the consumer receives, Hz (discrete covariances,
             update_rate); None if not given.
-        topic: the sensor_msgs/Imu topic the consumer subscribes to.
+        topic: the sensor_msgs/Imu topic the consumer subscribes to; '' (the default): the
+            one gyro_calib's imu_corrector publishes for this hand-off (:func:`default_topic`).
         stream: one of :data:`STREAMS`.
         raw_scale_rad_per_pulse: ``raw`` triad stream only: the driver's common scale factor
             K₀ (its rate is K₀·Δn/Δt per channel), rad/pulse.
     """
 
     rate_hz: float | None = None
-    topic: str = '/imu/data'
+    topic: str = ''
     stream: str = 'compensated'
     raw_scale_rad_per_pulse: float | None = None
+
+
+def default_topic(src: ExportSource, options: ExportOptions) -> str:
+    """The topic the consumer subscribes to when --topic is not given.
+
+    On the compensated stream, the one imu_corrector publishes for this hand-off:
+    ``/gyro/imu`` for a single gyro, ``/imu/data`` for a triad (or an IMU's noise run); on
+    the raw stream ``/imu/data`` (the driver's usual name).
+    """
+    if options.topic:
+        return options.topic
+    if options.stream == 'compensated' and src.kind == 'gyro':
+        return topics.GYRO_IMU
+    return topics.IMU_DATA
 
 
 def refuse(fmt: str, message: str) -> ExportError:

@@ -35,9 +35,9 @@ from gyro_calib.imu_conversion import (
 from gyro_calib.registry import handoff_schema
 from gyro_calib.thermal.site import RAD_S_PER_DEG_H
 
-GYRO_IMU = '/gyro/imu'
+GYRO_IMU = topics.GYRO_IMU
 """sensor_msgs/Imu: calibrated rate about the gyro's sense axis (z), rad/s, with covariance."""
-IMU_DATA = '/imu/data'
+IMU_DATA = topics.IMU_DATA
 """sensor_msgs/Imu: a triad's calibrated body rate, rad/s, with its full 3×3 covariance."""
 IMU_PULSES = topics.IMU_PULSES
 """sensor_msgs/JointState: a triad's three cumulative counts, name = the channel names."""
