@@ -13,7 +13,8 @@ independent sources (§F.6 eq. (17)):
     C_ṅ = diag( N_i²/(K_i²·Δt) + 1/(6·Δt²) )       count-rate noise, pulses²/s²
 
 N_i the channel's angle random walk (``imu.noise.<channel>.angle_random_walk_rad_per_sqrt_s``,
-0 when absent), K_i = 1/|r_i| with R = M⁻¹ (the channel's scale factor), 1/6 pulse² the
+else the noise run's ``gyro.imu_gyro_<axis>_…``, else its 2σ upper bound, 0 when absent),
+K_i = 1/|r_i| with R = M⁻¹ (the channel's scale factor), 1/6 pulse² the
 quantisation of a count difference (±½ pulse uniform at each end), C_M the section's
 ``pulses_to_body_rad_covariance`` and C_b = diag(u²(b)). :func:`equal_variances` is the form
 for consumers that use one variance for all axes (§F.6 eq. (18)).
@@ -30,7 +31,12 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from gyro_calib.imu_calibration import ImuCalibration, ImuSectionError, imu_from_section
+from gyro_calib.imu_calibration import (
+    ImuCalibration,
+    ImuSectionError,
+    imu_from_section,
+    with_channel_noise,
+)
 
 Array = npt.NDArray[np.float64]
 
@@ -42,7 +48,11 @@ QUANTISATION_VARIANCE_PULSES2 = 1.0 / 6.0
 
 
 def load_imu_calibration(path: str | Path) -> ImuCalibration:
-    """The ``imu:`` section of a format-4 hand-off file.
+    """The ``imu:`` section of a format-4 hand-off file, its noise from both places.
+
+    A channel's noise keys not in ``imu.noise`` are taken from the noise run's
+    ``gyro.imu_gyro_<axis>_…`` keys (:func:`~gyro_calib.imu_calibration.channel_noise`, the
+    rule ``gyro-calib export`` reads them by).
 
     Raises:
         ImuSectionError: one line naming the file and what is wrong (unreadable, not YAML,
@@ -70,7 +80,9 @@ def load_imu_calibration(path: str | Path) -> ImuCalibration:
         raise ImuSectionError(f'calibration file {path} has an imu: section but format_version '
                               f'{version!r}; an imu: section is format_version '
                               f'{IMU_FORMAT_VERSION}.')
-    return imu_from_section(data['imu'], source=f'calibration file {path}')
+    gyro = data.get('gyro')
+    return with_channel_noise(imu_from_section(data['imu'], source=f'calibration file {path}'),
+                              gyro if isinstance(gyro, dict) else {})
 
 
 def has_imu_section(path: str | Path) -> bool:
@@ -122,14 +134,19 @@ def triad_rate_model(cal: ImuCalibration, *, source: str = 'hand-off') -> TriadR
                               f'and is absent: {why}')
     m = np.asarray(cal.pulses_to_body_rad, dtype=float)
     k = 1.0 / np.linalg.norm(np.linalg.inv(m), axis=1)
-    arw = np.array([float(cal.noise.get(c, {}).get('angle_random_walk_rad_per_sqrt_s', 0.0))
-                    for c in cal.channels])
+    arw = np.array([channel_arw(cal.noise.get(c, {})) for c in cal.channels])
     known = cal.bias_rad_s is not None and cal.bias_rad_s_std is not None
     return TriadRateModel(
         cal.channels, m, np.asarray(cal.pulses_to_body_rad_covariance, dtype=float),
         np.asarray(cal.bias_rad_s, dtype=float) if known else np.zeros(3),
         np.asarray(cal.bias_rad_s_std, dtype=float) if known else np.zeros(3),
         known, k, arw)
+
+
+def channel_arw(noise: dict[str, float]) -> float:
+    """N of one channel: its measured value, else its 2σ upper bound (METHODS §E.3), else 0."""
+    key = 'angle_random_walk_rad_per_sqrt_s'
+    return float(noise.get(key, noise.get(key + '_upper_bound_2sigma', 0.0)))
 
 
 def count_rate_variances(dt_s: float, scale_factor_rad_per_pulse: Array,

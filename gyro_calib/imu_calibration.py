@@ -309,3 +309,70 @@ def imu_from_section(section: Any, *, source: str = 'hand-off') -> ImuCalibratio
          for c, d in _per_channel(section, 'noise', names, source).items()},
         _per_channel(section, 'thermal', names, source),
         _reasons(section, 'missing', source), _reasons(section, 'not_measurable', source))
+
+
+BODY_AXES = ('x', 'y', 'z')
+
+
+def channel_of_axis(imu: ImuCalibration) -> dict[str, str]:
+    """Body axis → the channel whose sense axis lies along it (row order without axes).
+
+    The channel i with the largest |s_i| component on the axis (sense axes of a triad are
+    within a few degrees of body axes, in any order); row i ↔ axis i when the section has no
+    sense axes or they are not a permutation of the body axes.
+    """
+    default = dict(zip(BODY_AXES, imu.channels, strict=True))
+    if imu.sense_axes is None:
+        return default
+    picks = np.argmax(np.abs(imu.sense_axes), axis=1)
+    if len(set(int(p) for p in picks)) != 3:
+        return default
+    return {BODY_AXES[int(p)]: imu.channels[i] for i, p in enumerate(picks)}
+
+
+@dataclass(frozen=True, slots=True)
+class NoiseValue:
+    """One noise key of one triad channel and the hand-off key it was read from."""
+
+    value: float
+    source_key: str
+
+
+def channel_noise(imu: ImuCalibration, gyro: Mapping[str, Any]
+                  ) -> dict[str, dict[str, NoiseValue]]:
+    """Each channel's noise keys: ``imu.noise.<channel>``, else the noise run's own keys.
+
+    The one source of a triad's noise for every reader (imu_corrector's covariance and
+    ``gyro-calib export``; issue 36 §4): a noise run on the triad's Imu stream stores its
+    terms as ``gyro.imu_gyro_<axis>_<key>``; channel c takes those of the body axis its sense
+    axis is along (:func:`channel_of_axis`) for each key ``imu.noise.<c>`` does not hold.
+    Only finite non-negative numbers are taken.
+    """
+    out: dict[str, dict[str, NoiseValue]] = {c: {} for c in imu.channels}
+    for axis, ch in channel_of_axis(imu).items():
+        prefix = f'imu_gyro_{axis}_'
+        for key, value in gyro.items():
+            name = str(key)
+            if name.startswith(prefix) and _noise_number(value) is not None:
+                out[ch][name.removeprefix(prefix)] = NoiseValue(float(value), f'gyro.{name}')
+    for ch in imu.channels:
+        for key, value in imu.noise.get(ch, {}).items():
+            if _noise_number(value) is not None:
+                out[ch][key] = NoiseValue(float(value), f'imu.noise.{ch}.{key}')
+    return out
+
+
+def with_channel_noise(imu: ImuCalibration, gyro: Mapping[str, Any]) -> ImuCalibration:
+    """``imu`` whose ``noise`` is :func:`channel_noise` (values only)."""
+    from dataclasses import replace
+
+    noise = {c: {k: v.value for k, v in d.items()}
+             for c, d in channel_noise(imu, gyro).items() if d}
+    return replace(imu, noise=noise)
+
+
+def _noise_number(value: Any) -> float | None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    v = float(value)
+    return v if math.isfinite(v) and v >= 0 else None

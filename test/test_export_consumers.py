@@ -21,7 +21,7 @@ from consumer_readers import (
     ros_parameters,
     vins_fusion_config,
 )
-from test_export import K_A, K_G_BOUND_Z, N_A, N_G, RATE, export
+from test_export import K_A, K_G_BOUND_Z, M_TRIAD, N_A, N_G, RATE, export
 
 from gyro_calib.export import ExportOptions, export_text
 from gyro_calib.export.opencv_yaml import read_opencv_yaml
@@ -285,3 +285,64 @@ def test_robot_localization_subscribes_the_topic_imu_corrector_publishes(
     assert p['imu0'] == published
     assert len(p['imu0_config']) == 15
     assert f'Input: {published}' in text
+
+
+# -- 4. imu_corrector publishes the covariance the export states ------------------------------
+
+def _triad_with_noise_under_gyro(path: Path) -> Path:
+    """A triad hand-off whose noise run is stored as gyro.imu_gyro_<axis>_… (no imu.noise)."""
+    import yaml
+
+    from gyro_calib.imu_calibration import ImuCalibration
+
+    imu = ImuCalibration(('x', 'y', 'z'), pulses_to_body_rad=M_TRIAD,
+                         pulses_to_body_rad_covariance=np.eye(9) * 1e-30,
+                         bias_rad_s=np.array([1e-6, -2e-6, 3e-6]),
+                         bias_rad_s_std=np.full(3, 1e-9))
+    gyro: dict[str, Any] = {}
+    for a in 'xyz':
+        gyro[f'imu_gyro_{a}_angle_random_walk_rad_per_sqrt_s'] = N_G[a]
+        gyro[f'imu_gyro_{a}_rate_random_walk_rad_per_s_sqrt_s'] = 2e-6
+        gyro[f'imu_accel_{a}_velocity_random_walk_m_s_per_sqrt_s'] = N_A[a]
+        gyro[f'imu_accel_{a}_acceleration_random_walk_m_s2_per_sqrt_s'] = K_A[a]
+    path.write_text(yaml.safe_dump({'format_version': 4, 'gyro_id': 'TRIAD-2',
+                                    'imu': imu.to_section(), 'gyro': gyro}), encoding='utf-8')
+    return path
+
+
+def published_covariance(handoff: Path) -> npt.NDArray[np.float64]:
+    """imu_corrector's /imu/data covariance for the triad at rest at RATE (no DDS)."""
+    from fake_node import FakeNode
+
+    from gyro_calib.nodes.imu_corrector_core import IMU_DATA, ImuCorrector
+
+    node = FakeNode()
+    corrector = ImuCorrector(node)  # type: ignore[arg-type]
+    corrector.poll_file(str(handoff))
+    dt_ns = int(round(1e9 / RATE))
+    outs = []
+    for i in range(3):
+        outs += corrector.on_imu_pulses(1_700_000_000_000_000_000 + i * dt_ns, ['x', 'y', 'z'],
+                                        [1000.0, 2000.0, 3000.0])
+    assert outs and all(topic == IMU_DATA for topic, _ in outs)
+    return np.array(outs[-1][1].covariance_rad2_s2).reshape(3, 3)
+
+
+@pytest.mark.parametrize('where', ['imu.noise', 'gyro.imu_gyro'])
+def test_imu_corrector_publishes_the_per_sample_variance_the_exports_state(
+        where: str, tmp_path: Path, request: pytest.FixtureRequest) -> None:
+    """Wherever the noise run is stored, corrector and export read the same N (issue 36 §4)."""
+    import re
+
+    handoff = (request.getfixturevalue('triad_handoff') if where == 'imu.noise'
+               else _triad_with_noise_under_gyro(tmp_path / 'triad.yaml'))
+    published = float(np.max(np.diag(published_covariance(handoff))))
+    rl = export(handoff, 'robot-localization')
+    stated = float(re.search(r'angular_velocity_covariance of each message: diag (\S+)',
+                             rl).group(1))  # type: ignore[union-attr]
+    assert stated == pytest.approx(published, rel=1e-6)
+    autoware = ros_parameters(export(handoff, 'autoware'), 'imu_corrector', AUTOWARE_DECLARED)
+    assert autoware['angular_velocity_stddev_xx'] ** 2 == pytest.approx(published, rel=1e-6)
+    fast_lio = ros_parameters(export(handoff, 'fast-lio'), 'laser_mapping', FAST_LIO_DECLARED)
+    assert fast_lio['mapping.gyr_cov'] == pytest.approx(published, rel=1e-6)
+    assert published > max(N_G.values()) ** 2 * RATE  # N²·f and the count quantisation

@@ -13,6 +13,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from gyro_calib import topics
 from gyro_calib.export.source import (
     ACCEL_TERMS,
@@ -24,6 +26,8 @@ from gyro_calib.export.source import (
     ExportSource,
     Term,
 )
+from gyro_calib.imu_body_rate import channel_arw, count_rate_variances
+from gyro_calib.imu_calibration import ImuCalibration
 
 STREAMS = ('compensated', 'raw')
 """``compensated``: the consumer subscribes to gyro_calib's imu_corrector output (scale factor,
@@ -129,6 +133,8 @@ def gyro_sample_variance(src: ExportSource, fmt: str, consumer_key: str, rate_hz
     orders of magnitude. Q is taken where the hand-off holds it (or its 2σ bound).
     """
     n, why = largest(src, fmt, 'gyro', 'N', consumer_key)
+    if src.imu is not None and src.imu.pulses_to_body_rad is not None:
+        return triad_sample_variance(src.imu, rate_hz)
     variance = n * n * rate_hz
     text = f'({why}) squared × f'
     q_terms = [src.gyro[a]['Q'] for a in AXES if 'Q' in src.gyro[a]]
@@ -136,6 +142,25 @@ def gyro_sample_variance(src: ExportSource, fmt: str, consumer_key: str, rate_hz
         q = max(q_terms, key=lambda t: t.value)
         variance += 2.0 * q.value ** 2 * rate_hz ** 2
         text += f' + 2·({q.text(UNITS[("gyro", "Q")])})² × f² (angle quantisation per sample)'
+    return variance, text
+
+
+def triad_sample_variance(imu: ImuCalibration, rate_hz: float) -> tuple[float, str]:
+    """The largest diagonal of M·C_ṅ·Mᵀ at f: what imu_corrector publishes (METHODS §F.6 eq.
+
+    (17)) at rest, less the bias's own u²(b) and M's uncertainty (not sample noise): each
+    channel's N_i (read as imu_corrector reads it) and the 1/6 pulse² quantisation of a
+    count difference.
+    """
+    m = np.asarray(imu.pulses_to_body_rad, dtype=float)
+    k = 1.0 / np.linalg.norm(np.linalg.inv(m), axis=1)
+    arw = np.array([channel_arw(imu.noise.get(c, {})) for c in imu.channels])
+    c_n = count_rate_variances(1.0 / rate_hz, k, arw)
+    variance = float(np.max(np.diag(m @ np.diag(c_n) @ m.T)))
+    text = (f'largest diagonal of M·C_ṅ·Mᵀ, the covariance imu_corrector publishes (METHODS '
+            f'§F.6 eq. (17)): N_i = {", ".join(f"{v:.6g}" for v in arw)} rad/√s of channels '
+            f'{", ".join(imu.channels)} squared × f, with the count quantisation 1/6 pulse² '
+            '× (K_i·f)²')
     return variance, text
 
 

@@ -4,8 +4,10 @@ A hand-off (``gyro_calib/handoff/``, formats 1–4) is read here as plain YAML �
 ``imu:`` section through :func:`gyro_calib.imu_calibration.imu_from_section` — so that a
 triad file (format 4) and a single-gyro file (format 3) give one :class:`ExportSource`:
 
-- gyro noise per body axis x, y, z: from the triad's ``imu.noise.<channel>`` (channel i along
-  body axis i), else the noise method's ``imu_gyro_<axis>_<term>`` keys (an IMU's Imu
+- gyro noise per body axis x, y, z: a triad's channel along that axis, its noise read as
+  imu_corrector reads it (:func:`~gyro_calib.imu_calibration.channel_noise`:
+  ``imu.noise.<channel>``, else the noise run's ``imu_gyro_<axis>_<term>``); without an
+  ``imu:`` section the noise method's ``imu_gyro_<axis>_<term>`` keys (an IMU's Imu
   stream), else the single gyro's plain keys (one gyro: taken for each axis, and said so);
 - accelerometer noise per axis from ``imu_accel_<axis>_<term>`` (noise method on an Imu);
 - each term is the measured value, else its ``<key>_upper_bound_2sigma`` (METHODS §E: the
@@ -27,7 +29,15 @@ import numpy.typing as npt
 import yaml
 
 from gyro_calib.errors import ConfigError
-from gyro_calib.imu_calibration import ImuCalibration, ImuSectionError, imu_from_section
+from gyro_calib.imu_calibration import (
+    ImuCalibration,
+    ImuSectionError,
+    NoiseValue,
+    channel_noise,
+    channel_of_axis,
+    imu_from_section,
+    with_channel_noise,
+)
 
 AXES = ('x', 'y', 'z')
 UPPER_BOUND_SUFFIX = '_upper_bound_2sigma'
@@ -136,6 +146,14 @@ def _term(values: Mapping[str, Any], key: str, where: str) -> Term | None:
     return None
 
 
+def _channel_term(noise: Mapping[str, NoiseValue], key: str) -> Term | None:
+    """A triad channel's term ``key`` (:func:`~gyro_calib.imu_calibration.channel_noise`)."""
+    if key in noise:
+        return Term(noise[key].value, noise[key].source_key)
+    bound = noise.get(key + UPPER_BOUND_SUFFIX)
+    return None if bound is None else Term(bound.value, bound.source_key, bound=True)
+
+
 def load_yaml_mapping(path: Path) -> dict[str, Any]:
     """The hand-off file as a mapping (one-line refusal otherwise)."""
     try:
@@ -162,22 +180,6 @@ def load_yaml_mapping(path: Path) -> dict[str, Any]:
         raise ExportError(f'HANDOFF {path}: format_version {version!r} is not one this '
                           'gyro_calib reads (1–4). Nothing was written.')
     return data
-
-
-def channel_of_axis(imu: ImuCalibration) -> dict[str, str]:
-    """Body axis → the channel whose sense axis lies along it (row order without axes).
-
-    The channel i with the largest |s_i| component on the axis (sense axes of a triad are
-    within a few degrees of body axes, in any order); row i ↔ axis i when the section has no
-    sense axes or they are not a permutation of the body axes.
-    """
-    default = dict(zip(AXES, imu.channels))
-    if imu.sense_axes is None:
-        return default
-    picks = np.argmax(np.abs(imu.sense_axes), axis=1)
-    if len(set(int(p) for p in picks)) != 3:
-        return default
-    return {AXES[int(p)]: imu.channels[i] for i, p in enumerate(picks)}
 
 
 def read_source(path: str | Path) -> ExportSource:
@@ -210,13 +212,14 @@ def read_source(path: str | Path) -> ExportSource:
     accel: dict[str, dict[str, Term]] = {a: {} for a in AXES}
     single = ''
     along = channel_of_axis(imu) if imu is not None else {}
-    for i, axis in enumerate(AXES):
+    noise = channel_noise(imu, values) if imu is not None else {}
+    for axis in AXES:
         for sym, key in GYRO_TERMS.items():
             term = None
             ch = along.get(axis)
-            if imu is not None and ch is not None and ch in imu.noise:
-                term = _term(imu.noise[ch], key, f'imu.noise.{ch}.')
-            if term is None:
+            if imu is not None and ch is not None:
+                term = _channel_term(noise[ch], key)
+            else:
                 term = _term(values, f'imu_gyro_{axis}_{key}', 'gyro.')
             if term is None and imu is None:
                 term = _term(values, key, 'gyro.')
@@ -233,6 +236,7 @@ def read_source(path: str | Path) -> ExportSource:
     kind = 'gyro'
     if imu is not None:
         kind = 'triad'
+        imu = with_channel_noise(imu, values)  # the noise imu_corrector reads (issue 36 §4)
         if imu.pulses_to_body_rad is not None:
             upstream.append(("the triad's scale factors and axes (M)", 'imu.pulses_to_body_rad'))
         if imu.thermal:
