@@ -346,3 +346,35 @@ def test_imu_corrector_publishes_the_per_sample_variance_the_exports_state(
     fast_lio = ros_parameters(export(handoff, 'fast-lio'), 'laser_mapping', FAST_LIO_DECLARED)
     assert fast_lio['mapping.gyr_cov'] == pytest.approx(published, rel=1e-6)
     assert published > max(N_G.values()) ** 2 * RATE  # N²·f and the count quantisation
+
+
+# -- 9. OpenVINS on a triad's raw stream: exact intrinsics, densities in raw units -------------
+
+K0 = 4.0e-6
+
+
+def test_openvins_raw_intrinsics_round_trip_to_m_as_opencv_reads_them(
+        triad_handoff: Path) -> None:
+    """K₀·(Tw·R_IMUtoGYRO)⁻¹ = M far below u(M) (0.005 ppm): written to 17 digits."""
+    imu0 = openvins_imu0(export(triad_handoff, 'openvins', stream='raw',
+                                raw_scale_rad_per_pulse=K0))
+    back = K0 * np.linalg.inv(imu0['Tw'] @ imu0['R_IMUtoGYRO'])
+    np.testing.assert_allclose(back, M_TRIAD, rtol=0, atol=1e-13 * np.abs(M_TRIAD).max())
+    assert np.allclose(np.triu(imu0['Tw'], 1), 0.0)  # OpenVINS's kalibr model: lower
+
+
+def test_openvins_raw_densities_carry_each_body_axis_n2t_through_dw(triad_handoff: Path) -> None:
+    """In raw units, each body axis carries at least its N²·T, the largest channel exactly.
+
+    OpenVINS adds its gyro noise to ω_m, before Dw (Propagator.cpp:956, G θ-block
+    −Δt·R_GYROtoIMU·Dw).
+    """
+    imu0 = openvins_imu0(export(triad_handoff, 'openvins', stream='raw',
+                                raw_scale_rad_per_pulse=K0))
+    dw = np.linalg.inv(imu0['Tw'])
+    g = -DT * imu0['R_IMUtoGYRO'].T @ dw
+    per_step = g @ (np.eye(3) * imu0['gyroscope_noise_density'] ** 2 / DT) @ g.T
+    body = np.diag(per_step) * STEPS
+    want = np.array([N_G[a] ** 2 for a in 'xyz']) * T_S
+    assert np.all(body >= want * (1 - 1e-5))
+    assert np.min(body / want) == pytest.approx(1.0, rel=1e-5)

@@ -7,8 +7,11 @@ written lower triangular. On the stream imu_corrector compensates (the default) 
 already: Tw = R_IMUtoGYRO = I. On a triad's raw stream published at a common scale factor
 K₀ (ω_m,i = K₀·ṅ_i, ``--raw-scale-rad-per-pulse``) the triad's ω_B = M·ṅ − b gives
 ω_m = K₀·M⁻¹·(ω_B + b): Tw·R_IMUtoGYRO = K₀·M⁻¹ (Tw lower triangular), and the bias b is
-OpenVINS's to estimate online (it has no initial-bias key). The accelerometer intrinsics
-are not measured here: Ta = R_IMUtoACC = I, Tg = 0, which OpenVINS reads as "none".
+OpenVINS's to estimate online (it has no initial-bias key). Tw and R_IMUtoGYRO are written
+to 17 digits (they round-trip to M bit for bit), and the gyro densities are in the raw
+stream's units (METHODS §E.5 eq. (19)): OpenVINS puts its noise on ω_m, before Dw. The
+accelerometer intrinsics are not measured here: Ta = R_IMUtoACC = I, Tg = 0, which OpenVINS
+reads as "none".
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ import numpy.typing as npt
 from gyro_calib.export.common import (
     KALIBR_DENSITIES,
     ExportOptions,
+    axis_terms,
     check_stream,
     header,
     largest,
@@ -27,7 +31,8 @@ from gyro_calib.export.common import (
     refuse,
 )
 from gyro_calib.export.opencv_yaml import opencv_string, with_header
-from gyro_calib.export.source import ExportSource, lower_times_rotation
+from gyro_calib.export.source import AXES, UNITS, ExportSource, lower_times_rotation
+from gyro_calib.imu_calibration import channel_of_axis
 
 FORMAT = 'openvins'
 KEYS = ('T_i_b', 'accelerometer_noise_density', 'accelerometer_random_walk',
@@ -36,10 +41,35 @@ KEYS = ('T_i_b', 'accelerometer_noise_density', 'accelerometer_random_walk',
 """The ``imu0`` keys OpenVINS's parser asks for."""
 
 
+def exact(value: float) -> str:
+    """17 significant digits: the double OpenCV's strtod reads back is this one, bit for bit."""
+    return f'{value:.16e}'
+
+
 def _rows(name: str, m: npt.NDArray[np.float64], why: str) -> list[str]:
-    out = [f'  {name}:  # {why}']
-    out += [f'    - [{", ".join(number(float(v)) for v in row)}]' for row in m]
+    out = [f'  # {name}: {why}', f'  {name}:']
+    out += [f'    - [{", ".join(exact(float(v)) for v in row)}]' for row in m]
     return out
+
+
+def raw_density(src: ExportSource, tw: npt.NDArray[np.float64], sym: str, key: str
+                ) -> tuple[float, str]:
+    """The largest channel density in the raw stream's units (METHODS §E.5 eq. (19)).
+
+    Channel i (row i of M, of Tw) publishes ω_m,i = K₀·ṅ_i: its noise N_i/K_i pulses/√s
+    becomes N_i·K₀/K_i = N_i·‖row_i(Tw)‖ (R_IMUtoGYRO is a rotation).
+    """
+    assert src.imu is not None
+    terms = axis_terms(src, FORMAT, 'gyro', sym, key)
+    by_channel = {ch: terms[AXES.index(axis)] for axis, ch in channel_of_axis(src.imu).items()}
+    scales = np.linalg.norm(tw, axis=1)
+    values = [(by_channel[ch].value * float(scales[i]), i, ch)
+              for i, ch in enumerate(src.imu.channels)]
+    value, i, ch = max(values)
+    term = by_channel[ch]
+    return value, (f'{term.text(UNITS[("gyro", sym)])} × ‖row {i} of Tw‖ = '
+                   f'{float(scales[i]):.9g} (channel {ch} in the raw stream\'s units, K0·ṅ; '
+                   'largest channel)')
 
 
 def intrinsics(src: ExportSource, options: ExportOptions) -> tuple[
@@ -71,12 +101,16 @@ def topic_string(fmt: str, topic: str) -> str:
 def openvins_text(src: ExportSource, options: ExportOptions) -> str:
     """The OpenVINS ``kalibr_imu_chain.yaml`` text with its ``%YAML:1.0`` header."""
     check_stream(src, FORMAT, options, intrinsics=True)
+    tw, r, why = intrinsics(src, options)
+    raw = (options.stream == 'raw' and src.imu is not None
+           and src.imu.pulses_to_body_rad is not None)
     values = []
     for key, sensor, sym, unit in KALIBR_DENSITIES:
-        value, why = largest(src, FORMAT, sensor, sym, key)
-        values.append(f'  {key}: {number(value)}  # {unit}; {why}; continuous density')
+        value, text = largest(src, FORMAT, sensor, sym, key)
+        if raw and sensor == 'gyro':
+            value, text = raw_density(src, tw, sym, key)
+        values.append(f'  {key}: {number(value)}  # {unit}; {text}; continuous density')
     rate, rate_from = need_rate(src, FORMAT, options, 'update_rate')
-    tw, r, why = intrinsics(src, options)
     lines = header(src, FORMAT, options)
     lines += ['imu0:']
     lines += _rows('T_i_b', np.eye(4), 'identity: the IMU frame is the body frame')
