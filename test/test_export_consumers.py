@@ -378,3 +378,61 @@ def test_openvins_raw_densities_carry_each_body_axis_n2t_through_dw(triad_handof
     want = np.array([N_G[a] ** 2 for a in 'xyz']) * T_S
     assert np.all(body >= want * (1 - 1e-5))
     assert np.min(body / want) == pytest.approx(1.0, rel=1e-5)
+
+
+# -- 8. complete file or fragment: the first line says which ---------------------------------
+
+def first_statement(text: str) -> str:
+    """The first line, after OpenCV's ``%YAML:1.0`` and ``---`` where the format has them."""
+    lines = [ln for ln in text.splitlines() if ln not in ('%YAML:1.0', '---')]
+    return lines[0]
+
+
+@pytest.mark.parametrize('fmt', ['kalibr', 'openvins', 'gtsam', 'autoware',
+                                 'robot-localization'])
+def test_a_complete_file_says_so_and_holds_every_key_its_reader_takes(
+        fmt: str, imu_handoff: Path) -> None:
+    import jsonschema
+    import yaml
+
+    from gyro_calib.export.kalibr import KEYS as KALIBR_KEYS
+
+    text = export(imu_handoff, fmt)
+    assert first_statement(text).startswith('# COMPLETE ')
+    if fmt == 'kalibr':
+        assert set(KALIBR_KEYS) <= set(yaml.safe_load(text))
+    elif fmt == 'openvins':  # every imu0 key OpenVINS reads (consumer_readers.openvins_imu0)
+        assert set(openvins_imu0(text)) == {
+            'gyroscope_noise_density', 'gyroscope_random_walk', 'accelerometer_noise_density',
+            'accelerometer_random_walk', 'model', 'rostopic', 'Tw', 'Ta', 'R_IMUtoACC',
+            'R_IMUtoGYRO', 'Tg'}
+    elif fmt == 'autoware':
+        jsonschema.validate(yaml.safe_load(text), AUTOWARE_SCHEMA)
+
+
+def test_vins_fusion_fragment_names_g_norm_which_it_would_read_as_zero(
+        imu_handoff: Path) -> None:
+    text = export(imu_handoff, 'vins-fusion')
+    line = first_statement(text)
+    assert line.startswith('# FRAGMENT ')
+    assert vins_fusion_config(text)['g_norm'] == 0.0  # what VINS-Fusion would run with
+    for key in ('g_norm', 'num_of_cam', 'body_T_cam0'):
+        assert key in line
+
+
+def test_fast_lio_and_lio_sam_fragments_name_the_extrinsics_they_would_miss(
+        imu_handoff: Path) -> None:
+    from rclpy.parameter import Parameter
+
+    text = export(imu_handoff, 'fast-lio')
+    assert first_statement(text).startswith('# FRAGMENT ')
+    p = ros_parameters(text, 'laser_mapping',
+                       {'mapping.extrinsic_T': Parameter.Type.DOUBLE_ARRAY,
+                        'mapping.extrinsic_R': Parameter.Type.DOUBLE_ARRAY})
+    assert p == {'mapping.extrinsic_T': None, 'mapping.extrinsic_R': None}
+    assert 'mapping.extrinsic_T' in first_statement(text)
+    assert 'mapping.extrinsic_R' in first_statement(text)
+    line = first_statement(export(imu_handoff, 'lio-sam'))
+    assert line.startswith('# FRAGMENT ')
+    for key in ('sensor', 'extrinsicTrans', 'extrinsicRot', 'extrinsicRPY'):
+        assert key in line

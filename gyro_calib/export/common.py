@@ -60,6 +60,44 @@ class ExportOptions:
     raw_scale_rad_per_pulse: float | None = None
 
 
+STILL_TO_ADD: dict[str, tuple[tuple[str, str], ...]] = {
+    'vins-fusion': (
+        ('g_norm', 'absent, VINS-Fusion reads 0 and runs without gravity '
+                   '(vins_estimator/src/estimator/parameters.cpp:102)'),
+        ('num_of_cam', 'parameters.cpp:142'), ('body_T_cam0', 'parameters.cpp:135'),
+        ('cam0_calib', 'parameters.cpp:156'), ('image0_topic', 'parameters.cpp:82')),
+    'fast-lio': (
+        ('mapping.extrinsic_T', '3 numbers; an absent list is indexed unchecked '
+                                '(laserMapping.cpp:870, 895)'),
+        ('mapping.extrinsic_R', '9 numbers, likewise (laserMapping.cpp:871, 896)'),
+        ('common.lid_topic', 'and the preprocess: block of your LiDAR')),
+    'lio-sam': (
+        ('sensor', 'velodyne, ouster or livox (default ouster; utility.hpp:190)'),
+        ('extrinsicTrans', 'LiDAR→IMU, default zero'),
+        ('extrinsicRot', 'default identity'), ('extrinsicRPY', 'default identity'),
+        ('N_SCAN', 'and Horizon_SCAN of your LiDAR')),
+}
+"""Keys a fragment's consumer needs that only the user knows: named on the file's first line."""
+
+CONSUMER_NAMES = {'kalibr': 'Kalibr imu.yaml', 'openvins': 'OpenVINS kalibr_imu_chain.yaml',
+                  'gtsam': 'GTSAM preintegration parameters',
+                  'lio-sam': 'LIO-SAM params.yaml', 'fast-lio': 'FAST-LIO config',
+                  'vins-fusion': 'VINS-Fusion config',
+                  'autoware': 'Autoware imu_corrector.param.yaml',
+                  'robot-localization': 'robot_localization ekf parameters'}
+
+
+def completeness_line(fmt: str) -> str:
+    """The file's first line: COMPLETE, or FRAGMENT naming the keys the user must still add."""
+    name = CONSUMER_NAMES.get(fmt, fmt)
+    keys = STILL_TO_ADD.get(fmt)
+    if not keys:
+        return (f'COMPLETE {name}: every key the consumer requires is here; use the file as '
+                'it is.')
+    return (f'FRAGMENT of a {name}: merge these keys into yours, which must still set: '
+            + '; '.join(f'{k} ({why})' for k, why in keys) + '.')
+
+
 def default_topic(src: ExportSource, options: ExportOptions) -> str:
     """The topic the consumer subscribes to when --topic is not given.
 
@@ -205,7 +243,8 @@ def header(src: ExportSource, fmt: str, options: ExportOptions,
     stream = ('the stream compensated upstream by gyro_calib imu_corrector (scale factor, '
               'axes, bias and thermal model removed there)' if options.stream == 'compensated'
               else 'the sensor driver\'s raw stream')
-    out = [f'{fmt} parameters from gyro_calib hand-off {src.path}'
+    out = [completeness_line(fmt),
+           f'{fmt} parameters from gyro_calib hand-off {src.path}'
            + (f' (gyro_id {src.gyro_id})' if src.gyro_id else '')
            + f'; gyro-calib export --format {fmt}.',
            f'Input: {options.topic}, {stream}.',
