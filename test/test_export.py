@@ -202,7 +202,7 @@ def test_gtsam_from_a_gyro_only_handoff_gives_ahrs_params_and_no_invented_accele
 
 def test_openvins_writes_the_opencv_header_pyyaml_rejects_and_reads_back(
         triad_handoff: Path) -> None:
-    text = export(triad_handoff, 'openvins')
+    text = export(triad_handoff, 'openvins', accel_topic='/imu/driver')
     assert text.startswith('%YAML:1.0\n')
     with pytest.raises(yaml.YAMLError):
         yaml.safe_load(text)

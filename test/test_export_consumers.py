@@ -31,7 +31,8 @@ pytest_plugins = ['test_export']
 
 # -- 1. OpenCV files: every string and number as cv::FileStorage reads it ---------------------
 
-OPENCV_CASES = [('openvins', 'imu_handoff', {}), ('openvins', 'triad_handoff', {}),
+OPENCV_CASES = [('openvins', 'imu_handoff', {}),
+                ('openvins', 'triad_handoff', {'accel_topic': '/imu/driver'}),
                 ('openvins', 'triad_handoff', {'stream': 'raw', 'raw_scale_rad_per_pulse': 4e-6}),
                 ('vins-fusion', 'imu_handoff', {})]
 
@@ -343,7 +344,8 @@ def test_imu_corrector_publishes_the_per_sample_variance_the_exports_state(
     assert stated == pytest.approx(published, rel=1e-6)
     autoware = ros_parameters(export(handoff, 'autoware'), 'imu_corrector', AUTOWARE_DECLARED)
     assert autoware['angular_velocity_stddev_xx'] ** 2 == pytest.approx(published, rel=1e-6)
-    fast_lio = ros_parameters(export(handoff, 'fast-lio'), 'laser_mapping', FAST_LIO_DECLARED)
+    fast_lio = ros_parameters(export(handoff, 'fast-lio', accel_topic='/imu/driver'),
+                              'laser_mapping', FAST_LIO_DECLARED)
     assert fast_lio['mapping.gyr_cov'] == pytest.approx(published, rel=1e-6)
     assert published > max(N_G.values()) ** 2 * RATE  # N²·f and the count quantisation
 
@@ -436,3 +438,40 @@ def test_fast_lio_and_lio_sam_fragments_name_the_extrinsics_they_would_miss(
     assert line.startswith('# FRAGMENT ')
     for key in ('sensor', 'extrinsicTrans', 'extrinsicRot', 'extrinsicRPY'):
         assert key in line
+
+
+# -- 3. accelerometer consumers are never pointed at a stream without accelerometers ----------
+
+@pytest.mark.parametrize('fmt', ['kalibr', 'openvins', 'lio-sam', 'fast-lio', 'vins-fusion'])
+def test_an_accelerometer_consumer_refuses_a_triad_stream_without_them_naming_what_to_set(
+        fmt: str, triad_handoff: Path, tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """The triad hand-off holds accelerometer terms; its /imu/data has none of its own.
+
+    imu_corrector carries them only when given the driver's Imu (accel_input).
+    """
+    from gyro_calib.cli import main
+
+    out = tmp_path / 'out.yaml'
+    code = main(['export', str(triad_handoff), '--format', fmt, '--out', str(out),
+                 '--rate-hz', '200'])
+    err = capsys.readouterr()
+    assert code == 2 and err.out == '' and not out.exists()
+    assert len(err.err.strip().splitlines()) == 1
+    assert 'accel_input:=' in err.err and '--accel-topic' in err.err
+    assert main(['export', str(triad_handoff), '--format', fmt, '--out', str(out),
+                 '--rate-hz', '200', '--accel-topic', '/imu/driver']) == 0
+    assert 'accelerometers passed through from /imu/driver' in out.read_text()
+
+
+def test_robot_localization_fuses_no_acceleration_the_stream_does_not_carry(
+        triad_handoff: Path) -> None:
+    """robot_localization would fuse ax ay az = 0 against −g at σ ≈ 3e-5 m/s²."""
+    declared = robot_localization_declared()
+    p = ros_parameters(export(triad_handoff, 'robot-localization'), 'ekf_filter_node',
+                       declared)
+    assert p['imu0_config'][12:] == [False, False, False]
+    assert p['imu0_remove_gravitational_acceleration'] is False
+    q = ros_parameters(export(triad_handoff, 'robot-localization', accel_topic='/imu/driver'),
+                       'ekf_filter_node', declared)
+    assert q['imu0_config'][12:] == [True, True, True]

@@ -152,3 +152,34 @@ def test_a_pulse_gyro_file_keeps_the_single_gyro_behaviour(tmp_path: Path) -> No
     _write_triad(path)
     corrector.poll_file(str(path))
     assert corrector.output == IMU_DATA and corrector.converter is None
+
+
+def test_triad_with_an_accelerometer_input_passes_each_stamps_sample_through(
+        tmp_path: Path) -> None:
+    """/imu/data carries the IMU's accelerometers, matched by stamp (issue 36 §3).
+
+    A rate whose accelerometer sample never comes is not published (no zero acceleration).
+    """
+    node = FakeNode()
+    corrector = ImuCorrector(node, accel_input='/imu/driver')  # type: ignore[arg-type]
+    corrector.poll_file(str(_write_triad(tmp_path / 'imu.yaml')))
+    dt_ns = 5_000_000
+    cov = (1e-4, 0.0, 0.0, 0.0, 2e-4, 0.0, 0.0, 0.0, 3e-4)
+    out = []
+    for i in range(6):
+        t = T0_NS + i * dt_ns
+        out += corrector.on_imu_pulses(t, ['gx', 'gy', 'gz'], [10.0 * i, 20.0 * i, 30.0 * i])
+        if i != 3:  # the driver's sample of stamp 3 is lost
+            out += corrector.on_accel(t + 20_000, (0.1 * i, -0.2, 9.81), cov)  # 20 µs later
+    assert [o.stamp_ns for _, o in out] == [T0_NS + i * dt_ns for i in (1, 2, 4, 5)]
+    for topic, o in out:
+        i = (o.stamp_ns - T0_NS) // dt_ns
+        assert topic == IMU_DATA
+        assert o.linear_acceleration_m_s2 == (0.1 * i, -0.2, 9.81)
+        assert o.linear_acceleration_covariance == cov
+    assert any('no accelerometer sample on /imu/driver' in ln for ln in node.logger.lines)
+    # without an accelerometer input the output says it carries none
+    plain, _ = _corrector(tmp_path / 'imu.yaml')
+    outs = [o for i in range(3) for o in plain.on_imu_pulses(
+        T0_NS + i * dt_ns, ['gx', 'gy', 'gz'], [1.0 * i, 2.0 * i, 3.0 * i])]
+    assert outs and all(o.linear_acceleration_m_s2 is None for _, o in outs)

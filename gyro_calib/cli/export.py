@@ -50,6 +50,10 @@ def add_commands(sub: Any) -> None:
                    help='sensor_msgs/Imu topic the consumer subscribes to (default: the one '
                    'imu_corrector publishes for this hand-off, /gyro/imu for a single gyro, '
                    '/imu/data for a triad or IMU)')
+    p.add_argument('--accel-topic', default='', metavar='TOPIC',
+                   help='the IMU driver\'s sensor_msgs/Imu topic imu_corrector passes the '
+                   'accelerometers from (its accel_input); consumers that need accelerometers '
+                   'refuse a single-gyro or triad stream without it')
     p.add_argument('--stream', choices=STREAMS, default='compensated',
                    help='compensated (default): the consumer reads imu_corrector\'s output '
                    '(scale factor, axes, bias, thermal applied upstream); raw: the driver\'s '
@@ -75,7 +79,8 @@ def run_export(args: argparse.Namespace) -> int:
                           'Nothing was written.')
     _refuse_to_overwrite_records(out)
     options = ExportOptions(rate_hz=args.rate_hz, topic=args.topic, stream=args.stream,
-                            raw_scale_rad_per_pulse=args.raw_scale_rad_per_pulse)
+                            raw_scale_rad_per_pulse=args.raw_scale_rad_per_pulse,
+                            accel_topic=args.accel_topic)
     text = export_text(args.handoff, args.format, options)
     write_text_atomically(out, text)
     print(f'wrote {out} ({args.format}).', file=sys.stderr)

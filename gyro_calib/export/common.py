@@ -52,14 +52,45 @@ class ExportOptions:
         stream: one of :data:`STREAMS`.
         raw_scale_rad_per_pulse: ``raw`` triad stream only: the driver's common scale factor
             K₀ (its rate is K₀·Δn/Δt per channel), rad/pulse.
+        accel_topic: the IMU driver's sensor_msgs/Imu topic whose accelerometers
+            imu_corrector passes through (its ``accel_input``); '' = none.
     """
 
     rate_hz: float | None = None
     topic: str = ''
     stream: str = 'compensated'
     raw_scale_rad_per_pulse: float | None = None
+    accel_topic: str = ''
 
 
+def accelerometers_on_stream(src: ExportSource, options: ExportOptions) -> bool:
+    """Whether the stream the consumer reads carries the IMU's accelerometers.
+
+    The driver's raw stream does, and so does imu_corrector's Imu mode (an IMU hand-off:
+    the driver's Imu in, its accelerometers passed through); its pulse modes (a single gyro,
+    a triad) do only when given the driver's Imu as ``accel_input`` (``--accel-topic``).
+    """
+    return options.stream == 'raw' or src.kind == 'imu' or bool(options.accel_topic)
+
+
+def need_accelerometers(src: ExportSource, fmt: str, options: ExportOptions,
+                        consumer_key: str) -> None:
+    """Refuse, in one line naming what to set, a stream without accelerometers (issue 36 §3).
+
+    A hand-off without accelerometer terms is refused first (:func:`axis_terms`).
+
+    Raises:
+        ExportError: the consumer needs accelerometers and the hand-off has no accelerometer
+            term, or the stream carries none.
+    """
+    axis_terms(src, fmt, 'accel', 'N', consumer_key)
+    if accelerometers_on_stream(src, options):
+        return
+    raise refuse(fmt, f'{CONSUMER_NAMES.get(fmt, fmt)} needs accelerometers, and '
+                 f'{options.topic or default_topic(src, options)} from imu_corrector carries '
+                 'none (a pulse gyro has none of its own): start imu_corrector with -p '
+                 'accel_input:=YOUR_IMU_DRIVER_TOPIC and export with --accel-topic '
+                 'YOUR_IMU_DRIVER_TOPIC.')
 STILL_TO_ADD: dict[str, tuple[tuple[str, str], ...]] = {
     'vins-fusion': (
         ('g_norm', 'absent, VINS-Fusion reads 0 and runs without gravity '
@@ -247,7 +278,10 @@ def header(src: ExportSource, fmt: str, options: ExportOptions,
            f'{fmt} parameters from gyro_calib hand-off {src.path}'
            + (f' (gyro_id {src.gyro_id})' if src.gyro_id else '')
            + f'; gyro-calib export --format {fmt}.',
-           f'Input: {options.topic}, {stream}.',
+           f'Input: {options.topic}, {stream}'
+           + (f'; accelerometers passed through from {options.accel_topic} '
+              '(imu_corrector accel_input)' if options.accel_topic and options.stream ==
+              'compensated' else '') + '.',
            'Each number: the hand-off key it comes from, its value in SI, the conversion.']
     if src.single_gyro_note:
         out.append(src.single_gyro_note + '.')

@@ -17,6 +17,7 @@ from gyro_calib.export.common import (
     gyro_sample_variance,
     header,
     largest,
+    need_accelerometers,
     need_rate,
     number,
 )
@@ -29,6 +30,7 @@ KEYS = ('acc_cov', 'gyr_cov', 'b_acc_cov', 'b_gyr_cov')
 def fast_lio_text(src: ExportSource, options: ExportOptions) -> str:
     """The FAST-LIO parameter text (see the module docstring)."""
     check_stream(src, FORMAT, options)
+    need_accelerometers(src, FORMAT, options, 'acc_cov')
     slots = (('acc_cov', 'accel', 'N', '(m/s^2)^2'), ('gyr_cov', 'gyro', 'N', '(rad/s)^2'),
              ('b_acc_cov', 'accel', 'K', '(m/s^3)^2'), ('b_gyr_cov', 'gyro', 'K', '(rad/s^2)^2'))
     got = [(key, unit, *largest(src, FORMAT, sensor, sym, key))

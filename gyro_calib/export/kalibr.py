@@ -15,6 +15,7 @@ from gyro_calib.export.common import (
     check_stream,
     header,
     largest,
+    need_accelerometers,
     need_rate,
     number,
     refuse,
@@ -30,6 +31,7 @@ KEYS = ('accelerometer_noise_density', 'accelerometer_random_walk', 'gyroscope_n
 def kalibr_text(src: ExportSource, options: ExportOptions) -> str:
     """The Kalibr ``imu.yaml`` text (see the module docstring)."""
     check_stream(src, FORMAT, options)
+    need_accelerometers(src, FORMAT, options, 'accelerometer_noise_density')
     values = []
     for key, sensor, sym, unit in KALIBR_DENSITIES:
         value, why = largest(src, FORMAT, sensor, sym, key)

@@ -9,7 +9,14 @@ likewise; one number per sensor (the largest axis). Merge the keys into your par
 
 from __future__ import annotations
 
-from gyro_calib.export.common import ExportOptions, check_stream, header, largest, number
+from gyro_calib.export.common import (
+    ExportOptions,
+    check_stream,
+    header,
+    largest,
+    need_accelerometers,
+    number,
+)
 from gyro_calib.export.source import ExportSource
 
 FORMAT = 'lio-sam'
@@ -19,6 +26,7 @@ KEYS = ('imuTopic', 'imuAccNoise', 'imuGyrNoise', 'imuAccBiasN', 'imuGyrBiasN')
 def lio_sam_text(src: ExportSource, options: ExportOptions) -> str:
     """The LIO-SAM parameter text (see the module docstring)."""
     check_stream(src, FORMAT, options)
+    need_accelerometers(src, FORMAT, options, 'imuAccNoise')
     slots = (('imuAccNoise', 'accel', 'N', 'm/s^2/sqrt(Hz)'),
              ('imuGyrNoise', 'gyro', 'N', 'rad/s/sqrt(Hz)'),
              ('imuAccBiasN', 'accel', 'K', 'm/s^3/sqrt(Hz)'),

@@ -26,6 +26,7 @@ from gyro_calib.export.common import (
     check_stream,
     header,
     largest,
+    need_accelerometers,
     need_rate,
     number,
     refuse,
@@ -101,6 +102,7 @@ def topic_string(fmt: str, topic: str) -> str:
 def openvins_text(src: ExportSource, options: ExportOptions) -> str:
     """The OpenVINS ``kalibr_imu_chain.yaml`` text with its ``%YAML:1.0`` header."""
     check_stream(src, FORMAT, options, intrinsics=True)
+    need_accelerometers(src, FORMAT, options, 'accelerometer_noise_density')
     tw, r, why = intrinsics(src, options)
     raw = (options.stream == 'raw' and src.imu is not None
            and src.imu.pulses_to_body_rad is not None)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from gyro_calib.export.common import (
     ExportOptions,
+    accelerometers_on_stream,
     gyro_sample_variance,
     header,
     largest,
@@ -39,7 +40,7 @@ def robot_localization_text(src: ExportSource, options: ExportOptions) -> str:
     rate, rate_from = need_rate(src, FORMAT, options,
                                 'the per-message angular_velocity_covariance')
     var, why = gyro_sample_variance(src, FORMAT, 'angular_velocity_covariance', rate)
-    accel = any(src.accel[a] for a in AXES)
+    accel = any(src.accel[a] for a in AXES) and accelerometers_on_stream(src, options)
     fused = {'vroll', 'vpitch', 'vyaw'} | ({'ax', 'ay', 'az'} if accel else set())
     flags = ['true' if name in fused else 'false' for name in CONFIG_ORDER]
     notes = ['robot_localization has no gyro-bias state: bias, scale factor, axes and thermal '
@@ -58,7 +59,8 @@ def robot_localization_text(src: ExportSource, options: ExportOptions) -> str:
             '                  ' + ', '.join(flags[9:12]) + ',  # vroll vpitch vyaw: the '
             'calibrated rates',
             '                  ' + ', '.join(flags[12:]) + ']  # ax ay az'
-            + (': measured' if accel else ': no accelerometer term in the hand-off'),
+            + (': measured' if accel else ': not fused (no accelerometer on the stream, or '
+               'no accelerometer term in the hand-off)'),
             '    imu0_differential: false',
             '    imu0_relative: false',
             f'    imu0_remove_gravitational_acceleration: {"true" if accel else "false"}']

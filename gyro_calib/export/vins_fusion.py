@@ -17,6 +17,7 @@ from gyro_calib.export.common import (
     check_stream,
     header,
     largest,
+    need_accelerometers,
     need_rate,
     number,
 )
@@ -34,6 +35,7 @@ SLOTS = (('acc_n', 'accel', 'N', 'm/s^2', 2.0), ('gyr_n', 'gyro', 'N', 'rad/s', 
 def vins_fusion_text(src: ExportSource, options: ExportOptions) -> str:
     """The VINS-Fusion config text with its ``%YAML:1.0`` header."""
     check_stream(src, FORMAT, options)
+    need_accelerometers(src, FORMAT, options, 'acc_n')
     got = [(key, unit, c, *largest(src, FORMAT, sensor, sym, key))
            for key, sensor, sym, unit, c in SLOTS]
     rate, rate_from = need_rate(src, FORMAT, options, 'acc_n, gyr_n, acc_w, gyr_w (per sample)')

@@ -21,11 +21,16 @@ class ImuAngularVelocity:
         stamp_ns: header stamp, the later sample's stamp, int ns.
         angular_velocity_rad_s: (x, y, z) in the Imu frame, rad/s; z is the sense axis.
         covariance_rad2_s2: 3×3 covariance, row-major (9 values), (rad/s)².
+        linear_acceleration_m_s2: the IMU's accelerometers at this stamp (m/s², the Imu
+            frame), or None: the message carries no accelerometer (covariance[0] = −1).
+        linear_acceleration_covariance: their 3×3 covariance, row-major, (m/s²)².
     """
 
     stamp_ns: int
     angular_velocity_rad_s: tuple[float, float, float]
     covariance_rad2_s2: tuple[float, ...]
+    linear_acceleration_m_s2: tuple[float, float, float] | None = None
+    linear_acceleration_covariance: tuple[float, ...] | None = None
 
 
 def angular_velocity_from_pulses(t0_ns: int, count0: float, t1_ns: int, count1: float,

@@ -12,11 +12,19 @@ Modes, chosen by the hand-off file (re-read when it changes):
   :data:`GYRO_IMU`, z = sense axis (:mod:`gyro_calib.imu_conversion` eqs. (1)–(4));
 - **triad** (a format-4 file with ``imu:``): ``/imu/pulses`` → :data:`IMU_DATA`, the body rate
   with its full 3×3 covariance (METHODS §F.6 eqs. (16)–(19)).
+
+With an accelerometer input (``accel_input``: the IMU driver's sensor_msgs/Imu, issue 36 §3)
+each rate is held until the accelerometer sample of its stamp (within
+``accel_tolerance_ns``) arrives, and is published with its linear acceleration and
+covariance passed through; a rate with no accelerometer sample at its stamp is not published
+(a throttled line says so): a consumer never gets a zero acceleration as a measurement.
 """
 
 from __future__ import annotations
 
 import re
+from collections import deque
+from dataclasses import replace
 from typing import Any, Protocol
 
 from gyro_calib import topics
@@ -43,6 +51,8 @@ IMU_PULSES = topics.IMU_PULSES
 """sensor_msgs/JointState: a triad's three cumulative counts, name = the channel names."""
 REFUSED_EVERY = 1000
 """A refused /imu/pulses sample of a kind already logged is logged again every this many."""
+MAX_HELD_RATES = 2000
+"""Rates held for their accelerometer sample at most; beyond, the oldest is dropped."""
 
 Output = tuple[str, ImuAngularVelocity]
 
@@ -66,8 +76,18 @@ class ImuCorrector:
     """The node's behaviour, fed message contents (module docstring)."""
 
     def __init__(self, node: _NodeLike, *, use_k_tilde: bool = False, gyro_id: str = '',
-                 thermal_max_age_s: float = 30.0, equal_variances: bool = False) -> None:
-        """Start with no calibration (nothing is published until a valid file is read)."""
+                 thermal_max_age_s: float = 30.0, equal_variances: bool = False,
+                 accel_input: str = '', accel_tolerance_ns: int = 100_000) -> None:
+        """Start with no calibration (nothing is published until a valid file is read).
+
+        ``accel_input``: the topic of the IMU driver's sensor_msgs/Imu whose accelerometers
+        are passed through ('' = none: the output carries no accelerometer).
+        """
+        self.accel_input, self.accel_tolerance_ns = accel_input, accel_tolerance_ns
+        self._held: deque[Output] = deque()
+        self._accels: deque[tuple[int, tuple[float, float, float], tuple[float, ...]]] = \
+            deque()
+        self._unpaired = 0
         self.node = node
         self.use_k_tilde, self.gyro_id = use_k_tilde, gyro_id
         self.thermal_max_age_s, self.equal_variances = thermal_max_age_s, equal_variances
@@ -276,7 +296,54 @@ class ImuCorrector:
                 self._rejected(out)
             else:
                 published.append((topic, out))
+        if self.accel_input:
+            self._held.extend(published)
+            return self._paired()
         return published
+
+    # ------------------------------------------------------- accelerometers
+
+    def on_accel(self, t_ns: int, acceleration_m_s2: tuple[float, float, float],
+                 covariance: tuple[float, ...]) -> list[Output]:
+        """A sample of the IMU driver's accelerometers (``accel_input``, issue 36 §3)."""
+        if not self.accel_input:
+            return []
+        self._accels.append((t_ns, acceleration_m_s2, tuple(covariance)))
+        while len(self._accels) > MAX_HELD_RATES:
+            self._accels.popleft()
+        return self._paired()
+
+    def _paired(self) -> list[Output]:
+        """Held rates matched to the accelerometer sample of their stamp, in stamp order."""
+        out: list[Output] = []
+        tol = self.accel_tolerance_ns
+        while self._held and self._accels:
+            topic, rate = self._held[0]
+            t_a, acc, cov = self._accels[0]
+            if abs(t_a - rate.stamp_ns) <= tol:
+                out.append((topic, replace(rate, linear_acceleration_m_s2=acc,
+                                           linear_acceleration_covariance=cov)))
+                self._held.popleft()
+                self._accels.popleft()
+            elif t_a < rate.stamp_ns:
+                self._accels.popleft()  # an accelerometer sample with no rate at its stamp
+            else:
+                self._held.popleft()
+                self._no_accel(rate.stamp_ns, t_a)
+        while len(self._held) > MAX_HELD_RATES:
+            self._no_accel(self._held.popleft()[1].stamp_ns, None)
+        return out
+
+    def _no_accel(self, t_ns: int, next_accel_ns: int | None) -> None:
+        self._unpaired += 1
+        if self._unpaired % 100 == 1:
+            why = ('none has arrived for the last '
+                   f'{MAX_HELD_RATES} rates' if next_accel_ns is None
+                   else f'the next is at {next_accel_ns} ns')
+            self.log.warning(
+                f'{self._unpaired} rate(s) not published so far: no accelerometer sample on '
+                f'{self.accel_input} within {self.accel_tolerance_ns} ns of stamp {t_ns} ns '
+                f'({why}); a rate is published only with its own accelerometer sample.')
 
     def _rejected(self, out: Rejection) -> None:
         if out.reason.startswith('channel names'):

@@ -18,13 +18,17 @@ logged once and then every 1000th) and publishes :data:`IMU_DATA`: ω = M·ṅ �
 axis and no correlation (eq. (18), for consumers such as Autoware's imu_corrector that use one
 variance). Channels with a thermal model read /imu/<channel>/temperature (eq. (19)).
 
-In both modes orientation and linear acceleration are marked unavailable (covariance[0] = −1,
-sensor_msgs/Imu, REP 145).
+Orientation is marked unavailable (covariance[0] = −1, sensor_msgs/Imu, REP 145). So is the
+linear acceleration, unless ``accel_input`` names the IMU driver's own sensor_msgs/Imu topic
+(issue 36 §3): then each rate waits for the accelerometer sample of its stamp (within
+``accel_tolerance_s``) and is published with that sample's linear_acceleration and
+linear_acceleration_covariance passed through; a rate without one is not published.
 
 Parameters: ``calibration_file`` (hand-off YAML, :mod:`gyro_calib.handoff`; re-read at
 every poll, so it may also be set at run time), ``use_k_tilde`` (take K̃ with θ = 0 when the
 file has no K), ``frame_id`` (single gyro), ``imu_frame_id`` (triad), ``equal_variances``,
-``reload_period_s``, ``gyro_id`` and ``thermal_max_age_s``.
+``reload_period_s``, ``gyro_id``, ``thermal_max_age_s``, ``accel_input`` and
+``accel_tolerance_s``.
 A file without the scale factor it needs is refused, naming the missing key; one without the
 bias is used with a warning (the rates are then not bias-corrected).
 The file is polled (inode, mtime, size) and reloaded when it changes; a missing or bad
@@ -121,13 +125,24 @@ class ImuCorrectorNode(Node):
             'temperatures that decide their bias; those may lie at most this far (stamp time) '
             'beyond the sample\'s averaging interval, else the sample is not published, s.',
             floating_point_range=[FloatingPointRange(from_value=1.0, to_value=3600.0)]))
+        declare_parameter_value(self, 'accel_input', '', ParameterDescriptor(description=(
+            'The IMU driver\'s sensor_msgs/Imu topic whose linear_acceleration (and its '
+            'covariance) is passed through on the output, matched by stamp; \'\' = none '
+            '(the output then marks the acceleration unavailable).')))
+        declare_parameter_value(self, 'accel_tolerance_s', 1e-4, ParameterDescriptor(
+            description='With accel_input: an accelerometer sample pairs with the rate of '
+                        'the same stamp within this many seconds.',
+            floating_point_range=[FloatingPointRange(from_value=0.0, to_value=1.0)]))
         self.frame_ids = {GYRO_IMU: self.get_parameter('frame_id').value,
                           IMU_DATA: self.get_parameter('imu_frame_id').value}
         self.core = ImuCorrector(
             self, use_k_tilde=bool(self.get_parameter('use_k_tilde').value),
             gyro_id=self.get_parameter('gyro_id').value,
             thermal_max_age_s=float(self.get_parameter('thermal_max_age_s').value),
-            equal_variances=bool(self.get_parameter('equal_variances').value))
+            equal_variances=bool(self.get_parameter('equal_variances').value),
+            accel_input=str(self.get_parameter('accel_input').value),
+            accel_tolerance_ns=int(round(
+                float(self.get_parameter('accel_tolerance_s').value) * 1e9)))
         self.add_on_set_parameters_callback(self._check_runtime_change)
         self.pubs: dict[str, Publisher[Imu]] = {
             GYRO_IMU: self.create_publisher(Imu, relative(GYRO_IMU), IMU_QOS),
@@ -141,6 +156,8 @@ class ImuCorrectorNode(Node):
                                  SENSOR_QOS)
         self.create_subscription(Temperature, relative(topics.GYRO_TEMPERATURE),
                                  self._on_temperature, SENSOR_QOS)
+        if self.core.accel_input:
+            self.create_subscription(Imu, self.core.accel_input, self._on_accel, SENSOR_QOS)
         self._poll_file()
         self.create_timer(self.get_parameter('reload_period_s').value, self._poll_file)
 
@@ -179,6 +196,11 @@ class ImuCorrectorNode(Node):
         self._publish(self.core.on_imu_pulses(stamp_to_ns(msg.header.stamp), list(msg.name),
                                               list(msg.position)))
 
+    def _on_accel(self, msg: Imu) -> None:
+        a = msg.linear_acceleration
+        self._publish(self.core.on_accel(stamp_to_ns(msg.header.stamp), (a.x, a.y, a.z),
+                                         tuple(msg.linear_acceleration_covariance)))
+
     def _on_temperature(self, msg: Temperature) -> None:
         self._publish(self.core.on_temperature(stamp_to_ns(msg.header.stamp), msg.temperature,
                                                msg.header.frame_id))
@@ -197,7 +219,13 @@ class ImuCorrectorNode(Node):
             v.x, v.y, v.z = out.angular_velocity_rad_s
             imu.angular_velocity_covariance = list(out.covariance_rad2_s2)
             imu.orientation_covariance[0] = -1.0  # no orientation estimate
-            imu.linear_acceleration_covariance[0] = -1.0  # no accelerometer
+            if out.linear_acceleration_m_s2 is None:
+                imu.linear_acceleration_covariance[0] = -1.0  # no accelerometer
+            else:
+                a = imu.linear_acceleration
+                a.x, a.y, a.z = out.linear_acceleration_m_s2
+                imu.linear_acceleration_covariance = list(
+                    out.linear_acceleration_covariance or [0.0] * 9)
             self.pubs[topic].publish(imu)
 
 
