@@ -162,3 +162,73 @@ def test_triad_channel_thermal_bias_comes_from_its_own_temperature_topic(
     finally:
         rclpy.shutdown(context=context)
         node.stop()
+
+
+def test_triad_mode_with_an_accelerometer_input_carries_it_and_the_exported_variance(
+        tmp_path: Path) -> None:
+    """Issue 36 §3–4 over DDS: the driver's accelerometers and the exported variance.
+
+    /imu/data's accelerometer is the driver's, sample by sample, and its gyro covariance is
+    the per-sample variance the exports state.
+    """
+    import re
+
+    import rclpy
+    from sensor_msgs.msg import Imu, JointState
+    from test_export_consumers import _triad_with_noise_under_gyro
+
+    from gyro_calib.export import ExportOptions, export_text
+    from gyro_calib.nodes.ros_io import SENSOR_QOS, make_executor, ns_to_stamp, publish_paced
+
+    handoff = _triad_with_noise_under_gyro(tmp_path / 'triad.yaml')
+    text = export_text(handoff, 'robot-localization',
+                       ExportOptions(rate_hz=200.0, accel_topic='/imu/driver'))
+    stated = float(re.search(r'angular_velocity_covariance of each message: diag (\S+)',
+                             text).group(1))  # type: ignore[union-attr]
+    node = launch('imu_corrector', {'calibration_file': str(handoff),
+                                    'accel_input': '/imu/driver', 'equal_variances': True})
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        bench = rclpy.create_node('test_triad_accel_bench', context=context)
+        pulses = bench.create_publisher(JointState, '/imu/pulses', SENSOR_QOS)
+        driver = bench.create_publisher(Imu, '/imu/driver', SENSOR_QOS)
+        got: list[Any] = []
+        sub = bench.create_subscription(Imu, '/imu/data', got.append, SENSOR_QOS)
+        executor = make_executor(context)
+        executor.add_node(bench)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not (
+                pulses.get_subscription_count() > 0 and driver.get_subscription_count() > 0
+                and sub.get_publisher_count() > 0 and 'publishing /imu/data' in node.log()):
+            executor.spin_once(timeout_sec=0.05)
+        assert driver.get_subscription_count() > 0, node.log()
+        n, dt_ns = 40, 5_000_000
+        accel = [(0.01 * i, -0.02 * i, 9.81 + 1e-3 * i) for i in range(n)]
+        acc_cov = [4e-6, 0.0, 0.0, 0.0, 5e-6, 0.0, 0.0, 0.0, 6e-6]
+        for i in range(n):
+            js = JointState(name=['x', 'y', 'z'], position=[1000.0, 2000.0, 3000.0])  # at rest
+            ns_to_stamp(T0_NS + i * dt_ns, js.header.stamp)
+            imu = Imu()
+            ns_to_stamp(T0_NS + i * dt_ns, imu.header.stamp)
+            a = imu.linear_acceleration
+            a.x, a.y, a.z = accel[i]
+            imu.linear_acceleration_covariance = acc_cov
+            publish_paced(pulses, js)
+            publish_paced(driver, imu)
+            executor.spin_once(timeout_sec=0.002)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and len(got) < n - 1:
+            executor.spin_once(timeout_sec=0.05)
+        assert len(got) == n - 1, node.log()
+        for msg in got:
+            i = (msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec - T0_NS) // dt_ns
+            a = msg.linear_acceleration
+            assert (a.x, a.y, a.z) == accel[i]
+            assert list(msg.linear_acceleration_covariance) == acc_cov
+            cov = np.array(msg.angular_velocity_covariance).reshape(3, 3)
+            assert cov[0, 0] == cov[1, 1] == cov[2, 2] == pytest.approx(stated, rel=1e-6)
+        bench.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+        node.stop()
