@@ -183,3 +183,74 @@ def test_triad_with_an_accelerometer_input_passes_each_stamps_sample_through(
     outs = [o for i in range(3) for o in plain.on_imu_pulses(
         T0_NS + i * dt_ns, ['gx', 'gy', 'gz'], [1.0 * i, 2.0 * i, 3.0 * i])]
     assert outs and all(o.linear_acceleration_m_s2 is None for _, o in outs)
+
+
+def _imu_noise_handoff(path: Path) -> Path:
+    """An IMU's noise run (gyro-calib noise on its sensor_msgs/Imu): no imu: section."""
+    values = {}
+    for a, n in zip('xyz', (1.0e-4, 1.2e-4, 1.1e-4), strict=True):
+        values[f'imu_gyro_{a}_angle_random_walk_rad_per_sqrt_s'] = n
+        values[f'imu_gyro_{a}_angle_random_walk_rad_per_sqrt_s_std'] = n * 0.05
+        values[f'imu_accel_{a}_velocity_random_walk_m_s_per_sqrt_s'] = 1e-3
+        values[f'imu_accel_{a}_velocity_random_walk_m_s_per_sqrt_s_std'] = 5e-5
+    cal = method_calibration('noise', values, Provenance('imu.bag', 0, 10**12, {}),
+                             gyro_id='MEMS-1')
+    return write_calibration(path, cal)
+
+
+def test_imu_mode_takes_a_mems_driver_imu_and_publishes_the_exported_covariance(
+        tmp_path: Path) -> None:
+    """A driver's Imu in, /imu/data out (issue 36 §5).
+
+    With the per-sample covariance the robot_localization export states, and the message's
+    own accelerometers.
+    """
+    import re
+
+    from gyro_calib.export import ExportOptions, export_text
+
+    path = _imu_noise_handoff(tmp_path / 'mems.yaml')
+    node = FakeNode()
+    corrector = ImuCorrector(node, imu_input='/mems/imu')  # type: ignore[arg-type]
+    corrector.poll_file(str(path))
+    assert corrector.output == IMU_DATA
+    assert 'reading /mems/imu, publishing /imu/data' in node.logger.lines[0]
+    dt_ns, out = 5_000_000, []
+    for i in range(5):
+        out += corrector.on_imu(T0_NS + i * dt_ns, (0.1, -0.2, 0.3 + i), (0.0, 0.1, 9.8 + i),
+                                (1.0,) + (0.0,) * 8)
+    assert [o.stamp_ns for _, o in out] == [T0_NS + i * dt_ns for i in range(1, 5)]
+    text = export_text(path, 'robot-localization', ExportOptions(rate_hz=200.0))
+    stated = float(re.search(r'angular_velocity_covariance of each message: diag (\S+)',
+                             text).group(1))  # type: ignore[union-attr]
+    for topic, o in out:
+        i = (o.stamp_ns - T0_NS) // dt_ns
+        assert topic == IMU_DATA and o.angular_velocity_rad_s == (0.1, -0.2, 0.3 + i)
+        assert max(o.covariance_rad2_s2) == pytest.approx(stated, rel=1e-6)
+        assert o.linear_acceleration_m_s2 == (0.0, 0.1, 9.8 + i)
+        assert o.linear_acceleration_covariance[0] == pytest.approx(1e-6 * 200.0)
+
+
+def test_imu_mode_with_a_triad_file_applies_m_and_b_to_the_drivers_rates(
+        tmp_path: Path) -> None:
+    """The driver publishes ω_m = K0·ṅ per channel; /imu/data is M·ṅ − b, the true rate."""
+    k0 = float(K.mean())
+    path = _write_triad(tmp_path / 'imu.yaml', channels=('x', 'y', 'z'))
+    node = FakeNode()
+    unset = ImuCorrector(node, imu_input='/imu/raw')  # type: ignore[arg-type]
+    unset.poll_file(str(path))
+    assert any('needs raw_scale_rad_per_pulse' in ln for ln in node.logger.lines)
+    assert unset.on_imu(T0_NS, (0.1, 0.2, 0.3), (0.0, 0.0, 9.8), (0.0,) * 9) == []
+    corrector = ImuCorrector(FakeNode(), imu_input='/imu/raw',  # type: ignore[arg-type]
+                             raw_scale_rad_per_pulse=k0)
+    corrector.poll_file(str(path))
+    omega = np.array([0.4, -0.25, 0.9])
+    n_dot = np.linalg.inv(M) @ (omega + B)  # the physics: ṅ = M⁻¹·(ω + b)
+    out = []
+    for i in range(4):
+        out += corrector.on_imu(T0_NS + i * 5_000_000, tuple(k0 * n_dot), (0.0, 0.0, 9.8),
+                                (0.0,) * 9)
+    assert len(out) == 3
+    for _, o in out:
+        np.testing.assert_allclose(o.angular_velocity_rad_s, omega, rtol=1e-9)
+        assert o.linear_acceleration_m_s2 == (0.0, 0.0, 9.8)

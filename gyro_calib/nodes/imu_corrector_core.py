@@ -13,6 +13,15 @@ Modes, chosen by the hand-off file (re-read when it changes):
 - **triad** (a format-4 file with ``imu:``): ``/imu/pulses`` → :data:`IMU_DATA`, the body rate
   with its full 3×3 covariance (METHODS §F.6 eqs. (16)–(19)).
 
+- **Imu mode** (``imu_input``: a MEMS or FOG IMU driver's sensor_msgs/Imu, issue 36 §5):
+  with a triad's file the driver's rates, published at a common scale factor K₀
+  (``raw_scale_rad_per_pulse``: ω_m,i = K₀·ṅ_i), are integrated back to counts and corrected
+  as in triad mode (M, b, thermal model, full covariance); with an IMU noise run's file (no
+  ``imu:``) the rates are passed as measured, with the per-sample covariance
+  diag(N²·f + 2·Q²·f²) of each axis (METHODS §E.5 eq. (16)), f from the stamps. The
+  message's own accelerometers are passed through — with diag(N_a²·f) as covariance where
+  the file has the accelerometer noise — to :data:`IMU_DATA`.
+
 With an accelerometer input (``accel_input``: the IMU driver's sensor_msgs/Imu, issue 36 §3)
 each rate is held until the accelerometer sample of its stamp (within
 ``accel_tolerance_ns``) arrives, and is published with its linear acceleration and
@@ -27,8 +36,11 @@ from collections import deque
 from dataclasses import replace
 from typing import Any, Protocol
 
+import numpy as np
+import numpy.typing as npt
+
 from gyro_calib import topics
-from gyro_calib.errors import GyroCalibError
+from gyro_calib.errors import ConfigError, GyroCalibError
 from gyro_calib.estimate import Rejection
 from gyro_calib.handoff import load_calibration
 from gyro_calib.imu_body_rate import has_imu_section, load_imu_calibration, triad_rate_model
@@ -57,6 +69,32 @@ MAX_HELD_RATES = 2000
 Output = tuple[str, ImuAngularVelocity]
 
 
+class ImuNoise:
+    """Imu mode with an IMU noise run's file: per-axis N, Q and N_a, SI (issue 36 §5)."""
+
+    def __init__(self, arw: tuple[float, ...], quantisation: tuple[float, ...],
+                 accel_vrw: tuple[float, ...] | None) -> None:
+        """N (rad/√s), Q (rad) per axis x, y, z; N_a (m/s/√s) or None."""
+        self.arw, self.quantisation, self.accel_vrw = arw, quantisation, accel_vrw
+
+    def rate(self, t_ns: int, dt_s: float, omega: tuple[float, float, float]
+             ) -> ImuAngularVelocity:
+        """The driver's rate with its per-sample covariance, METHODS §E.5 eq. (16)."""
+        f = 1.0 / dt_s
+        var = [n * n * f + 2.0 * q * q * f * f for n, q in zip(self.arw, self.quantisation,
+                                                                 strict=True)]
+        cov = (var[0], 0.0, 0.0, 0.0, var[1], 0.0, 0.0, 0.0, var[2])
+        return ImuAngularVelocity(t_ns, (float(omega[0]), float(omega[1]), float(omega[2])),
+                                  cov)
+
+    def accel_covariance(self, dt_s: float, driver: tuple[float, ...]) -> tuple[float, ...]:
+        """diag(N_a²·f) where the file holds N_a, else the driver's own covariance."""
+        if self.accel_vrw is None:
+            return tuple(driver)
+        v = [n * n / dt_s for n in self.accel_vrw]
+        return (v[0], 0.0, 0.0, 0.0, v[1], 0.0, 0.0, 0.0, v[2])
+
+
 def channel_temperature_topic(channel: str) -> str:
     """The temperature topic of a triad channel: /imu/<channel>/temperature."""
     return f'/imu/{channel}/temperature'
@@ -77,13 +115,20 @@ class ImuCorrector:
 
     def __init__(self, node: _NodeLike, *, use_k_tilde: bool = False, gyro_id: str = '',
                  thermal_max_age_s: float = 30.0, equal_variances: bool = False,
-                 accel_input: str = '', accel_tolerance_ns: int = 100_000) -> None:
+                 accel_input: str = '', accel_tolerance_ns: int = 100_000,
+                 imu_input: str = '', raw_scale_rad_per_pulse: float = 0.0) -> None:
         """Start with no calibration (nothing is published until a valid file is read).
 
         ``accel_input``: the topic of the IMU driver's sensor_msgs/Imu whose accelerometers
         are passed through ('' = none: the output carries no accelerometer).
         """
+        self.imu_input, self.raw_scale = imu_input, raw_scale_rad_per_pulse
+        if imu_input:
+            accel_input = imu_input  # the Imu's own accelerometers, paired by its stamp
         self.accel_input, self.accel_tolerance_ns = accel_input, accel_tolerance_ns
+        self.imu_noise: ImuNoise | None = None
+        self._imu_last: tuple[int, Any] | None = None
+        self._imu_counts: npt.NDArray[np.float64] | None = None
         self._held: deque[Output] = deque()
         self._accels: deque[tuple[int, tuple[float, float, float], tuple[float, ...]]] = \
             deque()
@@ -107,7 +152,7 @@ class ImuCorrector:
     @property
     def output(self) -> str:
         """The Imu topic of the current mode."""
-        return IMU_DATA if self.triad is not None else GYRO_IMU
+        return IMU_DATA if self.triad is not None or self.imu_noise is not None else GYRO_IMU
 
     @property
     def reads_fog(self) -> bool:
@@ -140,6 +185,8 @@ class ImuCorrector:
         try:
             if key is not None and has_imu_section(path):
                 self._load_triad(path)
+            elif self.imu_input:
+                self._load_imu_noise(path)
             else:
                 self._load_single(path)
         except GyroCalibError as exc:
@@ -190,6 +237,32 @@ class ImuCorrector:
             self.log.warning('the calibration has no angle_random_walk_rad_per_sqrt_s: '
                              'the Imu variance holds quantisation, K and bias only.')
 
+    def _load_imu_noise(self, path: str) -> None:
+        """Imu mode with an IMU noise run's file: the per-axis N, Q (and N_a) it holds."""
+        from gyro_calib.export.source import AXES, read_source
+
+        src = read_source(path)
+        n = [src.gyro[a].get('N') for a in AXES]
+        if any(t is None for t in n):
+            raise ConfigError(f'calibration file {path}: imu_input needs each axis\'s gyro '
+                              'angle random walk (imu_gyro_<axis>_angle_random_walk_rad_per_'
+                              'sqrt_s, from gyro-calib noise on the IMU\'s Imu topic) or a '
+                              'triad\'s imu: section.')
+        q = [src.gyro[a]['Q'].value if 'Q' in src.gyro[a] else 0.0 for a in AXES]
+        na = ([src.accel[a]['N'].value for a in AXES]
+              if all('N' in src.accel[a] for a in AXES) else None)
+        self.imu_noise = ImuNoise(tuple(t.value for t in n if t is not None), tuple(q),
+                                  None if na is None else tuple(na))
+        self.triad = self.converter = None
+        self.log.info(
+            f'IMU noise calibration loaded from {path}: N = '
+            + ', '.join(f'{v:.6g}' for v in self.imu_noise.arw) + ' rad/√s (x, y, z); '
+            f'reading {self.imu_input}, publishing {IMU_DATA} with covariance diag(N²·f + '
+            '2·Q²·f²), accelerometers passed through'
+            + (' with covariance diag(N_a²·f)' if na is not None else ''))
+        self.log.warning('the file holds no gyro bias or scale factor (a noise run measures '
+                         'none): the rates are passed as the driver gives them.')
+
     def _load_triad(self, path: str) -> None:
         cal = load_imu_calibration(path)
         model = triad_rate_model(cal, source=f'calibration file {path}')
@@ -202,6 +275,12 @@ class ImuCorrector:
                                             thermal_max_age_s=self.thermal_max_age_s,
                                             equal=self.equal_variances)
         self.converter = None
+        self.imu_noise = None
+        if self.imu_input and not self.raw_scale > 0:
+            self.log.error(f'imu_input with a triad\'s file needs raw_scale_rad_per_pulse (K0, '
+                           f'the scale factor the driver publishes each channel\'s rate with, '
+                           f'ω = K0·Δn/Δt): set it; nothing is published from '
+                           f'{self.imu_input} until then.')
         k = ', '.join(f'{c} {v:.6g}' for c, v in zip(
             model.channels, model.scale_factor_rad_per_pulse, strict=True))
         self.log.info(
@@ -209,7 +288,7 @@ class ImuCorrector:
             f'(K = 1/|row of M⁻¹|: {k} rad/pulse), ω = M·ṅ − b with the full covariance '
             '(METHODS §F.6)' + (', equal variances (the largest) on every axis'
                                 if self.equal_variances else '')
-            + f'; reading {IMU_PULSES}, publishing {IMU_DATA}')
+            + f'; reading {self.imu_input or IMU_PULSES}, publishing {IMU_DATA}')
         if thermal:
             self.log.info('thermal bias of channel(s) ' + ', '.join(
                 f'{c} from {channel_temperature_topic(c)}' for c in thermal))
@@ -300,6 +379,32 @@ class ImuCorrector:
             self._held.extend(published)
             return self._paired()
         return published
+
+    # ------------------------------------------------------------ Imu mode
+
+    def on_imu(self, t_ns: int, angular_velocity_rad_s: tuple[float, float, float],
+               acceleration_m_s2: tuple[float, float, float],
+               acceleration_covariance: tuple[float, ...]) -> list[Output]:
+        """A message of the IMU driver's sensor_msgs/Imu (``imu_input``, issue 36 §5)."""
+        if not self.imu_input:
+            return []
+        last, self._imu_last = self._imu_last, (t_ns, np.asarray(angular_velocity_rad_s,
+                                                                 dtype=float))
+        rates: list[ImuAngularVelocity | Rejection] = []
+        if self.triad is not None and self.raw_scale > 0:
+            counts = (np.zeros(3) if last is None or self._imu_counts is None
+                      else self._imu_counts + np.asarray(angular_velocity_rad_s, dtype=float)
+                      / self.raw_scale * (t_ns - last[0]) * 1e-9)
+            self._imu_counts = counts
+            rates = self.triad.add_pulses(t_ns, list(self.triad.model.channels),
+                                          [float(c) for c in counts])
+        elif self.imu_noise is not None and last is not None and t_ns > last[0]:
+            rates = [self.imu_noise.rate(t_ns, (t_ns - last[0]) * 1e-9, angular_velocity_rad_s)]
+        if self.imu_noise is not None and last is not None and t_ns > last[0]:
+            acceleration_covariance = self.imu_noise.accel_covariance(
+                (t_ns - last[0]) * 1e-9, acceleration_covariance)
+        accel = self.on_accel(t_ns, acceleration_m_s2, acceleration_covariance)
+        return accel + self._outputs(rates)
 
     # ------------------------------------------------------- accelerometers
 

@@ -28,7 +28,11 @@ Parameters: ``calibration_file`` (hand-off YAML, :mod:`gyro_calib.handoff`; re-r
 every poll, so it may also be set at run time), ``use_k_tilde`` (take K̃ with θ = 0 when the
 file has no K), ``frame_id`` (single gyro), ``imu_frame_id`` (triad), ``equal_variances``,
 ``reload_period_s``, ``gyro_id``, ``thermal_max_age_s``, ``accel_input`` and
-``accel_tolerance_s``.
+``accel_tolerance_s``, ``imu_input`` and ``raw_scale_rad_per_pulse``.
+
+**Imu mode** (``imu_input``, issue 36 §5): a MEMS or FOG IMU driver's sensor_msgs/Imu in,
+/imu/data out with the message's own accelerometers (see
+:mod:`gyro_calib.nodes.imu_corrector_core`).
 A file without the scale factor it needs is refused, naming the missing key; one without the
 bias is used with a warning (the rates are then not bias-corrected).
 The file is polled (inode, mtime, size) and reloaded when it changes; a missing or bad
@@ -133,6 +137,14 @@ class ImuCorrectorNode(Node):
             description='With accel_input: an accelerometer sample pairs with the rate of '
                         'the same stamp within this many seconds.',
             floating_point_range=[FloatingPointRange(from_value=0.0, to_value=1.0)]))
+        declare_parameter_value(self, 'imu_input', '', ParameterDescriptor(description=(
+            'Imu mode: a MEMS or FOG IMU driver\'s sensor_msgs/Imu topic, corrected with the '
+            'hand-off\'s gyro model (a triad file: M, b, thermal model, full covariance, with '
+            'raw_scale_rad_per_pulse; an IMU noise run\'s file: per-sample covariance) and '
+            'published on /imu/data with its accelerometers; \'\' = off.')))
+        declare_parameter_value(self, 'raw_scale_rad_per_pulse', 0.0, ParameterDescriptor(
+            description='Imu mode with a triad file: the common scale factor K0 the driver '
+                        'publishes each channel\'s rate with (ω = K0·Δn/Δt), rad/pulse.'))
         self.frame_ids = {GYRO_IMU: self.get_parameter('frame_id').value,
                           IMU_DATA: self.get_parameter('imu_frame_id').value}
         self.core = ImuCorrector(
@@ -142,7 +154,9 @@ class ImuCorrectorNode(Node):
             equal_variances=bool(self.get_parameter('equal_variances').value),
             accel_input=str(self.get_parameter('accel_input').value),
             accel_tolerance_ns=int(round(
-                float(self.get_parameter('accel_tolerance_s').value) * 1e9)))
+                float(self.get_parameter('accel_tolerance_s').value) * 1e9)),
+            imu_input=str(self.get_parameter('imu_input').value),
+            raw_scale_rad_per_pulse=float(self.get_parameter('raw_scale_rad_per_pulse').value))
         self.add_on_set_parameters_callback(self._check_runtime_change)
         self.pubs: dict[str, Publisher[Imu]] = {
             GYRO_IMU: self.create_publisher(Imu, relative(GYRO_IMU), IMU_QOS),
@@ -156,7 +170,9 @@ class ImuCorrectorNode(Node):
                                  SENSOR_QOS)
         self.create_subscription(Temperature, relative(topics.GYRO_TEMPERATURE),
                                  self._on_temperature, SENSOR_QOS)
-        if self.core.accel_input:
+        if self.core.imu_input:
+            self.create_subscription(Imu, self.core.imu_input, self._on_imu, SENSOR_QOS)
+        elif self.core.accel_input:
             self.create_subscription(Imu, self.core.accel_input, self._on_accel, SENSOR_QOS)
         self._poll_file()
         self.create_timer(self.get_parameter('reload_period_s').value, self._poll_file)
@@ -195,6 +211,12 @@ class ImuCorrectorNode(Node):
     def _on_imu_pulses(self, msg: JointState) -> None:
         self._publish(self.core.on_imu_pulses(stamp_to_ns(msg.header.stamp), list(msg.name),
                                               list(msg.position)))
+
+    def _on_imu(self, msg: Imu) -> None:
+        w, a = msg.angular_velocity, msg.linear_acceleration
+        self._publish(self.core.on_imu(stamp_to_ns(msg.header.stamp), (w.x, w.y, w.z),
+                                       (a.x, a.y, a.z),
+                                       tuple(msg.linear_acceleration_covariance)))
 
     def _on_accel(self, msg: Imu) -> None:
         a = msg.linear_acceleration
