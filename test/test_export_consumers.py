@@ -475,3 +475,149 @@ def test_robot_localization_fuses_no_acceleration_the_stream_does_not_carry(
     q = ros_parameters(export(triad_handoff, 'robot-localization', accel_topic='/imu/driver'),
                        'ekf_filter_node', declared)
     assert q['imu0_config'][12:] == [True, True, True]
+
+
+# -- 8. --merge-into THEIR_FILE: their config, only our keys replaced --------------------------
+
+THEIR_FAST_LIO = '''\
+/**:
+    ros__parameters:
+        feature_extract_enable: false
+        max_iteration: 3   # my tuning
+
+        common:
+            lid_topic:  "/livox/lidar"
+            imu_topic:  "/livox/imu"   # old
+            time_sync_en: false
+
+        mapping:
+            acc_cov: 0.1
+            gyr_cov: 0.1   # default
+            b_acc_cov: 0.0001
+            b_gyr_cov: 0.0001
+            fov_degree:    360.0
+            extrinsic_T: [ -0.011, -0.02329, 0.04412 ]
+            extrinsic_R: [ 1., 0., 0.,
+                           0., 1., 0.,
+                           0., 0., 1. ]
+'''
+
+THEIR_VINS = '''\
+%YAML:1.0
+
+#common parameters
+imu: 1
+num_of_cam: 2
+
+imu_topic: "/imu0"
+image0_topic: "/cam0/image_raw"
+output_path: "/home/me/output/"
+
+body_T_cam0: !!opencv-matrix
+   rows: 4
+   cols: 4
+   dt: d
+   data: [1.0, 0.0, 0.0, 0.0,
+          0.0, 1.0, 0.0, 0.0,
+          0.0, 0.0, 1.0, 0.0,
+          0.0, 0.0, 0.0, 1.0]
+
+#imu parameters       The more accurate parameters you provide, the better performance
+acc_n: 0.1          # accelerometer measurement noise standard deviation.
+gyr_n: 0.01         # gyroscope measurement noise standard deviation.
+acc_w: 0.001        # accelerometer bias random work noise standard deviation.
+gyr_w: 0.0001       # gyroscope bias random work noise standard deviation.
+g_norm: 9.81007     # gravity magnitude
+'''
+
+THEIR_LIO_SAM = '''\
+/**:
+  ros__parameters:
+    # Topics
+    pointCloudTopic: "/points"
+    imuTopic: "/imu/raw"
+    sensor: velodyne
+    # IMU Settings
+    imuAccNoise: 3.9939570888238808e-03
+    imuGravity: 9.80511
+    extrinsicTrans: [0.0, 0.0, 0.0]
+'''
+
+
+def _changed(before: str, after: str) -> list[str]:
+    """Their lines that are no longer in the merged text."""
+    kept = after.split('\n')
+    return [ln for ln in before.split('\n') if ln not in kept]
+
+
+def test_merge_into_their_fast_lio_config_replaces_our_keys_only(
+        imu_handoff: Path, tmp_path: Path) -> None:
+    from gyro_calib.cli import main
+
+    theirs = tmp_path / 'mid360.yaml'
+    theirs.write_text(THEIR_FAST_LIO)
+    assert main(['export', str(imu_handoff), '--format', 'fast-lio', '--rate-hz', '200',
+                 '--merge-into', str(theirs), '--out', str(theirs)]) == 0
+    merged = theirs.read_text()
+    changed = _changed(THEIR_FAST_LIO, merged)
+    assert [ln.split(':')[0].strip() for ln in changed] == [
+        'imu_topic', 'acc_cov', 'gyr_cov', 'b_acc_cov', 'b_gyr_cov']
+    p = ros_parameters(merged, 'laser_mapping', {
+        **FAST_LIO_DECLARED, 'mapping.extrinsic_T': [0.0], 'max_iteration': 4,
+        'mapping.fov_degree': 180.0})
+    assert p['mapping.gyr_cov'] == pytest.approx(N ** 2 * RATE, rel=1e-6)
+    assert p['mapping.b_gyr_cov'] == pytest.approx(K ** 2 * RATE, rel=1e-6)
+    assert p['common.imu_topic'] == '/imu/data'
+    assert p['mapping.extrinsic_T'] == [-0.011, -0.02329, 0.04412]  # theirs, kept
+    assert p['max_iteration'] == 3 and '# my tuning' in merged
+
+
+def test_merge_into_their_vins_fusion_config_keeps_g_norm_and_cameras(
+        imu_handoff: Path, tmp_path: Path) -> None:
+    from gyro_calib.cli import main
+
+    theirs, out = tmp_path / 'euroc.yaml', tmp_path / 'merged.yaml'
+    theirs.write_text(THEIR_VINS)
+    assert main(['export', str(imu_handoff), '--format', 'vins-fusion', '--rate-hz', '200',
+                 '--merge-into', str(theirs), '--out', str(out)]) == 0
+    merged = out.read_text()
+    assert theirs.read_text() == THEIR_VINS  # --out elsewhere: their file untouched
+    assert [ln.split(':')[0] for ln in _changed(THEIR_VINS, merged)] == [
+        'imu_topic', 'acc_n', 'gyr_n', 'acc_w', 'gyr_w']
+    cfg = vins_fusion_config(merged)
+    assert cfg['g_norm'] == 9.81007 and cfg['imu'] == 1 and cfg['imu_topic'] == '/imu/data'
+    assert cfg['gyr_n'] == pytest.approx(N * np.sqrt(2 * RATE), rel=1e-6)
+    assert {'num_of_cam', 'body_T_cam0', 'image0_topic'} <= cfg['present']
+
+
+def test_merge_into_adds_a_key_they_lack_inside_their_block(
+        imu_handoff: Path, tmp_path: Path) -> None:
+    from gyro_calib.cli import main
+
+    theirs = tmp_path / 'params.yaml'
+    theirs.write_text(THEIR_LIO_SAM)
+    assert main(['export', str(imu_handoff), '--format', 'lio-sam',
+                 '--merge-into', str(theirs), '--out', str(theirs)]) == 0
+    merged = theirs.read_text()
+    p = ros_parameters(merged, 'lio_sam_imu_preintegration',
+                       {**LIO_SAM_DECLARED, 'sensor': 'ouster', 'imuGravity': 9.8})
+    assert p['imuGyrNoise'] == pytest.approx(N, rel=1e-6)  # added: they had none
+    assert p['imuAccNoise'] == pytest.approx(NA, rel=1e-6)  # replaced
+    assert p['sensor'] == 'velodyne' and p['imuGravity'] == 9.80511
+    assert '    # IMU Settings' in merged
+
+
+def test_merge_into_refuses_in_one_line_what_it_cannot_place(
+        imu_handoff: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from gyro_calib.cli import main
+
+    theirs, out = tmp_path / 'bad.yaml', tmp_path / 'out.yaml'
+    theirs.write_text('/**:\n  ros__parameters:\n    common:\n      imu_topic: "/a"\n')
+    assert main(['export', str(imu_handoff), '--format', 'fast-lio', '--rate-hz', '200',
+                 '--merge-into', str(theirs), '--out', str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and 'mapping: block' in err
+    assert not out.exists()
+    assert main(['export', str(imu_handoff), '--format', 'openvins', '--rate-hz', '200',
+                 '--merge-into', str(theirs), '--out', str(out)]) == 2
+    assert 'lists or matrices' in capsys.readouterr().err

@@ -3,7 +3,8 @@
     gyro-calib export HANDOFF --format {kalibr,openvins,gtsam,lio-sam,fast-lio,vins-fusion,
                       autoware,robot-localization} --out FILE [--rate-hz HZ]
                       [--topic TOPIC] [--stream {compensated,raw}]
-                      [--raw-scale-rad-per-pulse K0]
+                      [--raw-scale-rad-per-pulse K0] [--accel-topic TOPIC]
+                      [--merge-into THEIR_FILE]
 
 The output path is checked before the hand-off is read; on any refusal (one line, exit 2)
 nothing is written and an existing FILE is left as it was; a FILE written is replaced
@@ -54,6 +55,10 @@ def add_commands(sub: Any) -> None:
                    help='the IMU driver\'s sensor_msgs/Imu topic imu_corrector passes the '
                    'accelerometers from (its accel_input); consumers that need accelerometers '
                    'refuse a single-gyro or triad stream without it')
+    p.add_argument('--merge-into', type=Path, metavar='THEIR_FILE',
+                   help='your own config (kalibr, vins-fusion, fast-lio, lio-sam, autoware): '
+                   'written to --out with only the keys the export writes replaced (order, '
+                   'other keys and comments kept); --out may be THEIR_FILE itself')
     p.add_argument('--stream', choices=STREAMS, default='compensated',
                    help='compensated (default): the consumer reads imu_corrector\'s output '
                    '(scale factor, axes, bias, thermal applied upstream); raw: the driver\'s '
@@ -81,10 +86,28 @@ def run_export(args: argparse.Namespace) -> int:
     options = ExportOptions(rate_hz=args.rate_hz, topic=args.topic, stream=args.stream,
                             raw_scale_rad_per_pulse=args.raw_scale_rad_per_pulse,
                             accel_topic=args.accel_topic)
+    theirs = _their_text(args.merge_into) if args.merge_into is not None else None
     text = export_text(args.handoff, args.format, options)
+    if theirs is not None:
+        from gyro_calib.export.merge import merge_into
+
+        text = merge_into(theirs, text, args.format, str(args.merge_into))
     write_text_atomically(out, text)
     print(f'wrote {out} ({args.format}).', file=sys.stderr)
     return 0
+
+
+def _their_text(path: Path) -> str:
+    """The user's config for --merge-into (one-line refusal if it cannot be read)."""
+    try:
+        return path.read_text(encoding='utf-8')
+    except FileNotFoundError:
+        raise ConfigError(f'export: --merge-into {path}: no such file; give your own config '
+                          'file. Nothing was written.') from None
+    except (OSError, UnicodeDecodeError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) else 'not UTF-8 text'
+        raise ConfigError(f'export: --merge-into {path}: cannot be read ({why}). Nothing was '
+                          'written.') from None
 
 
 def _refuse_to_overwrite_records(out: Path) -> None:

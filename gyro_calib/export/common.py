@@ -125,7 +125,8 @@ def completeness_line(fmt: str) -> str:
     if not keys:
         return (f'COMPLETE {name}: every key the consumer requires is here; use the file as '
                 'it is.')
-    return (f'FRAGMENT of a {name}: merge these keys into yours, which must still set: '
+    return (f'FRAGMENT of a {name}: merge these keys into yours (gyro-calib export '
+            '--merge-into YOUR_FILE), which must still set: '
             + '; '.join(f'{k} ({why})' for k, why in keys) + '.')
 
 
