@@ -267,7 +267,9 @@ def test_autoware_stddevs_are_equal_per_message_and_offsets_zero_upstream(
         gyro_only_handoff: Path) -> None:
     p = values_of(export(gyro_only_handoff, 'autoware'))['/**']['ros__parameters']
     sd = [p[f'angular_velocity_stddev_{a}{a}'] for a in 'xyz']
-    assert sd[0] == sd[1] == sd[2] == pytest.approx(1.0e-4 * math.sqrt(RATE), rel=1e-6)
+    # N²·f and the count quantisation imu_corrector publishes, K²·f²/6 (issue 36 §4)
+    assert sd[0] == sd[1] == sd[2] == pytest.approx(
+        math.sqrt(1.0e-4 ** 2 * RATE + 4.0e-6 ** 2 * RATE ** 2 / 6), rel=1e-6)
     assert [p[f'angular_velocity_offset_{a}'] for a in 'xyz'] == [0.0, 0.0, 0.0]
     assert p['acceleration_stddev'] == 10000.0  # Autoware's own default: required (issue 36)
 

@@ -621,3 +621,41 @@ def test_merge_into_refuses_in_one_line_what_it_cannot_place(
     assert main(['export', str(imu_handoff), '--format', 'openvins', '--rate-hz', '200',
                  '--merge-into', str(theirs), '--out', str(out)]) == 2
     assert 'lists or matrices' in capsys.readouterr().err
+
+
+def test_single_gyro_corrector_publishes_the_per_sample_variance_the_exports_state(
+        tmp_path: Path) -> None:
+    """/gyro/imu's z variance at rest (N²·f + K²·f²/6) is the export's (issue 36 §4)."""
+    import re
+
+    from fake_node import FakeNode
+
+    from gyro_calib.handoff import Provenance, method_calibration, write_calibration
+    from gyro_calib.nodes.imu_corrector_core import GYRO_IMU, ImuCorrector
+    from gyro_calib.registry import handoff_schema
+
+    prov = Provenance('rlg.bag', 0, 10**12)
+    rbrlg = method_calibration('rbrlg', {
+        'k_tilde_rad_per_pulse': 4.0e-6, 'k_tilde_rad_per_pulse_std': 1e-13,
+        'scale_factor_rad_per_pulse': 4.0e-6, 'scale_factor_rad_per_pulse_std': 1e-13,
+        'fix_error_angle_rad': 1e-3, 'fix_error_angle_rad_std': 1e-6, 'window_pairs': 3,
+        'stations': 4, 'bias_rad_s': 7e-6, 'bias_rad_s_std': 3e-9}, prov)
+    noise = method_calibration('noise', {'angle_random_walk_rad_per_sqrt_s': 1e-4,
+                                         'angle_random_walk_rad_per_sqrt_s_std': 1e-6}, prov)
+    gyro_only_handoff = write_calibration(tmp_path / 'rlg.yaml',
+                                          noise.merged_into(rbrlg, handoff_schema()))
+    corrector = ImuCorrector(FakeNode())  # type: ignore[arg-type]
+    corrector.poll_file(str(gyro_only_handoff))
+    dt_ns, outs = int(round(1e9 / RATE)), []
+    for i in range(3):
+        outs += corrector.on_gyro_pulses(1_700_000_000_000_000_000 + i * dt_ns, ['gyro'],
+                                         [5000.0])
+    assert outs and all(topic == GYRO_IMU for topic, _ in outs)
+    published = outs[-1][1].covariance_rad2_s2[8]
+    text = export(gyro_only_handoff, 'robot-localization')
+    stated = float(re.search(r'angular_velocity_covariance of each message: diag (\S+)',
+                             text).group(1))  # type: ignore[union-attr]
+    assert stated == pytest.approx(published, rel=1e-6)
+    autoware = ros_parameters(export(gyro_only_handoff, 'autoware'), 'imu_corrector',
+                              AUTOWARE_DECLARED)
+    assert autoware['angular_velocity_stddev_zz'] ** 2 == pytest.approx(published, rel=1e-6)

@@ -200,7 +200,9 @@ def gyro_sample_variance(src: ExportSource, fmt: str, consumer_key: str, rate_hz
 
     The angle quantisation Q of a pulse gyro adds 2·Q²·f² to each rate sample (its rate PSD
     (4Q²/τ₀)·sin²(πfτ₀) integrated over the band); a dithered RLG's Q can dominate N²·f by
-    orders of magnitude. Q is taken where the hand-off holds it (or its 2σ bound).
+    orders of magnitude. Q is taken where the hand-off holds it (or its 2σ bound); a single
+    gyro's hand-off without it gets the count quantisation imu_corrector publishes, K²·f²/6
+    (2·Q² with Q = K/√12). A triad's is imu_corrector's M·C_ṅ·Mᵀ (:func:`triad_sample_variance`).
     """
     n, why = largest(src, fmt, 'gyro', 'N', consumer_key)
     if src.imu is not None and src.imu.pulses_to_body_rad is not None:
@@ -212,7 +214,13 @@ def gyro_sample_variance(src: ExportSource, fmt: str, consumer_key: str, rate_hz
         q = max(q_terms, key=lambda t: t.value)
         variance += 2.0 * q.value ** 2 * rate_hz ** 2
         text += f' + 2·({q.text(UNITS[("gyro", "Q")])})² × f² (angle quantisation per sample)'
+    elif src.count_scale_rad is not None:
+        k = src.count_scale_rad
+        variance += k * k * rate_hz ** 2 / 6.0
+        text += (f' + ({k:.6g} rad/count)² × f²/6 (the count quantisation imu_corrector adds '
+                 'to each rate, imu_conversion eq. (2))')
     return variance, text
+
 
 
 def triad_sample_variance(imu: ImuCalibration, rate_hz: float) -> tuple[float, str]:

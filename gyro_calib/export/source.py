@@ -107,6 +107,8 @@ class ExportSource:
         single_gyro_note: set when one gyro's terms stand for all three axes.
         sample_rate_hz: the noise run's sample rate, 1/τ₀ of its stored curves
             (``methods.noise.deviations``: τ₀ = tau_s[0]/m[0]); None without them.
+        count_scale_rad: a single pulse gyro's or FOG's rad per count (K, else K̃, else
+            1/SF), whose count quantisation imu_corrector adds to each rate; None otherwise.
     """
 
     path: str
@@ -119,6 +121,7 @@ class ExportSource:
     upstream: tuple[tuple[str, str], ...] = ()
     single_gyro_note: str = ''
     sample_rate_hz: float | None = None
+    count_scale_rad: float | None = None
 
     def why(self, key: str) -> str:
         """The hand-off's reason a key is absent, or 'not in the hand-off'."""
@@ -245,7 +248,21 @@ def read_source(path: str | Path) -> ExportSource:
         kind = 'imu'
     gyro_id = str(data.get('gyro_id') or '')
     return ExportSource(str(p), gyro_id, kind, gyro, accel, missing, imu, tuple(upstream),
-                        single, _noise_sample_rate(data))
+                        single, _noise_sample_rate(data),
+                        _count_scale(values) if kind == 'gyro' else None)
+
+
+def _count_scale(values: Mapping[str, Any]) -> float | None:
+    """A single gyro's rad per count (K, else K̃, else 1/SF of a FOG), or None."""
+    for key in ('scale_factor_rad_per_pulse', 'k_tilde_rad_per_pulse'):
+        v = _number(values.get(key))
+        if v:
+            return v
+    for key in ('fog_scale_factor_counts_per_rad', 'fog_self_cal_scale_factor_counts_per_rad'):
+        v = _number(values.get(key))
+        if v:
+            return 1.0 / v
+    return None
 
 
 def _noise_sample_rate(data: Mapping[str, Any]) -> float | None:
