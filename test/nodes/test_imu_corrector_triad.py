@@ -232,3 +232,61 @@ def test_triad_mode_with_an_accelerometer_input_carries_it_and_the_exported_vari
     finally:
         rclpy.shutdown(context=context)
         node.stop()
+
+
+def test_imu_mode_corrects_a_mems_drivers_imu_and_passes_its_accelerometers(
+        tmp_path: Path) -> None:
+    """Issue 36 §5 over DDS: imu_input's Imu in, /imu/data out.
+
+    With the message's own accelerometers and the per-sample covariance of the IMU's noise
+    run.
+    """
+    import rclpy
+    from sensor_msgs.msg import Imu
+    from test_imu_corrector_modes import _imu_noise_handoff
+
+    from gyro_calib.nodes.ros_io import SENSOR_QOS, make_executor, ns_to_stamp, publish_paced
+
+    handoff = _imu_noise_handoff(tmp_path / 'mems.yaml')
+    node = launch('imu_corrector', {'calibration_file': str(handoff), 'imu_input': '/mems/imu'})
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        bench = rclpy.create_node('test_imu_mode_bench', context=context)
+        driver = bench.create_publisher(Imu, '/mems/imu', SENSOR_QOS)
+        got: list[Any] = []
+        sub = bench.create_subscription(Imu, '/imu/data', got.append, SENSOR_QOS)
+        executor = make_executor(context)
+        executor.add_node(bench)
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and not (
+                driver.get_subscription_count() > 0 and sub.get_publisher_count() > 0
+                and 'publishing /imu/data' in node.log()):
+            executor.spin_once(timeout_sec=0.05)
+        assert driver.get_subscription_count() > 0, node.log()
+        n, dt_ns = 30, 5_000_000
+        for i in range(n):
+            imu = Imu()
+            ns_to_stamp(T0_NS + i * dt_ns, imu.header.stamp)
+            w, a = imu.angular_velocity, imu.linear_acceleration
+            w.x, w.y, w.z = 0.01 * i, -0.02, 0.3
+            a.x, a.y, a.z = 0.0, 0.1 * i, 9.81
+            publish_paced(driver, imu)
+            executor.spin_once(timeout_sec=0.002)
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and len(got) < n - 1:
+            executor.spin_once(timeout_sec=0.05)
+        assert len(got) == n - 1, node.log()
+        f = 1e9 / dt_ns
+        for msg in got:
+            i = (msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec - T0_NS) // dt_ns
+            assert (msg.angular_velocity.x, msg.angular_velocity.z) == (0.01 * i, 0.3)
+            assert (msg.linear_acceleration.y, msg.linear_acceleration.z) == (0.1 * i, 9.81)
+            assert msg.angular_velocity_covariance[4] == pytest.approx(1.2e-4 ** 2 * f,
+                                                                       rel=1e-9)
+            assert msg.linear_acceleration_covariance[0] == pytest.approx(1e-3 ** 2 * f,
+                                                                          rel=1e-9)
+        bench.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+        node.stop()
