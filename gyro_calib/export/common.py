@@ -283,6 +283,10 @@ def header(src: ExportSource, fmt: str, options: ExportOptions,
     stream = ('the stream compensated upstream by gyro_calib imu_corrector (scale factor, '
               'axes, bias and thermal model removed there)' if options.stream == 'compensated'
               else 'the sensor driver\'s raw stream')
+    if options.stream == 'compensated' and src.kind == 'imu':
+        stream = ('the stream of gyro_calib imu_corrector\'s Imu mode (-p imu_input:='
+                  'YOUR_IMU_DRIVER_TOPIC: the driver\'s rates with this noise run\'s '
+                  'per-sample covariance, its accelerometers passed through)')
     out = [completeness_line(fmt),
            f'{fmt} parameters from gyro_calib hand-off {src.path}'
            + (f' (gyro_id {src.gyro_id})' if src.gyro_id else '')
