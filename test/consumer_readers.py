@@ -141,3 +141,37 @@ def ros_parameters(text: str, node_name: str, declared: dict[str, Any]) -> dict[
     finally:
         rclpy.shutdown(context=context)
         Path(f.name).unlink()
+
+
+def gyro_white_noise_as_read(fmt: str, text: str) -> dict[str, Any]:
+    """The gyro white-noise number each consumer's reader takes from our file, by its key.
+
+    Kalibr/OpenVINS/LIO-SAM: the density N; GTSAM: the largest diagonal of
+    gyroscope_covariance (N²); VINS-Fusion: gyr_n (N·√(2f)); FAST-LIO: mapping.gyr_cov and
+    Autoware: angular_velocity_stddev_zz (per sample); robot_localization: the topic it reads.
+    """
+    import yaml
+    from rclpy.parameter import Parameter
+
+    if fmt == 'kalibr':
+        return {'gyroscope_noise_density': yaml.safe_load(text)['gyroscope_noise_density']}
+    if fmt == 'openvins':
+        return {'gyroscope_noise_density': openvins_imu0(text)['gyroscope_noise_density']}
+    if fmt == 'vins-fusion':
+        return {'gyr_n': vins_fusion_config(text)['gyr_n']}
+    if fmt == 'gtsam':
+        import gtsam
+
+        data = yaml.safe_load(text)
+        p = gtsam.PreintegrationParams.MakeSharedU(9.81)
+        p.setGyroscopeCovariance(np.asarray(data['gyroscope_covariance'], dtype=float))
+        return {'gyroscope_covariance': float(np.max(np.diag(p.getGyroscopeCovariance())))}
+    if fmt == 'lio-sam':
+        return ros_parameters(text, 'lio_sam_imu_preintegration', {'imuGyrNoise': 1.6e-4})
+    if fmt == 'fast-lio':
+        return ros_parameters(text, 'laser_mapping', {'mapping.gyr_cov': 0.1})
+    if fmt == 'autoware':
+        return ros_parameters(text, 'imu_corrector', {'angular_velocity_stddev_zz': 0.03})
+    if fmt == 'robot-localization':
+        return ros_parameters(text, 'ekf_filter_node', {'imu0': Parameter.Type.STRING})
+    raise AssertionError(fmt)

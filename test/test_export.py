@@ -370,6 +370,22 @@ def test_a_committed_imu_bag_exports_the_numbers_the_noise_methods_own_kalibr_fi
     p.setBiasOmegaCovariance(m['bias_omega_covariance'])
     assert np.max(np.diag(p.getGyroscopeCovariance())) == pytest.approx(
         theirs['gyroscope_noise_density'] ** 2, rel=1e-5)
+    # every format, read back by its consumer's own reader (issue 36)
+    from consumer_readers import gyro_white_noise_as_read
+
+    n, f = theirs['gyroscope_noise_density'], theirs['update_rate']
+    got = {fmt: gyro_white_noise_as_read(fmt, export(handoff, fmt, rate_hz=f))
+           for fmt in FORMATS}
+    for fmt in ('kalibr', 'openvins'):
+        assert got[fmt]['gyroscope_noise_density'] == pytest.approx(n, rel=1e-6)
+    assert got['lio-sam']['imuGyrNoise'] == pytest.approx(n, rel=1e-6)
+    assert got['gtsam']['gyroscope_covariance'] == pytest.approx(n * n, rel=1e-5)
+    assert got['vins-fusion']['gyr_n'] == pytest.approx(n * math.sqrt(2 * f), rel=1e-6)
+    per_sample = got['fast-lio']['mapping.gyr_cov']
+    assert per_sample >= n * n * f * (1 - 1e-6)  # N²·f and the angle quantisation
+    assert got['autoware']['angular_velocity_stddev_zz'] ** 2 == pytest.approx(per_sample,
+                                                                              rel=1e-5)
+    assert got['robot-localization']['imu0'] == '/imu/data'
 
 
 def test_triad_noise_follows_each_channel_to_the_body_axis_its_sense_axis_is_along(
