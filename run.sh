@@ -70,6 +70,6 @@ case "$cmd" in
   demo) setup; exec "$VENV/bin/bench_demo" "$@" ;;
   test) setup; exec "$VENV/bin/python" -m pytest "$@" ;;
   setup) setup ;;
-  *) echo "usage: ./run.sh demo|test|setup [--ros kilted|jazzy] [demo options | pytest args]" >&2
+  *) echo "usage: ./run.sh demo [--ros kilted|jazzy] [--pairs N --speed X --seed N --out FILE] | ./run.sh test [--ros kilted|jazzy] [pytest args]" >&2
      exit 2 ;;
 esac
