@@ -85,3 +85,14 @@ def test_a_build_for_a_supported_distribution_goes_on(distro: str) -> None:
                             capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     assert result.stdout.strip().splitlines()[-1] == '0.2.0'
+
+
+@pytest.mark.parametrize('command', [['test', '--ros', 'humble'], ['demo', '--ros', ''],
+                                     ['demo', '--ros']])
+def test_run_sh_refuses_an_unsupported_distribution_in_one_line(command: list[str]) -> None:
+    env = {k: v for k, v in os.environ.items() if k != 'GYRO_CALIB_ROS'}
+    result = subprocess.run(['bash', str(REPO / 'run.sh'), *command], cwd=REPO, env=env,
+                            capture_output=True, text=True, timeout=60)
+    assert (result.returncode, result.stdout) == (2, '')
+    (line,) = result.stderr.splitlines()
+    assert line.startswith('run.sh: --ros must be kilted or jazzy')
