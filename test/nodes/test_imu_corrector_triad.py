@@ -201,7 +201,7 @@ def test_triad_mode_with_an_accelerometer_input_carries_it_and_the_exported_vari
         while time.monotonic() < deadline and not (
                 pulses.get_subscription_count() > 0 and driver.get_subscription_count() > 0
                 and sub.get_publisher_count() > 0 and 'publishing /imu/data' in node.log()):
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert driver.get_subscription_count() > 0, node.log()
         n, dt_ns = 40, 5_000_000
         accel = [(0.01 * i, -0.02 * i, 9.81 + 1e-3 * i) for i in range(n)]
@@ -216,10 +216,10 @@ def test_triad_mode_with_an_accelerometer_input_carries_it_and_the_exported_vari
             imu.linear_acceleration_covariance = acc_cov
             publish_paced(pulses, js)
             publish_paced(driver, imu)
-            executor.spin_once(timeout_sec=0.002)
+            spin_watched(executor, timeout_sec=0.002)
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline and len(got) < n - 1:
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert len(got) == n - 1, node.log()
         for msg in got:
             i = (msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec - T0_NS) // dt_ns
@@ -262,7 +262,7 @@ def test_imu_mode_corrects_a_mems_drivers_imu_and_passes_its_accelerometers(
         while time.monotonic() < deadline and not (
                 driver.get_subscription_count() > 0 and sub.get_publisher_count() > 0
                 and 'publishing /imu/data' in node.log()):
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert driver.get_subscription_count() > 0, node.log()
         n, dt_ns = 30, 5_000_000
         for i in range(n):
@@ -272,10 +272,10 @@ def test_imu_mode_corrects_a_mems_drivers_imu_and_passes_its_accelerometers(
             w.x, w.y, w.z = 0.01 * i, -0.02, 0.3
             a.x, a.y, a.z = 0.0, 0.1 * i, 9.81
             publish_paced(driver, imu)
-            executor.spin_once(timeout_sec=0.002)
+            spin_watched(executor, timeout_sec=0.002)
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline and len(got) < n - 1:
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert len(got) == n - 1, node.log()
         f = 1e9 / dt_ns
         for msg in got:
