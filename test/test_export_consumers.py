@@ -659,3 +659,35 @@ def test_single_gyro_corrector_publishes_the_per_sample_variance_the_exports_sta
     autoware = ros_parameters(export(gyro_only_handoff, 'autoware'), 'imu_corrector',
                               AUTOWARE_DECLARED)
     assert autoware['angular_velocity_stddev_zz'] ** 2 == pytest.approx(published, rel=1e-6)
+
+
+def test_merge_into_twice_gives_the_same_file_and_an_empty_file_is_refused_or_filled(
+        imu_handoff: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A second run changes nothing; an empty file is refused or filled.
+
+    FAST-LIO's blocks are missing from it (one-line refusal); Kalibr's keys are top level
+    (all written).
+    """
+    import yaml
+
+    from gyro_calib.cli import main
+
+    theirs = tmp_path / 'mid360.yaml'
+    theirs.write_text(THEIR_FAST_LIO)
+    run = ['export', str(imu_handoff), '--format', 'fast-lio', '--rate-hz', '200',
+           '--merge-into', str(theirs), '--out', str(theirs)]
+    assert main(run) == 0
+    once = theirs.read_text()
+    assert main(run) == 0
+    assert theirs.read_text() == once
+    empty = tmp_path / 'empty.yaml'
+    empty.write_text('')
+    assert main(['export', str(imu_handoff), '--format', 'fast-lio', '--rate-hz', '200',
+                 '--merge-into', str(empty), '--out', str(empty)]) == 2
+    assert empty.read_text() == ''
+    capsys.readouterr()
+    assert main(['export', str(imu_handoff), '--format', 'kalibr', '--rate-hz', '200',
+                 '--merge-into', str(empty), '--out', str(empty)]) == 0
+    from gyro_calib.export.kalibr import KEYS
+
+    assert set(yaml.safe_load(empty.read_text())) == set(KEYS)
