@@ -153,7 +153,7 @@ def test_a_misalignment_limit_passes_on_one_side_and_fails_on_the_other(
     others = [r for r in cert.rows if r.group == 'imu.misalignment_rad'
               and r.key != 'imu.x.misalignment_y_rad']
     assert len(others) == 5 and all(r.verdict == PASS for r in others)
-    assert all(r.limit == '−700 … 700 ″'.replace('−', '-') for r in others)
+    assert all(r.limit == '-700 … 700 ″' for r in others)
     assert cert.overall == expected
     group_only = spec_from_dict({'quantities': {'imu.misalignment_rad': {
         'unit': '″', 'max': max(r.value_si * r.factor for r in others) - 1.0}}})
@@ -268,3 +268,27 @@ def test_calibrate_report_certifies_a_remount_triad(tmp_path: Path,
     html = (certs / 'R-9.html').read_text(encoding='utf-8')
     assert 'remount on a single-axis rate table' in html and 'none: the remount' in html
     assert (certs / 'R-9.pdf').read_bytes().startswith(b'%PDF')
+
+
+def test_an_imu_certificate_is_issued_by_a_lab_under_the_next_number_of_its_register(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Lab identity and register as for one gyro: a number, the customer, never replaced."""
+    from test_certificate_lab import write_lab
+
+    from gyro_calib.handoff import write_calibration
+
+    handoff = tmp_path / 'imu.yaml'
+    write_calibration(handoff, small_imu())
+    out = tmp_path / 'certs'
+    write_lab(out)
+    argv = ['report', str(handoff), '--out', str(out), '--no-pdf', '--customer', 'ACME Nav']
+    assert main(argv) == 0
+    capsys.readouterr()
+    html = (out / 'imu-9.html').read_text(encoding='utf-8')
+    register = (out / 'certificate_numbers.tsv').read_text(encoding='utf-8')
+    number = [line.split('\t')[1] for line in register.splitlines()
+              if not line.startswith('#')]
+    assert len(number) == 1 and f'<td id="certificate-number">{number[0]}</td>' in html
+    assert 'ACME Nav' in html and 'the item calibrated, IMU imu-9' in html
+    assert main(argv) == 2  # an issued certificate is never replaced
+    assert 'issued certificate' in capsys.readouterr().err

@@ -187,7 +187,7 @@ def imu_quantities(imu: ImuCalibration,
             out.append(ImuQuantity(
                 f'imu.{ch[i]}.misalignment_{BODY_AXES[j]}_rad',
                 f'channel {ch[i]}: misalignment of its sense axis toward body {BODY_AXES[j]}, '
-                f'm = s_i{BODY_AXES[j]}/s_i{BODY_AXES[i]} (small angle)', value, std, dof[i],
+                f'm = s·e_{BODY_AXES[j]}/s·e_{BODY_AXES[i]} (small angle)', value, std, dof[i],
                 ch[i], f'misalignment_{BODY_AXES[j]}_rad', f'imu.{ch[i]}.sense_axis_rad',
                 '' if u_of else bound))
         angle = math.atan2(math.hypot(*[s[i, j] for j in range(3) if j != i]), s[i, i])
