@@ -246,28 +246,28 @@ def test_an_imu_spec_key_is_not_applicable_to_a_gyro_and_not_measured_on_an_imu_
 
 def test_report_writes_the_imu_certificate_with_the_runs_budget_from_the_bags(
         handoffs: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """`gyro-calib report H.yaml BAGS --out DIR`: the run's sources, the tilt α fitted."""
-    procedure = 'two_axis'
-    path = handoffs[procedure]
+    """`gyro-calib report H.yaml BAGS --out DIR` of the remount: the run's sources, its mounts."""
     out = tmp_path / 'certs'
-    assert main(['report', str(path), *map(str, PROCEDURES[procedure]), '--out', str(out),
+    assert main(['report', str(handoffs['remount']), *map(str, REMOUNT), '--out', str(out),
                  '--no-pdf']) == 0
     assert 'certificate written' in capsys.readouterr().out
     html = (out / 'IMU-7.html').read_text(encoding='utf-8')
     assert '— IMU IMU-7</h1>' in html and 'id="imu-conditions"' in html
-    assert 'swept angle' in html and 'tilt α' in html and 'fitted: +' in html
+    assert 'remount on a single-axis rate table' in html and 'none: the remount' in html
+    assert 'swept angle' in html and 'mount +x: 2' in html
     assert 'data-key="imu.x.misalignment_y_rad"' in html
 
 
-def test_calibrate_report_certifies_a_remount_triad(tmp_path: Path,
-                                                     capsys: pytest.CaptureFixture[str]) -> None:
+def test_calibrate_report_certifies_a_two_axis_triad_with_its_fitted_tilt(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out, certs = tmp_path / 'imu.yaml', tmp_path / 'certs'
-    assert main(['calibrate', *map(str, REMOUNT), '--method', 'triad', '--gyro-id', 'R-9',
-                 '--out', str(out), '--report', str(certs), '--no-progress']) == 0
-    assert f'certificate written: {certs / "R-9.pdf"}' in capsys.readouterr().out
-    html = (certs / 'R-9.html').read_text(encoding='utf-8')
-    assert 'remount on a single-axis rate table' in html and 'none: the remount' in html
-    assert (certs / 'R-9.pdf').read_bytes().startswith(b'%PDF')
+    assert main(['calibrate', *map(str, PROCEDURES['two_axis']), '--method', 'triad',
+                 '--gyro-id', 'A-9', '--out', str(out), '--report', str(certs),
+                 '--no-progress']) == 0
+    assert f'certificate written: {certs / "A-9.pdf"}' in capsys.readouterr().out
+    html = (certs / 'A-9.html').read_text(encoding='utf-8')
+    assert 'two-axis bench' in html and 'tilt α' in html and 'fitted: +' in html
+    assert (certs / 'A-9.pdf').read_bytes().startswith(b'%PDF')
 
 
 def test_an_imu_certificate_is_issued_by_a_lab_under_the_next_number_of_its_register(
