@@ -292,3 +292,49 @@ def test_an_imu_certificate_is_issued_by_a_lab_under_the_next_number_of_its_regi
     assert 'ACME Nav' in html and 'the item calibrated, IMU imu-9' in html
     assert main(argv) == 2  # an issued certificate is never replaced
     assert 'issued certificate' in capsys.readouterr().err
+
+
+def triad_evidence(estimates: dict[str, Any]) -> Any:
+    """What a triad run on bags tells the certificate: these estimates, no figure."""
+    from gyro_calib.report.evidence import MethodEvidence, RunEvidence
+
+    return RunEvidence((MethodEvidence('triad', 'triad', estimates, {}, {}, (), (), (), (),
+                                       None),), (), ())
+
+
+def test_a_hand_off_value_the_bags_contradict_is_refused_unless_accepted() -> None:
+    """A stale hand-off (K_gy 10 u off what the bags give): refused, naming it.
+
+    With --accept-handoff-values it is certified as it stands, the row saying what the bags
+    give.
+    """
+    from gyro_calib.estimate import Estimate
+
+    cal = small_imu()
+    assert cal.imu is not None and cal.imu.scale_factor_rad_per_pulse is not None
+    k, u = float(cal.imu.scale_factor_rad_per_pulse[1]), 1.3e-13
+    bags = triad_evidence({'imu.gy.scale_factor_rad_per_pulse': Estimate(k + 10 * u, u, 6, 3)})
+    with pytest.raises(ConfigError, match='imu.gy.scale_factor_rad_per_pulse.*contradicted|'
+                       'contradicted.*imu.gy.scale_factor_rad_per_pulse'):
+        build_certificate(cal, bags)
+    cert = build_certificate(cal, bags, accept_handoff_values=True)
+    row = next(r for r in cert.rows if r.key == 'imu.gy.scale_factor_rad_per_pulse')
+    assert row.value_si == k and 'but the bags give' in row.note
+    same = triad_evidence({'imu.gy.scale_factor_rad_per_pulse': Estimate(k, u, 12, 9),
+                           'imu.gy.sense_axis_rad': Estimate(1.0, 0.1, 12, 9)})
+    agreed = build_certificate(cal, same)
+    row = next(r for r in agreed.rows if r.key == 'imu.gy.scale_factor_rad_per_pulse')
+    assert row.n == '12' and row.dof_value == 9.0  # ν as the hand-off states it, n the run's
+    assert any('imu.gy.sense_axis_rad' in n and 'not certified' in n for n in agreed.notes)
+
+
+def test_an_imu_without_its_bias_is_not_complete() -> None:
+    cal = small_imu()
+    assert cal.imu is not None
+    without = dataclasses.replace(cal, imu=dataclasses.replace(
+        cal.imu, bias_rad_s=None, bias_rad_s_std=None,
+        missing={'bias_rad_s': 'the bias needs the site latitude (--latitude-deg)'}))
+    assert build_certificate(cal).complete
+    cert = build_certificate(without)
+    assert not cert.complete
+    assert dict(cert.imu_conditions)['not measured: imu.bias_rad_s'].startswith('the bias needs')

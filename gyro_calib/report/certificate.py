@@ -444,8 +444,10 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                 notes.append(f'{key}: {note}.')
         rows.append(_quantity_row(key, method, description, value, std, est_n, budget, spec,
                                   True, note, entry.get('dof'), _interval_of(key, values)))
+    imu_estimates: set[str] = set()  # the run's imu.* estimates the IMU's rows compared
     if calibration.imu is not None:
-        rows.extend(_imu_rows(calibration, ev_methods, spec, sch, contradicted, notes))
+        rows.extend(_imu_rows(calibration, ev_methods, spec, sch, contradicted, notes,
+                              imu_estimates))
     if contradicted and not accept_handoff_values:
         worst = max(contradicted, key=lambda c: c[0])[1]
         more = f' (and {len(contradicted) - 1} more value(s))' if len(contradicted) > 1 else ''
@@ -454,7 +456,12 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                           'calibrated from (with its settings), or --accept-handoff-values to '
                           'certify the file\'s values as they stand.')
     for key, (m, est) in sorted(estimates.items(), key=lambda kv: (kv[1][0].method, kv[0])):
-        if key in generic or is_imu_key(key):  # an IMU's are its rows above
+        if key in generic or key in imu_estimates or key.startswith('imu.fitted.'):
+            continue  # an IMU's are its rows above; a fitted bench parameter its conditions
+        if is_imu_key(key):
+            notes.append(f'{key}: the bags given measure it ({est.value:.6g} ± '
+                         f'{est.std_uncertainty:.2g}, SI) but the hand-off file\'s imu: section '
+                         'does not hold it: not certified.')
             continue
         rows.append(_quantity_row(key, m.method, 'measured by the session; not a hand-off key',
                                   est.value, est.std_uncertainty, est.n_used,
@@ -555,7 +562,9 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         software=f'gyro_calib {__version__} (hand-off written by '
         f'{calibration.gyro_calib_version or "?"})', handoff_path=handoff_path,
         calibrated_utc=' … '.join(dict.fromkeys([created[0], created[-1]])) if created else '',
-        complete=calibration.complete, rows=tuple(rows), facts=tuple(facts),
+        complete=calibration.complete and not (calibration.imu is not None
+                                               and calibration.imu.missing),
+        rows=tuple(rows), facts=tuple(facts),
         mappings=tuple(mappings), methods=tuple(sections), bags=bags, settings=settings,
         latitude=latitude, rule=rule, overall=verdict_all, spec_source=spec_source,
         spec_missing=tuple(spec_missing),
@@ -582,14 +591,16 @@ def _budget_rows(lines: tuple[BudgetLine, ...], std_si: float,
 
 def _imu_rows(calibration: Calibration, ev_methods: Mapping[str, MethodEvidence],
               spec: Spec | None, sch: Mapping[str, HandoffKey],
-              contradicted: list[tuple[float, str]], notes: list[str]) -> list[QuantityRow]:
+              contradicted: list[tuple[float, str]], notes: list[str],
+              compared: set[str]) -> list[QuantityRow]:
     """The rows of an IMU (:mod:`gyro_calib.report.imu`): the hand-off's values and ν.
 
     With the bags, K_i and b (and the noise terms) are compared with the run's as a gyro's
     values are (a contradiction is appended to ``contradicted``); the budget shown is the
     run's per source (METHODS §F eq. (12)), each component of a sense axis taking its
     source's share of the axis's. k is always from the hand-off's ν (the run's where the
-    hand-off states none), so a quantity has one ν on the certificate and in the file.
+    hand-off states none), so a quantity has one ν on the certificate and in the file. The
+    run's estimates compared are added to ``compared``.
     """
     imu = calibration.imu
     assert imu is not None
@@ -603,6 +614,8 @@ def _imu_rows(calibration: Calibration, ev_methods: Mapping[str, MethodEvidence]
         ev = ev_methods.get(method)
         est_key = q.estimate or (q.key if method == 'noise' else '')
         est = ev.estimates.get(est_key) if ev is not None and est_key else None
+        if est is not None:
+            compared.add(est_key)
         notes_q = [q.note] if q.note else []
         dof, n = q.dof, None
         lines: tuple[BudgetLine, ...] = ()
