@@ -1,15 +1,17 @@
 """The fleet files: ``fleet.csv``, ``fleet.parquet``, ``fleet.jsonl`` and ``fleet.html``.
 
-One row per gyro and quantity in CSV and Parquet: value, std and U in SI under the SI unit
-of the hand-off key (column ``unit``), the same in the certificate's unit beside them
-(``display_*``), k, n and ν as numbers, the limits as printed and as numbers (SI and
-display), the verdict, the gyro's overall verdict and input hashes. One JSON record per gyro
-(limits, verdicts, inputs, settings, status and reason), as production test records are kept
-for MES/SPC. An HTML page with each quantity's distribution across the fleet against its
-limits, yield, mean, spread (sample standard deviation), Cpk = min(USL − μ, μ − LSL)/(3σ),
-each gyro's deviation from the fleet mean and the outliers, linked to their certificates.
-A failed gyro has one row with its reason; after an interrupted run every gyro that did not
-finish has one row ``not run (interrupted)`` and every file says the run was interrupted.
+One row per gyro and quantity in CSV and Parquet: value, std and U in SI under the SI unit of
+the hand-off key (column ``unit``), the same in the certificate's unit beside them
+(``display_*``), k, n and ν as numbers, the limits as printed and as numbers (SI and display),
+the verdict, the gyro's overall verdict and input hashes; an IMU (a triad) has one row per
+channel instead (:data:`IMU_COLUMNS`: K, misalignments, axis angle, non-orthogonality, bias and
+ARW in SI with u, ν and verdicts; docs/certificates_imu.md). One JSON record per gyro (limits,
+verdicts, inputs, settings, status and reason), as production test records are kept for
+MES/SPC. An HTML page with each quantity's distribution across the fleet against its limits,
+yield, mean, spread (sample standard deviation), Cpk = min(USL − μ, μ − LSL)/(3σ), each gyro's
+deviation from the fleet mean and the outliers, linked to their certificates. A failed gyro has
+one row with its reason; after an interrupted run every gyro that did not finish has one row
+``not run (interrupted)`` and every file says the run was interrupted.
 """
 
 from __future__ import annotations
