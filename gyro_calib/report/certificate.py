@@ -653,9 +653,12 @@ def _imu_rows(calibration: Calibration, ev_methods: Mapping[str, MethodEvidence]
         row = _quantity_row(q.key, method, q.description, q.value, q.std, n, (), row_spec,
                             True, '; '.join(notes_q), dof)
         if lines:
+            split = ('the run\'s sources (METHODS §F eq. (12))' if method == 'triad'
+                     and not q.key.startswith('imu.bias_') else 'the run\'s')
+            nu = ('ν as the hand-off states it' if q.dof is not None
+                  else 'ν the run\'s (the hand-off states none)')
             row = dataclasses.replace(row, budget=_budget_rows(lines, q.std, row.factor),
-                                      k_note=f'{row.k_note}; budget: the run\'s sources '
-                                      '(METHODS §F eq. (12)); ν as the hand-off states it')
+                                      k_note=f'{row.k_note}; budget: {split}; {nu}')
         rows.append(dataclasses.replace(row, channel=q.channel, column=q.column,
                                         group=imu_group(q.key)))
     return rows
