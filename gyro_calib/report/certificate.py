@@ -12,7 +12,10 @@ spec quantity not measured makes the unit's verdict NO VERDICT, and a hand-off v
 bags contradict is refused (:data:`CONTRADICTION_U`) unless accepted. Only a certificate issued
 by a laboratory (an :class:`~gyro_calib.report.lab.Issue`: lab, number, customer) holds what
 ISO/IEC 17025 7.8.2, 7.8.4 and 7.8.6 ask, laid out in its template (:data:`TEMPLATE`); without
-one it is a draft and says so on every page.
+one it is a draft and says so on every page. An IMU (a triad's ``imu:`` section) is certified
+by its quantities — K_i, misalignments, axis angles, non-orthogonality, body biases, noise —
+as :mod:`gyro_calib.report.imu` derives them, with its conditions and M
+(docs/certificates_imu.md).
 """
 
 from __future__ import annotations
