@@ -533,11 +533,10 @@ def test_a_malformed_scheduler_address_is_refused_in_one_line(
     assert not (tmp_path / 'out').exists()
 
 
-def test_a_triad_gyro_keeps_its_hand_off_and_says_why_there_is_no_certificate() -> None:
-    """A triad in a fleet keeps its hand-off; its row says why there is no certificate.
+def test_a_triad_gyro_gets_its_hand_off_and_certificate() -> None:
+    """A triad in a fleet: the hand-off with its imu: section and the IMU's certificate.
 
-    The hand-off with its imu: section is written, the row says certificates do not cover a
-    triad yet; the result was lost before.
+    (It ended "failed" before issue 37; fleets of IMUs: test/test_batch_imu.py.)
     """
     from gyro_calib.batch.manifest import GyroJob
     from gyro_calib.batch.tasks import finish_gyro, plan_gyro, run_method
@@ -546,12 +545,13 @@ def test_a_triad_gyro_keeps_its_hand_off_and_says_why_there_is_no_certificate() 
     plan = plan_gyro(job, '', '', True)
     assert plan.methods == ('triad',), plan.error
     result = finish_gyro(job, plan, None, False, 'IMU-1', run_method(job, 'triad'))
-    assert result.record['status'] == 'failed'
-    assert 'hand-off kept (IMU-1/IMU-1.yaml)' in result.record['reason']
-    assert 'certificates do not cover a triad' in result.record['reason']
+    assert result.record['status'] == 'ok', result.record['reason']
     handoff = yaml.safe_load(result.files['IMU-1/IMU-1.yaml'])
     assert handoff['format_version'] == 4 and handoff['gyro_id'] == 'IMU-1'
     assert len(handoff['imu']['scale_factor_rad_per_pulse']) == 3
+    assert b'IMU IMU-1' in result.files['IMU-1/IMU-1.html']
+    channels = {q.get('channel') for q in result.record['certificate']['quantities']}
+    assert channels == {'x', 'y', 'z'}
 
 
 LAB_FILE = {'laboratory': {'name': 'Gyro Metrology Laboratory', 'address': '1 Bench Road'},

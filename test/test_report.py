@@ -49,7 +49,7 @@ from gyro_calib.session import CalibrationOptions
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 SCENARIO_BAGS = sorted(p.name for p in BAGS.iterdir()
                        if p.is_dir() and not p.name.startswith('triad_'))
-"""Every committed bag a certificate covers (a triad's imu: section is not yet: see below)."""
+"""Every committed bag of one gyro (a triad's certificate: test/test_certificate_imu.py)."""
 WITH_FIGURES = {'k_tilde_bench', 'theta_four_position', 'fog_mapping_self_cal', 'dither_z',
                 'thermal_validation', 'noise_rlg_static'}
 """One bag per method (two for the RBRLG: K̃ alone, K̃ + θ) is drawn with its figures; the
@@ -436,20 +436,22 @@ def test_every_dither_angle_of_the_hand_off_is_quoted_in_arcminutes() -> None:
         assert user_unit(key).label == '′', key
 
 
-def test_a_triad_hand_off_is_refused_in_one_line_saying_certificates_do_not_cover_it_yet(
+def test_an_imu_section_with_nothing_measured_is_refused_in_one_line(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """report: one line, exit 2; calibrate --report: refused before any work, nothing written."""
+    """A hand-off whose imu: section names the channels only: nothing to certify, exit 2.
+
+    (A triad's certificate is test/test_certificate_imu.py.)
+    """
+    import dataclasses
+
+    from gyro_calib.handoff import Provenance, method_calibration, write_calibration
+    from gyro_calib.imu_calibration import ImuCalibration
+
     handoff = tmp_path / 'imu.yaml'
-    assert main(['calibrate', str(BAGS / 'triad_two_axis_bench'), '--method', 'triad',
-                     '--out', str(handoff), '--no-progress']) == 0
-    capsys.readouterr()
+    record = method_calibration('triad', {}, Provenance('bench', 1, 2))
+    write_calibration(handoff, dataclasses.replace(record, imu=ImuCalibration(('x', 'y', 'z'))))
     assert main(['report', str(handoff), '--out', str(tmp_path / 'certs'), '--no-pdf']) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and 'certificates do not cover a triad yet' in err
-    assert not (tmp_path / 'certs').exists()
-    out = tmp_path / 'again.yaml'
-    assert main(['calibrate', str(BAGS / 'triad_two_axis_bench'), '--method', 'triad',
-                     '--out', str(out), '--report', str(tmp_path / 'c2'), '--no-progress']) == 2
     run = capsys.readouterr()
-    assert run.out == '' and 'certificates do not cover a triad yet' in run.err
-    assert not out.exists() and not (tmp_path / 'c2').exists()
+    assert run.out == '' and len(run.err.strip().splitlines()) == 1
+    assert 'no measured quantity' in run.err and 'calibrate the triad first' in run.err
+    assert not (tmp_path / 'certs').exists()

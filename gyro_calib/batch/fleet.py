@@ -1,15 +1,17 @@
 """The fleet files: ``fleet.csv``, ``fleet.parquet``, ``fleet.jsonl`` and ``fleet.html``.
 
-One row per gyro and quantity in CSV and Parquet: value, std and U in SI under the SI unit
-of the hand-off key (column ``unit``), the same in the certificate's unit beside them
-(``display_*``), k, n and ν as numbers, the limits as printed and as numbers (SI and
-display), the verdict, the gyro's overall verdict and input hashes. One JSON record per gyro
-(limits, verdicts, inputs, settings, status and reason), as production test records are kept
-for MES/SPC. An HTML page with each quantity's distribution across the fleet against its
-limits, yield, mean, spread (sample standard deviation), Cpk = min(USL − μ, μ − LSL)/(3σ),
-each gyro's deviation from the fleet mean and the outliers, linked to their certificates.
-A failed gyro has one row with its reason; after an interrupted run every gyro that did not
-finish has one row ``not run (interrupted)`` and every file says the run was interrupted.
+One row per gyro and quantity in CSV and Parquet: value, std and U in SI under the SI unit of
+the hand-off key (column ``unit``), the same in the certificate's unit beside them
+(``display_*``), k, n and ν as numbers, the limits as printed and as numbers (SI and display),
+the verdict, the gyro's overall verdict and input hashes; an IMU (a triad) has one row per
+channel instead (:data:`IMU_COLUMNS`: K, misalignments, axis angle, non-orthogonality, bias and
+ARW in SI with u, ν and verdicts; docs/certificates_imu.md). One JSON record per gyro (limits,
+verdicts, inputs, settings, status and reason), as production test records are kept for
+MES/SPC. An HTML page with each quantity's distribution across the fleet against its limits,
+yield, mean, spread (sample standard deviation), Cpk = min(USL − μ, μ − LSL)/(3σ), each gyro's
+deviation from the fleet mean and the outliers, linked to their certificates. A failed gyro has
+one row with its reason; after an interrupted run every gyro that did not finish has one row
+``not run (interrupted)`` and every file says the run was interrupted.
 """
 
 from __future__ import annotations
@@ -26,18 +28,32 @@ from typing import Any
 
 import numpy as np
 
+from gyro_calib.report.imu import FLEET_COLUMNS
+from gyro_calib.report.spec import limit_for
+
+IMU_COLUMNS = ('channel', 'imu_non_orthogonality_with', *(
+    f'imu_{q}{part}' for q in FLEET_COLUMNS for part in ('', '_std', '_dof', '_verdict')))
+"""An IMU's channel row: the channel, then each quantity of
+:data:`gyro_calib.report.imu.FLEET_COLUMNS` as ``imu_<quantity>`` (SI value), ``_std``,
+``_dof`` (ν, integer) and ``_verdict``; ``imu_non_orthogonality_with`` names the channel the
+row's non-orthogonality is to."""
+
 COLUMNS = ('gyro_id', 'status', 'overall', 'key', 'method', 'unit', 'value', 'std', 'k', 'U',
            'n', 'dof', 'limit', 'verdict', 'in_handoff', 'inputs_sha256', 'reason',
            'lsl', 'usl', 'display_unit', 'display_value', 'display_std', 'display_U',
-           'display_lsl', 'display_usl', 'fleet_run', 'replaces')
+           'display_lsl', 'display_usl', 'fleet_run', 'replaces', *IMU_COLUMNS)
 """The columns of fleet.csv and fleet.parquet (new ones appended, old ones in place).
 
 ``replaces``: the number of the issued certificate this gyro's certificate replaced ('' none).
+A gyro has one row per quantity (``key`` … ``display_usl``); an IMU one row per channel
+(:data:`IMU_COLUMNS`; ``key`` empty, ``method`` triad), its quantities beyond those columns
+(the other noise terms) in fleet.jsonl and on the fleet page.
 """
 
 FLOAT_COLUMNS = frozenset({'value', 'std', 'k', 'U', 'lsl', 'usl', 'display_value',
-                           'display_std', 'display_U', 'display_lsl', 'display_usl'})
-INT_COLUMNS = frozenset({'n', 'dof'})
+                           'display_std', 'display_U', 'display_lsl', 'display_usl',
+                           *(f'imu_{q}{part}' for q in FLEET_COLUMNS for part in ('', '_std'))})
+INT_COLUMNS = frozenset({'n', 'dof', *(f'imu_{q}_dof' for q in FLEET_COLUMNS)})
 QUANTITY_FIELDS = ('key', 'method', 'unit', 'value', 'std', 'U', 'k', 'n', 'dof', 'limit',
                    'lsl', 'usl', 'verdict', 'in_handoff', 'display_unit', 'display_value',
                    'display_std', 'display_U', 'display_lsl', 'display_usl')
@@ -123,7 +139,8 @@ def spc_quantity(q: Mapping[str, Any], limit: Any = None) -> dict[str, Any]:
             'verdict': q.get('verdict') or '', 'in_handoff': q.get('in_handoff'),
             'display_unit': unit.label or unit.si, 'display_value': shown(value),
             'display_std': shown(std), 'display_U': shown(big_u), 'display_lsl': low,
-            'display_usl': high, 'value_si': value, 'std_si': std}
+            'display_usl': high, 'value_si': value, 'std_si': std,
+            **{k: q[k] for k in ('channel', 'column', 'group') if q.get(k)}}
 
 
 def fleet_record(record: Mapping[str, Any], spec_limits: Mapping[str, Any] | None = None,
@@ -134,7 +151,8 @@ def fleet_record(record: Mapping[str, Any], spec_limits: Mapping[str, Any] | Non
     if cert:
         limits = spec_limits or {}
         out['certificate'] = {**cert, 'quantities': [
-            spc_quantity(q, limits.get(q.get('key'))) for q in cert.get('quantities') or []]}
+            spc_quantity(q, limit_for(limits, str(q.get('key'))))
+            for q in cert.get('quantities') or []]}
     out['fleet_run'] = fleet_run
     return out
 
@@ -153,10 +171,33 @@ def fleet_rows(records: Sequence[dict[str, Any]], spec_limits: Mapping[str, Any]
         quantities = cert.get('quantities') or []
         if not quantities:
             rows.append({c: common.get(c) for c in COLUMNS})
+        channels: dict[str, list[dict[str, Any]]] = {}
         for q in quantities:
+            if q.get('channel'):
+                channels.setdefault(q['channel'], []).append(q)
+                continue
             rows.append({**{c: common.get(c) for c in COLUMNS},
                          **{c: q.get(c) for c in QUANTITY_FIELDS if c in COLUMNS}})
+        rows.extend(channel_row(common, channel, qs) for channel, qs in channels.items())
     return rows
+
+
+def channel_row(common: Mapping[str, Any], channel: str,
+                quantities: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """An IMU's row of one channel (:data:`IMU_COLUMNS`), its quantities in SI."""
+    row: dict[str, Any] = {**{c: common.get(c) for c in COLUMNS}, 'method': 'triad',
+                           'channel': channel}
+    for q in quantities:
+        column = q.get('column')
+        if column not in FLEET_COLUMNS:
+            continue
+        name = f'imu_{column}'
+        row.update({name: q.get('value'), f'{name}_std': q.get('std'),
+                    f'{name}_dof': q.get('dof'), f'{name}_verdict': q.get('verdict') or ''})
+        if column == 'non_orthogonality_rad':  # imu.<a>-<b>.non_orthogonality_rad
+            pair = str(q['key']).split('.')[1]
+            row['imu_non_orthogonality_with'] = pair[len(channel) + 1:]
+    return row
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
@@ -332,7 +373,7 @@ def fleet_html(records: Sequence[dict[str, Any]], spec_limits: dict[str, Any], *
     body.append(_gyro_table(recs))
     body.append('<h2>Quantities</h2>')
     for key in sorted(by_key):
-        body.append(_quantity_section(key, by_key[key], spec_limits.get(key)))
+        body.append(_quantity_section(key, by_key[key], limit_for(spec_limits, key)))
     style = ('body{font-family:"DejaVu Sans",Arial,sans-serif;font-size:10pt;max-width:1000px;'
              'margin:auto;background:#fff}table{border-collapse:collapse;margin:4px 0 10px}'
              'th,td{border:1px solid #bbb;padding:2px 5px;text-align:left}th{background:#eee}'

@@ -153,11 +153,6 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
             done[0].evidence.settings)
         handoff_name = f'{stem}/{stem}.yaml'
         handoff_bytes = calibration_text(record, schema).encode('utf-8')
-        if not record.values and record.imu is not None:  # a triad: the hand-off, no certificate
-            return GyroResult(job.gyro_id, {handoff_name: handoff_bytes}, {
-                **base, 'status': 'failed', 'reason': f'calibrated, hand-off kept '
-                f'({handoff_name}); no certificate: certificates do not cover a triad\'s imu: '
-                'section yet'})
         cert = build_certificate(record, evidence, spec, handoff_path=handoff_name,
                                  issue=issue, customer=job.customer)
         cert = _with_stem(cert, stem)
@@ -175,6 +170,7 @@ def _rendered(result: GyroResult, cert: Any, spec: Any, pdf: bool) -> GyroResult
     """``result`` with the certificate's HTML (and PDF) among its files and its rows."""
     from gyro_calib.batch.fleet import spc_quantity
     from gyro_calib.report.certificate import certificate_record, render_html, render_pdf
+    from gyro_calib.report.spec import limit_for
 
     stem = cert.file_stem
     html = render_html(cert)
@@ -183,7 +179,7 @@ def _rendered(result: GyroResult, cert: Any, spec: Any, pdf: bool) -> GyroResult
         files[f'{stem}/{stem}.pdf'] = render_pdf(html)
     cert_record = certificate_record(cert)
     limits = spec.limits if spec is not None else {}
-    cert_record['quantities'] = [spc_quantity(q, limits.get(q['key']))
+    cert_record['quantities'] = [spc_quantity(q, limit_for(limits, q['key']))
                                  for q in cert_record['quantities']]
     return GyroResult(result.gyro_id, files, {**result.record, 'certificate': cert_record})
 

@@ -89,9 +89,6 @@ def run_calibrate(args: argparse.Namespace) -> int:
     infos, _ = bag_infos(args.bags, args.namespace)
     to_run = [m.name for m in select_methods(infos, args.method)]
     refuse_unused_flags(args, to_run)
-    if args.report is not None and 'triad' in to_run:
-        raise ConfigError('--report: certificates do not cover a triad yet; calibrate it '
-                          'without --report (--out writes its imu: section to the hand-off).')
     options = options_from_args(args)
     with progress_bar(args.progress, 'calibrating') as progress:
         outcome = calibrate_bags(args.bags, methods=args.method, options=options,

@@ -12,7 +12,10 @@ spec quantity not measured makes the unit's verdict NO VERDICT, and a hand-off v
 bags contradict is refused (:data:`CONTRADICTION_U`) unless accepted. Only a certificate issued
 by a laboratory (an :class:`~gyro_calib.report.lab.Issue`: lab, number, customer) holds what
 ISO/IEC 17025 7.8.2, 7.8.4 and 7.8.6 ask, laid out in its template (:data:`TEMPLATE`); without
-one it is a draft and says so on every page.
+one it is a draft and says so on every page. An IMU (a triad's ``imu:`` section) is certified
+by its quantities — K_i, misalignments, axis angles, non-orthogonality, body biases, noise —
+as :mod:`gyro_calib.report.imu` derives them, with its conditions and M
+(docs/certificates_imu.md).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
 from gyro_calib import __version__
@@ -38,11 +42,21 @@ from gyro_calib.outputs import write_bytes_atomically
 from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.report.conditions import calibration_date, temperature_text
 from gyro_calib.report.evidence import MethodEvidence, RunEvidence
+from gyro_calib.report.imu import (
+    budget_shares,
+    imu_group,
+    imu_quantities,
+    is_imu_key,
+    matrix_text,
+    noise_bounds,
+    procedure_text,
+)
 from gyro_calib.report.lab import Issue
 from gyro_calib.report.spec import (
     NOT_MEASURED,
     Spec,
     interval_verdict,
+    limit_for,
     overall,
     overall_class,
     verdict,
@@ -55,6 +69,7 @@ from gyro_calib.report.uncertainty import (
     format_dof,
 )
 from gyro_calib.report.units import user_unit
+from gyro_calib.units import ARCSEC_PER_RAD
 
 TEMPLATE = 'certificate.html.j2'
 """The certificate's Jinja2 HTML (package data beside this module): self-contained, no
@@ -119,6 +134,9 @@ class QuantityRow:
     interval: tuple[float, float] | None = None
     n_value: int | None = None
     dof_value: float | None = None
+    channel: str = ''
+    column: str = ''
+    group: str = ''
 
 
 @dataclass(frozen=True, slots=True)
@@ -170,6 +188,9 @@ class Certificate:
     customer: str = ''
     calibration_date: str = ''
     temperature: str = ''
+    item: str = 'gyro'
+    imu_conditions: tuple[tuple[str, str], ...] = field(default=())
+    imu_matrix: str = ''
 
     @property
     def overall_class(self) -> str:
@@ -375,11 +396,12 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         ConfigError: the hand-off holds no measured value; a hand-off value (or its u) is
             contradicted by the bags (:data:`CONTRADICTION_U`) and not accepted.
     """
-    if not calibration.values and calibration.imu is not None:
-        raise ConfigError(f'the hand-off file {handoff_path or "given"} holds a triad\'s imu: '
-                          'section only, and certificates do not cover a triad yet (its K, '
-                          'sense axes and M stay in the hand-off file): nothing to certify.')
-    if not calibration.values:
+    imu_measured = calibration.imu is not None and bool(imu_quantities(calibration.imu))
+    if not calibration.values and calibration.imu is not None and not imu_measured:
+        raise ConfigError(f'the hand-off file {handoff_path or "given"} holds an imu: section '
+                          'with no measured quantity (no K, sense axis, bias or noise term): '
+                          'there is nothing to certify; calibrate the triad first.')
+    if not calibration.values and not imu_measured:
         raise ConfigError(f'the hand-off file {handoff_path or "given"} holds no measured value '
                           '(gyro: is empty): there is nothing to certify; calibrate the gyro '
                           'first.')
@@ -425,6 +447,10 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                 notes.append(f'{key}: {note}.')
         rows.append(_quantity_row(key, method, description, value, std, est_n, budget, spec,
                                   True, note, entry.get('dof'), _interval_of(key, values)))
+    imu_estimates: set[str] = set()  # the run's imu.* estimates the IMU's rows compared
+    if calibration.imu is not None:
+        rows.extend(_imu_rows(calibration, ev_methods, spec, sch, contradicted, notes,
+                              imu_estimates))
     if contradicted and not accept_handoff_values:
         worst = max(contradicted, key=lambda c: c[0])[1]
         more = f' (and {len(contradicted) - 1} more value(s))' if len(contradicted) > 1 else ''
@@ -433,7 +459,12 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                           'calibrated from (with its settings), or --accept-handoff-values to '
                           'certify the file\'s values as they stand.')
     for key, (m, est) in sorted(estimates.items(), key=lambda kv: (kv[1][0].method, kv[0])):
-        if key in generic:
+        if key in generic or key in imu_estimates or key.startswith('imu.fitted.'):
+            continue  # an IMU's are its rows above; a fitted bench parameter its conditions
+        if is_imu_key(key):
+            notes.append(f'{key}: the bags given measure it ({est.value:.6g} ± '
+                         f'{est.std_uncertainty:.2g}, SI) but the hand-off file\'s imu: section '
+                         'does not hold it: not certified.')
             continue
         rows.append(_quantity_row(key, m.method, 'measured by the session; not a hand-off key',
                                   est.value, est.std_uncertainty, est.n_used,
@@ -456,9 +487,22 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
     if spec is not None:
         rule, spec_source = spec.rule_text, spec.source
         judged = {r.key: r.verdict for r in rows if r.verdict}
+        groups = {r.group for r in rows if r.verdict and r.group}
         not_measured: list[str] = []
         for key in spec.limits:
-            if key in judged:
+            if key in judged or key in groups:
+                continue
+            if is_imu_key(key):
+                if calibration.imu is None:
+                    spec_missing.append(f'{key} ({spec.limits[key].text()}): not applicable — '
+                                        'this unit has no imu: section (not a triad)')
+                    continue
+                imu = calibration.imu
+                why = next((v for k, v in {**imu.missing, **imu.not_measurable}.items()
+                            if k in key), 'not in the hand-off file\'s imu: section')
+                spec_missing.append(f'{key} ({spec.limits[key].text()}): {NOT_MEASURED} — '
+                                    f'{why}')
+                not_measured.append(key)
                 continue
             owner = sch[key].method if key in sch else ''
             if owner not in calibration.methods:  # the spec covers other methods too
@@ -500,6 +544,10 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
                      for s in (evidence.settings if evidence else ()))
     lats = [s for s in (evidence.settings if evidence else ()) if s.name == 'latitude_deg']
     known = sorted({f'{s.value} ({s.origin})' for s in lats if s.value != '—'})
+    triad_prov = calibration.methods.get('triad')
+    if not known and triad_prov is not None and 'latitude_deg' in triad_prov.conditions:
+        known = [f'{triad_prov.conditions["latitude_deg"]} ° (the triad run\'s conditions in '
+                 'the hand-off file)']
     latitude = ('; '.join(known) if known
                 else 'not known: no bias was separated from the Earth rate' if lats
                 else 'not recorded in the hand-off file (give the bags to see the settings)')
@@ -517,7 +565,9 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         software=f'gyro_calib {__version__} (hand-off written by '
         f'{calibration.gyro_calib_version or "?"})', handoff_path=handoff_path,
         calibrated_utc=' … '.join(dict.fromkeys([created[0], created[-1]])) if created else '',
-        complete=calibration.complete, rows=tuple(rows), facts=tuple(facts),
+        complete=calibration.complete and not (calibration.imu is not None
+                                               and calibration.imu.missing),
+        rows=tuple(rows), facts=tuple(facts),
         mappings=tuple(mappings), methods=tuple(sections), bags=bags, settings=settings,
         latitude=latitude, rule=rule, overall=verdict_all, spec_source=spec_source,
         spec_missing=tuple(spec_missing),
@@ -528,7 +578,136 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
             'none k = 2 is assumed, as the row says.'),
         notes=tuple(notes), conventions=_conventions(), issue=issue,
         customer=issue.customer if issue else customer, calibration_date=when,
-        temperature=temperature_text(evidence.bags if evidence else (), evidence is not None))
+        temperature=temperature_text(evidence.bags if evidence else (), evidence is not None),
+        item='IMU' if calibration.imu is not None and not calibration.values else 'gyro',
+        imu_conditions=_imu_conditions(calibration, ev_methods.get('triad')),
+        imu_matrix='' if calibration.imu is None else matrix_text(calibration.imu))
+
+
+def _budget_rows(lines: tuple[BudgetLine, ...], std_si: float,
+                 factor: float) -> tuple[tuple[str, str, str, str], ...]:
+    """A budget as printed: source, u in the quoted unit, ν, share of u²."""
+    return tuple((b.source, format_uncertainty(b.std * factor, b.std * factor),
+                  format_dof(b.dof), f'{contribution_percent(b, std_si):.1f} %')
+                 for b in sorted(lines, key=lambda b: -b.std))
+
+
+def _imu_rows(calibration: Calibration, ev_methods: Mapping[str, MethodEvidence],
+              spec: Spec | None, sch: Mapping[str, HandoffKey],
+              contradicted: list[tuple[float, str]], notes: list[str],
+              compared: set[str]) -> list[QuantityRow]:
+    """The rows of an IMU (:mod:`gyro_calib.report.imu`): the hand-off's values and ν.
+
+    With the bags, K_i and b (and the noise terms) are compared with the run's as a gyro's
+    values are (a contradiction is appended to ``contradicted``); the budget shown is the
+    run's per source (METHODS §F eq. (12)), each component of a sense axis taking its
+    source's share of the axis's. k is always from the hand-off's ν (the run's where the
+    hand-off states none), so a quantity has one ν on the certificate and in the file. The
+    run's estimates compared are added to ``compared``.
+    """
+    imu = calibration.imu
+    assert imu is not None
+
+    def noise_what(term: str) -> str:
+        return sch[term].description if term in sch else term
+
+    rows: list[QuantityRow] = []
+    for q in imu_quantities(imu, noise_what):
+        method = 'noise' if q.key.startswith('imu.noise.') else 'triad'
+        ev = ev_methods.get(method)
+        est_key = q.estimate or (q.key if method == 'noise' else '')
+        est = ev.estimates.get(est_key) if ev is not None and est_key else None
+        if est is not None:
+            compared.add(est_key)
+        notes_q = [q.note] if q.note else []
+        dof, n = q.dof, None
+        lines: tuple[BudgetLine, ...] = ()
+        if est is not None:
+            same = (math.isclose(est.value, q.value, rel_tol=1e-9, abs_tol=0.0)
+                    and math.isclose(est.std_uncertainty, q.std, rel_tol=1e-9, abs_tol=0.0))
+            z, wrong = _contradiction(q.key, q.value, q.std, est.value, est.std_uncertainty)
+            if same:
+                n = est.n_used
+                dof = float(est.supported_dof) if dof is None else dof
+                lines = ev.budgets.get(est_key, ()) if ev is not None else ()
+            elif wrong:
+                contradicted.append((z, wrong))
+                notes_q.append(f'{wrong}; certified as the hand-off file states it '
+                               '(--accept-handoff-values)')
+                notes.append(f'{q.key}: {notes_q[-1]}.')
+            else:
+                notes_q.append(f'the data given give {est.value:.10g} ± '
+                               f'{est.std_uncertainty:.3g} (SI), within the hand-off\'s u of '
+                               'its value: no budget taken from them')
+                notes.append(f'{q.key}: {notes_q[-1]}.')
+        elif q.budget and ev is not None and q.channel:
+            k_est = ev.estimates.get(f'imu.{q.channel}.scale_factor_rad_per_pulse')
+            k_value = imu.scale_factor_rad_per_pulse
+            index = imu.channels.index(q.channel)
+            if k_est is not None and k_value is not None and math.isclose(
+                    k_est.value, float(k_value[index]), rel_tol=1e-9, abs_tol=0.0):
+                n = k_est.n_used  # the same row fit
+                dof = float(k_est.supported_dof) if dof is None else dof
+                lines = tuple(BudgetLine(source, u, nu) for source, u, nu in budget_shares(
+                    q.std, tuple((b.source, b.std, b.dof) for b in ev.budgets.get(q.budget, ()))))
+        limit = limit_for(spec.limits, q.key) if spec is not None else None
+        row_spec = (None if spec is None or limit is None
+                    else dataclasses.replace(spec, limits={q.key: limit}))
+        row = _quantity_row(q.key, method, q.description, q.value, q.std, n, (), row_spec,
+                            True, '; '.join(notes_q), dof)
+        if lines:
+            split = ('the run\'s sources (METHODS §F eq. (12))' if method == 'triad'
+                     and not q.key.startswith('imu.bias_') else 'the run\'s')
+            nu = ('ν as the hand-off states it' if q.dof is not None
+                  else 'ν the run\'s (the hand-off states none)')
+            row = dataclasses.replace(row, budget=_budget_rows(lines, q.std, row.factor),
+                                      k_note=f'{row.k_note}; budget: {split}; {nu}')
+        rows.append(dataclasses.replace(row, channel=q.channel, column=q.column,
+                                        group=imu_group(q.key)))
+    return rows
+
+
+def _imu_conditions(calibration: Calibration,
+                    triad: MethodEvidence | None) -> tuple[tuple[str, str], ...]:
+    """What an IMU's values rest on: procedure, pairs and stations, tilt α, latitude, F."""
+    imu = calibration.imu
+    if imu is None:
+        return ()
+    prov = calibration.methods.get('triad')
+    cond: Mapping[str, Any] = (getattr(prov, 'conditions', None) or {}) if prov else {}
+    out = [('channels', ', '.join(imu.channels) + ' (rows of M, in this order)'),
+           ('procedure', procedure_text(cond) if prov else 'not recorded: no triad run in '
+            'the hand-off file')]
+    out.append(('pairs and stations', triad.summary[0] if triad is not None and triad.summary
+                else 'not known: the hand-off file does not record them; give the bags'))
+    if cond.get('mount_axis'):
+        out.append(('tilt α', 'none: the remount procedure uses the single-axis table only'))
+    elif 'tilt_deg' in cond:
+        stated = (f'{float(cond["tilt_deg"]):.6g}° ± {float(cond.get("tilt_std_arcsec", 0)):.3g}″'
+                  ' (stated)')
+        fitted = triad.estimates.get('imu.fitted.tilt α') if triad is not None else None
+        if fitted is not None:
+            total = float(cond['tilt_deg']) + math.degrees(fitted.value)
+            stated += (f'; fitted: {fitted.value * ARCSEC_PER_RAD:+.4f}″ ± '
+                       f'{fitted.std_uncertainty * ARCSEC_PER_RAD:.2g}″ → α = {total:.6f}°')
+        else:
+            stated += ('; fitted value: not known (the hand-off file does not keep it; give '
+                       'the bags)')
+        out.append(('tilt α', stated))
+    lat = cond.get('latitude_deg')
+    out.append(('latitude', f'{lat}° (the Earth rate along each direction removed from the '
+                'biases; heading ' + f'{cond.get("heading_deg", 0.0)}°)' if lat is not None
+                else 'not given: the biases were not separated from the Earth rate'))
+    f = np.asarray(imu.fixture_rotation, dtype=float)
+    out.append(('fixture F (v_B = F·v_T)', '; '.join(
+        '[' + ', '.join(f'{v:.6g}' for v in row) + ']' for row in f)))
+    for key, why in {**imu.missing, **imu.not_measurable}.items():
+        out.append((f'not measured: imu.{key}', why))
+    for key, value in noise_bounds(imu):
+        unit = user_unit(key.removesuffix('_upper_bound_2sigma'))
+        out.append((key, f'≤ {value * unit.factor:.3g} {unit.label} (2σ upper bound: the fit '
+                    'did not resolve the term)'))
+    return tuple(out)
 
 
 def _figures(ev: MethodEvidence | None, prov: Any) -> list[tuple[str, str, bytes]]:
@@ -674,7 +853,7 @@ def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> 
 def certificate_record(cert: Certificate) -> dict[str, Any]:
     """The certificate's quantities as plain data (the fleet files are made of these)."""
     return {
-        'gyro_id': cert.gyro_id, 'overall': cert.overall, 'rule': cert.rule,
+        'gyro_id': cert.gyro_id, 'overall': cert.overall, 'rule': cert.rule, 'item': cert.item,
         'certificate_number': cert.issue.number if cert.issue else None,
         'complete': cert.complete,
         'quantities': [{'key': r.key, 'method': r.method, 'unit': r.unit,
@@ -684,7 +863,9 @@ def certificate_record(cert: Certificate) -> dict[str, Any]:
                         'interval': None if r.interval is None else list(r.interval),
                         'n': r.n, 'dof': r.dof, 'limit': r.limit, 'verdict': r.verdict,
                         'value_si': r.value_si, 'std_si': r.std_si, 'in_handoff': r.in_handoff,
-                        'U_si': r.expanded_si, 'n_value': r.n_value, 'dof_value': r.dof_value}
+                        'U_si': r.expanded_si, 'n_value': r.n_value, 'dof_value': r.dof_value,
+                        **({'channel': r.channel, 'column': r.column, 'group': r.group}
+                           if r.channel or r.group else {})}
                        for r in cert.rows],
         'not_measured': list(cert.spec_missing),
     }

@@ -242,12 +242,50 @@ def _budgets(session: MethodSession,
                 lines.append(BudgetLine('rocking allowance and clock-lock widening '
                                         '(Type B, as a standard uncertainty)', rest, math.inf))
             out[key] = tuple(lines)
+    if session.name == 'triad':
+        out.update(_triad_budgets(getattr(session, 'triad_result', None)))
     return out
+
+
+def _triad_budgets(result: Any) -> dict[str, tuple[BudgetLine, ...]]:
+    """The triad's budget per source (METHODS §F eq. (12)) of each K_i and sense axis s_i.
+
+    ``imu.<c>.scale_factor_rad_per_pulse``: each source's u(K_i); ``imu.<c>.sense_axis_rad``:
+    each source's √trace C(s_i) (the certificate splits a component's u in these shares). The
+    counts are the statistical source (ν of the row fit); the swept angle and the bench
+    parameters (tilt α) are Type B (ν = ∞).
+    """
+    out: dict[str, tuple[BudgetLine, ...]] = {}
+    if result is None:
+        return out
+    for i, ch in enumerate(result.channels):
+        k = ch.scale_factor_rad_per_pulse
+        if k is None:
+            continue
+        lines_k, lines_s = [], []
+        for line in result.budget:
+            dof = float(k.dof) if line.source == 'counts' else math.inf
+            rel, direction = float(line.scale_factor_relative[i]), float(line.direction_rad[i])
+            if math.isfinite(rel):
+                lines_k.append(BudgetLine(line.source, rel * k.value, dof))
+            if math.isfinite(direction):
+                lines_s.append(BudgetLine(line.source, direction, dof))
+        out[f'imu.{ch.name}.scale_factor_rad_per_pulse'] = tuple(lines_k)
+        out[f'imu.{ch.name}.sense_axis_rad'] = tuple(lines_s)
+    return out
+
+
+def _triad_estimates(session: MethodSession) -> dict[str, Estimate]:
+    """The triad's fitted bench parameters (``imu.fitted.<name>``, e.g. the tilt α correction)."""
+    result = getattr(session, 'triad_result', None)
+    if session.name != 'triad' or result is None:
+        return {}
+    return {f'imu.fitted.{name}': est for name, est in result.parameters.items()}
 
 
 def method_evidence(session: MethodSession, *, figures: bool = True) -> MethodEvidence:
     """One session's evidence (figures drawn into a temporary directory and read back)."""
-    estimates = dict(session.results())
+    estimates = {**session.results(), **_triad_estimates(session)}
     figs: list[Figure] = []
     notices = list(session.notices())
     if figures:

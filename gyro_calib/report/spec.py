@@ -18,6 +18,12 @@ quantity fails; else NO VERDICT (not measured: …) if a quantity of the spec th
 that ran gives was not measured, or if no quantity of the spec was measured at all; else
 CONDITIONAL if any is conditional; else PASS — never PASS without grounds.
 
+An IMU's quantities are judged by the keys of docs/certificates_imu.md: a group judging every
+channel alike (``imu.scale_factor_rad_per_pulse``, ``imu.misalignment_rad``,
+``imu.axis_angle_rad``, ``imu.non_orthogonality_rad``, ``imu.bias_rad_s``,
+``imu.noise.<term>``) or one quantity by its certificate key
+(``imu.y.scale_factor_rad_per_pulse``), which takes precedence over its group.
+
 Every quantity of a spec must be a hand-off key with a standard uncertainty, and its unit the
 one the certificate quotes it in; anything else is refused naming the nearest known key or
 unit (a misspelt key would otherwise be skipped, and a FAIL read as a PASS).
@@ -93,6 +99,28 @@ def _quantities(schema: Mapping[str, HandoffKey] | None) -> dict[str, HandoffKey
     return {k: v for k, v in schema.items() if v.has_std}
 
 
+def _imu_groups() -> list[str]:
+    from gyro_calib.report.imu import GROUPS
+
+    return sorted(GROUPS)
+
+
+def _imu_key(key: str, known: Mapping[str, HandoffKey]) -> bool:
+    """An IMU quantity a spec may judge (docs/certificates_imu.md).
+
+    A group judging every channel alike (``imu.misalignment_rad`` …, ``imu.noise.<term>``)
+    or one quantity (``imu.y.scale_factor_rad_per_pulse``, ``imu.noise.y.<term>``).
+    """
+    from gyro_calib.report.imu import GROUPS, imu_group
+
+    if key in GROUPS:
+        return True
+    parts = key.split('.')
+    if key.startswith('imu.noise.') and len(parts) in (3, 4):
+        return parts[-1] in known and known[parts[-1]].method == 'noise'
+    return bool(imu_group(key))
+
+
 def _nearest(word: str, choices: Sequence[str]) -> str:
     """The closest of ``choices`` to ``word`` (difflib), or the first when none is close."""
     close = difflib.get_close_matches(word, choices, n=1, cutoff=0.0)
@@ -147,11 +175,12 @@ def spec_from_dict(data: Any, *, source: str = 'spec',
     limits: dict[str, Limit] = {}
     for key, entry in data['quantities'].items():
         where = f'quantities.{key} in spec file {source}'
-        if str(key) not in known:
+        if str(key) not in known and not _imu_key(str(key), known):
             raise ConfigError(f'quantities.{key} in spec file {source} is not a measured '
                               f'quantity of the hand-off file (did you mean '
-                              f'{_nearest(str(key), sorted(known))}?): a misspelt quantity would '
-                              'never be judged; the keys are listed in the README.')
+                              f'{_nearest(str(key), sorted(known) + _imu_groups())}?): a '
+                              'misspelt quantity would never be judged; the keys are listed '
+                              'in the README and docs/certificates_imu.md.')
         if not isinstance(entry, dict) or set(entry) - {'unit', 'min', 'max'}:
             raise ConfigError(f'{where} must be a mapping of unit, min, max.')
         quoted = user_unit(str(key))
@@ -174,6 +203,20 @@ def spec_from_dict(data: Any, *, source: str = 'spec',
             raise ConfigError(f'{where}: min {low:g} is above max {high:g}.')
         limits[str(key)] = Limit(str(key), unit, low, high)
     return Spec(str(rule), limits, source)
+
+
+def limit_for(limits: Mapping[str, Limit], key: str) -> Limit | None:
+    """The limit judging quantity ``key``: its own, else its IMU group's.
+
+    ``imu.misalignment_rad`` judges every ``imu.<c>.misalignment_<e>_rad``
+    (:func:`gyro_calib.report.imu.imu_group`).
+    """
+    if key in limits:
+        return limits[key]
+    from gyro_calib.report.imu import imu_group
+
+    group = imu_group(key)
+    return limits.get(group) if group else None
 
 
 def verdict(limit: Limit, value: float, std: float, expanded: float | None,
