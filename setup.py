@@ -1,5 +1,7 @@
 """ament_python / pip package definition of gyro_calib."""
 
+from glob import glob
+
 from setuptools import find_packages, setup
 
 PACKAGE = 'gyro_calib'
@@ -13,6 +15,7 @@ setup(
         ('share/' + PACKAGE, ['package.xml']),
         ('share/' + PACKAGE + '/config', ['config/calibration.yaml']),
         ('share/' + PACKAGE + '/docs', ['docs/methods.md']),
+        ('share/' + PACKAGE + '/docs/methods', sorted(glob('docs/methods/*.md'))),
     ],
     package_data={PACKAGE: ['py.typed', 'schema/*.json', 'report/certificate.html.j2']},
     python_requires='>=3.10',
