@@ -2,6 +2,7 @@
 # gyro_calib front door. Two commands do everything on a fresh Debian / Python 3.11 machine:
 #   ./run.sh demo   set up .venv (ROS 2 wheels + this package) and run the simulated bench
 #   ./run.sh test   set up .venv if needed and run the whole test suite
+#   ./run.sh docs   set up .venv if needed and build the documentation site (docs/_build/html)
 # Extra arguments go to the demo (see ./run.sh demo --help) or to pytest.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -51,7 +52,9 @@ cmd="${1:-}"; shift || true
 case "$cmd" in
   demo) setup; exec "$VENV/bin/bench_demo" "$@" ;;
   test) setup; exec "$VENV/bin/python" -m pytest "$@" ;;
+  docs) setup
+        exec "$VENV/bin/python" -m sphinx -W --keep-going -n -q -b html docs docs/_build/html "$@" ;;
   setup) setup ;;
-  *) echo "usage: ./run.sh demo [--pairs N --speed X --seed N --out FILE] | ./run.sh test [pytest args]" >&2
+  *) echo "usage: ./run.sh demo [--pairs N --speed X --seed N --out FILE] | ./run.sh test [pytest args] | ./run.sh docs" >&2
      exit 2 ;;
 esac
