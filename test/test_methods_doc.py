@@ -82,7 +82,9 @@ def expand(numbers: str) -> list[str]:
 
 
 def project_files() -> list[Path]:
-    files = [ROOT / 'README.md', DOC, *PAGES, ROOT / 'run.sh']
+    files = [ROOT / 'README.md', ROOT / 'run.sh'] + sorted(
+        p for p in (ROOT / 'docs').rglob('*.md')
+        if not {'generated', '_build'} & set(p.relative_to(ROOT / 'docs').parts))
     for top in SOURCES:
         files.extend(sorted((ROOT / top).rglob('*.py')))
     return [f for f in files if f.is_file()]
