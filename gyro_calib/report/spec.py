@@ -151,7 +151,7 @@ def spec_from_dict(data: Any, *, source: str = 'spec',
             raise ConfigError(f'quantities.{key} in spec file {source} is not a measured '
                               f'quantity of the hand-off file (did you mean '
                               f'{_nearest(str(key), sorted(known))}?): a misspelt quantity would '
-                              'never be judged; the keys are listed in the README.')
+                              'never be judged; docs/reference lists the hand-off keys.')
         if not isinstance(entry, dict) or set(entry) - {'unit', 'min', 'max'}:
             raise ConfigError(f'{where} must be a mapping of unit, min, max.')
         quoted = user_unit(str(key))
