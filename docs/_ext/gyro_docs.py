@@ -46,7 +46,6 @@ from sphinx.util import logging
 
 DOCS = Path(__file__).resolve().parents[1]
 ROOT = DOCS.parent
-GENERATED = DOCS / 'reference' / 'generated'
 logger = logging.getLogger(__name__)
 
 EXTERNAL_FLAGS = {
@@ -151,14 +150,29 @@ class Facts:
         self.parsers = cli_parsers()
         self.flags = {name: flags_of(p) for name, p in self.parsers.items()}
         self.all_flags = set().union(*self.flags.values()) | EXTERNAL_FLAGS
-        self.nodes = node_parameters()
-        self.params = {n: {p['name'] for p in v['parameters']} for n, v in self.nodes.items()}
-        self.all_params = set().union(*self.params.values())
+        self._nodes: dict[str, Any] | None = None
         self.keys = handoff_keys()
         code = [p.read_text(encoding='utf-8') for top in ('gyro_calib', 'sim_nodes')
                 for p in (ROOT / top).rglob('*.py')]
         code += [p.read_text(encoding='utf-8') for p in (ROOT / 'gyro_calib').rglob('*.json')]
         self.code = '\n'.join(code)
+
+    @property
+    def nodes(self) -> dict[str, Any]:
+        """Every node's declared parameters (started once, when first asked for)."""
+        if self._nodes is None:
+            self._nodes = node_parameters()
+        return self._nodes
+
+    @property
+    def params(self) -> dict[str, set[str]]:
+        """Node → the names of its declared parameters."""
+        return {n: {p['name'] for p in v['parameters']} for n, v in self.nodes.items()}
+
+    @property
+    def all_params(self) -> set[str]:
+        """Every parameter name some node declares."""
+        return set().union(*self.params.values())
 
 
 _FACTS: Facts | None = None
@@ -202,8 +216,12 @@ def generate_cli(f: Facts) -> str:
              '`gyro_calib.nodes.bench_demo`) by `docs/_ext/gyro_docs.py` at every build; '
              'cite an entry with ``{flag}`SUBCOMMAND --flag` ``.', '```', '']
     top = f.parsers['']
-    lines += ['## gyro-calib', '', _md_escape(top.description or ''), '', '```text',
-              top.format_usage().strip(), '```', '']
+    lines += ['(cli-top)=', '## gyro-calib', '', _md_escape(top.description or ''), '',
+              '```text', top.format_usage().strip(), '```', '']
+    for action in top._actions:
+        if action.option_strings and not isinstance(action, argparse._HelpAction):
+            lines += [f'```{{flag}} gyro-calib {action.option_strings[0]}', '',
+                      _md_escape(_help(top, action)) or '(no help text)', '```', '']
     for name, parser in f.parsers.items():
         if name in ('', 'demo'):
             continue
@@ -387,12 +405,19 @@ PAGES = {'cli.md': generate_cli, 'nodes.md': generate_nodes, 'handoff-keys.md': 
 
 
 def generate(app: Sphinx) -> None:
-    """Write the generated reference pages (a page whose text is unchanged is left)."""
-    GENERATED.mkdir(parents=True, exist_ok=True)
+    """Write the generated reference pages (a page whose text is unchanged is left).
+
+    Into ``gyro_docs_generated`` (relative to the source directory); ``gyro_docs_pages``
+    names the pages to write (default: all of :data:`PAGES`).
+    """
+    target = Path(app.srcdir) / app.config.gyro_docs_generated
+    target.mkdir(parents=True, exist_ok=True)
     f = facts()
     for name, make in PAGES.items():
+        if app.config.gyro_docs_pages is not None and name not in app.config.gyro_docs_pages:
+            continue
         text = make(f)
-        path = GENERATED / name
+        path = target / name
         if not path.exists() or path.read_text(encoding='utf-8') != text:
             path.write_text(text, encoding='utf-8')  # unchanged pages keep their mtime
 
@@ -420,6 +445,7 @@ DEMO = re.compile(r'(?:\./run\.sh demo|bench_demo)((?:\s+[^\s`#;&)]+)*)')
 FLAG = re.compile(r'(?<![\w-])(--[a-z][a-z0-9-]*)')
 ASSIGN = re.compile(r'(?<![\w.])([a-z][\w.]*):=')
 INLINE = re.compile(r'(?<!`)`([^`\n]+)`(?!`)')
+ROLE = re.compile(r'\{[\w:-]+\}`[^`\n]*`')
 BENCHMARK = re.compile(r'benchmarks/\w+\.py')
 NOCHECK = '<!-- not a name -->'
 """A line holding this comment is not checked: it shows a name that does not exist on purpose
@@ -430,14 +456,14 @@ def problems(text: str, f: Facts) -> list[tuple[int, str]]:
     """(line, what is wrong) for every flag, parameter or key ``text`` names that is not there."""
     out: list[tuple[int, str]] = []
     fenced = False
-    nodes_ = set(f.params)
+    nodes_ = set(f.params) if ':=' in text else set()
     for number, line in enumerate(text.splitlines(), 1):
         if line.lstrip().startswith('```'):
             fenced = not fenced
             continue
         if NOCHECK in line:
             continue
-        spans = [line] if fenced else INLINE.findall(line)
+        spans = [line] if fenced else INLINE.findall(ROLE.sub('', line))  # roles: by Sphinx
         scripts = ''.join((ROOT / b).read_text(encoding='utf-8')
                           for b in set(BENCHMARK.findall(line)) if (ROOT / b).is_file())
         for span in spans:
@@ -506,16 +532,17 @@ def _imu_key(name: str, f: Facts) -> bool:
 
 def check_source(app: Sphinx, docname: str, source: list[str]) -> None:
     """Warn (an error under -W) for every name the page gives that does not exist."""
-    if docname.startswith('reference/generated/'):
+    if docname.startswith(app.config.gyro_docs_generated.rstrip('/') + '/'):
         return
-    path = app.env.doc2path(docname)
     for number, what in problems(source[0], facts()):
-        logger.warning(f'{what} [gyro_docs.name]', location=(str(path), number))
+        logger.warning(f'{what} [gyro_docs.name]', location=(docname, number))
 
 
 def setup(app: Sphinx) -> dict[str, Any]:
     """Register the object types and roles, the generator and the checks."""
     _add_types(app)
+    app.add_config_value('gyro_docs_generated', 'reference/generated', 'env')
+    app.add_config_value('gyro_docs_pages', None, 'env')
     app.connect('builder-inited', generate)
     app.connect('source-read', check_source)
     return {'version': '1', 'parallel_read_safe': True, 'parallel_write_safe': True}
