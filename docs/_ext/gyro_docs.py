@@ -211,7 +211,7 @@ def _default(action: argparse.Action) -> str:
 
 def generate_cli(f: Facts) -> str:
     """The CLI reference page: every subcommand, flag and positional argument."""
-    lines = ['# `gyro-calib` and the demo: every subcommand and flag', '',
+    lines = ['# `gyro-calib` and the demo: every subcommand and flag (generated)', '',
              '```{note}', 'Generated from the argparse parsers (`gyro_calib.cli`, '
              '`gyro_calib.nodes.bench_demo`) by `docs/_ext/gyro_docs.py` at every build; '
              'cite an entry with ``{flag}`SUBCOMMAND --flag` ``.', '```', '']
@@ -274,7 +274,7 @@ def _value_text(value: Any) -> str:
 
 def generate_nodes(f: Facts) -> str:
     """The node reference page: every declared parameter of every node."""
-    lines = ['# Node parameters', '', '```{note}',
+    lines = ['# Node parameters (generated)', '', '```{note}',
              'Generated at every build from what each node executable declares when it is '
              'constructed with its defaults (`docs/_ext/node_parameters.py`: each node\'s '
              'declared name, type, default, range and description). Cite one with '
@@ -302,7 +302,7 @@ def generate_nodes(f: Facts) -> str:
 
 def generate_keys(f: Facts) -> str:
     """The hand-off key reference page, by method."""
-    lines = ['# Hand-off keys', '', '```{note}',
+    lines = ['# Hand-off keys (generated)', '', '```{note}',
              'Generated at every build from the hand-off schema (`gyro_calib.registry.'
              'handoff_schema`: every method\'s `handoff_keys()`). Cite one with '
              '``{key}`NAME` ``. A key with an uncertainty has `NAME_std` (standard, k = 1) and '
@@ -330,7 +330,7 @@ def generate_keys(f: Facts) -> str:
 
 def generate_topics(f: Facts) -> str:
     """The topic contract page: every topic constant and its docstring."""
-    lines = ['# Topic contract', '', '```{note}',
+    lines = ['# Topics (generated)', '', '```{note}',
              'Generated at every build from `gyro_calib/topics.py` (each constant and its '
              'docstring). Cite a topic with ``{topic}`/gyro/pulses` ``. What the nodes do '
              'with them, QoS and namespaces: [topic contract](#topic-contract-prose).', '```',
@@ -369,7 +369,7 @@ def generate_result_schema(_f: Facts) -> str:
     """The JSON result schema page: every field, then the schema itself."""
     schema_path = ROOT / 'gyro_calib' / 'schema' / 'result.schema.json'
     schema = json.loads(schema_path.read_text(encoding='utf-8'))
-    lines = ['# JSON result schema', '', '```{note}',
+    lines = ['# JSON result schema (generated)', '', '```{note}',
              'Generated at every build from `gyro_calib/schema/result.schema.json`, the JSON '
              'Schema every `--json` output is validated against (its shape in prose: '
              '[one JSON shape](#one-json-shape)).', '```', '',
