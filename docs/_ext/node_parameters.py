@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[2]
 NEEDS: dict[str, dict[str, Any]] = {
     'thermal_calibration_node': {'scale_factor_rad_per_pulse': 4.8e-6, 'latitude_deg': 34.26},
     'noise_node': {'topic': '/imu/data'},
-    'bag_player': {'bag': str(ROOT / 'bags' / 'k_tilde_bench'), 'wait_for_subscribers': False},
+    'bag_player': {'bag': str(ROOT / 'bags' / 'k_tilde_bench')},
     'bag_recorder': {'out': 'REPLACED'},
 }
 """What a node needs beside its defaults to come up (as test/test_node_parameters.py)."""
@@ -86,14 +86,14 @@ def dump() -> dict[str, Any]:
             node = _factory(name)()
             params = []
             for key in sorted(node._parameters):
-                if key == 'use_sim_time':
-                    continue
+                if key in ('use_sim_time', 'start_type_description_service'):
+                    continue  # rclpy's own, on every node
                 param = node._parameters[key]
                 desc = node._descriptors.get(key)
                 entry: dict[str, Any] = {
                     'name': key, 'type': TYPES.get(int(param.type_.value), 'any'),
                     'default': None if key in needs else _value(param.value),
-                    'required': key in needs and name != 'bag_player',
+                    'required': key in needs,
                     'description': ' '.join((desc.description if desc else '').split()),
                     'read_only': bool(desc.read_only) if desc else False}
                 if desc is not None and desc.dynamic_typing:
