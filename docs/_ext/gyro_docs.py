@@ -103,8 +103,52 @@ def flags_of(parser: argparse.ArgumentParser) -> set[str]:
     return {s for a in parser._actions for s in a.option_strings}
 
 
+NODE_CACHE = DOCS / 'reference' / 'generated' / 'nodes.json'
+"""The last dump of the nodes' parameters, with the hash of the code it was read from."""
+
+
+def _code_hash() -> str:
+    """SHA-256 of the code the nodes are built from (gyro_calib/, sim_nodes/, rclpy's version)."""
+    import hashlib
+
+    digest = hashlib.sha256()
+    for top in ('gyro_calib', 'sim_nodes'):
+        for path in sorted((ROOT / top).rglob('*.py')):
+            digest.update(path.relative_to(ROOT).as_posix().encode())
+            digest.update(path.read_bytes())
+    digest.update(Path(__file__).with_name('node_parameters.py').read_bytes())
+    from importlib import metadata
+
+    for dist in ('ros-rclpy', 'rclpy'):  # another ROS 2 distribution: dump again
+        try:
+            digest.update(f'{dist} {metadata.version(dist)}'.encode())
+        except metadata.PackageNotFoundError:
+            pass
+    return digest.hexdigest()
+
+
 def node_parameters() -> dict[str, Any]:
-    """Every node's declared parameters (``node_parameters.py`` in a subprocess)."""
+    """Every node's declared parameters (``node_parameters.py`` in a subprocess).
+
+    The dump is kept in :data:`NODE_CACHE` with the hash of the code; while the code is
+    unchanged the nodes are not started again.
+    """
+    code_hash = _code_hash()
+    try:
+        cached = json.loads(NODE_CACHE.read_text(encoding='utf-8'))
+        if cached.get('code_sha256') == code_hash:
+            return cached['nodes']  # type: ignore[no-any-return]
+    except (OSError, ValueError, KeyError):
+        pass
+    nodes = _dump_node_parameters()
+    NODE_CACHE.parent.mkdir(parents=True, exist_ok=True)
+    tmp = NODE_CACHE.with_suffix(f'.{os.getpid()}.tmp')
+    tmp.write_text(json.dumps({'code_sha256': code_hash, 'nodes': nodes}), encoding='utf-8')
+    tmp.replace(NODE_CACHE)
+    return nodes
+
+
+def _dump_node_parameters() -> dict[str, Any]:
     _import_root()
     from gyro_calib.nodes.processes import pick_domain_id, ros_environment
 
