@@ -183,3 +183,23 @@ def test_the_figures_page_shows_what_make_figures_draws() -> None:
     for name in committed:
         stem = re.sub(r'_[yz]$', '_{axis}', name.removesuffix('.png'))
         assert f"{stem}.png'" in code or f"'{name}'" in code, name
+
+
+def test_the_readme_is_short_and_says_what_a_newcomer_needs() -> None:
+    """The README is at most ~200 lines and holds what issue 39 lists.
+
+    What it is, the two commands, a path per kind of user, the documentation, the ROS 2
+    distributions, the licence; the rest lives in docs/.
+    """
+    readme = (ROOT / 'README.md').read_text(encoding='utf-8')
+    assert len(readme.splitlines()) <= 200
+    for heading in ('## Two commands', '## Where to start', '## Documentation',
+                    '## Supported ROS 2 distributions', '## Licence'):
+        assert f'\n{heading}\n' in readme, heading
+    for words in ('./run.sh demo', './run.sh test', './run.sh docs', 'Kilted', 'Jazzy',
+                  'Apache', 'docs/tutorials/', 'docs/reference/'):
+        assert words in readme, words
+    from gyro_calib.registry import METHODS
+
+    for method in METHODS:
+        assert f'| `{method}` |' in readme, method
