@@ -1,10 +1,38 @@
 """ament_python / pip package definition of gyro_calib."""
 
+import importlib.metadata
+import os
 from glob import glob
 
 from setuptools import find_packages, setup
 
 PACKAGE = 'gyro_calib'
+SUPPORTED_ROS = ('jazzy', 'kilted')  # gyro_calib/nodes/ros_distribution.py says the same
+RCLPY_MINIMUM = (7, 1)  # Jazzy's rclpy: rclpy.experimental.events_executor, rclpy.event_handler
+
+
+def check_ros_distribution() -> None:
+    """Refuse, in one line, to build for a ROS 2 distribution gyro_calib does not run on.
+
+    A sourced ROS installation names itself in ROS_DISTRO (colcon, rosdep); the PyPI wheels
+    carry rclpy's version in their metadata. Neither found (an isolated pip build): no check
+    here, and the nodes check rclpy when they start.
+    """
+    distro = os.environ.get('ROS_DISTRO', '').strip().lower()
+    if distro and distro not in SUPPORTED_ROS:
+        raise SystemExit(f'gyro_calib: ROS 2 {distro} is not supported; it runs on '
+                         f'{" and ".join(SUPPORTED_ROS)} (rclpy >= 7.1). Source one of those.')
+    try:
+        text = importlib.metadata.version('ros-rclpy')
+    except importlib.metadata.PackageNotFoundError:
+        return
+    version = tuple(int(x) for x in text.split('.')[:2] if x.isdigit())
+    if version < RCLPY_MINIMUM:
+        raise SystemExit(f'gyro_calib: rclpy {text} is older than Jazzy\'s 7.1; it runs on '
+                         f'{" and ".join(SUPPORTED_ROS)}.')
+
+
+check_ros_distribution()
 
 setup(
     name=PACKAGE,
@@ -18,7 +46,7 @@ setup(
         ('share/' + PACKAGE + '/docs/methods', sorted(glob('docs/methods/*.md'))),
     ],
     package_data={PACKAGE: ['py.typed', 'schema/*.json', 'report/certificate.html.j2']},
-    python_requires='>=3.10',
+    python_requires='>=3.11',
     install_requires=['numpy', 'scipy', 'PyYAML', 'rosbags', 'mcap', 'zstandard', 'tqdm',
                       'PyWavelets', 'statsmodels', 'matplotlib', 'gtc', 'dask[distributed]',
                       'jinja2', 'weasyprint', 'pyarrow'],

@@ -57,6 +57,9 @@ EXTERNAL_FLAGS = {
 """Flags of other tools the pages show (ros2, colcon, rosdep, rosbags-convert, pip, pytest,
 chromium, ./run.sh test --ros) and argparse's own."""
 
+RUN_SH_FLAGS = {'--ros'}
+"""run.sh's own flags, before the demo's (``./run.sh demo --ros jazzy``)."""
+
 UNIT_SUFFIX = re.compile(
     r'_(std|dof|rad_per_pulse|counts_per_rad|rad_s|rad|rad_s2|rad_per_sqrt_s|'
     r'rad_s_per_sqrt_s|rad_s_per_k|per_k|ppm|ppb|celsius|c|degc|m_s2|m_s3|s|hz)$')
@@ -536,7 +539,7 @@ def _span_problems(span: str, f: Facts, nodes_: set[str], fenced: bool,
     for m in DEMO.finditer(code):
         for flag in FLAG.findall(m.group(1)):
             seen_flags.add(flag)
-            if flag not in f.flags['demo']:
+            if flag not in f.flags['demo'] and flag not in RUN_SH_FLAGS:
                 found.append(f'./run.sh demo (bench_demo) has no flag {flag}')
     for m in re.finditer(r'benchmarks/\w+\.py((?:\s+[^\s`#;&)]+)*)', code):
         for flag in FLAG.findall(m.group(1)):

@@ -30,6 +30,7 @@ from rclpy.node import Node
 
 from gyro_calib.bagio import bag_info, iter_raw_messages
 from gyro_calib.errors import GyroCalibError
+from gyro_calib.nodes.ros_distribution import ros_context
 from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     ProgressLog,
@@ -144,7 +145,7 @@ class BagPlayer(Node):
 def main(args: list[str] | None = None) -> None:
     """Play the bag given by the ``bag`` parameter, then exit."""
     try:
-        with rclpy.init(args=args):
+        with ros_context(args):
             try:
                 player = BagPlayer()
             except GyroCalibError as exc:

@@ -25,7 +25,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import rclpy
 import yaml
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
@@ -176,11 +175,11 @@ def main(args: list[str] | None = None) -> None:
     import signal
     import threading
 
-    from rclpy.signals import SignalHandlerOptions
+    from gyro_calib.nodes.ros_distribution import ros_context
 
     stop = threading.Event()
     recorder = None
-    with rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO):
+    with ros_context(args, own_signals=True):
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: stop.set())
         try:

@@ -106,10 +106,11 @@ def _watch(env: dict[str, str], table: subprocess.Popen[bytes],
     from diagnostic_msgs.msg import DiagnosticArray
 
     from gyro_calib import topics
+    from gyro_calib.nodes.ros_distribution import ros_context
     from gyro_calib.nodes.ros_io import make_executor
 
     latest: dict[str, str] = {}
-    with rclpy.init():
+    with ros_context():
         node = rclpy.create_node('bench_demo')
 
         def on_diag(msg: DiagnosticArray) -> None:

@@ -249,16 +249,16 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
     """
     import rclpy
     from rclpy.executors import ExternalShutdownException
-    from rclpy.signals import SignalHandlerOptions
 
     from gyro_calib.errors import GyroCalibError
+    from gyro_calib.nodes.ros_distribution import ros_context
 
     stop = threading.Event()
     stalled = False
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
-        with rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO):
+        with ros_context(args, own_signals=True):
             try:
                 node = make_node()
             except (GyroCalibError, ValueError) as exc:

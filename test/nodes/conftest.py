@@ -6,7 +6,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from .dds_harness import NodeProcess, ResultListener
+from .dds_harness import _WATCHED, NodeProcess, ResultListener
 
 
 @pytest.fixture
@@ -22,3 +22,11 @@ def nodes() -> Iterator[list[NodeProcess]]:
     yield started
     for node in started:
         node.stop()
+
+
+@pytest.fixture(autouse=True)
+def _watch_started_nodes() -> Iterator[None]:
+    """Each test watches only the nodes it started (dds_harness.check_no_node_died)."""
+    _WATCHED.clear()
+    yield
+    _WATCHED.clear()

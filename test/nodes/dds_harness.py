@@ -21,16 +21,41 @@ from typing import Any
 from gyro_calib.nodes.processes import ros_environment, start_node
 
 
+class NodeDied(AssertionError):
+    """A node a test started ended on its own with a failure status while the test waited."""
+
+
 @dataclass
 class NodeProcess:
-    """A started node with its stderr (where ROS logs go) collected line by line."""
+    """A started node with its stderr (where ROS logs go) collected line by line.
+
+    ``expect_exit``: the exit statuses of a node ending on its own that are no failure (a
+    node the test signalled may end with any).
+    """
 
     name: str
     proc: subprocess.Popen[bytes]
     lines: list[str] = field(default_factory=list)
+    expect_exit: tuple[int, ...] = (0,)
+    signalled: bool = False
 
     def __post_init__(self) -> None:
         threading.Thread(target=self._read, daemon=True).start()
+        _WATCHED.append(self)
+
+    def send_signal(self, sig: int) -> None:
+        """Signal the node (SIGINT, SIGKILL, ...): its end is then the test's doing."""
+        self.signalled = True
+        self.proc.send_signal(sig)
+
+    def died(self) -> str:
+        """'' while the node runs or ended as expected; else what ended it, with its log."""
+        code = self.proc.poll()
+        if code is None or self.signalled or code in self.expect_exit:
+            return ''
+        time.sleep(0.2)  # the reader thread takes the last lines
+        tail = '\n'.join(self.lines[-30:])
+        return f'{self.name} exited with status {code} while the test waited:\n{tail}'
 
     def _read(self) -> None:
         assert self.proc.stderr is not None
@@ -41,6 +66,7 @@ class NodeProcess:
         return '\n'.join(self.lines)
 
     def stop(self, timeout_s: float = 10.0) -> None:
+        self.signalled = True
         if self.proc.poll() is None:
             self.proc.send_signal(signal.SIGINT)
             try:
@@ -48,6 +74,28 @@ class NodeProcess:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+
+
+_WATCHED: list[NodeProcess] = []
+"""Every node the running test started (test/nodes/conftest.py empties it after each test)."""
+
+
+def check_no_node_died() -> None:
+    """Raise :class:`NodeDied` at once if a node the test started has failed.
+
+    A dead node never publishes what a test waits for: without this the wait ran to its
+    timeout (600 s on Jazzy before issue 34).
+    """
+    for process in _WATCHED:
+        reason = process.died()
+        if reason:
+            raise NodeDied(reason)
+
+
+def spin_watched(executor: Any, timeout_sec: float) -> None:
+    """``executor.spin_once(timeout_sec)``, then fail at once if a started node died."""
+    executor.spin_once(timeout_sec=timeout_sec)
+    check_no_node_died()
 
 
 def _scratch_dir() -> str:
@@ -61,11 +109,13 @@ def _scratch_dir() -> str:
     return path
 
 
-def launch(name: str, params: dict[str, Any], namespace: str = '') -> NodeProcess:
+def launch(name: str, params: dict[str, Any], namespace: str = '', *,
+           expect_exit: tuple[int, ...] = (0,)) -> NodeProcess:
+    """Start node ``name`` (watched: see :func:`check_no_node_died`)."""
     env = ros_environment(int(os.environ['ROS_DOMAIN_ID']))
     proc = start_node(name, params, env, namespace=namespace, stdout=subprocess.DEVNULL,
                       stderr=subprocess.PIPE, cwd=_scratch_dir())
-    return NodeProcess(name, proc)
+    return NodeProcess(name, proc, expect_exit=expect_exit)
 
 
 class ResultListener:
@@ -105,7 +155,7 @@ class ResultListener:
         """
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            self.executor.spin_once(timeout_sec=0.1)
+            spin_watched(self.executor, timeout_sec=0.1)
             if done():
                 return True
             if source is not None and source.proc.poll() is not None:

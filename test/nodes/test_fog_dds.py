@@ -30,7 +30,7 @@ from sim_nodes.fog.bag_scenarios import (
 from sim_nodes.fog.config import FogConfig
 from sim_nodes.fog.scenarios import SelfCalLadder, TableSettings
 
-from .dds_harness import NodeProcess, launch
+from .dds_harness import NodeProcess, launch, spin_watched
 
 BAGS = Path(__file__).resolve().parents[2] / 'bags'
 LATITUDE_DEG = FogConfig().latitude_deg
@@ -69,13 +69,13 @@ class FogListener:
     def spin_for(self, seconds: float) -> None:
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
-            self.executor.spin_once(timeout_sec=0.05)
+            spin_watched(self.executor, timeout_sec=0.05)
 
     def spin_until_exit(self, process: NodeProcess, timeout_s: float) -> bool:
         """Spin while ``process`` runs; True if it exited within ``timeout_s``."""
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            self.executor.spin_once(timeout_sec=0.1)
+            spin_watched(self.executor, timeout_sec=0.1)
             if process.proc.poll() is not None:
                 return True
         return False
@@ -110,7 +110,7 @@ def expected_diagnostics(session: MethodSession) -> dict[str, str]:
 
 def _stop_and_flush(node: NodeProcess, listener: FogListener) -> None:
     """Stop the calibration node (the recording ended); collect its final diagnostics."""
-    node.proc.send_signal(signal.SIGINT)
+    node.send_signal(signal.SIGINT)
     assert listener.spin_until_exit(node, 60.0), node.log()
     assert node.proc.returncode == 0, node.log()
     listener.spin_for(1.0)

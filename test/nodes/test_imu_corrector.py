@@ -36,7 +36,7 @@ from gyro_calib.imu_conversion import (
 from gyro_calib.registry import handoff_schema
 from gyro_calib.units import RAD_PER_ARCSEC
 
-from .dds_harness import NodeProcess, launch
+from .dds_harness import NodeProcess, launch, spin_watched
 
 K_RAD = 0.84279066 * RAD_PER_ARCSEC
 T0_NS = 1_795_426_200_000_000_000
@@ -181,14 +181,14 @@ class PulseBench:
             ns_to_stamp(T0_NS + self.i * self.dt_ns, msg.header.stamp)
             publish_paced(self.pub, msg)
             self.i += 1
-            self.executor.spin_once(timeout_sec=0.002)  # ~ 300 samples/s of wall time
+            spin_watched(self.executor, timeout_sec=0.002)  # ~ 300 samples/s of wall time
 
     def spin_until(self, done: Any, timeout_s: float, *, publishing: bool = False) -> bool:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             if publishing:
                 self.publish(10)
-            self.executor.spin_once(timeout_sec=0.05)
+            spin_watched(self.executor, timeout_sec=0.05)
             if done():
                 return True
         return False

@@ -21,7 +21,7 @@ from gyro_calib.imu_body_rate import body_rate, triad_rate_model
 from gyro_calib.imu_calibration import ImuCalibration
 from gyro_calib.units import RAD_PER_ARCSEC
 
-from .dds_harness import launch
+from .dds_harness import launch, spin_watched
 
 T0_NS = 1_795_426_200_000_000_000
 K = np.array([0.84, 1.1, 2.3]) * RAD_PER_ARCSEC
@@ -62,7 +62,7 @@ def test_triad_mode_publishes_body_rates_with_full_covariance_on_imu_data(
         while time.monotonic() < deadline and not (  # matched both ways (best effort)
                 pub.get_subscription_count() > 0 and sub.get_publisher_count() > 0
                 and 'publishing /imu/data' in node.log()):
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert 'publishing /imu/data' in node.log(), node.log()
         rng = np.random.default_rng(8)
         counts = np.cumsum(rng.integers(200, 900, size=(60, 3)), axis=0).astype(float)
@@ -70,10 +70,10 @@ def test_triad_mode_publishes_body_rates_with_full_covariance_on_imu_data(
             msg = JointState(name=['y', 'z', 'x'], position=[c[1], c[2], c[0]])
             ns_to_stamp(T0_NS + i * 1_000_000, msg.header.stamp)
             publish_paced(pub, msg)
-            executor.spin_once(timeout_sec=0.002)
+            spin_watched(executor, timeout_sec=0.002)
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline and len(got) < len(counts) - 1:
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert len(got) == len(counts) - 1, node.log()
         model = triad_rate_model(cal)
         for i, msg in enumerate(got, start=1):
@@ -136,7 +136,7 @@ def test_triad_channel_thermal_bias_comes_from_its_own_temperature_topic(
                 pulses.get_subscription_count() > 0 and temps.get_subscription_count() > 0
                 and sub.get_publisher_count() > 0
                 and 'thermal bias of channel(s) z from /imu/z/temperature' in node.log()):
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert temps.get_subscription_count() > 0, node.log()
         for m in msgs:
             if m[0] == 'p':
@@ -148,10 +148,10 @@ def test_triad_channel_thermal_bias_comes_from_its_own_temperature_topic(
                 msg.header.frame_id = m[4]
                 ns_to_stamp(m[2], msg.header.stamp)
                 publish_paced(temps, msg)
-            executor.spin_once(timeout_sec=0.001)
+            spin_watched(executor, timeout_sec=0.001)
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline and len(got) < len(expected):
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert len(got) == len(expected), node.log()
         for msg, out in zip(got, expected, strict=True):
             assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == out.stamp_ns

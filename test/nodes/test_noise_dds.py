@@ -95,7 +95,7 @@ def test_replayed_imu_bag_gives_the_offline_terms_and_sigint_leaves_complete_fil
     finally:
         listener.close()
 
-    node.proc.send_signal(signal.SIGINT)
+    node.send_signal(signal.SIGINT)
     assert node.proc.wait(timeout=90) == 0, node.log()
     offline = tmp_path / 'offline'
     assert (live / 'imu.yaml').read_text() == (offline / 'imu.yaml').read_text(), node.log()

@@ -180,7 +180,7 @@ def test_every_readme_node_line_starts_and_uses_every_parameter_it_gives(
                  == first]
         for n in group:
             if n.proc.poll() is None:
-                n.proc.send_signal(signal.SIGINT)
+                n.send_signal(signal.SIGINT)
         stop_by = time.monotonic() + 5.0  # the logs are what is checked: no long goodbyes
         for n in group:
             n.stop(timeout_s=max(stop_by - time.monotonic(), 0.1))

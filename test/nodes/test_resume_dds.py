@@ -85,13 +85,13 @@ def test_fog_node_killed_mid_run_resumes_to_the_offline_numbers_of_what_it_saw(
     _wait_for(state / 'state.yaml', 'the state directory', first)
     # the bag plays for ~15 s at 8x: kill somewhere in its first two thirds
     time.sleep(random.Random(seed).uniform(1.0, 9.0))
-    first.proc.send_signal(signal.SIGKILL)
+    first.send_signal(signal.SIGKILL)
     first.proc.wait(timeout=10)
     second = launch('fog_calibration_node', params)
     nodes.append(second)
     player.proc.wait(timeout=120)
     _wait_until_recorded(state, '/fog/output', 123.0, second)
-    second.proc.send_signal(signal.SIGINT)
+    second.send_signal(signal.SIGINT)
     second.proc.wait(timeout=90)
     logs = '\n'.join(n.log() for n in nodes)
     assert second.proc.returncode == 0, logs
@@ -117,14 +117,14 @@ def test_calibration_node_resumes_its_windows_after_a_kill(
     while 'K̃ = ' not in first.log():  # killed once it holds a pair of windows
         assert time.monotonic() < deadline and table.proc.poll() is None, first.log()
         time.sleep(0.1)
-    first.proc.send_signal(signal.SIGKILL)
+    first.send_signal(signal.SIGKILL)
     first.proc.wait(timeout=10)
     second = launch('calibration_node', params)
     nodes.append(second)
     table.proc.wait(timeout=180)
     # a killed reader holds the pulse writer up until its lease ends: wait for the pulses
     _wait_until_recorded(state, '/gyro/pulses', 119.0, second)
-    second.proc.send_signal(signal.SIGINT)
+    second.send_signal(signal.SIGINT)
     second.proc.wait(timeout=60)
     logs = '\n'.join(n.log() for n in nodes)
     assert second.proc.returncode == 0, logs
@@ -155,7 +155,7 @@ def _k_tilde_run(params: dict, gyro: dict, table: dict, nodes: list[NodeProcess]
         assert time.monotonic() < deadline, node.log()
         time.sleep(0.1)
     time.sleep(1.0)
-    node.proc.send_signal(signal.SIGINT)
+    node.send_signal(signal.SIGINT)
     node.proc.wait(timeout=60)
     sim.stop()
     return node

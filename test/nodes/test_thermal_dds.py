@@ -27,7 +27,7 @@ from gyro_calib.thermal.compensate import CompensatedPair, offline_pairs
 from gyro_calib.thermal.session import ThermalSession
 from sim_nodes.thermal.scenarios import ChamberRunConfig, ThermalRecording
 
-from .dds_harness import NodeProcess, launch
+from .dds_harness import NodeProcess, launch, spin_watched
 
 BAGS = Path(__file__).resolve().parents[2] / 'bags'
 RAMP = ChamberRunConfig(programme='continuous_ramp', gyro_id='B-1', seed=3, low_c=-10.0,
@@ -106,7 +106,7 @@ class ThermalListener:
     def spin_until(self, done: Any, timeout_s: float) -> bool:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            self.executor.spin_once(timeout_sec=0.05)
+            spin_watched(self.executor, timeout_sec=0.05)
             if done():
                 return True
         return False
@@ -124,7 +124,7 @@ class ThermalListener:
             ns_to_stamp(t_ns, temp.header.stamp)
             temp.header.frame_id = sensor
             publish_paced(self.temp_pub, temp)
-        self.executor.spin_once(timeout_sec=0.0)
+        spin_watched(self.executor, timeout_sec=0.0)
 
     def close(self) -> None:
         self.node.destroy_node()
@@ -301,7 +301,7 @@ def test_thermal_chamber_sim_publishes_its_scenario(nodes: list[NodeProcess]) ->
         nodes.append(sim)
         deadline = time.monotonic() + 60
         while not got and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.1)
+            spin_watched(executor, timeout_sec=0.1)
         assert got, sim.log()
         scenario = yaml.safe_load(got[0])
         assert scenario['name'] == 'thermal_validation_A-1_1'

@@ -19,7 +19,7 @@ from gyro_calib.bagio import BagMessage, ContractMessages, iter_raw_messages, ty
 from gyro_calib.cli import main as gyro_calib
 from gyro_calib.nodes.imu_corrector_core import ImuCorrector
 
-from .dds_harness import NodeProcess, launch
+from .dds_harness import NodeProcess, launch, spin_watched
 
 BAGS = Path(__file__).resolve().parents[2] / 'bags'
 BAG = 'triad_remount_bench_px'
@@ -66,12 +66,12 @@ def test_replayed_triad_bag_gives_the_cores_body_rates_on_imu_data(
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and not (  # the corrector's output reaches us
                 sub.get_publisher_count() > 0 and 'publishing /imu/data' in corrector.log()):
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         assert 'publishing /imu/data' in corrector.log(), corrector.log()
         nodes.append(launch('bag_player', {'bag': str(bag), 'rate': 0.0}))
         deadline = time.monotonic() + 90
         while time.monotonic() < deadline and len(got) < len(expected):
-            executor.spin_once(timeout_sec=0.05)
+            spin_watched(executor, timeout_sec=0.05)
         node.destroy_node()
     finally:
         rclpy.shutdown(context=context)

@@ -65,7 +65,7 @@ def test_live_triad_bench_writes_the_offline_imu_section(
     got = _imu_section(live)
     assert got == expected, (got, logs)
     assert 'not taken' not in node.log(), node.log()  # every bench setting was given
-    node.proc.send_signal(signal.SIGINT)  # the end of the data: judged again, written again
+    node.send_signal(signal.SIGINT)  # the end of the data: judged again, written again
     assert node.proc.wait(timeout=60) == 0, logs
     assert _imu_section(live) == expected, node.log()[-4000:]
     written = yaml.safe_load(live.read_text(encoding='utf-8'))

@@ -16,7 +16,7 @@ from gyro_calib import topics
 from sim_nodes.triad.scenarios import IMU_PULSES
 from sim_nodes.triad.triad_node import scenario_with
 
-from .dds_harness import NodeProcess, launch
+from .dds_harness import NodeProcess, launch, spin_watched
 
 SCENARIO, SEED, RATE_HZ = 'triad_remount_bench_my', 7, 100.0
 
@@ -60,10 +60,10 @@ class _Reader:
 
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
-            self.executor.spin_once(timeout_sec=0.1)
+            spin_watched(self.executor, timeout_sec=0.1)
             if proc.proc.poll() is not None:
                 for _ in range(20):  # what was delivered before the exit
-                    self.executor.spin_once(timeout_sec=0.05)
+                    spin_watched(self.executor, timeout_sec=0.05)
                 return True
         return False
 
