@@ -2,7 +2,8 @@
 # gyro_calib front door. Two commands do everything on a fresh Debian / Python 3.11 machine:
 #   ./run.sh demo   set up .venv (ROS 2 wheels + this package) and run the simulated bench
 #   ./run.sh test   set up .venv if needed and run the whole test suite
-# Extra arguments go to the demo (see ./run.sh demo --help) or to pytest.
+#   ./run.sh docs   set up .venv if needed and build the documentation site (docs/_build/html)
+# Extra arguments go to the demo (see ./run.sh demo --help), to pytest or to sphinx-build.
 # ROS 2 distribution: Kilted by default (.venv); `--ros jazzy` right after the command (or
 # GYRO_CALIB_ROS=jazzy) sets up and uses .venv-jazzy with the Jazzy wheels instead:
 #   ./run.sh test --ros jazzy test/nodes
@@ -69,7 +70,9 @@ setup() {
 case "$cmd" in
   demo) setup; exec "$VENV/bin/bench_demo" "$@" ;;
   test) setup; exec "$VENV/bin/python" -m pytest "$@" ;;
+  docs) setup
+        exec "$VENV/bin/python" -m sphinx -W --keep-going -n -q -b html docs docs/_build/html "$@" ;;
   setup) setup ;;
-  *) echo "usage: ./run.sh demo [--ros kilted|jazzy] [--pairs N --speed X --seed N --out FILE] | ./run.sh test [--ros kilted|jazzy] [pytest args]" >&2
+  *) echo "usage: ./run.sh demo [--ros kilted|jazzy] [--pairs N --speed X --seed N --out FILE] | ./run.sh test [--ros kilted|jazzy] [pytest args] | ./run.sh docs [sphinx-build args]" >&2
      exit 2 ;;
 esac

@@ -2,6 +2,7 @@
 
 import importlib.metadata
 import os
+from glob import glob
 
 from setuptools import find_packages, setup
 
@@ -42,6 +43,7 @@ setup(
         ('share/' + PACKAGE, ['package.xml']),
         ('share/' + PACKAGE + '/config', ['config/calibration.yaml']),
         ('share/' + PACKAGE + '/docs', ['docs/methods.md']),
+        ('share/' + PACKAGE + '/docs/methods', sorted(glob('docs/methods/*.md'))),
     ],
     package_data={PACKAGE: ['py.typed', 'schema/*.json', 'report/certificate.html.j2']},
     python_requires='>=3.11',

@@ -5,7 +5,7 @@ Run (from the repository root):
     nice -n 10 .venv/bin/python benchmarks/dither_rocking_allowance.py          # ~2 min
     nice -n 10 .venv/bin/python benchmarks/dither_rocking_allowance.py --quick  # ~30 s
 
-Derivation (README, dither section; gyro_calib/dither/misalignment.py): rocking θ_r in phase
+Derivation (docs/guide/dither.md; gyro_calib/dither/misalignment.py): rocking θ_r in phase
 with the dither shifts a component by θ_r/θ_d; with θ_r ≤ k·a and κ = k/θ_d each component
 moves by at most κ·a and a by at most ρ·a (ρ = √2·κ with both rockings k·a, the
 'proportional' model), so a ∈ [â/(1 + ρ), â/(1 − ρ)]. Rocking in quadrature shifts nothing.

@@ -1,8 +1,9 @@
 """The shared core's data flow one way (issues 19 §5, 28): no higher layer, no circle.
 
-The layer order below is the specification (README "Layout"): a module may import modules
-of its own layer or of a lower one, never of a higher one, and no chain of imports comes
-back to where it started (no circle, inside one layer too: two front doors included).
+The layer order below is the specification (docs/development/layout.md): a module may
+import modules of its own layer or of a lower one, never of a higher one, and no chain of
+imports comes back to where it started (no circle, inside one layer too: two front doors
+included).
 Imports are read statically (``ast``), module-level and function-level alike,
 ``TYPE_CHECKING`` ones included.
 

@@ -1,5 +1,8 @@
 """Every method citation in the project resolves into docs/methods.md (issue 17 item 14).
 
+docs/methods.md is the index of one page per method, docs/methods/<name>.md (issue 39): a
+citation ``docs/methods.md §C.4 eq. (12)`` resolves into the page whose heading is ``# §C``.
+
 The code, the README, the CLI output and the figures cite the method documentation as
 ``docs/methods.md §A.2 eq. (3)`` (docstrings: ``METHODS §A.2 eq. 3``). A citation is a
 contract with the reader: the section (``§A``), the subsection (``§A.2``) and each equation
@@ -17,6 +20,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = ROOT / 'docs' / 'methods.md'
+PAGES = sorted((ROOT / 'docs' / 'methods').glob('*.md'))
+"""One page per method; DOC is their index (what every page shares, the references)."""
 SOURCES = ('gyro_calib', 'sim_nodes', 'benchmarks', 'test')
 PACKAGE_SECTION = {'rbrlg': 'A', 'fog': 'B', 'dither': 'C', 'thermal': 'D', 'noise': 'E',
                    'triad': 'F'}
@@ -32,19 +37,21 @@ TAG = re.compile(r'\((\d+[a-z]?)\)\s*$')
 def parse_doc(text: str) -> tuple[set[str], dict[str, set[str]]]:
     """(anchors, section letter → equation tags) of the document.
 
-    Anchors are the ``<a id="…">`` targets; an equation is a line inside a fenced block of
-    a ``## §X`` section ending with its tag ``(N)`` or ``(Na)``. A tag used twice in one
-    section is an error.
+    Anchors are the MyST targets ``(A.2)=`` (and ``<a id="…">``, as the single file had);
+    an equation is a line inside a fenced block of a ``# §X`` page (or ``## §X`` section)
+    ending with its tag ``(N)`` or ``(Na)``. A tag used twice in one section is an error.
     """
     anchors = set(re.findall(r'<a id="([^"]+)"></a>', text))
+    anchors |= set(re.findall(r'^\(([^)\s]+)\)=$', text, re.M))
     equations: dict[str, set[str]] = {}
     section, fenced = None, False
     for line in text.splitlines():
-        head = re.match(r'## §([A-F]) ', line)
+        head = re.match(r'##? §([A-F]) ', line)
         if head:
             section = head.group(1)
             equations.setdefault(section, set())
-        elif line.startswith('## '):
+        elif not fenced and (line.startswith('# ') or
+                             (line.startswith('## ') and not line.startswith('## §'))):
             section = None
         if line.lstrip().startswith('```'):
             fenced = not fenced
@@ -57,7 +64,8 @@ def parse_doc(text: str) -> tuple[set[str], dict[str, set[str]]]:
     return anchors, equations
 
 
-ANCHORS, EQUATIONS_BY_SECTION = parse_doc(DOC.read_text(encoding='utf-8'))
+DOC_TEXT = '\n'.join(p.read_text(encoding='utf-8') for p in [DOC, *PAGES])
+ANCHORS, EQUATIONS_BY_SECTION = parse_doc(DOC_TEXT)
 
 
 def expand(numbers: str) -> list[str]:
@@ -74,7 +82,9 @@ def expand(numbers: str) -> list[str]:
 
 
 def project_files() -> list[Path]:
-    files = [ROOT / 'README.md', DOC, ROOT / 'run.sh']
+    files = [ROOT / 'README.md', ROOT / 'run.sh'] + sorted(
+        p for p in (ROOT / 'docs').rglob('*.md')
+        if not {'generated', '_build'} & set(p.relative_to(ROOT / 'docs').parts))
     for top in SOURCES:
         files.extend(sorted((ROOT / top).rglob('*.py')))
     return [f for f in files if f.is_file()]
@@ -117,6 +127,9 @@ BARE = bare_citations()
 
 
 def test_the_document_has_every_method_and_its_equations() -> None:
+    assert len(PAGES) >= 6
+    for page in PAGES:  # the index lists every page (in its table and its toctree)
+        assert f'methods/{page.stem}' in DOC.read_text(encoding='utf-8'), page.name
     assert set(EQUATIONS_BY_SECTION) == set('ABCDEF')
     for section, tags in EQUATIONS_BY_SECTION.items():
         assert section in ANCHORS
@@ -163,7 +176,7 @@ def test_every_file_and_name_the_document_points_to_exists() -> None:
     A path or a setting/function name in backticks is a pointer into the code: it must
     not outlive a rename.
     """
-    text = DOC.read_text(encoding='utf-8')
+    text = DOC_TEXT
     paths = set(re.findall(r'`((?:gyro_calib|sim_nodes|benchmarks|test)/[\w/]*(?:\.py)?)`', text))
     assert len(paths) > 10
     for path in sorted(paths):

@@ -28,7 +28,7 @@ CONTRACT_TYPES: dict[str, str] = {
     topics.GYRO_TEMPERATURE: TEMPERATURE,
     topics.IMU_PULSES: JOINT_STATE,
 }
-"""Message type of every input topic of the contract (README "Topic contract"); the method
+"""Message type of every input topic of the contract (docs/reference/topic-contract.md); the method
 registry's topics are exactly these, in this order (test/test_layers.py checks it)."""
 
 JOINT_WIDTHS: dict[str, int] = {topics.IMU_PULSES: 3}

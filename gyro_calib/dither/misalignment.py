@@ -12,7 +12,7 @@ cannot tell a from zero. Its standard uncertainty is the propagated
 and the reported uncertainty is max(σ_z, σ_y), which the spread of √(ŝ_z² + ŝ_y²) never
 exceeds (the Rice distribution's standard deviation lies between 0.66σ and σ).
 
-Rocking allowance (derived in README.md, dither section; checked by
+Rocking allowance (derived in docs/guide/dither.md; checked by
 benchmarks/dither_rocking_allowance.py against the exact kinematics). Transverse rocking in
 phase with the dither lands on the same regressor as a (METHODS §C): a rocking of amplitude
 θ_r about case Y (θ_xz) adds −θ_r·ω_T·sin(Ω_d t) to the rate the table along Z shows, exactly

@@ -13,7 +13,7 @@ placeholder number. Method-specific keys carry the method's prefix (``fog_…``,
 
 Example (``format_version: 3``)::
 
-    # gyro_calib INS hand-off calibration; layout: gyro_calib/handoff/ (README: The hand-off file)
+    # gyro_calib INS hand-off calibration; layout: gyro_calib/handoff/ (docs/reference/handoff.md)
     format_version: 3
     gyro_calib_version: 0.2.0
     gyro_id: A-1                         # serial or name; binds: another gyro's run is refused
@@ -54,7 +54,8 @@ scale factor a dither or noise run turned the output into rad with, and where it
 with ``scale_factor_from``, absent when the run used none).
 
 The keys each method may write, with units and meaning, are its ``HANDOFF_KEYS`` (listed in
-the README); unknown keys are refused (a misspelt key would otherwise be silently dropped).
+docs/reference/handoff.md); unknown keys are refused (a misspelt key would otherwise be
+silently dropped).
 Floats need a dot in the mantissa (YAML 1.1: ``4.0e-6``, not ``4e-6``, which reads as a
 string). Files of ``format_version`` 1 (RBRLG only, flat metadata) and 2 (one provenance per
 method, ``missing`` per method too) still load; they are rewritten as format 3. ``_dof`` is

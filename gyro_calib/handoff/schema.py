@@ -215,7 +215,7 @@ def _numbers(*values: Any) -> bool:
 
 
 def keys_table(keys: Iterable[HandoffKey]) -> str:
-    """A Markdown table of hand-off keys (README)."""
+    """A Markdown table of hand-off keys (docs/reference/handoff.md)."""
     lines = ['| key | method | meaning |', '|---|---|---|']
     for k in keys:
         std = ' (+ `_std`)' if k.has_std else ''

@@ -27,7 +27,7 @@ def calibration_text(calibration: Calibration,
                      schema: Mapping[str, HandoffKey] | None = None) -> str:
     """The hand-off file's text: the one layout every writer uses (``--out``, nodes, batch)."""
     return ('# gyro_calib INS hand-off calibration; layout: gyro_calib/handoff/ '
-            '(README: The hand-off file)\n'
+            '(docs/reference/handoff.md)\n'
             + yaml.dump(dict(calibration_to_yaml_dict(calibration, schema)), Dumper=_Dumper,
                         sort_keys=False, allow_unicode=True, width=100))
 

@@ -222,7 +222,7 @@ def report_unused_parameters(node: Node) -> None:
     if unused:
         node.get_logger().warning(
             f'parameter(s) {", ".join(unused)} given but not declared by {node.get_name()}: '
-            'ignored (its parameters: ros2 param list, or the README section of the node).')
+            'ignored (its parameters: ros2 param list, or docs/reference (node parameters)).')
 
 
 EXIT_READERS_STALLED = 3
@@ -475,7 +475,7 @@ def make_executor(context: Context | None = None) -> Executor:
 
     rclpy's EventsExecutor takes > 10 000 JointState messages/s on this class of
     machine where the default SingleThreadedExecutor falls behind at a few thousand
-    (measured; see README, Performance), so 1 kHz streams replay well above real time.
+    (measured; see docs/development/performance.md), so 1 kHz streams replay well above real time.
     """
     from rclpy.experimental.events_executor import EventsExecutor
 

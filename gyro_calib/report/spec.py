@@ -179,8 +179,8 @@ def spec_from_dict(data: Any, *, source: str = 'spec',
             raise ConfigError(f'quantities.{key} in spec file {source} is not a measured '
                               f'quantity of the hand-off file (did you mean '
                               f'{_nearest(str(key), sorted(known) + _imu_groups())}?): a '
-                              'misspelt quantity would never be judged; the keys are listed '
-                              'in the README and docs/certificates_imu.md.')
+                              'misspelt quantity would never be judged; docs/reference lists '
+                              'the hand-off keys and docs/certificates_imu.md the IMU groups.')
         if not isinstance(entry, dict) or set(entry) - {'unit', 'min', 'max'}:
             raise ConfigError(f'{where} must be a mapping of unit, min, max.')
         quoted = user_unit(str(key))

@@ -50,9 +50,9 @@ def _est(e: Estimate) -> dict[str, Any]:
 def json_document(result: BagCompensation) -> dict[str, Any]:
     """The ``--json`` document of ``compensate``.
 
-    The ``--json`` document, in the shape every command shares (README, ``gyro_calib/
-    schema/result.schema.json``): ``methods.thermal.{results, missing, rejections}`` plus
-    the compensation's figures, model and notes (rates in rad/s; NaN → null).
+    The ``--json`` document, in the shape every command shares (docs/howto/offline.md,
+    ``gyro_calib/schema/result.schema.json``): ``methods.thermal.{results, missing,
+    rejections}`` plus the compensation's figures, model and notes (rates in rad/s; NaN → null).
     """
     from gyro_calib.thermal.session import finite_json
 

@@ -33,7 +33,7 @@ class VibrationTableConfig:
     """Ω_z/2π: vibration frequency, Hz. The default is not a divisor of the usual pulse sample
     rates (1, 2, 4, 5, 10, 20 kHz): a table frequency that divides the sample rate (20 Hz at
     2 kHz) locks the pulse quantisation to the table phase, and the estimator then widens its
-    uncertainty 2× (README, dither section)."""
+    uncertainty 2× (docs/guide/dither.md)."""
     phase_rad: float = 0.0
     """Phase p of the rate A·cos(Ω_z·t + p) at t = 0, rad."""
     harmonic_fraction: float = 0.0

@@ -1,9 +1,11 @@
-"""Every command in the README's bash blocks is run.
+"""Every command in the README's and the documentation's bash blocks is run.
 
-Every command in the README's ```bash blocks is run, so the README cannot drift from the
-tools (issue 17 item 4).
+Every command in the ```bash blocks of README.md and of the hand-written pages under docs/
+(where the README's sections moved, issue 39) is run, so neither can drift from the tools
+(issue 17 item 4). The tutorials' ```console blocks, with their output, are run by
+test/test_docs_tutorials.py.
 
-The commands are extracted from README.md itself, in order, block by block:
+The commands are extracted from the pages themselves, in order, block by block:
 
 - ``gyro-calib ...`` lines run in-process, in one scratch directory per block (with
   ``bags/`` and ``config/`` linked in), so a bag a block simulates or a hand-off file it
@@ -17,7 +19,7 @@ The commands are extracted from README.md itself, in order, block by block:
   by the node and fails the test), then is stopped.
 - ``./run.sh demo|test`` must be subcommands run.sh has; the ``colcon build`` line is what
   test/test_colcon_build.py builds.
-- the files the commands name (``spec.yaml``, ``fleet.yaml``) are the README's own ```yaml
+- the files the commands name (``spec.yaml``, ``fleet.yaml``) are the pages' own ```yaml
   examples (:data:`README_FILES`).
 """
 
@@ -43,19 +45,29 @@ PLACEHOLDERS = {'DIR': 'figs', 'BAG': 'bags/noise_imu_static', 'T': '/imu/data',
 """Values for the README's synopsis placeholders."""
 
 
-def readme_blocks() -> list[tuple[int, list[str]]]:
-    """(line number, commands) of every ```bash block of README.md; comments dropped."""
-    blocks, current, start = [], None, 0
-    for number, line in enumerate((ROOT / 'README.md').read_text().splitlines(), 1):
-        if line.startswith('```bash'):
-            current, start = [], number
-        elif line.startswith('```') and current is not None:
-            blocks.append((start, current))
-            current = None
-        elif current is not None:
-            text = line.split(' #', 1)[0].strip()
-            if text and not text.startswith('#'):
-                current.append(text)
+PAGES = [ROOT / 'README.md'] + sorted(
+    p for p in (ROOT / 'docs').rglob('*.md')
+    if not {'generated', '_build'} & set(p.relative_to(ROOT / 'docs').parts))
+"""README.md and the hand-written documentation pages (the generated reference has no commands)."""
+
+
+def readme_blocks() -> list[tuple[str, list[str]]]:
+    """('page:line', commands) of every ```bash block of the pages; comments dropped."""
+    blocks: list[tuple[str, list[str]]] = []
+    for page in PAGES:
+        current: list[str] | None = None
+        start = 0
+        for number, line in enumerate(page.read_text().splitlines(), 1):
+            stripped = line.strip()
+            if stripped.startswith('```bash'):
+                current, start = [], number
+            elif stripped.startswith('```') and current is not None:
+                blocks.append((f'{page.relative_to(ROOT).as_posix()}:{start}', current))
+                current = None
+            elif current is not None:
+                text = stripped.split(' #', 1)[0].strip()
+                if text and not text.startswith('#'):
+                    current.append(text)
     return blocks
 
 
@@ -65,12 +77,13 @@ README_FILES = {'spec.yaml': 'decision_rule:', 'fleet.yaml': 'gyros:',
 
 
 def readme_files() -> dict[str, str]:
-    """File name → the text of the README's ```yaml block that defines it."""
-    blocks = re.findall(r'^```yaml\n(.*?)^```', (ROOT / 'README.md').read_text(), re.M | re.S)
+    """File name → the text of the pages' ```yaml block that defines it."""
+    text = '\n'.join(p.read_text() for p in PAGES)
+    blocks = re.findall(r'^```yaml\n(.*?)^```', text, re.M | re.S)
     out = {}
     for name, key in README_FILES.items():
         found = [b for b in blocks if key in b]
-        assert len(found) == 1, f'README: one ```yaml block with {key!r} expected for {name}'
+        assert len(found) == 1, f'docs: one ```yaml block with {key!r} expected for {name}'
         out[name] = found[0]
     return out
 
@@ -107,6 +120,7 @@ BLOCKS = readme_blocks()
 
 
 def test_the_readme_has_commands_and_every_one_is_of_a_known_kind() -> None:
+    assert any(where.startswith('README.md:') for where, _ in BLOCKS)
     kinds = [_kind(expand(c)) for _, cmds in BLOCKS for c in cmds]
     assert kinds.count('cli') >= 10 and kinds.count('node') >= 8
     assert 'unknown' not in kinds, [c for _, cmds in BLOCKS for c in cmds]
@@ -116,9 +130,8 @@ CLI_BLOCKS = [(start, cmds) for start, cmds in BLOCKS
               if any(_kind(expand(c)) != 'node' for c in cmds)]
 
 
-@pytest.mark.parametrize('start, commands', CLI_BLOCKS,
-                         ids=[f'README:{s}' for s, _ in CLI_BLOCKS])
-def test_readme_block_runs(start: int, commands: list[str], tmp_path: Path,
+@pytest.mark.parametrize('start, commands', CLI_BLOCKS, ids=[s for s, _ in CLI_BLOCKS])
+def test_readme_block_runs(start: str, commands: list[str], tmp_path: Path,
                            capsys: pytest.CaptureFixture[str],
                            monkeypatch: pytest.MonkeyPatch) -> None:
     """The block's gyro-calib lines in order, in one scratch directory (node lines: below)."""
@@ -134,7 +147,7 @@ def test_readme_block_runs(start: int, commands: list[str], tmp_path: Path,
             except SystemExit as exc:  # --version, as argparse ends it
                 code = int(exc.code or 0)
             out, err = capsys.readouterr()
-            assert code == 0, f'README line {command!r}:\n{err}'
+            assert code == 0, f'{start} line {command!r}:\n{err}'
         elif kind == 'run.sh':
             cases = re.findall(r'^\s+([a-z]+)\)', (ROOT / 'run.sh').read_text(), re.M)
             assert words[1] in cases, f'run.sh has no subcommand {words[1]!r}'
@@ -148,7 +161,7 @@ def test_every_readme_node_line_starts_and_uses_every_parameter_it_gives(
     """Every node line of every block started at once (a scratch directory per block)."""
     started: list[tuple[str, NodeProcess]] = []
     for start, commands in BLOCKS:
-        cwd = _scratch(tmp_path / str(start))
+        cwd = _scratch(tmp_path / re.sub(r'\W', '_', start))
         for command in commands:
             words = expand(command)
             if _kind(words) == 'node':
