@@ -87,7 +87,7 @@ def bag_info(path: str | Path, *, recover: bool = True) -> BagInfo:
 
 
 def header_stamp_spans(path: str | Path, info: BagInfo, *,
-                       notes: list[str] | None = None
+                       notes: list[str] | None = None, recover: bool = True
                        ) -> dict[str, tuple[int, int, int, float]]:
     """Per stamped topic: messages, stamp span and sample interval.
 
@@ -96,7 +96,7 @@ def header_stamp_spans(path: str | Path, info: BagInfo, *,
     Header, Imu, Temperature): rates from the sample instants, not the receive (log) times.
     The typical interval is the median over batches of each batch's median positive stamp
     step, so gaps and a few disordered stamps do not move it. The lines of damaged chunks
-    skipped go to ``notes``.
+    skipped go to ``notes``; without ``recover`` a damaged chunk raises.
 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
@@ -107,7 +107,7 @@ def header_stamp_spans(path: str | Path, info: BagInfo, *,
     steps: dict[str, list[float]] = {}
     if not types:
         return {}
-    for batch in iter_sample_batches(path, types, namespace=info.namespace):
+    for batch in iter_sample_batches(path, types, namespace=info.namespace, recover=recover):
         if notes is not None:
             notes.extend(batch.notes)
         for topic, cols in batch.columns.items():

@@ -76,19 +76,19 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
     return out
 
 
-def bag_description(info: Any) -> dict[str, Any]:
+def bag_description(info: Any, *, strict: bool = False) -> dict[str, Any]:
     """One bag's description for ``info``.
 
     One bag for ``info``: span, topics with counts and rates from the header stamps
     (the sample instants; log times only for types without a decodable header), and, for
     a bag cut off or damaged, the lines saying where its readable data ends and which
-    chunks were skipped (``damage``; docs/recovery.md).
+    chunks were skipped (``damage``; docs/recovery.md); ``strict`` refuses a damaged chunk.
     """
     from gyro_calib.bagio import header_stamp_spans
 
     damage = info.damage.lines(info.path) if info.damage is not None else []
-    spans = (header_stamp_spans(info.path, info, notes=damage) if info.message_count
-             else {})
+    spans = (header_stamp_spans(info.path, info, notes=damage, recover=not strict)
+             if info.message_count else {})
     topics = []
     for t in sorted(info.topics.values(), key=lambda t: t.name):
         n, lo, hi, step_ns = spans.get(t.name, (0, 0, 0, math.nan))
@@ -140,7 +140,7 @@ def run_info(args: argparse.Namespace) -> int:
     human = io.StringIO()
     if namespace_note:
         print(f'note: {namespace_note}', file=human)
-    descriptions = [bag_description(i) for i in infos]
+    descriptions = [bag_description(i, strict=args.strict) for i in infos]
     prospects = method_prospects(infos)
     names = list(args.method or [n for n, p in prospects.items()
                                  if p['runs'] and METHODS[n].auto])
