@@ -148,6 +148,13 @@ class Walk:
     bad: str
 
 
+_RECORD_HEAD = struct.Struct('<BQ')
+"""A record's opcode and length."""
+
+_MESSAGE_IDS = struct.Struct('<HIQ')
+"""A Message record's channel id, sequence and log time."""
+
+
 def _text(raw: bytes, pos: int) -> tuple[str, int]:
     (n,) = struct.unpack_from('<I', raw, pos)
     return raw[pos + 4:pos + 4 + n].decode(), pos + 4 + n
@@ -163,12 +170,13 @@ def walk_records(raw: bytes) -> Walk:
     schemas: dict[int, tuple[str, str, bytes]] = {}
     channels: dict[int, tuple[str, int, str, dict[str, str]]] = {}
     pos, size = 0, len(raw)
+    head, message = _RECORD_HEAD.unpack_from, _MESSAGE_IDS.unpack_from  # the hot loop
     try:
         while pos < size:
             if pos + 9 > size:
                 return Walk(messages, schemas, channels, f'a record head at offset {pos} is cut')
-            opcode = raw[pos]
-            end = pos + 9 + int.from_bytes(raw[pos + 1:pos + 9], 'little')
+            opcode, length = head(raw, pos)
+            end = pos + 9 + length
             if end > size:
                 return Walk(messages, schemas, channels,
                             f'the record at offset {pos} runs past the chunk')
@@ -176,8 +184,11 @@ def walk_records(raw: bytes) -> Walk:
                 if end - pos < _MESSAGE_HEAD:
                     return Walk(messages, schemas, channels,
                                 f'the message record at offset {pos} is too short')
-                cid, _, log = struct.unpack_from('<HIQ', raw, pos + 9)
-                messages.setdefault(cid, []).append((log, pos))
+                cid, _, log = message(raw, pos + 9)
+                rows = messages.get(cid)
+                if rows is None:
+                    rows = messages[cid] = []
+                rows.append((log, pos))
             elif opcode == 0x03:
                 (sid,) = struct.unpack_from('<H', raw, pos + 9)
                 name, at = _text(raw, pos + 11)

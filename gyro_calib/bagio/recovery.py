@@ -322,10 +322,12 @@ def _survey(path: Path, size: int, schemas: dict[int, tuple[str, str, bytes]],
 
 
 _CACHE: dict[tuple[str, int, int], Survey] = {}
+_CACHED = 8
+"""Surveys kept (each small: chunk places and one message per channel)."""
 
 
 def survey(mcap_path: Path) -> Survey:
-    """Walk ``mcap_path`` record by record (cached while the file is unchanged).
+    """Walk ``mcap_path`` record by record (the last few cached while unchanged).
 
     Raises:
         CorruptBagError: the file does not start with the MCAP magic, or cannot be read.
@@ -343,7 +345,8 @@ def survey(mcap_path: Path) -> Survey:
                 got = _walk(mm, mcap_path, stat.st_size)
     except OSError as exc:
         raise CorruptBagError(f'{mcap_path}: cannot be read ({exc.strerror or exc}).') from exc
-    _CACHE.clear()  # one file at a time: the last one surveyed
+    while len(_CACHE) >= _CACHED:  # the oldest out: a few bags read together
+        del _CACHE[next(iter(_CACHE))]
     _CACHE[key] = got
     return got
 

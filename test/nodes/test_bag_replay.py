@@ -121,15 +121,13 @@ def test_recorder_killed_mid_run_reads_back_and_calibrates_to_the_messages_it_fl
     nodes.append(recorder)
     nodes.append(launch('rlg_sim', {'seed': seed}))
     nodes.append(launch('rate_table_sim', {'duration_s': duration, 'seed': seed,
-                                           'real_time_factor': 5.0}))
+                                           'real_time_factor': 10.0}))
+    mcap = out / 'killed.mcap'
     deadline = time.monotonic() + 240.0
-    while time.monotonic() < deadline:  # one forward/reverse pair flushed (t ≈ 29 s)
-        time.sleep(0.5)
-        try:
-            if bag_info(out).topics[topics.GYRO_PULSES].count >= 32_000:
-                break
-        except Exception:  # noqa: BLE001, S112 -- not recording yet, or no chunk written yet
-            continue
+    while time.monotonic() < deadline:  # about one forward/reverse pair flushed (t ≈ 30 s)
+        time.sleep(0.2)
+        if mcap.exists() and mcap.stat().st_size >= 1_100_000:
+            break
     recorder.proc.kill()
     recorder.proc.wait(timeout=30)
     logs = '\n'.join(n.log() for n in nodes)
@@ -137,7 +135,7 @@ def test_recorder_killed_mid_run_reads_back_and_calibrates_to_the_messages_it_fl
 
     channels: dict[int, str] = {}
     rows: list[tuple[str, int, bytes]] = []
-    with (out / 'killed.mcap').open('rb') as f:
+    with mcap.open('rb') as f:
         try:
             for record in StreamReader(f, validate_crcs=True).records:
                 if isinstance(record, Channel):
@@ -147,7 +145,7 @@ def test_recorder_killed_mid_run_reads_back_and_calibrates_to_the_messages_it_fl
         except Exception:  # noqa: BLE001, S110 -- it stops at the cut, as it must
             pass
     info = bag_info(out)
-    assert info.damage is not None and info.message_count == len(rows) > 32_000, logs
+    assert info.damage is not None and info.message_count == len(rows) > 25_000, logs
 
     sim = simulate_rate_bias_bench(RateTableConfig(duration_s=duration, seed=seed),
                                    RingLaserGyroConfig(seed=seed))
