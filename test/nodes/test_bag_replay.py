@@ -114,7 +114,7 @@ def test_recorder_killed_mid_run_reads_back_and_calibrates_to_the_messages_it_fl
     from gyro_calib.bag_calibration import json_document
     from gyro_calib.bagio import BagMessage, write_bag
 
-    duration, seed = 40.0, 9
+    duration, seed = 25.0, 9
     out = tmp_path / 'killed'
     recorder = launch('bag_recorder', {'out': str(out), 'log_time': 'header',
                                        'flush_interval_s': 0.5})
@@ -124,12 +124,15 @@ def test_recorder_killed_mid_run_reads_back_and_calibrates_to_the_messages_it_fl
                                            'real_time_factor': 10.0}))
     mcap = out / 'killed.mcap'
     deadline = time.monotonic() + 240.0
-    while time.monotonic() < deadline:  # about one forward/reverse pair flushed (t ≈ 30 s)
+    while time.monotonic() < deadline:  # the first K̃ window flushed (t ≈ 13 s)
         time.sleep(0.2)
-        if mcap.exists() and mcap.stat().st_size >= 1_100_000:
+        if mcap.exists() and mcap.stat().st_size >= 450_000:
             break
     recorder.proc.kill()
     recorder.proc.wait(timeout=30)
+    for node in nodes:  # the simulators would wait for the dead recorder's acknowledgements
+        node.proc.kill()
+        node.proc.wait(timeout=30)
     logs = '\n'.join(n.log() for n in nodes)
     assert not (out / 'metadata.yaml').exists(), logs
 
@@ -145,7 +148,7 @@ def test_recorder_killed_mid_run_reads_back_and_calibrates_to_the_messages_it_fl
         except Exception:  # noqa: BLE001, S110 -- it stops at the cut, as it must
             pass
     info = bag_info(out)
-    assert info.damage is not None and info.message_count == len(rows) > 25_000, logs
+    assert info.damage is not None and info.message_count == len(rows) > 10_000, logs
 
     sim = simulate_rate_bias_bench(RateTableConfig(duration_s=duration, seed=seed),
                                    RingLaserGyroConfig(seed=seed))
