@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -164,3 +165,59 @@ def test_recorder_killed_mid_run_reads_back_and_calibrates_to_the_messages_it_fl
                                                                         key=lambda r: r[1])))
     got, want = json_document(calibrate_bags([out])), json_document(calibrate_bags([reference]))
     assert got['methods'] == want['methods'] and got['messages'] == want['messages']
+
+
+def test_recorder_on_a_full_disk_stops_with_one_line_and_its_bag_reads_back(
+        tmp_path: Path) -> None:
+    """A write that fails (ENOSPC) ends the recording; the chunks written before are read."""
+    import errno
+
+    import rclpy
+
+    from gyro_calib.bagio import ContractMessages
+    from gyro_calib.nodes.bag_recorder import BagRecorder
+    from gyro_calib.nodes.processes import ros_args
+
+    class Full:
+        """The bag's file, refusing every write once ``limit`` bytes are written."""
+
+        def __init__(self, f: Any, limit: int) -> None:
+            self.f, self.limit = f, limit
+
+        def write(self, b: bytes) -> int:
+            room = self.limit - self.f.tell()
+            if len(b) > room:
+                self.f.write(b[:max(room, 0)])
+                self.f.flush()
+                raise OSError(errno.ENOSPC, 'No space left on device')
+            return int(self.f.write(b))
+
+        def __getattr__(self, name: str) -> Any:
+            return getattr(self.f, name)
+
+    out = tmp_path / 'full'
+    rclpy.init(args=ros_args({'out': str(out), 'chunk_size_bytes': 20_000}))
+    try:
+        recorder = BagRecorder()
+        cdr = ContractMessages()
+        from sensor_msgs.msg import JointState
+
+        for i in range(2000):  # chunks of 20 kB written as they fill
+            recorder._on_message(topics.GYRO_PULSES, JointState,
+                                 cdr.joint_state(i * 1_000_000, 'gyro', float(i)))
+            if i == 999:
+                storage = recorder._writer.storage
+                storage.bio = Full(storage.bio, storage.bio.tell() + 100)
+        assert 'No space left' in recorder.failed and recorder.done
+        recorder.close()  # leaves the bag as it is: nothing more written
+        recorder.destroy_node()
+    finally:
+        rclpy.shutdown()
+    assert not (out / 'metadata.yaml').exists()
+    info = bag_info(out)
+    n = info.topics[topics.GYRO_PULSES].count
+    assert 0 < n <= 1000 and recorder.counts[topics.GYRO_PULSES] >= n
+    assert info.damage is not None and info.damage.tail_from is not None
+    (batch,) = list(iter_sample_batches(out, batch_messages=10**9))
+    pulses = batch.joint_state(topics.GYRO_PULSES)
+    assert pulses is not None and list(pulses[1]) == [float(i) for i in range(n)]
