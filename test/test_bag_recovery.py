@@ -215,8 +215,12 @@ def test_a_damaged_middle_chunk_is_skipped_naming_its_stamps_and_never_bridged(
     assert (f'a damaged chunk at bytes {offset}–{offset + length} (t=46.300000 s → '
             't=55.560000 s, log times) was skipped') in out
     assert 'rejected at t=56.078333 s' in out  # the window across the gap: rejected
-    _check(BAGS / 'k_tilde_bench', bag, _all_but_chunk(_mcap(BAGS / 'k_tilde_bench'), offset),
-           tmp_path)
+    rows = _all_but_chunk(_mcap(BAGS / 'k_tilde_bench'), offset)
+    _check(BAGS / 'k_tilde_bench', bag, rows, tmp_path)
+    assert main(['info', str(bag)]) == 0  # says the same, and counts what was read
+    said = capsys.readouterr().out
+    assert f'a damaged chunk at bytes {offset}–{offset + length}' in said
+    assert f'messages: {len(rows)}' in said
     assert main(['calibrate', str(bag), '--strict']) == 2
     got = capsys.readouterr()
     assert got.out == '' and len(got.err.splitlines()) == 1 and 'damaged' in got.err

@@ -10,6 +10,7 @@ runs the methods that would run to show what they read, reject and are limited b
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import io
 import json
 import math
@@ -89,9 +90,12 @@ def bag_description(info: Any, *, strict: bool = False) -> dict[str, Any]:
     damage = info.damage.lines(info.path) if info.damage is not None else []
     spans = (header_stamp_spans(info.path, info, notes=damage, recover=not strict)
              if info.message_count else {})
+    skipped = len(damage) > (1 if info.damage is not None else 0)  # chunks skipped on the way
     topics = []
     for t in sorted(info.topics.values(), key=lambda t: t.name):
         n, lo, hi, step_ns = spans.get(t.name, (0, 0, 0, math.nan))
+        if skipped and t.name in spans:  # the messages read, not those the summary counts
+            t = dataclasses.replace(t, count=n)
         if n > 1 and step_ns > 0:
             rate, basis = 1e9 / step_ns, 'header stamps, median step'
         elif info.duration_s > 0 and t.count > 1:
@@ -101,8 +105,9 @@ def bag_description(info: Any, *, strict: bool = False) -> dict[str, Any]:
         topics.append({'name': t.name, 'type': t.msgtype, 'count': t.count,
                        'rate_hz': rate if math.isfinite(rate) else None, 'rate_from': basis})
     scenario = info.scenario if isinstance(info.scenario, dict) else {}
+    messages = sum(t['count'] for t in topics) if skipped else info.message_count
     return {'path': str(info.path), 'duration_s': info.duration_s,
-            'start_ns': info.start_ns, 'end_ns': info.end_ns, 'messages': info.message_count,
+            'start_ns': info.start_ns, 'end_ns': info.end_ns, 'messages': messages,
             'topics': topics, 'scenario_name': scenario.get('name'),
             'scenario_description': scenario.get('description'),
             'stored_settings': sorted(scenario), 'damage': damage}
