@@ -101,7 +101,7 @@ class Damage:
             per = ', '.join(f'{t} {k}' for t, k in sorted(self.lost_messages.items()) if k)
             parts.append(f'{n} messages ({per})' if n else 'no message')
         else:
-            parts.append('messages: no metadata.yaml counts them')
+            parts.append('an unknown number of messages (no metadata.yaml counts them)')
         stamps = ', '.join(f'{t} {format_stamp(s)}'
                            for t, s in sorted(self.last_stamps_ns.items())) or 'none'
         rests = (f'the results rest on the part before it ({format_stamp(self.span_ns[0])} → '
