@@ -140,9 +140,9 @@ def _strict_bag_info(path: str | Path) -> BagInfo:
             raise exc from None
         if damage is None:
             raise
-        what = damage.line(path).removeprefix(f'{path}: ')
+        what = damage.line(path).removeprefix(f'{path}: ').split('; the results rest on')[0]
         raise CorruptBagError(
-            f'--strict refuses {path}: {what} Without --strict that part is calibrated; '
+            f'--strict refuses {path}: {what}. Without --strict the part before is calibrated; '
             f'`gyro-calib repair {path} --out DIR` writes a whole copy of it.') from None
 
 
