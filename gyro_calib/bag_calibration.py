@@ -17,7 +17,9 @@ from typing import Any
 from gyro_calib import topics
 from gyro_calib.bagio import (
     CONTRACT_TYPES,
+    BagError,
     BagInfo,
+    CorruptBagError,
     MissingTopicError,
     WrongMessageTypeError,
     bag_info,
@@ -103,20 +105,45 @@ def resolve_namespace(infos: Sequence[BagInfo], namespace: str | None) -> tuple[
                       'holding calibration topics.')
 
 
-def bag_infos(paths: Sequence[str | Path], namespace: str | None = None
-              ) -> tuple[list[BagInfo], str]:
+def bag_infos(paths: Sequence[str | Path], namespace: str | None = None, *,
+              strict: bool = False) -> tuple[list[BagInfo], str]:
     """Each bag's info as seen from the namespace read.
 
     Each bag's info as seen from the namespace read (:func:`resolve_namespace`), and the
-    note saying the namespace was found in the bags ('' when given or the root).
+    note saying the namespace was found in the bags ('' when given or the root). A bag cut
+    off or damaged is read up to where its readable data ends (``BagInfo.damage``;
+    docs/recovery.md); ``strict`` refuses it instead.
 
     Raises:
-        BagError (subclass): as :func:`gyro_calib.bagio.bag_info`.
+        BagError (subclass): as :func:`gyro_calib.bagio.bag_info`; CorruptBagError for a
+            damaged bag with ``strict``.
         ConfigError: as :func:`resolve_namespace`.
     """
-    infos = [bag_info(p) for p in paths]
+    infos = [_strict_bag_info(p) if strict else bag_info(p) for p in paths]
     ns, note = resolve_namespace(infos, namespace)
     return [i.in_namespace(ns) for i in infos], note
+
+
+def _strict_bag_info(path: str | Path) -> BagInfo:
+    """The bag's info, or one line refusing it when it is cut off or damaged (``--strict``).
+
+    Raises:
+        BagError (subclass): as :func:`gyro_calib.bagio.bag_info`; CorruptBagError naming
+            what the intact part would have been.
+    """
+    try:
+        return bag_info(path, recover=False)
+    except CorruptBagError as exc:
+        try:
+            damage = bag_info(path).damage
+        except BagError:
+            raise exc from None
+        if damage is None:
+            raise
+        what = damage.line(path).removeprefix(f'{path}: ').split('; the results rest on')[0]
+        raise CorruptBagError(
+            f'--strict refuses {path}: {what}. Without --strict the part before is calibrated; '
+            f'`gyro-calib repair {path} --out DIR` writes a whole copy of it.') from None
 
 
 def merged_topics(infos: Sequence[BagInfo]) -> dict[str, str]:
@@ -245,13 +272,15 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
                    options: CalibrationOptions | None = None,
                    progress: Callable[[float], None] | None = None,
                    batch_messages: int = 50_000,
-                   namespace: str | None = None) -> BagCalibration:
+                   namespace: str | None = None, strict: bool = False) -> BagCalibration:
     """Stream the bags at ``paths`` (together, in stamp order) through the methods' sessions.
 
     ``options`` carry the user's settings; the bench settings a simulated bag stores fill in
     the rest. ``progress`` is called with the fraction of the bags' messages decoded.
     ``namespace`` names the bench whose topics are read (None: the root, or the one
-    namespace the bags hold; :func:`resolve_namespace`).
+    namespace the bags hold; :func:`resolve_namespace`). A bag cut off or damaged is read
+    up to where its readable data ends, each damaged chunk skipped, each said in a line of
+    ``notes`` (docs/recovery.md); ``strict`` refuses it instead.
 
     Raises:
         BagError (subclass): missing path, not a bag, damaged bag, missing topic, wrong
@@ -260,7 +289,7 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
     """
     if not paths:
         raise ConfigError('no bag given.')
-    infos, ns_note = bag_infos(paths, namespace)
+    infos, ns_note = bag_infos(paths, namespace, strict=strict)
     ns = infos[0].namespace
     chosen = select_methods(infos, methods)
     options = options or CalibrationOptions()
@@ -270,6 +299,8 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
              for line in per_method[m.name].conflicts(m.bench_settings)]
     if ns_note:
         notes.insert(0, f'note: {ns_note}')
+    notes += [f'note: {line}' for info in infos if info.damage is not None
+              for line in info.damage.lines(info.path)]
     present = merged_topics(infos)
     log: list[str] = []
     counts = [0]
@@ -285,6 +316,8 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
         types = {t: m for t, m in types.items() if present.get(t) == m}
         current = -1
         for index, batch in stream(types):
+            notes.extend(f'note: {line}' for line in batch.notes
+                         if f'note: {line}' not in notes)
             if starts and index != current:
                 current = index
                 for name in names:
@@ -299,12 +332,12 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
     paths_ = [i.path for i in infos]
     if together:
         run(together, lambda types: iter_bags(paths_, types, batch_messages=batch_messages,
-                                              namespace=ns), False)
+                                              namespace=ns, recover=not strict), False)
     if separate:
         def one_by_one(types: dict[str, str]) -> Any:
             for index, path in enumerate(paths_):
                 for batch in iter_sample_batches(path, types, batch_messages=batch_messages,
-                                                 namespace=ns):
+                                                 namespace=ns, recover=not strict):
                     yield index, batch
         run(separate, one_by_one, True)
     for name, s in sessions.items():

@@ -63,7 +63,7 @@ def compensate_bags(paths: Sequence[Path], calibration_file: Path, *, gyro_id: s
         raise ConfigError(f'{calibration_file} holds no thermal_model: calibrate a chamber run '
                           f'first (gyro-calib calibrate BAG --method thermal --out '
                           f'{calibration_file}).')
-    infos = [bag_info(p) for p in paths]
+    infos = [bag_info(p, recover=False) for p in paths]  # it copies bags: whole ones only
     where = infos[0] if len(infos) == 1 else dataclasses.replace(
         infos[0], path=Path(' + '.join(str(i.path) for i in infos)),
         topics={k: v for i in infos for k, v in i.topics.items()},
@@ -75,7 +75,8 @@ def compensate_bags(paths: Sequence[Path], calibration_file: Path, *, gyro_id: s
                    scale_factor_rad_per_pulse=float(k_bag) if k_bag is not None else None)
     pcal = pulse_calibration(calibration, gyro_id=recorded)
     reducer = CompensationReducer(model)
-    for _, batch in iter_bags([i.path for i in infos], TOPICS, batch_messages=batch_messages):
+    for _, batch in iter_bags([i.path for i in infos], TOPICS, batch_messages=batch_messages,
+                              recover=False):
         pulses = batch.joint_state(GYRO_PULSES)
         if pulses is not None:
             reducer.extend_pulses(pulses[0], pulses[1])
@@ -188,7 +189,7 @@ def write_compensated_bag(result: BagCompensation, out: Path, *, calibration_fil
     if len(result.bags) != 1:
         raise ConfigError('--out writes a copy of one bag: give a single BAG with it.')
     src = result.bags[0]
-    info = bag_info(src)
+    info = bag_info(src, recover=False)
     rep = result.report
     tint = int(round(result.model.averaging_interval_s * 1e9))
     k0 = int(rep.t_mid_ns[0]) // tint

@@ -281,6 +281,9 @@ class BadInput:
 
     make: Callable[[Path], Path]
     names: tuple[str, ...]
+    flags: tuple[str, ...] = ()
+    """What makes it bad input: a cut or damaged bag is read up to its damage unless
+    ``--strict`` (docs/recovery.md; test_bag_recovery.py)."""
 
 
 DAMAGED = r'truncated|damaged'
@@ -289,13 +292,13 @@ BAD_INPUTS: dict[str, BadInput] = {
     'directory that is not a bag': BadInput(directory_not_a_bag, ('not a rosbag2 bag',)),
     'empty directory': BadInput(empty_directory, ('not a rosbag2 bag',)),
     'plain file': BadInput(plain_file, ('not a rosbag2 bag',)),
-    'mcap cut in the middle': BadInput(mcap_cut_in_the_middle, (DAMAGED,)),
+    'mcap cut in the middle': BadInput(mcap_cut_in_the_middle, (DAMAGED,), ('--strict',)),
     'garbage in the middle of the middle chunk': BadInput(
-        _chunk_garbage(lambda n: n // 2), (DAMAGED,)),
-    # a damaged chunk must be reported, never decoded into other numbers (the calibrator
-    # then merely rejects a window or two, or nothing at all, and exits 0)
+        _chunk_garbage(lambda n: n // 2), (DAMAGED,), ('--strict',)),
+    # a damaged chunk must be reported, never decoded into other numbers (without --strict
+    # it is skipped with a line and the calibrator rejects the windows spanning it)
     'garbage in the middle of the first chunk': BadInput(
-        _chunk_garbage(lambda n: 0), (DAMAGED,)),
+        _chunk_garbage(lambda n: 0), (DAMAGED,), ('--strict',)),
     'metadata.yaml with non-UTF-8 garbage': BadInput(
         _metadata(_over_middle(b'\xff' * 32)), (r'metadata\.yaml', DAMAGED)),
     'metadata.yaml with YAML-breaking garbage': BadInput(
@@ -362,7 +365,7 @@ def test_calibrate_on_bad_input_prints_one_error_line_exits_2_and_writes_nothing
     out_dir.mkdir()
     out = out_dir / 'calib.yaml'
 
-    run = gyro_calib(capsys, 'calibrate', bag, '--out', out)
+    run = gyro_calib(capsys, 'calibrate', bag, '--out', out, *BAD_INPUTS[case].flags)
 
     line = the_one_error_line(run)
     assert_names(line, BAD_INPUTS[case].names, path=bag)
@@ -382,7 +385,7 @@ def test_calibrate_on_bad_input_leaves_an_existing_output_file_byte_for_byte_unc
     out.write_bytes(PREVIOUS_HANDOFF)
     before = out.stat()
 
-    run = gyro_calib(capsys, 'calibrate', bag, '--out', out)
+    run = gyro_calib(capsys, 'calibrate', bag, '--out', out, *BAD_INPUTS[case].flags)
 
     the_one_error_line(run)
     assert run.code == EXIT_BAD_INPUT
@@ -403,7 +406,7 @@ def test_info_on_bad_input_prints_one_error_line_and_exits_2(
         capsys: pytest.CaptureFixture[str]) -> None:
     bag = bad_bag(case)
 
-    run = gyro_calib(capsys, 'info', bag)
+    run = gyro_calib(capsys, 'info', bag, *BAD_INPUTS[case].flags)
 
     line = the_one_error_line(run)
     assert_names(line, BAD_INPUTS[case].names, path=bag)
@@ -504,6 +507,7 @@ OUTPUT_FLAGS = [
     OutputFlag('report', '--out', 'dir', ('report', NO_INPUT / 'h.yaml')),
     OutputFlag('batch', '--out', 'dir', ('batch', NO_INPUT / 'fleet.yaml')),
     OutputFlag('export', '--out', 'file', ('export', NO_INPUT / 'h.yaml', '--format', 'gtsam')),
+    OutputFlag('repair', '--out', 'bag', ('repair', NO_INPUT / 'bag')),
 ]
 """Every output flag of every ``gyro-calib`` subcommand (``info`` and ``methods`` write
 nothing; ``--json`` is stdout)."""

@@ -52,7 +52,8 @@ SHIMS = {'gyro_calib.bag': 'gyro_calib.bagio', 'gyro_calib.mcap_columns': 'gyro_
          'gyro_calib.table_input': 'gyro_calib.bagio'}
 """Old import paths of the bag layer: each may only re-export its target package's names."""
 BAGIO_ORDER = ('errors', 'messages', 'metadata', 'storage', 'layouts', 'plan', 'chunks',
-               'payloads', 'columns', 'records', 'tables', 'writer', 'reader')
+               'payloads', 'records', 'recovery', 'columns', 'tables', 'writer', 'repair',
+               'reader')
 """Inside the bag layer: each module imports only those before it (the package re-exports)."""
 
 

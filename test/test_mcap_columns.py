@@ -495,10 +495,13 @@ def test_garbage_over_a_chunk_raises_damaged_chunk_error_naming_the_bag(tmp_path
     _mcap(bag).write_bytes(bytes(data))
 
     with pytest.raises(DamagedChunkError, match='damaged') as err:
-        list(iter_column_batches(bag, CONTRACT_TYPES))
+        list(iter_column_batches(bag, CONTRACT_TYPES, recover=False))
 
     assert isinstance(err.value, CorruptBagError) and str(bag) in str(err.value)
     assert len(str(err.value).splitlines()) == 1
+    # read to recover (the default): the chunk is skipped with one line naming it
+    notes = [n for b in iter_column_batches(bag, CONTRACT_TYPES) for n in b.notes]
+    assert len(notes) == 1 and f'a damaged chunk at bytes {chunk.offset}–' in notes[0]
 
 
 def test_statistics_that_disagree_with_the_chunk_indexes_raise_count_mismatch_error(

@@ -7,9 +7,11 @@ bag (:mod:`~gyro_calib.bagio.metadata`), opening bags (:mod:`~gyro_calib.bagio.s
 the columnar MCAP decoder (its steps :mod:`~gyro_calib.bagio.layouts`,
 :mod:`~gyro_calib.bagio.plan`, :mod:`~gyro_calib.bagio.chunks`,
 :mod:`~gyro_calib.bagio.payloads`, and the reader :mod:`~gyro_calib.bagio.columns`), what a
-bag holds and the decoded batches (:mod:`~gyro_calib.bagio.records`), CSV/text tables read
+bag holds and the decoded batches (:mod:`~gyro_calib.bagio.records`), what is intact of a
+bag cut off or damaged (:mod:`~gyro_calib.bagio.recovery`), CSV/text tables read
 wherever a bag is (:mod:`~gyro_calib.bagio.tables`), writing
-(:mod:`~gyro_calib.bagio.writer`) and reading (:mod:`~gyro_calib.bagio.reader`). It never
+(:mod:`~gyro_calib.bagio.writer`), a whole bag from a damaged one
+(:mod:`~gyro_calib.bagio.repair`) and reading (:mod:`~gyro_calib.bagio.reader`). It never
 imports the method registry, the sessions or the methods: the layers above hand it the
 topics they want (issue 19 §5; ``test/test_layers.py`` keeps it so).
 
@@ -52,16 +54,18 @@ from gyro_calib.bagio.reader import (
     iter_sample_batches,
     topics_present,
 )
-from gyro_calib.bagio.records import BagInfo, SampleBatch, TopicInfo
+from gyro_calib.bagio.records import BagInfo, Damage, SampleBatch, SkippedChunk, TopicInfo
+from gyro_calib.bagio.repair import repair_bag
 from gyro_calib.bagio.storage import checksum_chunks, open_reader
 from gyro_calib.bagio.writer import BagMessage, ContractMessages, write_bag
 
 __all__ = [
     'CONTRACT_TYPES', 'HEADER', 'IMU', 'JOINT_STATE', 'SCENARIO_KEY', 'TEMPERATURE',
     'BagError', 'BagInfo', 'BagMessage', 'BagNotFoundError', 'ContractMessages',
-    'CorruptBagError', 'EmptyBagError', 'MissingTopicError', 'NotABagError', 'SampleBatch',
-    'TopicInfo', 'WrongMessageTypeError', 'bag_info', 'check_topics', 'checksum_chunks',
-    'header_stamp_spans', 'iter_bags', 'iter_raw_messages', 'iter_sample_batches',
-    'open_reader', 'parse_scenario_text', 'scenario_key', 'scenario_text',
-    'store_custom_data', 'topic_sort_key', 'topics_present', 'typestore', 'write_bag',
+    'CorruptBagError', 'Damage', 'EmptyBagError', 'MissingTopicError', 'NotABagError',
+    'SampleBatch', 'SkippedChunk', 'TopicInfo', 'WrongMessageTypeError', 'bag_info',
+    'check_topics', 'checksum_chunks', 'header_stamp_spans', 'iter_bags', 'iter_raw_messages',
+    'iter_sample_batches', 'open_reader', 'parse_scenario_text', 'repair_bag', 'scenario_key',
+    'scenario_text', 'store_custom_data', 'topic_sort_key', 'topics_present', 'typestore',
+    'write_bag',
 ]

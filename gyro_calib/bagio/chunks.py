@@ -111,7 +111,130 @@ def _read_chunk(f: BinaryIO, chunk: ChunkPlan, path: Path,
         raise DamagedChunkError(f'{where}: {len(raw)} bytes decompressed, {size} expected.')
     if crc and zlib.crc32(raw) != crc:
         raise DamagedChunkError(f'{where}: its CRC-32 does not match.')
+    if chunk.checksummed and not has_checksum(crc, chunk.compression, data):
+        raise DamagedChunkError(f'{where}: it carries no checksum, unlike the file\'s other '
+                                'chunks.')
+    if chunk.walked:
+        return raw, walked_index(raw, chunk, path)
     return raw, _message_index(span, chunk, path)
+
+
+def has_checksum(crc: int, compression: str, data: bytes | memoryview) -> bool:
+    """True when a chunk's records are checked: a CRC-32, or a zstd frame content checksum.
+
+    ``data`` is the chunk's compressed records; a zstd frame's descriptor (the byte after
+    its magic) has bit 2 set when the frame ends with a checksum (RFC 8878 §3.1.1.1.1).
+    """
+    if crc:
+        return True
+    return (compression == 'zstd' and len(data) > 4
+            and bytes(data[:4]) == b'\x28\xb5\x2f\xfd' and bool(data[4] & 0x04))
+
+
+@dataclass(frozen=True, slots=True)
+class Walk:
+    """The records of a decompressed chunk, walked one by one (MCAP spec, "Chunk").
+
+    Attributes:
+        messages: channel id → (log time ns, record offset) of its Message records.
+        schemas: Schema records (id → name, encoding, data).
+        channels: Channel records (id → topic, schema id, message encoding, metadata).
+        bad: why the records do not tile the chunk ('' when they do).
+    """
+
+    messages: dict[int, list[tuple[int, int]]]
+    schemas: dict[int, tuple[str, str, bytes]]
+    channels: dict[int, tuple[str, int, str, dict[str, str]]]
+    bad: str
+
+
+_RECORD_HEAD = struct.Struct('<BQ')
+"""A record's opcode and length."""
+
+_MESSAGE_IDS = struct.Struct('<HIQ')
+"""A Message record's channel id, sequence and log time."""
+
+
+def _text(raw: bytes, pos: int) -> tuple[str, int]:
+    (n,) = struct.unpack_from('<I', raw, pos)
+    return raw[pos + 4:pos + 4 + n].decode(), pos + 4 + n
+
+
+def walk_records(raw: bytes) -> Walk:
+    """Walk the Schema, Channel and Message records of a decompressed chunk.
+
+    Every record must lie whole inside the chunk and be one of those three (MCAP spec);
+    otherwise ``bad`` says where it stops.
+    """
+    messages: dict[int, list[tuple[int, int]]] = {}
+    schemas: dict[int, tuple[str, str, bytes]] = {}
+    channels: dict[int, tuple[str, int, str, dict[str, str]]] = {}
+    pos, size = 0, len(raw)
+    head, message = _RECORD_HEAD.unpack_from, _MESSAGE_IDS.unpack_from  # the hot loop
+    try:
+        while pos < size:
+            if pos + 9 > size:
+                return Walk(messages, schemas, channels, f'a record head at offset {pos} is cut')
+            opcode, length = head(raw, pos)
+            end = pos + 9 + length
+            if end > size:
+                return Walk(messages, schemas, channels,
+                            f'the record at offset {pos} runs past the chunk')
+            if opcode == 0x05:
+                if end - pos < _MESSAGE_HEAD:
+                    return Walk(messages, schemas, channels,
+                                f'the message record at offset {pos} is too short')
+                cid, _, log = message(raw, pos + 9)
+                rows = messages.get(cid)
+                if rows is None:
+                    rows = messages[cid] = []
+                rows.append((log, pos))
+            elif opcode == 0x03:
+                (sid,) = struct.unpack_from('<H', raw, pos + 9)
+                name, at = _text(raw, pos + 11)
+                encoding, at = _text(raw, at)
+                (n,) = struct.unpack_from('<I', raw, at)
+                if at + 4 + n != end:
+                    return Walk(messages, schemas, channels,
+                                f'the schema record at offset {pos} is malformed')
+                schemas[sid] = (name, encoding, bytes(raw[at + 4:at + 4 + n]))
+            elif opcode == 0x04:
+                cid, sid = struct.unpack_from('<HH', raw, pos + 9)
+                topic, at = _text(raw, pos + 13)
+                encoding, at = _text(raw, at)
+                (n,) = struct.unpack_from('<I', raw, at)
+                at += 4
+                stop, meta = at + n, {}
+                while at < stop:
+                    key, at = _text(raw, at)
+                    meta[key], at = _text(raw, at)
+                if at != end:
+                    return Walk(messages, schemas, channels,
+                                f'the channel record at offset {pos} is malformed')
+                channels[cid] = (topic, sid, encoding, meta)
+            else:
+                return Walk(messages, schemas, channels,
+                            f'a record of opcode {opcode:#04x} at offset {pos} cannot be in a '
+                            'chunk')
+            pos = end
+    except (struct.error, UnicodeDecodeError):
+        return Walk(messages, schemas, channels, f'the record at offset {pos} is malformed')
+    return Walk(messages, schemas, channels, '')
+
+
+def walked_index(raw: bytes, chunk: ChunkPlan, path: Path) -> dict[int, npt.NDArray[Any]]:
+    """Entries (log_time, offset) per channel from walking the chunk's records.
+
+    Entries (log_time, offset) per channel, as its Message Index records would give them,
+    from walking the chunk's records (a chunk without a usable index).
+
+    Raises:
+        DamagedChunkError: the records do not tile the chunk.
+    """
+    walk = walk_records(raw)
+    if walk.bad:
+        raise DamagedChunkError(f'{path}: damaged chunk at byte {chunk.offset}: {walk.bad}.')
+    return {cid: np.array(rows, dtype=_INDEX_ENTRY) for cid, rows in walk.messages.items()}
 
 
 def _message_index(span: bytes, chunk: ChunkPlan, path: Path) -> dict[int, npt.NDArray[Any]]:

@@ -45,12 +45,20 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
+from gyro_calib.bagio import recovery
 from gyro_calib.bagio.chunks import _check_records, _prefetched
-from gyro_calib.bagio.errors import CountMismatchError, DamagedChunkError, MessageDecodeError
+from gyro_calib.bagio.errors import (
+    CorruptBagError,
+    CountMismatchError,
+    DamagedChunkError,
+    IndexMismatchError,
+    MessageDecodeError,
+)
 from gyro_calib.bagio.layouts import codec_for
 from gyro_calib.bagio.messages import JOINT_WIDTHS
 from gyro_calib.bagio.payloads import _Categories, _decode_channel, _deserialize, _Piece, _store
 from gyro_calib.bagio.plan import ReadPlan, _check_types, _open_reader, _plan
+from gyro_calib.bagio.records import SkippedChunk
 from gyro_calib.errors import GyroCalibError
 
 if TYPE_CHECKING:
@@ -121,12 +129,14 @@ class ColumnBatch:
         last_log_time_ns: the largest log time in the batch.
         fallback_messages: how many of them rosbags' deserialiser decoded (a layout the
             columnar path does not know, or the whole bag read by rosbags).
+        notes: damaged chunks skipped since the batch before, one line each.
     """
 
     topics: dict[str, TopicColumns]
     messages: int
     last_log_time_ns: int
     fallback_messages: int
+    notes: tuple[str, ...] = ()
 
 
 
@@ -145,6 +155,7 @@ class _Batcher:
         self.fallback = 0
         self.last_log = -1
         self.joint_names: dict[str, tuple[str, ...]] = {}
+        self.notes: list[str] = []
 
     def names_from(self, topic: str, msg: Any) -> None:
         """A multi-joint topic's joint names, from its first message."""
@@ -174,16 +185,18 @@ class _Batcher:
                 {name: np.concatenate([p[3][name] for p in parts]) for name in names},
                 self.joint_names.get(topic, ()))
             parts.clear()
-        batch = ColumnBatch(columns, self.messages, self.last_log, self.fallback)
+        batch = ColumnBatch(columns, self.messages, self.last_log, self.fallback,
+                            tuple(self.notes))
         self.messages = self.fallback = 0
+        self.notes.clear()
         return batch
 
 
 def iter_column_batches(path: str | Path, topic_types: Mapping[str, str], *,
                         batch_messages: int = 50_000, start_ns: int | None = None,
                         stop_ns: int | None = None,
-                        decoder: Literal['auto', 'rosbags'] = 'auto'
-                        ) -> Iterator[ColumnBatch]:
+                        decoder: Literal['auto', 'rosbags'] = 'auto',
+                        recover: bool = True) -> Iterator[ColumnBatch]:
     """Stream the topics of ``topic_types`` (topic → message type) as NumPy columns.
 
     A topic recorded with another type is skipped, as rosbags' reader skips it. Batches
@@ -201,6 +214,10 @@ def iter_column_batches(path: str | Path, topic_types: Mapping[str, str], *,
             ``Reader.messages(start, stop)``).
         stop_ns: only messages with ``log time < stop_ns``.
         decoder: 'rosbags' reads the whole bag with rosbags (the reference path).
+        recover: read what is intact of a damaged bag (docs/recovery.md): a file without
+            usable summary record by record (:mod:`~gyro_calib.bagio.recovery`), a
+            damaged chunk of a file whose chunks carry checksums skipped, with a line in the
+            next batch's ``notes``. False: a damaged bag raises.
 
     Raises:
         UnsupportedMessageTypeError: a type outside
@@ -210,13 +227,21 @@ def iter_column_batches(path: str | Path, topic_types: Mapping[str, str], *,
             CorruptBagError) for a damaged bag.
     """
     return _iter_batches(Path(path), _check_types(topic_types), batch_messages, start_ns,
-                         stop_ns, decoder)
+                         stop_ns, decoder, recover)
 
 
 def _iter_batches(path: Path, types: dict[str, str], batch_messages: int,
                   start_ns: int | None, stop_ns: int | None,
-                  decoder: Literal['auto', 'rosbags']) -> Iterator[ColumnBatch]:
-    reader = _open_reader(path)
+                  decoder: Literal['auto', 'rosbags'], recover: bool) -> Iterator[ColumnBatch]:
+    try:
+        reader = _open_reader(path)
+    except CorruptBagError as exc:
+        if not recover or decoder == 'rosbags':
+            raise
+        got = recovery.recoverable(path, exc)
+        yield from _iter_columnar(recovery.recovered_plan(path, got, types), types,
+                                  batch_messages, start_ns, stop_ns)
+        return
     try:
         plan = (ReadPlan(path, None, 'asked for') if decoder == 'rosbags'
                 else _plan(path, reader, types))
@@ -225,6 +250,8 @@ def _iter_batches(path: Path, types: dict[str, str], batch_messages: int,
             return
     finally:
         reader.close()
+    if recover:
+        plan = recovery.checksummed_plan(plan)
     yield from _iter_columnar(plan, types, batch_messages, start_ns, stop_ns)
 
 
@@ -239,11 +266,22 @@ def _iter_columnar(plan: ReadPlan, types: dict[str, str], batch_messages: int,
                and c.start_ns < window[1]] for g in plan.groups]
     batcher = _Batcher({topic: msgtype for topic, msgtype in plan.channels.values()})
     decoded = dict.fromkeys(plan.channels, 0)
-    with contextlib.closing(_prefetched(plan, [g for g in groups if g])) as loaded_groups:
-        for group in loaded_groups:
+    todo = [g for g in groups if g]
+    with contextlib.closing(_prefetched(plan, todo)) as loaded_groups:
+        for chunks, group in zip(todo, loaded_groups, strict=True):
             pieces: dict[str, list[tuple[int, _Piece]]] = {}
-            for future in group:
-                loaded = future.result()
+            for chunk, future in zip(chunks, group, strict=True):
+                try:
+                    loaded = future.result()
+                except (DamagedChunkError, IndexMismatchError) as exc:
+                    if not chunk.checksummed:  # cannot be told apart from the others
+                        raise
+                    batcher.notes.append(SkippedChunk(
+                        chunk.offset, chunk.offset + chunk.length, chunk.start_ns,
+                        chunk.end_ns, _reason(exc, chunk.offset)).line(plan.path))
+                    for cid in decoded:
+                        decoded[cid] += chunk.counts.get(cid, 0)
+                    continue
                 records = _check_records(loaded.raw, loaded.data, loaded.entries,
                                          loaded.chunk, plan.path)
                 for cid, rec in records.items():
@@ -264,11 +302,20 @@ def _iter_columnar(plan: ReadPlan, types: dict[str, str], batch_messages: int,
                 _add_in_order(batcher, topic, parts, window)
             if batcher.messages >= batch_messages:
                 yield batcher.cut()
-    if batcher.messages:
+    if batcher.messages or batcher.notes:
         yield batcher.cut()
     if window is None and decoded != plan.counts:
         raise CountMismatchError(f'{plan.path}: damaged: decoded {decoded} messages per '
                                  f'channel, the statistics count {plan.counts}.')
+
+
+def _reason(exc: Exception, offset: int) -> str:
+    """What is wrong with a chunk, from the error its read raised (without path and place)."""
+    text = ' '.join(str(exc).split()).rstrip('.')
+    for place in (f'chunk at byte {offset}: ', f'chunk at byte {offset}, '):
+        if place in text:
+            return text.split(place, 1)[1]
+    return text.split(': damaged: ', 1)[-1]
 
 
 def _add_in_order(batcher: _Batcher, topic: str, parts: list[tuple[int, _Piece]],

@@ -51,6 +51,10 @@ class ChunkPlan:
         index_offsets: channel id → file offset of its Message Index record.
         index_length: bytes of all its Message Index records (they follow the chunk).
         counts: channel id → messages, from the Message Index record lengths.
+        walked: no Message Index records are read: the entries come from walking the
+            chunk's records (a chunk found by :mod:`~gyro_calib.bagio.recovery`).
+        checksummed: the chunk must carry a CRC-32 or a zstd content checksum (a file
+            whose chunks carry them: one without is taken for damaged).
     """
 
     offset: int
@@ -63,6 +67,8 @@ class ChunkPlan:
     index_offsets: dict[int, int]
     index_length: int
     counts: dict[int, int]
+    walked: bool = False
+    checksummed: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,11 +109,12 @@ def _open_reader(path: Path) -> Any:
     CorruptBagError too.
     """
     try:
-        if path.suffix == '.mcap' and path.is_file() and not storage.usable_metadata(
-                path.parent / 'metadata.yaml'):
+        lone = storage.lone_mcap_in(path) or path
+        if lone.suffix == '.mcap' and lone.is_file() and not storage.usable_metadata(
+                lone.parent / 'metadata.yaml'):
             from rosbags.rosbag2 import Reader
 
-            reader = Reader(path)
+            reader = Reader(lone)
             reader.open()
             return reader
         return storage.open_reader(path)

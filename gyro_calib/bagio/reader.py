@@ -25,6 +25,7 @@ import yaml
 
 from gyro_calib import topics
 from gyro_calib.bagio import columns as mcap_columns
+from gyro_calib.bagio import recovery
 from gyro_calib.bagio import tables as table_input
 from gyro_calib.bagio.errors import (
     CorruptBagError,
@@ -36,20 +37,30 @@ from gyro_calib.bagio.layouts import CODECS
 from gyro_calib.bagio.messages import CONTRACT_TYPES
 from gyro_calib.bagio.metadata import SCENARIO_KEY, parse_scenario_text
 from gyro_calib.bagio.records import BagInfo, SampleBatch, TopicInfo
-from gyro_calib.bagio.storage import lone_mcap_custom_data, one_line, open_reader
+from gyro_calib.bagio.storage import lone_mcap_custom_data, lone_mcap_in, one_line, open_reader
 from gyro_calib.errors import GyroCalibError
 
 
-def bag_info(path: str | Path) -> BagInfo:
+def bag_info(path: str | Path, *, recover: bool = True) -> BagInfo:
     """Topics, counts, time span and scenario of the bag at ``path``.
 
+    A bag whose .mcap file has no usable summary (cut off, never closed, damaged) is read
+    record by record when ``recover`` (:mod:`~gyro_calib.bagio.recovery`): its info is that
+    of the intact part, with what is lost in ``BagInfo.damage``.
+
     Raises:
-        BagError (subclass): the path is missing, not a bag, or the bag is damaged.
+        BagError (subclass): the path is missing, not a bag, or the bag is damaged (with
+            ``recover``: nothing of it can be read).
     """
     path = Path(path)
     if table_input.is_table(path):
         return table_input.table_info(path)
-    reader = open_reader(path)
+    try:
+        reader = open_reader(path)
+    except CorruptBagError as exc:
+        if not recover:
+            raise
+        return recovery.recovered_info(path, recovery.recoverable(path, exc))
     try:
         counts: dict[str, TopicInfo] = {}
         for con in reader.connections:
@@ -58,8 +69,9 @@ def bag_info(path: str | Path) -> BagInfo:
             counts[con.topic] = TopicInfo(con.topic, con.msgtype, n)
         metadata = getattr(reader.storage, 'metadata', None)
         custom = (metadata.custom if metadata is not None else None) or {}
-        if not custom and path.is_file():
-            custom = lone_mcap_custom_data(path)
+        lone = lone_mcap_in(path) or path
+        if not custom and lone.is_file():
+            custom = lone_mcap_custom_data(lone)
         try:
             scenario = parse_scenario_text(custom.get(SCENARIO_KEY, '')) or {}
             benches = {key[len(SCENARIO_KEY) + 1:]: parse_scenario_text(text) or {}
@@ -74,15 +86,17 @@ def bag_info(path: str | Path) -> BagInfo:
         reader.close()
 
 
-def header_stamp_spans(path: str | Path, info: BagInfo) -> dict[str, tuple[int, int, int,
-                                                                         float]]:
+def header_stamp_spans(path: str | Path, info: BagInfo, *,
+                       notes: list[str] | None = None, recover: bool = True
+                       ) -> dict[str, tuple[int, int, int, float]]:
     """Per stamped topic: messages, stamp span and sample interval.
 
     Topic → (messages, earliest and latest header stamp ns, typical sample interval ns)
     of every topic whose type carries a header stamp the columnar decoder reads (JointState,
     Header, Imu, Temperature): rates from the sample instants, not the receive (log) times.
     The typical interval is the median over batches of each batch's median positive stamp
-    step, so gaps and a few disordered stamps do not move it.
+    step, so gaps and a few disordered stamps do not move it. The lines of damaged chunks
+    skipped go to ``notes``; without ``recover`` a damaged chunk raises.
 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
@@ -93,7 +107,9 @@ def header_stamp_spans(path: str | Path, info: BagInfo) -> dict[str, tuple[int, 
     steps: dict[str, list[float]] = {}
     if not types:
         return {}
-    for batch in iter_sample_batches(path, types, namespace=info.namespace):
+    for batch in iter_sample_batches(path, types, namespace=info.namespace, recover=recover):
+        if notes is not None:
+            notes.extend(batch.notes)
         for topic, cols in batch.columns.items():
             stamps = np.sort(np.asarray(cols.stamp_ns, dtype=np.int64))
             if not len(stamps):
@@ -148,7 +164,7 @@ def topics_present(info: BagInfo) -> str:
 
 def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None = None, *,
                         batch_messages: int = 50_000,
-                        namespace: str = '') -> Iterator[SampleBatch]:
+                        namespace: str = '', recover: bool = True) -> Iterator[SampleBatch]:
     """Stream the given topics of a bag as :class:`SampleBatch` es.
 
     Decoded by :mod:`gyro_calib.bagio.columns`: whole chunks at a time with NumPy,
@@ -156,7 +172,9 @@ def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None 
     layout (and whole bags the columnar path does not read itself). Memory is bounded by
     ``batch_messages`` plus one group of chunks; stamps are the header stamps (never the
     log times). With a ``namespace``, the topics are read under it and named as in the
-    contract (:meth:`BagInfo.in_namespace`).
+    contract (:meth:`BagInfo.in_namespace`). With ``recover``, what is intact of a damaged
+    bag (:func:`~gyro_calib.bagio.columns.iter_column_batches`), a skipped chunk named in
+    ``SampleBatch.notes``.
 
     Raises:
         CorruptBagError: a chunk cannot be read or a message cannot be decoded.
@@ -168,17 +186,18 @@ def iter_sample_batches(path: str | Path, topic_types: Mapping[str, str] | None 
     ns = topics.normalized_namespace(namespace)
     if ns:
         types = {ns + t: m for t, m in types.items()}
-    for batch in mcap_columns.iter_column_batches(path, types, batch_messages=batch_messages):
+    for batch in mcap_columns.iter_column_batches(path, types, batch_messages=batch_messages,
+                                                  recover=recover):
         columns = batch.topics
         if ns:
             columns = {t[len(ns):]: dataclasses.replace(c, topic=t[len(ns):])
                        for t, c in columns.items()}
-        yield SampleBatch(columns, batch.messages, batch.last_log_time_ns)
+        yield SampleBatch(columns, batch.messages, batch.last_log_time_ns, batch.notes)
 
 
 def iter_bags(paths: Sequence[str | Path], topic_types: Mapping[str, str], *,
-              batch_messages: int = 50_000,
-              namespace: str = '') -> Iterator[tuple[int, SampleBatch]]:
+              batch_messages: int = 50_000, namespace: str = '',
+              recover: bool = True) -> Iterator[tuple[int, SampleBatch]]:
     """(bag index, batch) of several bags taken together in stamp order.
 
     Bags that share a topic are separate recordings (or one recording split in time) and
@@ -188,7 +207,7 @@ def iter_bags(paths: Sequence[str | Path], topic_types: Mapping[str, str], *,
     time, so their streams reach the calibrators together. With a ``namespace``, the
     topics of the bench in it (:meth:`BagInfo.in_namespace`).
     """
-    infos = [bag_info(p).in_namespace(namespace) for p in paths]
+    infos = [bag_info(p, recover=recover).in_namespace(namespace) for p in paths]
     order = sorted(range(len(paths)), key=lambda i: infos[i].start_ns)
     split_by_topic = all(
         not (set(infos[a].topics) & set(infos[b].topics) & set(topic_types))
@@ -197,11 +216,11 @@ def iter_bags(paths: Sequence[str | Path], topic_types: Mapping[str, str], *,
         for i in order:
             for batch in iter_sample_batches(paths[i], topic_types,
                                              batch_messages=batch_messages,
-                                             namespace=namespace):
+                                             namespace=namespace, recover=recover):
                 yield i, batch
         return
     iters = {i: iter_sample_batches(paths[i], topic_types, batch_messages=batch_messages,
-                                    namespace=namespace)
+                                    namespace=namespace, recover=recover)
              for i in order}
     heap: list[tuple[int, int, SampleBatch]] = []
     for i, it in iters.items():

@@ -84,6 +84,18 @@ def lone_mcap_custom_data(path: Path) -> dict[str, str]:
     return {}
 
 
+def lone_mcap_in(path: Path) -> Path | None:
+    """The one .mcap file of a directory without metadata.yaml (a recording never closed).
+
+    None when ``path`` is not such a directory (it has metadata.yaml, or not exactly one
+    .mcap file).
+    """
+    if not path.is_dir() or (path / 'metadata.yaml').exists():
+        return None
+    found = sorted(path.glob('*.mcap'))
+    return found[0] if len(found) == 1 and found[0].is_file() else None
+
+
 def open_reader(path: Path) -> Any:
     """An opened rosbags Reader, with every failure turned into a named BagError."""
     from rosbags.rosbag2 import Reader
@@ -99,6 +111,9 @@ def open_reader(path: Path) -> Any:
         if not usable_metadata(path.parent / 'metadata.yaml'):
             return open_lone_mcap(path)
         path = path.parent
+    lone = lone_mcap_in(path)
+    if lone is not None:
+        return open_lone_mcap(lone)
     if not path.is_dir() or not (path / 'metadata.yaml').is_file():
         raise NotABagError(f'{path}: not a rosbag2 bag (a directory with metadata.yaml and '
                            'the .mcap file, or a lone .mcap file).')

@@ -149,3 +149,38 @@ def publish_directory(tmp: Path, path: Path) -> None:
         shutil.rmtree(tmp, ignore_errors=True)
         raise BagError(f'{path}: another run wrote it while this one was writing; this run '
                        'wrote nothing (give each run its own path).') from None
+
+
+MAX_CHUNK_BYTES = 1 << 20
+"""rosbags' MCAP writer closes a chunk once it holds this many bytes of records."""
+
+
+def pending_chunk(writer: Any) -> tuple[int, int]:
+    """(bytes of records, messages) in the chunk rosbags' MCAP writer has not written yet."""
+    chunk = getattr(getattr(writer, 'storage', None), 'chunk', None)
+    if chunk is None:
+        return 0, 0
+    return int(chunk.bio.tell()), sum(len(m) for m in chunk.msgs.values())
+
+
+def flush_chunk(writer: Any, *, sync: bool = True) -> bool:
+    """Write the pending chunk of rosbags' MCAP writer to the file now; True if there was one.
+
+    rosbags keeps up to :data:`MAX_CHUNK_BYTES` of records in memory until a chunk is full
+    (rosbags 0.11.9: ``writer.storage.close_chunk``); a recording killed before then loses
+    them. The chunk (with its message index records) is written, the file flushed and, with
+    ``sync``, synced to the disk (os.fsync), so the file reads back to here whatever comes
+    next (docs/recovery.md). A chunk holding no message yet (only the schemas and channels
+    written when the bag opens) is kept: its log-time range would be empty.
+
+    Raises:
+        OSError: the disk is full or the file cannot be written.
+    """
+    storage = getattr(writer, 'storage', None)
+    if storage is None or not pending_chunk(writer)[1]:
+        return False
+    storage.close_chunk()
+    storage.bio.flush()
+    if sync:
+        os.fsync(storage.bio.fileno())
+    return True

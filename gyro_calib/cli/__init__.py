@@ -7,6 +7,7 @@
     gyro-calib report HANDOFF [BAG ...] --out DIR [--spec SPEC]   (certificate, HTML + PDF)
     gyro-calib batch MANIFEST --out DIR [--workers N | --scheduler URL] [--spec SPEC]
     gyro-calib export HANDOFF --format F --out FILE   (a navigation stack's own keys)
+    gyro-calib repair BAG --out DIR   (a whole bag from the intact part of a damaged one)
 
 BAG is a rosbag2 directory, the .mcap file inside one or a lone .mcap file (read with its
 own summary), or a CSV/text table of a static record (:mod:`gyro_calib.bagio.tables`). Every
@@ -29,7 +30,8 @@ The front door, one module per subcommand (each ``add_commands(subparsers)`` and
 ``run_*``): :mod:`~gyro_calib.cli.calibrate`, :mod:`~gyro_calib.cli.info`,
 :mod:`~gyro_calib.cli.methods`, :mod:`~gyro_calib.cli.compensate`,
 :mod:`~gyro_calib.cli.noise`, :mod:`~gyro_calib.cli.report`, :mod:`~gyro_calib.cli.batch`,
-:mod:`~gyro_calib.cli.export`, :mod:`~gyro_calib.cli.simulate`; what several share (flags,
+:mod:`~gyro_calib.cli.export`, :mod:`~gyro_calib.cli.simulate`,
+:mod:`~gyro_calib.cli.repair`; what several share (flags,
 their checks, the one-line usage-error parser) is :mod:`~gyro_calib.cli.arguments`. The
 methods below them expose plain functions and data, never argparse.
 """
@@ -49,6 +51,7 @@ from gyro_calib.cli import (
     info,
     methods,
     noise,
+    repair,
     report,
     simulate,
 )
@@ -59,7 +62,8 @@ from gyro_calib.errors import GyroCalibError
 
 __all__ = ['console_main', 'main', 'summary_text']
 
-COMMANDS = (calibrate, info, methods, compensate, noise, report, batch, export, simulate)
+COMMANDS = (calibrate, info, methods, compensate, noise, report, batch, export, simulate,
+            repair)
 """The subcommands, in the order ``gyro-calib --help`` lists them."""
 
 

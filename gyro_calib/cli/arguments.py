@@ -4,7 +4,8 @@ Their flags, the checks made on them before any work, and the parser that report
 usage error in one line:
 
 - :class:`Parser`: argparse with abbreviations off and a one-line error (exit 2);
-- :func:`method_arguments`, :func:`namespace_argument`, :func:`options_from_args`: the
+- :func:`method_arguments`, :func:`namespace_argument`, :func:`strict_argument`,
+  :func:`options_from_args`: the
   settings flags of every calibrating subcommand (calibrate, info, report) and the
   :class:`~gyro_calib.session.CalibrationOptions` they make;
 - :func:`refuse_unused_flags`, :func:`check_calibration_file`: a flag no method run uses,
@@ -155,6 +156,14 @@ def method_arguments(parser: argparse.ArgumentParser) -> None:
                         'North, 90 = East; = 90 − a heading), °')
     parser.add_argument('--gyro-id', default='', help="the gyro's serial or name (hand-off)")
     namespace_argument(parser)
+    strict_argument(parser)
+
+
+def strict_argument(parser: argparse.ArgumentParser) -> None:
+    """``--strict``: refuse a bag cut off or damaged instead of reading its intact part."""
+    parser.add_argument('--strict', action='store_true',
+                        help='refuse a bag that is cut off or has a damaged chunk (exit 2) '
+                        'instead of reading the intact part (docs/recovery.md)')
 
 
 def namespace_argument(parser: argparse.ArgumentParser) -> None:

@@ -86,13 +86,14 @@ def run_calibrate(args: argparse.Namespace) -> int:
         check_calibrate_report(args)
     check_calibration_file(args.calibration)
     _refuse_a_bag_given_twice(args.bags)
-    infos, _ = bag_infos(args.bags, args.namespace)
+    infos, _ = bag_infos(args.bags, args.namespace, strict=args.strict)
     to_run = [m.name for m in select_methods(infos, args.method)]
     refuse_unused_flags(args, to_run)
     options = options_from_args(args)
     with progress_bar(args.progress, 'calibrating') as progress:
         outcome = calibrate_bags(args.bags, methods=args.method, options=options,
-                                 progress=progress, namespace=args.namespace)
+                                 progress=progress, namespace=args.namespace,
+                                 strict=args.strict)
     # the human text goes out only once the files are written: a refusal on the way (a
     # hand-off the run cannot be merged into, a full disk) leaves one line on stderr and
     # nothing on stdout

@@ -10,6 +10,7 @@ runs the methods that would run to show what they read, reject and are limited b
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import io
 import json
 import math
@@ -76,18 +77,25 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
     return out
 
 
-def bag_description(info: Any) -> dict[str, Any]:
+def bag_description(info: Any, *, strict: bool = False) -> dict[str, Any]:
     """One bag's description for ``info``.
 
     One bag for ``info``: span, topics with counts and rates from the header stamps
-    (the sample instants; log times only for types without a decodable header).
+    (the sample instants; log times only for types without a decodable header), and, for
+    a bag cut off or damaged, the lines saying where its readable data ends and which
+    chunks were skipped (``damage``; docs/recovery.md); ``strict`` refuses a damaged chunk.
     """
     from gyro_calib.bagio import header_stamp_spans
 
-    spans = header_stamp_spans(info.path, info) if info.message_count else {}
+    damage = info.damage.lines(info.path) if info.damage is not None else []
+    spans = (header_stamp_spans(info.path, info, notes=damage, recover=not strict)
+             if info.message_count else {})
+    skipped = len(damage) > (1 if info.damage is not None else 0)  # chunks skipped on the way
     topics = []
     for t in sorted(info.topics.values(), key=lambda t: t.name):
         n, lo, hi, step_ns = spans.get(t.name, (0, 0, 0, math.nan))
+        if skipped and t.name in spans:  # the messages read, not those the summary counts
+            t = dataclasses.replace(t, count=n)
         if n > 1 and step_ns > 0:
             rate, basis = 1e9 / step_ns, 'header stamps, median step'
         elif info.duration_s > 0 and t.count > 1:
@@ -97,11 +105,12 @@ def bag_description(info: Any) -> dict[str, Any]:
         topics.append({'name': t.name, 'type': t.msgtype, 'count': t.count,
                        'rate_hz': rate if math.isfinite(rate) else None, 'rate_from': basis})
     scenario = info.scenario if isinstance(info.scenario, dict) else {}
+    messages = sum(t['count'] for t in topics) if skipped else info.message_count
     return {'path': str(info.path), 'duration_s': info.duration_s,
-            'start_ns': info.start_ns, 'end_ns': info.end_ns, 'messages': info.message_count,
+            'start_ns': info.start_ns, 'end_ns': info.end_ns, 'messages': messages,
             'topics': topics, 'scenario_name': scenario.get('name'),
             'scenario_description': scenario.get('description'),
-            'stored_settings': sorted(scenario)}
+            'stored_settings': sorted(scenario), 'damage': damage}
 
 
 def _print_bag(desc: dict[str, Any], out: Any) -> None:
@@ -115,6 +124,8 @@ def _print_bag(desc: dict[str, Any], out: Any) -> None:
         rate = f'{t["rate_hz"]:9.1f}' if t['rate_hz'] is not None else f'{"—":>9}'
         print(f'{t["name"].ljust(width)}  {t["type"]:28}  {t["count"]:9d}  {rate}  '
               f'({t["rate_from"]})', file=out)
+    for line in desc['damage']:  # cut off or damaged: what the results rest on
+        print(f'note: {line}', file=out)
     if desc['scenario_name']:
         print(f'scenario: {desc["scenario_name"]} — {desc["scenario_description"] or ""}',
               file=out)
@@ -128,13 +139,13 @@ def run_info(args: argparse.Namespace) -> int:
     from gyro_calib.bag_calibration import bag_infos
 
     check_calibration_file(args.calibration)
-    infos, namespace_note = bag_infos(args.bags, args.namespace)
+    infos, namespace_note = bag_infos(args.bags, args.namespace, strict=args.strict)
     # the text goes out once the methods have run: bad input found on the way (--method
     # NAME without its topics) is one line on stderr and nothing on stdout
     human = io.StringIO()
     if namespace_note:
         print(f'note: {namespace_note}', file=human)
-    descriptions = [bag_description(i) for i in infos]
+    descriptions = [bag_description(i, strict=args.strict) for i in infos]
     prospects = method_prospects(infos)
     names = list(args.method or [n for n, p in prospects.items()
                                  if p['runs'] and METHODS[n].auto])
@@ -149,7 +160,7 @@ def run_info(args: argparse.Namespace) -> int:
                            'bag_info': descriptions}
     if names:
         outcome = calibrate_bags(args.bags, methods=names, options=options_from_args(args),
-                                 namespace=args.namespace)
+                                 namespace=args.namespace, strict=args.strict)
         doc = {**json_document(outcome, 'info'), 'bag_info': descriptions}
         for name, session in outcome.sessions.items():
             print(f'== {name}: {METHODS[name].title}', file=human)

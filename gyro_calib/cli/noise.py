@@ -42,6 +42,7 @@ from gyro_calib.cli.arguments import (
     check_handoff_out,
     namespace_argument,
     options_from_args,
+    strict_argument,
 )
 from gyro_calib.cli.calibrate import json_default, summary_text
 from gyro_calib.cli.interrupt import Ledger
@@ -69,6 +70,7 @@ def add_commands(subparsers: Any) -> None:
                        '(scale_factor_rad_per_pulse or k_tilde_rad_per_pulse; '
                        'fog_scale_factor_counts_per_rad)')
     namespace_argument(p)
+    strict_argument(p)
     p.add_argument('--config', type=Path, metavar='FILE',
                    help='NoiseSettings YAML (plain mapping or ROS 2 parameter file of '
                    'noise_node): taus_per_octave, overlap, fit_min_tau_s, ...')
@@ -135,7 +137,7 @@ def run_noise(args: argparse.Namespace) -> int:
     targets = resolve_targets(args.kalibr, None, args.out, names=('--kalibr', '--plot', '--out'))
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     check_calibration_file(args.calibration)
-    infos, _ = bag_infos(args.bags, args.namespace)
+    infos, _ = bag_infos(args.bags, args.namespace, strict=args.strict)
     present = merged_topics(infos)
     counts = topic_counts(infos)
     where = ' + '.join(str(i.path) for i in infos)
@@ -178,7 +180,8 @@ def run_noise(args: argparse.Namespace) -> int:
 
     with progress_bar(args.progress, 'noise') as progress:
         outcome = calibrate_bags(args.bags, methods=['noise'], options=options,
-                                 progress=progress, namespace=args.namespace)
+                                 progress=progress, namespace=args.namespace,
+                                 strict=args.strict)
     session = outcome.sessions['noise']
     assert isinstance(session, NoiseSession)
     session.check_measurable()

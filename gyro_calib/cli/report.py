@@ -105,7 +105,8 @@ def run_report(args: argparse.Namespace) -> int:
         options = options_from_args(args)
         if not options.gyro_id and calibration.gyro_id:
             options = dataclasses.replace(options, gyro_id=calibration.gyro_id)
-        evidence = evidence_from_bags(args.bags, calibration, options, args.method)
+        evidence = evidence_from_bags(args.bags, calibration, options, args.method,
+                                      strict=args.strict)
     for line in write_report(calibration, evidence, spec, args.out,
                              handoff_path=str(args.handoff), pdf=args.pdf, lab=lab,
                              customer=customer,
@@ -115,7 +116,7 @@ def run_report(args: argparse.Namespace) -> int:
 
 
 def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
-                       methods: list[str] | None) -> RunEvidence:
+                       methods: list[str] | None, *, strict: bool = False) -> RunEvidence:
     """Run the hand-off's methods whose topics the bags hold; their evidence.
 
     Raises:
@@ -128,7 +129,7 @@ def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
     from gyro_calib.report.evidence import evidence_from_outcome
 
     if not methods:
-        present = merged_topics([bag_info(p) for p in bags])
+        present = merged_topics([bag_info(p, recover=not strict) for p in bags])
         methods = [name for name in calibration.methods if name in METHODS and (
             all(present.get(t) == METHODS[name].topics[t] for t in METHODS[name].reveal)
             if METHODS[name].reveal else
@@ -137,7 +138,7 @@ def evidence_from_bags(bags: list[Path], calibration: Calibration, options: Any,
             raise ConfigError(f'the bag(s) {", ".join(map(str, bags))} hold the topics of none '
                               f'of the hand-off file\'s methods ({", ".join(calibration.methods)})'
                               '; give the bags it was calibrated from, or none.')
-    outcome = calibrate_bags(bags, methods=methods, options=options)
+    outcome = calibrate_bags(bags, methods=methods, options=options, strict=strict)
     return evidence_from_outcome(outcome, options)
 
 

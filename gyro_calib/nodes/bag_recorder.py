@@ -7,10 +7,19 @@ published by the simulators on /sim/scenario (std_msgs/String, YAML, transient-l
 is stored in the bag's metadata under ``custom_data['gyro_calib.scenario']``.
 The bag is closed properly on Ctrl-C / SIGINT, or after ``duration_s``.
 
+Killed (SIGKILL, power loss) or stopped by a full disk, the recorder leaves a .mcap file
+without summary that gyro-calib reads back up to its last written chunk
+(docs/recovery.md): every chunk is written and synced to the disk once it holds
+``chunk_size_bytes`` of messages or its first message is ``flush_interval_s`` old, so at
+most the messages of the last ``flush_interval_s`` (and at most ``chunk_size_bytes``) are
+lost. A full disk ends the recording with one error line naming the bag (exit status 1).
+
 Parameters: ``out`` (bag directory to create, required), ``topics`` (default: the
 calibration inputs of the topic contract), ``namespaces`` (the benches whose contract topics
 are recorded, e.g. ``['/bench1', '/bench2']``; default the root: one bench), ``duration_s``
-(0 = until stopped), ``log_time`` (``receive`` | ``header``). Each namespaced bench's
+(0 = until stopped), ``log_time`` (``receive`` | ``header``), ``flush_interval_s`` (default
+1.0) and ``chunk_size_bytes`` (default and most 1 MiB, rosbags' chunk size). Each namespaced
+bench's
 scenario is stored under its own key (:func:`gyro_calib.bagio.scenario_key`).
 
     bag_recorder --ros-args -p out:=my_run
@@ -40,6 +49,7 @@ from gyro_calib.bagio import (
     scenario_text,
     store_custom_data,
 )
+from gyro_calib.bagio.writer import MAX_CHUNK_BYTES, flush_chunk, pending_chunk
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.bag_player import message_class
 from gyro_calib.nodes.ros_io import (
@@ -75,8 +85,20 @@ class BagRecorder(Node):
                                       '(0 = until stopped).'))
         self.log_time = str(param('log_time', 'receive', 'Log time of each message: '
                                   'receive (as rosbag2) or header (its header stamp).'))
+        self.flush_interval_s = float(param(
+            'flush_interval_s', 1.0, 'Write (and sync) each chunk once its first message is '
+            'this old, s: a killed recorder loses at most this much (docs/recovery.md).'))
+        self.chunk_size_bytes = int(param(
+            'chunk_size_bytes', MAX_CHUNK_BYTES, 'Write each chunk once it holds this many '
+            f'bytes of messages (at most {MAX_CHUNK_BYTES}, rosbags\' chunk size).'))
         if not out:
             raise GyroCalibError('parameter out (the bag directory to create) is required.')
+        if not 0 < self.flush_interval_s <= 3600:
+            raise GyroCalibError(f'flush_interval_s must be in (0, 3600] s, got '
+                                 f'{self.flush_interval_s:g}.')
+        if not 0 < self.chunk_size_bytes <= MAX_CHUNK_BYTES:
+            raise GyroCalibError(f'chunk_size_bytes must be in (0, {MAX_CHUNK_BYTES}], got '
+                                 f'{self.chunk_size_bytes}.')
         if self.log_time not in ('receive', 'header'):
             raise GyroCalibError(f'log_time must be receive or header, got {self.log_time!r}.')
         self.path = Path(out)
@@ -96,6 +118,9 @@ class BagRecorder(Node):
                                      functools.partial(self._on_scenario, ns),
                                      SCENARIO_READER_QOS)
         self.started = time.monotonic()
+        self.failed = ''  # the write error that ended the recording (a full disk)
+        self._chunk_started: float | None = None
+        self.create_timer(max(min(self.flush_interval_s / 4, 0.25), 0.01), self._flush_if_due)
 
     def _type_of(self, name: str, timeout_s: float = 10.0) -> str:
         """The type of a topic to record.
@@ -135,8 +160,37 @@ class BagRecorder(Node):
             log_ns = stamp_to_ns(stamp)
         else:
             log_ns = self.get_clock().now().nanoseconds
-        self._writer.write(self._connections[name], log_ns, raw)
-        self.counts[name] += 1
+        if self.failed:
+            return
+        try:
+            self._writer.write(self._connections[name], log_ns, raw)
+            self.counts[name] += 1
+            if self._chunk_started is None:
+                self._chunk_started = time.monotonic()
+            if pending_chunk(self._writer)[0] >= self.chunk_size_bytes:
+                self._flush()
+        except OSError as exc:
+            self._fail(exc)
+
+    def _flush_if_due(self) -> None:
+        if self.failed or self._chunk_started is None:
+            return
+        if time.monotonic() - self._chunk_started >= self.flush_interval_s:
+            try:
+                self._flush()
+            except OSError as exc:
+                self._fail(exc)
+
+    def _flush(self) -> None:
+        flush_chunk(self._writer)
+        self._chunk_started = None
+
+    def _fail(self, exc: OSError) -> None:
+        """Stop recording: the file keeps every chunk written before (a full disk)."""
+        self.failed = f'{exc.strerror or exc}'
+        self.get_logger().error(
+            f'{self.path}: cannot write ({self.failed}); recording stopped. The bag reads '
+            'back up to its last whole chunk; `gyro-calib repair` writes a closed copy of it.')
 
     def _on_scenario(self, namespace: str, msg: String) -> None:
         try:
@@ -149,11 +203,17 @@ class BagRecorder(Node):
 
     @property
     def done(self) -> bool:
-        """True once ``duration_s`` has passed (if set)."""
-        return self.duration_s > 0 and time.monotonic() - self.started >= self.duration_s
+        """True once ``duration_s`` has passed (if set), or a write failed."""
+        return bool(self.failed) or (
+            self.duration_s > 0 and time.monotonic() - self.started >= self.duration_s)
 
     def close(self) -> None:
-        """Store the scenario and close the bag (writes metadata.yaml)."""
+        """Store the scenario and close the bag (writes metadata.yaml).
+
+        After a failed write the bag is left as it is (unclosed, every chunk before whole).
+        """
+        if self.failed:
+            return
         for ns, scenario in self.scenarios.items():
             if scenario:
                 self._writer.set_custom_data(scenario_key(ns), scenario_text(scenario))
@@ -199,7 +259,12 @@ def main(args: list[str] | None = None) -> None:
         except ExternalShutdownException:
             pass
         finally:
-            recorder.close()
+            try:
+                recorder.close()
+            except OSError as exc:  # the disk filled while closing: the chunks before are kept
+                recorder._fail(exc)
+    if recorder is not None and recorder.failed:
+        raise SystemExit(1)
 
 
 if __name__ == '__main__':
