@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fake_node import FakeNode as _Node
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from gyro_calib.bag_calibration import calibrate_bags
@@ -144,13 +144,19 @@ PAPER = Bench(k_arcsec_per_pulse=0.84279066, rate_deg_s=150.0, start_s=0.0, coun
                             'stamps start anew, counter continues']),
        start_fraction=st.floats(0.0, 1.0), gap_s=st.floats(0.05, 30.0),
        wraps=st.booleans())
+# issue 35 item 6, the falsifying example: the record ends (2.400 s) when the table has made
+# a whole turn, and 'stamps start anew' at 1.0 × stop_s − 1/200 s = 2.401 s, which is *after*
+# the record's last stamp (stop_s is not on the 200 Hz grid): with the counter and the
+# encoder angle (mod 2π) where the record left them, such data do continue the record
+@example(stop_s=2.4049, k=1.0, rate=100.0, how='stamps start anew, counter continues',
+         start_fraction=1.0, gap_s=1.0, wraps=False)
 def test_another_bench_never_borrows_a_sample_of_the_record(
         tmp_path_factory: pytest.TempPathFactory, stop_s: float, k: float, rate: float,
         how: str, start_fraction: float, gap_s: float, wraps: bool) -> None:
     directory = tmp_path_factory.mktemp('run') / 'gyro.yaml.state'
     first = PAPER.batches(stop_s)
     _life(directory, first)
-    end_s = stop_s - 1 / PAPER.sample_hz
+    end_s = float(first[-1][PULSES].stamp_ns[-1]) / 1e9  # the record's last stamp, s
     counter_end = float(first[-1][PULSES].values['position'][-1])
     # a counter that starts anew is another run only where the gyro could not have come
     # back to zero in the gap: at most half the time the bench's peak rate needs for that
