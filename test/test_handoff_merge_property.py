@@ -19,10 +19,17 @@ import os
 from pathlib import Path
 from typing import Any
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from gyro_calib.handoff import Provenance, load_calibration, method_calibration, update_calibration
+from gyro_calib.handoff import (
+    HandoffError,
+    Provenance,
+    load_calibration,
+    method_calibration,
+    update_calibration,
+)
 
 STRESS = os.environ.get('GYRO_CALIB_STRESS', '') not in ('', '0')
 
@@ -101,3 +108,52 @@ def test_merging_runs_keeps_the_best_of_each_quantity_and_names_its_run(
                 assert final.values[key + '_std'] == run['values'][key + '_std']
     assert final.gyro_id == ('A-1' if any(r['gyro_id'] for r in sequence) else '')
     assert math.isfinite(final.values.get('k_tilde_rad_per_pulse', 0.0))
+
+
+# -- the same bag re-run with other settings (issue 35 item 1) --------------------------------
+
+SETTINGS = st.fixed_dictionaries({}, optional={
+    'latitude_deg': st.sampled_from([30.0, 45.0, 60.0]),
+    'heading_deg': st.sampled_from([0.0, 90.0]),
+    'outliers': st.sampled_from(['keep', 'remove']),
+    'taus': st.sampled_from(['octave', '1,10,100']),
+    'config_file_sha256': st.sampled_from(['0123456789abcdef', 'fedcba9876543210'])})
+"""Settings a front door may be given that change a run's numbers."""
+
+
+@settings(max_examples=300 if STRESS else 60, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(first=SETTINGS, second=SETTINGS, shift_sigma=st.floats(0.0, 50.0).filter(
+    lambda z: abs(z - 5.0) > 0.01), replace=st.booleans(),
+       key=st.sampled_from(['bias_rad_s', 'fix_error_angle_rad', 'k_tilde_rad_per_pulse']))
+def test_the_same_bag_under_other_settings_is_another_run(
+        tmp_path: Path, first: dict[str, Any], second: dict[str, Any], shift_sigma: float,
+        replace: bool, key: str) -> None:
+    """Its values are checked against the file's; a replacement says old and new."""
+    path = tmp_path / 'gyro.yaml'
+    path.unlink(missing_ok=True)
+    std = abs(TRUTH[key]) * RELATIVE_STD[key]
+    old, new = TRUTH[key], TRUTH[key] + shift_sigma * math.hypot(std, std)
+    update_calibration(path, method_calibration(
+        'rbrlg', {key: old, key + '_std': std}, Provenance('bags/b', 100, 200, settings=first)))
+    before = path.read_bytes()
+    record = method_calibration('rbrlg', {key: new, key + '_std': std},
+                                Provenance('bags/b', 100, 200, settings=second))
+    report: list[str] = []
+    if first != second and shift_sigma > 5.0 and not replace:
+        with pytest.raises(HandoffError, match=rf'{key}: .* differ by .*the same data under '
+                                               r'other settings \(.* -> .*\).*--replace'):
+            update_calibration(path, record, report=report)
+        assert path.read_bytes() == before  # nothing written
+        return
+    update_calibration(path, record, replace=replace, report=report)
+    final = load_calibration(path)
+    (line,) = [ln for ln in report if f' {key} = ' in ln]
+    if first == second or replace:  # the same run, updated; or replace asked: this run's
+        assert final.values[key] == new
+        assert line.startswith('replaced:') and f'was {old!r}' in line and repr(new) in line
+        assert ('same run, updated' in line) == (first == second)
+    else:  # as precise, newer: taken, saying so, old and new
+        assert final.values[key] == new and 'as precise, newer' in line
+        assert f'was {old!r}' in line and 'other settings' in line
+    assert dict(final.methods['rbrlg'].settings) == second

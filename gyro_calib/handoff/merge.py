@@ -158,22 +158,29 @@ def _merge_group(lead: str, members: list[str], new_has: bool, prov: Provenance,
         v_new, v_old = new_values[lead], older.values[lead]
         u_new, u_old = new_values.get(lead + '_std'), older.values.get(lead + '_std')
         if prov.same_run(old_run) or replace:
-            why = SAME_RUN[1:-2] if prov.same_run(old_run) else 'replace asked'
+            why = SAME_RUN[1:-2] if prov.same_run(old_run) else 'replace asked' + (
+                f'; the same data under other settings ({prov.settings_change(old_run)})'
+                if prov.same_data(old_run) else '')
         elif u_new is not None and u_old is not None and _numbers(v_new, v_old):
             spread = math.hypot(u_new, u_old)
             z = abs(v_new - v_old) / spread if spread > 0 else (
                 0.0 if v_new == v_old else math.inf)
+            other = (f'the same data under other settings ({prov.settings_change(old_run)})'
+                     if prov.same_data(old_run) else '')
             if z > MAX_DISAGREEMENT_SIGMA and comparable:
                 raise HandoffError(
                     f'{lead}: this run gives {_with_std(v_new, u_new)} ({prov.source}), the '
                     f'file holds {_with_std(v_old, u_old)} ({old_run.source}): they differ '
-                    f'by {z:.1f} combined standard uncertainties (a changed gyro, another '
-                    f'gyro, or a wrong bench setting?); nothing written. Check, then give '
-                    f'--replace to take this run\'s values, or use another --out.')
+                    f'by {z:.1f} combined standard uncertainties ('
+                    + (f'{other}: which settings are right?' if other else
+                       'a changed gyro, another gyro, or a wrong bench setting?')
+                    + '); nothing written. Check, then give --replace to take this run\'s '
+                    'values, or use another --out.')
             take_new = u_new <= u_old
             why = ('more precise' if u_new < u_old else 'as precise, newer') if take_new \
                 else f'this run\'s {_with_std(v_new, u_new)} is less precise (--replace ' \
                 'takes it)'
+            why += f'; {other}' if other else ''
         else:
             why = 'newer run'
     elif new_has and not old_has:

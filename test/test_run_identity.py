@@ -1,0 +1,90 @@
+"""A re-run is a new run: the same bag under other settings never silently replaces a value.
+
+Issue 35 item 1. A run's identity is its data (bag, first stamp) *and* every setting it was
+given that may change its numbers (``methods.<name>.settings``: outlier mode, latitude,
+heading, τ list, config values). The same bag re-run with other settings is checked against
+the file like any other run: a value that moves by more than 5 combined standard
+uncertainties is refused (``--replace`` takes it), and every replacement, on every front door
+(``noise`` too), prints the old value beside the new one.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from gyro_calib.cli import main as gyro_calib_main
+from gyro_calib.handoff import load_calibration
+
+BAGS = Path(__file__).resolve().parent.parent / 'bags'
+
+
+def _cli(capsys: pytest.CaptureFixture[str], *args: str) -> tuple[int, str, str]:
+    code = gyro_calib_main([*args, '--no-progress'])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _refused(code: int, out: str, err: str) -> str:
+    assert code == 2 and out == '', (code, out, err)
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def test_noise_with_outliers_kept_does_not_replace_the_run_that_removed_them(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The issue's first repro: Q moves 21× (319 σ) when the spikes are kept."""
+    out = tmp_path / 'g.yaml'
+    bag = str(BAGS / 'noise_rlg_spikes')
+    code, text, _ = _cli(capsys, 'noise', bag, '--outliers', 'remove', '--out', str(out))
+    assert code == 0 and 'added: quantization_noise_rad = 1.17968' in text
+    before = out.read_bytes()
+    line = _refused(*_cli(capsys, 'noise', bag, '--out', str(out)))
+    assert line.startswith('gyro-calib: error: quantization_noise_rad: this run gives 2.52')
+    assert "the same data under other settings (outliers: 'remove' -> 'not given')" in line
+    assert 'give --replace' in line
+    assert out.read_bytes() == before  # nothing written
+    code, text, _ = _cli(capsys, 'noise', bag, '--out', str(out), '--replace')
+    assert code == 0
+    replaced = [ln for ln in text.splitlines() if ln.startswith('  replaced: quantization')]
+    assert len(replaced) == 1 and '2.5215773' in replaced[0] and 'was 1.17968' in replaced[0]
+    assert 'replace asked' in replaced[0]
+    assert load_calibration(out).values['quantization_noise_rad'] == pytest.approx(2.5216e-5,
+                                                                                  rel=1e-3)
+    # the same command again is the same run: updated in place, each line old and new
+    code, text, _ = _cli(capsys, 'noise', bag, '--out', str(out))
+    assert code == 0 and '(same run, updated)' in text and 'was 2.5215773' in text
+
+
+def test_calibrate_with_a_latitude_is_not_the_same_run_as_without(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The issue's second repro: ω_B moves from 5.2e-8 to −2.9e-5 rad/s (1530 σ)."""
+    out = tmp_path / 'A.yaml'
+    bag = str(BAGS / 'k_tilde_bench')
+    assert _cli(capsys, 'calibrate', bag, '--out', str(out))[0] == 0
+    before = out.read_bytes()
+    line = _refused(*_cli(capsys, 'calibrate', bag, '--out', str(out), '--latitude-deg', '60'))
+    assert 'bias_rad_s: this run gives -2.86' in line and 'the file holds 5.16' in line
+    assert "(latitude_deg: 'not given' -> 60.0)" in line and '--replace' in line
+    assert out.read_bytes() == before
+    code, text, _ = _cli(capsys, 'calibrate', bag, '--out', str(out), '--latitude-deg', '60',
+                         '--replace')
+    assert code == 0
+    (bias,) = [ln for ln in text.splitlines() if ln.startswith('  replaced: bias_rad_s')]
+    assert '-2.86' in bias and 'was 5.16' in bias
+    run = yaml.safe_load(out.read_text())['methods']['rbrlg']
+    assert run['settings'] == {'latitude_deg': 60.0}
+
+
+def test_a_config_file_edited_between_runs_makes_another_run(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out, config = tmp_path / 'g.yaml', tmp_path / 'noise.yaml'
+    bag = str(BAGS / 'noise_rlg_spikes')
+    config.write_text('outliers: remove\n')
+    assert _cli(capsys, 'noise', bag, '--config', str(config), '--out', str(out))[0] == 0
+    config.write_text('outliers: keep\n')
+    line = _refused(*_cli(capsys, 'noise', bag, '--config', str(config), '--out', str(out)))
+    assert 'config_file_sha256' in line and 'the same data under other settings' in line
