@@ -157,3 +157,63 @@ def test_the_same_bag_under_other_settings_is_another_run(
         assert final.values[key] == new and 'as precise, newer' in line
         assert f'was {old!r}' in line and 'other settings' in line
     assert dict(final.methods['rbrlg'].settings) == second
+
+
+# -- another sensor (issue 35 item 2) ---------------------------------------------------------
+
+def _record(kind: str, rate_hz: float, source: str) -> Any:
+    """One noise run of a sensor of ``kind`` sampled at ``rate_hz``, from its physics.
+
+    A white rate noise of density N gives ADEV(τ₀) = N/√τ₀ at the shortest τ, τ₀ = 1/rate.
+    """
+    import dataclasses
+
+    from gyro_calib.imu_calibration import ImuCalibration
+
+    n = 1e-6
+    tau0 = 1.0 / rate_hz
+    table = {'tau_s': [tau0, 2 * tau0], 'm': [1, 2],
+             'adev': [n / math.sqrt(tau0), n / math.sqrt(2 * tau0)]}
+    if kind == 'single gyro':
+        return method_calibration('noise', {'angle_random_walk_rad_per_sqrt_s': n,
+                                            'angle_random_walk_rad_per_sqrt_s_std': n / 10},
+                                  Provenance(source, 0, 10, deviations={'gyro': table}))
+    if kind == 'IMU':
+        return method_calibration('noise', {'imu_gyro_x_angle_random_walk_rad_per_sqrt_s': n,
+                                            'imu_gyro_x_angle_random_walk_rad_per_sqrt_s_std':
+                                            n / 10},
+                                  Provenance(source, 0, 10, deviations={
+                                      a: table for a in ('gyro_x', 'gyro_y', 'gyro_z')}))
+    channels = ('x', 'y', 'z')
+    cal = method_calibration('noise', {}, Provenance(source, 0, 10, deviations={
+        c: table for c in channels}))
+    return dataclasses.replace(cal, imu=ImuCalibration(channels, noise={
+        c: {'angle_random_walk_rad_per_sqrt_s': n, 'angle_random_walk_rad_per_sqrt_s_std':
+            n / 10} for c in channels}))
+
+
+@settings(max_examples=300 if STRESS else 40, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(file_kind=st.sampled_from(['single gyro', 'IMU', 'triad']),
+       run_kind=st.sampled_from(['single gyro', 'IMU', 'triad']),
+       file_rate=st.sampled_from([100.0, 200.0, 500.0, 1000.0]),
+       rate_ratio=st.sampled_from([1.0, 1.001, 0.5, 2.5]))
+def test_a_run_of_another_sensor_is_refused_in_one_line_naming_what_differs(
+        tmp_path: Path, file_kind: str, run_kind: str, file_rate: float,
+        rate_ratio: float) -> None:
+    path = tmp_path / 'sensor.yaml'
+    path.unlink(missing_ok=True)
+    update_calibration(path, _record(file_kind, file_rate, 'bags/first'))
+    before = path.read_bytes()
+    run = _record(run_kind, file_rate * rate_ratio, 'bags/second')
+    differs = ['sensor kind'] * (run_kind != file_kind) + [
+        'sample rate'] * (abs(rate_ratio - 1) > 0.01)
+    if not differs:
+        update_calibration(path, run)
+        return
+    with pytest.raises(HandoffError) as refused:
+        update_calibration(path, run)
+    line = str(refused.value)
+    assert '\n' not in line and 'one sensor per file' in line
+    assert line.startswith(f'another sensor ({", ".join(differs)} differ')
+    assert path.read_bytes() == before  # nothing written
