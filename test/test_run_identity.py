@@ -88,3 +88,21 @@ def test_a_config_file_edited_between_runs_makes_another_run(
     config.write_text('outliers: keep\n')
     line = _refused(*_cli(capsys, 'noise', bag, '--config', str(config), '--out', str(out)))
     assert 'config_file_sha256' in line and 'the same data under other settings' in line
+
+
+def test_a_triad_re_run_under_another_latitude_is_refused_and_its_replacement_says_old_and_new(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The triad's imu: section is checked value by value too (K_i, b)."""
+    out = tmp_path / 'T.yaml'
+    bag = str(BAGS / 'triad_two_axis_bench')
+    assert _cli(capsys, 'calibrate', bag, '--out', str(out))[0] == 0
+    before = out.read_bytes()
+    line = _refused(*_cli(capsys, 'calibrate', bag, '--out', str(out), '--latitude-deg', '60'))
+    assert line.startswith('gyro-calib: error: imu.bias_rad_s[')
+    assert "(latitude_deg: 'not given' -> 60.0)" in line and '--replace' in line
+    assert out.read_bytes() == before
+    code, text, _ = _cli(capsys, 'calibrate', bag, '--out', str(out), '--latitude-deg', '60',
+                         '--replace')
+    assert code == 0
+    lines = [ln for ln in text.splitlines() if ln.startswith('  replaced: imu.')]
+    assert len(lines) == 6 and all(' — was ' in ln and 'replace asked' in ln for ln in lines)

@@ -148,7 +148,7 @@ class Calibration:
         for method, prov in self.methods.items():
             methods[method] = _merge_method(method, prov, self.values, older, values, schema,
                                             replace, lines)
-        imu = _merged_imu(self, older, lines)
+        imu = _merged_imu(self, older, lines, replace)
         merged = Calibration(values, methods, self.gyro_id or older.gyro_id, imu=imu)
         findings = scale_factor_findings(merged, schema, new_methods=self.methods)
         while findings.problem and replace and findings.stale is not None:

@@ -40,8 +40,53 @@ def merge_lines(report: Iterable[str]) -> list[str]:
     return [line for line in report if not line.endswith(SAME_RUN)]
 
 
+def _triad_changes(new: CalibrationLike, older: CalibrationLike, run: ImuCalibration,
+                   old: ImuCalibration, replace: bool) -> list[str]:
+    """A triad run's K_i and b against the file's section: a line each, old and new.
+
+    Raises:
+        HandoffError: a value differs from the file's by more than
+            :data:`MAX_DISAGREEMENT_SIGMA` combined standard uncertainties (another run, not
+            ``replace``), naming the settings that changed when the data are the same.
+    """
+    prov, before = new.methods.get('triad'), older.methods.get('triad')
+    same = prov is not None and before is not None and prov.same_run(before)
+    other = (f'the same data under other settings ({prov.settings_change(before)})'
+             if prov is not None and before is not None and not same
+             and prov.same_data(before) else '')
+    lines: list[str] = []
+    for name, labels in (('scale_factor_rad_per_pulse', run.channels), ('bias_rad_s', 'xyz')):
+        v_new, u_new = getattr(run, name), getattr(run, name + '_std')
+        v_old, u_old = getattr(old, name), getattr(old, name + '_std')
+        if v_new is None or v_old is None:
+            continue
+        for i, label in enumerate(labels):
+            j = old.channels.index(label) if name != 'bias_rad_s' else i
+            a, b = float(v_new[i]), float(v_old[j])
+            ua = float(u_new[i]) if u_new is not None else math.nan
+            ub = float(u_old[j]) if u_old is not None else math.nan
+            if not (math.isfinite(a) and math.isfinite(b)):
+                continue
+            spread = math.hypot(ua, ub)
+            z = abs(a - b) / spread if spread > 0 else 0.0
+            key = f'imu.{name}[{label}]'
+            if z > MAX_DISAGREEMENT_SIGMA and not same and not replace:
+                raise HandoffError(
+                    f'{key}: this run gives {_with_std(a, ua)} ({prov.source if prov else "?"}),'
+                    f' the file holds {_with_std(b, ub)}: they differ by {z:.1f} combined '
+                    'standard uncertainties (' + (f'{other}: which settings are right?' if other
+                                                  else 'a changed triad, another triad, or a '
+                                                  'wrong bench setting?')
+                    + '); nothing written. Check, then give --replace to take this run\'s '
+                    'values, or use another --out.')
+            why = SAME_RUN[1:-2] if same else ('replace asked' if replace else 'newer run')
+            lines.append(f'replaced: {key} = {_with_std(a, ua)} — was {_with_std(b, ub)} ('
+                         + why + (f'; {other}' if other and not same else '') + ').')
+    return lines
+
+
 def _merged_imu(new: CalibrationLike, older: CalibrationLike,
-                lines: list[str]) -> ImuCalibration | None:
+                lines: list[str], replace: bool = False) -> ImuCalibration | None:
     """The ``imu:`` section after a merge, each change said in a line.
 
     A triad run (:data:`IMU_METHODS`) replaces the section but keeps the file's per-channel
@@ -66,11 +111,13 @@ def _merged_imu(new: CalibrationLike, older: CalibrationLike,
                            f'this run the channels {list(run.channels)}: another IMU? Not '
                            'merging them (use another --out).')
     if any(m in IMU_METHODS for m in new.methods):
+        changes = _triad_changes(new, older, run, old, replace)
         kept = {name: getattr(old, name) for name in ('noise', 'thermal')
                 if getattr(old, name) and not getattr(run, name)}
         lines.append('imu: the file\'s imu section (' + _imu_run(older) + ') replaced by this '
                      'run\'s' + (f'; its {" and ".join(kept)} per channel kept (not measured '
                                   'by this run).' if kept else '.'))
+        lines.extend(changes)
         return dataclasses.replace(run, **kept)
     changed = {name: getattr(run, name) for name in ('noise', 'thermal') if getattr(run, name)}
     lines.append(f'imu: the file\'s section kept (K, sense axes, M, b); its '
