@@ -21,7 +21,12 @@ of another type (the line lists the topics present with their types), a pulse or
 stream without a scale factor, a channel that is constant or all NaN, a record too short
 for any term, an output path that cannot be written (checked before any work, writability
 included), an existing ``--out`` file this run cannot update (empty, not a hand-off file, or
-another ``--gyro-id``'s: checked after the bag, topic and scale factor, before any work).
+another ``--gyro-id``'s: checked after the bag, topic and scale factor, before any work),
+and, once the terms are measured, an ``--out`` file of another sensor (a triad's, an IMU's,
+another sample rate: one sensor per file) or holding a value more than 5 combined standard
+uncertainties from this run's (the same bag under other settings included) without
+``--replace``. Every change to ``--out`` is printed under its ``hand-off written:`` line
+(added, replaced with the old value, kept, dropped).
 On any failure no file is written or overwritten; a disk that fills while writing ends in
 one line naming the output and what was written before it.
 """
