@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from fake_node import FakeNode as _Node
-from hypothesis import HealthCheck, example, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from gyro_calib.bag_calibration import calibrate_bags
@@ -160,12 +160,17 @@ def test_another_bench_never_borrows_a_sample_of_the_record(
     end_s = float(first[-1][PULSES].stamp_ns[-1]) / 1e9  # the record's last stamp, s
     counter_end = float(first[-1][PULSES].values['position'][-1])
     # a counter that starts anew is another run only where the gyro could not have come
-    # back to zero in the gap: at most half the time the bench's peak rate needs for that
+    # back to zero in the gap: at most half the time the bench's peak rate needs for that,
+    # and a jump well beyond the record's own sample steps (issue 35 item 6, the second
+    # falsifying example: the table back at its start 15.6 s in, the counter 640 pulses from
+    # zero, and a counter restarting at zero 1 ms later: the gyro could have done that)
     peak_counts_per_s = PAPER.rate_deg_s * 3600 / PAPER.k_arcsec_per_pulse
+    if how == 'counter starts anew':
+        assume(abs(counter_end) > 8 * peak_counts_per_s / PAPER.sample_hz)
     short_gap = min(gap_s, 0.5 * abs(counter_end) / peak_counts_per_s)
     start, counter = {  # what makes the second bench observably another run
         'stamps start anew': (start_fraction * end_s, 0.0),
-        'counter starts anew': (end_s + max(short_gap, 1e-3), 0.0),
+        'counter starts anew': (end_s + short_gap, 0.0),
         'after a long gap': (end_s + 60.0 + gap_s, counter_end),
         'stamps start anew, counter continues': (start_fraction * end_s, counter_end),
     }[how]
@@ -200,6 +205,26 @@ def test_the_same_bench_after_a_crash_resumes_every_recorded_sample_first(
     assert session.stamps == _stamps(batches[:stop_batch] + rest)
     assert any(line.startswith('resumed from') for line in node.logger.lines)
     assert not [p for p in directory.parent.iterdir() if '.superseded-' in p.name]
+
+
+def test_a_counter_restarting_where_the_gyro_could_have_come_back_is_a_continuation(
+        tmp_path: Path) -> None:
+    """The limit of telling runs apart: the table back at its start, the counter near zero.
+
+    15.6 s into the paper bench the table has turned back to where it started and the
+    counter stands 640 pulses from zero (the bias). New data 1 ms later with the counter at
+    zero and the table at its start are what the same gyro could give: resumed.
+    """
+    record = StateRecord(tmp_path / 'state', {})
+    batches = PAPER.batches(15.605)
+    for cols in batches:
+        record.append(cols)
+    tails = record.tails()
+    counter_end = float(batches[-1][PULSES].values['position'][-1])
+    assert 0 < counter_end < 1000
+    end_s = float(batches[-1][PULSES].stamp_ns[-1]) / 1e9
+    restarted = dataclasses.replace(PAPER, start_s=end_s + 1e-3).batches(1.0)[0]
+    assert why_not_continued(tails, restarted) is None
 
 
 def test_each_reason_for_a_new_run_is_named(tmp_path: Path) -> None:
