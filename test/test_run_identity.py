@@ -106,3 +106,33 @@ def test_a_triad_re_run_under_another_latitude_is_refused_and_its_replacement_sa
     assert code == 0
     lines = [ln for ln in text.splitlines() if ln.startswith('  replaced: imu.')]
     assert len(lines) == 6 and all(' — was ' in ln and 'replace asked' in ln for ln in lines)
+
+
+def test_a_triads_noise_terms_per_channel_are_checked_and_replaced_saying_old_and_new(
+        tmp_path: Path) -> None:
+    """The noise method on /imu/pulses sets imu.noise.<channel>: checked like any value."""
+    import dataclasses
+
+    from gyro_calib.handoff import HandoffError, Provenance, method_calibration, update_calibration
+    from gyro_calib.imu_calibration import ImuCalibration
+
+    def run(n: float, settings: dict[str, str]) -> object:
+        cal = method_calibration('noise', {}, Provenance('bags/triad_static', 0, 10,
+                                                         settings=settings))
+        return dataclasses.replace(cal, imu=ImuCalibration(('x', 'y', 'z'), noise={
+            c: {'angle_random_walk_rad_per_sqrt_s': n,
+                'angle_random_walk_rad_per_sqrt_s_std': 1e-8} for c in 'xyz'}))
+
+    path = tmp_path / 'triad.yaml'
+    update_calibration(path, run(1e-6, {'outliers': 'remove'}))  # type: ignore[arg-type]
+    before = path.read_bytes()
+    with pytest.raises(HandoffError, match=r"imu.noise.x.angle_random_walk_rad_per_sqrt_s: "
+                                           r".*the same data under other settings \(outliers: "
+                                           r"'remove' -> 'not given'\)"):
+        update_calibration(path, run(2e-6, {}))  # type: ignore[arg-type]
+    assert path.read_bytes() == before
+    report: list[str] = []
+    update_calibration(path, run(2e-6, {}), replace=True, report=report)  # type: ignore[arg-type]
+    replaced = [ln for ln in report if ln.startswith('replaced: imu.noise.')]
+    assert len(replaced) == 3 and all('= 2e-06' in ln and 'was 1e-06' in ln for ln in replaced)
+    assert load_calibration(path).imu.noise['y']['angle_random_walk_rad_per_sqrt_s'] == 2e-6
