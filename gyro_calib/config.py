@@ -249,7 +249,8 @@ def given(value: Any) -> bool:
 
 
 NODE_ONLY_PARAMETERS = ('config_file', 'output_file', 'process_period_s', 'fit_after_idle_s',
-                        'state_dir', 'keep_state', 'resume', 'resume_max_gap_s', 'topic',
+                        'state_dir', 'keep_state', 'resume', 'resume_max_gap_s',
+                        'bench_max_rate_deg_s', 'topic',
                         'calibration_file', 'kalibr_file',
                         'plot_file', 'best_effort', 'results_period_s', 'managed',
                         'use_sim_time', 'start_type_description_service')

@@ -75,8 +75,12 @@ class Method:
 
     def make_session(self, options: CalibrationOptions) -> MethodSession:
         """A new session of this method with the user's options."""
+        from gyro_calib.session import run_settings
+
         module, cls = self.session.split(':')
-        return getattr(importlib.import_module(module), cls)(options)  # type: ignore[no-any-return]
+        session: MethodSession = getattr(importlib.import_module(module), cls)(options)
+        session.run_settings = run_settings(options)
+        return session
 
     def settings_class(self) -> type:
         """Its settings dataclass."""

@@ -15,6 +15,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 from gyro_calib.config import BENCH_SETTINGS, check_bench_setting, given, read_method_file
@@ -30,6 +31,43 @@ if TYPE_CHECKING:
 
 _OPTION_OF = {'fog_scale_factor_counts_per_rad': 'scale_factor_counts_per_rad'}
 """Bench setting → the CalibrationOptions attribute that carries it, where they differ."""
+
+
+RUN_SETTING_OPTIONS = ('latitude_deg', 'heading_deg', 'position_table_revolutions',
+                       'scale_factor_rad_per_pulse', 'scale_factor_counts_per_rad',
+                       'calibration_file', 'topic', 'sense_axis_elevation_deg',
+                       'sense_axis_azimuth_deg')
+"""The :class:`CalibrationOptions` fields that may change a run's numbers (with ``settings``,
+``config_bench`` and the config file's content: :func:`run_settings`)."""
+
+
+def run_settings(options: CalibrationOptions) -> dict[str, Any]:
+    """Every setting a run was given that may change its numbers, by name (its identity).
+
+    The bench settings and scale factors given (flag or node parameter), the method
+    settings given (``--outliers``, ``--taus``, a node's parameters), the bench settings of
+    the config file and its content (``config_file_sha256``, so an edited file is another
+    run). Written with the run in the hand-off file (``methods.<name>.settings``): the same
+    bag re-run with other settings is another run, its values checked against the file's
+    (:meth:`gyro_calib.handoff.Provenance.same_run`).
+    """
+    import hashlib
+
+    out: dict[str, Any] = {}
+    for name in RUN_SETTING_OPTIONS:
+        value = getattr(options, name)
+        if given(value):
+            out[name] = str(value) if isinstance(value, Path) else value
+    for name, value in sorted({**options.config_bench, **options.settings}.items()):
+        if given(value):
+            out[name] = value if isinstance(value, (bool, int, float, str)) else repr(value)
+    if options.config_file is not None:
+        try:
+            content = Path(options.config_file).read_bytes()
+        except OSError:
+            content = str(options.config_file).encode()
+        out['config_file_sha256'] = hashlib.sha256(content).hexdigest()[:16]
+    return out
 
 
 @dataclass(frozen=True, slots=True)
@@ -249,6 +287,10 @@ class MethodSession(ABC):
     name: str = ''
     """The method's registry name."""
 
+    run_settings: Mapping[str, Any] = MappingProxyType({})
+    """The settings the run was given (:func:`run_settings`; set by
+    :meth:`gyro_calib.registry.Method.make_session`), written with its hand-off record."""
+
     @abstractmethod
     def topics(self) -> dict[str, str]:
         """Topic → message type this session reads."""
@@ -385,7 +427,7 @@ class MethodSession(ABC):
             Provenance(source, span[0], span[1],
                        {k: v for k, v in missing.items() if k not in cannot},
                        conditions=conditions, not_measurable=cannot,
-                       deviations=self.deviation_tables()),
+                       deviations=self.deviation_tables(), settings=dict(self.run_settings)),
             gyro_id=gyro_id)
 
     def summary_rows(self) -> list[tuple[str, str, str, str]]:

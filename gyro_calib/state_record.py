@@ -52,7 +52,8 @@ RESUME_MAX_GAP_S = 60.0
 As long as the longest time between paired windows (``max_pair_gap_s``, §A): no method
 bridges a longer gap, so data after it are a new run whatever they are."""
 RATE_MARGIN = 1.25
-"""Factor on the record's fastest rate when judging how far a count may move over a gap."""
+"""Factor on the bench's fastest rate when judging how far a count or angle may move over a
+gap."""
 
 
 class StateRecordError(GyroCalibError):
@@ -149,17 +150,70 @@ def continuous_columns(topic: str, msgtype: str) -> dict[str, bool]:
     return {}
 
 
+def bench_rate_limit_rad_s(tails: Mapping[str, TopicTail],
+                           stated_rad_s: float = math.nan) -> float:
+    """The fastest any table of the bench can turn, rad/s (NaN: unknown).
+
+    The larger of the stated limit (``bench_max_rate_deg_s``, or the commanded procedure's
+    fastest rate) and the fastest any table turned in the record: a table at rest in the
+    record (the position table during the K̃ phase) may turn at the bench's rate while the
+    node is down. NaN when nothing is stated and no table has moved yet.
+    """
+    recorded = [rate for tail in tails.values() if tail.samples
+                for name, is_angle in continuous_columns(tail.topic, tail.msgtype).items()
+                if is_angle for rate in (tail.max_rate.get(name, math.nan),)
+                if math.isfinite(rate) and rate > 0]
+    limits = [*recorded, *([stated_rad_s] if math.isfinite(stated_rad_s)
+                           and stated_rad_s > 0 else [])]
+    return max(limits) if limits else math.nan
+
+
+def _allowed_rates(tails: Mapping[str, TopicTail], limit_rad_s: float
+                   ) -> dict[tuple[str, str], float]:
+    """How fast each continuous column may move while no node runs, its unit per s.
+
+    A table angle: the bench's limit (:func:`bench_rate_limit_rad_s`; inf when unknown). A
+    cumulative count: its own fastest recorded rate, or, on a bench with tables, the count
+    the gyro gives when every table turns at the limit (counts per rad from the record:
+    the count's fastest rate over the fastest table's) — inf when that is unknown.
+    """
+    angles = {(t.topic, n): t for t in tails.values() if t.samples
+              for n, a in continuous_columns(t.topic, t.msgtype).items() if a}
+    fastest_table = max((t.max_rate.get(n, 0.0) for (_, n), t in angles.items()
+                         if math.isfinite(t.max_rate.get(n, math.inf))), default=0.0)
+    table_limit = limit_rad_s if math.isfinite(limit_rad_s) else math.inf
+    out: dict[tuple[str, str], float] = {}
+    for tail in tails.values():
+        for name, is_angle in continuous_columns(tail.topic, tail.msgtype).items():
+            own = tail.max_rate.get(name, math.inf)
+            if is_angle:
+                out[tail.topic, name] = table_limit
+            elif not angles:  # no table: the count's own recorded rate
+                out[tail.topic, name] = own
+            elif fastest_table > 0 and math.isfinite(own) and math.isfinite(table_limit):
+                counts_per_rad = own / fastest_table
+                out[tail.topic, name] = max(own, counts_per_rad * len(angles) * table_limit)
+            else:  # no table has moved and no limit is stated: any count
+                out[tail.topic, name] = math.inf
+    return out
+
+
 def why_not_continued(tails: Mapping[str, TopicTail], live: Mapping[str, TopicColumns],
-                      max_gap_s: float = RESUME_MAX_GAP_S) -> str | None:
+                      max_gap_s: float = RESUME_MAX_GAP_S,
+                      bench_max_rate_rad_s: float = math.nan) -> str | None:
     """Why new data do not continue a record, or None when they do.
 
     New data continue a record when, for every topic, the first new sample comes after the
     topic's last recorded one (a topic the record lacks: after the earliest end of the
     recorded topics), the gap from the record's end to the first new sample is at most
-    ``max_gap_s``, and every cumulative count or encoder angle has moved from its recorded
-    value by no more than the record's fastest rate allows over that gap (× 1.25, plus two
-    of the record's largest sample-to-sample steps). Stamps that go back, a jump in a count
-    and a gap no window could bridge mean another run (another gyro, bench or recording).
+    ``max_gap_s``, the sensor (frame_id) is the record's, and every cumulative count or
+    encoder angle has moved from its recorded value by no more than the *bench* can move it
+    over that gap (× 1.25, plus two of the record's largest sample-to-sample steps): a
+    table may start, stop or reverse while the node is down, at up to the bench's fastest
+    rate (:func:`bench_rate_limit_rad_s`: ``bench_max_rate_rad_s`` stated or commanded, or
+    the fastest any table turned in the record), and the gyro on it counts accordingly.
+    Stamps that go back, a count that jumps beyond that, another frame_id and a gap no
+    window could bridge mean another run (another gyro, bench or recording).
     """
     ends = [t.last_stamp_ns for t in tails.values() if t.samples]
     firsts = {topic: int(np.min(c.stamp_ns)) for topic, c in live.items() if len(c)}
@@ -177,6 +231,8 @@ def why_not_continued(tails: Mapping[str, TopicTail], live: Mapping[str, TopicCo
         return (f'a gap of {gap_ns / NS_PER_S:.6g} s from the end of the record '
                 f'({format_stamp(record_end)}) to the first new sample, longer than '
                 f'resume_max_gap_s = {max_gap_s:g} s')
+    limit = bench_rate_limit_rad_s(tails, bench_max_rate_rad_s)
+    rates = _allowed_rates(tails, limit)
     for topic, cols in sorted(live.items()):
         tail = tails.get(topic)
         if tail is None or not tail.samples or not len(cols):
@@ -196,13 +252,23 @@ def why_not_continued(tails: Mapping[str, TopicTail], live: Mapping[str, TopicCo
             moved = value - last
             if is_angle:
                 moved = math.remainder(moved, 2 * math.pi)
-            allowed = RATE_MARGIN * tail.max_rate[name] * dt_s + 2 * tail.max_step[name]
+            rate = rates.get((topic, name), math.inf)
+            allowed = RATE_MARGIN * rate * dt_s + 2 * tail.max_step[name]
             if abs(moved) > allowed:
                 what = 'angle' if is_angle else 'count'
+                bench = (f'the bench\'s fastest table rate ({math.degrees(limit):.6g} °/s) '
+                         if math.isfinite(limit) and tails_have_tables(tails) else
+                         'the recorded rate ')
                 return (f'{topic}: the {what} ({name}) jumps by {moved:.10g} in {dt_s:.6g} s '
-                        f'after the record (from {last:.10g} to {value:.10g}); the recorded '
-                        f'rate allows at most {allowed:.6g}')
+                        f'after the record (from {last:.10g} to {value:.10g}); {bench}'
+                        f'allows at most {allowed:.6g}')
     return None
+
+
+def tails_have_tables(tails: Mapping[str, TopicTail]) -> bool:
+    """Whether the record holds a table's encoder angle (a ``…/joint_states`` topic)."""
+    return any(a for t in tails.values()
+               for a in continuous_columns(t.topic, t.msgtype).values())
 
 
 def set_aside(directory: Path) -> Path:

@@ -19,10 +19,17 @@ import os
 from pathlib import Path
 from typing import Any
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from gyro_calib.handoff import Provenance, load_calibration, method_calibration, update_calibration
+from gyro_calib.handoff import (
+    HandoffError,
+    Provenance,
+    load_calibration,
+    method_calibration,
+    update_calibration,
+)
 
 STRESS = os.environ.get('GYRO_CALIB_STRESS', '') not in ('', '0')
 
@@ -101,3 +108,112 @@ def test_merging_runs_keeps_the_best_of_each_quantity_and_names_its_run(
                 assert final.values[key + '_std'] == run['values'][key + '_std']
     assert final.gyro_id == ('A-1' if any(r['gyro_id'] for r in sequence) else '')
     assert math.isfinite(final.values.get('k_tilde_rad_per_pulse', 0.0))
+
+
+# -- the same bag re-run with other settings (issue 35 item 1) --------------------------------
+
+SETTINGS = st.fixed_dictionaries({}, optional={
+    'latitude_deg': st.sampled_from([30.0, 45.0, 60.0]),
+    'heading_deg': st.sampled_from([0.0, 90.0]),
+    'outliers': st.sampled_from(['keep', 'remove']),
+    'taus': st.sampled_from(['octave', '1,10,100']),
+    'config_file_sha256': st.sampled_from(['0123456789abcdef', 'fedcba9876543210'])})
+"""Settings a front door may be given that change a run's numbers."""
+
+
+@settings(max_examples=300 if STRESS else 60, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(first=SETTINGS, second=SETTINGS, shift_sigma=st.floats(0.0, 50.0).filter(
+    lambda z: abs(z - 5.0) > 0.01), replace=st.booleans(),
+       key=st.sampled_from(['bias_rad_s', 'fix_error_angle_rad', 'k_tilde_rad_per_pulse']))
+def test_the_same_bag_under_other_settings_is_another_run(
+        tmp_path: Path, first: dict[str, Any], second: dict[str, Any], shift_sigma: float,
+        replace: bool, key: str) -> None:
+    """Its values are checked against the file's; a replacement says old and new."""
+    path = tmp_path / 'gyro.yaml'
+    path.unlink(missing_ok=True)
+    std = abs(TRUTH[key]) * RELATIVE_STD[key]
+    old, new = TRUTH[key], TRUTH[key] + shift_sigma * math.hypot(std, std)
+    update_calibration(path, method_calibration(
+        'rbrlg', {key: old, key + '_std': std}, Provenance('bags/b', 100, 200, settings=first)))
+    before = path.read_bytes()
+    record = method_calibration('rbrlg', {key: new, key + '_std': std},
+                                Provenance('bags/b', 100, 200, settings=second))
+    report: list[str] = []
+    if first != second and shift_sigma > 5.0 and not replace:
+        with pytest.raises(HandoffError, match=rf'{key}: .* differ by .*the same data under '
+                                               r'other settings \(.* -> .*\).*--replace'):
+            update_calibration(path, record, report=report)
+        assert path.read_bytes() == before  # nothing written
+        return
+    update_calibration(path, record, replace=replace, report=report)
+    final = load_calibration(path)
+    (line,) = [ln for ln in report if f' {key} = ' in ln]
+    if first == second or replace:  # the same run, updated; or replace asked: this run's
+        assert final.values[key] == new
+        assert line.startswith('replaced:') and f'was {old!r}' in line and repr(new) in line
+        assert ('same run, updated' in line) == (first == second)
+    else:  # as precise, newer: taken, saying so, old and new
+        assert final.values[key] == new and 'as precise, newer' in line
+        assert f'was {old!r}' in line and 'other settings' in line
+    assert dict(final.methods['rbrlg'].settings) == second
+
+
+# -- another sensor (issue 35 item 2) ---------------------------------------------------------
+
+def _record(kind: str, rate_hz: float, source: str) -> Any:
+    """One noise run of a sensor of ``kind`` sampled at ``rate_hz``, from its physics.
+
+    A white rate noise of density N gives ADEV(τ₀) = N/√τ₀ at the shortest τ, τ₀ = 1/rate.
+    """
+    import dataclasses
+
+    from gyro_calib.imu_calibration import ImuCalibration
+
+    n = 1e-6
+    tau0 = 1.0 / rate_hz
+    table = {'tau_s': [tau0, 2 * tau0], 'm': [1, 2],
+             'adev': [n / math.sqrt(tau0), n / math.sqrt(2 * tau0)]}
+    if kind == 'single gyro':
+        return method_calibration('noise', {'angle_random_walk_rad_per_sqrt_s': n,
+                                            'angle_random_walk_rad_per_sqrt_s_std': n / 10},
+                                  Provenance(source, 0, 10, deviations={'gyro': table}))
+    if kind == 'IMU':
+        return method_calibration('noise', {'imu_gyro_x_angle_random_walk_rad_per_sqrt_s': n,
+                                            'imu_gyro_x_angle_random_walk_rad_per_sqrt_s_std':
+                                            n / 10},
+                                  Provenance(source, 0, 10, deviations={
+                                      a: table for a in ('gyro_x', 'gyro_y', 'gyro_z')}))
+    channels = ('x', 'y', 'z')
+    cal = method_calibration('noise', {}, Provenance(source, 0, 10, deviations={
+        c: table for c in channels}))
+    return dataclasses.replace(cal, imu=ImuCalibration(channels, noise={
+        c: {'angle_random_walk_rad_per_sqrt_s': n, 'angle_random_walk_rad_per_sqrt_s_std':
+            n / 10} for c in channels}))
+
+
+@settings(max_examples=300 if STRESS else 40, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(file_kind=st.sampled_from(['single gyro', 'IMU', 'triad']),
+       run_kind=st.sampled_from(['single gyro', 'IMU', 'triad']),
+       file_rate=st.sampled_from([100.0, 200.0, 500.0, 1000.0]),
+       rate_ratio=st.sampled_from([1.0, 1.001, 0.5, 2.5]))
+def test_a_run_of_another_sensor_is_refused_in_one_line_naming_what_differs(
+        tmp_path: Path, file_kind: str, run_kind: str, file_rate: float,
+        rate_ratio: float) -> None:
+    path = tmp_path / 'sensor.yaml'
+    path.unlink(missing_ok=True)
+    update_calibration(path, _record(file_kind, file_rate, 'bags/first'))
+    before = path.read_bytes()
+    run = _record(run_kind, file_rate * rate_ratio, 'bags/second')
+    differs = ['sensor kind'] * (run_kind != file_kind) + [
+        'sample rate'] * (abs(rate_ratio - 1) > 0.01)
+    if not differs:
+        update_calibration(path, run)
+        return
+    with pytest.raises(HandoffError) as refused:
+        update_calibration(path, run)
+    line = str(refused.value)
+    assert '\n' not in line and 'one sensor per file' in line
+    assert line.startswith(f'another sensor ({", ".join(differs)} differ')
+    assert path.read_bytes() == before  # nothing written

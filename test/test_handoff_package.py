@@ -14,7 +14,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / 'gyro_calib' / 'handoff'
-ORDER = ('schema', 'runs', 'scale_factor', 'merge', 'calibration', 'layout', 'load', 'write')
+ORDER = ('schema', 'runs', 'scale_factor', 'merge', 'sensor', 'calibration', 'layout', 'load',
+         'write')
 """Low → high: keys and checks, runs, the scale-factor rule, the merge rules, the record,
 its on-disk shape, reading, writing."""
 

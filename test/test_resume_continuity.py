@@ -15,19 +15,20 @@ between constant rates, a rate-biased gyro counting its angle over K), not taken
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
 from fake_node import FakeNode as _Node
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.bagio import SampleBatch, bag_info, iter_bags
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
-from gyro_calib.nodes.node_state import NodeState
+from gyro_calib.nodes.node_state import NodeState, commanded_max_rate_deg_s
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.state_record import StateRecord, why_not_continued
@@ -144,21 +145,32 @@ PAPER = Bench(k_arcsec_per_pulse=0.84279066, rate_deg_s=150.0, start_s=0.0, coun
                             'stamps start anew, counter continues']),
        start_fraction=st.floats(0.0, 1.0), gap_s=st.floats(0.05, 30.0),
        wraps=st.booleans())
+# issue 35 item 6, the falsifying example: the record ends (2.400 s) when the table has made
+# a whole turn, and 'stamps start anew' at 1.0 × stop_s − 1/200 s = 2.401 s, which is *after*
+# the record's last stamp (stop_s is not on the 200 Hz grid): with the counter and the
+# encoder angle (mod 2π) where the record left them, such data do continue the record
+@example(stop_s=2.4049, k=1.0, rate=100.0, how='stamps start anew, counter continues',
+         start_fraction=1.0, gap_s=1.0, wraps=False)
 def test_another_bench_never_borrows_a_sample_of_the_record(
         tmp_path_factory: pytest.TempPathFactory, stop_s: float, k: float, rate: float,
         how: str, start_fraction: float, gap_s: float, wraps: bool) -> None:
     directory = tmp_path_factory.mktemp('run') / 'gyro.yaml.state'
     first = PAPER.batches(stop_s)
     _life(directory, first)
-    end_s = stop_s - 1 / PAPER.sample_hz
+    end_s = float(first[-1][PULSES].stamp_ns[-1]) / 1e9  # the record's last stamp, s
     counter_end = float(first[-1][PULSES].values['position'][-1])
     # a counter that starts anew is another run only where the gyro could not have come
-    # back to zero in the gap: at most half the time the bench's peak rate needs for that
+    # back to zero in the gap: at most half the time the bench's peak rate needs for that,
+    # and a jump well beyond the record's own sample steps (issue 35 item 6, the second
+    # falsifying example: the table back at its start 15.6 s in, the counter 640 pulses from
+    # zero, and a counter restarting at zero 1 ms later: the gyro could have done that)
     peak_counts_per_s = PAPER.rate_deg_s * 3600 / PAPER.k_arcsec_per_pulse
+    if how == 'counter starts anew':
+        assume(abs(counter_end) > 8 * peak_counts_per_s / PAPER.sample_hz)
     short_gap = min(gap_s, 0.5 * abs(counter_end) / peak_counts_per_s)
     start, counter = {  # what makes the second bench observably another run
         'stamps start anew': (start_fraction * end_s, 0.0),
-        'counter starts anew': (end_s + max(short_gap, 1e-3), 0.0),
+        'counter starts anew': (end_s + short_gap, 0.0),
         'after a long gap': (end_s + 60.0 + gap_s, counter_end),
         'stamps start anew, counter continues': (start_fraction * end_s, counter_end),
     }[how]
@@ -193,6 +205,26 @@ def test_the_same_bench_after_a_crash_resumes_every_recorded_sample_first(
     assert session.stamps == _stamps(batches[:stop_batch] + rest)
     assert any(line.startswith('resumed from') for line in node.logger.lines)
     assert not [p for p in directory.parent.iterdir() if '.superseded-' in p.name]
+
+
+def test_a_counter_restarting_where_the_gyro_could_have_come_back_is_a_continuation(
+        tmp_path: Path) -> None:
+    """The limit of telling runs apart: the table back at its start, the counter near zero.
+
+    15.6 s into the paper bench the table has turned back to where it started and the
+    counter stands 640 pulses from zero (the bias). New data 1 ms later with the counter at
+    zero and the table at its start are what the same gyro could give: resumed.
+    """
+    record = StateRecord(tmp_path / 'state', {})
+    batches = PAPER.batches(15.605)
+    for cols in batches:
+        record.append(cols)
+    tails = record.tails()
+    counter_end = float(batches[-1][PULSES].values['position'][-1])
+    assert 0 < counter_end < 1000
+    end_s = float(batches[-1][PULSES].stamp_ns[-1]) / 1e9
+    restarted = dataclasses.replace(PAPER, start_s=end_s + 1e-3).batches(1.0)[0]
+    assert why_not_continued(tails, restarted) is None
 
 
 def test_each_reason_for_a_new_run_is_named(tmp_path: Path) -> None:
@@ -401,3 +433,139 @@ def test_the_default_gap_is_the_longest_the_method_bridges_anyway() -> None:
     assert resume_max_gap_s(math.nan, dataclasses.asdict(ThermalSettings())) == 120.0
     assert resume_max_gap_s(math.nan, {}) == 60.0
     assert resume_max_gap_s(5.0, dataclasses.asdict(KTildeConfig())) == 5.0
+
+
+# -- a crash anywhere in the whole procedure loses nothing (issue 35 item 0) -----------------
+
+FULL = BAGS / 'theta_four_position'  # the whole RBRLG procedure: K̃ phase, then 4 θ stations
+TABLES = ('/rate_table/joint_states', '/position_table/joint_states')
+
+
+@functools.lru_cache(maxsize=1)
+def _full_procedure() -> tuple[CalibrationOptions, dict[str, TopicColumns], tuple[float, ...]]:
+    """The full-procedure bag: its options, every sample per topic, its transitions.
+
+    The transitions: the instants (s from its first stamp) where a table starts, stops or
+    reverses (|velocity| leaves or reaches 0).
+    """
+    options = CalibrationOptions(scenario=bag_info(FULL).scenario or {})
+    (whole,) = _bag_batches('rbrlg', FULL, 1e6)
+    first = min(int(c.stamp_ns.min()) for c in whole.values())
+    instants = set()
+    for topic in TABLES:
+        c = whole[topic]
+        moving = np.abs(c.values['velocity']) > 1e-9
+        for i in np.flatnonzero(np.diff(moving.astype(int)) != 0):
+            instants.add(round((int(c.stamp_ns[i + 1]) - first) / 1e9, 3))
+    return options, whole, tuple(sorted(instants))
+
+
+def _window(lo_s: float, hi_s: float, batch_s: float = 1.0) -> list[dict[str, TopicColumns]]:
+    """The bag's samples with stamps in [lo_s, hi_s) s from its start, in hand-overs."""
+    _, whole, _ = _full_procedure()
+    first = min(int(c.stamp_ns.min()) for c in whole.values())
+    edges = np.arange(first + round(lo_s * 1e9), first + round(hi_s * 1e9) + int(batch_s * 1e9),
+                      int(batch_s * 1e9))
+    edges[-1] = min(edges[-1], first + round(hi_s * 1e9))
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        cols = {t: _take(c, (c.stamp_ns >= lo) & (c.stamp_ns < hi)) for t, c in whole.items()}
+        cols = {t: c for t, c in cols.items() if len(c)}
+        if cols:
+            out.append(cols)
+    return out
+
+
+def _commanded_state(node: _Node, directory: Path, options: CalibrationOptions) -> NodeState:
+    """A node's state directory, with the procedure the simulator published (/sim/scenario)."""
+    state = NodeState(node, 'rbrlg', 'G-1', directory, True, {})
+    state.commanded(options.scenario)
+    return state
+
+
+def test_a_table_that_starts_turning_while_the_node_is_down_continues_the_record(
+        tmp_path: Path) -> None:
+    """The issue's repro without DDS: killed at rest before a station, back 30 s later."""
+    _, whole, _ = _full_procedure()
+    record = StateRecord(tmp_path / 'state', {})
+    for cols in _window(0.0, 52.0):
+        record.append(cols)
+    tails = record.tails()
+    assert tails['/position_table/joint_states'].max_rate['position'] == 0.0  # at rest
+    later = _window(82.0, 83.0)[0]  # the position table turned in the gap (11.02 rad)
+    assert why_not_continued(tails, later, 60.0) is None  # the rate table showed 150 °/s
+    jumped = dict(later)  # another bench: its count 10⁸ pulses on, in 30 s
+    p = jumped[PULSES]
+    jumped[PULSES] = dataclasses.replace(p, values={**p.values,
+                                                    'position': p.values['position'] + 1e8})
+    refused = why_not_continued(tails, jumped, 60.0)
+    assert refused is not None and "the bench's fastest table rate (150" in refused
+
+
+def test_a_crash_at_every_transition_of_the_procedure_is_resumed(tmp_path: Path) -> None:
+    """Every start, stop and reversal of either table (± 10 ms), gaps up to 59.9 s."""
+    options, _, instants = _full_procedure()
+    commanded = math.radians(150.0)  # the procedure's fastest table rate (/sim/scenario)
+    assert commanded_max_rate_deg_s(options.scenario) == 150.0
+    kills = sorted({max(0.02, t + d) for t in instants for d in (-0.01, 0.0, 0.01)})
+    assert len(instants) >= 20  # K̃ reversals, station moves, position-table runs
+    record = StateRecord(tmp_path / 'state', {})
+    done = 0.0
+    for kill in kills:
+        for cols in _window(done, kill, batch_s=1e6):
+            record.append(cols)
+        done = kill
+        tails = record.tails()
+        for gap in (0.0, 0.5, 5.0, 30.0, 59.9):
+            later = _window(kill + gap, kill + gap + 0.5, batch_s=1e6)
+            if not later:
+                continue
+            why = why_not_continued(tails, later[0], 60.0, commanded)
+            assert why is None, (kill, gap, why)
+            if kill > 0.2:  # the bench has shown its fastest rate: the record alone suffices
+                assert why_not_continued(tails, later[0], 60.0) is None, (kill, gap)
+
+
+@settings(max_examples=4, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(kill_s=st.one_of(st.floats(0.05, 270.0),
+                        st.sampled_from(_full_procedure()[2]).map(lambda t: max(0.05, t))),
+       gap_s=st.one_of(st.just(0.0), st.floats(0.0, 59.9)))
+@example(kill_s=52.0, gap_s=30.0)  # the issue's: at rest before a station, back 30 s later
+@example(kill_s=0.05, gap_s=10.0)  # in the first acceleration: the commanded 150 °/s
+def test_a_crash_anywhere_in_the_full_procedure_hands_off_what_an_uninterrupted_run_does(
+        tmp_path_factory: pytest.TempPathFactory, kill_s: float, gap_s: float) -> None:
+    """Killed at any instant, restarted after any gap up to resume_max_gap_s (60 s).
+
+    The final hand-off equals that of one run fed the same samples (a gap is a gap in the
+    data, whatever ran), and with no gap that of the uninterrupted bag.
+    """
+    options, _, _ = _full_procedure()
+    directory = tmp_path_factory.mktemp('crash') / 'gyro.yaml.state'
+    before, after = _window(0.0, kill_s), _window(kill_s + gap_s, 300.0)
+    first_node, second_node = _Node(), _Node()
+    for node, batches in ((first_node, before), (second_node, after)):
+        session = METHODS['rbrlg'].make_session(options)
+        state = _commanded_state(node, directory, options)
+        state.resume_once(session.feed, session.process)
+        for cols in batches:
+            state.record_batch(cols)
+            n = sum(len(c) for c in cols.values())
+            session.feed(SampleBatch(cols, n, max(int(c.stamp_ns.max()) for c in cols.values())))
+            session.process()
+        session.process(flush=True)
+        state.finish(complete=False)
+    assert not any('not resumed' in line for line in second_node.logger.lines), \
+        second_node.logger.lines
+    assert any(line.startswith('resumed from') for line in second_node.logger.lines)
+    alone = METHODS['rbrlg'].make_session(options)
+    for cols in before + after:
+        n = sum(len(c) for c in cols.values())
+        alone.feed(SampleBatch(cols, n, max(int(c.stamp_ns.max()) for c in cols.values())))
+        alone.process()
+    alone.process(flush=True)
+    assert session.handoff_values() == alone.handoff_values()
+    assert _numbers(session) == _numbers(alone)
+    if gap_s == 0.0:
+        whole = calibrate_bags([FULL], methods=['rbrlg'], options=options)
+        assert session.handoff_values() == whole.sessions['rbrlg'].handoff_values()

@@ -252,8 +252,10 @@ def test_handoff_round_trip_is_format_4_and_a_newer_triad_run_replaces_the_secti
     assert any(line.startswith('imu: the file\'s imu section') for line in report)
 
 
-def test_a_format_3_file_still_loads_and_gets_the_imu_section_added(tmp_path: Path) -> None:
-    from gyro_calib.handoff import Provenance, method_calibration, write_calibration
+def test_a_format_3_file_still_loads_and_a_triad_run_is_not_put_into_a_single_gyros_file(
+        tmp_path: Path) -> None:
+    """One sensor per file (issue 35 item 2): a format 3 file is a single gyro's."""
+    from gyro_calib.handoff import HandoffError, Provenance, method_calibration, write_calibration
 
     old = method_calibration('rbrlg', {'k_tilde_rad_per_pulse': 4.0e-6,
                                        'k_tilde_rad_per_pulse_std': 1.0e-13},
@@ -265,9 +267,14 @@ def test_a_format_3_file_still_loads_and_gets_the_imu_section_added(tmp_path: Pa
     session = run(Bench(inner_pairs=2), random_triad(np.random.default_rng(5)))
     cal = session.handoff('bags/triad', gyro_id='IMU-7')
     assert cal is not None
-    update_calibration(path, cal)
+    before = path.read_bytes()
+    with pytest.raises(HandoffError, match=r'another sensor \(sensor kind differs\): the file '
+                                           r'holds a single-axis gyro, this run is of a gyro '
+                                           r'triad'):
+        update_calibration(path, cal)
+    assert path.read_bytes() == before
     back = load_calibration(path)
-    assert back.imu is not None and back.values['k_tilde_rad_per_pulse'] == 4.0e-6
+    assert back.imu is None and back.values['k_tilde_rad_per_pulse'] == 4.0e-6
 
 
 def test_another_imus_run_is_refused(tmp_path: Path) -> None:

@@ -3,7 +3,8 @@
     gyro-calib noise BAG [BAG ...] [--topic T]
         [--scale-factor-rad-per-pulse K | --scale-factor-counts-per-rad S | --calibration FILE]
         [--config FILE] [--json] [--kalibr imu.yaml] [--plot DIR] [--out handoff.yaml]
-        [--outliers keep|remove] [--outlier-sigma K] [--gyro-id ID] [--progress | --no-progress]
+        [--outliers keep|remove] [--outlier-sigma K] [--gyro-id ID] [--replace]
+        [--progress | --no-progress]
 
 The input is ``/gyro/pulses`` (with K), ``/fog/output`` (with counts/rad) or any
 ``sensor_msgs/Imu`` topic (``--topic``; without it the one input the bag holds). The bags
@@ -20,7 +21,12 @@ of another type (the line lists the topics present with their types), a pulse or
 stream without a scale factor, a channel that is constant or all NaN, a record too short
 for any term, an output path that cannot be written (checked before any work, writability
 included), an existing ``--out`` file this run cannot update (empty, not a hand-off file, or
-another ``--gyro-id``'s: checked after the bag, topic and scale factor, before any work).
+another ``--gyro-id``'s: checked after the bag, topic and scale factor, before any work),
+and, once the terms are measured, an ``--out`` file of another sensor (a triad's, an IMU's,
+another sample rate: one sensor per file) or holding a value more than 5 combined standard
+uncertainties from this run's (the same bag under other settings included) without
+``--replace``. Every change to ``--out`` is printed under its ``hand-off written:`` line
+(added, replaced with the old value, kept, dropped).
 On any failure no file is written or overwritten; a disk that fills while writing ends in
 one line naming the output and what was written before it.
 """
@@ -83,6 +89,10 @@ def add_commands(subparsers: Any) -> None:
                    'into DIR (created if absent, in an existing directory)')
     p.add_argument('--out', type=Path, metavar='HANDOFF_YAML',
                    help='write (or update) the INS hand-off file of this sensor')
+    p.add_argument('--replace', action='store_true',
+                   help="--out: take this run's values where they differ from the file's by "
+                   'more than 5 combined standard uncertainties (a changed gyro, a wrong '
+                   'setting corrected); without it such a run is refused')
     p.add_argument('--taus', metavar='GRID',
                    help="the τ grid: default (octaves and decades), octave, decade, all, or "
                    "averaging times in s, e.g. '1,10,100' (setting taus)")
@@ -210,12 +220,18 @@ def run_noise(args: argparse.Namespace) -> int:
             ledger.watch(f'{flag} {given}', path, label)
     ledger.status = EXIT_OK if resolved else EXIT_NOT_CALIBRATED
     flushed, printed = False, 0
+    merge: list[str] = []
     try:
         write_outputs(session, targets, source=outcome.source, schema=handoff_schema(),
-                      gyro_id=args.gyro_id, progress=written, curves_only=not resolved)
+                      gyro_id=args.gyro_id, progress=written, curves_only=not resolved,
+                      replace=args.replace, merge_report=merge)
         for what, path in written:
             print(written_line(what, path), file=human)
             printed += 1
+            if path == targets.handoff:  # every change to the file: added, replaced (new —
+                for line in merge:  # was old), kept, dropped, as calibrate prints them
+                    if line not in what:  # a note the written line gives already
+                        print(f'  {line}', file=human)
         flushed = True  # from here on the text may be part printed: not printed again
         _flush(human, document, args.json)
     except KeyboardInterrupt:  # main() names the files written, each whole, and the others

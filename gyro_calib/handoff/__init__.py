@@ -70,7 +70,8 @@ run into the gyro's file key by key (:meth:`Calibration.merged_into`): each quan
 from the run that measured it best (smaller standard uncertainty; the keys that follow it —
 counts, quantities derived in the same fit — go with it), one line per key says what was
 added, replaced, kept or dropped, and what would make the file inconsistent is refused:
-another gyro, a value differing from the file's by more than 5 combined standard
+another gyro, another sensor (a single gyro, a triad, an IMU; other channels or another
+sample rate), a value differing from the file's by more than 5 combined standard
 uncertainties (``replace`` takes the run's values), a model fitted with another scale factor,
 a run whose values rest on a scale factor other than the file's by enough to move one of them
 by more than 1/5 of its standard uncertainty, either side new (``replace`` with a new scale
@@ -82,7 +83,8 @@ The package, one module an idea, each importing only those before it:
 :mod:`~gyro_calib.handoff.schema` (versions, conventions, keys and their checks),
 :mod:`~gyro_calib.handoff.runs` (where values came from), :mod:`~gyro_calib.handoff.scale_factor`
 (the scale-factor consistency rule), :mod:`~gyro_calib.handoff.merge` (the key-by-key merge
-rules), :mod:`~gyro_calib.handoff.calibration` (the record of one gyro),
+rules), :mod:`~gyro_calib.handoff.sensor` (one sensor per file: kind, channels, sample rate),
+:mod:`~gyro_calib.handoff.calibration` (the record of one gyro),
 :mod:`~gyro_calib.handoff.layout` (the on-disk shape), :mod:`~gyro_calib.handoff.load` (reading
 formats 1–4) and :mod:`~gyro_calib.handoff.write` (atomic write, merge into a file). This
 module re-exports their public names.

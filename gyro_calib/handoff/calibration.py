@@ -26,6 +26,7 @@ from gyro_calib.handoff.schema import (
     _pop_twins,
     _schema,
 )
+from gyro_calib.handoff.sensor import another_sensor
 from gyro_calib.imu_calibration import ImuCalibration
 
 
@@ -121,12 +122,13 @@ class Calibration:
                 replaced, kept (and why) or dropped.
 
         Raises:
-            HandoffError: the file is of another gyro; a value differs from the file's by more
-                than :data:`MAX_DISAGREEMENT_SIGMA` combined standard uncertainties (without
-                ``replace``); the result would hold a model fitted with another scale factor
-                than the file's, or a run whose values rest on another scale factor than the
-                file's by more than :data:`MAX_SCALE_FACTOR_SHIFT` of a standard uncertainty
-                (with ``replace``, a new scale factor drops such a run of the file instead).
+            HandoffError: the file is of another gyro or another sensor (kind, channels, sample
+                rate: :func:`~gyro_calib.handoff.sensor.another_sensor`); a value differs from the
+                file's by more than :data:`MAX_DISAGREEMENT_SIGMA` combined standard uncertainties
+                (without ``replace``); the result would hold a model fitted with another scale
+                factor than the file's, or a run whose values rest on another scale factor than the
+                file's by more than :data:`MAX_SCALE_FACTOR_SHIFT` of a standard uncertainty (with
+                ``replace``, a new scale factor drops such a run of the file instead).
         """
         lines = report if report is not None else []
         if self.gyro_id and older.gyro_id and self.gyro_id != older.gyro_id:
@@ -137,12 +139,16 @@ class Calibration:
                          f'{older.gyro_id!r}, so its values are taken as that gyro\'s.')
         elif self.gyro_id and not older.gyro_id and older.values:
             lines.append(f'gyro_id: the file named no gyro; it is now gyro {self.gyro_id!r}.')
+        other = another_sensor(self, older)
+        if other is not None:
+            raise HandoffError(f'{other}; not merging them: one sensor per file (use another '
+                               '--out).')
         values = dict(older.values)
         methods = dict(older.methods)
         for method, prov in self.methods.items():
             methods[method] = _merge_method(method, prov, self.values, older, values, schema,
                                             replace, lines)
-        imu = _merged_imu(self, older, lines)
+        imu = _merged_imu(self, older, lines, replace)
         merged = Calibration(values, methods, self.gyro_id or older.gyro_id, imu=imu)
         findings = scale_factor_findings(merged, schema, new_methods=self.methods)
         while findings.problem and replace and findings.stale is not None:

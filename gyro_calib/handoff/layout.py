@@ -37,6 +37,7 @@ class ProvenanceYaml(TypedDict, total=False):
     keys: list[str]
     earlier_runs: list[ProvenanceYaml]
     deviations: dict[str, dict[str, Any]]
+    settings: dict[str, Any]
 
 
 class CalibrationYaml(TypedDict):
@@ -57,7 +58,8 @@ class CalibrationYaml(TypedDict):
 _TOP_LEVEL = ('format_version', 'gyro_calib_version', 'gyro_id', 'conventions', 'complete',
               'missing', 'not_measurable', 'gyro', 'imu', 'methods')
 _PROVENANCE_KEYS = ('source', 'created_utc', 'data_start_stamp_ns', 'data_end_stamp_ns',
-                    'missing', 'conditions', 'keys', 'earlier_runs', 'deviations')
+                    'missing', 'conditions', 'settings', 'keys', 'earlier_runs',
+                    'deviations')
 
 DEVIATION_FIELDS = ('tau_s', 'm', 'clusters', 'noise_alpha', 'unit',
                     *(f'{name}{suffix}' for name in ('adev', 'mdev', 'hdev', 'totdev')
@@ -78,6 +80,8 @@ def _run_yaml(prov: Provenance, method: str, calibration: Calibration,
                            data_end_stamp_ns=prov.data_end_stamp_ns,
                            conditions={k: (float(v) if _numbers(v) and not isinstance(v, int)
                                            else v) for k, v in prov.conditions.items()})
+    if prov.settings:
+        entry['settings'] = dict(prov.settings)
     keys = prov.keys if prov.keys is not None else sorted(
         _run_keys(prov, method, calibration.values, schema)
         - {k for e in prov.earlier if e.keys for k in e.keys})

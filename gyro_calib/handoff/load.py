@@ -145,6 +145,9 @@ def _provenance(name: str, entry: Any, source: str,
     conditions = entry.get('conditions', {}) or {}
     if not isinstance(conditions, dict):
         raise HandoffError(f'{where}: conditions must be a mapping of bench settings.')
+    settings = entry.get('settings', {}) or {}
+    if not isinstance(settings, dict) or not all(isinstance(k, str) for k in settings):
+        raise HandoffError(f'{where}: settings must be a mapping of the run\'s settings.')
     keys = entry.get('keys')
     if keys is not None and (not isinstance(keys, list) or not all(
             isinstance(k, str) and schema.get(k, HandoffKey(k, '', '')).method == name
@@ -156,7 +159,7 @@ def _provenance(name: str, entry: Any, source: str,
     earlier = tuple(_provenance(name, e, source, schema, nested=True) for e in earlier_entries)
     return Provenance(entry['source'], start, end, dict(missing_keys), str(created),
                       dict(conditions), {}, tuple(keys) if keys is not None else None, earlier,
-                      _deviations(entry.get('deviations', {}) or {}, where))
+                      _deviations(entry.get('deviations', {}) or {}, where), dict(settings))
 
 
 def _deviations(tables: Any, where: str) -> dict[str, dict[str, Any]]:

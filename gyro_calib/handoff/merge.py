@@ -40,8 +40,90 @@ def merge_lines(report: Iterable[str]) -> list[str]:
     return [line for line in report if not line.endswith(SAME_RUN)]
 
 
+def _imu_replacement(key: str, new: tuple[Any, float], old: tuple[Any, float],
+                     prov: Provenance | None, before: Provenance | None,
+                     replace: bool) -> str:
+    """One value of the ``imu:`` section replaced: its line, new and old.
+
+    Raises:
+        HandoffError: the values differ by more than :data:`MAX_DISAGREEMENT_SIGMA`
+            combined standard uncertainties (another run, not ``replace``), naming the
+            settings that changed when the data are the same.
+    """
+    same = prov is not None and before is not None and prov.same_run(before)
+    other = (f'the same data under other settings ({prov.settings_change(before)})'
+             if prov is not None and before is not None and not same
+             and prov.same_data(before) else '')
+    (a, ua), (b, ub) = new, old
+    if _numbers(a, b) and not isinstance(a, bool) and math.isfinite(a) and math.isfinite(b):
+        spread = math.hypot(ua, ub)
+        z = abs(a - b) / spread if spread > 0 else 0.0
+        if z > MAX_DISAGREEMENT_SIGMA and not same and not replace:
+            raise HandoffError(
+                f'{key}: this run gives {_with_std(a, ua)} ({prov.source if prov else "?"}), '
+                f'the file holds {_with_std(b, ub)}: they differ by {z:.1f} combined standard '
+                'uncertainties (' + (f'{other}: which settings are right?' if other else
+                                     'a changed triad, another triad, or a wrong bench '
+                                     'setting?')
+                + '); nothing written. Check, then give --replace to take this run\'s values, '
+                'or use another --out.')
+    why = SAME_RUN[1:-2] if same else ('replace asked' if replace else 'newer run')
+    return (f'replaced: {key} = {_with_std(a, ua if math.isfinite(ua) else None)} — was '
+            f'{_with_std(b, ub if math.isfinite(ub) else None)} ('
+            + why + (f'; {other}' if other else '') + ').')
+
+
+def _triad_changes(new: CalibrationLike, older: CalibrationLike, run: ImuCalibration,
+                   old: ImuCalibration, replace: bool) -> list[str]:
+    """A triad run's K_i and b against the file's section: a line each, old and new.
+
+    Raises:
+        HandoffError: see :func:`_imu_replacement`.
+    """
+    prov, before = new.methods.get('triad'), older.methods.get('triad')
+    lines: list[str] = []
+    for name, labels in (('scale_factor_rad_per_pulse', run.channels), ('bias_rad_s', 'xyz')):
+        v_new, u_new = getattr(run, name), getattr(run, name + '_std')
+        v_old, u_old = getattr(old, name), getattr(old, name + '_std')
+        if v_new is None or v_old is None:
+            continue
+        for i, label in enumerate(labels):
+            j = old.channels.index(label) if name != 'bias_rad_s' else i
+            ua = float(u_new[i]) if u_new is not None else math.nan
+            ub = float(u_old[j]) if u_old is not None else math.nan
+            if v_new[i] is None or v_old[j] is None:
+                continue
+            lines.append(_imu_replacement(f'imu.{name}[{label}]', (float(v_new[i]), ua),
+                                          (float(v_old[j]), ub), prov, before, replace))
+    return lines
+
+
+def _per_channel_changes(new: CalibrationLike, older: CalibrationLike, run: ImuCalibration,
+                         old: ImuCalibration, replace: bool) -> list[str]:
+    """A run's per-channel noise and thermal terms against the file's: a line each replaced.
+
+    Raises:
+        HandoffError: see :func:`_imu_replacement`.
+    """
+    lines: list[str] = []
+    for name in ('noise', 'thermal'):
+        prov, before = new.methods.get(name), older.methods.get(name)
+        for channel, terms in getattr(run, name).items():
+            was = getattr(old, name).get(channel, {})
+            for key, value in terms.items():
+                if key.endswith(TWIN_SUFFIXES) or key not in was:
+                    continue
+                u_new, u_old = terms.get(key + '_std'), was.get(key + '_std')
+                lines.append(_imu_replacement(
+                    f'imu.{name}.{channel}.{key}',
+                    (value, float(u_new) if _numbers(u_new) else math.nan),
+                    (was[key], float(u_old) if _numbers(u_old) else math.nan),
+                    prov, before, replace))
+    return lines
+
+
 def _merged_imu(new: CalibrationLike, older: CalibrationLike,
-                lines: list[str]) -> ImuCalibration | None:
+                lines: list[str], replace: bool = False) -> ImuCalibration | None:
     """The ``imu:`` section after a merge, each change said in a line.
 
     A triad run (:data:`IMU_METHODS`) replaces the section but keeps the file's per-channel
@@ -49,8 +131,13 @@ def _merged_imu(new: CalibrationLike, older: CalibrationLike,
     ``/imu/pulses``) keeps the file's section and sets its ``noise`` (and ``thermal``) per
     channel. A file without the section gets this run's.
 
+    Each value replaced (a triad's K_i and b, a channel's noise or thermal term) is said in a
+    line with its old value and checked as the top-level keys are (:func:`_imu_replacement`).
+
     Raises:
-        HandoffError: the run's channels are not the file's section's.
+        HandoffError: the run's channels are not the file's section's; a value differs from
+            the file's by more than :data:`MAX_DISAGREEMENT_SIGMA` combined standard
+            uncertainties (without ``replace``).
     """
     run, old = new.imu, older.imu
     if run is None:
@@ -66,16 +153,20 @@ def _merged_imu(new: CalibrationLike, older: CalibrationLike,
                            f'this run the channels {list(run.channels)}: another IMU? Not '
                            'merging them (use another --out).')
     if any(m in IMU_METHODS for m in new.methods):
+        changes = _triad_changes(new, older, run, old, replace)
         kept = {name: getattr(old, name) for name in ('noise', 'thermal')
                 if getattr(old, name) and not getattr(run, name)}
         lines.append('imu: the file\'s imu section (' + _imu_run(older) + ') replaced by this '
                      'run\'s' + (f'; its {" and ".join(kept)} per channel kept (not measured '
                                   'by this run).' if kept else '.'))
+        lines.extend(changes)
         return dataclasses.replace(run, **kept)
     changed = {name: getattr(run, name) for name in ('noise', 'thermal') if getattr(run, name)}
+    changes = _per_channel_changes(new, older, run, old, replace)
     lines.append(f'imu: the file\'s section kept (K, sense axes, M, b); its '
                  f'{_per_channel_words(run)} ' + ('replaced by this run\'s.' if any(
                      getattr(old, n) for n in changed) else 'set by this run.'))
+    lines.extend(changes)
     return dataclasses.replace(old, **changed)
 
 
@@ -158,22 +249,29 @@ def _merge_group(lead: str, members: list[str], new_has: bool, prov: Provenance,
         v_new, v_old = new_values[lead], older.values[lead]
         u_new, u_old = new_values.get(lead + '_std'), older.values.get(lead + '_std')
         if prov.same_run(old_run) or replace:
-            why = SAME_RUN[1:-2] if prov.same_run(old_run) else 'replace asked'
+            why = SAME_RUN[1:-2] if prov.same_run(old_run) else 'replace asked' + (
+                f'; the same data under other settings ({prov.settings_change(old_run)})'
+                if prov.same_data(old_run) else '')
         elif u_new is not None and u_old is not None and _numbers(v_new, v_old):
             spread = math.hypot(u_new, u_old)
             z = abs(v_new - v_old) / spread if spread > 0 else (
                 0.0 if v_new == v_old else math.inf)
+            other = (f'the same data under other settings ({prov.settings_change(old_run)})'
+                     if prov.same_data(old_run) else '')
             if z > MAX_DISAGREEMENT_SIGMA and comparable:
                 raise HandoffError(
                     f'{lead}: this run gives {_with_std(v_new, u_new)} ({prov.source}), the '
                     f'file holds {_with_std(v_old, u_old)} ({old_run.source}): they differ '
-                    f'by {z:.1f} combined standard uncertainties (a changed gyro, another '
-                    f'gyro, or a wrong bench setting?); nothing written. Check, then give '
-                    f'--replace to take this run\'s values, or use another --out.')
+                    f'by {z:.1f} combined standard uncertainties ('
+                    + (f'{other}: which settings are right?' if other else
+                       'a changed gyro, another gyro, or a wrong bench setting?')
+                    + '); nothing written. Check, then give --replace to take this run\'s '
+                    'values, or use another --out.')
             take_new = u_new <= u_old
             why = ('more precise' if u_new < u_old else 'as precise, newer') if take_new \
                 else f'this run\'s {_with_std(v_new, u_new)} is less precise (--replace ' \
                 'takes it)'
+            why += f'; {other}' if other else ''
         else:
             why = 'newer run'
     elif new_has and not old_has:

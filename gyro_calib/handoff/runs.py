@@ -40,6 +40,9 @@ class Provenance:
         deviations: the per-τ tables the run's values rest on, by axis (a noise run: τ,
             ADEV, MDEV, HDEV, TOTDEV with their standard uncertainties and EDF; see
             :data:`DEVIATION_FIELDS`); empty for the other methods.
+        settings: every setting the run was given that may change its numbers (flags,
+            config-file values, by name; :func:`gyro_calib.session.run_settings`): part of
+            the run's identity (:meth:`same_run`).
     """
 
     source: str
@@ -52,11 +55,28 @@ class Provenance:
     keys: tuple[str, ...] | None = None
     earlier: tuple[Provenance, ...] = ()
     deviations: Mapping[str, Mapping[str, Any]] = field(default_factory=dict)
+    settings: Mapping[str, Any] = field(default_factory=dict)
 
-    def same_run(self, other: Provenance) -> bool:
-        """True when both describe one run (a live node rewriting its file as it goes)."""
+    def same_data(self, other: Provenance) -> bool:
+        """True when both rest on the same data (source and first stamp)."""
         return (self.source, self.data_start_stamp_ns) == (other.source,
                                                             other.data_start_stamp_ns)
+
+    def same_run(self, other: Provenance) -> bool:
+        """True when both describe one run (a live node rewriting its file as it goes).
+
+        One run: the same data (:meth:`same_data`) under the same settings. The same bag
+        re-run with another setting (outlier mode, latitude, τ list, a config value) is
+        another run: its values are checked against the file's like any other run's.
+        """
+        return self.same_data(other) and dict(self.settings) == dict(other.settings)
+
+    def settings_change(self, older: Provenance) -> str:
+        """The settings that differ from ``older``'s, 'name: old -> new; ...' ('' if none)."""
+        names = sorted(set(self.settings) | set(older.settings))
+        return '; '.join(f'{n}: {older.settings.get(n, "not given")!r} -> '
+                         f'{self.settings.get(n, "not given")!r}' for n in names
+                         if self.settings.get(n) != older.settings.get(n))
 
     def label(self) -> str:
         """The run in one phrase, for merge lines."""

@@ -31,6 +31,7 @@ from gyro_calib.nodes.conventions import CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.live_inputs import MESSAGE_CLASSES, LiveInputs
 from gyro_calib.nodes.method_node import SimScenarioBench
 from gyro_calib.nodes.node_state import (
+    BENCH_MAX_RATE_DESCRIPTION,
     RESUME_DESCRIPTION,
     RESUME_MAX_GAP_DESCRIPTION,
     NodeState,
@@ -99,6 +100,7 @@ class CalibrationNode(CalibrationNodeBase):
             ('keep_state', False, 'Keep the state directory after a completed calibration.'),
             ('resume', True, RESUME_DESCRIPTION),
             ('resume_max_gap_s', math.nan, RESUME_MAX_GAP_DESCRIPTION),
+            ('bench_max_rate_deg_s', math.nan, BENCH_MAX_RATE_DESCRIPTION),
             ('calibration_file', '', "Hand-off file whose K̃ gives θ and K when this run has "
              "no K̃ phase (this run's own K̃, once measured, is used instead; '' = none)."))}
         self.output_file = str(site.pop('output_file'))
@@ -142,14 +144,16 @@ class CalibrationNode(CalibrationNodeBase):
                                parameters={**values, **site, 'config_file': path},
                                resume=bool(site.pop('resume')),
                                max_gap_s=resume_max_gap_s(float(site.pop('resume_max_gap_s')),
-                                                          dataclasses.asdict(self.config)))
+                                                          dataclasses.asdict(self.config)),
+                               bench_max_rate_deg_s=float(site.pop('bench_max_rate_deg_s')))
         # relative names: '-r __ns:=/bench2' moves inputs, results and diagnostics together
         pub = self.create_publisher
         self.k_tilde_pub = pub(Float64, relative(topics.K_TILDE), RESULT_QOS)
         self.theta_pub = pub(Float64, relative(topics.FIX_ERROR_ANGLE), RESULT_QOS)
         self.k_pub = pub(Float64, relative(topics.SCALE_FACTOR), RESULT_QOS)
         self.diag_pub = pub(DiagnosticArray, relative(topics.DIAGNOSTICS), 10)
-        self.scenario = SimScenarioBench(self, METHODS['rbrlg'].bench_settings, self._on_bench)
+        self.scenario = SimScenarioBench(self, METHODS['rbrlg'].bench_settings, self._on_bench,
+                                         self.state.commanded)
         self.create_timer(0.2, self._live_inputs.busy(self._process))
         self.create_timer(1.0, self._publish_diagnostics)
         self.get_logger().info(

@@ -37,6 +37,7 @@ from gyro_calib.handoff import Calibration
 from gyro_calib.nodes.conventions import CalibrationNodeBase, InputSpec
 from gyro_calib.nodes.live_inputs import MESSAGE_CLASSES, LiveInputs, TopicBuffer
 from gyro_calib.nodes.node_state import (
+    BENCH_MAX_RATE_DESCRIPTION,
     RESUME_DESCRIPTION,
     RESUME_MAX_GAP_DESCRIPTION,
     NodeState,
@@ -63,7 +64,7 @@ from gyro_calib.units import format_stamp
 
 GENERIC_PARAMETERS = ('config_file', 'output_file', 'gyro_id', 'latitude_deg', 'heading_deg',
                       'scale_factor_rad_per_pulse', 'process_period_s', 'state_dir',
-                      'keep_state', 'resume', 'resume_max_gap_s')
+                      'keep_state', 'resume', 'resume_max_gap_s', 'bench_max_rate_deg_s')
 """Parameters every method node declares (a settings field of the same name is not
 declared twice: the session takes it from the options)."""
 
@@ -103,7 +104,8 @@ class MethodNode(CalibrationNodeBase):
             ('keep_state', False, 'Keep the state directory after a completed calibration '
              '(default: removed once nothing is missing).'),
             ('resume', True, RESUME_DESCRIPTION),
-            ('resume_max_gap_s', math.nan, RESUME_MAX_GAP_DESCRIPTION))}
+            ('resume_max_gap_s', math.nan, RESUME_MAX_GAP_DESCRIPTION),
+            ('bench_max_rate_deg_s', math.nan, BENCH_MAX_RATE_DESCRIPTION))}
         options = CalibrationOptions(
             latitude_deg=None if math.isnan(p['latitude_deg']) else p['latitude_deg'],
             heading_deg=p['heading_deg'],
@@ -122,7 +124,8 @@ class MethodNode(CalibrationNodeBase):
                                bool(p['keep_state']), parameters={**settings, **p},
                                resume=bool(p['resume']),
                                max_gap_s=resume_max_gap_s(float(p['resume_max_gap_s']),
-                                                          settings))
+                                                          settings),
+                               bench_max_rate_deg_s=float(p['bench_max_rate_deg_s']))
         self.session: MethodSession = self.method.make_session(options)
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self._buffers: dict[str, TopicBuffer] = {}
@@ -134,7 +137,8 @@ class MethodNode(CalibrationNodeBase):
         self.diag_pub = self.create_publisher(DiagnosticArray, relative(topics.DIAGNOSTICS), 10)
         self._published: dict[str, float] = {}
         self._fed = False
-        self.scenario = SimScenarioBench(self, self.method.bench_settings, self._on_bench)
+        self.scenario = SimScenarioBench(self, self.method.bench_settings, self._on_bench,
+                                         self.state.commanded)
         self.create_timer(float(p['process_period_s']), self._inputs_busy(self._process))
         self.create_timer(1.0, self._publish_diagnostics)
         self._announce_inputs()
@@ -309,9 +313,15 @@ class SimScenarioBench:
     """
 
     def __init__(self, node: Node, names: tuple[str, ...],
-                 on_bench: Callable[[tuple[tuple[str, Mapping[str, Any]], ...]], None]) -> None:
-        """Listen on ``names`` for ``node``; ``on_bench`` gets the benches."""
+                 on_bench: Callable[[tuple[tuple[str, Mapping[str, Any]], ...]], None],
+                 on_scenario: Callable[[Mapping[str, Any]], None] | None = None) -> None:
+        """Listen on ``names`` for ``node``; ``on_bench`` gets the benches.
+
+        ``on_scenario`` gets each simulator's whole scenario (its commanded procedure: the
+        tables' rates bound how far a resumed record's angles and counts may move).
+        """
         self.node, self.names, self.on_bench = node, names, on_bench
+        self.on_scenario = on_scenario
         self.benches: dict[str, Mapping[str, Any]] = {}
         self.told: set[str] = set()
         node.create_subscription(String, relative(topics.SIM_SCENARIO), self._on_message,
@@ -322,6 +332,8 @@ class SimScenarioBench:
             part = yaml.safe_load(msg.data)
         except yaml.YAMLError:
             return
+        if isinstance(part, dict) and self.on_scenario is not None:
+            self.on_scenario(part)
         if not isinstance(part, dict) or not isinstance(part.get('bench'), dict):
             return
         where = f'{topics.SIM_SCENARIO} ({part.get("name", "simulator")})'

@@ -4,8 +4,9 @@ The record itself (:class:`gyro_calib.state_record.StateRecord`) is pure core; t
 wires it to a node: it opens the record at start-up (moving another gyro's, method's or
 parameter set's record aside in one line), and at the first live batch judges whether the
 new data continue the record (:func:`gyro_calib.state_record.why_not_continued`: stamps
-that follow it within ``resume_max_gap_s``, counts that move no faster than the record's
-rate allows). Only then is the record replayed into the node's session, before that batch;
+that follow it within ``resume_max_gap_s``, counts and angles that move no faster than the
+bench can move them: ``bench_max_rate_deg_s``, the commanded procedure, or the fastest the
+record shows). Only then is the record replayed into the node's session, before that batch;
 anything else is a new run: the record is moved aside with one warning naming why and
 where it went. Every batch is appended before the session sees it, and the record is
 removed once the calibration is complete (unless ``keep_state``).
@@ -46,14 +47,21 @@ def calibration_complete(missing: Mapping[str, str], not_measurable: Mapping[str
 
 NOT_IDENTITY = frozenset({'output_file', 'state_dir', 'keep_state', 'process_period_s',
                           'results_period_s', 'kalibr_file', 'plot_file', 'best_effort',
-                          'use_sim_time', 'resume', 'resume_max_gap_s'})
+                          'use_sim_time', 'resume', 'resume_max_gap_s',
+                          'bench_max_rate_deg_s'})
 """Parameters that do not change what the session computes from the data."""
 
 
 RESUME_DESCRIPTION = (
     'Resume a record found in the state directory when the new data continue it (stamps '
-    'that follow it within resume_max_gap_s, counts that move no faster than its rate '
-    'allows); false = always start a new run (the record is moved aside, never deleted).')
+    'that follow it within resume_max_gap_s, counts and angles that move no faster than the '
+    'bench can move them: bench_max_rate_deg_s); false = always start a new run (the '
+    'record is moved aside, never deleted).')
+BENCH_MAX_RATE_DESCRIPTION = (
+    'The fastest any table of the bench turns, °/s: while the node is down a table may start, '
+    'stop or reverse at up to this rate, and a resumed record is judged by it (NaN = the '
+    "commanded procedure's fastest rate a simulator publishes on /sim/scenario, else the "
+    'fastest any table turned in the record).')
 RESUME_MAX_GAP_DESCRIPTION = (
     'Longest stamp gap from the end of a state record to the first new sample that still '
     "continues it, s (a longer gap is a new run); NaN = the method's own: max_pair_gap_s "
@@ -72,6 +80,22 @@ def resume_max_gap_s(given: float, settings: Mapping[str, Any]) -> float:
         if key in settings:
             return float(settings[key])
     return RESUME_MAX_GAP_S
+
+
+def commanded_max_rate_deg_s(scenario: Mapping[str, Any]) -> float:
+    """The fastest table rate of a simulator's commanded procedure (/sim/scenario), °/s.
+
+    The rate table's ``table.rate_deg_s`` and, on a two-axis bench (``theta``, ``full``),
+    the position table's ``procedure.position_table_rate_deg_s``; NaN when it names neither.
+    """
+    rates: list[float] = []
+    for part, key in (('table', 'rate_deg_s'), ('procedure', 'position_table_rate_deg_s')):
+        section = scenario.get(part)
+        value = section.get(key) if isinstance(section, Mapping) else None
+        if isinstance(value, (int, float)) and not isinstance(value, bool) \
+                and math.isfinite(value) and value > 0:
+            rates.append(float(value))
+    return max(rates) if rates else math.nan
 
 
 def state_directory(state_dir: str, output_file: str) -> Path | None:
@@ -112,15 +136,21 @@ class NodeState:
             ``resume`` parameter).
         max_gap_s: the longest stamp gap from the record's end to new data that still
             continues it (``resume_max_gap_s``), s.
+        bench_max_rate_deg_s: the fastest any table of the bench turns, °/s
+            (``bench_max_rate_deg_s``; NaN: the commanded procedure's, set later through
+            :meth:`commanded`, else the fastest the record shows).
     """
 
     def __init__(self, node: Node, method: str, gyro_id: str, directory: Path | None,
                  keep: bool, parameters: Mapping[str, Any] | None = None, *,
-                 resume: bool = True, max_gap_s: float = RESUME_MAX_GAP_S) -> None:
+                 resume: bool = True, max_gap_s: float = RESUME_MAX_GAP_S,
+                 bench_max_rate_deg_s: float = math.nan) -> None:
         """Open (or start) the record for this gyro, method and parameters."""
         self.node, self.keep = node, keep
         self.directory = directory
         self.max_gap_s = max_gap_s
+        self.stated_max_rate_deg_s = bench_max_rate_deg_s
+        self.commanded_max_rate_deg_s = math.nan
         identity = {'method': method, 'gyro_id': gyro_id}
         identity.update({f'parameter {k}': repr(v) for k, v in sorted(
             (parameters or {}).items()) if k not in NOT_IDENTITY})
@@ -166,6 +196,20 @@ class NodeState:
             f'record ({summary.messages} messages) was moved to {aside} (nothing of it is '
             'used) and a new one is started.')
 
+    def commanded(self, scenario: Mapping[str, Any]) -> None:
+        """A simulator published its procedure: its fastest table rate bounds a resume."""
+        rate = commanded_max_rate_deg_s(scenario)
+        if math.isfinite(rate):
+            self.commanded_max_rate_deg_s = max(rate, self.commanded_max_rate_deg_s) \
+                if math.isfinite(self.commanded_max_rate_deg_s) else rate
+
+    def bench_max_rate_rad_s(self) -> float:
+        """The bench's fastest table rate stated (or commanded), rad/s; NaN: neither."""
+        for rate in (self.stated_max_rate_deg_s, self.commanded_max_rate_deg_s):
+            if math.isfinite(rate) and rate > 0:
+                return math.radians(rate)
+        return math.nan
+
     def resume_once(self, feed: Callable[[SampleBatch], None],
                     process: Callable[[], list[str]]) -> None:
         """Say where a resumed record is to be replayed (at the first live batch)."""
@@ -177,7 +221,8 @@ class NodeState:
         self._pending = False
         if self.record is None or self._resumed:
             return
-        why = why_not_continued(self.record.tails(), columns, self.max_gap_s)
+        why = why_not_continued(self.record.tails(), columns, self.max_gap_s,
+                                self.bench_max_rate_rad_s())
         if why is not None:
             self._set_aside(why)
             return

@@ -219,14 +219,18 @@ class NoiseNode(MethodNode):
         self._publish_diagnostics()
         try:
             self.session.check_measurable()
+            merge: list[str] = []
             written = write_outputs(self.session, self.targets, source='live',
-                                    schema=handoff_schema(), gyro_id=self.gyro_id)
+                                    schema=handoff_schema(), gyro_id=self.gyro_id,
+                                    merge_report=merge)
         except (GyroCalibError, OSError) as exc:
             log.error(f'noise: files not written: {" ".join(str(exc).split())}')
             return 1
         log.info(self._terms_line(0.0).replace('running terms', 'final terms', 1))
         for what, path in written:
             log.info(written_line(what, path))
+        for line in merge:  # every change to the hand-off file, each replacement new — was old
+            log.info(f'hand-off {line}')
         self.state.finish(complete=True)
         return 0
 

@@ -356,7 +356,8 @@ class NoiseSession(NoiseReport, MethodSession):
         conditions = {k: v for k, v in self.conditions().items() if given(v)}
         cal = method_calibration(self.name, {}, Provenance(
             source, span[0], span[1], conditions=conditions,
-            deviations=self.deviation_tables()), gyro_id=gyro_id)
+            deviations=self.deviation_tables(), settings=dict(self.run_settings)),
+            gyro_id=gyro_id)
         return dataclasses.replace(cal, imu=ImuCalibration(
             (channels[0], channels[1], channels[2]), noise=noise))
 

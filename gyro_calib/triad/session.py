@@ -310,9 +310,9 @@ class TriadSession(MethodSession):
         conditions = {k: v for k, v in self.conditions().items()
                       if isinstance(v, str) and v or isinstance(v, (int, float))
                       and not isinstance(v, bool) and math.isfinite(v)}
-        cal = method_calibration(self.name, {}, Provenance(source, span[0], span[1],
-                                                           conditions=conditions),
-                                 gyro_id=gyro_id)
+        cal = method_calibration(self.name, {}, Provenance(
+            source, span[0], span[1], conditions=conditions,
+            settings=dict(self.run_settings)), gyro_id=gyro_id)
         return dc.replace(cal, imu=imu)
 
     # -- presentation -----------------------------------------------------------------------

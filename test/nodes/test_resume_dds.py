@@ -195,3 +195,46 @@ def test_a_second_gyro_run_with_defaults_never_resumes_the_first_gyros_record(
     first_k = dict(load_calibration(handoff).values)['k_tilde_rad_per_pulse'] / RAD_PER_ARCSEC
     assert abs(first_k / 0.84279066 - 1) < 1e-5
     assert 'hand-off file not written' in second.log(), logs
+
+
+def test_a_node_killed_before_the_theta_phase_resumes_while_the_position_table_turns(
+        tmp_path: Path, nodes: list[NodeProcess]) -> None:
+    """Issue 35 item 0 over DDS: killed at the end of the K̃ phase, back during a turn.
+
+    The full procedure, killed as K̃ is out (the position table at rest in the record),
+    started again while the table begins its first station's turn. Before the fix the
+    restarted node refused the record ('the recorded rate allows at most 0') and the run
+    ended without K and θ.
+    """
+    speed, rate = 5.0, 75.0  # as test_dds_procedure: every phase in 163 s of bench time
+    handoff, state = tmp_path / 'gyro.yaml', tmp_path / 'state'
+    params = {'output_file': str(handoff), 'state_dir': str(state), 'keep_state': True,
+              'resume_max_gap_s': 150.0}  # a node slow to start again on a loaded machine
+    first = launch('calibration_node', params)
+    nodes.append(first)
+    nodes.append(launch('rlg_sim', {'seed': 6}))
+    table = launch('rate_table_sim', {'scenario': 'full', 'k_tilde_pairs': 2, 'seed': 6,
+                                      'real_time_factor': speed, 'sample_rate_hz': 250.0,
+                                      'procedure.position_table_rate_deg_s': rate})
+    nodes.append(table)
+    deadline = time.monotonic() + 180
+    while 'K̃ = ' not in first.log():  # the K̃ phase is over: the θ phase starts
+        assert time.monotonic() < deadline and table.proc.poll() is None, first.log()
+        time.sleep(0.1)
+    first.proc.send_signal(signal.SIGKILL)
+    first.proc.wait(timeout=10)
+    time.sleep(2.0)  # 10 s of bench time: the position table starts its turn meanwhile
+    second = launch('calibration_node', params)
+    nodes.append(second)
+    table.proc.wait(timeout=300)
+    _wait_until_recorded(state, '/gyro/pulses', 162.0, second)
+    second.proc.send_signal(signal.SIGINT)
+    second.proc.wait(timeout=60)
+    logs = '\n'.join(n.log() for n in nodes)
+    assert second.proc.returncode == 0, logs
+    assert 'not resumed' not in second.log() and 'resumed from' in second.log(), logs
+    # nothing of the record lost: the hand-off is the offline calibration of every sample
+    # the two lives consumed (a station cut by the down-time is a gap, as offline)
+    got = dict(load_calibration(handoff).values)
+    assert 'k_tilde_rad_per_pulse' in got, logs
+    assert got == _offline_of_record('rbrlg', state, CalibrationOptions()), logs

@@ -1,0 +1,126 @@
+"""One sensor per hand-off file: what sensor a record or a file describes.
+
+A hand-off file is one sensor's: a single-axis gyro (top-level ``gyro:`` keys), a gyro triad
+(the ``imu:`` section, its three channels) or an IMU read from ``sensor_msgs/Imu`` (the
+noise method's ``imu_<axis>_…`` keys, six axes). A noise run also says its sample rate
+(1/τ₀ of its stored curves). :func:`another_sensor` names, in one line, what differs between
+a run and the file it would be merged into (sensor kind, channels, sample rate), so that a
+MEMS IMU's noise run never lands in a triad's file, an RBRLG run never in a triad's, nor a
+triad run in a single gyro's.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from gyro_calib.handoff.runs import CalibrationLike
+from gyro_calib.handoff.schema import _base_key
+
+SINGLE_GYRO, TRIAD, IMU = 'a single-axis gyro', 'a gyro triad', 'an IMU (sensor_msgs/Imu)'
+"""The sensor kinds a hand-off file may describe."""
+
+IMU_KEY_PREFIX = 'imu_'
+"""The noise method's per-axis keys of an IMU: ``imu_<axis>_<term key>``."""
+
+SAMPLE_RATE_TOLERANCE = 0.01
+"""Relative difference of two noise runs' sample rates above which they are two sensors."""
+
+
+@dataclass(frozen=True, slots=True)
+class Sensor:
+    """What sensor a record describes.
+
+    Attributes:
+        kinds: :data:`SINGLE_GYRO`, :data:`TRIAD`, :data:`IMU` (a file written before this
+            check may hold more than one).
+        channels: the triad's channel names (``imu.channels``), or ().
+        sample_rate_hz: the noise run's sample rate (1/τ₀ of its curves), or None.
+    """
+
+    kinds: frozenset[str]
+    channels: tuple[str, ...] = ()
+    sample_rate_hz: float | None = None
+
+    def words(self) -> str:
+        """The sensor in a phrase: kind, channels, sample rate."""
+        text = ' and '.join(sorted(self.kinds)) or 'no sensor'
+        if self.channels:
+            text += f' (channels {", ".join(self.channels)})'
+        if self.sample_rate_hz is not None:
+            text += f' sampled at {self.sample_rate_hz:.6g} Hz'
+        return text
+
+
+def _keys(calibration: CalibrationLike) -> set[str]:
+    """Every key the record gives or names as missing (a run of curves alone gives none)."""
+    keys = {_base_key(k) for k in calibration.values}
+    for prov in calibration.methods.values():
+        keys |= set(prov.missing) | set(prov.not_measurable)
+    return keys
+
+
+def noise_sample_rate_hz(deviations: Mapping[str, Mapping[str, Any]]) -> float | None:
+    """The sample rate 1/τ₀ of a noise run's stored curves (τ₀ = τ[0]/m[0]), Hz, or None."""
+    for table in deviations.values():
+        taus, ms = table.get('tau_s'), table.get('m')
+        if isinstance(taus, (list, tuple)) and isinstance(ms, (list, tuple)) and taus and ms:
+            try:
+                tau0 = float(taus[0]) / float(ms[0])
+            except (TypeError, ValueError, ZeroDivisionError):
+                continue
+            if tau0 > 0 and math.isfinite(tau0):
+                return 1.0 / tau0
+    return None
+
+
+def sensor_of(calibration: CalibrationLike) -> Sensor:
+    """The sensor a record (a run, or a file's content) describes."""
+    kinds = set()
+    keys = _keys(calibration)
+    if calibration.imu is not None:
+        kinds.add(TRIAD)
+    if any(k.startswith(IMU_KEY_PREFIX) for k in keys):
+        kinds.add(IMU)
+    if any(not k.startswith(IMU_KEY_PREFIX) for k in keys):
+        kinds.add(SINGLE_GYRO)
+    noise = calibration.methods.get('noise')
+    axes = tuple(noise.deviations) if noise is not None else ()
+    channels = tuple(calibration.imu.channels) if calibration.imu is not None else ()
+    if not kinds and axes:  # a run of curves alone: its axes say the sensor
+        if any(a.startswith(('gyro_', 'accel_')) for a in axes):
+            kinds.add(IMU)
+        elif len(axes) == 3:  # a triad's curves are per channel (/imu/pulses names)
+            kinds.add(TRIAD)
+            channels = axes
+        else:  # one axis, 'gyro'
+            kinds.add(SINGLE_GYRO)
+    rate = noise_sample_rate_hz(noise.deviations) if noise is not None else None
+    return Sensor(frozenset(kinds), channels, rate)
+
+
+def another_sensor(run: CalibrationLike, older: CalibrationLike) -> str | None:
+    """Why ``run`` is of another sensor than the file ``older``, in one phrase, or None.
+
+    Another kind (a single gyro, a triad, an IMU), other triad channels, or another sample
+    rate of the noise runs (by more than :data:`SAMPLE_RATE_TOLERANCE`).
+    """
+    new, old = sensor_of(run), sensor_of(older)
+    if not new.kinds or not old.kinds:
+        return None
+    differs: list[str] = []
+    if not new.kinds <= old.kinds:
+        differs.append('sensor kind')
+    if new.channels and old.channels and set(new.channels) != set(old.channels):
+        differs.append('channels')
+    if (new.sample_rate_hz is not None and old.sample_rate_hz is not None
+            and abs(new.sample_rate_hz - old.sample_rate_hz)
+            > SAMPLE_RATE_TOLERANCE * old.sample_rate_hz):
+        differs.append('sample rate')
+    if not differs:
+        return None
+    verb = 'differ' if len(differs) > 1 else 'differs'
+    return (f'another sensor ({", ".join(differs)} {verb}): the file holds {old.words()}, '
+            f'this run is of {new.words()}')
