@@ -78,7 +78,8 @@ def _start_scale(bias: Array, rates: Array, dts: Array, u: Array, nominal: float
 
 def fit_gyro(t_s: Array, gyro: Array, intervals: tuple[StaticInterval, ...], u: Array,
              u_sensitivity: Array, u_inputs_cov: Array, u_inputs_dof: float, *,
-             nominal_scale: float = 1.0, raw_unit: str = '') -> TriadFit:
+             nominal_scale: float = 1.0, raw_unit: str = '',
+             bias: Array | None = None) -> TriadFit:
     """Scale and misalignment from the motions, bias from the static intervals (§G.3).
 
     Args:
@@ -91,6 +92,8 @@ def fit_gyro(t_s: Array, gyro: Array, intervals: tuple[StaticInterval, ...], u: 
         u_inputs_dof: its ν.
         nominal_scale: where the start search is centred (SI unit per raw unit).
         raw_unit: the raw samples' unit.
+        bias: a bias to use instead of the static intervals' (raw; taken as exact), e.g. a
+            peer tool's, to compare residuals.
 
     Raises:
         ValueError: fewer than :data:`MIN_MOTIONS` motions.
@@ -99,7 +102,10 @@ def fit_gyro(t_s: Array, gyro: Array, intervals: tuple[StaticInterval, ...], u: 
     if k - 1 < MIN_MOTIONS:
         raise ValueError(f'{k - 1} motions between static poses; the gyro needs at least '
                          f'{MIN_MOTIONS}.')
-    bias, bias_cov, bias_dof = static_bias(gyro, intervals)
+    if bias is None:
+        bias, bias_cov, bias_dof = static_bias(gyro, intervals)
+    else:
+        bias, bias_cov, bias_dof = np.asarray(bias, dtype=float), np.zeros((3, 3)), 10 ** 9
     rates, dts = motion_steps(t_s, gyro, intervals)
     s0 = _start_scale(bias, rates, dts, u, nominal_scale)
 
@@ -113,7 +119,7 @@ def fit_gyro(t_s: Array, gyro: Array, intervals: tuple[StaticInterval, ...], u: 
     rot = rotations(p, bias, rates, dts)
     d_bias = np.empty((len(res), 3))
     for j in range(3):
-        h = max(1e-6 * abs(bias[j]), 1e-3 * float(np.sqrt(bias_cov[j, j])), 1e-12)
+        h = max(1e-6 * abs(bias[j]), 1e-3 * float(np.sqrt(bias_cov[j, j])), 1e-9)
         db = np.zeros(3)
         db[j] = h
         d_bias[:, j] = (residuals_of(rotations(p, bias + db, rates, dts), u) - res) / h
