@@ -3,7 +3,7 @@
 The gyro bias b is the mean of the static intervals' raw means (eq. (6)), its uncertainty
 their scatter (Earth rate, bias instability and noise in one, ν = K − 1). Between pose k and
 pose k + 1 the calibrated rate ω = T·diag(s)·(r − b) is integrated to the rotation R_k
-(trapezoid steps composed exactly, eq. (5)); the gravity direction u_k of pose k, seen from
+(cubic mean rate per step, steps composed exactly, eq. (5)); the gravity direction u_k of pose k, seen from
 pose k + 1, must be u_{k+1}:
 
     r_k = R_kᵀ(θ)·u_k − u_{k+1}   (3 components, 2 independent)                     (6)
@@ -40,13 +40,21 @@ def static_bias(gyro: Array, intervals: tuple[StaticInterval, ...]) -> tuple[Arr
 
 def motion_steps(t_s: Array, gyro: Array,
                  intervals: tuple[StaticInterval, ...]) -> tuple[Array, Array]:
-    """Each motion's trapezoid raw rates and step lengths, padded (M×L×3, M×L; dt 0 pads)."""
+    """Each motion's mean raw rate per step and step lengths, padded (M×L×3, M×L; dt 0 pads).
+
+    The mean rate over a step from samples i−1 … i+2 by the cubic through them,
+    (−r_{i−1} + 13r_i + 13r_{i+1} − r_{i+2})/24 (eq. (5)): the trapezoid's error, a fraction
+    of 10⁻³ of the angle at 50 Hz hand turns, biased the scales by more than their u.
+    """
     spans = [(a.stop - 1, b.start) for a, b in zip(intervals[:-1], intervals[1:], strict=True)]
     length = max(e - s for s, e in spans)
     rates = np.zeros((len(spans), length, 3))
     dts = np.zeros((len(spans), length))
     for m, (s, e) in enumerate(spans):
-        rates[m, :e - s] = 0.5 * (gyro[s:e] + gyro[s + 1:e + 1])
+        i = np.arange(s, e)
+        last = len(gyro) - 1
+        rates[m, :e - s] = (13.0 * (gyro[i] + gyro[i + 1]) - gyro[np.maximum(i - 1, 0)]
+                            - gyro[np.minimum(i + 2, last)]) / 24.0
         dts[m, :e - s] = np.diff(t_s[s:e + 1])
     return rates, dts
 
