@@ -136,7 +136,7 @@ def _imucal_matrices(info: object) -> dict[str, np.ndarray]:
 
 
 def test_ferraris_example_session_matches_imucal() -> None:
-    """imucal's basic example (m/s², deg/s, 102.4 Hz): the same matrices, to 1e-9."""
+    """The basic example of imucal (m/s², deg/s, 102.4 Hz): the same matrices, to 1e-9."""
     pd = pytest.importorskip('pandas')
     imucal = pytest.importorskip('imucal')
     import lzma
@@ -159,7 +159,7 @@ def test_ferraris_example_session_matches_imucal() -> None:
 
 
 def test_ferraris_annotated_session_matches_imucal_and_its_snapshot() -> None:
-    """imucal's annotated raw session (a.u., 204.8 Hz): imucal run here, and its snapshot."""
+    """The annotated raw session of imucal (a.u., 204.8 Hz): imucal run here, and its snapshot."""
     pd = pytest.importorskip('pandas')
     imucal = pytest.importorskip('imucal')
     import lzma

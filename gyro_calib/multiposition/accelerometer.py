@@ -64,11 +64,12 @@ def fit_accelerometer(means: Array, g: float, u_g: float, *, raw_unit: str = '')
     sol = least_squares(residual, start(means, g), x_scale='jac', method='lm',
                         xtol=1e-15, ftol=1e-15, gtol=1e-15)
     p = sol.x
+    jac = np.asarray(sol.jac, dtype=np.float64)
     res = residual(p)
     dof = k - len(p)
-    cov, nu, basis = fit_covariance(sol.jac, res, dof, (
+    cov, nu, basis = fit_covariance(jac, res, dof, (
         Input('u(g)', -np.ones((k, 1)), np.array([[u_g ** 2]]), np.inf),))
     std = np.sqrt(np.diag(cov))
     return TriadFit('accelerometer', ACC_NAMES, p, cov, nu, k,
                     float(np.sqrt(np.mean(res ** 2))), np.abs(res), basis,
-                    weakest(ACC_NAMES, sol.jac, p, std), raw_unit)
+                    weakest(ACC_NAMES, jac, std), raw_unit)

@@ -6,9 +6,10 @@ down,
 
     b_a = diag((U₊ + U₋)/2),  K_a = diag(√diag(U_d U_dᵀ)/(2g)),  R_a = K_a⁻¹ U_d/(2g)   (10)
 
-(U_d = U₊ − U₋); raw = K_a R_a a + b_a. The gyro bias b_g is the mean of all samples of the six
-static positions, its g-sensitivity K_ga = (G₊ − G₋)/(2g) from the gyro means; the turn about axis i
-by the known angle θ gives column i of W = Σ_t (raw − K_ga a_t − b_g)/f_s, and
+(U_d = U₊ − U₋); raw = K_a R_a a + b_a. The gyro bias b_g is the mean of all samples of
+the six static positions, its g-sensitivity K_ga = (G₊ − G₋)/(2g) from the gyro means; the
+turn about axis i by the known angle θ gives column i of W = Σ_t (raw − K_ga a_t − b_g)/f_s,
+and
 
     K_g = diag(√diag(W Wᵀ)/θ²),  R_g = K_g⁻¹ W/θ                                       (11)
 

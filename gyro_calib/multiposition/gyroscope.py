@@ -3,8 +3,8 @@
 The gyro bias b is the mean of the static intervals' raw means (eq. (6)), its uncertainty
 their scatter (Earth rate, bias instability and noise in one, ν = K − 1). Between pose k and
 pose k + 1 the calibrated rate ω = T·diag(s)·(r − b) is integrated to the rotation R_k
-(cubic mean rate per step, steps composed exactly, eq. (5)); the gravity direction u_k of pose k, seen from
-pose k + 1, must be u_{k+1}:
+(cubic mean rate per step, steps composed exactly, eq. (5)); the gravity direction u_k of
+pose k, seen from pose k + 1, must be u_{k+1}:
 
     r_k = R_kᵀ(θ)·u_k − u_{k+1}   (3 components, 2 independent)                     (6)
 
@@ -31,7 +31,7 @@ MIN_MOTIONS = 9
 
 
 def static_bias(gyro: Array, intervals: tuple[StaticInterval, ...]) -> tuple[Array, Array, int]:
-    """b = mean of the intervals' raw means, its covariance and ν = K − 1 (§G.3 eq. (6))."""
+    """The bias b: mean of the intervals' raw means, its covariance, ν = K − 1 (§G.3 eq. (6))."""
     means = np.array([gyro[iv.start:iv.stop].mean(axis=0) for iv in intervals])
     k = len(means)
     cov = np.cov(means, rowvar=False) / k if k > 1 else np.full((3, 3), np.inf)
@@ -77,7 +77,10 @@ def residuals_of(rot: Array, u: Array) -> Array:
 
 
 def _start_scale(bias: Array, rates: Array, dts: Array, u: Array, nominal: float) -> float:
-    """The common scale whose rotations best match the directions, on a log grid (10⁻⁶…10² × nominal: raw counts too)."""
+    """The common scale whose rotations best match the directions.
+
+    On a log grid over 10⁻⁶ … 10² × nominal (raw counts too).
+    """
     grid = nominal * np.logspace(-6, 2, 81)
     costs = [float(np.sum(residuals_of(rotations(
         np.concatenate((np.zeros(6), [s, s, s])), bias, rates, dts), u) ** 2)) for s in grid]
@@ -123,6 +126,7 @@ def fit_gyro(t_s: Array, gyro: Array, intervals: tuple[StaticInterval, ...], u: 
     sol = least_squares(residual, np.concatenate((np.zeros(6), [s0, s0, s0])),
                         x_scale='jac', method='lm', xtol=1e-14, ftol=1e-14, gtol=1e-14)
     p = sol.x
+    jac = np.asarray(sol.jac, dtype=np.float64)
     res = residual(p)
     rot = rotations(p, bias, rates, dts)
     d_bias = np.empty((len(res), 3))
@@ -133,14 +137,14 @@ def fit_gyro(t_s: Array, gyro: Array, intervals: tuple[StaticInterval, ...], u: 
         d_bias[:, j] = (residuals_of(rotations(p, bias + db, rates, dts), u) - res) / h
     d_u = _residual_wrt_directions(rot) @ u_sensitivity
     dof = 2 * (k - 1) - len(p)
-    cov, nu, basis = fit_covariance(sol.jac, res, dof, (
+    cov, nu, basis = fit_covariance(jac, res, dof, (
         Input('gyro bias', d_bias, bias_cov, float(bias_dof)),
         Input('accelerometer calibration', d_u, u_inputs_cov, u_inputs_dof)))
     # the bias as three more parameters: its own covariance, independent of the fit's
     full = np.zeros((12, 12))
     full[:9, :9] = cov
-    jtj_inv = np.linalg.pinv(sol.jac.T @ sol.jac)
-    g_b = -jtj_inv @ sol.jac.T @ d_bias
+    jtj_inv = np.linalg.pinv(jac.T @ jac)
+    g_b = -jtj_inv @ jac.T @ d_bias
     full[:9, 9:] = g_b @ bias_cov
     full[9:, :9] = full[:9, 9:].T
     full[9:, 9:] = bias_cov
@@ -151,7 +155,7 @@ def fit_gyro(t_s: Array, gyro: Array, intervals: tuple[StaticInterval, ...], u: 
                     np.concatenate((nu, np.full(3, float(bias_dof)))), k - 1,
                     float(np.sqrt(np.mean(per_motion ** 2))), per_motion,
                     basis + f'; bias: scatter of {k} static means (ν = {bias_dof})',
-                    weakest(GYRO_NAMES[:9], sol.jac, p, std[:9]), raw_unit)
+                    weakest(GYRO_NAMES[:9], jac, std[:9]), raw_unit)
 
 
 def _residual_wrt_directions(rot: Array) -> Array:

@@ -201,7 +201,7 @@ class MultipositionSession(MethodSession):
         return int(round(iv[0].t_start_s * NS_PER_S)), int(round(iv[-1].t_stop_s * NS_PER_S))
 
     def conditions(self) -> dict[str, Any]:
-        """g and where it came from, the static settings, the input topic."""
+        """The g used and where it came from, the static settings, the input topic."""
         return {'gravity_m_s2': self.gravity, 'gravity_std_m_s2': self.gravity_std,
                 'gravity_source': self.gravity_source, 'topic': self.topic,
                 'window_s': self.settings.window_s, 'min_static_s': self.settings.min_static_s,

@@ -51,12 +51,16 @@ def fit_covariance(jac: Array, residuals: Array, dof: int,
         nu_eff = np.where(denom > 0, var ** 2 / np.where(denom > 0, denom, 1.0), np.inf)
     basis = (f'residual scatter s = {math.sqrt(s2):.3g} over ν = {dof}'
              + ''.join(f'; {inp.name} propagated' for inp in inputs))
-    return 0.5 * (cov + cov.T), nu_eff, basis
+    return (np.asarray(0.5 * (cov + cov.T), dtype=np.float64),
+            np.asarray(nu_eff, dtype=np.float64), basis)
 
 
-def weakest(names: tuple[str, ...], jac: Array, values: Array, std: Array) -> str:
-    """The conditioning statement: cond(JᵀJ) of the column-normalised Jacobian and the
-    parameter the weakest direction loads on most (§G.5)."""
+def weakest(names: tuple[str, ...], jac: Array, std: Array) -> str:
+    """The conditioning statement (§G.5).
+
+    cond(JᵀJ) of the column-normalised Jacobian and the parameter the weakest direction
+    loads on most.
+    """
     norms = np.linalg.norm(jac, axis=0)
     norms = np.where(norms > 0, norms, 1.0)
     jn = jac / norms
