@@ -86,8 +86,8 @@ def record(unit: Unit, rng: np.random.Generator, *, poses: int = 18, rate_hz: fl
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         angle = rng.uniform(math.radians(60), math.radians(200))
-        dur = rng.uniform(*turn_s)
-        n = int(round(dur * rate_hz))
+        n = int(round(rng.uniform(*turn_s) * rate_hz))
+        dur = n / rate_hz  # the whole samples' span: θ(τ) and θ'(t) must agree
         tau = np.arange(1, n + 1) / n
         theta = angle * (10 * tau**3 - 15 * tau**4 + 6 * tau**5)
         theta_dot = angle / dur * (30 * tau**2 - 60 * tau**3 + 30 * tau**4)
