@@ -108,19 +108,22 @@ def _runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
                     strict=True))
 
 
-def _not_turning(gyro: Array, still: npt.NDArray[np.bool_], floor: Array,
-                 short: int) -> npt.NDArray[np.bool_]:
-    """Samples whose short-window mean rate is within 4 σ of the resting rate (eq. (2a)).
+def _not_turning(gyro: Array, still: npt.NDArray[np.bool_], short: int
+                 ) -> npt.NDArray[np.bool_]:
+    """Samples whose short-window mean rate lies within 5 robust σ of the resting rate (2a).
 
     The start and end of a smooth hand turn (rate rising from 0) hide below the variance
-    test; their rate does not: the mean over ``short`` samples must stay within
-    4·√(σ²/short) of the median rate at rest on every axis.
+    test; their rate does not. The resting rate and its spread are the median and the MAD of
+    the ``short``-sample means over the samples passing the variance test (noise,
+    quantisation and bias wander of this recording in one).
     """
-    if not np.any(still):
+    if np.count_nonzero(still) < 2 * short:
         return still
-    rest = np.median(gyro[still], axis=0)
     mean = uniform_filter1d(gyro, short, axis=0, mode='nearest')
-    return np.asarray(np.all(np.abs(mean - rest) < 4.0 * np.sqrt(floor / short), axis=1))
+    rest = np.median(mean[still], axis=0)
+    spread = 1.4826 * np.median(np.abs(mean[still] - rest), axis=0)
+    spread = np.maximum(spread, np.finfo(float).tiny)
+    return np.asarray(np.all(np.abs(mean - rest) < 5.0 * spread, axis=1))
 
 
 def detect_static(t_s: Array, acc: Array, gyro: Array, *, window_s: float = 1.0,
@@ -142,7 +145,7 @@ def detect_static(t_s: Array, acc: Array, gyro: Array, *, window_s: float = 1.0,
     va, vg = moving_variance(acc, window), moving_variance(gyro, window)
     fa, fg = noise_floor(va, window), noise_floor(vg, window)
     still = np.all(va < threshold_ratio * fa, axis=1) & np.all(vg < threshold_ratio * fg, axis=1)
-    still &= _not_turning(gyro, still, fg, max(3, window // 4))
+    still &= _not_turning(gyro, still, max(3, window // 4))
     candidates = [StaticInterval(a, b, float(t_s[a]), float(t_s[b - 1]))
                   for a, b in _runs(still)]
     used: list[StaticInterval] = []
