@@ -314,6 +314,56 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
     return BagCalibration(infos, sessions, counts[0], log, per_method, notes, ns)
 
 
+def calibrate_recording(paths: Sequence[Path], *, fmt: str, rate_hz: float | None,
+                        options: CalibrationOptions | None = None) -> BagCalibration:
+    """A plain recording (``--format``: docs/multiposition.md) through the multiposition session.
+
+    Raises:
+        ConfigError: the files cannot be read in that format (one line naming the file), the
+            format needs a rate or two files and did not get them.
+    """
+    from gyro_calib.bagio import BagInfo, TopicInfo
+    from gyro_calib.multiposition.readers import (
+        FORMATS,
+        RecordingFormatError,
+        read_imu_tk,
+        read_imucal,
+        read_xyz6,
+    )
+    from gyro_calib.multiposition.session import IMU, MultipositionSession
+
+    if fmt not in FORMATS:
+        raise ConfigError(f'--format {fmt!r}: the formats are {", ".join(FORMATS)}.')
+    want = 2 if fmt == 'imu_tk' else 1
+    if len(paths) != want:
+        files = 'two files (accelerometer, gyro)' if want == 2 else 'one file'
+        raise ConfigError(f'--format {fmt} reads {files}; {len(paths)} given.')
+    if fmt != 'imu_tk' and (rate_hz is None or not rate_hz > 0):
+        raise ConfigError(f'--format {fmt} has no stamps: give its sampling rate with '
+                          '--rate-hz HZ.')
+    for p in paths:
+        if not Path(p).is_file():
+            raise ConfigError(f'{p}: no such file.')
+    try:
+        if fmt == 'imu_tk':
+            rec = read_imu_tk(Path(paths[0]), Path(paths[1]))
+        elif fmt == 'imucal':
+            rec = read_imucal(Path(paths[0]), float(rate_hz or 0), gyro_unit='deg/s')
+        else:
+            rec = read_xyz6(Path(paths[0]), float(rate_hz or 0))
+    except (RecordingFormatError, ValueError) as exc:
+        raise ConfigError(str(exc)) from None
+    options = options or CalibrationOptions()
+    session = MultipositionSession(options)
+    session.feed_recording(rec)
+    log = [f'multiposition: {line}' for line in session.process(flush=True)]
+    start, end = int(round(rec.t_s[0] * 1e9)), int(round(rec.t_s[-1] * 1e9))
+    info = BagInfo(Path(rec.source), {session.topic: TopicInfo(session.topic, IMU, len(rec))},
+                   start, end, len(rec), {})
+    return BagCalibration([info], {'multiposition': session}, len(rec), log,
+                          {'multiposition': options})
+
+
 def json_document(outcome: BagCalibration, command: str = 'calibrate') -> dict[str, Any]:
     """The ``--json`` document every command shares.
 

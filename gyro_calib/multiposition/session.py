@@ -59,7 +59,7 @@ def local_gravity(settings: MultipositionSettings, latitude_deg: float) -> tuple
         return (normal_gravity_m_s2(latitude_deg, settings.height_m), u,
                 f'normal gravity at {latitude_deg:g}°, {settings.height_m:g} m')
     return STANDARD_GRAVITY, UNKNOWN_SITE_GRAVITY_STD, (
-        'standard gravity, u over the whole Earth (give --latitude for local g)')
+        'standard gravity, u over the whole Earth (give --latitude-deg for local g)')
 
 
 class MultipositionSession(MethodSession):
@@ -93,6 +93,7 @@ class MultipositionSession(MethodSession):
         self._dirty = False
         self._analysed_ns: int | None = None
         self._lines: list[str] = []
+        self._units: tuple[str, str, float] = ('m/s²', 'rad/s', 1.0)
 
     # -- input ------------------------------------------------------------------------------
     def topics(self) -> dict[str, str]:
@@ -109,6 +110,14 @@ class MultipositionSession(MethodSession):
         self._acc.append(np.asarray(col.values['linear_acceleration_m_s2'], dtype=np.float64))
         self._dirty = True
 
+    def feed_recording(self, rec: Recording) -> None:
+        """A whole plain recording (readers' formats), its raw units kept."""
+        self._stamps = [np.round(rec.t_s * NS_PER_S).astype(np.int64)]
+        self._acc, self._gyro = [rec.acc], [rec.gyro]
+        self._units = (rec.acc_unit, rec.gyro_unit, rec.nominal_gyro_scale)
+        self.topic = rec.source or self.topic
+        self._dirty = True
+
     def recording(self) -> Recording | None:
         """The samples held, sorted by stamp, repeated stamps dropped (None: none)."""
         if not self._stamps:
@@ -123,8 +132,9 @@ class MultipositionSession(MethodSession):
         t = t[keep][ok]
         if len(t) < 2:
             return None
+        acc_unit, gyro_unit, nominal = self._units
         return Recording((t - t[0]) / NS_PER_S + t[0] / NS_PER_S, acc[ok], gyro[ok],
-                         'm/s²', 'rad/s', self.topic)
+                         acc_unit, gyro_unit, self.topic, nominal_gyro_scale=nominal)
 
     # -- processing -------------------------------------------------------------------------
     def process(self, *, flush: bool = False) -> list[str]:
