@@ -18,6 +18,7 @@ import gzip
 import io
 import lzma
 import math
+import warnings
 from pathlib import Path
 from typing import IO
 
@@ -44,7 +45,8 @@ class RecordingFormatError(ValueError):
 
 def _table(path: Path, columns: int) -> Array:
     try:
-        with open_text(path) as f:
+        with open_text(path) as f, warnings.catch_warnings():
+            warnings.simplefilter('ignore', UserWarning)  # empty: said below, in one line
             data = np.loadtxt(f, ndmin=2)
     except (OSError, ValueError, EOFError, lzma.LZMAError) as exc:
         raise RecordingFormatError(f'{path}: not a table of numbers ({exc}).') from None
