@@ -97,11 +97,16 @@ def test_a_second_run_into_the_same_handoff_replaces_the_section(
 
 def test_json_carries_the_covariances_and_the_conditioning(
         hand_turned: tuple[Path, Any, np.ndarray], capsys: pytest.CaptureFixture[str]) -> None:
-    """--json: each sensor's covariance with names and ν, the conditioning, the section."""
+    """--json (valid by the shipped schema): each covariance with names and ν, conditioning."""
     bag, _, _ = hand_turned
     status, text, _ = run(capsys, bag, '--method', 'multiposition', '--json')
     assert status == 0
-    doc = json.loads(text)['methods']['multiposition']
+    whole = json.loads(text)
+    jsonschema = pytest.importorskip('jsonschema')
+    schema = json.loads((Path(__file__).resolve().parents[1] / 'gyro_calib' / 'schema'
+                         / 'result.schema.json').read_text(encoding='utf-8'))
+    jsonschema.validate(whole, schema)
+    doc = whole['methods']['multiposition']
     assert len(doc['conditioning']) == 2
     assert len(doc['gyro_covariance']['names']) == 12
     assert np.array(doc['accelerometer_covariance']['matrix']).shape == (9, 9)

@@ -104,7 +104,8 @@ def ferraris(rec: Recording, sections: Mapping[str, tuple[int, int]], *, rate_hz
     """The Ferraris calibration of a recording with its sections (start, stop sample).
 
     ``gravity`` and ``angle_rad`` carry imucal's sign conventions: the value the accelerometer
-    reads with the axis 'up', and the signed turn angle (imucal's default −2π: clockwise).
+    reads with the axis 'up', and the signed turn angle in the gyro's unit × s (rad for rad/s;
+    imucal works in deg/s, its default −360: clockwise).
 
     Raises:
         ValueError: a section is missing or empty.
@@ -156,4 +157,4 @@ def ferraris(rec: Recording, sections: Mapping[str, tuple[int, int]], *, rate_hz
     return FerrarisResult(values, 0.5 * (cov + cov.T), n_used,
                           'sample noise of the 6 section means and 3 turn sums propagated; '
                           'positions taken as aligned with gravity, turns as exactly '
-                          f'{np.degrees(angle_rad):.0f}° (not in the uncertainty)')
+                          f'{angle_rad:g} (the gyro unit × s; not in the uncertainty)')
