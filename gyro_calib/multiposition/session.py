@@ -94,6 +94,7 @@ class MultipositionSession(MethodSession):
         self._analysed_ns: int | None = None
         self._lines: list[str] = []
         self._units: tuple[str, str, float] = ('m/s²', 'rad/s', 1.0)
+        self._fed = False
 
     # -- input ------------------------------------------------------------------------------
     def topics(self) -> dict[str, str]:
@@ -108,7 +109,7 @@ class MultipositionSession(MethodSession):
         self._stamps.append(np.asarray(col.stamp_ns, dtype=np.int64))
         self._gyro.append(np.asarray(col.values['angular_velocity_rad_s'], dtype=np.float64))
         self._acc.append(np.asarray(col.values['linear_acceleration_m_s2'], dtype=np.float64))
-        self._dirty = True
+        self._dirty = self._fed = True
 
     def feed_recording(self, rec: Recording) -> None:
         """A whole plain recording (readers' formats), its raw units kept."""
@@ -138,11 +139,17 @@ class MultipositionSession(MethodSession):
 
     # -- processing -------------------------------------------------------------------------
     def process(self, *, flush: bool = False) -> list[str]:
-        """Calibrate the samples held (at the end; live every ``analysis_period_s``)."""
+        """Calibrate the samples held.
+
+        At the end; live every ``analysis_period_s`` of data and whenever the input paused
+        (nothing fed since the last call), so the numbers at the end of the data are the
+        offline ones.
+        """
+        fed, self._fed = self._fed, False
         if not self._dirty:
             return []
         newest = int(self._stamps[-1].max()) if self._stamps else 0
-        if not flush and self._analysed_ns is not None and newest - self._analysed_ns \
+        if not flush and fed and self._analysed_ns is not None and newest - self._analysed_ns \
                 < self.settings.analysis_period_s * NS_PER_S:
             return []
         rec = self.recording()
@@ -192,6 +199,16 @@ class MultipositionSession(MethodSession):
         if r is None or r.gyro is None:
             out['imu.gyro'] = why
         return out
+
+    def needs(self) -> dict[str, str]:
+        """The static poses and turns found so far against those the fits need."""
+        r = self._result
+        if r is not None and r.accelerometer is not None and r.gyro is not None:
+            return {}
+        k = len(r.detection.intervals) if r is not None else 0
+        return {'imu': f'{k} static poses so far; the accelerometer needs {MIN_POSES}, the '
+                       f'gyro {MIN_MOTIONS + 1} (turn the IMU to a new pose and hold it a few '
+                       'seconds).'}
 
     def rejections(self) -> list[Rejection]:
         """The static runs left out, each with its reason."""
