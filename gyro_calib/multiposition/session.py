@@ -232,7 +232,9 @@ class MultipositionSession(MethodSession):
         return {'gravity_m_s2': self.gravity, 'gravity_std_m_s2': self.gravity_std,
                 'gravity_source': self.gravity_source, 'topic': self.topic,
                 'window_s': self.settings.window_s, 'min_static_s': self.settings.min_static_s,
-                'latitude_deg': self.options.latitude}
+                'latitude_deg': self.options.latitude,
+                'gyro_bias_basis': 'mean of the static intervals; the Earth rate averaged over '
+                                   'the poses is not removed (docs/methods.md §G.3)'}
 
     def handoff_values(self) -> dict[str, Any]:
         """None at the top level: the results are the ``imu:`` section (:meth:`handoff`)."""
