@@ -57,3 +57,13 @@ def test_readers_refuse_mismatched_or_short_files(tmp_path: Path) -> None:
     log.write_text('1 2 3 4 5\n')
     with pytest.raises(RecordingFormatError, match='6'):
         read_xyz6(log, 100.0)
+
+
+def test_the_directions_gravity_never_came_near_are_named() -> None:
+    """Poses with gravity only near +z and −x: the other four directions are still needed."""
+    from gyro_calib.multiposition.calibrator import directions_not_held
+
+    u = np.array([[0.0, 0.0, 1.0], [0.2, 0.0, 0.98], [-1.0, 0.0, 0.0]])
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    assert directions_not_held(u) == ['+x', '+y', '−y', '−z']
+    assert directions_not_held(np.vstack((np.eye(3), -np.eye(3)))) == []

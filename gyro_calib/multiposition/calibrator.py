@@ -58,6 +58,21 @@ def pose_spread(u: Array) -> Array:
     return np.asarray(np.linalg.eigvalsh(u.T @ u / len(u)))
 
 
+AXIS_NAMES = ('+x', '−x', '+y', '−y', '+z', '−z')
+"""The six directions a pose set should hold gravity near (§G.5)."""
+
+
+def directions_not_held(u: Array, within_deg: float = 35.0) -> list[str]:
+    """The axis directions no pose's gravity direction came near (§G.5).
+
+    ±x, ±y, ±z not within ``within_deg`` of any pose's u: where to turn the IMU next.
+    """
+    axes = np.vstack((np.eye(3), -np.eye(3)))[[0, 3, 1, 4, 2, 5]]
+    cos = np.cos(np.radians(within_deg))
+    hit = [bool(np.any(u @ axis >= cos)) if len(u) else False for axis in axes]
+    return [name for name, h in zip(AXIS_NAMES, hit, strict=True) if not h]
+
+
 def rotation_per_axis_deg(rec: Recording, fit: TriadFit) -> Array:
     """Σ|ω_j|·dt per calibrated gyro axis over the whole recording, °."""
     w = (rec.gyro - fit.bias_raw) @ fit.matrix.T
@@ -80,8 +95,11 @@ def calibrate(rec: Recording, *, gravity_m_s2: float, gravity_std_m_s2: float,
     acc = fit_accelerometer(means, gravity_m_s2, gravity_std_m_s2, raw_unit=rec.acc_unit)
     u = directions(calibrated(acc.values, means))
     spread = pose_spread(u)
+    gone = directions_not_held(u)
     acc_line = (f'accelerometer: {k} poses, gravity-direction spread {spread[0]:.2f} / '
-                f'{spread[1]:.2f} / {spread[2]:.2f} (⅓ each ideal); {acc.weak}')
+                f'{spread[1]:.2f} / {spread[2]:.2f} (⅓ each ideal)'
+                + (f', gravity never near {", ".join(gone)}' if gone else '')
+                + f'; {acc.weak}')
     if k - 1 < MIN_MOTIONS:
         return MultipositionResult(det, acc, None, gravity_m_s2, gravity_std_m_s2, (acc_line,),
                                    f'{k - 1} motions; the gyro needs at least {MIN_MOTIONS}.')

@@ -19,7 +19,12 @@ import numpy as np
 from gyro_calib.config import read_method_file
 from gyro_calib.estimate import Rejection
 from gyro_calib.multiposition.accelerometer import MIN_POSES
-from gyro_calib.multiposition.calibrator import MultipositionResult, calibrate, inverse_scale
+from gyro_calib.multiposition.calibrator import (
+    MultipositionResult,
+    calibrate,
+    directions_not_held,
+    inverse_scale,
+)
 from gyro_calib.multiposition.gravity import ANOMALY_STD_M_S2, normal_gravity_m_s2
 from gyro_calib.multiposition.gyroscope import MIN_MOTIONS
 from gyro_calib.multiposition.keys import METHOD
@@ -206,9 +211,16 @@ class MultipositionSession(MethodSession):
         if r is not None and r.accelerometer is not None and r.gyro is not None:
             return {}
         k = len(r.detection.intervals) if r is not None else 0
+        where = ''
+        rec = self.recording() if r is not None and k else None
+        if r is not None and rec is not None:
+            means = np.array([rec.acc[iv.start:iv.stop].mean(axis=0)
+                              for iv in r.detection.intervals])
+            gone = directions_not_held(means / np.linalg.norm(means, axis=1, keepdims=True))
+            where = f'; gravity not yet near {", ".join(gone)}' if gone else ''
         return {'imu': f'{k} static poses so far; the accelerometer needs {MIN_POSES}, the '
                        f'gyro {MIN_MOTIONS + 1} (turn the IMU to a new pose and hold it a few '
-                       'seconds).'}
+                       f'seconds){where}.'}
 
     def rejections(self) -> list[Rejection]:
         """The static runs left out, each with its reason."""
