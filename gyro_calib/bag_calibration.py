@@ -219,6 +219,11 @@ def select_methods(infos: Sequence[BagInfo], names: Sequence[str] | None) -> lis
                                   f'{", ".join(METHODS)}.')
             method = METHODS[name]
             check_topics(where, method.topics, method.reveal, what=f'method {name}')
+            if method.any_topic and not method.topics and method.any_topic not in \
+                    present.values():  # multiposition: any Imu topic, none in the bags
+                raise MissingTopicError(f'{where.path}: method {name} reads a '
+                                        f'{method.any_topic} topic and the bag(s) hold none; '
+                                        f'they hold {topics_present(where)}.')
             chosen.append(method)
         return chosen
     for info in infos:

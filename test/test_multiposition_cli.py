@@ -150,3 +150,13 @@ def test_an_empty_or_wrong_file_is_refused(tmp_path: Path,
     for path in (empty, five):
         status, text, err = run(capsys, path, '--format', 'xyz6', '--rate-hz', '100')
         assert status == 2 and text == '' and str(path) in err
+
+
+def test_a_bag_without_imu_messages_is_refused_before_work(
+        capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """--method multiposition on a pulse-gyro bag: one line naming what the bag holds, exit 2."""
+    bag = Path(__file__).resolve().parents[1] / 'bags' / 'k_tilde_bench'
+    out = tmp_path / 'h.yaml'
+    status, text, err = run(capsys, bag, '--method', 'multiposition', '--out', out)
+    assert status == 2 and text == '' and 'hold none' in err and '/gyro/pulses' in err
+    assert not out.exists()

@@ -195,9 +195,9 @@ class MultipositionSession(MethodSession):
     def missing(self) -> dict[str, str]:
         """Why the accelerometer or the gyro is not calibrated."""
         r = self._result
-        why = self._problem or (f'no static pose yet on {self.topic}: the method needs '
-                                f'{MIN_POSES} static poses and {MIN_MOTIONS} turns between '
-                                'them.')
+        why = self._problem or (f'no sensor_msgs/Imu sample on {self.topic} (the topic this '
+                                f'method reads) yet: it needs {MIN_POSES} static poses and '
+                                f'{MIN_MOTIONS} turns between them.')
         out = {}
         if r is None or r.accelerometer is None:
             out['imu.accelerometer'] = why
