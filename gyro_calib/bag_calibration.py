@@ -320,12 +320,18 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
 
 
 def calibrate_recording(paths: Sequence[Path], *, fmt: str, rate_hz: float | None,
-                        options: CalibrationOptions | None = None) -> BagCalibration:
+                        options: CalibrationOptions | None = None,
+                        sections: Path | None = None,
+                        turn_angle_deg: float = -360.0) -> BagCalibration:
     """A plain recording (``--format``: docs/multiposition.md) through the multiposition session.
+
+    ``sections`` (imucal's section list, JSON ``{name: {start, end}}``) makes it the Ferraris
+    variant (§G.6) with turns of ``turn_angle_deg`` (signed as imucal's expected_angle).
 
     Raises:
         ConfigError: the files cannot be read in that format (one line naming the file), the
-            format needs a rate or two files and did not get them.
+            format needs a rate or two files and did not get them, or the section list is
+            unreadable or lacks a section.
     """
     from gyro_calib.bagio import BagInfo, TopicInfo
     from gyro_calib.multiposition.readers import (
@@ -360,8 +366,23 @@ def calibrate_recording(paths: Sequence[Path], *, fmt: str, rate_hz: float | Non
         raise ConfigError(str(exc)) from None
     options = options or CalibrationOptions()
     session = MultipositionSession(options)
-    session.feed_recording(rec)
-    log = [f'multiposition: {line}' for line in session.process(flush=True)]
+    if sections is not None:
+        if fmt != 'imucal':
+            raise ConfigError('--sections (the Ferraris variant) reads an imucal session: give '
+                              '--format imucal.')
+        import json
+        try:
+            raw = json.loads(Path(sections).read_text(encoding='utf-8'))
+            parts = {str(k): (int(v['start']), int(v['end'])) for k, v in raw.items()}
+            session.feed_ferraris(rec, parts, rate_hz=float(rate_hz or 0),
+                                  turn_angle=turn_angle_deg)
+        except (OSError, ValueError, TypeError, KeyError, AttributeError) as exc:
+            raise ConfigError(f'--sections {sections}: {exc} (imucal\'s section list: '
+                              '{"x_p": {"start": N, "end": M}, …}).') from None
+        log: list[str] = []
+    else:
+        session.feed_recording(rec)
+        log = [f'multiposition: {line}' for line in session.process(flush=True)]
     start, end = int(round(rec.t_s[0] * 1e9)), int(round(rec.t_s[-1] * 1e9))
     info = BagInfo(Path(rec.source), {session.topic: TopicInfo(session.topic, IMU, len(rec))},
                    start, end, len(rec), {})

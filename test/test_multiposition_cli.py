@@ -160,3 +160,40 @@ def test_a_bag_without_imu_messages_is_refused_before_work(
     status, text, err = run(capsys, bag, '--method', 'multiposition', '--out', out)
     assert status == 2 and text == '' and 'hold none' in err and '/gyro/pulses' in err
     assert not out.exists()
+
+
+def test_the_ferraris_session_through_format_imucal_and_sections(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--format imucal --sections: the Ferraris variant; the hand-off holds imucal's matrices.
+
+    With imucal's g (9.81, given in the config file) the section's A is (K_a·R_a)⁻¹ and M is
+    (K_g·R_g)⁻¹ in rad/s per deg/s, from imucal 2.6.0 run here.
+    """
+    pd = pytest.importorskip('pandas')
+    imucal = pytest.importorskip('imucal')
+    import lzma
+
+    session = REAL / 'imucal' / 'example_ferraris_session.csv.xz'
+    sections = REAL / 'imucal' / 'example_ferraris_session_list.json'
+    config = tmp_path / 'mp.yaml'
+    config.write_text('gravity_m_s2: 9.81\n')
+    out = tmp_path / 'ferraris.yaml'
+    status, text, err = run(capsys, session, '--format', 'imucal', '--rate-hz', '102.4',
+                            '--sections', sections, '--config', config, '--out', out)
+    assert status == 0, err
+    assert 'Ferraris K_g_0' in text and 'not in the uncertainty' in text
+    with lzma.open(session, 'rt') as f:
+        data = pd.read_csv(f, header=0, index_col=0)
+    info = imucal.FerrarisCalibration().compute(
+        imucal.ferraris_regions_from_section_list(data, pd.read_json(sections).T), 102.4,
+        from_acc_unit='m/s^2', from_gyr_unit='deg/s')
+    imu = load_calibration(out).imu
+    assert imu is not None and imu.pulses_to_body_rad is not None
+    np.testing.assert_allclose(np.array(imu.accelerometer['raw_to_body']),
+                               np.linalg.inv(info.K_a @ info.R_a), rtol=1e-9)
+    np.testing.assert_allclose(imu.pulses_to_body_rad,
+                               np.linalg.inv(info.K_g @ info.R_g) * np.pi / 180, rtol=1e-9)
+    assert 'gyro_g_sensitivity' in imu.missing
+    status, text, err = run(capsys, REAL / 'mikoff_mpu9150' / 'imu0.log.xz', '--format', 'xyz6',
+                            '--rate-hz', '100', '--sections', sections)
+    assert status == 2 and text == '' and '--format imucal' in err

@@ -59,6 +59,12 @@ def add_commands(sub: Any) -> None:
                      'files t x y z, accelerometer then gyro, raw counts), imucal (CSV acc_x … '
                      'gyr_z, m/s² and deg/s) or xyz6 (ax ay az wx wy wz per line, m/s² and '
                      'rad/s); see docs/multiposition.md')
+    cal.add_argument('--sections', type=Path, default=None, metavar='JSON',
+                     help='--format imucal: its section list (x_p … z_rot): the Ferraris variant '
+                     '(six positions, three known turns; docs/methods.md §G.6)')
+    cal.add_argument('--turn-angle-deg', type=float, default=-360.0,
+                     help='--sections: each turn\'s known angle, signed as imucal\'s '
+                     'expected_angle (default −360: clockwise)')
     cal.add_argument('--rate-hz', type=float, default=None,
                      help='--format imucal / xyz6: the sampling rate, Hz (they have no stamps)')
     cal.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
@@ -93,7 +99,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
         check_calibrate_report(args)
     check_calibration_file(args.calibration)
     _refuse_a_bag_given_twice(args.bags)
-    if getattr(args, 'format', None) is not None or getattr(args, 'rate_hz', None) is not None:
+    if any(getattr(args, name, None) is not None for name in ('format', 'rate_hz', 'sections')):
         return _run_plain(args, plot_dir)
     infos, _ = bag_infos(args.bags, args.namespace)
     to_run = [m.name for m in select_methods(infos, args.method)]
@@ -144,7 +150,8 @@ def _run_plain(args: argparse.Namespace, plot_dir: Path | None) -> int:
                           'multiposition.')
     refuse_unused_flags(args, ['multiposition'])
     outcome = calibrate_recording(args.bags, fmt=args.format, rate_hz=args.rate_hz,
-                                  options=options_from_args(args))
+                                  options=options_from_args(args), sections=args.sections,
+                                  turn_angle_deg=args.turn_angle_deg)
     human, document = io.StringIO(), io.StringIO()
     ledger = args.ledger if hasattr(args, 'ledger') else Ledger()
     for flag, given, path, label in (('--out', args.out, args.out, 'hand-off'),

@@ -91,3 +91,53 @@ def imu_section(gyro: TriadFit | None, accelerometer: dict[str, Any] | None,
         channels, np.eye(3), ka[:3], np.sqrt(np.diag(ka_cov)[:3]), dof,
         ka[3:].reshape(3, 3), axes_std, m.reshape(3, 3), m_cov, b, np.sqrt(np.diag(b_cov)),
         accelerometer=accelerometer or {}, missing=dict(missing))
+
+
+def _unflatten(y: Array) -> dict[str, Array]:
+    """The Ferraris outputs from their flat vector (§G.6: K_a, R_a, b_a, K_g, R_g, K_ga, b_g)."""
+    k_a, r_a, b_a = y[0:3], y[3:12].reshape(3, 3), y[12:15]
+    k_g, r_g, k_ga, b_g = y[15:18], y[18:27].reshape(3, 3), y[27:36].reshape(3, 3), y[36:39]
+    return {'K_a': k_a, 'R_a': r_a, 'b_a': b_a, 'K_g': k_g, 'R_g': r_g, 'K_ga': k_ga,
+            'b_g': b_g}
+
+
+def ferraris_section(y: Array, cov: Array, *, gyro_si_per_raw: float, acc_unit: str,
+                     gravity: float) -> ImuCalibration:
+    """The ``imu:`` section of a Ferraris result (flat outputs ``y``, covariance ``cov``).
+
+    Gyro: M = (K_g·R_g)⁻¹·(SI per raw unit), b = M·b_g (rad/s); the g-sensitivity K_ga has no
+    place in the triad's layout and is named under ``missing`` (the summary and --json hold
+    it). Accelerometer: A = (K_a·R_a)⁻¹, bias A·b_a.
+    """
+    def gyro_m(q: Array) -> Array:
+        v = _unflatten(q)
+        return np.asarray(np.linalg.inv(np.diag(v['K_g']) @ v['R_g']) * gyro_si_per_raw,
+                          dtype=np.float64)
+
+    def k_axes(q: Array) -> Array:
+        r = np.linalg.inv(gyro_m(q))
+        norms = np.linalg.norm(r, axis=1)
+        return np.concatenate((1 / norms, (r / norms[:, None]).ravel()))
+
+    def acc_a(q: Array) -> Array:
+        v = _unflatten(q)
+        return np.asarray(np.linalg.inv(np.diag(v['K_a']) @ v['R_a']), dtype=np.float64)
+
+    m, m_cov = _propagate(lambda q: gyro_m(q).ravel(), y, cov)
+    ka, ka_cov = _propagate(k_axes, y, cov)
+    b, b_cov = _propagate(lambda q: gyro_m(q) @ _unflatten(q)['b_g'], y, cov)
+    a, a_cov = _propagate(lambda q: acc_a(q).ravel(), y, cov)
+    ab, ab_cov = _propagate(lambda q: acc_a(q) @ _unflatten(q)['b_a'], y, cov)
+    axes_std = np.array([np.sqrt(max(float(np.trace(ka_cov[3 + 3 * i:6 + 3 * i,
+                                                           3 + 3 * i:6 + 3 * i])), 0.0))
+                         for i in range(3)])
+    accelerometer = {'raw_unit': acc_unit, 'raw_to_body': a.reshape(3, 3).tolist(),
+                     'raw_to_body_covariance': a_cov.tolist(), 'bias_m_s2': ab.tolist(),
+                     'bias_m_s2_std': np.sqrt(np.diag(ab_cov)).tolist(),
+                     'gravity_m_s2': gravity, 'poses': 6}
+    return ImuCalibration(
+        ('x', 'y', 'z'), np.eye(3), ka[:3], np.sqrt(np.diag(ka_cov)[:3]), None,
+        ka[3:].reshape(3, 3), axes_std, m.reshape(3, 3), m_cov, b, np.sqrt(np.diag(b_cov)),
+        accelerometer=accelerometer,
+        missing={'gyro_g_sensitivity': 'the Ferraris K_ga (gyro reading per m/s²) has no place '
+                 'in this layout: see the summary or --json (imu.ferraris.K_ga_*)'})

@@ -25,11 +25,16 @@ from gyro_calib.multiposition.calibrator import (
     directions_not_held,
     inverse_scale,
 )
+from gyro_calib.multiposition.ferraris import OUTPUTS, FerrarisResult, ferraris
 from gyro_calib.multiposition.gravity import ANOMALY_STD_M_S2, normal_gravity_m_s2
 from gyro_calib.multiposition.gyroscope import MIN_MOTIONS
 from gyro_calib.multiposition.keys import METHOD
 from gyro_calib.multiposition.recording import Recording
-from gyro_calib.multiposition.section import accelerometer_section, imu_section
+from gyro_calib.multiposition.section import (
+    accelerometer_section,
+    ferraris_section,
+    imu_section,
+)
 from gyro_calib.multiposition.settings import (
     DEFAULT_TOPIC,
     NODE_NAME,
@@ -100,6 +105,8 @@ class MultipositionSession(MethodSession):
         self._lines: list[str] = []
         self._units: tuple[str, str, float] = ('m/s²', 'rad/s', 1.0)
         self._fed = False
+        self._ferraris: FerrarisResult | None = None
+        self._ferraris_rec: Recording | None = None
 
     # -- input ------------------------------------------------------------------------------
     def topics(self) -> dict[str, str]:
@@ -123,6 +130,20 @@ class MultipositionSession(MethodSession):
         self._units = (rec.acc_unit, rec.gyro_unit, rec.nominal_gyro_scale)
         self.topic = rec.source or self.topic
         self._dirty = True
+
+    def feed_ferraris(self, rec: Recording, sections: dict[str, tuple[int, int]], *,
+                      rate_hz: float, turn_angle: float) -> None:
+        """A Ferraris session (six positions, three turns; §G.6) with its section list.
+
+        ``turn_angle`` in the gyro's raw unit × s, signed as imucal's ``expected_angle``.
+
+        Raises:
+            ValueError: a section is missing or empty.
+        """
+        self._ferraris = ferraris(rec, sections, rate_hz=rate_hz, gravity=self.gravity,
+                                  angle_rad=turn_angle)
+        self._ferraris_rec = rec
+        self.topic = rec.source or self.topic
 
     def recording(self) -> Recording | None:
         """The samples held, sorted by stamp, repeated stamps dropped (None: none)."""
@@ -183,6 +204,8 @@ class MultipositionSession(MethodSession):
     def results(self) -> dict[str, Estimate]:
         """Every parameter of both sensors, by ``imu.<sensor>.<name>``."""
         out: dict[str, Estimate] = {}
+        if self._ferraris is not None:
+            return self._ferraris_estimates()
         r = self._result
         if r is None:
             return out
@@ -192,8 +215,24 @@ class MultipositionSession(MethodSession):
                     out[f'imu.{fit.sensor}.{name}'] = fit.estimate(name)
         return out
 
+    def _ferraris_estimates(self) -> dict[str, Estimate]:
+        """Every Ferraris output element, by ``imu.ferraris.<name>_<index>``."""
+        from gyro_calib.estimate import Estimate
+
+        f = self._ferraris
+        assert f is not None
+        out = {}
+        for name in OUTPUTS:
+            values, stds = np.ravel(f.values[name]), np.ravel(f.std(name))
+            for i, (v, u) in enumerate(zip(values, stds, strict=True)):
+                out[f'imu.ferraris.{name}_{i}'] = Estimate(float(v), float(u), f.n_used,
+                                                           f.n_used - 1, basis=f.basis)
+        return out
+
     def missing(self) -> dict[str, str]:
         """Why the accelerometer or the gyro is not calibrated."""
+        if self._ferraris is not None:
+            return {}
         r = self._result
         why = self._problem or (f'no sensor_msgs/Imu sample on {self.topic} (the topic this '
                                 f'method reads) yet: it needs {MIN_POSES} static poses and '
@@ -233,6 +272,9 @@ class MultipositionSession(MethodSession):
 
     def data_span_ns(self) -> tuple[int, int] | None:
         """From the first static pose used to the last."""
+        if self._ferraris_rec is not None:
+            t = self._ferraris_rec.t_s
+            return int(round(t[0] * NS_PER_S)), int(round(t[-1] * NS_PER_S))
         r = self._result
         if r is None or not r.detection.intervals:
             return None
@@ -254,6 +296,11 @@ class MultipositionSession(MethodSession):
 
     def imu_calibration(self) -> ImuCalibration | None:
         """The ``imu:`` section (None before the accelerometer is calibrated)."""
+        if self._ferraris is not None and self._ferraris_rec is not None:
+            flat = np.concatenate([np.ravel(self._ferraris.values[n]) for n in OUTPUTS])
+            return ferraris_section(flat, self._ferraris.covariance,
+                                    gyro_si_per_raw=self._ferraris_rec.nominal_gyro_scale,
+                                    acc_unit=self._ferraris_rec.acc_unit, gravity=self.gravity)
         r = self._result
         if r is None or r.accelerometer is None:
             return None
@@ -281,6 +328,10 @@ class MultipositionSession(MethodSession):
     def summary_rows(self) -> list[tuple[str, str, str, str]]:
         """Scales (and 1/s), misalignments (°), biases, per sensor, with u and n."""
         rows: list[tuple[str, str, str, str]] = []
+        if self._ferraris is not None:
+            return [(f'Ferraris {k.removeprefix("imu.ferraris.")}', f'{e.value:.8g}',
+                     f'{e.std_uncertainty:.2g}', str(e.n_used))
+                    for k, e in self._ferraris_estimates().items()]
         r = self._result
         if r is None:
             return rows
@@ -308,6 +359,10 @@ class MultipositionSession(MethodSession):
         """Intervals used and rejected, g, the conditioning statement, what is missing."""
         r = self._result
         lines = []
+        if self._ferraris is not None:
+            lines.append('Ferraris variant (docs/methods.md §G.6): raw = K·R·x + b; the hand-off '
+                         'holds (K·R)⁻¹ as M and A')
+            lines.append(f'uncertainty: {self._ferraris.basis}')
         if r is not None:
             lines.append(f'static intervals: {len(r.detection.intervals)} used, '
                          f'{len(r.detection.rejected)} rejected (threshold '
