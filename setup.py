@@ -76,6 +76,8 @@ setup(
             'noise_node = gyro_calib.nodes.noise_node:main',
             'triad_sim = sim_nodes.triad.triad_node:main',
             'triad_calibration_node = gyro_calib.nodes.triad_calibration_node:main',
+            'multiposition_calibration_node = '
+            'gyro_calib.nodes.multiposition_calibration_node:main',
         ],
     },
 )

@@ -246,6 +246,11 @@ def select_methods(infos: Sequence[BagInfo], names: Sequence[str] | None) -> lis
                                   f'{", ".join(METHODS)}.')
             method = METHODS[name]
             check_topics(where, method.topics, method.reveal, what=f'method {name}')
+            if method.any_topic and not method.topics and method.any_topic not in \
+                    present.values():  # multiposition: any Imu topic, none in the bags
+                raise MissingTopicError(f'{where.path}: method {name} reads a '
+                                        f'{method.any_topic} topic and the bag(s) hold none; '
+                                        f'they hold {topics_present(where)}.')
             chosen.append(method)
         return chosen
     for info in infos:
@@ -345,6 +350,77 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
     if progress is not None:
         progress(1.0)
     return BagCalibration(infos, sessions, counts[0], log, per_method, notes, ns)
+
+
+def calibrate_recording(paths: Sequence[Path], *, fmt: str, rate_hz: float | None,
+                        options: CalibrationOptions | None = None,
+                        sections: Path | None = None,
+                        turn_angle_deg: float = -360.0) -> BagCalibration:
+    """A plain recording (``--format``: docs/multiposition.md) through the multiposition session.
+
+    ``sections`` (imucal's section list, JSON ``{name: {start, end}}``) makes it the Ferraris
+    variant (§G.6) with turns of ``turn_angle_deg`` (signed as imucal's expected_angle).
+
+    Raises:
+        ConfigError: the files cannot be read in that format (one line naming the file), the
+            format needs a rate or two files and did not get them, or the section list is
+            unreadable or lacks a section.
+    """
+    from gyro_calib.bagio import BagInfo, TopicInfo
+    from gyro_calib.multiposition.readers import (
+        FORMATS,
+        RecordingFormatError,
+        read_imu_tk,
+        read_imucal,
+        read_xyz6,
+    )
+    from gyro_calib.multiposition.session import IMU, MultipositionSession
+
+    if fmt not in FORMATS:
+        raise ConfigError(f'--format {fmt!r}: the formats are {", ".join(FORMATS)}.')
+    want = 2 if fmt == 'imu_tk' else 1
+    if len(paths) != want:
+        files = 'two files (accelerometer, gyro)' if want == 2 else 'one file'
+        raise ConfigError(f'--format {fmt} reads {files}; {len(paths)} given.')
+    if fmt != 'imu_tk' and (rate_hz is None or not rate_hz > 0):
+        raise ConfigError(f'--format {fmt} has no stamps: give its sampling rate with '
+                          '--rate-hz HZ.')
+    for p in paths:
+        if not Path(p).is_file():
+            raise ConfigError(f'{p}: no such file.')
+    try:
+        if fmt == 'imu_tk':
+            rec = read_imu_tk(Path(paths[0]), Path(paths[1]))
+        elif fmt == 'imucal':
+            rec = read_imucal(Path(paths[0]), float(rate_hz or 0), gyro_unit='deg/s')
+        else:
+            rec = read_xyz6(Path(paths[0]), float(rate_hz or 0))
+    except (RecordingFormatError, ValueError) as exc:
+        raise ConfigError(str(exc)) from None
+    options = options or CalibrationOptions()
+    session = MultipositionSession(options)
+    if sections is not None:
+        if fmt != 'imucal':
+            raise ConfigError('--sections (the Ferraris variant) reads an imucal session: give '
+                              '--format imucal.')
+        import json
+        try:
+            raw = json.loads(Path(sections).read_text(encoding='utf-8'))
+            parts = {str(k): (int(v['start']), int(v['end'])) for k, v in raw.items()}
+            session.feed_ferraris(rec, parts, rate_hz=float(rate_hz or 0),
+                                  turn_angle=turn_angle_deg)
+        except (OSError, ValueError, TypeError, KeyError, AttributeError) as exc:
+            raise ConfigError(f'--sections {sections}: {exc} (imucal\'s section list: '
+                              '{"x_p": {"start": N, "end": M}, …}).') from None
+        log: list[str] = []
+    else:
+        session.feed_recording(rec)
+        log = [f'multiposition: {line}' for line in session.process(flush=True)]
+    start, end = int(round(rec.t_s[0] * 1e9)), int(round(rec.t_s[-1] * 1e9))
+    info = BagInfo(Path(rec.source), {session.topic: TopicInfo(session.topic, IMU, len(rec))},
+                   start, end, len(rec), {})
+    return BagCalibration([info], {'multiposition': session}, len(rec), log,
+                          {'multiposition': options})
 
 
 def json_document(outcome: BagCalibration, command: str = 'calibrate') -> dict[str, Any]:

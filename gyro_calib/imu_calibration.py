@@ -19,6 +19,17 @@ The layout (every number SI, unit in the key; ``_std`` the standard uncertainty,
       pulses_to_body_rad_covariance: [[... 9 ...] × 9]  # of vec(M), row-major, (rad/pulse)²
       bias_rad_s: [bx, by, bz]             # b in the body frame, ω_B = M·ṅ − b (§F eq. (14))
       bias_rad_s_std: [...]
+      accelerometer:                       # optional: an IMU's accelerometer (multiposition, §G)
+        raw_unit: m/s²                     # the unit of the raw samples r
+        raw_to_body: [[...], [...], [...]] # A = T·diag(s): a_B = A·r − bias_m_s2
+        raw_to_body_covariance: [[... 9 ...] × 9]
+        bias_m_s2: [...]                   # A·b_raw, body frame
+        bias_m_s2_std: [...]
+        scale: [...]                       # s, m/s² per raw unit; scale_std, scale_dof
+        misalignment_rad: {yz: ..., zy: ..., zx: ...}   # T's angles; misalignment_rad_std
+        bias_raw: [...]                    # b_raw, raw unit; bias_raw_std
+        gravity_m_s2: ...                  # g the fit rests on; gravity_m_s2_std
+        poses: ...                         # static poses used
       noise:                               # optional, per channel where measured (§E)
         x: {angle_random_walk_rad_per_sqrt_s: ..., angle_random_walk_rad_per_sqrt_s_std: ...,
             quantization_noise_rad: ..., ...}
@@ -58,9 +69,16 @@ UNIT_TOLERANCE = 1e-6
 SECTION_KEYS = ('channels', 'fixture_rotation', 'scale_factor_rad_per_pulse',
                 'scale_factor_rad_per_pulse_std', 'scale_factor_rad_per_pulse_dof',
                 'sense_axes', 'sense_axes_std_rad', 'misalignment_rad', 'pulses_to_body_rad',
-                'pulses_to_body_rad_covariance', 'bias_rad_s', 'bias_rad_s_std', 'noise',
-                'thermal', 'missing', 'not_measurable')
+                'pulses_to_body_rad_covariance', 'bias_rad_s', 'bias_rad_s_std', 'accelerometer',
+                'noise', 'thermal', 'missing', 'not_measurable')
 """Every key the ``imu:`` section may hold, in the order it is written."""
+
+
+ACCELEROMETER_KEYS = ('raw_unit', 'raw_to_body', 'raw_to_body_covariance', 'bias_m_s2',
+                      'bias_m_s2_std', 'scale', 'scale_std', 'scale_dof', 'misalignment_rad',
+                      'misalignment_rad_std', 'bias_raw', 'bias_raw_std', 'gravity_m_s2',
+                      'gravity_m_s2_std', 'poses')
+"""The keys of ``imu.accelerometer``."""
 
 
 class ImuSectionError(GyroCalibError):
@@ -104,6 +122,8 @@ class ImuCalibration:
     thermal: dict[str, dict[str, Any]] = field(default_factory=dict)
     missing: dict[str, str] = field(default_factory=dict)
     not_measurable: dict[str, str] = field(default_factory=dict)
+    accelerometer: dict[str, Any] = field(default_factory=dict)
+    """An IMU's accelerometer (``imu.accelerometer``, :data:`ACCELEROMETER_KEYS`), or {}."""
 
     @property
     def misalignment_rad(self) -> Array | None:
@@ -140,6 +160,8 @@ class ImuCalibration:
             elif key in matrices and matrices[key] is not None:
                 rows = _rows(np.asarray(matrices[key], dtype=float))
                 out[key] = [None if any(math.isnan(v) for v in row) else row for row in rows]
+        if self.accelerometer:
+            out['accelerometer'] = dict(self.accelerometer)
         if self.noise:
             out['noise'] = {c: {k: float(v) for k, v in d.items()} for c, d in self.noise.items()}
         if self.thermal:
@@ -303,12 +325,14 @@ def imu_from_section(section: Any, *, source: str = 'hand-off') -> ImuCalibratio
                               'with a non-negative diagonal.')
     if m is not None and not math.isfinite(float(np.linalg.cond(m))):
         raise ImuSectionError(f'{source}: imu.pulses_to_body_rad is singular.')
+    accelerometer = _accelerometer(section.get('accelerometer'), source)
     return ImuCalibration(
         names, fixture, k, k_std, k_dof, axes, axes_std, m, m_cov, bias, bias_std,
         {c: {str(kk): float(v) for kk, v in d.items()}
          for c, d in _per_channel(section, 'noise', names, source).items()},
         _per_channel(section, 'thermal', names, source),
-        _reasons(section, 'missing', source), _reasons(section, 'not_measurable', source))
+        _reasons(section, 'missing', source), _reasons(section, 'not_measurable', source),
+        accelerometer)
 
 
 BODY_AXES = ('x', 'y', 'z')
@@ -376,3 +400,27 @@ def _noise_number(value: Any) -> float | None:
         return None
     v = float(value)
     return v if math.isfinite(v) and v >= 0 else None
+
+
+def _accelerometer(value: Any, source: str) -> dict[str, Any]:
+    """``imu.accelerometer`` checked: known keys, A 3×3 and b (3,) finite, both or neither.
+
+    Raises:
+        ImuSectionError: not a mapping, an unknown key, a wrong shape or a non-finite number.
+    """
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise ImuSectionError(f'{source}: imu.accelerometer must be a mapping.')
+    for key in value:
+        if key not in ACCELEROMETER_KEYS:
+            raise ImuSectionError(f'{source}: imu.accelerometer has an unknown key {key!r}; '
+                                  f'the keys are {", ".join(ACCELEROMETER_KEYS)}.')
+    for key, shape in (('raw_to_body', (3, 3)), ('raw_to_body_covariance', (9, 9)),
+                       ('bias_m_s2', (3,)), ('bias_m_s2_std', (3,))):
+        if key in value:
+            _array(value, key, shape, f'{source}: accelerometer')
+    if ('raw_to_body' in value) != ('bias_m_s2' in value):
+        raise ImuSectionError(f'{source}: imu.accelerometer needs raw_to_body and bias_m_s2 '
+                              'together.')
+    return dict(value)

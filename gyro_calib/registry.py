@@ -167,6 +167,14 @@ METHODS: dict[str, Method] = {m.name: m for m in (
            settings='gyro_calib.triad.session:TriadSettings',
            bench_settings=('latitude_deg', 'heading_deg', 'position_table_revolutions',
                            'tilt_deg', 'tilt_std_arcsec', 'station_offset_deg', 'gyro_id')),
+    Method('multiposition', 'IMU without a turntable: accelerometer and gyro scale, '
+           'misalignment and bias from static poses and the turns between them '
+           '(docs/methods.md §G)',
+           {}, (), 'gyro_calib.multiposition.session:MultipositionSession',
+           'gyro_calib.multiposition.keys', auto=False, any_topic=IMU,
+           node='multiposition_calibration_node',
+           settings='gyro_calib.multiposition.settings:MultipositionSettings',
+           bench_settings=('latitude_deg', 'gyro_id')),
 )}
 """Every method, by name."""
 

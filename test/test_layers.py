@@ -14,7 +14,8 @@ Imports are read statically (``ast``), module-level and function-level alike,
 2 core        config, estimate, outputs, streams, handoff, state_record and any other
               top-level module not named here
 3 session     gyro_calib.session (the shared session interface)
-4 methods     gyro_calib.{rbrlg,fog,dither,thermal,noise,triad}.* (no method imports another:
+4 methods     gyro_calib.{rbrlg,fog,dither,thermal,noise,triad,multiposition}.* (no method
+              imports another:
               test_*_imports, test_thermal_properties)
 5 registry    gyro_calib.registry, and imu_conversion (applies several methods' results)
 6 drivers     bag_calibration (the offline driver), bag_compensation (a thermal model
@@ -41,7 +42,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-METHODS = ('rbrlg', 'fog', 'dither', 'thermal', 'noise', 'triad')
+METHODS = ('rbrlg', 'fog', 'dither', 'thermal', 'noise', 'triad', 'multiposition')
 LAYERS = ('base', 'bag I/O', 'core', 'session', 'methods', 'registry', 'drivers',
           'front doors')
 DRIVERS = {'gyro_calib.bag_calibration', 'gyro_calib.bag_compensation'}

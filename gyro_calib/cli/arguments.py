@@ -52,7 +52,7 @@ class Parser(argparse.ArgumentParser):
 
 
 FLAG_METHODS: dict[str, tuple[str, ...]] = {
-    'latitude_deg': ('rbrlg', 'fog', 'thermal', 'triad'),
+    'latitude_deg': ('rbrlg', 'fog', 'thermal', 'triad', 'multiposition'),
     'heading_deg': ('rbrlg', 'triad'),
     'position_table_revolutions': ('rbrlg',),
     'scale_factor_rad_per_pulse': ('dither', 'thermal', 'noise'),

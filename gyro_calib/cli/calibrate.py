@@ -54,6 +54,19 @@ def add_commands(sub: Any) -> None:
                      'goes to stderr)')
     cal.add_argument('--plot', type=Path, metavar='DIR', help='write PNG figures into DIR '
                      '(created if absent, in an existing directory)')
+    cal.add_argument('--format', choices=['imu_tk', 'imucal', 'xyz6'], default=None,
+                     help='multiposition: BAG is a plain recording instead: imu_tk (two ASCII '
+                     'files t x y z, accelerometer then gyro, raw counts), imucal (CSV acc_x … '
+                     'gyr_z, m/s² and deg/s) or xyz6 (ax ay az wx wy wz per line, m/s² and '
+                     'rad/s); see docs/multiposition.md')
+    cal.add_argument('--sections', type=Path, default=None, metavar='JSON',
+                     help='--format imucal: its section list (x_p … z_rot): the Ferraris variant '
+                     '(six positions, three known turns; docs/methods.md §G.6)')
+    cal.add_argument('--turn-angle-deg', type=float, default=-360.0,
+                     help='--sections: each turn\'s known angle, signed as imucal\'s '
+                     'expected_angle (default −360: clockwise)')
+    cal.add_argument('--rate-hz', type=float, default=None,
+                     help='--format imucal / xyz6: the sampling rate, Hz (they have no stamps)')
     cal.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
                      help='progress bar on stderr (default: when stderr is a terminal)')
     cal.set_defaults(run=run_calibrate)
@@ -86,6 +99,8 @@ def run_calibrate(args: argparse.Namespace) -> int:
         check_calibrate_report(args)
     check_calibration_file(args.calibration)
     _refuse_a_bag_given_twice(args.bags)
+    if any(getattr(args, name, None) is not None for name in ('format', 'rate_hz', 'sections')):
+        return _run_plain(args, plot_dir)
     infos, _ = bag_infos(args.bags, args.namespace, strict=args.strict)
     to_run = [m.name for m in select_methods(infos, args.method)]
     refuse_unused_flags(args, to_run)
@@ -111,6 +126,37 @@ def run_calibrate(args: argparse.Namespace) -> int:
         if ledger.complete():  # once every file is in place
             sys.stdout.write(document.getvalue())
         raise  # main() names the files written, each whole, and those not written
+    (sys.stderr if args.json else sys.stdout).write(human.getvalue())
+    sys.stdout.write(document.getvalue())
+    return status
+
+
+def _run_plain(args: argparse.Namespace, plot_dir: Path | None) -> int:
+    """``--format``: a plain recording through the multiposition method; the exit status.
+
+    Raises:
+        ConfigError: --rate-hz without --format, another method asked for, or the files
+            cannot be read (before any work).
+    """
+    from gyro_calib.bag_calibration import calibrate_recording
+
+    if args.format is None:
+        raise ConfigError('--rate-hz applies to a plain recording: give its --format too.')
+    if args.method not in (None, ['multiposition']):
+        raise ConfigError(f'--format {args.format}: plain recordings are calibrated by the '
+                          'multiposition method only; drop --method or give --method '
+                          'multiposition.')
+    refuse_unused_flags(args, ['multiposition'])
+    outcome = calibrate_recording(args.bags, fmt=args.format, rate_hz=args.rate_hz,
+                                  options=options_from_args(args), sections=args.sections,
+                                  turn_angle_deg=args.turn_angle_deg)
+    human, document = io.StringIO(), io.StringIO()
+    ledger = args.ledger if hasattr(args, 'ledger') else Ledger()
+    for flag, given, path, label in (('--out', args.out, args.out, 'hand-off'),
+                                     ('--plot', args.plot, plot_dir, 'figure')):
+        if path is not None:
+            ledger.watch(f'{flag} {given}', path, label, directory=flag != '--out')
+    status = _calibrate_outputs(args, outcome, human, document, plot_dir, ledger)
     (sys.stderr if args.json else sys.stdout).write(human.getvalue())
     sys.stdout.write(document.getvalue())
     return status

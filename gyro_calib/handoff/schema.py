@@ -25,7 +25,7 @@ layout: :mod:`gyro_calib.imu_calibration`); formats 1–3 are still read."""
 
 READ_VERSIONS = (1, 2, FORMAT_VERSION, IMU_FORMAT_VERSION)
 
-IMU_METHODS = ('triad',)
+IMU_METHODS = ('triad', 'multiposition')
 """Methods whose results are the ``imu:`` section (no top-level keys of their own)."""
 
 CONVENTIONS: dict[str, str] = {

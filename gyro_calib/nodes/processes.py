@@ -30,6 +30,7 @@ NODE_MODULES = {
     'noise_node': 'gyro_calib.nodes.noise_node',
     'triad_sim': 'sim_nodes.triad.triad_node',
     'triad_calibration_node': 'gyro_calib.nodes.triad_calibration_node',
+    'multiposition_calibration_node': 'gyro_calib.nodes.multiposition_calibration_node',
 }
 
 

@@ -1,0 +1,71 @@
+"""The multiposition method's settings (docs/multiposition.md; node parameters, ``--config``)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from gyro_calib.config import check_ranges
+from gyro_calib.errors import ConfigError
+
+NODE_NAME = 'multiposition_calibration_node'
+DEFAULT_TOPIC = '/imu/data'
+"""The sensor_msgs/Imu topic read unless ``--topic`` names another."""
+STANDARD_GRAVITY = 9.80665
+"""m/s², used when neither g nor the latitude is given."""
+UNKNOWN_SITE_GRAVITY_STD = 0.026 / math.sqrt(3)
+"""u(g) without a site: rectangular over 9.780–9.832 m/s² (equator to pole), m/s²."""
+
+
+@dataclass(frozen=True, slots=True)
+class MultipositionSettings:
+    """What a user may set; none needs tuning (the static threshold is the recording's own).
+
+    Attributes:
+        window_s: the variance window of the static detection, s (§G.1).
+        min_static_s: the shortest static interval used, s.
+        height_m: ellipsoidal height of the site, m (with the latitude: local g, eq. (1)).
+        gravity_m_s2: local g given directly (NaN: from latitude and height, eq. (1)).
+        gravity_std_m_s2: its standard uncertainty (NaN: the anomaly, or the whole Earth's
+            range when the latitude is not given either).
+        analysis_period_s: live: the calibration is redone after this much more data, s.
+    """
+
+    window_s: float = 1.0
+    min_static_s: float = 1.0
+    height_m: float = 0.0
+    gravity_m_s2: float = math.nan
+    gravity_std_m_s2: float = math.nan
+    analysis_period_s: float = 10.0
+
+    def __post_init__(self) -> None:
+        """Range-check every field (ConfigError naming it)."""
+        check_ranges(self, [
+            ('window_s', 0.05 <= self.window_s <= 30, 'between 0.05 and 30 s'),
+            ('min_static_s', 0 < self.min_static_s <= 600, 'between 0 and 600 s'),
+            ('height_m', -500 <= self.height_m <= 10000, 'between −500 and 10000 m'),
+            ('gravity_m_s2', math.isnan(self.gravity_m_s2) or 9.7 <= self.gravity_m_s2 <= 9.9,
+             'between 9.7 and 9.9 m/s² (or unset)'),
+            ('gravity_std_m_s2', math.isnan(self.gravity_std_m_s2)
+             or 0 <= self.gravity_std_m_s2 < 0.1, 'between 0 and 0.1 m/s² (or unset)'),
+            ('analysis_period_s', self.analysis_period_s > 0, 'positive'),
+        ])
+
+
+def settings_from_mapping(values: dict[str, Any], *, source: str) -> MultipositionSettings:
+    """The settings from a mapping (config file, node parameters), unknown fields refused.
+
+    Raises:
+        ConfigError: an unknown field (named with the known ones) or a value out of range.
+    """
+    names = {f.name for f in dataclasses.fields(MultipositionSettings)}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        raise ConfigError(f'{source}: unknown multiposition setting {unknown[0]!r}; the '
+                          f'settings are {", ".join(sorted(names))}.')
+    try:
+        return MultipositionSettings(**{k: float(v) for k, v in values.items()})
+    except (TypeError, ValueError):
+        raise ConfigError(f'{source}: multiposition settings must be numbers.') from None

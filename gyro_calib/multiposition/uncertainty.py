@@ -1,0 +1,71 @@
+"""Least-squares covariance with propagated inputs and Welch–Satterthwaite ν (§G.4).
+
+A fit θ̂ = argmin ‖r(θ; x)‖² with residual-scaled covariance s²(JᵀJ)⁻¹ (s² = RSS/ν, ν
+residual degrees of freedom, eq. (7)), plus each input x it took as known with covariance
+C_x: first order, dθ = −(JᵀJ)⁻¹Jᵀ(∂r/∂x)dx, so C_θ += G·C_x·Gᵀ with G = −(JᵀJ)⁻¹Jᵀ∂r/∂x
+(eq. (8)). ν per parameter from the parts by Welch–Satterthwaite (eq. (9)).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class Input:
+    """An input taken as known by the fit.
+
+    Attributes:
+        name: what it is (for the basis line).
+        sensitivity: ∂r/∂x (residuals × inputs).
+        covariance: C_x.
+        dof: ν of C_x (inf: Type B).
+    """
+
+    name: str
+    sensitivity: Array
+    covariance: Array
+    dof: float
+
+
+def fit_covariance(jac: Array, residuals: Array, dof: int,
+                   inputs: tuple[Input, ...] = ()) -> tuple[Array, Array, str]:
+    """(covariance, ν per parameter, basis) of a least-squares fit (§G eqs. (7)–(9))."""
+    jtj_inv = np.linalg.pinv(jac.T @ jac)
+    s2 = float(residuals @ residuals) / max(dof, 1)
+    parts = [(s2 * jtj_inv, float(dof))]
+    for inp in inputs:
+        g = -jtj_inv @ jac.T @ inp.sensitivity
+        parts.append((g @ inp.covariance @ g.T, inp.dof))
+    cov = sum((c for c, _ in parts), np.zeros_like(jtj_inv))
+    var = np.diag(cov)
+    denom = sum((np.diag(c) ** 2 / nu for c, nu in parts if math.isfinite(nu)),
+                np.zeros(len(var)))
+    with np.errstate(divide='ignore'):
+        nu_eff = np.where(denom > 0, var ** 2 / np.where(denom > 0, denom, 1.0), np.inf)
+    basis = (f'residual scatter s = {math.sqrt(s2):.3g} over ν = {dof}'
+             + ''.join(f'; {inp.name} propagated' for inp in inputs))
+    return (np.asarray(0.5 * (cov + cov.T), dtype=np.float64),
+            np.asarray(nu_eff, dtype=np.float64), basis)
+
+
+def weakest(names: tuple[str, ...], jac: Array, std: Array) -> str:
+    """The conditioning statement (§G.5).
+
+    cond(JᵀJ) of the column-normalised Jacobian and the parameter the weakest direction
+    loads on most.
+    """
+    norms = np.linalg.norm(jac, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    jn = jac / norms
+    w, v = np.linalg.eigh(jn.T @ jn)
+    cond = float(w[-1] / max(w[0], 1e-300))
+    i = int(np.argmax(np.abs(v[:, 0])))
+    return (f'cond(JᵀJ) = {cond:.3g} (columns normalised); weakest direction mostly '
+            f'{names[i]} (u = {std[i]:.3g})')
