@@ -206,11 +206,13 @@ def lab_and_customer(args: argparse.Namespace, out_dir: Path, *,
 
 
 def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--report DIR`` and ``--spec`` for ``gyro-calib calibrate``."""
+    """``--report DIR``, ``--spec`` and ``--pdf``/``--no-pdf`` for ``gyro-calib calibrate``."""
     parser.add_argument('--report', type=Path, metavar='DIR',
                         help='write the certificate (<gyro_id>.html and .pdf) into DIR')
     parser.add_argument('--spec', type=Path, metavar='SPEC',
                         help='with --report: acceptance limits and decision rule (YAML)')
+    parser.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=None,
+                        help='with --report: write the PDF beside the HTML (default: yes)')
     lab_arguments(parser, '--report DIR')
 
 
