@@ -249,8 +249,8 @@ def _refuse_unstated_uncertainty(generic: Mapping[str, Mapping[str, Any]],
     """
     for key, entry in generic.items():
         std = entry.get('std')
-        number = isinstance(std, (int, float)) and not isinstance(std, bool)
-        if number and math.isfinite(std) and std > 0:
+        if (isinstance(std, (int, float)) and not isinstance(std, bool)
+                and math.isfinite(std) and std > 0):
             continue
         name = f'gyro.{key}_std' if key + '_std' in values else f'gyro.{key}.std'
         raise ConfigError(f'the hand-off file {handoff_path or "given"} states {name} = {std!r}: '
