@@ -40,6 +40,7 @@ from gyro_calib.cli.arguments import (
     EXIT_OK,
     check_calibration_file,
     check_handoff_out,
+    finite_float,
     namespace_argument,
     options_from_args,
 )
@@ -60,9 +61,9 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument('--topic', help='the input: a sensor_msgs/Imu topic, /gyro/pulses or '
                    '/fog/output (default: the one input the bag holds)')
     scale = p.add_mutually_exclusive_group()
-    scale.add_argument('--scale-factor-rad-per-pulse', type=float, metavar='K',
+    scale.add_argument('--scale-factor-rad-per-pulse', type=finite_float, metavar='K',
                        help="/gyro/pulses: the RLG's scale factor, rad/pulse")
-    scale.add_argument('--scale-factor-counts-per-rad', type=float, metavar='S',
+    scale.add_argument('--scale-factor-counts-per-rad', type=finite_float, metavar='S',
                        help="/fog/output: the FOG's scale factor, counts/rad")
     scale.add_argument('--calibration', type=Path, metavar='FILE',
                        help='a hand-off file to take the scale factor from '
@@ -81,6 +82,9 @@ def add_commands(subparsers: Any) -> None:
                    'into DIR (created if absent, in an existing directory)')
     p.add_argument('--out', type=Path, metavar='HANDOFF_YAML',
                    help='write (or update) the INS hand-off file of this sensor')
+    p.add_argument('--replace', action='store_true',
+                   help="--out: take this run's terms even where the file's are more precise "
+                   'or disagree with them (as calibrate --replace)')
     p.add_argument('--taus', metavar='GRID',
                    help="the τ grid: default (octaves and decades), octave, decade, all, or "
                    "averaging times in s, e.g. '1,10,100' (setting taus)")
@@ -97,6 +101,31 @@ def add_commands(subparsers: Any) -> None:
     p.set_defaults(run=run_noise, method=['noise'], latitude_deg=None, heading_deg=None,
                    position_table_revolutions=None, sense_axis_elevation_deg=None,
                    sense_axis_azimuth_deg=None)
+
+
+TAUS_ALL_MAX_SAMPLES = 40_000
+"""The longest record ``--taus all`` takes: every m from 1 to N/4, one pass of the N samples
+each, is about N²/4 sample operations (4·10⁸ here, minutes on one core; the 280 s
+``noise_rlg_static``, 139 000 samples, would be 4.8·10⁹: over ten minutes)."""
+
+
+def _refuse_a_slow_taus_all(samples: int, topic: str) -> None:
+    """``--taus all`` on a long record: its cost said, and refused before any work.
+
+    Raises:
+        ConfigError: more than :data:`TAUS_ALL_MAX_SAMPLES` samples on the input.
+    """
+    if samples <= TAUS_ALL_MAX_SAMPLES:
+        return
+    from gyro_calib.errors import ConfigError
+
+    raise ConfigError(f'--taus all on {topic}\'s {samples} samples would compute every '
+                      f'averaging factor m = 1 … {samples // 4}, one pass of the record each: '
+                      f'about {samples * samples / 4:.1e} sample operations (tens of minutes '
+                      f'or more; at most {TAUS_ALL_MAX_SAMPLES} samples are taken). Give '
+                      '--taus default (octaves and decades), octave, decade or a list of τ; '
+                      'or set taus: all in a --config file to run it anyway. Nothing was '
+                      'read.')
 
 
 def run_noise(args: argparse.Namespace) -> int:
@@ -164,6 +193,8 @@ def run_noise(args: argparse.Namespace) -> int:
     own = [i for i in infos if topic in i.topics and i.topics[topic].count > 0]
     options = dataclasses.replace(options, topic=topic, stored_benches=stored_benches(own),
                                   scenario=next((i.scenario for i in own if i.scenario), {}))
+    if args.taus is not None and args.taus.strip() == 'all':
+        _refuse_a_slow_taus_all(counts.get(topic, 0), topic)
     refuse_scale_flag_of_another_input(
         input_kind(topic), topic, scale_factor_rad_per_pulse=args.scale_factor_rad_per_pulse,
         scale_factor_counts_per_rad=args.scale_factor_counts_per_rad)
@@ -209,7 +240,8 @@ def run_noise(args: argparse.Namespace) -> int:
     flushed, printed = False, 0
     try:
         write_outputs(session, targets, source=outcome.source, schema=handoff_schema(),
-                      gyro_id=args.gyro_id, progress=written, curves_only=not resolved)
+                      gyro_id=args.gyro_id, progress=written, curves_only=not resolved,
+                      replace=args.replace)
         for what, path in written:
             print(written_line(what, path), file=human)
             printed += 1

@@ -106,7 +106,7 @@ def curves_record(session: NoiseSession, source: str, gyro_id: str = '') -> Cali
 def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
                   schema: Mapping[str, HandoffKey], gyro_id: str = '',
                   progress: list[tuple[str, Path]] | None = None,
-                  curves_only: bool = False) -> list[tuple[str, Path]]:
+                  curves_only: bool = False, replace: bool = False) -> list[tuple[str, Path]]:
     """Prepare every file asked for, then put them in place; return (what, absolute path).
 
     Args:
@@ -120,6 +120,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             while writing knows what was written).
         curves_only: no term was resolved: the hand-off file gets the curves alone
             (:func:`curves_record`).
+        replace: take this run's terms where the file's are more precise or disagree
+            (``--replace``; :func:`~gyro_calib.handoff.update_calibration`).
 
     Raises:
         ConfigError: Kalibr asked for a single-axis gyro.
@@ -141,7 +143,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             raise InsufficientDataError(f'no noise term was measured: the hand-off file '
                                         f'{targets.handoff} is not written.')
         if targets.handoff.exists():  # refuse before writing anything (other gyro, invalid)
-            record.merged_into(load_calibration(targets.handoff, schema), schema)
+            record.merged_into(load_calibration(targets.handoff, schema), schema,
+                               replace=replace)
     figure_tmp = None
     if targets.plot is not None:
         view = session.view
@@ -171,7 +174,8 @@ def write_outputs(session: NoiseSession, targets: OutputTargets, *, source: str,
             written.append(('figure', targets.plot))
         if record is not None and targets.handoff is not None:
             report: list[str] = []
-            path = update_calibration(targets.handoff, record, schema, report=report)
+            path = update_calibration(targets.handoff, record, schema, replace=replace,
+                                      report=report)
             notes = [line for line in report  # and what became of a triad's imu: section
                      if line.startswith((SCALE_FACTOR_NOTE, 'imu:'))]
             written.append(('hand-off' + (f' ({"; ".join(notes)})' if notes else ''), path))

@@ -43,7 +43,18 @@ def _positive(value: Any) -> TypeGuard[float]:
             and math.isfinite(value) and value > 0)
 
 
+_FLAGS = {'scale_factor_rad_per_pulse': '--scale-factor-rad-per-pulse K',
+          'fog_scale_factor_counts_per_rad': '--scale-factor-counts-per-rad S'}
+"""The flag that gives a stream's scale factor, by its hand-off key."""
+
+
 def _from_handoff(path: Path, keys: tuple[str, ...]) -> tuple[float, str] | None:
+    """The first of ``keys`` the hand-off file holds, or None.
+
+    Raises:
+        ConfigError: the file is a triad's (an ``imu:`` section, none of ``keys``): its K_i
+            are three other gyros', never this stream's; it is not passed over silently.
+    """
     from gyro_calib.handoff import load_calibration
 
     record = load_calibration(path)
@@ -51,6 +62,12 @@ def _from_handoff(path: Path, keys: tuple[str, ...]) -> tuple[float, str] | None
         got = record.measured(key)
         if got is not None:
             return got[0], f'{key} in {path}'
+    if record.imu is not None:
+        raise ConfigError(f'--calibration {path} is a triad\'s hand-off file (imu: section, '
+                          f'channels {list(record.imu.channels)}) and holds no {keys[0]} of a '
+                          'single gyro: its K_i are the triad\'s channels\' (noise --topic '
+                          '/imu/pulses reads them). Give this gyro\'s own hand-off file, or '
+                          f'{_FLAGS.get(keys[0], "its scale factor")}.')
     return None
 
 
