@@ -215,7 +215,7 @@ def _per_channel(section: Mapping[str, Any], key: str, channels: tuple[str, ...]
 
 
 def _channel_noise(terms: Mapping[str, Any], where: str, source: str) -> dict[str, float]:
-    """One channel's noise terms, checked: known keys, numbers ≥ 0, each term with its u.
+    """One channel's noise terms, checked: known keys, numbers ≥ 0 (degrees of freedom: .inf).
 
     Raises:
         ImuSectionError: naming the key (the nearest known one for a typo) and what to write.
@@ -240,14 +240,6 @@ def _channel_noise(terms: Mapping[str, Any], where: str, source: str) -> dict[st
             raise ImuSectionError(f'{source}: {where}.{key} = {value!r} is invalid: it must be '
                                   f'{what}{hint}.')
         out[str(key)] = float(value)
-    for term in NOISE_TERMS:
-        if (term in out) != (term + '_std' in out):
-            which = 'its uncertainty' if term in out else 'the value'
-            raise ImuSectionError(f'{source}: {where}.{term} is given without {which} '
-                                  f'({where}.{term}_std); write both or neither.')
-        if term + '_dof' in out and term not in out:
-            raise ImuSectionError(f'{source}: {where}.{term}_dof has no {where}.{term} beside '
-                                  'it.')
     return out
 
 

@@ -103,10 +103,12 @@ def add_commands(subparsers: Any) -> None:
                    sense_axis_azimuth_deg=None)
 
 
-TAUS_ALL_MAX_SAMPLES = 40_000
-"""The longest record ``--taus all`` takes: every m from 1 to N/4, one pass of the N samples
-each, is about N²/4 sample operations (4·10⁸ here, minutes on one core; the 280 s
-``noise_rlg_static``, 139 000 samples, would be 4.8·10⁹: over ten minutes)."""
+TAUS_ALL_MAX_SAMPLES = 5_000
+"""The longest record ``--taus all`` takes. Every m from 1 to N/4 is one pass (and more) of
+the N samples: the time grows at least as N² — 20 000 samples took 11 CPU minutes here, so
+the 280 s ``noise_rlg_static`` (139 000 samples) would take hours."""
+TAUS_ALL_MEASURED = (20_000, 11.0)
+"""(samples, CPU minutes) of one measured ``--taus all`` run, for the cost the refusal says."""
 
 
 def _refuse_a_slow_taus_all(samples: int, topic: str) -> None:
@@ -119,13 +121,15 @@ def _refuse_a_slow_taus_all(samples: int, topic: str) -> None:
         return
     from gyro_calib.errors import ConfigError
 
+    n, minutes = TAUS_ALL_MEASURED
     raise ConfigError(f'--taus all on {topic}\'s {samples} samples would compute every '
                       f'averaging factor m = 1 … {samples // 4}, one pass of the record each: '
-                      f'about {samples * samples / 4:.1e} sample operations (tens of minutes '
-                      f'or more; at most {TAUS_ALL_MAX_SAMPLES} samples are taken). Give '
-                      '--taus default (octaves and decades), octave, decade or a list of τ; '
-                      'or set taus: all in a --config file to run it anyway. Nothing was '
-                      'read.')
+                      f'the time grows at least as the square of the record ({n} samples took '
+                      f'{minutes:g} CPU minutes; this one would take about '
+                      f'{minutes * (samples / n) ** 2:.0f} CPU minutes or more), so at most '
+                      f'{TAUS_ALL_MAX_SAMPLES} samples are taken. Give --taus default (octaves '
+                      'and decades), octave, decade or a list of τ; or set taus: all in a '
+                      '--config file to run it anyway. Nothing was read.')
 
 
 def run_noise(args: argparse.Namespace) -> int:
