@@ -49,12 +49,6 @@ _FLAGS = {'scale_factor_rad_per_pulse': '--scale-factor-rad-per-pulse K',
 
 
 def _from_handoff(path: Path, keys: tuple[str, ...]) -> tuple[float, str] | None:
-    """The first of ``keys`` the hand-off file holds, or None.
-
-    Raises:
-        ConfigError: the file is a triad's (an ``imu:`` section, none of ``keys``): its K_i
-            are three other gyros', never this stream's; it is not passed over silently.
-    """
     from gyro_calib.handoff import load_calibration
 
     record = load_calibration(path)
@@ -62,13 +56,31 @@ def _from_handoff(path: Path, keys: tuple[str, ...]) -> tuple[float, str] | None
         got = record.measured(key)
         if got is not None:
             return got[0], f'{key} in {path}'
-    if record.imu is not None:
-        raise ConfigError(f'--calibration {path} is a triad\'s hand-off file (imu: section, '
-                          f'channels {list(record.imu.channels)}) and holds no {keys[0]} of a '
-                          'single gyro: its K_i are the triad\'s channels\' (noise --topic '
-                          '/imu/pulses reads them). Give this gyro\'s own hand-off file, or '
-                          f'{_FLAGS.get(keys[0], "its scale factor")}.')
     return None
+
+
+def refuse_a_triads_file(options: CalibrationOptions, key: str) -> None:
+    """A triad's hand-off given (``--calibration``) for one gyro's stream: refused.
+
+    Its ``imu:`` K_i are three other gyros', never this stream's; without the single gyro's
+    ``key`` the file would be passed over silently (the bag's K taken instead).
+
+    Raises:
+        ConfigError: the file has an ``imu:`` section and no ``key``.
+    """
+    path = options.calibration_file
+    if path is None:
+        return
+    from gyro_calib.handoff import load_calibration
+
+    record = load_calibration(path)
+    if record.imu is None or record.measured(key) is not None:
+        return
+    raise ConfigError(f'--calibration {path} is a triad\'s hand-off file (imu: section, '
+                      f'channels {list(record.imu.channels)}) and holds no {key} of a single '
+                      'gyro: its K_i are the triad\'s channels\' (noise --topic /imu/pulses '
+                      'reads them). Give this gyro\'s own hand-off file, or '
+                      f'{_FLAGS.get(key, "its scale factor")}.')
 
 
 def _first_scale_factor(options: CalibrationOptions, given: float | None, *, flag: str,
