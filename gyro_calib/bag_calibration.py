@@ -224,6 +224,27 @@ def method_options(options: CalibrationOptions, method: Method,
     return dataclasses.replace(options, **changes) if changes else options
 
 
+def _check_some_input(where: BagInfo, method: Method, infos: Sequence[BagInfo]) -> None:
+    """A method revealed by none of its topics (noise) needs one of its inputs, with samples.
+
+    Raises:
+        MissingTopicError: none is there (a context topic alone is no input), listing the
+            inputs it reads and the topics the bag(s) hold.
+    """
+    counts = topic_counts(infos)
+    present = merged_topics(infos)
+    if any(present.get(t) == typ and counts.get(t) for t, typ in method.inputs().items()):
+        return
+    if method.any_topic and any(typ == method.any_topic and counts.get(t)
+                                for t, typ in present.items()):
+        return
+    inputs = ', '.join(f'{t} ({typ})' for t, typ in method.inputs().items())
+    other = f' or any {method.any_topic} topic (--topic)' if method.any_topic else ''
+    raise MissingTopicError(f'{where.path}: method {method.name} reads one of {inputs}{other}, '
+                            'and the bag(s) hold none with samples; they hold '
+                            f'{topics_present(where)}.')
+
+
 def select_methods(infos: Sequence[BagInfo], names: Sequence[str] | None) -> list[Method]:
     """The methods asked for (checked against the bags' topics), or every method revealed.
 
@@ -251,6 +272,8 @@ def select_methods(infos: Sequence[BagInfo], names: Sequence[str] | None) -> lis
                 raise MissingTopicError(f'{where.path}: method {name} reads a '
                                         f'{method.any_topic} topic and the bag(s) hold none; '
                                         f'they hold {topics_present(where)}.')
+            if not method.reveal:
+                _check_some_input(where, method, infos)
             chosen.append(method)
         return chosen
     for info in infos:

@@ -79,6 +79,16 @@ ACCELEROMETER_KEYS = ('raw_unit', 'raw_to_body', 'raw_to_body_covariance', 'bias
                       'misalignment_rad_std', 'bias_raw', 'bias_raw_std', 'gravity_m_s2',
                       'gravity_m_s2_std', 'poses')
 """The keys of ``imu.accelerometer``."""
+NOISE_TERMS = ('quantization_noise_rad', 'angle_random_walk_rad_per_sqrt_s',
+               'bias_instability_rad_s', 'rate_random_walk_rad_per_s_sqrt_s',
+               'rate_ramp_rad_per_s2')
+"""The noise terms one channel's ``imu.noise.<channel>`` may hold: the single-gyro keys of
+:mod:`gyro_calib.noise.keys` (named here: this module imports no method; a test keeps them
+equal), each with its ``_std``, optional ``_dof``, and ``_upper_bound_2sigma`` where the fit
+did not resolve it (METHODS §E)."""
+NOISE_KEYS = tuple(term + suffix for term in NOISE_TERMS
+                   for suffix in ('', '_std', '_dof', '_upper_bound_2sigma'))
+"""Every key of one channel's noise mapping."""
 
 
 class ImuSectionError(GyroCalibError):
@@ -224,6 +234,43 @@ def _per_channel(section: Mapping[str, Any], key: str, channels: tuple[str, ...]
     return {str(c): dict(v) for c, v in value.items()}
 
 
+def _channel_noise(terms: Mapping[str, Any], where: str, source: str) -> dict[str, float]:
+    """One channel's noise terms, checked: known keys, numbers ≥ 0 (degrees of freedom: .inf).
+
+    Raises:
+        ImuSectionError: naming the key (the nearest known one for a typo) and what to write.
+    """
+    import difflib
+
+    out: dict[str, float] = {}
+    for key, value in terms.items():
+        if key not in NOISE_KEYS:
+            near = difflib.get_close_matches(str(key), NOISE_KEYS, n=1)
+            hint = f' (did you mean {near[0]!r}?)' if near else ''
+            raise ImuSectionError(f'{source}: {where} has an unknown key {key!r}{hint}; a '
+                                  f'channel\'s noise keys are {", ".join(NOISE_TERMS)}, each '
+                                  'with _std (and _dof, _upper_bound_2sigma).')
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        dof = key.endswith('_dof')
+        if not number or math.isnan(value) or value < 0 or (not dof and math.isinf(value)):
+            what = ('degrees of freedom: a number ≥ 0 (.inf for infinitely many)' if dof else
+                    'a finite number ≥ 0')
+            hint = (' (YAML 1.1 floats need a dot: 4.0e-6, not 4e-6)'
+                    if isinstance(value, str) and _numeric(value) else '')
+            raise ImuSectionError(f'{source}: {where}.{key} = {value!r} is invalid: it must be '
+                                  f'{what}{hint}.')
+        out[str(key)] = float(value)
+    return out
+
+
+def _numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _unsolved_channels(k: Array | None, k_std: Array | None, k_dof: Array | None,
                        axes: Array | None, axes_std: Array | None, source: str) -> list[int]:
     """The channels given as null (not measured); every per-channel list must agree."""
@@ -328,7 +375,7 @@ def imu_from_section(section: Any, *, source: str = 'hand-off') -> ImuCalibratio
     accelerometer = _accelerometer(section.get('accelerometer'), source)
     return ImuCalibration(
         names, fixture, k, k_std, k_dof, axes, axes_std, m, m_cov, bias, bias_std,
-        {c: {str(kk): float(v) for kk, v in d.items()}
+        {c: _channel_noise(d, f'imu.noise.{c}', source)
          for c, d in _per_channel(section, 'noise', names, source).items()},
         _per_channel(section, 'thermal', names, source),
         _reasons(section, 'missing', source), _reasons(section, 'not_measurable', source),

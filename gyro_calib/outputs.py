@@ -194,14 +194,8 @@ def write_bytes_atomically(path: str | Path, data: bytes) -> Path:
         OSError: the file cannot be written (the target is then untouched), naming it.
     """
     target = Path(path).absolute()
-    mode = new_file_mode(target)
-    fd, tmp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=target.parent)
+    tmp = _staged(target, data)
     try:
-        with os.fdopen(fd, 'wb') as stream:
-            stream.write(data)
-            stream.flush()
-            os.fchmod(stream.fileno(), mode)
-            os.fsync(stream.fileno())
         os.replace(tmp, target)
     except OSError as exc:
         _remove_quietly(tmp)
@@ -210,6 +204,72 @@ def write_bytes_atomically(path: str | Path, data: bytes) -> Path:
         _remove_quietly(tmp)
         raise
     return target
+
+
+def write_all_or_none(documents: Sequence[tuple[Path, bytes]]) -> list[Path]:
+    """Write several files that belong together: all of them, or none (issue 35 §3).
+
+    Each is first written whole to a temporary file beside it (flushed, fsynced); only
+    when every one is there are they renamed into place, in order. A failure while they
+    are written (a disk that fills at the second) removes the temporaries and leaves every
+    target as it was; a rename that fails (rare: no space is needed) removes the files
+    this call had already put where none was.
+
+    Returns:
+        The absolute paths written.
+
+    Raises:
+        OSError: naming the file that could not be written.
+    """
+    targets = [Path(path).absolute() for path, _ in documents]
+    staged: list[str] = []
+    try:
+        for target, (_, data) in zip(targets, documents, strict=True):
+            staged.append(_staged(target, data))
+    except BaseException:
+        for tmp in staged:
+            _remove_quietly(tmp)
+        raise
+    placed: list[Path] = []
+    try:
+        for target, tmp in zip(targets, staged, strict=True):
+            existed = target.exists()
+            try:
+                os.replace(tmp, target)
+            except OSError as exc:
+                raise with_filename(exc, target) from None
+            if not existed:
+                placed.append(target)
+    except BaseException:
+        for tmp in staged:
+            _remove_quietly(tmp)
+        for target in placed:
+            _remove_quietly(str(target))
+        raise
+    return targets
+
+
+def _staged(target: Path, data: bytes) -> str:
+    """``data`` written whole to a temporary file beside ``target`` (its mode, fsynced).
+
+    Raises:
+        OSError: naming ``target`` (the temporary file is then gone).
+    """
+    mode = new_file_mode(target)
+    fd, tmp = tempfile.mkstemp(prefix=f'.{target.name}.', suffix='.tmp', dir=target.parent)
+    try:
+        with os.fdopen(fd, 'wb') as stream:
+            stream.write(data)
+            stream.flush()
+            os.fchmod(stream.fileno(), mode)
+            os.fsync(stream.fileno())
+    except OSError as exc:
+        _remove_quietly(tmp)
+        raise with_filename(exc, target) from None
+    except BaseException:
+        _remove_quietly(tmp)
+        raise
+    return tmp
 
 
 def _remove_quietly(path: str) -> None:

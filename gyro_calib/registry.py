@@ -9,10 +9,10 @@ entry here.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from gyro_calib import handoff, topics
@@ -26,7 +26,7 @@ __all__ = ['HEADER', 'IMU', 'JOINT_STATE', 'METHODS', 'TEMPERATURE', 'Method', '
            'methods_revealed', 'topic_types']
 
 
-@dataclass(frozen=True, slots=True)
+@dataclasses.dataclass(frozen=True, slots=True)
 class Method:
     """One calibration method.
 
@@ -52,6 +52,8 @@ class Method:
             uses; the bench settings stored with its own bags must agree on these.
         context: topics among ``topics`` read beside an input when they are there, never an
             input themselves (noise: the rate and position tables, whose motion is left out).
+        needs: input topic → what else a run from it needs, in words (noise from a triad's
+            ``/imu/pulses``: each channel's K_i from ``--calibration``), for listings.
     """
 
     name: str
@@ -68,6 +70,7 @@ class Method:
     bench_settings: tuple[str, ...] = ()
     handoff_lead: str = ''
     context: tuple[str, ...] = ()
+    needs: Mapping[str, str] = dataclasses.field(default_factory=dict)
 
     def inputs(self) -> dict[str, str]:
         """Topic → type of the topics it can run from (``topics`` without ``context``)."""
@@ -89,14 +92,10 @@ class Method:
 
     def settings_fields(self) -> tuple[str, ...]:
         """The fields of its settings dataclass."""
-        import dataclasses
-
         return tuple(f.name for f in dataclasses.fields(self.settings_class()))
 
     def handoff_keys(self) -> tuple[HandoffKey, ...]:
         """The keys this method may write to the hand-off file."""
-        import dataclasses
-
         keys = tuple(importlib.import_module(self.keys).HANDOFF_KEYS)
         if not self.handoff_lead:
             return keys
@@ -150,14 +149,16 @@ METHODS: dict[str, Method] = {m.name: m for m in (
     Method('noise', 'noise characterisation: Allan deviation, IEEE 952 terms, Kalibr imu.yaml '
            '(docs/methods.md §E)',
            {topics.GYRO_PULSES: JOINT_STATE, topics.FOG_OUTPUT: JOINT_STATE,
-            topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
+            topics.IMU_PULSES: JOINT_STATE, topics.RATE_TABLE_JOINT_STATES: JOINT_STATE,
             topics.POSITION_TABLE_JOINT_STATES: JOINT_STATE},
            (), 'gyro_calib.noise.session:NoiseSession', 'gyro_calib.noise.keys', auto=False,
            any_topic=IMU, node='noise_node',
            settings='gyro_calib.noise.settings:NoiseSettings',
            bench_settings=('scale_factor_rad_per_pulse', 'fog_scale_factor_counts_per_rad',
                            'gyro_id'),
-           context=(topics.RATE_TABLE_JOINT_STATES, topics.POSITION_TABLE_JOINT_STATES)),
+           context=(topics.RATE_TABLE_JOINT_STATES, topics.POSITION_TABLE_JOINT_STATES),
+           needs={topics.IMU_PULSES: 'needs --calibration FILE, a triad hand-off with K_i of '
+                  'each channel'}),
     Method('triad', 'gyro triad (IMU): K, sense axes and M of three gyros, biases, on the '
            'two-axis bench or by remounting (docs/methods.md §F)',
            {topics.IMU_PULSES: JOINT_STATE, **_TWO_AXIS_BENCH},

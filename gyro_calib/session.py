@@ -97,7 +97,8 @@ class CalibrationOptions:
         stored_benches: (bag, its stored ``scenario.bench``) of each of the method's own bags;
             when empty, ``scenario['bench']`` is the one stored bench.
         config_bench: the bench settings found in the config file (by name).
-        given_by: 'flag' (CLI) or 'parameter' (node): how messages name a given setting.
+        given_by: 'flag' (CLI), 'parameter' (node) or 'manifest' (batch): how messages name
+            a given setting.
     """
 
     latitude_deg: float | None = None
@@ -132,9 +133,11 @@ class CalibrationOptions:
                 check_bench_setting(name, value, f'config file {self.config_file}')
 
     def origin_of_given(self, name: str) -> str:
-        """How a given setting is named: its flag, or its node parameter."""
+        """How a given setting is named: its flag, its node parameter or manifest setting."""
         if self.given_by == 'parameter':
             return f'parameter {name}'
+        if self.given_by == 'manifest':
+            return f'the manifest\'s {name}'
         return BENCH_SETTINGS[name].flag
 
     def _benches(self) -> tuple[tuple[str, Mapping[str, Any]], ...]:

@@ -492,9 +492,9 @@ def test_a_refused_run_burns_no_number_a_failed_write_says_its_number_stays_rese
     assert _register_lines(register) == []
     assert sorted(p.name for p in out.iterdir()) == ['lab.yaml', 'mark.png']
 
-    def disk_full(path: Path, data: bytes) -> Path:
-        raise OSError(28, 'No space left on device', str(path))
-    monkeypatch.setattr('gyro_calib.report.certificate.write_bytes_atomically', disk_full)
+    def disk_full(documents: list[tuple[Path, bytes]]) -> list[Path]:
+        raise OSError(28, 'No space left on device', str(documents[0][0]))
+    monkeypatch.setattr('gyro_calib.report.certificate.write_all_or_none', disk_full)
     assert main(['report', str(bench['handoff']), '--out', str(out), '--no-pdf']) == 2
     captured = capsys.readouterr()
     assert captured.out == '' and len(captured.err.strip().splitlines()) == 1

@@ -8,9 +8,7 @@ Imports are read statically (``ast``), module-level and function-level alike,
 ``TYPE_CHECKING`` ones included.
 
 0 base        gyro_calib (the package), errors, units, topics (names only)
-1 bag I/O     gyro_calib.bagio.* (and the old paths bag, mcap_columns, table_input:
-              deprecated re-exports, kept one release); inside it, one direction too
-              (:data:`BAGIO_ORDER`)
+1 bag I/O     gyro_calib.bagio.*; inside it, one direction too (:data:`BAGIO_ORDER`)
 2 core        config, estimate, outputs, streams, handoff, state_record and any other
               top-level module not named here
 3 session     gyro_calib.session (the shared session interface)
@@ -49,9 +47,6 @@ DRIVERS = {'gyro_calib.bag_calibration', 'gyro_calib.bag_compensation'}
 FRONT_DOORS = ('cli', 'nodes', 'report', 'batch')
 """gyro_calib's front-door packages (with sim_nodes)."""
 BASE = {'gyro_calib', 'gyro_calib.errors', 'gyro_calib.units', 'gyro_calib.topics'}
-SHIMS = {'gyro_calib.bag': 'gyro_calib.bagio', 'gyro_calib.mcap_columns': 'gyro_calib.bagio',
-         'gyro_calib.table_input': 'gyro_calib.bagio'}
-"""Old import paths of the bag layer: each may only re-export its target package's names."""
 BAGIO_ORDER = ('errors', 'messages', 'metadata', 'storage', 'layouts', 'plan', 'chunks',
                'payloads', 'records', 'recovery', 'columns', 'tables', 'writer', 'repair',
                'reader')
@@ -66,7 +61,7 @@ def layer(module: str) -> int:
         return 7
     if module in BASE:
         return 0
-    if sub == 'bagio' or module in SHIMS:
+    if sub == 'bagio':
         return 1
     if module == 'gyro_calib.session':
         return 3
@@ -237,32 +232,6 @@ def test_the_bag_layer_flows_one_way_inside() -> None:
              if name == 'gyro_calib.bagio'
              or (name in rank and rank[name] >= rank[module])]
     assert not wrong, '\n'.join(wrong)
-
-
-def test_old_bag_paths_only_re_export_and_warn() -> None:
-    """The old bag paths only re-export, and warn.
-
-    gyro_calib.bag, .mcap_columns and .table_input (kept one release for code written
-    against the old paths) hold a docstring, imports from the bag layer (and the base's
-    errors), an ``__all__`` at most, and one ``warnings.warn(..., DeprecationWarning)``;
-    test_old_bag_paths.py checks what they give.
-    """
-    for module, target in SHIMS.items():
-        tree = ast.parse(MODULES[module].read_text(encoding='utf-8'))
-        body = tree.body[1:] if isinstance(tree.body[0], ast.Expr) else tree.body
-        *imports_, warn = body
-        assert isinstance(warn, ast.Expr) and isinstance(warn.value, ast.Call), module
-        assert ast.unparse(warn.value.func) == '_warnings.warn', module
-        assert 'DeprecationWarning' in [ast.unparse(a) for a in warn.value.args], module
-        for node in imports_:
-            if isinstance(node, ast.Import):
-                assert [a.name for a in node.names] == ['warnings'], module
-            elif isinstance(node, ast.ImportFrom):
-                assert node.module is not None and (node.module.startswith(target)
-                                                    or node.module in BASE), module
-            else:
-                assert isinstance(node, ast.Assign) and ast.unparse(node.targets[0]) == (
-                    '__all__'), f'{module} line {node.lineno}'
 
 
 def test_registry_topics_are_the_bag_layers_contract() -> None:

@@ -1,30 +1,22 @@
-"""The old bag import paths still work for one release, and say they are deprecated.
+"""Old import paths: the bag layer's are gone, the windows' still works and warns.
 
 ``gyro_calib.bag``, ``gyro_calib.mcap_columns`` and ``gyro_calib.table_input`` were the
-import paths before ``gyro_calib.bagio``: code written against them keeps working (the
-same objects under the same names) but gets a DeprecationWarning naming the new path and
-that the old one goes in the next release.
+import paths before ``gyro_calib.bagio``; no release outside this repository shipped them,
+so they are removed (issue 35 §7). ``gyro_calib.rbrlg.windows`` keeps working for one
+release (the same objects under the same names) with a DeprecationWarning naming the new
+path and that the old one goes in the next release.
 """
 
 from __future__ import annotations
 
+import pkgutil
 import sys
+from importlib.machinery import PathFinder
 from types import ModuleType
 
 import pytest
 
-import gyro_calib.bagio
-import gyro_calib.bagio.tables
-
-MCAP_COLUMNS_NAMES = (
-    'CODECS', 'HEADER', 'IMU', 'JOINT_STATE', 'JOINT_WIDTHS', 'KNOWN_TYPES', 'MAX_CHUNK_BYTES',
-    'MAX_GROUP_CHUNKS', 'MAX_LAYOUTS', 'PREFETCH', 'TEMPERATURE', 'BagError', 'ChunkPlan',
-    'ColumnBatch', 'ColumnDecodeError', 'CorruptBagError', 'CountMismatchError',
-    'DamagedChunkError', 'FrameIds', 'GyroCalibError', 'IndexMismatchError',
-    'MessageDecodeError', 'ReadPlan', 'TopicColumns', 'UnindexedChunksError',
-    'UnsupportedMessageTypeError', 'codec_for', 'iter_column_batches', 'plan_bag', 'typestore',
-)
-"""Every name ``from gyro_calib.mcap_columns import *`` gave that is not a library's."""
+import gyro_calib
 
 
 def _import_afresh(name: str, new: str, monkeypatch: pytest.MonkeyPatch) -> ModuleType:
@@ -52,34 +44,17 @@ def _star(module: ModuleType) -> dict[str, object]:
     return namespace
 
 
-def test_gyro_calib_bag_gives_the_bag_layer(monkeypatch: pytest.MonkeyPatch) -> None:
-    old = _import_afresh('gyro_calib.bag', 'gyro_calib.bagio;', monkeypatch)
-    star = _star(old)
-    for name in gyro_calib.bagio.__all__:
-        assert star[name] is getattr(gyro_calib.bagio, name), name
-    assert old._open_reader is gyro_calib.bagio.storage.open_reader
+@pytest.mark.parametrize('old', ['gyro_calib.bag', 'gyro_calib.mcap_columns',
+                                 'gyro_calib.table_input'])
+def test_the_bag_layers_old_paths_are_gone(old: str) -> None:
+    """No release outside this repository shipped them (issue 35 §7): no such module.
 
-
-def test_gyro_calib_mcap_columns_gives_the_column_reader(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    from gyro_calib.bagio import chunks, columns, errors, layouts, messages, payloads, plan
-
-    old = _import_afresh('gyro_calib.mcap_columns', 'gyro_calib.bagio.columns', monkeypatch)
-    star = _star(old)
-    assert sorted(star) == sorted(MCAP_COLUMNS_NAMES)
-    homes = (columns, plan, layouts, chunks, payloads, errors, messages)
-    for name in MCAP_COLUMNS_NAMES:
-        if name == 'GyroCalibError':
-            continue
-        home = next(m for m in homes if name in vars(m))
-        assert star[name] is vars(home)[name], name
-
-
-def test_gyro_calib_table_input_gives_the_tables(monkeypatch: pytest.MonkeyPatch) -> None:
-    old = _import_afresh('gyro_calib.table_input', 'gyro_calib.bagio.tables;', monkeypatch)
-    star = _star(old)
-    assert {'is_table', 'table_info', 'iter_table_batches', 'read_table'} <= set(star)
-    assert star == _star(gyro_calib.bagio.tables)
+    Looked up in the package's own directory (an editable install's finder would find a
+    checkout elsewhere on the machine).
+    """
+    name = old.rpartition('.')[2]
+    assert name not in {m.name for m in pkgutil.iter_modules(gyro_calib.__path__)}
+    assert PathFinder.find_spec(old, list(gyro_calib.__path__)) is None
 
 
 def test_gyro_calib_rbrlg_windows_gives_the_shared_windows(

@@ -15,9 +15,8 @@ wherever a bag is (:mod:`~gyro_calib.bagio.tables`), writing
 imports the method registry, the sessions or the methods: the layers above hand it the
 topics they want (issue 19 §5; ``test/test_layers.py`` keeps it so).
 
-This package re-exports the public names of its modules (what ``gyro_calib.bag`` gave).
-The old import paths ``gyro_calib.bag``, ``gyro_calib.mcap_columns`` and
-``gyro_calib.table_input`` are deprecated: they re-export and warn for one more release.
+This package re-exports the public names of its modules. (The old import paths
+``gyro_calib.bag``, ``gyro_calib.mcap_columns`` and ``gyro_calib.table_input`` are gone.)
 """
 
 from gyro_calib.bagio.errors import (

@@ -111,7 +111,7 @@ class GyroJob:
             sense_axis_elevation_deg=s.get('sense_axis_elevation_deg'),
             sense_axis_azimuth_deg=s.get('sense_axis_azimuth_deg'),
             config_file=path(s.get('config')), calibration_file=path(s.get('calibration')),
-            gyro_id=self.gyro_id)
+            gyro_id=self.gyro_id, given_by='manifest')
 
 
 def load_manifest(path: Path) -> list[GyroJob]:

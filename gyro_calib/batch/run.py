@@ -358,6 +358,8 @@ def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
             why += (f' (certificate {now} replaces the issued certificate {rec["replaces"]}; '
                     f'its files moved to {rec["stem"]}/{SUPERSEDED}/)')
         print(f'{rec["gyro_id"]}: {rec.get("status")}{verdict}{skipped}{why}', file=stream)
+        for note in rec.get('notes', ()):  # as calibrate prints them (its certificate too)
+            print(f'  {note}', file=stream)
     n_ok = sum(r.get('status') == 'ok' for r in outcome.records)
     not_run = len(outcome.not_run)
     print(f'{len(outcome.records)} gyros: {n_ok} ok, {len(outcome.failed)} failed'

@@ -42,13 +42,18 @@ class Plan:
 
 @dataclass(frozen=True, slots=True)
 class MethodRun:
-    """One method's run on one gyro: its hand-off part and evidence, or the error."""
+    """One method's run on one gyro: its hand-off part and evidence, or the error.
+
+    ``notes``: the lines ``calibrate`` prints under its summary (a manifest setting that
+    differs from the bench settings stored with the bags, the namespace read).
+    """
 
     gyro_id: str
     method: str
     part: Any = None
     evidence: Any = None
     error: str = ''
+    notes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,7 +118,8 @@ def run_method(job: GyroJob, method: str) -> MethodRun:
         if part is None:
             why = next(iter(session.missing().values()), 'nothing measured')
             return MethodRun(job.gyro_id, method, error=f'{method}: nothing measured: {why}')
-        return MethodRun(job.gyro_id, method, part, evidence_from_outcome(outcome, options))
+        return MethodRun(job.gyro_id, method, part, evidence_from_outcome(outcome, options),
+                         notes=tuple(outcome.notes))
     except Exception as exc:  # noqa: BLE001  (as above)
         return MethodRun(job.gyro_id, method, error=f'{method}: {reason(exc)}')
 
@@ -129,9 +135,11 @@ def finish_gyro(job: GyroJob, plan: Plan, spec: Any, pdf: bool, stem: str,
     """
     errors = [r.error for r in runs if r.error]
     done = [r for r in runs if not r.error]
+    notes = list(dict.fromkeys(n for r in done for n in r.notes))
     base = {'gyro_id': job.gyro_id, 'stem': stem, 'fingerprint': plan.fingerprint,
             'inputs': {b: [list(f) for f in files] for b, files in plan.inputs.items()},
-            'settings': job.settings, 'methods': list(plan.methods), 'errors': errors}
+            'settings': job.settings, 'methods': list(plan.methods), 'errors': errors,
+            **({'notes': notes} if notes else {})}
     try:
         if not done:
             return GyroResult(job.gyro_id, {}, {**base, 'status': 'failed',

@@ -38,12 +38,32 @@ methods below them expose plain functions and data, never argparse.
 
 from __future__ import annotations
 
-import argparse
+import os
 import signal
 import sys
-from collections.abc import Sequence
 
-from gyro_calib.cli import (
+
+def _interrupted_while_starting(signum: int, frame: object) -> None:
+    """Ctrl-C while the command starts (its imports take seconds): nothing was written yet."""
+    sys.stderr.write('gyro-calib: interrupted; nothing written.\n')
+    sys.stderr.flush()
+    os._exit(130)  # not SystemExit: half-imported modules would raise on the way out
+
+
+def _starting_as_the_command() -> bool:
+    """This import is the ``gyro-calib`` command starting (console script, ``python -m``)."""
+    start = os.path.basename(sys.argv[0]) if sys.argv else ''
+    return start in ('gyro-calib', '-m') or sys.argv[0].endswith(
+        os.path.join('gyro_calib', 'cli', '__main__.py'))
+
+
+if _starting_as_the_command() and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+    signal.signal(signal.SIGINT, _interrupted_while_starting)
+
+import argparse  # noqa: E402  (after the interrupt handler: the imports below take seconds)
+from collections.abc import Sequence  # noqa: E402
+
+from gyro_calib.cli import (  # noqa: E402
     batch,
     calibrate,
     compensate,
@@ -55,10 +75,10 @@ from gyro_calib.cli import (
     report,
     simulate,
 )
-from gyro_calib.cli.arguments import EXIT_BAD_INPUT, Parser
-from gyro_calib.cli.calibrate import summary_text
-from gyro_calib.cli.interrupt import Ledger
-from gyro_calib.errors import GyroCalibError
+from gyro_calib.cli.arguments import EXIT_BAD_INPUT, EXIT_INTERRUPTED, Parser  # noqa: E402
+from gyro_calib.cli.calibrate import summary_text  # noqa: E402
+from gyro_calib.cli.interrupt import Ledger  # noqa: E402
+from gyro_calib.errors import GyroCalibError  # noqa: E402
 
 __all__ = ['console_main', 'main', 'summary_text']
 
@@ -68,9 +88,19 @@ COMMANDS = (calibrate, info, methods, compensate, noise, report, batch, export, 
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``gyro-calib`` console script; returns the exit status."""
-    args = _parser().parse_args(argv)
-    args.ledger = Ledger()  # what the command writes, for the interrupt line
+    """Entry point of the ``gyro-calib`` console script; returns the exit status.
+
+    A Ctrl-C before the command runs (while the modules load) ends it with ``interrupted;
+    nothing written.`` (exit 130), as one once it runs and has written nothing.
+    """
+    try:
+        args = _parser().parse_args(argv)
+        args.ledger = Ledger()  # what the command writes, for the interrupt line
+    except KeyboardInterrupt:
+        print('gyro-calib: interrupted; nothing written.', file=sys.stderr)
+        return EXIT_INTERRUPTED
+    if signal.getsignal(signal.SIGINT) is _interrupted_while_starting:
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # the ledger's turn
     try:
         return int(args.run(args))
     except GyroCalibError as exc:

@@ -51,6 +51,23 @@ class Parser(argparse.ArgumentParser):
                                   f'see {self.prog} --help.\n')
 
 
+def finite_float(text: str) -> float:
+    """A number flag's argparse ``type``: a finite float (``nan``, ``inf`` refused).
+
+    NaN is how a node parameter says "not given": taken from a flag it would silently drop
+    the setting (``--latitude-deg nan`` ran as if no latitude were given).
+    """
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'{text!r} is not a number') from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f'{text!r} is not a finite number') from None
+    return value
+
+
 FLAG_METHODS: dict[str, tuple[str, ...]] = {
     'latitude_deg': ('rbrlg', 'fog', 'thermal', 'triad', 'multiposition'),
     'heading_deg': ('rbrlg', 'triad'),
@@ -60,6 +77,7 @@ FLAG_METHODS: dict[str, tuple[str, ...]] = {
     'calibration': ('rbrlg', 'dither', 'thermal', 'noise'),
     'sense_axis_elevation_deg': ('thermal',),
     'sense_axis_azimuth_deg': ('thermal',),
+    'topic': ('noise',),
 }
 """Flag (argparse dest) → the methods that use it; a flag none of the methods run uses is
 refused (:func:`refuse_unused_flags`). ``--config`` and ``--gyro-id`` serve every method."""
@@ -134,26 +152,29 @@ def method_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f'run only these methods ({", ".join(METHODS)}); repeatable')
     parser.add_argument('--config', type=Path, help="the method's settings YAML (the node's "
                         'config_file: plain mapping or ROS 2 parameter file)')
-    parser.add_argument('--latitude-deg', type=float,
+    parser.add_argument('--latitude-deg', type=finite_float,
                         help='site latitude, ° (default: the bench settings stored in the '
                         'bag, else unknown: bias not separated from Earth rate)')
-    parser.add_argument('--heading-deg', type=float,
+    parser.add_argument('--heading-deg', type=finite_float,
                         help='rbrlg: heading of the position-table base x axis, from East '
                         'towards North (0 = East, 90 = North; = 90 − an azimuth), °')
     parser.add_argument('--position-table-revolutions', type=int,
                         help='rbrlg: n, position-table revolutions each way per station')
-    parser.add_argument('--scale-factor-rad-per-pulse', type=float,
+    parser.add_argument('--scale-factor-rad-per-pulse', type=finite_float,
                         help="a pulse gyro's scale factor K, rad/pulse (dither, thermal, noise)")
-    parser.add_argument('--scale-factor-counts-per-rad', type=float,
+    parser.add_argument('--scale-factor-counts-per-rad', type=finite_float,
                         help="a FOG's scale factor, counts/rad (noise)")
     parser.add_argument('--calibration', type=Path, metavar='FILE',
                         help='a hand-off file to take the scale factor (and gyro id) from')
-    parser.add_argument('--sense-axis-elevation-deg', type=float,
+    parser.add_argument('--sense-axis-elevation-deg', type=finite_float,
                         help='thermal: sense-axis elevation on the static base, ° (default 90: '
                         'vertical)')
-    parser.add_argument('--sense-axis-azimuth-deg', type=float,
+    parser.add_argument('--sense-axis-azimuth-deg', type=finite_float,
                         help='thermal: sense-axis azimuth, from North towards East (0 = '
                         'North, 90 = East; = 90 − a heading), °')
+    parser.add_argument('--topic', metavar='T',
+                        help='noise: the input to characterise (/gyro/pulses, /fog/output, '
+                        '/imu/pulses or a sensor_msgs/Imu topic; default: the only one there)')
     parser.add_argument('--gyro-id', default='', help="the gyro's serial or name (hand-off)")
     namespace_argument(parser)
     strict_argument(parser)
@@ -183,7 +204,8 @@ def options_from_args(args: argparse.Namespace) -> CalibrationOptions:
         scale_factor_counts_per_rad=args.scale_factor_counts_per_rad,
         calibration_file=args.calibration,
         sense_axis_elevation_deg=args.sense_axis_elevation_deg,
-        sense_axis_azimuth_deg=args.sense_axis_azimuth_deg, gyro_id=args.gyro_id)
+        sense_axis_azimuth_deg=args.sense_axis_azimuth_deg, gyro_id=args.gyro_id,
+        topic=getattr(args, 'topic', None))
 
 
 def lab_arguments(parser: argparse.ArgumentParser, where: str = '--out DIR') -> None:
@@ -215,11 +237,13 @@ def lab_and_customer(args: argparse.Namespace, out_dir: Path, *,
 
 
 def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--report DIR`` and ``--spec`` for ``gyro-calib calibrate``."""
+    """``--report DIR``, ``--spec`` and ``--pdf``/``--no-pdf`` for ``gyro-calib calibrate``."""
     parser.add_argument('--report', type=Path, metavar='DIR',
                         help='write the certificate (<gyro_id>.html and .pdf) into DIR')
     parser.add_argument('--spec', type=Path, metavar='SPEC',
                         help='with --report: acceptance limits and decision rule (YAML)')
+    parser.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=None,
+                        help='with --report: write the PDF beside the HTML (default: yes)')
     lab_arguments(parser, '--report DIR')
 
 

@@ -2,7 +2,7 @@
 
     gyro-calib calibrate BAG [BAG ...] [--method NAME ...] [--out FILE] [--replace] [--json]
                          [--plot DIR] [--progress] [--report DIR [--spec SPEC] [--lab LAB]
-                         [--customer TEXT]] (and the settings flags of every method)
+                         [--customer TEXT] [--no-pdf]] (and the settings flags of every method)
 
 Prints the summary (:func:`summary_text`), writes the hand-off (``--out``), the figures
 (``--plot``) and the certificate (``--report``, :mod:`gyro_calib.cli.report`); exit status
@@ -86,17 +86,27 @@ def _refuse_a_bag_given_twice(bags: Sequence[Path]) -> None:
 
 def run_calibrate(args: argparse.Namespace) -> int:
     """Check every output and flag before any work, calibrate, write; the exit status."""
-    from gyro_calib.bag_calibration import bag_infos, select_methods
     from gyro_calib.outputs import check_output_file, check_plot_dir
 
     if args.out is not None:
         check_output_file(args.out, '--out', follow_links=True)
         check_handoff_out(args.out)  # a file that cannot be updated: refused before work
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
-    if any(v is not None for v in (args.report, args.spec, args.lab, args.customer)):  # first
+    if any(v is not None for v in (args.report, args.spec, args.lab, args.customer, args.pdf)):
         from gyro_calib.cli.report import check_calibrate_report
 
-        check_calibrate_report(args)
+        lock = check_calibrate_report(args)  # --report DIR held until the run ends
+        try:
+            return _run_checked(args, plot_dir)
+        finally:
+            lock.release()
+    return _run_checked(args, plot_dir)
+
+
+def _run_checked(args: argparse.Namespace, plot_dir: Path | None) -> int:
+    """:func:`run_calibrate` once its outputs are checked (and ``--report DIR`` held)."""
+    from gyro_calib.bag_calibration import bag_infos, select_methods
+
     check_calibration_file(args.calibration)
     _refuse_a_bag_given_twice(args.bags)
     if any(getattr(args, name, None) is not None for name in ('format', 'rate_hz', 'sections')):

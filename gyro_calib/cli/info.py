@@ -70,7 +70,8 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
             inputs += sorted(t for t, typ in present.items()
                              if typ == m.any_topic and counts.get(t))
         out[m.name] = ({'runs': True, 'how': f'gyro-calib {m.name} BAG --topic T, T one of '
-                        f'{", ".join(inputs)}'} if inputs else
+                        + ', '.join(f'{t} ({m.needs[t]})' if t in m.needs else t
+                                    for t in inputs)} if inputs else
                        {'runs': False, 'how': 'needs one of '
                         + ', '.join([*m.inputs(), *([f"a {m.any_topic} topic"]
                                                   if m.any_topic else [])])})

@@ -23,7 +23,8 @@ def run_methods(args: argparse.Namespace) -> int:
         for topic, msgtype in m.topics.items():
             need = ('needed' if topic in m.reveal else 'optional, beside the input'
                     if topic in m.context else 'one of these' if not m.reveal else 'optional')
-            print(f'           {topic:32} {msgtype:28} {need}')
+            note = f'; {m.needs[topic]}' if topic in m.needs else ''
+            print(f'           {topic:32} {msgtype:28} {need}{note}')
         if m.any_topic:
             print(f'           {"any topic (--topic)":32} {m.any_topic:28} one of these')
     return EXIT_OK

@@ -46,6 +46,7 @@ from gyro_calib.cli.arguments import (
     EXIT_OK,
     check_calibration_file,
     check_handoff_out,
+    finite_float,
     namespace_argument,
     options_from_args,
     strict_argument,
@@ -67,9 +68,9 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument('--topic', help='the input: a sensor_msgs/Imu topic, /gyro/pulses or '
                    '/fog/output (default: the one input the bag holds)')
     scale = p.add_mutually_exclusive_group()
-    scale.add_argument('--scale-factor-rad-per-pulse', type=float, metavar='K',
+    scale.add_argument('--scale-factor-rad-per-pulse', type=finite_float, metavar='K',
                        help="/gyro/pulses: the RLG's scale factor, rad/pulse")
-    scale.add_argument('--scale-factor-counts-per-rad', type=float, metavar='S',
+    scale.add_argument('--scale-factor-counts-per-rad', type=finite_float, metavar='S',
                        help="/fog/output: the FOG's scale factor, counts/rad")
     scale.add_argument('--calibration', type=Path, metavar='FILE',
                        help='a hand-off file to take the scale factor from '
@@ -109,6 +110,35 @@ def add_commands(subparsers: Any) -> None:
     p.set_defaults(run=run_noise, method=['noise'], latitude_deg=None, heading_deg=None,
                    position_table_revolutions=None, sense_axis_elevation_deg=None,
                    sense_axis_azimuth_deg=None)
+
+
+TAUS_ALL_MAX_SAMPLES = 5_000
+"""The longest record ``--taus all`` takes. Every m from 1 to N/4 is one pass (and more) of
+the N samples: the time grows at least as N² — 20 000 samples took 11 CPU minutes here, so
+the 280 s ``noise_rlg_static`` (139 000 samples) would take hours."""
+TAUS_ALL_MEASURED = (20_000, 11.0)
+"""(samples, CPU minutes) of one measured ``--taus all`` run, for the cost the refusal says."""
+
+
+def _refuse_a_slow_taus_all(samples: int, topic: str) -> None:
+    """``--taus all`` on a long record: its cost said, and refused before any work.
+
+    Raises:
+        ConfigError: more than :data:`TAUS_ALL_MAX_SAMPLES` samples on the input.
+    """
+    if samples <= TAUS_ALL_MAX_SAMPLES:
+        return
+    from gyro_calib.errors import ConfigError
+
+    n, minutes = TAUS_ALL_MEASURED
+    raise ConfigError(f'--taus all on {topic}\'s {samples} samples would compute every '
+                      f'averaging factor m = 1 … {samples // 4}, one pass of the record each: '
+                      f'the time grows at least as the square of the record ({n} samples took '
+                      f'{minutes:g} CPU minutes; this one would take about '
+                      f'{minutes * (samples / n) ** 2:.0f} CPU minutes or more), so at most '
+                      f'{TAUS_ALL_MAX_SAMPLES} samples are taken. Give --taus default (octaves '
+                      'and decades), octave, decade or a list of τ; or set taus: all in a '
+                      '--config file to run it anyway. Nothing was read.')
 
 
 def run_noise(args: argparse.Namespace) -> int:
@@ -176,6 +206,8 @@ def run_noise(args: argparse.Namespace) -> int:
     own = [i for i in infos if topic in i.topics and i.topics[topic].count > 0]
     options = dataclasses.replace(options, topic=topic, stored_benches=stored_benches(own),
                                   scenario=next((i.scenario for i in own if i.scenario), {}))
+    if args.taus is not None and args.taus.strip() == 'all':
+        _refuse_a_slow_taus_all(counts.get(topic, 0), topic)
     refuse_scale_flag_of_another_input(
         input_kind(topic), topic, scale_factor_rad_per_pulse=args.scale_factor_rad_per_pulse,
         scale_factor_counts_per_rad=args.scale_factor_counts_per_rad)

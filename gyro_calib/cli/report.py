@@ -12,6 +12,8 @@ issued by that laboratory under the next number of its register; without, it is 
 hand-off value the bags contradict is refused (exit 2) unless ``--accept-handoff-values``.
 An issued certificate already in DIR is never replaced (refused before any work); a draft is,
 said in a line. Every refusal comes before the number is reserved (none is burned by it).
+One certificate writer per directory (:mod:`gyro_calib.report.directory_lock`): a second
+run writing DIR at the same time is refused in one line, before any number is reserved.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from gyro_calib.errors import ConfigError
 if TYPE_CHECKING:
     from gyro_calib.bag_calibration import BagCalibration
     from gyro_calib.handoff import Calibration
+    from gyro_calib.report.directory_lock import CertificateDirectoryLock
     from gyro_calib.report.evidence import RunEvidence
     from gyro_calib.report.lab import Lab
     from gyro_calib.report.spec import Spec
@@ -63,11 +66,16 @@ def add_commands(sub: Any) -> None:
     rep.set_defaults(run=run_report)
 
 
-def check_calibrate_report(args: argparse.Namespace) -> None:
-    """``calibrate --report DIR [--spec SPEC] [--lab LAB] [--customer TEXT]``: checked first."""
+def check_calibrate_report(args: argparse.Namespace) -> CertificateDirectoryLock:
+    """``calibrate --report DIR [--spec SPEC] [--lab LAB] [--customer TEXT] [--no-pdf]``: first.
+
+    Returns the lock on DIR, held (one certificate writer per directory): the caller
+    releases it once the certificate is written or the run ends.
+    """
     if args.report is None:
         given = [f for f, v in (('--spec', args.spec), ('--lab', args.lab),
-                                ('--customer', args.customer)) if v is not None]
+                                ('--customer', args.customer),
+                                ('--pdf' if args.pdf else '--no-pdf', args.pdf)) if v is not None]
         raise ConfigError(f'{" and ".join(given)} appl{"ies" if len(given) == 1 else "y"} only '
                           'with --report DIR (the certificate).')
     check_output_dir(args.report, '--report')
@@ -86,7 +94,17 @@ def check_calibrate_report(args: argparse.Namespace) -> None:
         except (ConfigError, HandoffError):
             pass  # calibrate names what is wrong with it
     where = '(this run; no --out file)' if args.out is None else str(args.out)
-    replacing(args.report, certificate_stem(gyro_id, where), flag='--report')
+    from gyro_calib.report.directory_lock import CertificateDirectoryLock
+
+    lock = CertificateDirectoryLock(args.report, '--report')
+    lock.acquire('calibrate --report')
+    try:
+        replacing(args.report, certificate_stem(gyro_id, where), pdf=args.pdf is not False,
+                  flag='--report')
+    except BaseException:
+        lock.release()
+        raise
+    return lock
 
 
 def run_report(args: argparse.Namespace) -> int:
@@ -94,23 +112,30 @@ def run_report(args: argparse.Namespace) -> int:
     from gyro_calib.handoff import load_calibration
     from gyro_calib.registry import handoff_schema
     from gyro_calib.report.certificate import certificate_stem, replacing
+    from gyro_calib.report.directory_lock import CertificateDirectoryLock
 
     check_output_dir(args.out)
     spec = load_spec_arg(args.spec)
     lab, customer = lab_and_customer(args, args.out)
     calibration = load_calibration(args.handoff, handoff_schema())
-    replacing(args.out, certificate_stem(calibration.gyro_id, str(args.handoff)), pdf=args.pdf)
-    evidence = None
-    if args.bags:
-        options = options_from_args(args)
-        if not options.gyro_id and calibration.gyro_id:
-            options = dataclasses.replace(options, gyro_id=calibration.gyro_id)
-        evidence = evidence_from_bags(args.bags, calibration, options, args.method,
-                                      strict=args.strict)
-    for line in write_report(calibration, evidence, spec, args.out,
+    lock = CertificateDirectoryLock(args.out)  # held from the first look to the last write
+    lock.acquire('report')
+    try:
+        replacing(args.out, certificate_stem(calibration.gyro_id, str(args.handoff)),
+                  pdf=args.pdf)
+        evidence = None
+        if args.bags:
+            options = options_from_args(args)
+            if not options.gyro_id and calibration.gyro_id:
+                options = dataclasses.replace(options, gyro_id=calibration.gyro_id)
+            evidence = evidence_from_bags(args.bags, calibration, options, args.method,
+                                          strict=args.strict)
+        lines = write_report(calibration, evidence, spec, args.out,
                              handoff_path=str(args.handoff), pdf=args.pdf, lab=lab,
-                             customer=customer,
-                             accept_handoff_values=args.accept_handoff_values):
+                             customer=customer, accept_handoff_values=args.accept_handoff_values)
+    finally:
+        lock.release()
+    for line in lines:
         print(line)
     return EXIT_OK
 
@@ -214,5 +239,6 @@ def report_after_calibrate(args: argparse.Namespace, outcome: BagCalibration,
     evidence = evidence_from_outcome(outcome, options_from_args(args))
     lab, customer = lab_and_customer(args, args.report)
     for line in write_report(record, evidence, load_spec_arg(args.spec), args.report,
-                             handoff_path=where, lab=lab, customer=customer, flag='--report'):
+                             handoff_path=where, pdf=args.pdf is not False, lab=lab,
+                             customer=customer, flag='--report'):
         print(line, file=human)

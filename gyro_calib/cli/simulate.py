@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -62,17 +64,73 @@ def run_simulate(args: argparse.Namespace) -> int:
             print(f'gyro-calib: error: --{key.replace("_", "-")} = {overrides[key]!r} is '
                   'invalid: it must be a positive number.', file=sys.stderr)
             return EXIT_BAD_INPUT
-    try:
-        write_scenario_bag_with(args.scenario, args.out, overrides)
-    except KeyError as exc:
-        print(f'gyro-calib: error: {exc.args[0]}', file=sys.stderr)
+    if overrides.get('seed', 0) < 0:
+        print(f'gyro-calib: error: --seed = {args.seed} is invalid: a seed is an integer ≥ 0.',
+              file=sys.stderr)
         return EXIT_BAD_INPUT
+    out = Path(args.out).absolute()
+    stage = out.with_name(f'.{out.name}.simulate-{os.getpid()}')  # checked, then moved out
+    shutil.rmtree(stage, ignore_errors=True)
+    try:
+        stage.mkdir()
+        try:
+            write_scenario_bag_with(args.scenario, stage / out.name, overrides)
+        except KeyError as exc:
+            print(f'gyro-calib: error: {exc.args[0]}', file=sys.stderr)
+            return EXIT_BAD_INPUT
+        except (ValueError, IndexError, ZeroDivisionError) as exc:
+            if not overrides:
+                raise  # the scenario as committed: a bug, not the user's input
+            print(f'gyro-calib: error: scenario {args.scenario} cannot be simulated with '
+                  f'{_given(overrides)} ({type(exc).__name__}: {" ".join(str(exc).split())}); '
+                  'give values nearer its defaults '
+                  f'({scenario_parameters(GROUPS.get(args.scenario, (args.scenario,))[0])}); '
+                  'nothing was written.', file=sys.stderr)
+            return EXIT_BAD_INPUT
+        refusal = _does_not_hold(args.scenario, stage / out.name, overrides)
+        if refusal:
+            print(f'gyro-calib: error: {refusal}; nothing was written.', file=sys.stderr)
+            return EXIT_BAD_INPUT
+        from gyro_calib.bagio.writer import publish_directory
+
+        publish_directory(stage / out.name, out)
     except OSError as exc:  # the bag is written whole (a .partial directory renamed) or not
         from gyro_calib.outputs import write_failed
 
         raise write_failed(exc, '--out', args.out) from None
-    changed = ', '.join(f'{k} = {v}' for k, v in overrides.items())
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    changed = _given(overrides)
     member = GROUPS.get(args.scenario, (args.scenario,))[0]
     print(f'wrote {args.out}' + (f' ({changed}; defaults: {scenario_parameters(member)})'
                                  if changed else ''))
     return EXIT_OK
+
+
+def _given(overrides: dict[str, Any]) -> str:
+    return ', '.join(f'{k} = {v}' for k, v in overrides.items())
+
+
+def _does_not_hold(scenario: str, stage: Path, overrides: dict[str, Any]) -> str:
+    """Why the simulated bag(s) at ``stage`` are not what was asked for ('' if they are).
+
+    A ``--duration-s`` the scenario ignores (its procedure sets the length: the bag is not
+    that long) or so short that a bag holds no message (issue 35 §4).
+    """
+    from gyro_calib.bagio import bag_info
+    from sim_nodes.scenarios import GROUPS
+
+    members = GROUPS.get(scenario)
+    for bag in [stage / m for m in members] if members else [stage]:
+        info = bag_info(bag)
+        if info.message_count == 0:
+            return (f'--duration-s {overrides.get("duration_s")} leaves scenario {scenario} '
+                    f'no message ({bag.name}): give a longer record')
+        if 'duration_s' not in overrides:
+            continue
+        asked = float(overrides['duration_s'])
+        if abs(info.duration_s - asked) > 0.01 * asked + 0.05:
+            return (f'--duration-s {asked:g} does not apply to scenario {scenario}: its '
+                    f'procedure sets the record length ({bag.name}: {info.duration_s:.1f} s); '
+                    'drop --duration-s')
+    return ''

@@ -143,10 +143,18 @@ class AxisAnalysis(TableReport):
                         f'none was given: set {what}. No value in rad is reported.')
         curve = ch.curve()
         usable = 0 if curve is None else int(np.count_nonzero(curve.avar > 0))
-        if curve is None or usable < 2:
+        listed = isinstance(s.tau_spec, tuple)  # --taus τ1,τ2,…: the fit names the list
+        if curve is None or usable < (1 if listed else 2):
             n = ch.n_used_samples
             need = max(s.min_segment_samples, int(math.ceil(4.0 / s.max_tau_fraction)) + 1)
             longest = max((g.n_samples for g in ch.segments), default=0)
+            if listed and longest >= need:  # the record is long enough: the list is not
+                taus = ', '.join(f'{v:g}' for v in s.tau_spec)
+                return none(f'--taus {taus} (the setting taus) lists no averaging time the '
+                            f'record of {ch.name} allows (from one sample interval up to a '
+                            f'fraction {s.max_tau_fraction:g} of its longest gap-free '
+                            f'segment, {longest} samples): list τ in that range, or leave '
+                            f'taus at its default grid.{motion}')
             return none(f'the record of {ch.name} is too short for any noise term: '
                         f'{st.samples} sample(s) received, the longest gap-free segment has '
                         f'{longest}, {n} usable in segments of at least '

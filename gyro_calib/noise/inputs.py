@@ -98,8 +98,9 @@ def select_input(present: Mapping[str, tuple[str, int]], options: CalibrationOpt
         return candidates[0]
     if not candidates:
         raise MissingTopicError(
-            f'{where}: nothing to characterise: gyro-calib noise reads {GYRO_PULSES} or '
-            f'{FOG_OUTPUT} ({JOINT_STATE}) or a {IMU} topic (--topic); the bag(s) hold '
+            f'{where}: nothing to characterise: gyro-calib noise reads {GYRO_PULSES}, '
+            f'{FOG_OUTPUT} or {IMU_PULSES} ({JOINT_STATE}) or a {IMU} topic (--topic); the '
+            f'bag(s) hold '
             f'{listing}.')
     raise ConfigError(f'{where}: several inputs to characterise ({", ".join(candidates)}); '
                       f'choose one with --topic (one run per sensor); the bag(s) hold '

@@ -18,6 +18,7 @@ from gyro_calib.noise.scale_factors import (
     _positive,
     fog_scale_factor,
     pulse_scale_factor,
+    refuse_a_triads_file,
     triad_scale_factors,
 )
 from gyro_calib.noise.settings import NoiseSettings
@@ -81,6 +82,9 @@ def check_scale_factor(options: CalibrationOptions) -> ScaleFactor | None:
     """
     kind = input_kind(input_topic(options))
     merged = dataclasses.replace(options, settings=settings_values(options)[0])
+    if kind in ('pulses', 'fog', 'gyro'):  # a triad's file names no single gyro's K
+        refuse_a_triads_file(merged, 'fog_scale_factor_counts_per_rad' if kind == 'fog' else
+                             'scale_factor_rad_per_pulse')
     if kind == 'pulses':
         k = pulse_scale_factor(merged)
         if not k.known:

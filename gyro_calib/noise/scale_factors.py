@@ -43,6 +43,11 @@ def _positive(value: Any) -> TypeGuard[float]:
             and math.isfinite(value) and value > 0)
 
 
+_FLAGS = {'scale_factor_rad_per_pulse': '--scale-factor-rad-per-pulse K',
+          'fog_scale_factor_counts_per_rad': '--scale-factor-counts-per-rad S'}
+"""The flag that gives a stream's scale factor, by its hand-off key."""
+
+
 def _from_handoff(path: Path, keys: tuple[str, ...]) -> tuple[float, str] | None:
     from gyro_calib.handoff import load_calibration
 
@@ -52,6 +57,30 @@ def _from_handoff(path: Path, keys: tuple[str, ...]) -> tuple[float, str] | None
         if got is not None:
             return got[0], f'{key} in {path}'
     return None
+
+
+def refuse_a_triads_file(options: CalibrationOptions, key: str) -> None:
+    """A triad's hand-off given (``--calibration``) for one gyro's stream: refused.
+
+    Its ``imu:`` K_i are three other gyros', never this stream's; without the single gyro's
+    ``key`` the file would be passed over silently (the bag's K taken instead).
+
+    Raises:
+        ConfigError: the file has an ``imu:`` section and no ``key``.
+    """
+    path = options.calibration_file
+    if path is None:
+        return
+    from gyro_calib.handoff import load_calibration
+
+    record = load_calibration(path)
+    if record.imu is None or record.measured(key) is not None:
+        return
+    raise ConfigError(f'--calibration {path} is a triad\'s hand-off file (imu: section, '
+                      f'channels {list(record.imu.channels)}) and holds no {key} of a single '
+                      'gyro: its K_i are the triad\'s channels\' (noise --topic /imu/pulses '
+                      'reads them). Give this gyro\'s own hand-off file, or '
+                      f'{_FLAGS.get(key, "its scale factor")}.')
 
 
 def _first_scale_factor(options: CalibrationOptions, given: float | None, *, flag: str,

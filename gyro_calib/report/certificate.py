@@ -38,7 +38,7 @@ import yaml
 from gyro_calib import __version__
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Calibration, HandoffKey
-from gyro_calib.outputs import write_bytes_atomically
+from gyro_calib.outputs import write_all_or_none
 from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.report.conditions import calibration_date, temperature_text
 from gyro_calib.report.evidence import MethodEvidence, RunEvidence
@@ -258,6 +258,28 @@ def _generic_values(values: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     return out
 
 
+def _refuse_unstated_uncertainty(generic: Mapping[str, Mapping[str, Any]],
+                                 values: Mapping[str, Any], handoff_path: str) -> None:
+    """A certified value needs a positive, finite standard uncertainty (issue 35 §3).
+
+    A hand-edited ``<key>_std: 0`` (or a mapping's ``std`` 0, absent or not a number) would
+    be certified with U = 0, ν = ∞ and a budget share "nan %".
+
+    Raises:
+        ConfigError: naming the first such key, its u as written, and what to do.
+    """
+    for key, entry in generic.items():
+        std = entry.get('std')
+        if (isinstance(std, (int, float)) and not isinstance(std, bool)
+                and math.isfinite(std) and std > 0):
+            continue
+        name = f'gyro.{key}_std' if key + '_std' in values else f'gyro.{key}.std'
+        raise ConfigError(f'the hand-off file {handoff_path or "given"} states {name} = {std!r}: '
+                          'a value is certified only with a positive, finite standard '
+                          'uncertainty (0 would certify it with U = 0); nothing written. '
+                          'Give the file as the calibration wrote it, or calibrate again.')
+
+
 def _source_of(calibration: Calibration, key: str,
                schema: Mapping[str, HandoffKey]) -> Any:
     """The run a value came from, where the hand-off records it (format 3), else None."""
@@ -411,6 +433,7 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
     estimates = {k: (m, e) for m in ev_methods.values() for k, e in m.estimates.items()}
     values = dict(calibration.values)
     generic = _generic_values(values)
+    _refuse_unstated_uncertainty(generic, values, handoff_path)
     rows: list[QuantityRow] = []
     notes: list[str] = []
     contradicted: list[tuple[float, str]] = []
@@ -827,10 +850,13 @@ def render_pdf(html: str) -> bytes:
 
 
 def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> list[Path]:
-    """Write ``<out_dir>/<stem>.html`` (and ``.pdf``); each replaces its file atomically.
+    """Write ``<out_dir>/<stem>.html`` (and ``.pdf``): both, or neither.
 
-    Both documents are rendered before anything is written; ``out_dir``, when this call
-    creates it, goes again if a write fails (disk full) before anything is in it.
+    Both documents are rendered, then written whole beside their targets, before either is
+    put in place (:func:`~gyro_calib.outputs.write_all_or_none`): a disk that fills at the
+    PDF leaves no HTML carrying a certificate number said to be unused (issue 35 §3).
+    ``out_dir``, when this call creates it, goes again if a write fails before anything is
+    in it.
     """
     html = render_html(cert)
     documents = [(out_dir / f'{cert.file_stem}.html', html.encode('utf-8'))]
@@ -839,7 +865,7 @@ def write_certificate(cert: Certificate, out_dir: Path, *, pdf: bool = True) -> 
     created = not out_dir.exists()
     out_dir.mkdir(exist_ok=True)  # checked before any work; parents are never created
     try:
-        written = [write_bytes_atomically(path, data) for path, data in documents]
+        written = write_all_or_none(documents)
     except BaseException:
         if created and not any(out_dir.iterdir()):
             out_dir.rmdir()

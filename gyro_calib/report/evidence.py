@@ -187,9 +187,13 @@ def settings_used(options: CalibrationOptions, method: str = '') -> tuple[Settin
     Each bench setting (:data:`gyro_calib.config.BENCH_SETTINGS`) with its value and where it
     came from (flag or node parameter, config file, the bench settings stored with the
     method's bags, or the default), as the method's session took it; then its config file.
+    A setting given that differs from the one stored with the bags carries the note
+    ``calibrate`` prints (:meth:`~gyro_calib.session.CalibrationOptions.conflicts`).
     """
     from gyro_calib.config import BENCH_SETTINGS
+    from gyro_calib.registry import METHODS
 
+    used = METHODS[method].bench_settings if method in METHODS else tuple(BENCH_SETTINGS)
     out = []
     for name, spec in BENCH_SETTINGS.items():
         if name == 'gyro_id':
@@ -202,6 +206,8 @@ def settings_used(options: CalibrationOptions, method: str = '') -> tuple[Settin
             else f'{value} {spec.unit}'.strip()
         if origin == 'default':
             origin = 'not given: the method\'s default'
+        elif name in used:
+            origin += ''.join(f'; note: {line}' for line in options.conflicts((name,)))
         out.append(Setting(name, shown, origin, method))
     if options.config_file is not None:
         out.append(Setting('config file', str(options.config_file), 'flag --config', method))

@@ -14,4 +14,5 @@ pairing       forward/reverse windows about one direction → pairs with their u
 solve         the pairs solved, the tilt α fitted when the position table gave pairs
 results       estimates, missing / not measurable, summary rows, the hand-off's imu: section
 session       TriadSession: the shared session running them (re-exports their names)
+plots         --plot's figure: each pair's residual per channel (eq. 8)
 """

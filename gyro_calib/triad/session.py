@@ -253,6 +253,12 @@ class TriadSession(MethodSession):
         """The pairs used, each with its direction's label."""
         return list(self._pairs)
 
+    def plot(self, out_dir: Path) -> list[Path]:
+        """Each pair's residual of eq. (8) per channel (:mod:`gyro_calib.triad.plots`)."""
+        from gyro_calib.triad.plots import plot_triad
+
+        return plot_triad(self._result, self.pairs, out_dir)
+
     def results(self) -> dict[str, Estimate]:
         """K and the bias of each channel, by ``imu.<channel>.<key>``."""
         return estimates(self._result)

@@ -1,0 +1,296 @@
+"""Tracebacks and misleading lines (issue 35 §4): each is one line, exit 2, nothing written.
+
+- ``imu.noise.<channel>`` holding text, NaN, a negative number or negative ``_std``, or an
+  unknown key: one line naming the key in ``export``, ``report``, ``noise --calibration``,
+  ``calibrate --out`` and ``info``, and in ``imu_corrector``'s log;
+- ``simulate --seed -1``, a ``--duration-s`` that leaves no message or that the scenario's
+  procedure ignores, or that its simulator cannot take;
+- Ctrl-C while the command loads its modules: one line, exit 130, no traceback;
+- ``noise --taus 1``: exit 1 (the curves are measured), the line naming ``--taus``;
+  ``--latitude-deg nan`` refused;
+- the lines advise flags that exist: ``noise --replace``, ``calibrate --topic``;
+- ``calibrate --method noise`` on a bag without a noise input: exit 2 listing the topics;
+- a triad's hand-off given to ``noise --calibration`` for a single gyro: refused;
+- ``--taus all`` on a long record: refused, saying its cost, before any work.
+"""
+
+from __future__ import annotations
+
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from fake_node import FakeNode
+
+from gyro_calib.cli import main
+from gyro_calib.imu_calibration import NOISE_TERMS
+
+ROOT = Path(__file__).resolve().parents[1]
+BAGS = ROOT / 'bags'
+TRIAD = BAGS / 'triad_two_axis_bench'
+ARW = 'angle_random_walk_rad_per_sqrt_s'
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
+    """(exit status, stdout, stderr) of ``gyro-calib ARGV``; argparse exits are caught."""
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_line(err: str) -> str:
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    return lines[0]
+
+
+def listing(directory: Path) -> list[str]:
+    return sorted(str(p.relative_to(directory)) for p in directory.rglob('*'))
+
+
+# -- imu.noise.<channel> ----------------------------------------------------------------------
+@pytest.fixture(scope='module')
+def triad_handoff(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """A triad's hand-off (format 4) with channel x's noise terms, as a mapping."""
+    path = tmp_path_factory.mktemp('triad') / 'imu.yaml'
+    assert main(['calibrate', str(TRIAD), '--method', 'triad', '--out', str(path),
+                 '--no-progress']) == 0
+    data = yaml.safe_load(path.read_text(encoding='utf-8'))
+    data['imu']['noise'] = {'x': {ARW: 1.0e-6, f'{ARW}_std': 1.0e-8, f'{ARW}_dof': 30.0}}
+    return dict(data)
+
+
+BAD_NOISE = {
+    'text': (ARW, 'abc', f"imu.noise.x.{ARW} = 'abc' is invalid: it must be a finite number"),
+    'NaN': (ARW, float('nan'), f'imu.noise.x.{ARW} = nan is invalid'),
+    'negative': (ARW, -1.0e-6, f'imu.noise.x.{ARW} = -1e-06 is invalid'),
+    'negative std': (f'{ARW}_std', -1.0e-8, f'imu.noise.x.{ARW}_std = -1e-08 is invalid'),
+    'unknown key': ('angle_random_walk', 1.0e-6,
+                    "imu.noise.x has an unknown key 'angle_random_walk' (did you mean"),
+}
+"""Hand edits of ``imu.noise.x``: (key, value, what the one line says)."""
+
+DOORS = {
+    'export': lambda f, out: ['export', f, '--format', 'kalibr', '--out', out / 'kalibr.yaml'],
+    'report': lambda f, out: ['report', f, '--out', out / 'cert', '--no-pdf'],
+    'noise --calibration': lambda f, out: ['noise', TRIAD, '--topic', '/imu/pulses',
+                                           '--calibration', f, '--out', out / 'n.yaml'],
+    'calibrate --out': lambda f, out: ['calibrate', TRIAD, '--method', 'triad', '--out', f],
+    'info': lambda f, out: ['info', TRIAD, '--calibration', f],
+}
+
+
+def test_a_triad_channels_noise_keys_are_the_single_gyro_keys() -> None:
+    from gyro_calib.noise.keys import SINGLE_GYRO_KEYS
+
+    assert NOISE_TERMS == tuple(k.name for k in SINGLE_GYRO_KEYS)
+
+
+@pytest.mark.parametrize('door', list(DOORS))
+@pytest.mark.parametrize('edit', list(BAD_NOISE))
+def test_a_bad_imu_noise_entry_is_one_line_in_every_front_door(
+        edit: str, door: str, triad_handoff: dict[str, Any], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    key, value, says = BAD_NOISE[edit]
+    data = yaml.safe_load(yaml.safe_dump(triad_handoff))
+    data['imu']['noise']['x'][key] = value
+    handoff = tmp_path / 'imu.yaml'
+    handoff.write_text(yaml.safe_dump(data, allow_unicode=True, sort_keys=False),
+                       encoding='utf-8')
+    before = handoff.read_bytes()
+    out = tmp_path / 'out'
+    out.mkdir()
+    quiet = ['--no-progress'] if door in ('noise --calibration', 'calibrate --out') else []
+    code, stdout, stderr = run(capsys, *DOORS[door](handoff, out), *quiet)
+    assert (code, stdout) == (2, ''), stderr
+    assert says in one_line(stderr)
+    assert listing(out) == [] and handoff.read_bytes() == before
+
+
+def test_imu_corrector_logs_the_one_line_of_a_bad_noise_entry(
+        triad_handoff: dict[str, Any], tmp_path: Path) -> None:
+    from gyro_calib.nodes.imu_corrector_core import ImuCorrector
+
+    data = yaml.safe_load(yaml.safe_dump(triad_handoff))
+    data['imu']['noise']['x'][ARW] = 'abc'
+    handoff = tmp_path / 'imu.yaml'
+    handoff.write_text(yaml.safe_dump(data, sort_keys=False), encoding='utf-8')
+    node = FakeNode()
+    ImuCorrector(node).poll_file(str(handoff))  # type: ignore[arg-type]
+    assert any(f"imu.noise.x.{ARW} = 'abc' is invalid" in line for line in node.logger.lines), \
+        node.logger.lines
+    assert not any('could not convert' in line for line in node.logger.lines)
+
+
+# -- simulate ---------------------------------------------------------------------------------
+SIMULATE = {
+    'seed -1': (['noise_rlg_static', '--seed', '-1'],
+                'gyro-calib: error: --seed = -1 is invalid: a seed is an integer ≥ 0.'),
+    'duration 0.001': (['noise_rlg_static', '--duration-s', '0.001'],
+                       'gyro-calib: error: --duration-s 0.001 leaves scenario noise_rlg_static '
+                       'no message'),
+    'duration 1, IMU': (['noise_imu_static', '--duration-s', '1'],
+                        'gyro-calib: error: scenario noise_imu_static cannot be simulated with '
+                        'duration_s = 1.0'),
+    'duration 600, procedure': (['triad_remount_bench_px', '--duration-s', '600'],
+                                'gyro-calib: error: --duration-s 600 does not apply to scenario '
+                                'triad_remount_bench_px: its procedure sets the record length '
+                                '(out: 59.8 s)'),
+}
+
+
+@pytest.mark.parametrize('case', list(SIMULATE))
+def test_simulate_refuses_what_it_would_not_write_as_asked(
+        case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    argv, says = SIMULATE[case]
+    code, stdout, stderr = run(capsys, 'simulate', *argv, '--out', tmp_path / 'out')
+    assert (code, stdout) == (2, '')
+    assert one_line(stderr).startswith(says), stderr
+    assert listing(tmp_path) == []
+
+
+# -- Ctrl-C while the modules load --------------------------------------------------------------
+def _interrupt_once_loaded(marker: str, argv: list[str]) -> subprocess.CompletedProcess[str]:
+    """Run ``gyro-calib ARGV``; Ctrl-C as soon as ``marker`` (a shared library) is mapped."""
+    child = subprocess.Popen(
+        [sys.executable, '-m', 'gyro_calib.cli', *argv], stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # noqa: PLW1509
+    maps = Path(f'/proc/{child.pid}/maps')
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        try:
+            if marker in maps.read_text():
+                break
+        except OSError:
+            break
+        time.sleep(0.002)
+    child.send_signal(signal.SIGINT)
+    out, err = child.communicate(timeout=60)
+    return subprocess.CompletedProcess(child.args, child.returncode, out, err)
+
+
+@pytest.mark.parametrize('marker', ['_multiarray_umath', 'scipy/optimize'])
+@pytest.mark.parametrize('command', ['calibrate', 'simulate'])
+def test_ctrl_c_while_the_modules_load_is_one_line_and_writes_nothing(
+        command: str, marker: str, tmp_path: Path) -> None:
+    argv = (['calibrate', str(BAGS / 'k_tilde_bench'), '--out', str(tmp_path / 'g.yaml')]
+            if command == 'calibrate' else
+            ['simulate', 'noise_rlg_static', '--out', str(tmp_path / 'bag')])
+    done = _interrupt_once_loaded(marker, argv)
+    assert (done.returncode, done.stdout) == (130, ''), done.stderr
+    assert done.stderr == 'gyro-calib: interrupted; nothing written.\n'
+    assert listing(tmp_path) == []
+
+
+# -- noise --taus, --latitude-deg nan ---------------------------------------------------------
+def test_noise_taus_1_exits_1_naming_taus(capsys: pytest.CaptureFixture[str]) -> None:
+    code, stdout, stderr = run(capsys, 'noise', BAGS / 'noise_rlg_static', '--taus', '1',
+                               '--no-progress')
+    assert code == 1, stderr
+    last = stderr.strip().splitlines()[-1]
+    assert '--taus 1 lists 1 averaging time(s), fewer than the 8 a term fit needs' in last
+    assert 'too short' not in stderr
+
+
+def test_a_non_finite_number_flag_is_refused(capsys: pytest.CaptureFixture[str]) -> None:
+    code, stdout, stderr = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--latitude-deg',
+                               'nan')
+    assert (code, stdout) == (2, '')
+    assert one_line(stderr) == ("gyro-calib: error: calibrate: argument --latitude-deg: 'nan' "
+                                'is not a finite number; see gyro-calib calibrate --help.')
+
+
+# -- advice names flags that exist ------------------------------------------------------------
+def test_noise_says_replace_and_takes_it(tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    handoff = tmp_path / 'g.yaml'
+    spikes = BAGS / 'noise_rlg_spikes'
+    copy = tmp_path / 'noise_rlg_spikes'
+    shutil.copytree(spikes, copy)
+    assert run(capsys, 'noise', spikes, '--outliers', 'remove', '--out', handoff,
+               '--no-progress')[0] == 0
+    before = handoff.read_bytes()
+    code, stdout, stderr = run(capsys, 'noise', copy, '--out', handoff, '--no-progress')
+    assert (code, stdout) == (2, '') and 'give --replace' in one_line(stderr)
+    assert handoff.read_bytes() == before
+    code, stdout, stderr = run(capsys, 'noise', copy, '--out', handoff, '--replace',
+                               '--no-progress')
+    assert code == 0, stderr
+    assert handoff.read_bytes() != before
+
+
+def test_calibrate_says_topic_and_takes_it(capsys: pytest.CaptureFixture[str]) -> None:
+    bags = (BAGS / 'k_tilde_bench', BAGS / 'fog_turntable')
+    code, stdout, stderr = run(capsys, 'calibrate', *bags, '--method', 'noise', '--no-progress')
+    assert (code, stdout) == (2, '') and 'choose one with --topic' in one_line(stderr)
+    code, stdout, stderr = run(capsys, 'calibrate', *bags, '--method', 'noise', '--topic',
+                               '/fog/output', '--json', '--no-progress')
+    assert code in (0, 1), stderr
+    assert 'input: /fog/output' in stderr
+    code, stdout, stderr = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--topic',
+                               '/gyro/pulses')
+    assert (code, stdout) == (2, '')
+    assert '--topic does not apply to the method(s) run here (rbrlg)' in one_line(stderr)
+
+
+# -- inputs that fit no method, a triad's file, --taus all ------------------------------------
+def test_calibrate_method_noise_on_a_bag_without_its_input_is_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from gyro_calib.bagio import BagMessage, typestore, write_bag
+
+    store = typestore()
+    text = store.types['std_msgs/msg/String']
+    bag = tmp_path / 'chatter'
+    write_bag(bag, [BagMessage('/chatter', 10**9 * i,
+                               store.serialize_cdr(text(data='hi'), 'std_msgs/msg/String'))
+                    for i in range(1, 5)], types={'/chatter': 'std_msgs/msg/String'})
+    code, stdout, stderr = run(capsys, 'calibrate', bag, '--method', 'noise', '--out',
+                               tmp_path / 'g.yaml', '--no-progress')
+    assert (code, stdout) == (2, '')
+    line = one_line(stderr)
+    assert 'method noise reads one of /gyro/pulses' in line
+    assert line.endswith('they hold /chatter (std_msgs/msg/String, 4).')
+    assert not (tmp_path / 'g.yaml').exists()
+
+
+def test_a_triads_file_for_a_single_gyros_noise_is_refused(
+        triad_handoff: dict[str, Any], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    handoff = tmp_path / 'imu.yaml'
+    handoff.write_text(yaml.safe_dump(triad_handoff, sort_keys=False), encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'noise', BAGS / 'noise_rlg_static', '--calibration',
+                               handoff, '--out', tmp_path / 'g.yaml', '--no-progress')
+    assert (code, stdout) == (2, '')
+    line = one_line(stderr)
+    assert f"--calibration {handoff} is a triad's hand-off file" in line
+    assert line.endswith('or --scale-factor-rad-per-pulse K.')
+    assert not (tmp_path / 'g.yaml').exists()
+
+
+def test_taus_all_on_a_long_record_says_its_cost_and_is_refused_before_work(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    started = time.monotonic()
+    code, stdout, stderr = run(capsys, 'noise', BAGS / 'noise_rlg_static', '--taus', 'all')
+    assert (code, stdout) == (2, '')
+    line = one_line(stderr)
+    assert "--taus all on /gyro/pulses's 139000 samples" in line
+    assert 'this one would take about 531 CPU minutes or more' in line
+    assert line.endswith('Nothing was read.')
+    assert time.monotonic() - started < 30
+
+
+def test_importing_the_command_in_process_keeps_ctrl_c_as_it_was() -> None:
+    """Only the command starting installs the quiet handler (not a test, not a library)."""
+    import gyro_calib.cli
+
+    assert signal.getsignal(signal.SIGINT) is not gyro_calib.cli._interrupted_while_starting
