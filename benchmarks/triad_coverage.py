@@ -2,8 +2,8 @@
 
 Run (from the repository root, niced: two cores are shared):
 
-    PYTHONPATH=$PWD nice /work/main/.venv/bin/python benchmarks/triad_coverage.py            # 100 seeds
-    PYTHONPATH=$PWD nice /work/main/.venv/bin/python benchmarks/triad_coverage.py --seeds 8  # a minute
+    PYTHONPATH=$PWD nice python benchmarks/triad_coverage.py            # 100 seeds, ~1 h
+    PYTHONPATH=$PWD nice python benchmarks/triad_coverage.py --seeds 8  # minutes
 
 Three generators of the two-axis bench, each through the real session
 (:class:`~gyro_calib.triad.session.TriadSession`, fed in 20 s batches as a bag is):
@@ -34,7 +34,6 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -42,12 +41,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'test'))
 
 from triad_bench_physics import Bench, Recording, random_triad, record  # noqa: E402
+from triad_coverage_helpers import run_session, scores, session_of  # noqa: E402
 
-from gyro_calib import topics  # noqa: E402
-from gyro_calib.bagio import JOINT_STATE, SampleBatch  # noqa: E402
-from gyro_calib.bagio.columns import FrameIds, TopicColumns  # noqa: E402
-from gyro_calib.session import CalibrationOptions  # noqa: E402
-from gyro_calib.triad.records import TriadResult  # noqa: E402
 from gyro_calib.triad.session import TriadSession  # noqa: E402
 from gyro_calib.triad.solve import solve_pairs  # noqa: E402
 
@@ -58,45 +53,6 @@ GENERATORS = ('sim_nodes', 'physics', 'physics_paper')
 MODES = ('stated', 'measured')
 BAND = (0.60, 0.76)
 Z_MAX = 4.5
-
-
-def batches(rec: Recording, chunk_s: float = 20.0) -> list[SampleBatch]:
-    """The recording in time slices, every topic in each (as a bag reader gives)."""
-    def cols(topic: str, msgtype: str, t: np.ndarray, values: dict[str, np.ndarray]
-             ) -> TopicColumns:
-        return TopicColumns(topic, msgtype, t, t, FrameIds(np.zeros(len(t), np.int32), ('',)),
-                            values)
-
-    t0, t1 = int(rec.pulse_t[0]), int(rec.pulse_t[-1])
-    step = int(chunk_s * 1e9)
-    streams = [(topics.IMU_PULSES, JOINT_STATE, rec.pulse_t,
-                {'position': rec.counts, 'velocity': np.full(len(rec.pulse_t), np.nan)}),
-               (topics.RATE_TABLE_JOINT_STATES, JOINT_STATE, rec.rate_t,
-                {'position': rec.rate[:, 0], 'velocity': rec.rate[:, 1]}),
-               (topics.RATE_TABLE_ZERO_INDEX, 'std_msgs/msg/Header', rec.rate_index, {}),
-               (topics.POSITION_TABLE_JOINT_STATES, JOINT_STATE, rec.position_t,
-                {'position': rec.position[:, 0], 'velocity': rec.position[:, 1]}),
-               (topics.POSITION_TABLE_ZERO_INDEX, 'std_msgs/msg/Header', rec.position_index, {})]
-    out = []
-    for lo in range(t0, t1 + 1, step):
-        got = {}
-        for topic, msgtype, t, values in streams:
-            sel = (t >= lo) & (t < lo + step)
-            if np.any(sel):
-                got[topic] = cols(topic, msgtype, t[sel], {k: v[sel] for k, v in values.items()})
-        out.append(SampleBatch(got, sum(len(c) for c in got.values()), lo + step))
-    return out
-
-
-def _run_session(rec: Recording, bench_settings: dict[str, Any]) -> TriadSession:
-    session = TriadSession(CalibrationOptions(
-        latitude_deg=bench_settings['latitude_deg'], heading_deg=bench_settings['heading_deg'],
-        scenario={'bench': bench_settings}))
-    for b in batches(rec):
-        session.feed(b)
-        session.process()
-    session.process(flush=True)
-    return session
 
 
 def sim_nodes_run(seed: int, arw: float) -> tuple[TriadSession, np.ndarray, np.ndarray]:
@@ -115,7 +71,7 @@ def sim_nodes_run(seed: int, arw: float) -> tuple[TriadSession, np.ndarray, np.n
                     ch.position_table[0], np.column_stack(ch.position_table[1:]),
                     ch.position_zero_index_ns)
     g = sc.gyros
-    return _run_session(rec, sc.bench_settings()), g.scale_factor_rad_per_pulse(), \
+    return run_session(rec, sc.bench_settings()), g.scale_factor_rad_per_pulse(), \
         g.unit_sense_axes()
 
 
@@ -125,32 +81,12 @@ def physics_run(seed: int, arw: float, paper: bool = False
     rng = np.random.default_rng(10_000 + seed)
     triad = random_triad(rng, arw_rad_sqrt_s=math.radians(arw) / 60.0)
     bench = Bench(inner_pairs=2, inner_turns=5, outer_margin_turns=0.6) if paper else Bench()
-    rec = record(bench, triad, rng)
-    settings = {'latitude_deg': bench.latitude_deg, 'heading_deg': bench.heading_deg,
-                'tilt_deg': math.degrees(bench.tilt_rad), 'tilt_std_arcsec': 60.0,
-                'position_table_revolutions': bench.position_turns,
-                'revolutions_per_window': bench.inner_turns}
-    return _run_session(rec, settings), triad.scale_factor_rad_per_pulse, triad.sense_axes
-
-
-def z_scores(result: TriadResult, k_true: np.ndarray, s_true: np.ndarray
-             ) -> tuple[list[float], list[float]]:
-    """z = error/u of each parameter (PARAMETERS order), and ΔK_i/K_i."""
-    z, rel = [], []
-    for i, ch in enumerate(result.channels):
-        k, axis = ch.scale_factor_rad_per_pulse, ch.sense_axis
-        if k is None or axis is None:
-            return [math.nan] * 9, [math.nan] * 3
-        z.append((k.value - k_true[i]) / k.std_uncertainty)
-        rel.append(k.value / k_true[i] - 1.0)
-        for j in range(3):
-            if j != i:
-                z.append((axis[j].value - s_true[i, j]) / axis[j].std_uncertainty)
-    return z, rel
+    return session_of(bench, record(bench, triad, rng)), triad.scale_factor_rad_per_pulse, \
+        triad.sense_axes
 
 
 def one(generator: str, seed: int, arw: float) -> dict[str, tuple[list[float], list[float]]]:
-    """z and ΔK/K of one seed, for the stated and the measured count noise."""
+    """The z-scores and ΔK/K of one seed, for the stated and the measured count noise."""
     if generator == 'sim_nodes':
         session, k_true, s_true = sim_nodes_run(seed, arw)
     else:
@@ -160,8 +96,8 @@ def one(generator: str, seed: int, arw: float) -> dict[str, tuple[list[float], l
     stated, _, _ = solve_pairs(session.pairs, session.channels, session.bench.tilt_std_rad,
                                np.full(3, math.radians(arw) / 60.0))
     assert stated is not None
-    return {'measured': z_scores(measured, k_true, s_true),
-            'stated': z_scores(stated, k_true, s_true)}
+    return {'measured': scores(measured, k_true, s_true),
+            'stated': scores(stated, k_true, s_true)}
 
 
 def coverage_rows(z: np.ndarray) -> list[tuple[str, float, float, float]]:

@@ -132,8 +132,11 @@ def test_random_benches_and_triads_within_stated_uncertainty(seed: int, tilt_deg
 
 def test_angle_random_walk_is_measured_per_gyro_into_each_window_not_a_global_widening(
         ) -> None:
-    """ARW (0.003 °/√h) is not in the window-end fits: each gyro's count random walk over its
-    windows is measured from its own pair residuals (eq. (6c)), no Birge widening."""
+    """ARW (0.003 °/√h) not stated: measured per gyro into its windows, no Birge widening.
+
+    The window-end fits do not see it: each gyro's count random walk over its windows is
+    measured from its own pair residuals (eq. (6c)).
+    """
     rng = np.random.default_rng(1)
     arw = 0.003 * math.pi / 180 / 60
     triad = random_triad(rng, arw_rad_sqrt_s=arw)
