@@ -162,9 +162,17 @@ def test_a_stated_angle_random_walk_is_used_as_stated() -> None:
     for batch in batches(rec):
         session.feed(batch)
     session.process(flush=True)
+    lines = session.summary_lines()
     assert 'count noise: ARW over each window (°/√h, stated): x 0.003, y 0.003, z 0.003' \
-        in session.summary_lines()
+        in lines
     assert max(errors_in_sigma(session, triad)) < SIGMAS
+    # one dof per quantity: the summary states the ν the hand-off stores, and no other
+    imu = session.imu_calibration()
+    assert imu is not None and imu.scale_factor_rad_per_pulse_dof is not None
+    dof = ', '.join(f'K_{c}, s_{c} {int(v)}'
+                    for c, v in zip('xyz', imu.scale_factor_rad_per_pulse_dof, strict=True))
+    assert f'degrees of freedom (hand-off scale_factor_rad_per_pulse_dof): {dof}' in lines
+    assert not any('Student t' in line or ' dof)' in line for line in lines), lines
 
 
 def test_a_channel_locked_in_about_the_inner_axis_is_rejected_there_and_solved_from_stations(
