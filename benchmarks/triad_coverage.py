@@ -121,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
 
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     p.add_argument('--seeds', type=int, default=100)
+    p.add_argument('--first-seed', type=int, default=0)
     p.add_argument('--generators', nargs='+', default=list(GENERATORS), choices=GENERATORS)
     p.add_argument('--arw', nargs='+', type=float, default=list(ARWS))
     p.add_argument('--save', type=Path, metavar='FILE')
@@ -132,9 +133,9 @@ def main(argv: list[str] | None = None) -> int:
             for key, got in pickle.loads(f.read_bytes()).items():
                 runs.setdefault(key, []).extend(got)
     else:
-        for gen in a.generators:
-            for arw in a.arw:
-                for seed in range(a.seeds):
+        for seed in range(a.first_seed, a.first_seed + a.seeds):  # seed-major: any stop
+            for gen in a.generators:  # leaves every (generator, ARW) with as many seeds
+                for arw in a.arw:
                     runs.setdefault((gen, arw), []).append(one(gen, seed, arw))
                     if a.save is not None:
                         a.save.write_bytes(pickle.dumps(runs))
