@@ -467,6 +467,8 @@ def navigate(kind: str, duration_s: float, dt: float, sensors: list[Sensor],
     rest = int(round(REST_S / dt))
     earth_b0 = c0.T @ (EARTH_RATE * np.array([math.cos(llh[0, 0]), 0.0,
                                               -math.sin(llh[0, 0])]))
+    eps_b, eps_m = 1e-9, 1e-12
+    members = []
     for sensor, cal, seed in zip(sensors, cals, seeds, strict=True):
         rng = np.random.default_rng(seed + 5_000_000 + (0 if kind == 'static' else 1))
         counts, _ = counts_of(sensor, wbbi * dt, dt, rng)
@@ -478,22 +480,24 @@ def navigate(kind: str, duration_s: float, dt: float, sensors: list[Sensor],
         streams = {'calibrated': n_dot @ cal.m.T - cal.bias, 'baseline': raw - base_bias,
                    'raw': raw}
         # Jacobians of the end attitude on b and on vec(M) (row-major), finite differences
-        eps_b, eps_m = 1e-9, 1e-12
         perturbed = [wbbi + eps_b * np.eye(3)[j] for j in range(3)]
         for i in range(3):
             for j in range(3):
                 e = np.zeros((3, 3))
                 e[i, j] = eps_m
                 perturbed.append(wbbi + n_ideal @ e.T)
-        batch = np.stack([wbbi, *streams.values(), *perturbed])
-        c_end = strapdown(c0, batch, w_in, dt)
+        members.append(np.stack([wbbi, *streams.values(), *perturbed]))
+    per = 1 + len(STREAMS) + 12
+    c_all = strapdown(c0, np.concatenate(members), w_in, dt)  # all seeds at once
+    t_end = n * dt
+    for k, cal in enumerate(cals):
+        c_end = c_all[k * per:(k + 1) * per]
         psi = attitude_error(c_end[1:], c_end[0])
         for name, e in zip(STREAMS, psi[:3], strict=True):
             out.heading_deg[name].append(math.degrees(float(e[2])))
             out.tilt_deg[name].append(math.degrees(math.hypot(float(e[0]), float(e[1]))))
         jac_b = psi[3:6].T / eps_b  # ψ per unit of ω error (b̂ − b enters as −δb)
         jac_m = psi[6:15].T / eps_m
-        t_end = n * dt
         p = (jac_b @ np.diag(cal.bias_std ** 2) @ jac_b.T + jac_m @ cal.m_cov @ jac_m.T
              + cal.gyroscope_covariance * t_end + cal.bias_omega_covariance * t_end ** 3 / 3)
         e = psi[0]
