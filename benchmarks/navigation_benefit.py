@@ -641,7 +641,8 @@ def main(argv: list[str] | None = None) -> int:
     if a.merge:
         results = merged([r for f in a.merge for r in pickle.loads(f.read_bytes())])
     elif a.from_calibrations:
-        done = [d for f in a.from_calibrations for d in pickle.loads(f.read_bytes())]
+        by_seed = {d[0]: d for f in a.from_calibrations for d in pickle.loads(f.read_bytes())}
+        done = [by_seed[k] for k in sorted(by_seed)]  # a seed calibrated twice counts once
         arw = round(math.degrees(done[0][1].arw) * 60.0, 6)
         results = [run([], arw, a.static_s, a.manoeuvre_s, log=log, done=done)]
         if a.save is not None:
