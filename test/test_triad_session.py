@@ -6,6 +6,7 @@ quantised at 1 kHz), fed in batches as a bag or a live node would.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -129,14 +130,49 @@ def test_random_benches_and_triads_within_stated_uncertainty(seed: int, tilt_deg
     assert max(errors_in_sigma(run(bench, triad, seed), triad)) < SIGMAS
 
 
-def test_with_angle_random_walk_the_scatter_widens_the_uncertainty() -> None:
-    """ARW (0.003 °/√h) is not in the window-end fits: the Birge ratio widens the result."""
+def test_angle_random_walk_is_measured_per_gyro_into_each_window_not_a_global_widening(
+        ) -> None:
+    """ARW (0.003 °/√h) not stated: measured per gyro into its windows, no Birge widening.
+
+    The window-end fits do not see it: each gyro's count random walk over its windows is
+    measured from its own pair residuals (eq. (6c)).
+    """
     rng = np.random.default_rng(1)
-    triad = random_triad(rng, arw_rad_sqrt_s=0.003 * math.pi / 180 / 60)
+    arw = 0.003 * math.pi / 180 / 60
+    triad = random_triad(rng, arw_rad_sqrt_s=arw)
     session = run(Bench(inner_pairs=3), triad, seed=1)
     r = session.triad_result
-    assert r is not None and r.birge_ratio > 2 and 'scatter' in r.basis
+    assert r is not None and 'scatter' not in r.basis and 'predicted' in r.basis
     assert max(errors_in_sigma(session, triad)) < SIGMAS
+    lines = session.summary_lines()
+    walk = next(line for line in lines if line.startswith('count noise'))
+    assert 'measured from the pair residuals' in walk
+    measured = [float(part.split()[1]) for part in walk.split(': ', 2)[2].split(', ')]
+    assert all(0.3 * 0.003 < n < 3 * 0.003 for n in measured), walk  # °/√h, few dof each
+
+
+def test_a_stated_angle_random_walk_is_used_as_stated() -> None:
+    """``angle_random_walk_deg_sqrt_h`` given: each window carries N²·T/K² of the stated N."""
+    rng = np.random.default_rng(1)
+    triad = random_triad(rng, arw_rad_sqrt_s=0.003 * math.pi / 180 / 60)
+    rec = record(Bench(inner_pairs=3), triad, np.random.default_rng(1))
+    given = dataclasses.replace(options(Bench(inner_pairs=3)), settings={
+        'angle_random_walk_deg_sqrt_h': [0.003, 0.003, 0.003]})
+    session = TriadSession(given)
+    for batch in batches(rec):
+        session.feed(batch)
+    session.process(flush=True)
+    lines = session.summary_lines()
+    assert 'count noise: ARW over each window (°/√h, stated): x 0.003, y 0.003, z 0.003' \
+        in lines
+    assert max(errors_in_sigma(session, triad)) < SIGMAS
+    # one dof per quantity: the summary states the ν the hand-off stores, and no other
+    imu = session.imu_calibration()
+    assert imu is not None and imu.scale_factor_rad_per_pulse_dof is not None
+    dof = ', '.join(f'K_{c}, s_{c} {int(v)}'
+                    for c, v in zip('xyz', imu.scale_factor_rad_per_pulse_dof, strict=True))
+    assert f'degrees of freedom (hand-off scale_factor_rad_per_pulse_dof): {dof}' in lines
+    assert not any('Student t' in line or ' dof)' in line for line in lines), lines
 
 
 def test_a_channel_locked_in_about_the_inner_axis_is_rejected_there_and_solved_from_stations(

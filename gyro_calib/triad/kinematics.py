@@ -128,7 +128,8 @@ def pair_from_windows(
         forward_counts: N⁺ per channel (3,), pulses.
         reverse_counts: N⁻ per channel (3,), pulses.
         counts_std: standard uncertainty of each window's count per channel (3,), pulses
-            (end fits, quantisation, ARW over the window).
+            (end fits, quantisation); the ARW over the window is added by
+            :func:`~gyro_calib.triad.count_noise.with_count_walk` (the pair keeps its weight).
         forward_angle_rad: A⁺, magnitude of the forward swept angle, rad.
         reverse_angle_rad: A⁻, magnitude of the reverse swept angle, rad.
         forward_s: T⁺, forward window duration, s.
@@ -158,4 +159,5 @@ def pair_from_windows(
         sum_rate=(n_p + n_m) / t_sum, sum_rate_std=math.sqrt(2.0) * std / t_sum,
         excess_rate_rad_s=(forward_angle_rad - reverse_angle_rad) / t_sum,
         earth_rate_along_u_rad_s=earth_rate_along_u_rad_s,
-        stamp_ns=stamp_ns, rejected=rejected)
+        stamp_ns=stamp_ns, rejected=rejected,
+        walk_weight_s=4.0 * (wp * wp * forward_s + wm * wm * reverse_s), duration_s=t_sum)

@@ -39,6 +39,9 @@ class TriadPair:
         earth_rate_along_u_rad_s: Ω_u = ω_E·u (eq. 13), rad/s; NaN if unknown.
         stamp_ns: start stamp, int ns.
         rejected: per channel, why this pair is not used for it ('' = used).
+        walk_weight_s: ∂Var(ΔN)/∂a = 4·(w⁺²·T⁺ + w⁻²·T⁻), s: what a count random walk of
+            density a (pulses²/s, the ARW over K²) adds to ``count_difference_std``² (eq. 6b).
+        duration_s: T⁺ + T⁻, s (a adds a/(T⁺ + T⁻) to ``sum_rate_std``²).
     """
 
     direction: Array
@@ -53,6 +56,8 @@ class TriadPair:
     earth_rate_along_u_rad_s: float = math.nan
     stamp_ns: int = 0
     rejected: tuple[str, str, str] = ('', '', '')
+    walk_weight_s: float = 0.0
+    duration_s: float = 0.0
 
 
 @dataclass(frozen=True, slots=True)

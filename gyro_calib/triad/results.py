@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     import numpy.typing as npt
 
     from gyro_calib.estimate import Estimate
+    from gyro_calib.triad.count_noise import CountWalk
     from gyro_calib.triad.records import TriadResult
 
     Array = npt.NDArray[np.float64]
@@ -146,3 +147,27 @@ def imu_section(r: TriadResult, channels: tuple[str, str, str],
     return ImuCalibration(channels, np.asarray(fixture, dtype=np.float64), k, k_std, k_dof,
                           axes, axes_std, m, m_cov, b, b_std, missing=missing,
                           not_measurable=not_measurable)
+
+
+def count_walk_line(walk: CountWalk, channels: tuple[str, str, str]) -> str:
+    """The ARW each window's count carries (eq. (6b)), per gyro, and where it comes from."""
+    from gyro_calib.triad.count_noise import MEASURED
+
+    parts = []
+    for i, name in enumerate(channels):
+        n = float(walk.arw_rad_sqrt_s[i])
+        text = f'{math.degrees(n) * 60.0:.3g}' if math.isfinite(n) else '—'
+        if walk.origin == MEASURED and math.isfinite(n):
+            text += f' ({walk.dof[i]} dof)'
+        parts.append(f'{name} {text}')
+    return f'count noise: ARW over each window (°/√h, {walk.origin}): ' + ', '.join(parts)
+
+
+def dof_line(r: TriadResult) -> str:
+    """The degrees of freedom of each K_i and s_i, as the hand-off stores them."""
+    parts = [f'K_{c.name}, s_{c.name} {c.scale_factor_rad_per_pulse.supported_dof}'
+             for c in r.channels if c.scale_factor_rad_per_pulse is not None]
+    if not parts:
+        return ''
+    return ('degrees of freedom (hand-off scale_factor_rad_per_pulse_dof): '
+            + ', '.join(parts))

@@ -48,6 +48,8 @@ from gyro_calib.triad.pairing import pair_windows
 from gyro_calib.triad.quantisation import quantisation_floor
 from gyro_calib.triad.results import (
     DEG_H,
+    count_walk_line,
+    dof_line,
     estimates,
     imu_section,
     missing_of,
@@ -65,6 +67,7 @@ if TYPE_CHECKING:
     from gyro_calib.estimate import Estimate, Rejection
     from gyro_calib.handoff import Calibration
     from gyro_calib.imu_calibration import ImuCalibration
+    from gyro_calib.triad.count_noise import CountWalk
     from gyro_calib.triad.records import TriadPair, TriadResult
 
 __all__ = ['DEG_H', 'HEADER', 'INNER', 'JOINT_STATE', 'MIN_COUNT_STD_PULSES', 'NODE_NAME',
@@ -115,6 +118,7 @@ class TriadSession(MethodSession):
         self._lines: list[str] = []
         self._pairs: list[tuple[TriadPair, str]] = []
         self._result: TriadResult | None = None
+        self._walk: CountWalk | None = None
         self._problem = ''
         self._analysed_to_ns: int | None = None
         self._newest_ns: int | None = None
@@ -240,7 +244,8 @@ class TriadSession(MethodSession):
         self._pairs = pairs
         self._last_end_ns = last_end
         self._result, self._problem = None, ''  # no stale result should the solve raise
-        self._result, self._problem = solve_pairs(pairs, self.channels, self.bench.tilt_std_rad)
+        self._result, self._problem, self._walk = solve_pairs(
+            pairs, self.channels, self.bench.tilt_std_rad, s.stated_arw_rad_sqrt_s())
 
     # -- results ----------------------------------------------------------------------------
     @property
@@ -337,6 +342,12 @@ class TriadSession(MethodSession):
         r = self._result
         if r is not None and r.basis:
             lines.append(f'uncertainty: {r.basis}; Birge ratio {r.birge_ratio:.3g}')
+        if r is not None and self._walk is not None:
+            lines.append(count_walk_line(self._walk, self.channels))
+        if r is not None:
+            dof = dof_line(r)
+            if dof:
+                lines.append(dof)
         lines += [f'{key}: not measured — {why}' for key, why in self.missing().items()]
         return lines
 

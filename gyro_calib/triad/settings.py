@@ -46,9 +46,24 @@ class TriadSettings(WindowFields):
     |rate| stays below this, °/s."""
     analysis_period_s: float = 60.0
     """Live: the windows are recut from the data held after this much more data, s."""
+    angle_random_walk_deg_sqrt_h: tuple[float, float, float] = (math.nan, math.nan, math.nan)
+    """The gyros' angle random walk N_i, °/√h (datasheet or a noise run; one number for all
+    three, or one per channel): each window's count carries N_i²·T/K_i² (METHODS §F eq. (6b)).
+    NaN (not given): measured from each gyro's own pair residuals (eq. (6c))."""
 
     def __post_init__(self) -> None:
         """Range-check every field (ConfigError naming it)."""
+        arw = self.angle_random_walk_deg_sqrt_h
+        if isinstance(arw, (int, float)) and not isinstance(arw, bool):
+            object.__setattr__(self, 'angle_random_walk_deg_sqrt_h', (float(arw),) * 3)
+        elif isinstance(arw, (list, tuple)) and len(arw) == 3 and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in arw):
+            object.__setattr__(self, 'angle_random_walk_deg_sqrt_h',
+                               tuple(float(v) for v in arw))
+        arw = self.angle_random_walk_deg_sqrt_h
+        arw_ok = isinstance(arw, tuple) and len(arw) == 3 and all(
+            isinstance(v, float) and (math.isnan(v) or v >= 0) for v in arw) and (
+            all(math.isnan(v) for v in arw) or not any(math.isnan(v) for v in arw))
         check_ranges(self, [
             *self.window_checks(angle_within_half_turn=False, jump_may_be_zero=True),
             ('window_angle_source', self.window_angle_source in ('encoder', 'nominal'),
@@ -57,7 +72,16 @@ class TriadSettings(WindowFields):
             ('min_pulse_rate_hz', self.min_pulse_rate_hz >= 0, 'non-negative'),
             ('station_still_deg_s', self.station_still_deg_s > 0, 'positive'),
             ('analysis_period_s', self.analysis_period_s > 0, 'positive'),
+            ('angle_random_walk_deg_sqrt_h', arw_ok,
+             'a non-negative number, or three (one per channel); not given: measured'),
         ])
+
+    def stated_arw_rad_sqrt_s(self) -> npt.NDArray[np.float64] | None:
+        """The stated N_i (3,), rad/√s; None when not given (measured from the record)."""
+        arw = np.array(self.angle_random_walk_deg_sqrt_h, dtype=np.float64)
+        if np.any(np.isnan(arw)):
+            return None
+        return np.asarray(np.radians(arw) / 60.0, dtype=np.float64)
 
 
 def triad_settings_from_mapping(values: dict[str, Any], *, source: str) -> TriadSettings:
