@@ -136,6 +136,7 @@ class ChannelAccumulator:
     screen_spikes: bool = True
     """Screen the samples for spikes (METHODS §E.6); off in a shadow."""
     _screen: OutlierScreen | None = None
+    _work: FloatArray | None = None
     shadow: ChannelAccumulator | None = None
     """The record with the other treatment of its spikes ('remove' when the setting is
     'keep', and the reverse), from the first spike on; None while there is none."""
@@ -289,14 +290,25 @@ class ChannelAccumulator:
         return twin
 
     def _integrate(self, v: FloatArray) -> None:
-        """Values of the live segment into its phase: rate samples integrated (§E.1)."""
+        """Values of the live segment into its phase: rate samples integrated (§E.1).
+
+        The phase is formed in a work array reused block after block (the engines copy what
+        they keep; a fresh array of a block's size costs page faults).
+        """
         seg = self._live
         assert seg is not None
+        n = len(v)
+        if self._work is None or len(self._work) < n + 1:
+            self._work = np.empty(max(n + 1, self.settings.outlier_block_samples + 1))
         if self.kind == 'rate':
-            x = np.cumsum(np.concatenate(([seg.carry], v - seg.ref)))[1:]
+            buf = self._work[:n + 1]
+            buf[0] = seg.carry
+            np.subtract(v, seg.ref, out=buf[1:])
+            np.cumsum(buf, out=buf)  # sequential: the same floats as a fresh cumsum
+            x = buf[1:]
             seg.carry = float(x[-1])
         else:
-            x = v - seg.ref
+            x = np.subtract(v, seg.ref, out=self._work[:n])
         self._push(x)
 
     def _push(self, x: FloatArray) -> None:

@@ -59,7 +59,7 @@ SELECT_STRIDE = 32
 """Every this many-th sample of a block is sorted to bracket its median."""
 
 
-def _middle(d: FloatArray) -> float:
+def _middle(d: FloatArray, flags: BoolArray | None = None) -> float:
     """``np.median(d)`` exactly (the same float), at a fraction of its cost on long blocks.
 
     The median is selected among the samples within a bracket read from a sorted strided
@@ -67,9 +67,9 @@ def _middle(d: FloatArray) -> float:
     middle ranks (an ordered or periodic block can fool the sample) or the block holds a
     NaN, ``np.median`` decides. Either way the value is the k-th order statistic (the mean
     of the two middle ones for an even length), so it is the same float; only the sign of
-    a zero median can differ (equal values in another order), which no result sees: it
-    enters |d − median| and, for a rate spike without usable neighbours, a replaced sample
-    that is then integrated (x + (−0) = x).
+    a zero median can differ (equal values in another order), which no result sees.
+    ``flags``: a 2 × len(d) boolean work array (None: fresh ones; a fresh array of a block's
+    size costs page faults, more than the selection itself).
     """
     n = len(d)
     if n < SELECT_MIN:
@@ -81,12 +81,17 @@ def _middle(d: FloatArray) -> float:
     reach = 3 * math.isqrt(s) + 2  # ±6 σ of the sample rank of the median
     lo = sample[max(s // 2 - reach, 0)]
     hi = sample[min(s // 2 + reach, s - 1)]
-    below = int(np.count_nonzero(d < lo))
-    above = int(np.count_nonzero(d > hi))
+    if flags is None:
+        flags = np.empty((2, n), dtype=bool)
+    low = np.less(d, lo, out=flags[0, :n])
+    high = np.greater(d, hi, out=flags[1, :n])
+    below = int(np.count_nonzero(low))
+    above = int(np.count_nonzero(high))
     if below > k_lo or n - above <= k_hi:
         return float(np.median(d))
-    inside = d[(d >= lo) & (d <= hi)]
-    if below + len(inside) + above != n:  # a NaN: np.median's answer (NaN)
+    np.logical_or(low, high, out=low)
+    inside = d[np.logical_not(low, out=low)]  # lo ≤ d ≤ hi, and any NaN
+    if np.isnan(inside).any():
         return float(np.median(d))
     r = k_lo - below
     if k_hi == k_lo:
@@ -95,14 +100,20 @@ def _middle(d: FloatArray) -> float:
     return float((part[r] + part[r + 1]) / 2.0)
 
 
-def _robust(d: FloatArray) -> tuple[float, float, bool, FloatArray]:
-    """(median, robust σ, MAD was 0, |d − median|) of ``d``: (E.6-1)."""
+def _robust(d: FloatArray, work: tuple[FloatArray, BoolArray] | None = None
+            ) -> tuple[float, float, bool, FloatArray]:
+    """(median, robust σ, MAD was 0, |d − median|) of ``d``: (E.6-1).
+
+    ``work``: a float array and a 2-row boolean array at least len(d) long for |d − median|
+    and the selection (None: fresh ones).
+    """
     if not len(d):
         return math.nan, 0.0, False, np.zeros(0)
-    med = _middle(d)
-    dev = np.subtract(d, med)
+    flags = work[1] if work is not None else None
+    med = _middle(d, flags)
+    dev = np.subtract(d, med, out=work[0][:len(d)] if work is not None else None)
     np.abs(dev, out=dev)
-    scale = MAD_TO_SIGMA * _middle(dev)
+    scale = MAD_TO_SIGMA * _middle(dev, flags)
     if scale > 0.0:
         return med, scale, False, dev
     scale = MEAN_ABS_TO_SIGMA * float(np.mean(dev))
@@ -216,6 +227,10 @@ class OutlierScreen:
     _prev: float = math.nan
     _offset: float = 0.0
     _tail: FloatArray | None = None
+    _stat: FloatArray | None = None
+    """The statistic of the last full block (its tail is :attr:`_tail`), reused block by block."""
+    _work: tuple[FloatArray, BoolArray] | None = None
+    """|d − median| and the selection's flags of a block (work arrays, reused)."""
 
     @property
     def held(self) -> int:
@@ -223,8 +238,13 @@ class OutlierScreen:
         return self._held
 
     def nbytes(self) -> int:
-        """Bytes held: the open block's stamps and values, the last block's statistic."""
-        tail = self._tail.nbytes if self._tail is not None else 0
+        """Bytes held: the open block's stamps and values, the last block's statistic.
+
+        (Not counted: two work arrays of a block, |d − median| and the selection's flags.)
+        """
+        tail = self._stat.nbytes if self._stat is not None else 0
+        if self._tail is not None and (self._stat is None or self._tail.base is not self._stat):
+            tail = max(tail, self._tail.nbytes)
         return sum(a.nbytes for a in (*self._t, *self._v)) + tail
 
     def push(self, t: IntArray, v: FloatArray) -> list[tuple[IntArray, FloatArray, FloatArray]]:
@@ -272,12 +292,18 @@ class OutlierScreen:
     def _decide(self, n: int) -> tuple[IntArray, FloatArray, FloatArray]:
         """Screen the next n held samples: (stamps, values as recorded, values cleaned)."""
         t, v = self._take(n)
+        full = n == self.block
+        if full and self._stat is None:
+            self._stat = np.empty(self.block)
+            self._work = (np.empty(self.block), np.empty((2, self.block), dtype=bool))
         has: BoolArray | None = None
         if self.kind == 'rate':
             d = dv = v
             t_v = t
         else:
-            d = np.empty(n)
+            # a full block's increments go to the reused array (the next full block is the
+            # first to overwrite them, and replaces the tail they hold); a short one's are new
+            d = self._stat if full and self._stat is not None else np.empty(n)
             d[0] = v[0] - self._prev
             np.subtract(v[1:], v[:-1], out=d[1:])
             has = np.isfinite(d)
@@ -289,10 +315,13 @@ class OutlierScreen:
         ref = dv
         if n < self.block and self._tail is not None:  # a short last block: the last W samples
             ref = np.concatenate((self._tail[len(self._tail) - (self.block - len(dv)):], dv))
-        center, scale, mad_zero, dev = _robust(ref)
+        center, scale, mad_zero, dev = _robust(ref, self._work)
         tail = ref[-self.block:] if len(ref) >= self.block else ref
-        # an increment block is ours; rate samples are the caller's arrays (copied)
-        self._tail = tail if has is not None else tail.copy()
+        if has is None and full and self._stat is not None:  # rate samples are the caller's
+            self._tail = self._stat[:len(tail)]
+            np.copyto(self._tail, tail)
+        else:
+            self._tail = tail if has is not None else tail.copy()
         if ref is not dv:
             dev = np.abs(dv - center)
         threshold = self.sigma * scale
