@@ -90,7 +90,7 @@ def _middle(d: FloatArray, flags: BoolArray | None = None) -> float:
     if below > k_lo or n - above <= k_hi:
         return float(np.median(d))
     np.logical_or(low, high, out=low)
-    inside = d[np.logical_not(low, out=low)]  # lo ≤ d ≤ hi, and any NaN
+    inside = np.compress(np.logical_not(low, out=low), d)  # lo ≤ d ≤ hi, and any NaN
     if np.isnan(inside).any():
         return float(np.median(d))
     r = k_lo - below
