@@ -135,24 +135,27 @@ def child_ours(n: int, seed: int, deviations: str, out: str, paths: list[str]) -
                              deviations=deviations)
     cals = {p: NoiseCalibrator(settings) for p in paths if p != 'floor'}
     spent = dict.fromkeys(paths, 0.0)
+    cpu = dict.fromkeys(paths, 0.0)  # CPU time of the process (all threads), s
     work = np.empty(CHUNK)
     for t, a in _chunks(n, seed):
         for p in paths:
             watch.current = p
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             if p == 'floor':
                 np.subtract(a[1:], a[:-1], out=work[:len(a) - 1])
             else:
                 cals[p].extend_fog_output(t, a)
                 cals[p].process()
             spent[p] += time.perf_counter() - t0
+            cpu[p] += time.process_time() - c0
     info: dict[str, object] = {'import_s': import_s, 'paths': {}}
     for p, cal in cals.items():
         watch.current = p
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         cal.process(flush=True)
         curve = cal.curve('gyro')
         spent_curve = time.perf_counter() - t0
+        cpu[p] += time.process_time() - c0
         t0 = time.perf_counter()
         res = cal.results().get('gyro', {})
         spent_fit = time.perf_counter() - t0
@@ -161,7 +164,7 @@ def child_ours(n: int, seed: int, deviations: str, out: str, paths: list[str]) -
             np.savez(out, tau=curve.tau_s, adev=curve.adev, m=curve.m)
             info['n_tau'] = len(curve.tau_s)
         info['paths'][p] = {  # type: ignore[index]
-            'stream_s': spent[p], 'flush_s': spent_curve, 'fit_s': spent_fit,
+            'stream_s': spent[p], 'flush_s': spent_curve, 'fit_s': spent_fit, 'cpu_s': cpu[p],
             'parts': watch.spent.get(p, {}),
             'terms': {k: [v.value, v.std_uncertainty] for k, v in res.items()}}
     info['floor_s'] = spent.get('floor', float('nan'))
@@ -177,12 +180,12 @@ def child_allantools(n: int, seed: int, out: str, m_list: str) -> None:
         x[i:i + len(a)] = a
         i += len(a)
     m = np.array([int(v) for v in m_list.split(',')])
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     tau, adev, _, _ = allantools.oadev(x, rate=1e9 / PERIOD_NS, data_type='phase',
                                        taus=m * PERIOD_NS / 1e9)
-    spent = time.perf_counter() - t0
+    spent, cpu = time.perf_counter() - t0, time.process_time() - c0
     np.savez(out, tau=tau, adev=adev)
-    print(json.dumps({'oadev_s': spent, 'n_tau': len(tau)}))
+    print(json.dumps({'oadev_s': spent, 'oadev_cpu_s': cpu, 'n_tau': len(tau)}))
 
 
 def _run_child(args: list[str]) -> tuple[dict, float, float]:
@@ -275,7 +278,7 @@ def _ours(n: int, seed: int, deviations: str, tmp: str, label: str,
         name = {'screened': 'as shipped', 'bare': 'without the spike screen'}[p]
         print(f'    {name}: {run["stream_s"]:.2f} s streaming + {run["flush_s"]:.2f} s curve = '
               f'{spent:.2f} s ({n / spent / 1e6:.1f} M samples/s) = {spent / floor:.0f}× the '
-              f'floor; fit {run["fit_s"]:.2f} s')
+              f'floor (CPU {run["cpu_s"]:.2f} s); fit {run["fit_s"]:.2f} s')
         parts = dict(run['parts'])
         parts['rest'] = spent - sum(parts.values())
         print('      where the time goes: ' + ', '.join(
@@ -345,6 +348,15 @@ def main() -> None:
                   f'peak RSS {rss:.0f} MB')
             print(f'  ours, ADEV: {a_s:.1f} s = {a_s / info["oadev_s"]:.3f} of allantools; '
                   f'with MDEV, HDEV, TOTDEV too: {f_s:.1f} s = {f_s / info["oadev_s"]:.3f}')
+            a_c = adev_info['paths']['screened']['cpu_s']
+            f_c = all_info['paths']['screened']['cpu_s']
+            at_c = info['oadev_cpu_s']
+            print(f'  in CPU time (all threads; less sensitive to other processes than the '
+                  f'wall time): allantools {at_c:.1f} s; ours, ADEV {a_c:.1f} s = '
+                  f'{a_c / at_c:.3f}; all four {f_c:.1f} s = {f_c / at_c:.3f}'
+                  + (f'; ADEV without the screen {adev_info["paths"]["bare"]["cpu_s"]:.1f} s '
+                     f'= {adev_info["paths"]["bare"]["cpu_s"] / at_c:.3f}'
+                     if 'bare' in adev_info['paths'] else ''))
             if 'bare' in adev_info['paths']:
                 b_s = adev_info['paths']['bare']['total_s']
                 print(f'  ours, ADEV without the spike screen: {b_s:.1f} s = '
