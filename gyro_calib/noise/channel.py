@@ -50,6 +50,8 @@ if TYPE_CHECKING:
     FloatArray = npt.NDArray[np.float64]
     IntArray = npt.NDArray[np.int64]
 
+INTERVAL_PIECE = 1 << 16
+"""Stamp intervals checked at a time (see ChannelAccumulator._evenly_sampled)."""
 LEARN_INTERVALS = 256
 """Stamp intervals whose median is the learnt nominal period."""
 
@@ -137,6 +139,7 @@ class ChannelAccumulator:
     """Screen the samples for spikes (METHODS §E.6); off in a shadow."""
     _screen: OutlierScreen | None = None
     _work: FloatArray | None = None
+    _intervals: IntArray | None = None
     shadow: ChannelAccumulator | None = None
     """The record with the other treatment of its spikes ('remove' when the setting is
     'keep', and the reverse), from the first spike on; None while there is none."""
@@ -201,19 +204,37 @@ class ChannelAccumulator:
         else:
             self._learn_t, self._learn_v = [t], [v]
 
+    def _evenly_sampled(self, t: IntArray, gap_ns: float) -> bool:
+        """Every stamp interval (the one before t[0] too) in [nominal/2, gap_ns].
+
+        Two reductions per piece of :data:`INTERVAL_PIECE` intervals formed in a reused
+        array (a chunk-sized array of intervals would cost page faults).
+        """
+        half = 0.5 * self.nominal_period_ns
+        if self._live is not None:
+            first = int(t[0]) - self._live.last_ns
+            if not (first >= half and first <= gap_ns):
+                return False
+        if self._intervals is None:
+            self._intervals = np.empty(INTERVAL_PIECE, dtype=np.int64)
+        for a in range(0, len(t) - 1, INTERVAL_PIECE):
+            b = min(a + INTERVAL_PIECE, len(t) - 1)
+            dt = np.subtract(t[a + 1:b + 1], t[a:b], out=self._intervals[:b - a])
+            if dt.min() < half or dt.max() > gap_ns:
+                return False
+        return True
+
     def _segment(self, t: IntArray, v: FloatArray) -> None:
         nominal = self.nominal_period_ns
-        if self._live is not None:
-            dt = np.diff(np.concatenate(([self._live.last_ns], t)))  # dt[k]: interval before t[k]
-            self.stats.intervals += len(dt)
-        else:
-            dt = np.concatenate(([0], np.diff(t)))  # t[0] has no interval before it
-            self.stats.intervals += len(dt) - 1
         gap_ns = self.settings.gap_threshold_periods * nominal
-        measured = dt if self._live is not None else dt[1:]
-        if not len(measured) or (measured.min() >= 0.5 * nominal and measured.max() <= gap_ns):
+        self.stats.intervals += len(t) if self._live is not None else len(t) - 1
+        if self._evenly_sampled(t, gap_ns):
             self._append(t, v)  # evenly sampled (the usual case): two reductions, no scan
             return
+        if self._live is not None:
+            dt = np.diff(np.concatenate(([self._live.last_ns], t)))  # dt[k]: interval before t[k]
+        else:
+            dt = np.concatenate(([0], np.diff(t)))  # t[0] has no interval before it
         self.stats.bunched_intervals += int(np.count_nonzero((dt > 0) & (dt < 0.5 * nominal)))
         pos = 0
         for gap in np.nonzero(dt > gap_ns)[0]:
