@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import copy
 import math
+import threading
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -54,6 +55,21 @@ INTERVAL_PIECE = 1 << 16
 """Stamp intervals checked at a time (see ChannelAccumulator._evenly_sampled)."""
 LEARN_INTERVALS = 256
 """Stamp intervals whose median is the learnt nominal period."""
+
+
+_PHASE_WORK: dict[int, FloatArray] = {}
+
+
+def _phase_work(n: int) -> FloatArray:
+    """This thread's work array of at least n points for a block's phase (grown, never shrunk).
+
+    Shared by every channel of the thread: the engines copy what they keep.
+    """
+    key = threading.get_ident()
+    work = _PHASE_WORK.get(key)
+    if work is None or len(work) < n:
+        work = _PHASE_WORK[key] = np.empty(n)
+    return work
 
 
 def format_stamp(t_ns: int) -> str:
@@ -138,7 +154,6 @@ class ChannelAccumulator:
     screen_spikes: bool = True
     """Screen the samples for spikes (METHODS §E.6); off in a shadow."""
     _screen: OutlierScreen | None = None
-    _work: FloatArray | None = None
     _intervals: IntArray | None = None
     shadow: ChannelAccumulator | None = None
     """The record with the other treatment of its spikes ('remove' when the setting is
@@ -319,17 +334,16 @@ class ChannelAccumulator:
         seg = self._live
         assert seg is not None
         n = len(v)
-        if self._work is None or len(self._work) < n + 1:
-            self._work = np.empty(max(n + 1, self.settings.outlier_block_samples + 1))
+        work = _phase_work(max(n + 1, self.settings.outlier_block_samples + 1))
         if self.kind == 'rate':
-            buf = self._work[:n + 1]
+            buf = work[:n + 1]
             buf[0] = seg.carry
             np.subtract(v, seg.ref, out=buf[1:])
             np.cumsum(buf, out=buf)  # sequential: the same floats as a fresh cumsum
             x = buf[1:]
             seg.carry = float(x[-1])
         else:
-            x = np.subtract(v, seg.ref, out=self._work[:n])
+            x = np.subtract(v, seg.ref, out=work[:n])
         self._push(x)
 
     def _push(self, x: FloatArray) -> None:

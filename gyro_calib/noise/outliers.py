@@ -26,6 +26,7 @@ segment and lose the longest averaging times).
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -98,6 +99,22 @@ def _middle(d: FloatArray, flags: BoolArray | None = None) -> float:
         return float(np.partition(inside, r)[r])
     part = np.partition(inside, (r, r + 1))
     return float((part[r] + part[r + 1]) / 2.0)
+
+
+_WORK: dict[tuple[int, int], tuple[FloatArray, BoolArray]] = {}
+
+
+def _block_work(block: int) -> tuple[FloatArray, BoolArray]:
+    """This thread's work arrays for a block: |d − median| and the selection's flags.
+
+    Shared by every screen of the thread (each uses them only while it decides a block):
+    an IMU's six axes hold one set, not six.
+    """
+    key = (threading.get_ident(), block)
+    work = _WORK.get(key)
+    if work is None:
+        work = _WORK[key] = (np.empty(block), np.empty((2, block), dtype=bool))
+    return work
 
 
 def _robust(d: FloatArray, work: tuple[FloatArray, BoolArray] | None = None
@@ -229,8 +246,6 @@ class OutlierScreen:
     _tail: FloatArray | None = None
     _stat: FloatArray | None = None
     """The statistic of the last full block (its tail is :attr:`_tail`), reused block by block."""
-    _work: tuple[FloatArray, BoolArray] | None = None
-    """|d − median| and the selection's flags of a block (work arrays, reused)."""
 
     @property
     def held(self) -> int:
@@ -295,7 +310,6 @@ class OutlierScreen:
         full = n == self.block
         if full and self._stat is None:
             self._stat = np.empty(self.block)
-            self._work = (np.empty(self.block), np.empty((2, self.block), dtype=bool))
         has: BoolArray | None = None
         if self.kind == 'rate':
             d = dv = v
@@ -315,7 +329,7 @@ class OutlierScreen:
         ref = dv
         if n < self.block and self._tail is not None:  # a short last block: the last W samples
             ref = np.concatenate((self._tail[len(self._tail) - (self.block - len(dv)):], dv))
-        center, scale, mad_zero, dev = _robust(ref, self._work)
+        center, scale, mad_zero, dev = _robust(ref, _block_work(self.block))
         tail = ref[-self.block:] if len(ref) >= self.block else ref
         if has is None and full and self._stat is not None:  # rate samples are the caller's
             self._tail = self._stat[:len(tail)]
