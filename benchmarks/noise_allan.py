@@ -6,7 +6,7 @@ allantools, and the coverage of the EDF error bars.
 Run (from the repository root, in the project's venv):
 
     nice -n 10 python benchmarks/noise_allan.py [--quick] [--n 100000000] [--n-large 1000000000]
-        [--skip-allantools] [--skip-large] [--mc-trials 400]
+        [--skip-allantools] [--skip-large] [--skip-no-screen] [--mc-trials 400]
 
 (a) Streaming, exact. N samples (a day at ~1 kHz for 10⁸) of a FOG's integrated angle
     (white rate noise + random-walk rate, generated in 10⁶-sample chunks, integer-ns
@@ -14,12 +14,18 @@ Run (from the repository root, in the project's venv):
     overlap at every τ of the octave grid (the phase goes to a scratch file beyond 2²⁰
     points), once for the ADEV alone and once with MDEV, HDEV and TOTDEV too. Figures:
     time in the calibrator (generation excluded), samples/s, and the child's peak RSS
-    (its own ``ru_maxrss`` through ``wait4``; target < 500 MB). Also for ``--n-large``
+    (its own ``ru_maxrss`` through ``wait4``; target < 500 MB), where the time goes (the
+    spike screen, the sums, the ordering stage, the rest) and the floor: one NumPy pass
+    over the same samples in the same child. The ADEV alone is also run without the spike
+    screen (the path before it, the reference of its cost; ``--skip-no-screen`` leaves it
+    out). Also for ``--n-large``
     (10⁹, ADEV only; all four with ``--large-all``) unless ``--skip-large``, last.
 
 (b) allantools. The same samples in one array, then ``allantools.oadev`` (which must hold
     them all; not run at 10⁹: 8 GB for the phase alone, more for its temporaries) at the
-    same τ, in another child: time, peak RSS, and the largest |ours/allantools − 1|.
+    same τ, in another child: time, peak RSS, the largest |ours/allantools − 1|, and each of
+    our times as a ratio to it (the machine's load cancels in the ratio; the issue 40 goals:
+    ADEV ≤ 0.2, all four ≤ 0.5).
 
 (c) EDF error bars. White FM, flicker FM and random-walk FM records of 4096 samples,
     ``--mc-trials`` each: at every octave τ the fraction of trials whose ±1σ bar
@@ -67,34 +73,102 @@ def _chunks(n: int, seed: int):  # type: ignore[no-untyped-def]
         done += k
 
 
-def child_ours(n: int, seed: int, deviations: str, out: str) -> None:
+class _Stopwatch:
+    """Seconds spent inside wrapped methods, per calibrator (a breakdown of its time)."""
+
+    def __init__(self) -> None:
+        self.spent: dict[str, dict[str, float]] = {}
+        self.current = ''
+        self._depth = 0
+
+    def wrap(self, owner: type, name: str, label: str) -> None:
+        inner = getattr(owner, name)
+
+        def timed(*args, **kwargs):  # type: ignore[no-untyped-def]
+            if self._depth:  # nested: counted once, outside
+                return inner(*args, **kwargs)
+            self._depth += 1
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self._depth -= 1
+                part = self.spent.setdefault(self.current, {})
+                part[label] = part.get(label, 0.0) + time.perf_counter() - t0
+
+        setattr(owner, name, timed)
+
+
+def child_ours(n: int, seed: int, deviations: str, out: str, paths: list[str]) -> None:
+    """Stream the samples into one calibrator per path, chunk by chunk in turn, timed apart.
+
+    Paths: 'screened' (as shipped), 'bare' (the path before the spike screen, METHODS §E.6:
+    samples straight in), 'floor' (one NumPy pass over the samples: their increments into a
+    reused array). Interleaved chunk by chunk, the machine's load falls alike on each.
+    """
     from gyro_calib.noise import NoiseCalibrator, NoiseSettings
+    from gyro_calib.noise.channel import ChannelAccumulator
+    from gyro_calib.noise.exact import ExactDeviations
+    from gyro_calib.noise.ordering import ReorderBuffer
+    from gyro_calib.noise.outliers import OutlierScreen
 
     t0 = time.perf_counter()
     import allantools  # noqa: F401  (Greenhall's EDF; a one-off import, timed apart)
 
     import_s = time.perf_counter() - t0
-    cal = NoiseCalibrator(NoiseSettings(fog_scale_factor_counts_per_rad=1.0, taus='octave',
-                                        deviations=deviations))
-    spent = 0.0
+    watch = _Stopwatch()
+    post_init = ChannelAccumulator.__post_init__
+
+    def maybe_unscreened(self: ChannelAccumulator) -> None:
+        post_init(self)
+        if watch.current == 'bare':
+            self._screen = None
+
+    ChannelAccumulator.__post_init__ = maybe_unscreened  # type: ignore[method-assign]
+    # the screen's own work (median, MAD, the tally), without the sums of the blocks it
+    # releases: OutlierScreen._decide is timed, ExactDeviations.push apart
+    watch.wrap(OutlierScreen, '_decide', 'screen')
+    watch.wrap(ExactDeviations, 'push', 'sums')
+    watch.wrap(ExactDeviations, 'sums', 'sums')
+    watch.wrap(ReorderBuffer, 'extend', 'ordering')
+    settings = NoiseSettings(fog_scale_factor_counts_per_rad=1.0, taus='octave',
+                             deviations=deviations)
+    cals = {p: NoiseCalibrator(settings) for p in paths if p != 'floor'}
+    spent = dict.fromkeys(paths, 0.0)
+    cpu = dict.fromkeys(paths, 0.0)  # CPU time of the process (all threads), s
+    work = np.empty(CHUNK)
     for t, a in _chunks(n, seed):
+        for p in paths:
+            watch.current = p
+            t0, c0 = time.perf_counter(), time.process_time()
+            if p == 'floor':
+                np.subtract(a[1:], a[:-1], out=work[:len(a) - 1])
+            else:
+                cals[p].extend_fog_output(t, a)
+                cals[p].process()
+            spent[p] += time.perf_counter() - t0
+            cpu[p] += time.process_time() - c0
+    info: dict[str, object] = {'import_s': import_s, 'paths': {}}
+    for p, cal in cals.items():
+        watch.current = p
+        t0, c0 = time.perf_counter(), time.process_time()
+        cal.process(flush=True)
+        curve = cal.curve('gyro')
+        spent_curve = time.perf_counter() - t0
+        cpu[p] += time.process_time() - c0
         t0 = time.perf_counter()
-        cal.extend_fog_output(t, a)
-        cal.process()
-        spent += time.perf_counter() - t0
-    t0 = time.perf_counter()
-    cal.process(flush=True)
-    curve = cal.curve('gyro')
-    spent_curve = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    res = cal.results().get('gyro', {})
-    spent_fit = time.perf_counter() - t0
-    assert curve is not None
-    np.savez(out, tau=curve.tau_s, adev=curve.adev, m=curve.m)
-    print(json.dumps({'stream_s': spent, 'flush_s': spent_curve, 'fit_s': spent_fit,
-                      'import_s': import_s,
-                      'n_tau': len(curve.tau_s),
-                      'terms': {k: [v.value, v.std_uncertainty] for k, v in res.items()}}))
+        res = cal.results().get('gyro', {})
+        spent_fit = time.perf_counter() - t0
+        assert curve is not None
+        if p == paths[0]:
+            np.savez(out, tau=curve.tau_s, adev=curve.adev, m=curve.m)
+            info['n_tau'] = len(curve.tau_s)
+        info['paths'][p] = {  # type: ignore[index]
+            'stream_s': spent[p], 'flush_s': spent_curve, 'fit_s': spent_fit, 'cpu_s': cpu[p],
+            'parts': watch.spent.get(p, {}),
+            'terms': {k: [v.value, v.std_uncertainty] for k, v in res.items()}}
+    info['floor_s'] = spent.get('floor', float('nan'))
+    print(json.dumps(info))
 
 
 def child_allantools(n: int, seed: int, out: str, m_list: str) -> None:
@@ -106,12 +180,12 @@ def child_allantools(n: int, seed: int, out: str, m_list: str) -> None:
         x[i:i + len(a)] = a
         i += len(a)
     m = np.array([int(v) for v in m_list.split(',')])
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     tau, adev, _, _ = allantools.oadev(x, rate=1e9 / PERIOD_NS, data_type='phase',
                                        taus=m * PERIOD_NS / 1e9)
-    spent = time.perf_counter() - t0
+    spent, cpu = time.perf_counter() - t0, time.process_time() - c0
     np.savez(out, tau=tau, adev=adev)
-    print(json.dumps({'oadev_s': spent, 'n_tau': len(tau)}))
+    print(json.dumps({'oadev_s': spent, 'oadev_cpu_s': cpu, 'n_tau': len(tau)}))
 
 
 def _run_child(args: list[str]) -> tuple[dict, float, float]:
@@ -185,17 +259,38 @@ def part_c(n: int, trials: int) -> None:
                   f'{100 * cover.max():.0f} %  [{cells}]')
 
 
-def _ours(n: int, seed: int, deviations: str, tmp: str, label: str) -> tuple[dict, str]:
+def _ours(n: int, seed: int, deviations: str, tmp: str, label: str,
+          reference: bool = False) -> tuple[dict, str]:
+    """One child: our calibrator (and, with ``reference``, the path without the screen)."""
     out = str(Path(tmp) / f'ours_{label}.npz')
+    paths = ['screened', 'bare', 'floor'] if reference else ['screened', 'floor']
     info, wall, rss = _run_child(['--child', 'ours', '--n', str(n), '--seed', str(seed),
-                                  '--deviations', deviations, '--out', out])
-    spent = info['stream_s'] + info['flush_s']
-    print(f'  {n:.0e} samples, {label}: {info["n_tau"]} τ; in the calibrator '
-          f'{info["stream_s"]:.1f} s streaming + {info["flush_s"]:.2f} s curve = {spent:.1f} s '
-          f'({n / spent / 1e6:.1f} M samples/s), fit {info["fit_s"]:.2f} s; child wall '
-          f'{wall:.1f} s (generation and the {info["import_s"]:.1f} s allantools import '
-          f'included); peak RSS {rss:.0f} MB')
-    for key, (value, std) in info['terms'].items():
+                                  '--deviations', deviations, '--out', out,
+                                  '--paths', ','.join(paths)])
+    both = ' (both calibrators together)' if reference else ''
+    print(f'  {n:.0e} samples, {label}: {info["n_tau"]} τ; child wall {wall:.1f} s (generation '
+          f'and the {info["import_s"]:.1f} s allantools import included); peak RSS {rss:.0f} '
+          f'MB{both}')
+    floor = info['floor_s']
+    for p, run in info['paths'].items():
+        spent = run['stream_s'] + run['flush_s']
+        run['total_s'] = spent
+        name = {'screened': 'as shipped', 'bare': 'without the spike screen'}[p]
+        print(f'    {name}: {run["stream_s"]:.2f} s streaming + {run["flush_s"]:.2f} s curve = '
+              f'{spent:.2f} s ({n / spent / 1e6:.1f} M samples/s) = {spent / floor:.0f}× the '
+              f'floor (CPU {run["cpu_s"]:.2f} s); fit {run["fit_s"]:.2f} s')
+        parts = dict(run['parts'])
+        parts['rest'] = spent - sum(parts.values())
+        print('      where the time goes: ' + ', '.join(
+            f'{k} {v:.2f} s ({100 * v / spent:.0f} %)' for k, v in parts.items()))
+    print(f'    floor (one NumPy pass over the samples, interleaved chunk by chunk with the '
+          f'calibrators): {floor:.3f} s')
+    if reference:
+        a_s = info['paths']['screened']['total_s']
+        b_s = info['paths']['bare']['total_s']
+        print(f'    the spike screen costs {a_s / b_s - 1:+.1%} of the path without it '
+              f'(interleaved in one child)')
+    for key, (value, std) in info['paths']['screened']['terms'].items():
         truth = ARW if key.startswith('angle') else RRW
         print(f'    {key} = {value:.5g} ± {std:.2g} (truth {truth:g})')
     return info, out
@@ -216,9 +311,12 @@ def main() -> None:
     parser.add_argument('--deviations', default='adev')
     parser.add_argument('--out', default='')
     parser.add_argument('--m', default='')
+    parser.add_argument('--paths', default='screened,floor')
+    parser.add_argument('--skip-no-screen', action='store_true',
+                        help='no reference run of the path without the spike screen')
     args = parser.parse_args()
     if args.child == 'ours':
-        child_ours(args.n, args.seed, args.deviations, args.out)
+        child_ours(args.n, args.seed, args.deviations, args.out, args.paths.split(','))
         return
     if args.child == 'allantools':
         child_allantools(args.n, args.seed, args.out, args.m)
@@ -230,7 +328,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         print('\n(a) NoiseCalibrator, exact full overlap at every octave τ, streamed in 10⁶ '
               'chunks')
-        adev_info, adev_out = _ours(n, args.seed, 'adev', tmp, 'ADEV only')
+        adev_info, adev_out = _ours(n, args.seed, 'adev', tmp, 'ADEV only',
+                                    reference=not args.skip_no_screen)
         all_info, _ = _ours(n, args.seed, 'adev, mdev, hdev, totdev', tmp,
                             'ADEV + MDEV + HDEV + TOTDEV')
         if not args.skip_allantools:
@@ -243,12 +342,25 @@ def main() -> None:
             ref = np.load(out)
             common = np.isin(ours['m'], np.round(ref['tau'] * 1e9 / PERIOD_NS))
             dev = np.max(np.abs(ours['adev'][common] / ref['adev'] - 1))
-            a_s = adev_info['stream_s'] + adev_info['flush_s']
-            f_s = all_info['stream_s'] + all_info['flush_s']
+            a_s = adev_info['paths']['screened']['total_s']
+            f_s = all_info['paths']['screened']['total_s']
             print(f'  allantools.oadev: {info["oadev_s"]:.1f} s for {info["n_tau"]} τ; child '
                   f'peak RSS {rss:.0f} MB')
             print(f'  ours, ADEV: {a_s:.1f} s = {a_s / info["oadev_s"]:.3f} of allantools; '
                   f'with MDEV, HDEV, TOTDEV too: {f_s:.1f} s = {f_s / info["oadev_s"]:.3f}')
+            a_c = adev_info['paths']['screened']['cpu_s']
+            f_c = all_info['paths']['screened']['cpu_s']
+            at_c = info['oadev_cpu_s']
+            print(f'  in CPU time (all threads; less sensitive to other processes than the '
+                  f'wall time): allantools {at_c:.1f} s; ours, ADEV {a_c:.1f} s = '
+                  f'{a_c / at_c:.3f}; all four {f_c:.1f} s = {f_c / at_c:.3f}'
+                  + (f'; ADEV without the screen {adev_info["paths"]["bare"]["cpu_s"]:.1f} s '
+                     f'= {adev_info["paths"]["bare"]["cpu_s"] / at_c:.3f}'
+                     if 'bare' in adev_info['paths'] else ''))
+            if 'bare' in adev_info['paths']:
+                b_s = adev_info['paths']['bare']['total_s']
+                print(f'  ours, ADEV without the spike screen: {b_s:.1f} s = '
+                      f'{b_s / info["oadev_s"]:.3f} of allantools')
             print(f'  largest |ours/allantools − 1| = {dev:.2e} over {int(common.sum())} τ '
                   f'(τ ≤ T/4, clusters down to 4)')
         part_c(4096, 200 if args.quick else args.mc_trials)

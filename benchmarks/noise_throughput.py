@@ -24,6 +24,11 @@ of the fastest run: wall time, ratio to real time = bag duration / wall (target 
 CPU time of the child (user + system; the machine may be shared — the load average is
 printed), input messages per second, and the child's own peak RSS (``ru_maxrss`` through
 ``wait4``; target < 500 MB). ``--quick`` uses 0.1-hour bags.
+
+``--reference REV`` also runs the same commands on the tree of git revision ``REV`` (its
+``gyro_calib`` first on the path), in turn with this tree's runs, and prints each figure's
+ratio after/before in CPU time, which the machine's other load disturbs far less than the
+wall time (issue 40).
 """
 
 from __future__ import annotations
@@ -64,12 +69,20 @@ def static_rlg_bag(cache: Path, hours: float) -> Path:
     return path
 
 
-def run_once(argv: list[str]) -> tuple[int, float, float, float, str]:
-    """Run ``gyro-calib`` with ``argv`` in a child: (exit, wall s, CPU s, peak RSS MB, stderr)."""
+REFERENCE: list[str] = []
+"""The reference tree's directory, when ``--reference`` is given."""
+
+
+def run_once(argv: list[str], tree: str | None = None) -> tuple[int, float, float, float, str]:
+    """Run ``gyro-calib`` with ``argv`` in a child: (exit, wall s, CPU s, peak RSS MB, stderr).
+
+    ``tree``: a directory whose ``gyro_calib`` is imported instead (the reference run).
+    """
     exe = Path(sys.executable).with_name('gyro-calib')
+    env = dict(os.environ, PYTHONPATH=tree) if tree else None
     with tempfile.TemporaryFile('w+') as out, tempfile.TemporaryFile('w+') as err:
         t0 = time.perf_counter()
-        proc = subprocess.Popen([str(exe), *argv], stdout=out, stderr=err, text=True)
+        proc = subprocess.Popen([str(exe), *argv], stdout=out, stderr=err, text=True, env=env)
         _, status, usage = os.wait4(proc.pid, 0)
         wall = time.perf_counter() - t0
         err.seek(0)
@@ -88,10 +101,14 @@ def bench(label: str, bag: Path, topic: str, flags: list[str], repeat: int, *,
                                          f'{t.count})' for t in info.topics.values()),
           flush=True)
     with tempfile.TemporaryDirectory() as tmp:
-        outs = ['--no-progress'] + (['--plot', f'{tmp}/adev.png', '--out',
+        outs = ['--no-progress'] + (['--plot', f'{tmp}/figures', '--out',
                                      f'{tmp}/handoff.yaml', '--json'] if files else [])
         flags = [f.replace('{tmp}', tmp) for f in flags]
-        runs = [run_once(['noise', str(bag), *flags, *outs]) for _ in range(repeat)]
+        runs, ref_runs = [], []
+        for _ in range(repeat):
+            runs.append(run_once(['noise', str(bag), *flags, *outs]))
+            if REFERENCE:
+                ref_runs.append(run_once(['noise', str(bag), *flags, *outs], REFERENCE[0]))
         written = sorted(p.name for p in Path(tmp).iterdir())
     code, wall, cpu, rss, err = min(runs, key=lambda r: r[1])
     if code not in ok_exits:
@@ -104,6 +121,12 @@ def bench(label: str, bag: Path, topic: str, flags: list[str], repeat: int, *,
           f'messages/s; peak RSS {rss:.0f} MB (target < 500 MB); load average {load}')
     print(f'    exit {code}; all runs (wall s): {", ".join(f"{r[1]:.2f}" for r in runs)}; '
           f'files written: {", ".join(written) or "none"}')
+    if ref_runs:
+        cpu_ref = min(r[2] for r in ref_runs)
+        cpu_new = min(r[2] for r in runs)
+        print(f'    against the reference tree, run in turn: CPU {cpu_new:.2f} s against '
+              f'{cpu_ref:.2f} s (least of {repeat} each) = {cpu_new / cpu_ref:.2f}; peak RSS '
+              f'{min(r[3] for r in runs):.0f} against {min(r[3] for r in ref_runs):.0f} MB')
 
 
 def main() -> None:
@@ -112,8 +135,16 @@ def main() -> None:
     parser.add_argument('--quick', action='store_true', help='0.1-hour bags, one run each')
     parser.add_argument('--cache', type=Path, default=Path('/tmp/gyro_calib_bench'))
     parser.add_argument('--repeat', type=int, default=2)
+    parser.add_argument('--reference', default='',
+                        help='git revision whose gyro_calib is run in turn, for CPU ratios')
     args = parser.parse_args()
     hours, repeat = (0.1, 1) if args.quick else (args.hours, args.repeat)
+    if args.reference:
+        ref = tempfile.mkdtemp(prefix='gyro_calib_reference_')
+        archive = subprocess.run(['git', 'archive', args.reference, 'gyro_calib'], cwd=ROOT,
+                                 check=True, capture_output=True).stdout
+        subprocess.run(['tar', '-x', '-C', ref], input=archive, check=True)
+        REFERENCE.append(ref)
     args.cache.mkdir(parents=True, exist_ok=True)
     print(f'machine: {os.cpu_count()} cores (gyro-calib noise: one thread decoding and '
           f'calibrating, plus one reading and decompressing chunks ahead); load average '

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import copy
 import math
+import threading
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -50,8 +51,25 @@ if TYPE_CHECKING:
     FloatArray = npt.NDArray[np.float64]
     IntArray = npt.NDArray[np.int64]
 
+INTERVAL_PIECE = 1 << 16
+"""Stamp intervals checked at a time (see ChannelAccumulator._evenly_sampled)."""
 LEARN_INTERVALS = 256
 """Stamp intervals whose median is the learnt nominal period."""
+
+
+_PHASE_WORK: dict[int, FloatArray] = {}
+
+
+def _phase_work(n: int) -> FloatArray:
+    """This thread's work array of at least n points for a block's phase (grown, never shrunk).
+
+    Shared by every channel of the thread: the engines copy what they keep.
+    """
+    key = threading.get_ident()
+    work = _PHASE_WORK.get(key)
+    if work is None or len(work) < n:
+        work = _PHASE_WORK[key] = np.empty(n)
+    return work
 
 
 def format_stamp(t_ns: int) -> str:
@@ -136,6 +154,7 @@ class ChannelAccumulator:
     screen_spikes: bool = True
     """Screen the samples for spikes (METHODS §E.6); off in a shadow."""
     _screen: OutlierScreen | None = None
+    _intervals: IntArray | None = None
     shadow: ChannelAccumulator | None = None
     """The record with the other treatment of its spikes ('remove' when the setting is
     'keep', and the reverse), from the first spike on; None while there is none."""
@@ -200,19 +219,37 @@ class ChannelAccumulator:
         else:
             self._learn_t, self._learn_v = [t], [v]
 
+    def _evenly_sampled(self, t: IntArray, gap_ns: float) -> bool:
+        """Every stamp interval (the one before t[0] too) in [nominal/2, gap_ns].
+
+        Two reductions per piece of :data:`INTERVAL_PIECE` intervals formed in a reused
+        array (a chunk-sized array of intervals would cost page faults).
+        """
+        half = 0.5 * self.nominal_period_ns
+        if self._live is not None:
+            first = int(t[0]) - self._live.last_ns
+            if not (first >= half and first <= gap_ns):
+                return False
+        if self._intervals is None:
+            self._intervals = np.empty(INTERVAL_PIECE, dtype=np.int64)
+        for a in range(0, len(t) - 1, INTERVAL_PIECE):
+            b = min(a + INTERVAL_PIECE, len(t) - 1)
+            dt = np.subtract(t[a + 1:b + 1], t[a:b], out=self._intervals[:b - a])
+            if dt.min() < half or dt.max() > gap_ns:
+                return False
+        return True
+
     def _segment(self, t: IntArray, v: FloatArray) -> None:
         nominal = self.nominal_period_ns
-        if self._live is not None:
-            dt = np.diff(np.concatenate(([self._live.last_ns], t)))  # dt[k]: interval before t[k]
-            self.stats.intervals += len(dt)
-        else:
-            dt = np.concatenate(([0], np.diff(t)))  # t[0] has no interval before it
-            self.stats.intervals += len(dt) - 1
         gap_ns = self.settings.gap_threshold_periods * nominal
-        measured = dt if self._live is not None else dt[1:]
-        if not len(measured) or (measured.min() >= 0.5 * nominal and measured.max() <= gap_ns):
+        self.stats.intervals += len(t) if self._live is not None else len(t) - 1
+        if self._evenly_sampled(t, gap_ns):
             self._append(t, v)  # evenly sampled (the usual case): two reductions, no scan
             return
+        if self._live is not None:
+            dt = np.diff(np.concatenate(([self._live.last_ns], t)))  # dt[k]: interval before t[k]
+        else:
+            dt = np.concatenate(([0], np.diff(t)))  # t[0] has no interval before it
         self.stats.bunched_intervals += int(np.count_nonzero((dt > 0) & (dt < 0.5 * nominal)))
         pos = 0
         for gap in np.nonzero(dt > gap_ns)[0]:
@@ -289,14 +326,24 @@ class ChannelAccumulator:
         return twin
 
     def _integrate(self, v: FloatArray) -> None:
-        """Values of the live segment into its phase: rate samples integrated (§E.1)."""
+        """Values of the live segment into its phase: rate samples integrated (§E.1).
+
+        The phase is formed in a work array reused block after block (the engines copy what
+        they keep; a fresh array of a block's size costs page faults).
+        """
         seg = self._live
         assert seg is not None
+        n = len(v)
+        work = _phase_work(max(n + 1, self.settings.outlier_block_samples + 1))
         if self.kind == 'rate':
-            x = np.cumsum(np.concatenate(([seg.carry], v - seg.ref)))[1:]
+            buf = work[:n + 1]
+            buf[0] = seg.carry
+            np.subtract(v, seg.ref, out=buf[1:])
+            np.cumsum(buf, out=buf)  # sequential: the same floats as a fresh cumsum
+            x = buf[1:]
             seg.carry = float(x[-1])
         else:
-            x = v - seg.ref
+            x = np.subtract(v, seg.ref, out=work[:n])
         self._push(x)
 
     def _push(self, x: FloatArray) -> None:

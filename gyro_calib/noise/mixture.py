@@ -196,9 +196,11 @@ def _uniform_factor(statistic: str, m: int) -> float:
     if statistic == 'mdev':
         c = np.repeat(np.asarray(_LAMBDA['adev']), m)  # Σ_{j<m} of second differences
     else:
-        w = _LAMBDA['hdev' if statistic == 'hdev' else 'adev']
-        c = np.zeros((len(w) - 1) * m + 1)
-        c[::m] = w
+        # c holds the weights every m samples, zeros between: its autocorrelation is the
+        # weights' at the lags q·m and 0 elsewhere, so Σr² and Σc² are the weights' own (the
+        # same whole numbers, exact in floats, for every m: O(1), not the O(m²) correlation
+        # of the spread-out c, which took most of a long record's run)
+        c = np.asarray(_LAMBDA['hdev' if statistic == 'hdev' else 'adev'])
     r = np.correlate(c, c, mode='full')
     gaussian = 2.0 * float(r @ r)
     return gaussian / (gaussian + UNIFORM_EXCESS_KURTOSIS * float(c @ c) ** 2)

@@ -26,6 +26,7 @@ segment and lose the longest averaging times).
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -53,13 +54,83 @@ OUTLIER_MODES = ('keep', 'remove')
 """``outliers``: keep the data as recorded (default) or replace the spikes."""
 
 
-def _robust(d: FloatArray) -> tuple[float, float, bool, FloatArray]:
-    """(median, robust σ, MAD was 0, |d − median|) of ``d``: (E.6-1)."""
+SELECT_MIN = 4096
+"""Blocks at least this long take their medians by selection within a bracket (below)."""
+SELECT_STRIDE = 32
+"""Every this many-th sample of a block is sorted to bracket its median."""
+
+
+def _middle(d: FloatArray, flags: BoolArray | None = None) -> float:
+    """``np.median(d)`` exactly (the same float), at a fraction of its cost on long blocks.
+
+    The median is selected among the samples within a bracket read from a sorted strided
+    sample (about 1/8 of the block), not from the whole block; when the bracket misses the
+    middle ranks (an ordered or periodic block can fool the sample) or the block holds a
+    NaN, ``np.median`` decides. Either way the value is the k-th order statistic (the mean
+    of the two middle ones for an even length), so it is the same float; only the sign of
+    a zero median can differ (equal values in another order), which no result sees.
+    ``flags``: a 2 × len(d) boolean work array (None: fresh ones; a fresh array of a block's
+    size costs page faults, more than the selection itself).
+    """
+    n = len(d)
+    if n < SELECT_MIN:
+        return float(np.median(d))
+    k_hi = n // 2
+    k_lo = k_hi - 1 if n % 2 == 0 else k_hi
+    sample = np.sort(d[::SELECT_STRIDE])
+    s = len(sample)
+    reach = 3 * math.isqrt(s) + 2  # ±6 σ of the sample rank of the median
+    lo = sample[max(s // 2 - reach, 0)]
+    hi = sample[min(s // 2 + reach, s - 1)]
+    if flags is None:
+        flags = np.empty((2, n), dtype=bool)
+    low = np.less(d, lo, out=flags[0, :n])
+    high = np.greater(d, hi, out=flags[1, :n])
+    below = int(np.count_nonzero(low))
+    above = int(np.count_nonzero(high))
+    if below > k_lo or n - above <= k_hi:
+        return float(np.median(d))
+    np.logical_or(low, high, out=low)
+    inside = np.compress(np.logical_not(low, out=low), d)  # lo ≤ d ≤ hi, and any NaN
+    if np.isnan(inside).any():
+        return float(np.median(d))
+    r = k_lo - below
+    if k_hi == k_lo:
+        return float(np.partition(inside, r)[r])
+    part = np.partition(inside, (r, r + 1))
+    return float((part[r] + part[r + 1]) / 2.0)
+
+
+_WORK: dict[tuple[int, int], tuple[FloatArray, BoolArray]] = {}
+
+
+def _block_work(block: int) -> tuple[FloatArray, BoolArray]:
+    """This thread's work arrays for a block: |d − median| and the selection's flags.
+
+    Shared by every screen of the thread (each uses them only while it decides a block):
+    an IMU's six axes hold one set, not six.
+    """
+    key = (threading.get_ident(), block)
+    work = _WORK.get(key)
+    if work is None:
+        work = _WORK[key] = (np.empty(block), np.empty((2, block), dtype=bool))
+    return work
+
+
+def _robust(d: FloatArray, work: tuple[FloatArray, BoolArray] | None = None
+            ) -> tuple[float, float, bool, FloatArray]:
+    """(median, robust σ, MAD was 0, |d − median|) of ``d``: (E.6-1).
+
+    ``work``: a float array and a 2-row boolean array at least len(d) long for |d − median|
+    and the selection (None: fresh ones).
+    """
     if not len(d):
         return math.nan, 0.0, False, np.zeros(0)
-    med = float(np.median(d))
-    dev = np.abs(d - med)
-    scale = MAD_TO_SIGMA * float(np.median(dev))
+    flags = work[1] if work is not None else None
+    med = _middle(d, flags)
+    dev = np.subtract(d, med, out=work[0][:len(d)] if work is not None else None)
+    np.abs(dev, out=dev)
+    scale = MAD_TO_SIGMA * _middle(dev, flags)
     if scale > 0.0:
         return med, scale, False, dev
     scale = MEAN_ABS_TO_SIGMA * float(np.mean(dev))
@@ -173,6 +244,8 @@ class OutlierScreen:
     _prev: float = math.nan
     _offset: float = 0.0
     _tail: FloatArray | None = None
+    _stat: FloatArray | None = None
+    """The statistic of the last full block (its tail is :attr:`_tail`), reused block by block."""
 
     @property
     def held(self) -> int:
@@ -180,8 +253,13 @@ class OutlierScreen:
         return self._held
 
     def nbytes(self) -> int:
-        """Bytes held: the open block's stamps and values, the last block's statistic."""
-        tail = self._tail.nbytes if self._tail is not None else 0
+        """Bytes held: the open block's stamps and values, the last block's statistic.
+
+        (Not counted: two work arrays of a block, |d − median| and the selection's flags.)
+        """
+        tail = self._stat.nbytes if self._stat is not None else 0
+        if self._tail is not None and (self._stat is None or self._tail.base is not self._stat):
+            tail = max(tail, self._tail.nbytes)
         return sum(a.nbytes for a in (*self._t, *self._v)) + tail
 
     def push(self, t: IntArray, v: FloatArray) -> list[tuple[IntArray, FloatArray, FloatArray]]:
@@ -201,41 +279,77 @@ class OutlierScreen:
         return out
 
     def _take(self, n: int) -> tuple[IntArray, FloatArray]:
-        t = np.concatenate(self._t) if len(self._t) > 1 else self._t[0]
-        v = np.concatenate(self._v) if len(self._v) > 1 else self._v[0]
-        self._t, self._v = ([t[n:]], [v[n:]]) if n < len(t) else ([], [])
+        """The next n held samples: views of the pushed arrays, copied only across two."""
+        t0, v0 = self._t[0], self._v[0]
         self._held -= n
-        return t[:n], v[:n]
+        if len(t0) >= n:
+            if len(t0) > n:
+                self._t[0], self._v[0] = t0[n:], v0[n:]
+            else:
+                del self._t[0], self._v[0]
+            return t0[:n], v0[:n]
+        ts, vs, got = [], [], 0
+        while got < n:
+            ta, va = self._t[0], self._v[0]
+            need = n - got
+            if len(ta) > need:
+                ts.append(ta[:need])
+                vs.append(va[:need])
+                self._t[0], self._v[0] = ta[need:], va[need:]
+                got = n
+            else:
+                ts.append(ta)
+                vs.append(va)
+                del self._t[0], self._v[0]
+                got += len(ta)
+        return np.concatenate(ts), np.concatenate(vs)
 
     def _decide(self, n: int) -> tuple[IntArray, FloatArray, FloatArray]:
         """Screen the next n held samples: (stamps, values as recorded, values cleaned)."""
         t, v = self._take(n)
+        full = n == self.block
+        if full and self._stat is None:
+            self._stat = np.empty(self.block)
+        has: BoolArray | None = None
         if self.kind == 'rate':
             d = dv = v
-            has = None
+            t_v = t
         else:
-            d = np.diff(np.concatenate(([self._prev], v)))
+            # a full block's increments go to the reused array (the next full block is the
+            # first to overwrite them, and replaces the tail they hold); a short one's are new
+            d = self._stat if full and self._stat is not None else np.empty(n)
+            d[0] = v[0] - self._prev
+            np.subtract(v[1:], v[:-1], out=d[1:])
             has = np.isfinite(d)
-            dv = d[has]
+            if has[1:].all():  # the usual case: only a segment's first increment is missing
+                dv, t_v = (d, t) if has[0] else (d[1:], t[1:])
+            else:
+                dv, t_v = d[has], t[has]
             self._prev = float(v[-1])
         ref = dv
         if n < self.block and self._tail is not None:  # a short last block: the last W samples
             ref = np.concatenate((self._tail[len(self._tail) - (self.block - len(dv)):], dv))
-        center, scale, mad_zero, dev = _robust(ref)
-        self._tail = (ref[-self.block:] if len(ref) >= self.block else ref).copy()
+        center, scale, mad_zero, dev = _robust(ref, _block_work(self.block))
+        tail = ref[-self.block:] if len(ref) >= self.block else ref
+        if has is None and full and self._stat is not None:  # rate samples are the caller's
+            self._tail = self._stat[:len(tail)]
+            np.copyto(self._tail, tail)
+        else:
+            self._tail = tail if has is not None else tail.copy()
         if ref is not dv:
             dev = np.abs(dv - center)
-        spikes_v = dev > self.sigma * scale if scale > 0.0 else np.zeros(len(dv), dtype=bool)
-        if has is None:
-            spikes, t_v = spikes_v, t
-        else:
-            spikes = np.zeros(n, dtype=bool)
-            spikes[has] = spikes_v
-            t_v = t[has]
-        self._count(t_v, dev, scale, spikes_v, mad_zero)
-        if not spikes_v.any():
-            clean = v - self._offset if self.kind == 'phase' else v
-            return t, v, clean
+        threshold = self.sigma * scale
+        top = int(np.argmax(dev)) if len(dev) and scale > 0.0 else -1
+        if top >= 0 and not dev[top] <= threshold:
+            spikes_v = dev > threshold
+        else:  # no sample beyond the threshold (the usual case): no mask needed
+            spikes_v = None
+        self._count(t_v, dev, scale, spikes_v, mad_zero, top)
+        if spikes_v is None or not spikes_v.any():
+            offset = self._offset
+            if self.kind == 'phase' and (offset != 0.0 or math.copysign(1.0, offset) < 0):
+                return t, v, v - offset
+            return t, v, v  # v − (+0.0) is v, bit for bit: nothing to copy or compare
         if has is None:
             return t, v, replace_spikes(dv, spikes_v, center)
         d_clean = d.copy()
@@ -245,24 +359,27 @@ class OutlierScreen:
         self._offset = float(shift[-1])
         return t, v, v - shift
 
-    def _count(self, t: IntArray, dev: FloatArray, scale: float, spikes: BoolArray,
-               mad_zero: bool) -> None:
+    def _count(self, t: IntArray, dev: FloatArray, scale: float, spikes: BoolArray | None,
+               mad_zero: bool, top: int) -> None:
+        """Tally one block; ``top`` is the index of the largest ``dev`` (−1: none or scale 0)."""
         tl = self.tally
         if tl.blocks == 0:
             tl.first_scale = scale
         tl.blocks += 1
         tl.screened += len(dev)
         tl.mad_zero_blocks += int(mad_zero)
-        if len(dev) and scale > 0.0:
-            i = int(np.argmax(dev))
-            z = float(dev[i]) / scale
+        if top >= 0:
+            z = float(dev[top]) / scale
             if z > tl.largest_sigma:
-                tl.largest_sigma, tl.largest_ns = z, int(t[i])
+                tl.largest_sigma, tl.largest_ns = z, int(t[top])
+        if spikes is None:
+            return
         n = int(np.count_nonzero(spikes))
         tl.spikes += n
         if n and len(tl.first) < FIRST_STAMPS:
             for i in np.flatnonzero(spikes)[:FIRST_STAMPS - len(tl.first)]:
                 tl.first.append((int(t[i]), float(dev[i]) / scale))
+
 
 def adev_at(tau_s: FloatArray, adev: FloatArray, at_s: float = 1.0) -> float:
     """ADEV at ``at_s`` by log-log interpolation of the curve (NaN outside it)."""

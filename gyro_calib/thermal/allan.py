@@ -29,7 +29,6 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.optimize import nnls
 
 from gyro_calib.estimate import Estimate
 from gyro_calib.units import NS_PER_S
@@ -153,6 +152,8 @@ def noise_floor(rate: npt.NDArray[np.float64], tau0_s: float, block_s: float, *,
         target = target - 3.0 * quantisation_rad**2 / tau**2
         basis = basis[1:]
     a = np.column_stack(basis) * w[:, None]
+    from scipy.optimize import nnls  # imported on use: scipy.optimize costs ~1 s to import
+
     coef, _ = nnls(a, target * w)
     if quantisation_rad is None:
         q2, n2 = float(coef[0]), float(coef[1])
