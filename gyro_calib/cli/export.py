@@ -55,6 +55,10 @@ def add_commands(sub: Any) -> None:
                    help='the IMU driver\'s sensor_msgs/Imu topic imu_corrector passes the '
                    'accelerometers from (its accel_input); consumers that need accelerometers '
                    'refuse a single-gyro or triad stream without it')
+    p.add_argument('--accel-from', type=Path, metavar='IMU_HANDOFF',
+                   help="take the accelerometer's noise terms from this hand-off file (a "
+                   "gyro-calib noise run on the IMU driver's sensor_msgs/Imu topic, in a file "
+                   "of its own: one sensor per file); the gyro's from HANDOFF")
     p.add_argument('--merge-into', type=Path, metavar='THEIR_FILE',
                    help='your own config (kalibr, vins-fusion, fast-lio, lio-sam, autoware): '
                    'written to --out with only the keys the export writes replaced (order, '
@@ -82,10 +86,11 @@ def run_export(args: argparse.Namespace) -> int:
     if args.handoff.absolute() == out:
         raise ConfigError('export: --out is the hand-off file itself; give another file. '
                           'Nothing was written.')
-    _refuse_to_overwrite_records(out)
+    refuse_to_overwrite_records(out, 'export: --out', 'an export')
     options = ExportOptions(rate_hz=args.rate_hz, topic=args.topic, stream=args.stream,
                             raw_scale_rad_per_pulse=args.raw_scale_rad_per_pulse,
-                            accel_topic=args.accel_topic)
+                            accel_topic=args.accel_topic,
+                            accel_from=str(args.accel_from or ''))
     theirs = _their_text(args.merge_into) if args.merge_into is not None else None
     text = export_text(args.handoff, args.format, options)
     if theirs is not None:
@@ -110,8 +115,11 @@ def _their_text(path: Path) -> str:
                           'written.') from None
 
 
-def _refuse_to_overwrite_records(out: Path) -> None:
-    """An existing bag file, a bag's metadata or a hand-off file is never replaced by an export.
+def refuse_to_overwrite_records(out: Path, flag: str, what_writes: str) -> None:
+    """A bag file, a bag's metadata or a hand-off file is never replaced by a consumer's file.
+
+    ``export --out`` and ``noise --kalibr`` write a consumer's file; ``out`` must not be one of
+    the records the user keeps.
 
     Raises:
         ConfigError: ``out`` is one of those (one line; nothing written).
@@ -132,5 +140,5 @@ def _refuse_to_overwrite_records(out: Path) -> None:
                                           or '\nimu:' in head):
             what = 'a gyro_calib hand-off file'
     if what:
-        raise ConfigError(f'export: --out {out} is {what}; an export never replaces it: give '
+        raise ConfigError(f'{flag} {out} is {what}; {what_writes} never replaces it: give '
                           'another file. Nothing was written.')

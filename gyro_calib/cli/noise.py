@@ -175,6 +175,10 @@ def run_noise(args: argparse.Namespace) -> int:
     from gyro_calib.registry import handoff_schema
 
     targets = resolve_targets(args.kalibr, None, args.out, names=('--kalibr', '--plot', '--out'))
+    if targets.kalibr is not None:
+        from gyro_calib.cli.export import refuse_to_overwrite_records
+
+        refuse_to_overwrite_records(targets.kalibr, 'noise: --kalibr', "Kalibr's imu.yaml")
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     check_calibration_file(args.calibration)
     infos, _ = bag_infos(args.bags, args.namespace, strict=args.strict)

@@ -19,7 +19,12 @@ from gyro_calib.export.kalibr import kalibr_text
 from gyro_calib.export.lio_sam import lio_sam_text
 from gyro_calib.export.openvins import openvins_text
 from gyro_calib.export.robot_localization import robot_localization_text
-from gyro_calib.export.source import ExportError, ExportSource, read_source
+from gyro_calib.export.source import (
+    ExportError,
+    ExportSource,
+    read_source,
+    with_accelerometer_of,
+)
 from gyro_calib.export.vins_fusion import vins_fusion_text
 
 FORMATS: dict[str, Callable[[ExportSource, ExportOptions], str]] = {
@@ -42,6 +47,8 @@ def export_text(handoff: str | Path, fmt: str, options: ExportOptions) -> str:
         ExportError: one line: the file cannot be read, or the consumer cannot take it.
     """
     src = read_source(handoff)
+    if options.accel_from:
+        src = with_accelerometer_of(src, read_source(options.accel_from))
     return FORMATS[fmt](src, replace(options, topic=default_topic(src, options)))
 
 

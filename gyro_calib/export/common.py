@@ -54,6 +54,8 @@ class ExportOptions:
             K₀ (its rate is K₀·Δn/Δt per channel), rad/pulse.
         accel_topic: the IMU driver's sensor_msgs/Imu topic whose accelerometers
             imu_corrector passes through (its ``accel_input``); '' = none.
+        accel_from: another hand-off file (a noise run on the IMU driver's sensor_msgs/Imu)
+            whose accelerometer terms the export takes; '' = the hand-off's own.
     """
 
     rate_hz: float | None = None
@@ -61,6 +63,7 @@ class ExportOptions:
     stream: str = 'compensated'
     raw_scale_rad_per_pulse: float | None = None
     accel_topic: str = ''
+    accel_from: str = ''
 
 
 def accelerometers_on_stream(src: ExportSource, options: ExportOptions) -> bool:
@@ -176,8 +179,9 @@ def axis_terms(src: ExportSource, fmt: str, sensor: str, sym: str,
                 raise refuse(fmt, f'{consumer_key} needs the accelerometer {NAMES[sym]} '
                              f'({key} with the other axes), and this hand-off has no '
                              'accelerometer term (a gyro-only calibration); run gyro-calib '
-                             'noise on the IMU\'s sensor_msgs/Imu topic with --out this '
-                             'hand-off, then export again. No zeros are written in its place.')
+                             'noise on the IMU\'s sensor_msgs/Imu topic with --out IMU.yaml (a '
+                             'file of its own: one sensor per file) and export again with '
+                             '--accel-from IMU.yaml. No zeros are written in its place.')
             raise refuse(fmt, f'{consumer_key} needs {key} (the {sensor} {NAMES[sym]}, or its '
                          f'{key}_upper_bound_2sigma): {src.why(key)}.')
         out.append(term)

@@ -18,6 +18,7 @@ triad file (format 4) and a single-gyro file (format 3) give one :class:`ExportS
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -250,6 +251,30 @@ def read_source(path: str | Path) -> ExportSource:
     return ExportSource(str(p), gyro_id, kind, gyro, accel, missing, imu, tuple(upstream),
                         single, _noise_sample_rate(data),
                         _count_scale(values) if kind == 'gyro' else None)
+
+
+def with_accelerometer_of(src: ExportSource, other: ExportSource) -> ExportSource:
+    """``src`` with the accelerometer terms of ``other`` (``export --accel-from``).
+
+    One sensor per hand-off file (a triad's pulse channels in one, the IMU driver's
+    sensor_msgs/Imu noise run in another): the export reads the gyro from the first and the
+    accelerometer from the second, each term's comment naming its file.
+
+    Raises:
+        ExportError: ``other`` holds no accelerometer term, or ``src`` holds its own.
+    """
+    if not any(other.accel[a] for a in AXES):
+        raise ExportError(f'--accel-from {other.path}: it holds no accelerometer term '
+                          '(imu_accel_<axis>_…: a gyro-calib noise run on the IMU\'s '
+                          'sensor_msgs/Imu topic). Nothing was written.')
+    if any(src.accel[a] for a in AXES):
+        raise ExportError(f'--accel-from {other.path}: HANDOFF {src.path} holds accelerometer '
+                          'terms of its own; give one source of them (drop --accel-from). '
+                          'Nothing was written.')
+    accel = {a: {sym: dataclasses.replace(t, key=f'{other.path}: {t.key}')
+                 for sym, t in other.accel[a].items()} for a in AXES}
+    missing = {k: v for k, v in other.missing.items() if k.startswith('imu_accel_')}
+    return dataclasses.replace(src, accel=accel, missing={**missing, **src.missing})
 
 
 def _count_scale(values: Mapping[str, Any]) -> float | None:
