@@ -42,11 +42,6 @@ def read_parameter_file(path: str | Path, *, node_name: str) -> dict[str, Any]:
         if isinstance(data.get(key), dict) and 'ros__parameters' in data[key]:
             data = data[key]['ros__parameters']
             break
-    for key, value in data.items():
-        numbers = value if isinstance(value, list) else [value]
-        if any(isinstance(v, float) and not math.isfinite(v) for v in numbers):
-            raise ConfigError(f'config file {path}: {key} = {value!r} is not a finite number; '
-                              'give a number, or leave the field out for its default.')
     return dict(data)
 
 

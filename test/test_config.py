@@ -46,17 +46,3 @@ def test_every_parameter_has_a_description(cls: type) -> None:
 def test_mapping_rejects_bool_for_number() -> None:
     with pytest.raises(ConfigError, match='rate_tolerance'):
         k_tilde_config_from_mapping({'rate_tolerance': True})
-
-
-@pytest.mark.parametrize('text', ['latitude_deg: .nan\n', 'latitude_deg: .inf\n',
-                                  'mapping_rates_deg_s: [1.0, .nan]\n'])
-def test_a_config_file_with_a_non_finite_number_is_refused_in_one_line(
-        text: str, tmp_path: Path) -> None:
-    """A NaN in a config file once meant 'not given' silently (the bag's latitude was used)."""
-    from gyro_calib.config import read_parameter_file
-
-    path = tmp_path / 'c.yaml'
-    path.write_text(text, encoding='utf-8')
-    with pytest.raises(ConfigError, match='is not a finite number') as caught:
-        read_parameter_file(path, node_name='calibration_node')
-    assert '\n' not in str(caught.value)
