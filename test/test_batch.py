@@ -14,6 +14,7 @@ written.
 from __future__ import annotations
 
 import csv
+import io
 import json
 import os
 import subprocess
@@ -27,7 +28,7 @@ import pytest
 import yaml
 
 from gyro_calib.batch.manifest import load_manifest
-from gyro_calib.batch.run import run_batch
+from gyro_calib.batch.run import print_summary, run_batch
 from gyro_calib.cli import main
 from gyro_calib.handoff import calibration_text, load_calibration
 from gyro_calib.registry import handoff_schema
@@ -156,11 +157,17 @@ def test_a_rerun_skips_unchanged_gyros_and_redoes_a_changed_one(
     assert sorted(again.skipped) == sorted(FLEET)
     assert again.failed == ['X-1']  # a failed gyro is tried again
     assert {g: (out / g / f'{g}.html').stat().st_mtime_ns for g in FLEET} == stamps
-    changed = _manifest(fleet['tmp'], {'R-1': {'heading_deg': 10.0}})
+    changed = _manifest(fleet['tmp'], {'R-1': {'latitude_deg': 60.0}})
     third = run_batch(load_manifest(changed), out, client=client,
                       spec=load_spec(fleet['spec']), spec_path=fleet['spec'], pdf=False)
     assert sorted(third.skipped) == sorted(set(FLEET) - {'R-1'})
     assert (out / 'R-1' / 'R-1.html').stat().st_mtime_ns != stamps['R-1']
+    (r1,) = [r for r in third.records if r['gyro_id'] == 'R-1']  # old → new, said (issue 35)
+    (bias,) = [line for line in r1['replaced'] if line.startswith('replaced: gyro.bias_rad_s')]
+    assert ' — was ' in bias and 'combined standard uncertainties' in bias
+    summary = io.StringIO()
+    print_summary(third, summary)
+    assert f'  {bias}' in summary.getvalue()
     forced = run_batch(load_manifest(changed), out, client=client, spec=load_spec(fleet['spec']),
                        spec_path=fleet['spec'], pdf=False, force=True)
     assert forced.skipped == []

@@ -15,6 +15,7 @@ import contextlib
 import hashlib
 import json
 import logging
+import math
 import os
 import signal
 import sys
@@ -333,6 +334,10 @@ def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
     if stands and record.get('status') == 'failed':
         record['reason'] = (f'{record.get("reason", "")}; the issued certificate {stands} of '
                             f'an earlier run stays in {record["stem"]}/ (not replaced)')
+    replaced = [line for rel, data in result.files.items() if rel.endswith('.yaml')
+                for line in replaced_lines(out_dir / rel, data)]
+    if replaced:
+        record['replaced'] = replaced
     for rel, data in result.files.items():
         _atomic_write(out_dir / rel, data)
     if record.get('status') == 'failed':
@@ -340,6 +345,59 @@ def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
     _atomic_write(folder / RECORD, json.dumps(record, sort_keys=True, indent=1,
                                               default=str).encode('utf-8'))
     return record
+
+
+def replaced_lines(path: Path, new_text: bytes) -> list[str]:
+    """What this run's hand-off replaces of the gyro's earlier one, a line per value.
+
+    ``replaced: KEY = new ± u — was old ± u (z combined standard uncertainties)``, or
+    ``dropped:`` for a value the new file no longer has (issue 35 item 1: every replacement,
+    on every front door, says old → new). A batch re-run calibrates a changed gyro (its bags
+    or manifest settings changed) anew and writes its hand-off whole; these lines say what
+    that replaced.
+    """
+    import yaml
+
+    try:
+        old = yaml.safe_load(path.read_text(encoding='utf-8')) or {}
+        new = yaml.safe_load(new_text.decode('utf-8')) or {}
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return []
+    lines: list[str] = []
+    for section in ('gyro', 'imu'):
+        before, after = old.get(section) or {}, new.get(section) or {}
+        if not isinstance(before, dict) or not isinstance(after, dict):
+            continue
+        for key, was in before.items():
+            if str(key).endswith(('_std', '_dof')) or key not in after and section == 'imu':
+                continue
+            if key not in after:
+                lines.append(f'dropped: {section}.{key} (was {was})')
+                continue
+            now = after[key]
+            if now == was:
+                continue
+            lines.append(f'replaced: {section}.{key} = {_with_u(now, after, key)} — was '
+                         f'{_with_u(was, before, key)}{_distance(now, was, after, before, key)}')
+    return lines
+
+
+def _with_u(value: Any, values: dict[str, Any], key: str) -> str:
+    u = values.get(f'{key}_std')
+    return f'{value} ± {u:.3g}' if isinstance(u, (int, float)) else str(value)
+
+
+def _distance(now: Any, was: Any, after: dict[str, Any], before: dict[str, Any],
+              key: str) -> str:
+    """' (N combined standard uncertainties)' for two numbers with their u, else ''."""
+    u1, u0 = after.get(f'{key}_std'), before.get(f'{key}_std')
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+               for v in (now, was, u1, u0)):
+        return ''
+    combined = math.hypot(float(u1), float(u0))
+    if not combined > 0:
+        return ''
+    return f' ({abs(float(now) - float(was)) / combined:.1f} combined standard uncertainties)'
 
 
 def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
@@ -360,6 +418,9 @@ def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
         print(f'{rec["gyro_id"]}: {rec.get("status")}{verdict}{skipped}{why}', file=stream)
         for note in rec.get('notes', ()):  # as calibrate prints them (its certificate too)
             print(f'  {note}', file=stream)
+        if rec['gyro_id'] not in outcome.skipped:
+            for line in rec.get('replaced', ()):  # what this run's hand-off replaced
+                print(f'  {line}', file=stream)
     n_ok = sum(r.get('status') == 'ok' for r in outcome.records)
     not_run = len(outcome.not_run)
     print(f'{len(outcome.records)} gyros: {n_ok} ok, {len(outcome.failed)} failed'
