@@ -390,7 +390,8 @@ def _with_u(value: Any, values: dict[str, Any], key: str) -> str:
 def _distance(now: Any, was: Any, after: dict[str, Any], before: dict[str, Any],
               key: str) -> str:
     """' (N combined standard uncertainties)' for two numbers with their u, else ''."""
-    u1, u0 = after.get(f'{key}_std'), before.get(f'{key}_std')
+    u1: Any = after.get(f'{key}_std')
+    u0: Any = before.get(f'{key}_std')
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
                for v in (now, was, u1, u0)):
         return ''
