@@ -45,6 +45,15 @@ if 'GYRO_CALIB_TEST_DOMAIN_ID' in os.environ:
 else:
     _DOMAIN, _DOMAIN_LOCK = _private_domain()
 
+# CI (CI=true, as .ci/run is run) draws the same hypothesis examples on every run, so a
+# change is judged on the same cases; a developer's run explores new ones (and a falsifying
+# example found there is pinned with @example).
+from hypothesis import settings as _hypothesis_settings  # noqa: E402
+
+_hypothesis_settings.register_profile('ci', derandomize=True, print_blob=True)
+if os.environ.get('CI', '').lower() in ('1', 'true', 'yes'):
+    _hypothesis_settings.load_profile('ci')
+
 # Set before any test imports rclpy or starts a node: every child process inherits it.
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ['ROS_DOMAIN_ID'] = str(_DOMAIN)

@@ -521,7 +521,8 @@ def test_the_output_flag_list_is_every_path_flag_that_writes() -> None:
 
     # inputs, not outputs (--lab's certificate-number register is checked for writing by the
     # lab loader before any work: test_certificate_lab)
-    readers = {'--config', '--calibration', '--spec', '--lab'}
+    readers = {'--config', '--calibration', '--spec', '--lab', '--accel-from', '--merge-into',
+               '--sections'}  # --merge-into reads THEIR_FILE; --out is what is written
     sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
     found = {(name, opt) for name, p in sub.choices.items() for a in p._actions
              for opt in a.option_strings
