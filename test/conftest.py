@@ -50,7 +50,7 @@ else:
 # example found there is pinned with @example).
 from hypothesis import settings as _hypothesis_settings  # noqa: E402
 
-_hypothesis_settings.register_profile('ci', derandomize=True, print_blob=True)
+_hypothesis_settings.register_profile('ci', derandomize=True, database=None, print_blob=True)
 if os.environ.get('CI', '').lower() in ('1', 'true', 'yes'):
     _hypothesis_settings.load_profile('ci')
 
