@@ -21,6 +21,7 @@ from pathlib import Path
 import pytest
 
 from gyro_calib.bagio import SampleBatch, bag_info
+from gyro_calib.bagio.columns import iter_column_batches
 from gyro_calib.handoff import load_calibration
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions
@@ -57,6 +58,14 @@ def _wait_for(path: Path, what: str, node: NodeProcess, timeout_s: float = 60.0)
         time.sleep(0.05)
 
 
+def _last_stamp_s(bag: Path, topic: str) -> float:
+    """The header stamp of the bag's last message on ``topic``, s."""
+    last = 0
+    for batch in iter_column_batches(bag, {topic: bag_info(bag).topics[topic].msgtype}):
+        last = max(last, int(batch.topics[topic].stamp_ns.max()))
+    return last / 1e9
+
+
 def _wait_until_recorded(state: Path, topic: str, stamp_s: float, node: NodeProcess,
                          timeout_s: float = 90.0) -> None:
     """Until the node has consumed ``topic`` up to ``stamp_s`` (the end of the run)."""
@@ -90,7 +99,7 @@ def test_fog_node_killed_mid_run_resumes_to_the_offline_numbers_of_what_it_saw(
     second = launch('fog_calibration_node', params)
     nodes.append(second)
     player.proc.wait(timeout=120)
-    _wait_until_recorded(state, '/fog/output', 123.0, second)
+    _wait_until_recorded(state, '/fog/output', _last_stamp_s(bag, '/fog/output'), second)
     second.send_signal(signal.SIGINT)
     second.proc.wait(timeout=90)
     logs = '\n'.join(n.log() for n in nodes)
