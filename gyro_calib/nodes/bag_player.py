@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import functools
 import importlib
+import math
 import sys
 import time
 from pathlib import Path
@@ -69,9 +70,17 @@ class BagPlayer(Node):
         wanted = list(param('topics', [''], 'Topics to play (default: all).'))
         self.wait = bool(param('wait_for_subscribers', True, 'Start once every played topic '
                                'has a reader.'))
+        self.start_offset_s = float(param('start_offset_s', 0.0, 'Skip the first seconds of '
+                                          'the bag (log time from its start), s.'))
+        if not math.isfinite(self.start_offset_s) or self.start_offset_s < 0:
+            raise GyroCalibError(f'start_offset_s must be a finite number ≥ 0, got '
+                                 f'{self.start_offset_s}.')
         if self.rate < 0:
             raise GyroCalibError(f'rate must be ≥ 0, got {self.rate}.')
         self.info = bag_info(self.path)
+        if self.start_offset_s >= self.info.duration_s > 0:
+            raise GyroCalibError(f'start_offset_s {self.start_offset_s:g} s is past the end of '
+                                 f'{self.path} ({self.info.duration_s:g} s long).')
         names = [t for t in wanted if t] or list(self.info.topics)
         unknown = sorted(set(names) - set(self.info.topics))
         if unknown:
@@ -114,11 +123,12 @@ class BagPlayer(Node):
         wall_start = time.monotonic()
         next_clock = None
         progress = ProgressLog(self.get_logger(), 'played', self.info.duration_s)
+        skip_before_ns = self.info.start_ns + round(self.start_offset_s * 1e9)
         for topic, _, log_ns, raw in iter_raw_messages(self.path):
             if not rclpy.ok():
                 return
             pub = self.publishers_by_topic.get(topic)
-            if pub is None:
+            if pub is None or log_ns < skip_before_ns:
                 continue
             if first_log is None:
                 first_log, wall_start = log_ns, time.monotonic()
@@ -132,7 +142,7 @@ class BagPlayer(Node):
                 next_clock = log_ns + self.clock_period_ns
             publish_paced(pub, raw)
             self.published += 1
-            progress.update((log_ns - first_log) / 1e9)
+            progress.update((log_ns - self.info.start_ns) / 1e9)
 
     def wait_for_acknowledgements(self, timeout_s: float = 60.0) -> None:
         """Let lagging readers take the tail before the process exits."""
