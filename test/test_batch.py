@@ -327,6 +327,92 @@ def test_ctrl_c_stops_cleanly_keeps_what_finished_and_lists_every_gyro(
     assert not left
 
 
+def _command_processes(pid: int) -> list[str]:
+    """The command lines of the processes ``pid`` started (empty once it has none)."""
+    import psutil
+
+    try:
+        children = psutil.Process(pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        return []
+    lines = []
+    for child in children:
+        try:
+            lines.append(' '.join(child.cmdline()))
+        except psutil.Error:
+            continue
+    return lines
+
+
+@pytest.mark.parametrize('moment', ['the first process it starts', 'its first worker process',
+                                    0.5, 1.0, 2.0, 3.0, 'the first gyro written'])
+def test_ctrl_c_at_any_moment_is_exit_130_one_line_and_nothing_half_written(
+        moment: str | float, tmp_path: Path) -> None:
+    """Ctrl-C at any instant ends the run with exit 130 and one line, nothing half-written.
+
+    At any instant — while the modules load, while the local cluster starts (its resource
+    tracker, its workers), once it runs — the run ends with exit 130 and one line:
+    ``interrupted; nothing written.`` (no --out left) before the fleet runs, ``interrupted;
+    the gyros that finished are kept.`` after, with fleet files that say so and every gyro
+    folder whole. Never a traceback, never a run that goes on to exit 0 (issue 35 §4: the
+    cluster's start-up ignored SIGINT), never a process left.
+    """
+    import signal
+
+    manifest = _manifest(tmp_path)
+    out = tmp_path / 'out'
+    env = {**os.environ, 'PYTHONPATH': os.pathsep.join(
+        [str(Path(__file__).resolve().parent.parent), os.environ.get('PYTHONPATH', '')])}
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'gyro_calib.cli', 'batch', str(manifest), '--out', str(out),
+         '--workers', '1', '--no-pdf', '--no-progress'], env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        if isinstance(moment, float):
+            time.sleep(moment)
+        while isinstance(moment, str) and time.monotonic() < deadline:
+            started = _command_processes(proc.pid)
+            if (moment == 'the first process it starts' and started
+                    or moment == 'its first worker process' and any(
+                        'spawn_main' in line for line in started)
+                    or moment == 'the first gyro written' and list(out.glob('*/record.json'))):
+                break
+            time.sleep(0.005)
+        os.killpg(proc.pid, signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, (stdout, stderr)
+    assert 'Traceback' not in stdout + stderr
+    if stderr == 'gyro-calib: interrupted; nothing written.\n':
+        assert stdout == '' and not out.exists()
+    else:
+        assert stderr == 'gyro-calib: interrupted; the gyros that finished are kept.\n'
+        with (out / 'fleet.csv').open(encoding='utf-8') as stream:
+            assert {r['fleet_run'] for r in csv.DictReader(stream)} == {'interrupted'}
+        for record in out.glob('*/record.json'):
+            rec = json.loads(record.read_text(encoding='utf-8'))
+            if rec['status'] == 'ok':
+                assert (record.parent / f'{rec["stem"]}.yaml').exists()
+                assert (record.parent / f'{rec["stem"]}.html').exists()
+        assert not (out / 'batch.lock').exists()
+        assert 'not run (interrupted)' in stdout
+    if moment == 'the first gyro written':
+        assert 'kept' in stderr
+    left: list[str] = []
+    for _ in range(100):  # nothing of the run is left (workers, nannies, resource tracker)
+        left = subprocess.run(['ps', '-o', 'pid=,cmd=', '-g', str(proc.pid)],
+                              capture_output=True, text=True, check=False).stdout.split('\n')
+        left = [line for line in left if line.strip()]
+        if not left:
+            break
+        time.sleep(0.1)
+    assert not left
+
+
 def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_line(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A run killed with SIGKILL leaves batch.lock; the next run takes it over and says so."""

@@ -119,24 +119,66 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
 
     A Dask client: to ``scheduler``, or to a new local cluster of ``workers`` processes
     (one thread each; default: the machine's cores). Returns (client, cluster or None).
+
+    The worker processes never see SIGINT: Ctrl-C at a terminal reaches the whole process
+    group, and only the parent acts on it (cancel, close the cluster, keep what finished) —
+    not every worker with a traceback. A Ctrl-C while the cluster starts is kept
+    (:func:`_sigint_held`) and acted on once it stands: the cluster is closed and
+    ``KeyboardInterrupt`` raised (nothing was written).
     """
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
         return Client(scheduler, timeout='20s'), None
-    # The worker processes start with SIGINT ignored (inherited through exec): Ctrl-C at the
-    # terminal reaches the whole process group, and only the parent should act on it (cancel,
-    # close the cluster, keep what finished) — not every worker with a traceback.
-    main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
-    try:
+    with _sigint_held() as arrived:
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                                processes=True, host='127.0.0.1', dashboard_address='127.0.0.1:0',
                                silence_logs=logging.CRITICAL)
+        try:
+            client = Client(cluster)
+        except BaseException:
+            cluster.close()
+            raise
+    if arrived:
+        with _sigint_deferred():  # the Ctrl-C came while it started: stop it, then say so
+            client.close()
+            cluster.close()
+        raise KeyboardInterrupt
+    return client, cluster
+
+
+@contextlib.contextmanager
+def _sigint_held() -> Iterator[list[int]]:
+    """Block SIGINT in this thread (and so in every thread and process started in the block).
+
+    Blocked, not ignored: the threads and worker processes started in the block inherit the
+    mask and never take a Ctrl-C, while a Ctrl-C that comes meanwhile stays pending for this
+    process, is noted in the yielded list (non-empty: it came) when the block ends, and is
+    not lost. (An ignored SIGINT, which the workers would inherit too, is discarded.)
+
+    The multiprocessing resource tracker is started first: starting it unblocks SIGINT in
+    the thread that starts it (CPython's ``resource_tracker.ensure_running``), which would
+    leave the cluster's own thread, and the workers it starts, taking Ctrl-C.
+    """
+    if threading.current_thread() is not threading.main_thread() or not hasattr(
+            signal, 'pthread_sigmask'):
+        yield []
+        return
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
+    arrived: list[int] = []
+
+    def note(signum: int, frame: object) -> None:
+        arrived.append(signum)
+
+    previous = signal.signal(signal.SIGINT, note)
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield arrived
     finally:
-        if main_thread:
-            signal.signal(signal.SIGINT, previous)
-    return Client(cluster), cluster
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # a pending one: note()
+        signal.signal(signal.SIGINT, previous)
 
 
 def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any = None,
