@@ -423,11 +423,12 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_line(
         [str(Path(__file__).resolve().parent.parent), os.environ.get('PYTHONPATH', '')])}
     killed = subprocess.Popen(
         [sys.executable, '-c', 'import os, sys; from pathlib import Path; '
-         'from gyro_calib.batch.lock import BatchLock; BatchLock(Path(sys.argv[1])).acquire(); '
+         'from gyro_calib.file_lock import BATCH_LOCK, DirectoryLock; '
+         'DirectoryLock(Path(sys.argv[1]), "batch", name=BATCH_LOCK).acquire(); '
          'os.kill(os.getpid(), 9)', str(out)], env=env)
     assert killed.wait(timeout=60) == -signal.SIGKILL
     left = (out / 'batch.lock').read_text(encoding='utf-8').strip()
-    assert left.startswith(f'pid {killed.pid} on ') and ', started 20' in left
+    assert left.startswith(f'gyro-calib batch, pid {killed.pid} on ') and ', started 20' in left
     manifest = _manifest(tmp_path)  # only the broken gyro: the run is short
     only_broken = [g for g in yaml.safe_load(manifest.read_text())['gyros'] if g['id'] == 'X-1']
     manifest.write_text(yaml.safe_dump(only_broken), encoding='utf-8')

@@ -32,6 +32,7 @@ from gyro_calib.cli.arguments import (
 )
 from gyro_calib.cli.progress import show_progress
 from gyro_calib.errors import ConfigError
+from gyro_calib.file_lock import BATCH_LOCK, DirectoryLock
 
 EXIT_SOME_FAILED = EXIT_NOT_CALIBRATED  # some gyro failed (its row says why)
 
@@ -66,7 +67,6 @@ def add_commands(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, start or reach the cluster, run the fleet, write its files."""
-    from gyro_calib.batch.lock import BatchLock
     from gyro_calib.batch.manifest import load_manifest
     from gyro_calib.batch.run import check_earlier_runs
 
@@ -77,16 +77,13 @@ def run(args: argparse.Namespace) -> int:
     jobs = load_manifest(args.manifest)
     spec = load_spec_arg(args.spec)
     lab, jobs = lab_and_customers(args, jobs)
-    lock = BatchLock(args.out)
+    lock = batch_lock(args.out)
     lock.acquire()  # a second run into the same --out stops here
     try:
         check_earlier_runs(jobs, args.out)
         return _run_locked(args, jobs, spec, lab, created)
-    except BaseException:
-        lock.abandon()  # also removes --out if this run created it and wrote nothing
-        raise
     finally:
-        lock.release()
+        lock.release()  # also removes --out if this run created it and wrote nothing
 
 
 def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
@@ -118,7 +115,7 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
     except OSError as exc:  # disk full: what was stored before it stays, each file whole
         from gyro_calib.outputs import write_failed
 
-        if created and not any(p.name != 'batch.lock' for p in args.out.iterdir()):
+        if created and not any(p.name != BATCH_LOCK for p in args.out.iterdir()):
             raise write_failed(exc, '--out', args.out) from None  # the lock removes --out
         raise write_failed(exc, '--out', args.out,
                            ['the files of the gyros stored before it']) from None
@@ -133,6 +130,11 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
         print('gyro-calib: interrupted; the gyros that finished are kept.', file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_SOME_FAILED if outcome.failed else EXIT_OK
+
+
+def batch_lock(out_dir: Path) -> DirectoryLock:
+    """The lock of a batch output directory, ``DIR/batch.lock`` (not taken yet)."""
+    return DirectoryLock(out_dir, 'batch', name=BATCH_LOCK)
 
 
 def lab_and_customers(args: argparse.Namespace, jobs: list[Any]) -> tuple[Any, list[Any]]:
