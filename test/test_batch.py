@@ -158,19 +158,93 @@ def test_a_rerun_skips_unchanged_gyros_and_redoes_a_changed_one(
     assert again.failed == ['X-1']  # a failed gyro is tried again
     assert {g: (out / g / f'{g}.html').stat().st_mtime_ns for g in FLEET} == stamps
     changed = _manifest(fleet['tmp'], {'R-1': {'latitude_deg': 60.0}})
-    third = run_batch(load_manifest(changed), out, client=client,
+    refused = run_batch(load_manifest(changed), out, client=client,
+                        spec=load_spec(fleet['spec']), spec_path=fleet['spec'], pdf=False)
+    assert sorted(refused.skipped) == sorted(set(FLEET) - {'R-1'})
+    assert refused.failed == ['R-1', 'X-1']  # bias_rad_s moves by thousands of σ: refused
+    assert (out / 'R-1' / 'R-1.html').stat().st_mtime_ns == stamps['R-1']
+    third = run_batch(load_manifest(changed), out, client=client, replace=True,
                       spec=load_spec(fleet['spec']), spec_path=fleet['spec'], pdf=False)
     assert sorted(third.skipped) == sorted(set(FLEET) - {'R-1'})
     assert (out / 'R-1' / 'R-1.html').stat().st_mtime_ns != stamps['R-1']
     (r1,) = [r for r in third.records if r['gyro_id'] == 'R-1']  # old → new, said (issue 35)
     (bias,) = [line for line in r1['replaced'] if line.startswith('replaced: gyro.bias_rad_s')]
-    assert ' — was ' in bias and 'combined standard uncertainties' in bias
+    assert ' — was ' in bias and 'combined standard uncertainties; --replace)' in bias
     summary = io.StringIO()
     print_summary(third, summary)
     assert f'  {bias}' in summary.getvalue()
     forced = run_batch(load_manifest(changed), out, client=client, spec=load_spec(fleet['spec']),
                        spec_path=fleet['spec'], pdf=False, force=True)
     assert forced.skipped == []
+
+
+class _SharedClient:
+    """The module's client for an in-process ``gyro-calib batch``, not closed by it."""
+
+    def __init__(self, client: Any) -> None:
+        self._client = client
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._client, name)
+
+    def close(self) -> None:
+        """Kept open for the other tests."""
+
+
+def test_a_rerun_under_other_settings_that_moves_a_value_beyond_5_sigma_is_refused(
+        tmp_path: Path, client: Any, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """First run, manifest edited (latitude), second run: refused for that gyro; --replace takes it.
+
+    As ``calibrate`` refuses the same bag under other settings when a value moves beyond 5
+    combined standard uncertainties (issue 35 item 1), so does ``batch``: the gyro's row says
+    why in one line (the value, both numbers, the setting old -> new, --replace), exit 1,
+    its folder untouched (hand-off, certificate, record); the other gyro is done.
+    ``--replace`` takes the new values, each replacement said old → new.
+    """
+    import gyro_calib.batch.run as batch_run
+
+    monkeypatch.setattr(batch_run, 'make_client',
+                        lambda workers, scheduler: (_SharedClient(client), None))
+    manifest, out = tmp_path / 'm.yaml', tmp_path / 'out'
+
+    def write(latitude: float | None) -> None:
+        manifest.write_text(yaml.safe_dump([
+            {'id': 'R-1', 'bags': [str(BAGS / 'k_tilde_bench')],
+             **({'settings': {'latitude_deg': latitude}} if latitude is not None else {})},
+            {'id': 'N-1', 'bags': [str(BAGS / 'noise_rlg_static')], 'methods': ['noise']}]),
+            encoding='utf-8')
+
+    argv = ['batch', str(manifest), '--out', str(out), '--no-pdf', '--no-progress']
+    write(None)
+    assert main(argv) == 0
+    capsys.readouterr()
+    before = {p: p.read_bytes() for p in (out / 'R-1').iterdir()}
+    write(60.0)  # the manifest edited: R-1's bench at latitude 60°
+    assert main(argv) == 1
+    printed = capsys.readouterr().out.splitlines()
+    (row,) = [line for line in printed if line.startswith('R-1: ')]
+    assert row.startswith('R-1: failed: refused: gyro.bias_rad_s would move to -2.864')
+    assert ('combined standard uncertainties, the same data under other settings '
+            "(latitude_deg: 'not given' -> 60.0): which settings are right?") in row, row
+    assert row.endswith("its folder keeps the earlier run's files. Check, then give "
+                        "--replace to take this run's values for R-1.")
+    assert {p: p.read_bytes() for p in (out / 'R-1').iterdir()} == before
+    with (out / 'fleet.csv').open(encoding='utf-8') as stream:
+        rows = [r for r in csv.DictReader(stream) if r['gyro_id'] == 'R-1']
+    assert [(r['status'], r['reason']) for r in rows] == [('failed', row[len('R-1: failed: '):])]
+    assert main(argv) == 1  # refused again: nothing was taken
+    capsys.readouterr()
+    assert main([*argv, '--replace']) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert 'R-1: ok' in printed
+    (bias,) = [line for line in printed if line.startswith('  replaced: gyro.bias_rad_s = ')]
+    assert 'combined standard uncertainties; --replace)' in bias
+    assert calibration_text(load_calibration(out / 'R-1' / 'R-1.yaml', handoff_schema()),
+                            handoff_schema()) != before[out / 'R-1' / 'R-1.yaml'].decode()
+    write(60.0)
+    assert main(argv) == 0  # and the next run, unchanged, skips it
+    assert 'R-1: ok (unchanged: skipped)' in capsys.readouterr().out
 
 
 @pytest.mark.parametrize('case', ['missing manifest', 'unknown setting', 'out of range',

@@ -1,13 +1,16 @@
 """``gyro-calib batch``: calibrate a fleet of gyros on Dask (see :mod:`gyro_calib.batch`).
 
     gyro-calib batch MANIFEST --out DIR [--workers N | --scheduler tcp://HOST:PORT]
-                     [--spec SPEC.yaml] [--force] [--no-pdf] [--progress]
+                     [--spec SPEC.yaml] [--force] [--replace] [--no-pdf] [--progress]
                      [--lab LAB.yaml] [--customer TEXT]
 
 Exit status: 0 every gyro calibrated; 1 some gyro failed (its row says why; the others
-are done); 2 bad input (manifest, spec, output directory, ids whose files would collide) or
-another run writes the output directory (``DIR/batch.lock``), nothing written; 130
-interrupted (what finished is kept; every other gyro is a row ``not run (interrupted)``).
+are done) — a re-run gyro whose values would move more than 5 combined standard
+uncertainties from its earlier hand-off is such a row unless ``--replace``; 2 bad input
+(manifest, spec, output directory, ids whose files would collide) or another run writes
+the output directory (``DIR/batch.lock``), nothing written; 130 interrupted (what finished
+is kept; every other gyro is a row ``not run (interrupted)``; a Ctrl-C while the local
+cluster starts: ``interrupted; nothing written.``).
 
 Under a lab file a certificate number is reserved only after the gyro's certificate is built
 (a failed gyro burns none; a failure after it names the number); a re-issued certificate names
@@ -56,6 +59,10 @@ def add_commands(sub: Any) -> None:
     bat.add_argument('--force', action='store_true',
                      help='recalibrate gyros whose inputs and settings are unchanged (under '
                      'a lab: new certificate numbers; each names the one it replaces)')
+    bat.add_argument('--replace', action='store_true',
+                     help='take a re-run gyro\'s values where they move more than 5 combined '
+                     'standard uncertainties from its earlier hand-off in --out (default: that '
+                     'gyro is refused, its row says why, its earlier files stay)')
     bat.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
                      help='a PDF beside each HTML certificate (default: yes)')
     bat.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
@@ -111,7 +118,8 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
                 bar.update(done - bar.n)
 
         outcome = run_batch(jobs, args.out, client=client, spec=spec, spec_path=args.spec,
-                            force=args.force, pdf=args.pdf, progress=progress, lab=lab)
+                            force=args.force, pdf=args.pdf, progress=progress, lab=lab,
+                            replace=args.replace)
     except OSError as exc:  # disk full: what was stored before it stays, each file whole
         from gyro_calib.outputs import write_failed
 
