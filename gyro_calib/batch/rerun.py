@@ -79,9 +79,9 @@ def refused_move(path: Path, new_text: bytes, schema: Mapping[str, Any],
     z, key, now, u_now, was, u_was = far[0]
     more = f' (and {len(far) - 1} more value(s))' if len(far) > 1 else ''
     return (f'refused: {key} would move to {_num(now, u_now)} from the {_num(was, u_was)} of '
-            f'{path.name} by {z:.1f} combined standard uncertainties{more}, '
-            f'{_what_differs(old, new)}; its folder keeps the earlier run\'s files. Check, then '
-            f'give --replace to take this run\'s values for {gyro}.')
+            f'{path.name} ({z:.1f} combined standard uncertainties){more}: '
+            f'{_what_differs(old, new)} {path.parent.name}/ keeps the earlier run\'s files; '
+            f'check, then give --replace to take this run\'s values for {gyro}.')
 
 
 def _sections(path: Path, new_text: bytes) -> tuple[dict[str, Any] | None,
@@ -152,7 +152,7 @@ def _num(value: Any, u: Any) -> str:
 
 
 def _what_differs(old: dict[str, Any], new: dict[str, Any]) -> str:
-    """'the same data under other settings (name: old -> new; ...)', or what else differs."""
+    """'the same data under other settings (name: old -> new; ...) — …?', or what else differs."""
     before, after = _runs(old), _runs(new)
     changes: dict[str, str] = {}
     same_data = bool(before) and bool(after)
@@ -168,11 +168,11 @@ def _what_differs(old: dict[str, Any], new: dict[str, Any]) -> str:
                                  f'{s1.get(name, "not given")!r}')
     settings = '; '.join(changes.values())
     if same_data:
-        return (f'the same data under other settings ({settings}): which settings are right?'
-                if settings else 'the same data under the same settings (another gyro_calib '
-                'version?)')
-    return ('other data' + (f' and other settings ({settings})' if settings else '')
-            + ': a changed gyro, another gyro, or a wrong bench setting?')
+        return (f'the same data under other settings ({settings}) — which are right?'
+                if settings else 'the same data under the same settings — another gyro_calib '
+                'version?')
+    return ('other data' + (f' under other settings ({settings})' if settings else '')
+            + ' — a changed gyro, another gyro, or a wrong bench setting?')
 
 
 def _runs(handoff: dict[str, Any]) -> dict[str, dict[str, Any]]:
