@@ -244,6 +244,35 @@ def test_a_rerun_under_other_settings_that_moves_a_value_beyond_5_sigma_is_refus
     assert 'R-1: ok (unchanged: skipped)' in capsys.readouterr().out
 
 
+def test_the_rerun_check_compares_a_triads_k_i_b_and_each_channels_terms(
+        tmp_path: Path) -> None:
+    """A triad's values are compared one by one (K_i per channel, b per axis, noise terms)."""
+    from gyro_calib.batch.rerun import refused_move
+
+    def handoff(k_y: float, arw_z: float) -> dict[str, Any]:
+        return {'gyro': {}, 'imu': {
+            'channels': ['x', 'y', 'z'],
+            'scale_factor_rad_per_pulse': [4e-6, k_y, 4e-6],
+            'scale_factor_rad_per_pulse_std': [1e-12, 1e-12, 1e-12],
+            'bias_rad_s': [1e-6, 2e-6, 3e-6], 'bias_rad_s_std': [1e-7, 1e-7, 1e-7],
+            'noise': {'z': {'angle_random_walk_rad_per_sqrt_s': arw_z,
+                            'angle_random_walk_rad_per_sqrt_s_std': 1e-8}}},
+            'methods': {'triad': {'source': 'bags/t', 'data_start_stamp_ns': 1,
+                                  'settings': {}}}}
+
+    path = tmp_path / 'T-1' / 'T-1.yaml'
+    path.parent.mkdir()
+    path.write_text(yaml.safe_dump(handoff(4e-6, 1e-6)), encoding='utf-8')
+    schema = handoff_schema()
+    same = yaml.safe_dump(handoff(4e-6 + 3e-12, 1e-6 + 3e-8)).encode()
+    assert refused_move(path, same, schema, 'T-1') == ''  # 2.1σ apart each: taken
+    moved = refused_move(path, yaml.safe_dump(handoff(4.001e-6, 2e-6)).encode(), schema, 'T-1')
+    assert moved.startswith('refused: imu.scale_factor_rad_per_pulse[y] would move to '
+                            '4.001e-06 ± 1e-12 from the 4e-06 ± 1e-12 of T-1.yaml (707.1 '
+                            'combined standard uncertainties) (and 1 more value(s)): the same '
+                            'data under the same settings'), moved
+
+
 @pytest.mark.parametrize('case', ['missing manifest', 'unknown setting', 'out of range',
                                   'duplicate id', 'workers 0'])
 def test_bad_manifest_is_one_line_exit_2_nothing_written(

@@ -115,9 +115,10 @@ def _walk(where: str, before: Any, after: Any) -> Iterator[tuple[str, Any, Any, 
         if isinstance(was, dict):
             yield from _walk(name, was, now)
         elif isinstance(was, list) and isinstance(now, list):  # a triad's per-axis values
-            channels = after.get('channels') or before.get('channels') or 'xyz'
+            labels = 'xyz' if 'bias' in str(key) else (  # b per body axis, K_i per channel
+                after.get('channels') or before.get('channels') or 'xyz')
             for i, (a, b) in enumerate(zip(now, was, strict=False)):
-                label = channels[i] if i < len(channels) else i
+                label = labels[i] if i < len(labels) else i
                 yield (f'{name}[{label}]', a, _at(u_now, i), b, _at(u_was, i))
         else:
             yield name, now, u_now, was, u_was
