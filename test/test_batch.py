@@ -158,19 +158,119 @@ def test_a_rerun_skips_unchanged_gyros_and_redoes_a_changed_one(
     assert again.failed == ['X-1']  # a failed gyro is tried again
     assert {g: (out / g / f'{g}.html').stat().st_mtime_ns for g in FLEET} == stamps
     changed = _manifest(fleet['tmp'], {'R-1': {'latitude_deg': 60.0}})
-    third = run_batch(load_manifest(changed), out, client=client,
+    refused = run_batch(load_manifest(changed), out, client=client,
+                        spec=load_spec(fleet['spec']), spec_path=fleet['spec'], pdf=False)
+    assert sorted(refused.skipped) == sorted(set(FLEET) - {'R-1'})
+    assert refused.failed == ['R-1', 'X-1']  # bias_rad_s moves by thousands of σ: refused
+    assert (out / 'R-1' / 'R-1.html').stat().st_mtime_ns == stamps['R-1']
+    third = run_batch(load_manifest(changed), out, client=client, replace=True,
                       spec=load_spec(fleet['spec']), spec_path=fleet['spec'], pdf=False)
     assert sorted(third.skipped) == sorted(set(FLEET) - {'R-1'})
     assert (out / 'R-1' / 'R-1.html').stat().st_mtime_ns != stamps['R-1']
     (r1,) = [r for r in third.records if r['gyro_id'] == 'R-1']  # old → new, said (issue 35)
     (bias,) = [line for line in r1['replaced'] if line.startswith('replaced: gyro.bias_rad_s')]
-    assert ' — was ' in bias and 'combined standard uncertainties' in bias
+    assert ' — was ' in bias and 'combined standard uncertainties; --replace)' in bias
     summary = io.StringIO()
     print_summary(third, summary)
     assert f'  {bias}' in summary.getvalue()
     forced = run_batch(load_manifest(changed), out, client=client, spec=load_spec(fleet['spec']),
                        spec_path=fleet['spec'], pdf=False, force=True)
     assert forced.skipped == []
+
+
+class _SharedClient:
+    """The module's client for an in-process ``gyro-calib batch``, not closed by it."""
+
+    def __init__(self, client: Any) -> None:
+        self._client = client
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._client, name)
+
+    def close(self) -> None:
+        """Kept open for the other tests."""
+
+
+def test_a_rerun_under_other_settings_that_moves_a_value_beyond_5_sigma_is_refused(
+        tmp_path: Path, client: Any, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """First run, manifest edited (latitude), second run: that gyro refused; --replace takes it.
+
+    As ``calibrate`` refuses the same bag under other settings when a value moves beyond 5
+    combined standard uncertainties (issue 35 item 1), so does ``batch``: the gyro's row says
+    why in one line (the value, both numbers, the setting old -> new, --replace), exit 1,
+    its folder untouched (hand-off, certificate, record); the other gyro is done.
+    ``--replace`` takes the new values, each replacement said old → new.
+    """
+    import gyro_calib.batch.run as batch_run
+
+    monkeypatch.setattr(batch_run, 'make_client',
+                        lambda workers, scheduler: (_SharedClient(client), None))
+    manifest, out = tmp_path / 'm.yaml', tmp_path / 'out'
+
+    def write(latitude: float | None) -> None:
+        manifest.write_text(yaml.safe_dump([
+            {'id': 'R-1', 'bags': [str(BAGS / 'k_tilde_bench')],
+             **({'settings': {'latitude_deg': latitude}} if latitude is not None else {})},
+            {'id': 'F-1', 'bags': [str(BAGS / 'fog_turntable')]}]), encoding='utf-8')
+
+    argv = ['batch', str(manifest), '--out', str(out), '--no-pdf', '--no-progress']
+    write(None)
+    assert main(argv) == 0
+    capsys.readouterr()
+    before = {p: p.read_bytes() for p in (out / 'R-1').iterdir()}
+    write(60.0)  # the manifest edited: R-1's bench at latitude 60°
+    assert main(argv) == 1
+    printed = capsys.readouterr().out.splitlines()
+    (row,) = [line for line in printed if line.startswith('R-1: ')]
+    assert row.startswith('R-1: failed: refused: gyro.bias_rad_s would move to -2.864')
+    assert ('from the 5.16045e-08 ± 1.33e-08 of R-1.yaml (' in row
+            and " combined standard uncertainties): the same data under other settings "
+            "(latitude_deg: 'not given' -> 60.0) — which are right? R-1/ keeps the earlier "
+            "run's files; check, then give --replace to take this run's values for R-1."
+            ) in row, row
+    # record.json too: the next run is refused again (its fingerprint still differs)
+    assert {p: p.read_bytes() for p in (out / 'R-1').iterdir()} == before
+    with (out / 'fleet.csv').open(encoding='utf-8') as stream:
+        rows = [r for r in csv.DictReader(stream) if r['gyro_id'] == 'R-1']
+    assert [(r['status'], r['reason']) for r in rows] == [('failed', row[len('R-1: failed: '):])]
+    assert main([*argv, '--replace']) == 0
+    printed = capsys.readouterr().out.splitlines()
+    assert 'R-1: ok' in printed
+    (bias,) = [line for line in printed if line.startswith('  replaced: gyro.bias_rad_s = ')]
+    assert 'combined standard uncertainties; --replace)' in bias
+    assert (out / 'R-1' / 'R-1.yaml').read_bytes() != before[out / 'R-1' / 'R-1.yaml']
+    assert main(argv) == 0  # and the next run, unchanged, skips it
+    assert 'R-1: ok (unchanged: skipped)' in capsys.readouterr().out
+
+
+def test_the_rerun_check_compares_a_triads_k_i_b_and_each_channels_terms(
+        tmp_path: Path) -> None:
+    """A triad's values are compared one by one (K_i per channel, b per axis, noise terms)."""
+    from gyro_calib.batch.rerun import refused_move
+
+    def handoff(k_y: float, arw_z: float) -> dict[str, Any]:
+        return {'gyro': {}, 'imu': {
+            'channels': ['x', 'y', 'z'],
+            'scale_factor_rad_per_pulse': [4e-6, k_y, 4e-6],
+            'scale_factor_rad_per_pulse_std': [1e-12, 1e-12, 1e-12],
+            'bias_rad_s': [1e-6, 2e-6, 3e-6], 'bias_rad_s_std': [1e-7, 1e-7, 1e-7],
+            'noise': {'z': {'angle_random_walk_rad_per_sqrt_s': arw_z,
+                            'angle_random_walk_rad_per_sqrt_s_std': 1e-8}}},
+            'methods': {'triad': {'source': 'bags/t', 'data_start_stamp_ns': 1,
+                                  'settings': {}}}}
+
+    path = tmp_path / 'T-1' / 'T-1.yaml'
+    path.parent.mkdir()
+    path.write_text(yaml.safe_dump(handoff(4e-6, 1e-6)), encoding='utf-8')
+    schema = handoff_schema()
+    same = yaml.safe_dump(handoff(4e-6 + 3e-12, 1e-6 + 3e-8)).encode()
+    assert refused_move(path, same, schema, 'T-1') == ''  # 2.1σ apart each: taken
+    moved = refused_move(path, yaml.safe_dump(handoff(4.001e-6, 2e-6)).encode(), schema, 'T-1')
+    assert moved.startswith('refused: imu.scale_factor_rad_per_pulse[y] would move to '
+                            '4.001e-06 ± 1e-12 from the 4e-06 ± 1e-12 of T-1.yaml (707.1 '
+                            'combined standard uncertainties) (and 1 more value(s)): the same '
+                            'data under the same settings'), moved
 
 
 @pytest.mark.parametrize('case', ['missing manifest', 'unknown setting', 'out of range',
@@ -327,6 +427,90 @@ def test_ctrl_c_stops_cleanly_keeps_what_finished_and_lists_every_gyro(
     assert not left
 
 
+def _command_processes(pid: int) -> list[str]:
+    """The command lines of the processes ``pid`` started (empty once it has none)."""
+    import psutil
+
+    try:
+        children = psutil.Process(pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        return []
+    lines = []
+    for child in children:
+        try:
+            lines.append(' '.join(child.cmdline()))
+        except psutil.Error:
+            continue
+    return lines
+
+
+@pytest.mark.parametrize('moment', ['the first process it starts', 'its first worker process',
+                                    0.5, 1.0, 2.0, 3.0, 5.0])
+def test_ctrl_c_at_any_moment_is_exit_130_one_line_and_nothing_half_written(
+        moment: str | float, tmp_path: Path) -> None:
+    """Ctrl-C at any instant ends the run with exit 130 and one line, nothing half-written.
+
+    At any instant — while the modules load, while the local cluster starts (its resource
+    tracker, its workers), once it runs — the run ends with exit 130 and one line:
+    ``interrupted; nothing written.`` (no --out left) before the fleet runs, ``interrupted;
+    the gyros that finished are kept.`` after, with fleet files that say so and every gyro
+    folder whole. Never a traceback, never a run that goes on to exit 0 (issue 35 §4: the
+    cluster's start-up ignored SIGINT), never a process left. (Ctrl-C once a gyro is
+    written: the test above.)
+    """
+    import signal
+
+    manifest = _manifest(tmp_path)
+    out = tmp_path / 'out'
+    env = {**os.environ, 'PYTHONPATH': os.pathsep.join(
+        [str(Path(__file__).resolve().parent.parent), os.environ.get('PYTHONPATH', '')])}
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'gyro_calib.cli', 'batch', str(manifest), '--out', str(out),
+         '--workers', '1', '--no-pdf', '--no-progress'], env=env, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        if isinstance(moment, float):
+            time.sleep(moment)
+        while isinstance(moment, str) and time.monotonic() < deadline:
+            started = _command_processes(proc.pid)
+            if (moment == 'the first process it starts' and started
+                    or moment == 'its first worker process' and any(
+                        'spawn_main' in line for line in started)):
+                break
+            time.sleep(0.005)
+        os.killpg(proc.pid, signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 130, (stdout, stderr)
+    assert 'Traceback' not in stdout + stderr
+    if stderr == 'gyro-calib: interrupted; nothing written.\n':
+        assert stdout == '' and not out.exists()
+    else:
+        assert stderr == 'gyro-calib: interrupted; the gyros that finished are kept.\n'
+        with (out / 'fleet.csv').open(encoding='utf-8') as stream:
+            assert {r['fleet_run'] for r in csv.DictReader(stream)} == {'interrupted'}
+        for record in out.glob('*/record.json'):
+            rec = json.loads(record.read_text(encoding='utf-8'))
+            if rec['status'] == 'ok':
+                assert (record.parent / f'{rec["stem"]}.yaml').exists()
+                assert (record.parent / f'{rec["stem"]}.html').exists()
+        assert not (out / 'batch.lock').exists()
+        assert 'not run (interrupted)' in stdout
+    left: list[str] = []
+    for _ in range(100):  # nothing of the run is left (workers, nannies, resource tracker)
+        left = subprocess.run(['ps', '-o', 'pid=,cmd=', '-g', str(proc.pid)],
+                              capture_output=True, text=True, check=False).stdout.split('\n')
+        left = [line for line in left if line.strip()]
+        if not left:
+            break
+        time.sleep(0.1)
+    assert not left
+
+
 def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_line(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """A run killed with SIGKILL leaves batch.lock; the next run takes it over and says so."""
@@ -337,11 +521,12 @@ def test_a_lock_left_by_a_killed_run_is_taken_over_with_a_line(
         [str(Path(__file__).resolve().parent.parent), os.environ.get('PYTHONPATH', '')])}
     killed = subprocess.Popen(
         [sys.executable, '-c', 'import os, sys; from pathlib import Path; '
-         'from gyro_calib.batch.lock import BatchLock; BatchLock(Path(sys.argv[1])).acquire(); '
+         'from gyro_calib.file_lock import BATCH_LOCK, DirectoryLock; '
+         'DirectoryLock(Path(sys.argv[1]), "batch", name=BATCH_LOCK).acquire(); '
          'os.kill(os.getpid(), 9)', str(out)], env=env)
     assert killed.wait(timeout=60) == -signal.SIGKILL
     left = (out / 'batch.lock').read_text(encoding='utf-8').strip()
-    assert left.startswith(f'pid {killed.pid} on ') and ', started 20' in left
+    assert left.startswith(f'gyro-calib batch, pid {killed.pid} on ') and ', started 20' in left
     manifest = _manifest(tmp_path)  # only the broken gyro: the run is short
     only_broken = [g for g in yaml.safe_load(manifest.read_text())['gyros'] if g['id'] == 'X-1']
     manifest.write_text(yaml.safe_dump(only_broken), encoding='utf-8')

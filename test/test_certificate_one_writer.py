@@ -6,6 +6,8 @@
   second run then replaced).
 - A run that finds DIR held by another certificate run (``report`` or ``calibrate
   --report``) is refused in one line, exit 2, before it reserves a number.
+- Drafts (no ``--lab``) alike: two ``report`` runs writing a draft into one DIR at once
+  never leave one run's HTML beside the other's PDF.
 - A disk that fills while the PDF is written leaves neither document: the number the line
   says "stays reserved, unused" is in no file, and the next run issues the next number.
 - A hand-edited zero (or missing) standard uncertainty is refused in one line; nothing
@@ -18,6 +20,7 @@ import errno
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +29,7 @@ import yaml
 from test_certificate_lab import write_lab
 
 from gyro_calib.cli import main
-from gyro_calib.report.directory_lock import CertificateDirectoryLock
+from gyro_calib.cli.report import certificate_lock
 
 ROOT = Path(__file__).resolve().parents[1]
 BAG = ROOT / 'bags' / 'k_tilde_bench'
@@ -93,8 +96,8 @@ def test_a_directory_held_by_another_certificate_run_is_refused_before_any_numbe
     labs = tmp_path / 'lab'
     lab = write_lab(labs, customer='X')
     out = tmp_path / 'cc'
-    other = CertificateDirectoryLock(out)
-    other.acquire('report')  # another run, in the middle of its write
+    other = certificate_lock(out, 'report')
+    other.acquire()  # another run, in the middle of its write
     try:
         argv = (['report', handoff, '--out', out] if command == 'report' else
                 ['calibrate', BAG, '--gyro-id', 'A-1', '--report', out, '--no-progress'])
@@ -112,6 +115,75 @@ def test_a_directory_held_by_another_certificate_run_is_refused_before_any_numbe
         'reserved.']
     assert numbers(labs / REGISTER) == []
     assert not out.exists()  # the other run created it and, empty, removed it
+
+
+def _pdf_text(path: Path) -> str:
+    from pypdf import PdfReader
+
+    return ' '.join(' '.join(page.extract_text().split()) for page in PdfReader(path).pages)
+
+
+def _draft(handoff: Path, out: Path, customer: str, *bags: Path) -> subprocess.Popen[str]:
+    """``gyro-calib report HANDOFF [BAG] --out OUT --customer CUSTOMER``: a draft, started."""
+    return subprocess.Popen(
+        [sys.executable, '-m', 'gyro_calib.cli', 'report', str(handoff), *map(str, bags),
+         '--out', str(out), '--customer', customer],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def test_a_draft_writer_holds_its_directory_and_a_second_draft_is_refused(
+        handoff: Path, tmp_path: Path) -> None:
+    """Drafts too (no --lab): while one report writes DIR, another is refused in one line.
+
+    The first run re-runs the bag (seconds) with DIR held; the second, started once the
+    lock file is there, exits 2 with one line and writes nothing; the first's HTML and PDF
+    are both its own (customer X), whole.
+    """
+    out = tmp_path / 'cc'
+    first = _draft(handoff, out, 'Customer X Navigation', BAG)
+    deadline = time.monotonic() + 60
+    while not (out / '.certificates.lock').exists() and first.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.01)
+    second = _draft(handoff, out, 'Customer Y Navigation')
+    code, stdout, stderr = second.wait(timeout=120), *second.communicate()
+    assert first.wait(timeout=120) == 0, first.communicate()
+    assert (code, stdout) == (2, ''), stderr
+    (line,) = stderr.strip().splitlines()
+    assert line.startswith(f'gyro-calib: error: --out {out} is being written by another '
+                           'certificate run (gyro-calib report, pid '), line
+    assert f'pid {first.pid} on ' in line and line.endswith('nothing was written and no '
+                                                            'certificate number was reserved.')
+    assert sorted(p.name for p in out.iterdir()) == ['A-1.html', 'A-1.pdf']
+    page = (out / 'A-1.html').read_text(encoding='utf-8')
+    assert 'Customer X Navigation' in page and 'Customer Y' not in page
+    pdf = _pdf_text(out / 'A-1.pdf')
+    assert 'Customer X Navigation' in pdf and 'Customer Y' not in pdf
+
+
+def test_two_drafts_at_once_never_leave_one_runs_html_beside_the_others_pdf(
+        handoff: Path, tmp_path: Path) -> None:
+    """Two draft reports into one DIR at once: one after the other, or one refused; never mixed.
+
+    Either both end 0 (the second replaced the first's draft, and said so) or one is refused
+    in one line (exit 2); either way the HTML and the PDF in DIR are one run's.
+    """
+    out = tmp_path / 'cc'
+    runs = {c: _draft(handoff, out, c, BAG) for c in ('Customer X Navigation',
+                                                       'Customer Y Navigation')}
+    ended = {c: (p.wait(timeout=120), *p.communicate()) for c, p in runs.items()}
+    codes = sorted(code for code, _, _ in ended.values())
+    assert codes in ([0, 0], [0, 2]), ended
+    for code, stdout, stderr in ended.values():
+        if code == 2:
+            assert stdout == '' and len(stderr.strip().splitlines()) == 1, stderr
+            assert 'is being written by another certificate run' in stderr
+    assert sorted(p.name for p in out.iterdir()) == ['A-1.html', 'A-1.pdf']
+    page, pdf = (out / 'A-1.html').read_text(encoding='utf-8'), _pdf_text(out / 'A-1.pdf')
+    (customer,) = [c for c in runs if c in page]
+    assert customer in pdf and not [c for c in runs if c != customer and c in pdf]
+    if codes == [0, 0]:  # the later run replaced the earlier's draft and said so
+        assert any('draft' in stdout for _, stdout, _ in ended.values()), ended
 
 
 def test_a_disk_that_fills_at_the_pdf_leaves_neither_document(

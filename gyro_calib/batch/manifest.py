@@ -31,6 +31,7 @@ from typing import Any
 import yaml
 
 from gyro_calib.errors import ConfigError
+from gyro_calib.file_lock import BATCH_LOCK
 from gyro_calib.registry import METHODS
 
 SETTINGS: dict[str, type] = {
@@ -41,7 +42,7 @@ SETTINGS: dict[str, type] = {
 }
 """Per-gyro settings (as the ``calibrate`` flags) and their types."""
 
-FLEET_NAMES = ('fleet.csv', 'fleet.parquet', 'fleet.jsonl', 'fleet.html', 'batch.lock')
+FLEET_NAMES = ('fleet.csv', 'fleet.parquet', 'fleet.jsonl', 'fleet.html', BATCH_LOCK)
 """The names the fleet files and the lock take in the output directory (no gyro's stem)."""
 
 

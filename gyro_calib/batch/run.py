@@ -15,7 +15,6 @@ import contextlib
 import hashlib
 import json
 import logging
-import math
 import os
 import signal
 import sys
@@ -27,6 +26,7 @@ from typing import Any
 
 from gyro_calib.batch.fleet import _atomic_write, write_fleet
 from gyro_calib.batch.manifest import GyroJob, gyro_stem
+from gyro_calib.batch.rerun import refused_move, replaced_lines
 from gyro_calib.batch.tasks import (
     GyroResult,
     Plan,
@@ -119,30 +119,72 @@ def make_client(workers: int | None, scheduler: str | None) -> tuple[Any, Any]:
 
     A Dask client: to ``scheduler``, or to a new local cluster of ``workers`` processes
     (one thread each; default: the machine's cores). Returns (client, cluster or None).
+
+    The worker processes never see SIGINT: Ctrl-C at a terminal reaches the whole process
+    group, and only the parent acts on it (cancel, close the cluster, keep what finished) —
+    not every worker with a traceback. A Ctrl-C while the cluster starts is kept
+    (:func:`_sigint_held`) and acted on once it stands: the cluster is closed and
+    ``KeyboardInterrupt`` raised (nothing was written).
     """
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
         return Client(scheduler, timeout='20s'), None
-    # The worker processes start with SIGINT ignored (inherited through exec): Ctrl-C at the
-    # terminal reaches the whole process group, and only the parent should act on it (cancel,
-    # close the cluster, keep what finished) — not every worker with a traceback.
-    main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
-    try:
+    with _sigint_held() as arrived:
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
                                processes=True, host='127.0.0.1', dashboard_address='127.0.0.1:0',
                                silence_logs=logging.CRITICAL)
+        try:
+            client = Client(cluster)
+        except BaseException:
+            cluster.close()
+            raise
+    if arrived:
+        with _sigint_deferred():  # the Ctrl-C came while it started: stop it, then say so
+            client.close()
+            cluster.close()
+        raise KeyboardInterrupt
+    return client, cluster
+
+
+@contextlib.contextmanager
+def _sigint_held() -> Iterator[list[int]]:
+    """Block SIGINT in this thread (and so in every thread and process started in the block).
+
+    Blocked, not ignored: the threads and worker processes started in the block inherit the
+    mask and never take a Ctrl-C, while a Ctrl-C that comes meanwhile stays pending for this
+    process, is noted in the yielded list (non-empty: it came) when the block ends, and is
+    not lost. (An ignored SIGINT, which the workers would inherit too, is discarded.)
+
+    The multiprocessing resource tracker is started first: starting it unblocks SIGINT in
+    the thread that starts it (CPython's ``resource_tracker.ensure_running``), which would
+    leave the cluster's own thread, and the workers it starts, taking Ctrl-C.
+    """
+    if threading.current_thread() is not threading.main_thread() or not hasattr(
+            signal, 'pthread_sigmask'):
+        yield []
+        return
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
+    arrived: list[int] = []
+
+    def note(signum: int, frame: object) -> None:
+        arrived.append(signum)
+
+    previous = signal.signal(signal.SIGINT, note)
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield arrived
     finally:
-        if main_thread:
-            signal.signal(signal.SIGINT, previous)
-    return Client(cluster), cluster
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # a pending one: note()
+        signal.signal(signal.SIGINT, previous)
 
 
 def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any = None,
               spec_path: Path | None = None, force: bool = False, pdf: bool = True,
               progress: Callable[[int, int], None] | None = None,
-              lab: Any = None) -> BatchOutcome:
+              lab: Any = None, replace: bool = False) -> BatchOutcome:
     """Calibrate every gyro of ``jobs`` on the cluster.
 
     Calibrate every gyro of ``jobs`` on ``client``'s cluster; write per-gyro and fleet
@@ -154,7 +196,10 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
     number; a failure after it names the number in the gyro's reason); an unchanged gyro
     keeps its certificate and number. A re-run gyro whose folder holds an issued certificate
     replaces it: its record's ``replaces`` names the old number, whose files are moved to
-    ``<stem>/superseded/`` (see :func:`_store`).
+    ``<stem>/superseded/`` (see :func:`_store`). A re-run gyro whose values would move more
+    than 5 combined standard uncertainties from its earlier hand-off is refused (a failed row
+    saying why, its folder untouched, no number reserved) unless ``replace``
+    (:func:`~gyro_calib.batch.rerun.refused_move`).
 
     Raises:
         ConfigError: a gyro's folder holds another gyro's earlier results (nothing run).
@@ -213,6 +258,9 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
                         pending[fin.key] = ('finish', gid, fin)
                         submitted += [*runs, fin]
                         queue.add(fin)
+                elif kind == 'finish' and not replace and (why := _refused(out_dir, result)):
+                    records[gid] = _failed(job, stems[gid], why)
+                    done += 1
                 elif kind == 'finish' and lab is not None and result.certificate is not None:
                     issue = reserve_number(lab, gid, job.customer)  # all checks passed
                     reserved[gid] = issue.number
@@ -222,7 +270,7 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
                     submitted.append(fut2)
                     queue.add(fut2)
                 else:
-                    records[gid] = _store(out_dir, result)
+                    records[gid] = _store(out_dir, result, replace)
                     done += 1
             if progress is not None and gid in records:
                 progress(done, len(jobs))
@@ -235,7 +283,9 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
                     continue
                 if fut.status == 'finished' and (kind == 'issue' or kind == 'finish' and (
                         fut.result().certificate is None)):
-                    records[gid] = _store(out_dir, fut.result())
+                    why = '' if replace or kind == 'issue' else _refused(out_dir, fut.result())
+                    records[gid] = (_failed(by_id[gid], stems[gid], why) if why else
+                                    _store(out_dir, fut.result(), replace))
                 elif gid in reserved:
                     records[gid] = {**_not_run(by_id[gid], stems[gid]), 'reason': burned(
                         reserved[gid], 'the run was stopped before its certificate was made')}
@@ -317,7 +367,22 @@ def _supersede(folder: Path, stem: str, new_files: Sequence[str]) -> str:
     return number
 
 
-def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
+def _refused(out_dir: Path, result: GyroResult) -> str:
+    """Why a finished gyro's hand-off may not replace its earlier one ('' if it may)."""
+    from gyro_calib.registry import handoff_schema
+
+    if result.record.get('status') not in ('ok', 'partial'):
+        return ''
+    schema = handoff_schema()
+    for rel, data in result.files.items():
+        if rel.endswith('.yaml') and (out_dir / rel).exists():
+            why = refused_move(out_dir / rel, data, schema, result.gyro_id)
+            if why:
+                return why
+    return ''
+
+
+def _store(out_dir: Path, result: GyroResult, replace: bool = False) -> dict[str, Any]:
     """Write a finished gyro's files, then its record.
 
     Write a finished gyro's files (each atomically), then its record (last: a record means
@@ -335,7 +400,7 @@ def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
         record['reason'] = (f'{record.get("reason", "")}; the issued certificate {stands} of '
                             f'an earlier run stays in {record["stem"]}/ (not replaced)')
     replaced = [line for rel, data in result.files.items() if rel.endswith('.yaml')
-                for line in replaced_lines(out_dir / rel, data)]
+                for line in replaced_lines(out_dir / rel, data, replace=replace)]
     if replaced:
         record['replaced'] = replaced
     for rel, data in result.files.items():
@@ -345,60 +410,6 @@ def _store(out_dir: Path, result: GyroResult) -> dict[str, Any]:
     _atomic_write(folder / RECORD, json.dumps(record, sort_keys=True, indent=1,
                                               default=str).encode('utf-8'))
     return record
-
-
-def replaced_lines(path: Path, new_text: bytes) -> list[str]:
-    """What this run's hand-off replaces of the gyro's earlier one, a line per value.
-
-    ``replaced: KEY = new ± u — was old ± u (z combined standard uncertainties)``, or
-    ``dropped:`` for a value the new file no longer has (issue 35 item 1: every replacement,
-    on every front door, says old → new). A batch re-run calibrates a changed gyro (its bags
-    or manifest settings changed) anew and writes its hand-off whole; these lines say what
-    that replaced.
-    """
-    import yaml
-
-    try:
-        old = yaml.safe_load(path.read_text(encoding='utf-8')) or {}
-        new = yaml.safe_load(new_text.decode('utf-8')) or {}
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
-        return []
-    lines: list[str] = []
-    for section in ('gyro', 'imu'):
-        before, after = old.get(section) or {}, new.get(section) or {}
-        if not isinstance(before, dict) or not isinstance(after, dict):
-            continue
-        for key, was in before.items():
-            if str(key).endswith(('_std', '_dof')) or key not in after and section == 'imu':
-                continue
-            if key not in after:
-                lines.append(f'dropped: {section}.{key} (was {was})')
-                continue
-            now = after[key]
-            if now == was:
-                continue
-            lines.append(f'replaced: {section}.{key} = {_with_u(now, after, key)} — was '
-                         f'{_with_u(was, before, key)}{_distance(now, was, after, before, key)}')
-    return lines
-
-
-def _with_u(value: Any, values: dict[str, Any], key: str) -> str:
-    u = values.get(f'{key}_std')
-    return f'{value} ± {u:.3g}' if isinstance(u, (int, float)) else str(value)
-
-
-def _distance(now: Any, was: Any, after: dict[str, Any], before: dict[str, Any],
-              key: str) -> str:
-    """' (N combined standard uncertainties)' for two numbers with their u, else ''."""
-    u1: Any = after.get(f'{key}_std')
-    u0: Any = before.get(f'{key}_std')
-    if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-               for v in (now, was, u1, u0)):
-        return ''
-    combined = math.hypot(float(u1), float(u0))
-    if not combined > 0:
-        return ''
-    return f' ({abs(float(now) - float(was)) / combined:.1f} combined standard uncertainties)'
 
 
 def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:

@@ -1,13 +1,16 @@
 """``gyro-calib batch``: calibrate a fleet of gyros on Dask (see :mod:`gyro_calib.batch`).
 
     gyro-calib batch MANIFEST --out DIR [--workers N | --scheduler tcp://HOST:PORT]
-                     [--spec SPEC.yaml] [--force] [--no-pdf] [--progress]
+                     [--spec SPEC.yaml] [--force] [--replace] [--no-pdf] [--progress]
                      [--lab LAB.yaml] [--customer TEXT]
 
 Exit status: 0 every gyro calibrated; 1 some gyro failed (its row says why; the others
-are done); 2 bad input (manifest, spec, output directory, ids whose files would collide) or
-another run writes the output directory (``DIR/batch.lock``), nothing written; 130
-interrupted (what finished is kept; every other gyro is a row ``not run (interrupted)``).
+are done) — a re-run gyro whose values would move more than 5 combined standard
+uncertainties from its earlier hand-off is such a row unless ``--replace``; 2 bad input
+(manifest, spec, output directory, ids whose files would collide) or another run writes
+the output directory (``DIR/batch.lock``), nothing written; 130 interrupted (what finished
+is kept; every other gyro is a row ``not run (interrupted)``; a Ctrl-C while the local
+cluster starts: ``interrupted; nothing written.``).
 
 Under a lab file a certificate number is reserved only after the gyro's certificate is built
 (a failed gyro burns none; a failure after it names the number); a re-issued certificate names
@@ -32,6 +35,7 @@ from gyro_calib.cli.arguments import (
 )
 from gyro_calib.cli.progress import show_progress
 from gyro_calib.errors import ConfigError
+from gyro_calib.file_lock import BATCH_LOCK, DirectoryLock
 
 EXIT_SOME_FAILED = EXIT_NOT_CALIBRATED  # some gyro failed (its row says why)
 
@@ -55,6 +59,10 @@ def add_commands(sub: Any) -> None:
     bat.add_argument('--force', action='store_true',
                      help='recalibrate gyros whose inputs and settings are unchanged (under '
                      'a lab: new certificate numbers; each names the one it replaces)')
+    bat.add_argument('--replace', action='store_true',
+                     help='take a re-run gyro\'s values where they move more than 5 combined '
+                     'standard uncertainties from its earlier hand-off in --out (default: that '
+                     'gyro is refused, its row says why, its earlier files stay)')
     bat.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True,
                      help='a PDF beside each HTML certificate (default: yes)')
     bat.add_argument('--progress', action=argparse.BooleanOptionalAction, default=None,
@@ -66,7 +74,6 @@ def add_commands(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, start or reach the cluster, run the fleet, write its files."""
-    from gyro_calib.batch.lock import BatchLock
     from gyro_calib.batch.manifest import load_manifest
     from gyro_calib.batch.run import check_earlier_runs
 
@@ -77,16 +84,13 @@ def run(args: argparse.Namespace) -> int:
     jobs = load_manifest(args.manifest)
     spec = load_spec_arg(args.spec)
     lab, jobs = lab_and_customers(args, jobs)
-    lock = BatchLock(args.out)
+    lock = batch_lock(args.out)
     lock.acquire()  # a second run into the same --out stops here
     try:
         check_earlier_runs(jobs, args.out)
         return _run_locked(args, jobs, spec, lab, created)
-    except BaseException:
-        lock.abandon()  # also removes --out if this run created it and wrote nothing
-        raise
     finally:
-        lock.release()
+        lock.release()  # also removes --out if this run created it and wrote nothing
 
 
 def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
@@ -114,11 +118,12 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
                 bar.update(done - bar.n)
 
         outcome = run_batch(jobs, args.out, client=client, spec=spec, spec_path=args.spec,
-                            force=args.force, pdf=args.pdf, progress=progress, lab=lab)
+                            force=args.force, pdf=args.pdf, progress=progress, lab=lab,
+                            replace=args.replace)
     except OSError as exc:  # disk full: what was stored before it stays, each file whole
         from gyro_calib.outputs import write_failed
 
-        if created and not any(p.name != 'batch.lock' for p in args.out.iterdir()):
+        if created and not any(p.name != BATCH_LOCK for p in args.out.iterdir()):
             raise write_failed(exc, '--out', args.out) from None  # the lock removes --out
         raise write_failed(exc, '--out', args.out,
                            ['the files of the gyros stored before it']) from None
@@ -133,6 +138,11 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
         print('gyro-calib: interrupted; the gyros that finished are kept.', file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_SOME_FAILED if outcome.failed else EXIT_OK
+
+
+def batch_lock(out_dir: Path) -> DirectoryLock:
+    """The lock of a batch output directory, ``DIR/batch.lock`` (not taken yet)."""
+    return DirectoryLock(out_dir, 'batch', name=BATCH_LOCK)
 
 
 def lab_and_customers(args: argparse.Namespace, jobs: list[Any]) -> tuple[Any, list[Any]]:

@@ -12,8 +12,9 @@ issued by that laboratory under the next number of its register; without, it is 
 hand-off value the bags contradict is refused (exit 2) unless ``--accept-handoff-values``.
 An issued certificate already in DIR is never replaced (refused before any work); a draft is,
 said in a line. Every refusal comes before the number is reserved (none is burned by it).
-One certificate writer per directory (:mod:`gyro_calib.report.directory_lock`): a second
-run writing DIR at the same time is refused in one line, before any number is reserved.
+One certificate writer per directory, draft or issued (:func:`certificate_lock`, a
+:class:`~gyro_calib.file_lock.DirectoryLock` on ``DIR/.certificates.lock``): a second run
+writing DIR at the same time is refused in one line, before any number is reserved.
 """
 
 from __future__ import annotations
@@ -34,11 +35,11 @@ from gyro_calib.cli.arguments import (
     options_from_args,
 )
 from gyro_calib.errors import ConfigError
+from gyro_calib.file_lock import CERTIFICATES_LOCK, DirectoryLock
 
 if TYPE_CHECKING:
     from gyro_calib.bag_calibration import BagCalibration
     from gyro_calib.handoff import Calibration
-    from gyro_calib.report.directory_lock import CertificateDirectoryLock
     from gyro_calib.report.evidence import RunEvidence
     from gyro_calib.report.lab import Lab
     from gyro_calib.report.spec import Spec
@@ -66,7 +67,22 @@ def add_commands(sub: Any) -> None:
     rep.set_defaults(run=run_report)
 
 
-def check_calibrate_report(args: argparse.Namespace) -> CertificateDirectoryLock:
+def certificate_lock(out_dir: Path, command: str, flag: str = '--out') -> DirectoryLock:
+    """The lock of a certificate directory (not taken yet): one writer, draft or issued.
+
+    ``report`` and ``calibrate --report`` hold DIR from their first look at it (is an
+    issued certificate there?) until the certificate is in place, as ``batch`` holds its
+    ``DIR/batch.lock``: a second writer is refused in one line before it reserves a number,
+    so two runs can neither both say "certificate written" while one issued certificate
+    replaces the other, nor leave one draft's HTML beside the other's PDF (issue 35 §3).
+    """
+    return DirectoryLock(
+        out_dir, command, name=CERTIFICATES_LOCK, flag=flag, writer='certificate run',
+        wait_note=' (then see whether its certificate is the one you want)',
+        refused_note=' and no certificate number was reserved')
+
+
+def check_calibrate_report(args: argparse.Namespace) -> DirectoryLock:
     """``calibrate --report DIR [--spec SPEC] [--lab LAB] [--customer TEXT] [--no-pdf]``: first.
 
     Returns the lock on DIR, held (one certificate writer per directory): the caller
@@ -94,10 +110,8 @@ def check_calibrate_report(args: argparse.Namespace) -> CertificateDirectoryLock
         except (ConfigError, HandoffError):
             pass  # calibrate names what is wrong with it
     where = '(this run; no --out file)' if args.out is None else str(args.out)
-    from gyro_calib.report.directory_lock import CertificateDirectoryLock
-
-    lock = CertificateDirectoryLock(args.report, '--report')
-    lock.acquire('calibrate --report')
+    lock = certificate_lock(args.report, 'calibrate --report', '--report')
+    lock.acquire()
     try:
         replacing(args.report, certificate_stem(gyro_id, where), pdf=args.pdf is not False,
                   flag='--report')
@@ -112,14 +126,13 @@ def run_report(args: argparse.Namespace) -> int:
     from gyro_calib.handoff import load_calibration
     from gyro_calib.registry import handoff_schema
     from gyro_calib.report.certificate import certificate_stem, replacing
-    from gyro_calib.report.directory_lock import CertificateDirectoryLock
 
     check_output_dir(args.out)
     spec = load_spec_arg(args.spec)
     lab, customer = lab_and_customer(args, args.out)
     calibration = load_calibration(args.handoff, handoff_schema())
-    lock = CertificateDirectoryLock(args.out)  # held from the first look to the last write
-    lock.acquire('report')
+    lock = certificate_lock(args.out, 'report')  # held from the first look to the last write
+    lock.acquire()
     try:
         replacing(args.out, certificate_stem(calibration.gyro_id, str(args.handoff)),
                   pdf=args.pdf)
