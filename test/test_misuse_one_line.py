@@ -294,3 +294,106 @@ def test_importing_the_command_in_process_keeps_ctrl_c_as_it_was() -> None:
     import gyro_calib.cli
 
     assert signal.getsignal(signal.SIGINT) is not gyro_calib.cli._interrupted_while_starting
+
+
+# -- a config file's NaN / inf (issue 35 round 2) ------------------------------------------------
+def _bias_of(stdout: str) -> str:
+    return next(line for line in stdout.splitlines() if line.startswith('bias ω_B'))
+
+
+def test_a_config_files_nan_where_it_is_the_default_is_said_and_taken_as_not_given(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A dumped parameter file holds ``latitude_deg: .nan`` (not given): taken so, and said."""
+    code, plain, _ = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--no-progress')
+    assert code == 0
+    config = tmp_path / 'c.yaml'
+    config.write_text('latitude_deg: .nan\n', encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--config', config,
+                               '--no-progress')
+    assert code == 0, stderr
+    assert one_line(stderr) == (f'gyro-calib: note: config file {config}: latitude_deg = .nan '
+                                'is its documented default: taken as not given (give a number '
+                                'to set it).')
+    assert _bias_of(stdout) == _bias_of(plain)  # the bag's stored latitude, as without it
+
+
+BAD_CONFIG = {
+    'inf latitude': ('latitude_deg: .inf\n', 'latitude_deg = .inf is not a finite number (its '
+                     'default is .nan)'),
+    'nan heading': ('heading_deg: .nan\n', 'heading_deg = .nan is not a finite number;'),
+    'nan in a list': ('latitude_deg: [1.0, .nan]\n', 'latitude_deg = [1.0, .nan] holds a number '
+                      'that is not finite'),
+    'inf setting': ('revolutions_per_window: .inf\n', 'revolutions_per_window = .inf is not a '
+                    'finite number (its default is 5)'),
+    'nan node-only': ('process_period_s: .nan\n', 'process_period_s = .nan is not a finite '
+                      'number'),
+}
+
+
+@pytest.mark.parametrize('case', list(BAD_CONFIG))
+def test_a_config_files_nan_or_inf_anywhere_else_is_one_line_naming_the_key(
+        case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text, says = BAD_CONFIG[case]
+    config = tmp_path / 'c.yaml'
+    config.write_text(text, encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--config', config,
+                               '--out', tmp_path / 'g.yaml', '--no-progress')
+    assert (code, stdout) == (2, '')
+    line = one_line(stderr)
+    assert line.startswith(f'gyro-calib: error: config file {config}: {says}'), line
+    assert line.endswith('give a number, or leave the key out for its default.')
+    assert listing(tmp_path) == ['c.yaml']
+
+
+def test_noise_takes_a_dumped_files_inf_default_and_refuses_a_nan_elsewhere(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    config = tmp_path / 'noise.yaml'
+    config.write_text('noise_node:\n  ros__parameters:\n    fit_max_tau_s: .inf\n'
+                      '    fit_min_tau_s: .nan\n', encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'noise', BAGS / 'noise_rlg_static', '--config', config,
+                               '--out', tmp_path / 'g.yaml', '--no-progress')
+    assert (code, stdout) == (2, '')
+    assert 'fit_min_tau_s = .nan is not a finite number' in one_line(stderr)
+    config.write_text('noise_node:\n  ros__parameters:\n    fit_max_tau_s: .inf\n',
+                      encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'noise', BAGS / 'noise_rlg_static', '--config', config,
+                               '--json', '--no-progress')
+    assert code == 0, stderr
+    assert (f'gyro-calib: note: config file {config}: fit_max_tau_s = .inf is its documented '
+            'default: the default is used') in stderr
+
+
+@pytest.mark.parametrize('text, says', [
+    ('latitude_deg: .inf\n', 'latitude_deg = .inf is not a finite number'),
+    ('latitude_deg: .nan\n', 'latitude_deg = .nan is its documented default: taken as not '
+     'given'),
+])
+@pytest.mark.parametrize('node', ['calibration_node', 'fog_calibration_node'])
+def test_a_node_reads_the_config_file_the_same_way(node: str, text: str, says: str,
+                                                   tmp_path: Path,
+                                                   capfd: pytest.CaptureFixture[str]) -> None:
+    """The node's ``config_file``: the same refusal, the same line (logged) as ``--config``."""
+    import importlib
+
+    import rclpy
+
+    from gyro_calib.errors import ConfigError
+    from gyro_calib.nodes.processes import ros_args
+
+    config = tmp_path / 'c.yaml'
+    config.write_text(text, encoding='utf-8')
+    module, cls = {'calibration_node': ('calibration_node', 'CalibrationNode'),
+                   'fog_calibration_node': ('fog_calibration_node', 'FogCalibrationNode')}[node]
+    klass = getattr(importlib.import_module(f'gyro_calib.nodes.{module}'), cls)
+    rclpy.init(args=ros_args({'output_file': '', 'config_file': str(config)}))
+    refused = ''
+    try:
+        try:
+            klass().destroy_node()
+        except ConfigError as exc:
+            refused = str(exc)
+    finally:
+        rclpy.shutdown()
+    logged = capfd.readouterr().err
+    assert says in (refused or logged), (refused, logged)
+    assert bool(refused) == ('inf' in text)

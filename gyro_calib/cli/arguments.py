@@ -18,6 +18,7 @@ usage error in one line:
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
@@ -106,6 +107,32 @@ def refuse_unused_flags(args: argparse.Namespace, methods: Sequence[str]) -> Non
             if getattr(args, dest, None):
                 raise ConfigError(f'{flag} does not apply: no method runs on these bags. Drop '
                                   'it, or choose the method with --method. Nothing was read.')
+
+
+def say_config_defaults(path: Path | None, methods: Sequence[str]) -> None:
+    """Check ``--config`` before work; say on stderr each NaN / inf taken as its default.
+
+    A parameter file dumped from a node holds ``.nan`` where a parameter is not given:
+    taken so, with a line saying it; a non-finite number anywhere else is refused.
+
+    Raises:
+        ConfigError: the file cannot be read, or holds NaN / inf where it is not the key's
+            documented default (one line naming the key).
+    """
+    if path is None:
+        return
+    from gyro_calib.config import config_file_notes
+
+    said: list[str] = []
+    for name in methods:
+        method = METHODS[name]
+        if method.node and method.settings:
+            for line in config_file_notes(path, node_name=method.node,
+                                          fields=method.settings_defaults()):
+                if line not in said:
+                    said.append(line)
+    for line in said:
+        print(f'gyro-calib: note: {line}', file=sys.stderr)
 
 
 def check_calibration_file(path: Path | None) -> None:

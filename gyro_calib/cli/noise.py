@@ -49,6 +49,7 @@ from gyro_calib.cli.arguments import (
     finite_float,
     namespace_argument,
     options_from_args,
+    say_config_defaults,
     strict_argument,
 )
 from gyro_calib.cli.calibrate import json_default, summary_text
@@ -223,6 +224,7 @@ def run_noise(args: argparse.Namespace) -> int:
                           'single-axis gyro (use --out or --json). Nothing was read.')
     if targets.handoff is not None:  # after the bag, topic and scale-factor checks: before work
         check_handoff_out(args.out, args.gyro_id)
+    say_config_defaults(args.config, ['noise'])  # a NaN / inf of the file: said, or refused
 
     with progress_bar(args.progress, 'noise') as progress:
         outcome = calibrate_bags(args.bags, methods=['noise'], options=options,
