@@ -52,6 +52,17 @@ class Parser(argparse.ArgumentParser):
                                   f'see {self.prog} --help.\n')
 
 
+def topic_name(text: str) -> str:
+    """A topic flag's argparse ``type``: a name, never empty.
+
+    An empty ``--topic ""`` read as "not given" and the default input was used silently.
+    """
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f'{text!r} is empty: name a topic (e.g. /gyro/pulses), '
+                                         'or leave the flag out for its default')
+    return text
+
+
 def finite_float(text: str) -> float:
     """A number flag's argparse ``type``: a finite float (``nan``, ``inf`` refused).
 
@@ -199,7 +210,7 @@ def method_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--sense-axis-azimuth-deg', type=finite_float,
                         help='thermal: sense-axis azimuth, from North towards East (0 = '
                         'North, 90 = East; = 90 − a heading), °')
-    parser.add_argument('--topic', metavar='T',
+    parser.add_argument('--topic', metavar='T', type=topic_name,
                         help='noise: the input to characterise (/gyro/pulses, /fog/output, '
                         '/imu/pulses or a sensor_msgs/Imu topic; default: the only one there)')
     parser.add_argument('--gyro-id', default='', help="the gyro's serial or name (hand-off)")

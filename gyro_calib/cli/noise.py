@@ -51,6 +51,7 @@ from gyro_calib.cli.arguments import (
     options_from_args,
     say_config_defaults,
     strict_argument,
+    topic_name,
 )
 from gyro_calib.cli.calibrate import json_default, summary_text
 from gyro_calib.cli.interrupt import Ledger
@@ -66,8 +67,9 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument('bags', nargs='+', type=Path, metavar='BAG',
                    help='rosbag2 MCAP bag (directory, the .mcap file inside it, a lone .mcap '
                    'file) or a CSV/text table; several are taken together in stamp order')
-    p.add_argument('--topic', help='the input: a sensor_msgs/Imu topic, /gyro/pulses or '
-                   '/fog/output (default: the one input the bag holds)')
+    p.add_argument('--topic', type=topic_name,
+                   help='the input: a sensor_msgs/Imu topic, /gyro/pulses or /fog/output '
+                   '(default: the one input the bag holds)')
     scale = p.add_mutually_exclusive_group()
     scale.add_argument('--scale-factor-rad-per-pulse', type=finite_float, metavar='K',
                        help="/gyro/pulses: the RLG's scale factor, rad/pulse")
