@@ -436,7 +436,7 @@ def test_bench_demo_refuses_what_it_cannot_run_before_starting_anything(
     assert listing(tmp_path) == ['file']
 
 
-# -- IMU spec keys naming a channel the IMU does not have ------------------------------------------
+# -- IMU spec keys naming a channel the IMU does not have -----------------------------------------
 def _spec_block_of_the_docs() -> dict[str, Any]:
     text = (ROOT / 'docs' / 'certificates_imu.md').read_text(encoding='utf-8')
     block = text.split('## Spec limits for an IMU')[1].split('```yaml\n')[1].split('```')[0]
@@ -487,7 +487,7 @@ def test_the_docs_imu_spec_names_the_committed_triads_channels(
     assert 'data-key="imu.y.scale_factor_rad_per_pulse"' in page
 
 
-# -- an empty --topic ------------------------------------------------------------------------------
+# -- an empty --topic -----------------------------------------------------------------------------
 @pytest.mark.parametrize('argv', [
     ['noise', BAGS / 'noise_rlg_static', '--topic', ''],
     ['calibrate', BAGS / 'noise_rlg_static', '--method', 'noise', '--topic', ''],
@@ -513,14 +513,14 @@ def test_an_empty_topic_is_refused_not_taken_as_the_default(
     assert listing(tmp_path) == ['g.yaml']
 
 
-# -- the count a noise term rests on ---------------------------------------------------------------
+# -- the count a noise term rests on --------------------------------------------------------------
 @pytest.mark.parametrize('bag, samples', [
     ('noise_rlg_static', 139000 - 2),  # pulse counts in 2 gap-free segments: N − 1 rates each
     ('noise_imu_static', 100025 - 25),  # rates received less the duplicate stamps dropped
 ])
 def test_the_noise_tables_n_is_the_number_of_rate_samples_analysed(
         bag: str, samples: int, capsys: pytest.CaptureFixture[str]) -> None:
-    """n was the phase points (samples + 1 per segment): 139000 and 100001."""
+    """The n was the phase points (samples + 1 per segment): 139000 and 100001."""
     import json
 
     code, stdout, stderr = run(capsys, 'noise', BAGS / bag, '--json', '--no-progress')
