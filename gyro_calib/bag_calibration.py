@@ -219,7 +219,7 @@ def method_options(options: CalibrationOptions, method: Method,
         changes['scenario'] = first
     if options.config_file is not None and method.node and not options.config_bench:
         _, bench = read_method_file(options.config_file, node_name=method.node,
-                                    fields=method.settings_fields())
+                                    fields=method.settings_defaults())
         changes['config_bench'] = bench
     return dataclasses.replace(options, **changes) if changes else options
 

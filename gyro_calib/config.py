@@ -259,28 +259,123 @@ NODE_ONLY_PARAMETERS = ('config_file', 'output_file', 'process_period_s', 'fit_a
 rclpy's own parameters, as ``ros2 param dump`` writes them, too)."""
 
 
+NOT_GIVEN_DEFAULTS: dict[str, float] = {
+    'latitude_deg': math.nan, 'scale_factor_rad_per_pulse': math.nan,
+    'fog_scale_factor_counts_per_rad': math.nan, 'resume_max_gap_s': math.nan,
+    'bench_max_rate_deg_s': math.nan}
+"""Node parameters beside a method's settings fields whose documented default is NaN (not
+given): a parameter file dumped from a node holds ``.nan`` for them."""
+
+
+def field_defaults(cls: type) -> dict[str, Any]:
+    """Each field of a settings dataclass with its default (the node parameter's default)."""
+    import dataclasses
+
+    defaults = cls()
+    return {f.name: getattr(defaults, f.name) for f in dataclasses.fields(cls)}
+
+
+def _non_finite(value: Any) -> bool:
+    """A number (or a list of numbers holding one) that is NaN or ±inf."""
+    items = value if isinstance(value, (list, tuple)) else [value]
+    return any(isinstance(v, float) and not math.isfinite(v) for v in items)
+
+
+def _is_its_default(value: Any, default: Any) -> bool:
+    """``value``'s non-finite numbers are where ``default`` holds the same ones (NaN, ±inf)."""
+    if isinstance(value, (list, tuple)):
+        return (isinstance(default, (list, tuple)) and len(value) == len(default)
+                and all(_is_its_default(v, d) for v, d in zip(value, default)))
+    if not (isinstance(value, float) and not math.isfinite(value)):
+        return True
+    if not isinstance(default, float):
+        return False
+    return (math.isnan(value) and math.isnan(default)) or value == default
+
+
+def _shown(value: Any) -> str:
+    """A value as YAML writes it (``.nan``, ``.inf``, ``[1.0, .nan]``)."""
+    return yaml.safe_dump(value, default_flow_style=True).strip().removesuffix('...').strip()
+
+
+def non_finite_defaults(values: Mapping[str, Any], fields: Mapping[str, Any],
+                        source: str) -> list[str]:
+    """The keys of a parameter file holding NaN or ±inf where that is their documented default.
+
+    NaN (or inf) is a parameter's "not given" (or "no limit") marker only where it is its
+    documented default — a settings field's (``fields``: name → default) or a node
+    parameter's (:data:`NOT_GIVEN_DEFAULTS`; ``ros2 param dump`` writes them). Anywhere else a
+    non-finite number is refused, naming the key. Keys the method does not know are left to
+    its unknown-field check.
+
+    Raises:
+        ConfigError: a non-finite number where it is not the key's default (one line).
+    """
+    known = {**dict.fromkeys(BENCH_SETTINGS), **dict.fromkeys(NODE_ONLY_PARAMETERS),
+             **NOT_GIVEN_DEFAULTS, **fields}
+    taken = []
+    for key, value in values.items():
+        if key not in known or not _non_finite(value):
+            continue
+        if not _is_its_default(value, known[key]):
+            what = ('is not a finite number' if not isinstance(value, (list, tuple))
+                    else 'holds a number that is not finite')
+            default = known[key]
+            its = (f' (its default is {_shown(default)})' if default is not None
+                   and not isinstance(default, str) else '')
+            raise ConfigError(f'{source}: {key} = {_shown(value)} {what}{its}; give a '
+                              'number, or leave the key out for its default.')
+        taken.append(key)
+    return taken
+
+
 def read_method_file(path: str | Path, *, node_name: str,
-                     fields: Iterable[str]) -> tuple[dict[str, Any], dict[str, Any]]:
+                     fields: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
     """A method's config file: (method settings, bench settings).
 
     A method's config file (``--config``, a node's ``config_file`` or ``--params-file``
     parameter file): (its method settings, its bench settings).
 
     The file may hold every parameter of the method's node: the settings fields
-    (``fields``), the bench settings (:data:`BENCH_SETTINGS`, returned apart and also kept
-    among the settings when they are fields too) and the node-only parameters (dropped).
-    Anything else is refused by the method's own mapping reader, which lists the fields.
+    (``fields``: name → documented default, :func:`field_defaults`), the bench settings
+    (:data:`BENCH_SETTINGS`, returned apart and also kept among the settings when they are
+    fields too) and the node-only parameters (dropped). Anything else is refused by the
+    method's own mapping reader, which lists the fields. NaN or ±inf is taken only where it
+    is the key's documented default (:func:`non_finite_defaults`; then it means the default,
+    e.g. "not given"), and refused anywhere else.
 
     Raises:
-        ConfigError: the file cannot be read or parsed, or holds no mapping.
+        ConfigError: the file cannot be read or parsed, holds no mapping, or a non-finite
+            number where it is not the key's default.
     """
     values = read_parameter_file(path, node_name=node_name)
+    non_finite_defaults(values, fields, f'config file {path}')
     names = set(fields)
     bench = {k: v for k, v in values.items() if k in BENCH_SETTINGS}
     settings = {k: v for k, v in values.items()
                 if k in names or (k not in BENCH_SETTINGS and k not in NODE_ONLY_PARAMETERS
                                   and not k.startswith('qos_overrides'))}
     return settings, bench
+
+
+def config_file_notes(path: str | Path, *, node_name: str,
+                      fields: Mapping[str, Any]) -> list[str]:
+    """The lines a front door says of a config file's NaN / inf defaults, checked before work.
+
+    One line per key holding its documented non-finite default (a dumped parameter file):
+    it is taken as not given (NaN) or as its default (inf), never silently.
+
+    Raises:
+        ConfigError: as :func:`read_method_file`.
+    """
+    values = read_parameter_file(path, node_name=node_name)
+    lines = []
+    for key in non_finite_defaults(values, fields, f'config file {path}'):
+        value = values[key]
+        meaning = 'taken as not given' if 'nan' in _shown(value) else 'the default is used'
+        lines.append(f'config file {path}: {key} = {_shown(value)} is its documented default: '
+                     f'{meaning} (give a number to set it).')
+    return lines
 
 
 # ---------------------------------------------------------------------------------------

@@ -13,7 +13,7 @@ import dataclasses
 import functools
 import importlib
 from collections.abc import Iterable, Mapping
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from gyro_calib import handoff, topics
 from gyro_calib.bagio.messages import HEADER, IMU, JOINT_STATE, TEMPERATURE
@@ -93,6 +93,12 @@ class Method:
     def settings_fields(self) -> tuple[str, ...]:
         """The fields of its settings dataclass."""
         return tuple(f.name for f in dataclasses.fields(self.settings_class()))
+
+    def settings_defaults(self) -> dict[str, Any]:
+        """Each field of its settings dataclass with its default (the node parameter's)."""
+        from gyro_calib.config import field_defaults
+
+        return field_defaults(self.settings_class())
 
     def handoff_keys(self) -> tuple[HandoffKey, ...]:
         """The keys this method may write to the hand-off file."""

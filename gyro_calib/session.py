@@ -18,7 +18,13 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
-from gyro_calib.config import BENCH_SETTINGS, check_bench_setting, given, read_method_file
+from gyro_calib.config import (
+    BENCH_SETTINGS,
+    check_bench_setting,
+    field_defaults,
+    given,
+    read_method_file,
+)
 from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Calibration, Provenance, method_calibration
 from gyro_calib.streams import late_summary
@@ -190,13 +196,11 @@ class CalibrationOptions:
         Raises:
             ConfigError: the config file cannot be read or parsed, or holds no mapping.
         """
-        import dataclasses
-
         values = dict(self.settings)
         source = parameters
         if self.config_file is not None:
-            values.update(read_method_file(self.config_file, node_name=node_name, fields=[
-                f.name for f in dataclasses.fields(settings_cls)])[0])
+            values.update(read_method_file(self.config_file, node_name=node_name,
+                                           fields=field_defaults(settings_cls))[0])
             source = str(self.config_file)
         return values, source
 

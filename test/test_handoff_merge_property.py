@@ -159,25 +159,50 @@ def test_the_same_bag_under_other_settings_is_another_run(
     assert dict(final.methods['rbrlg'].settings) == second
 
 
-# -- another sensor (issue 35 item 2) ---------------------------------------------------------
+# -- another sensor (issue 35 item 2; the gyro technology: round 2) -------------------------
 
-def _record(kind: str, rate_hz: float, source: str) -> Any:
-    """One noise run of a sensor of ``kind`` sampled at ``rate_hz``, from its physics.
+RUN_METHODS = {'single gyro': ('noise',), 'RLG': ('noise', 'rbrlg', 'dither', 'thermal'),
+               'FOG': ('noise', 'fog'), 'IMU': ('noise',), 'triad': ('noise',)}
+"""The methods that give a run of each sensor ('single gyro': a noise run that does not say
+its input, as files written before the technology was recorded)."""
+
+ONE_VALUE = {'rbrlg': ('k_tilde_rad_per_pulse', 4.0859845e-06),
+             'dither': ('dither_frequency_hz', 400.0),
+             'thermal': ('thermal_holdout_bias_stability_raw_rad_s', 1e-7),
+             'fog': ('fog_bias_rad_s', 2.4e-6)}
+"""One value each method gives (its unit in the key), for a run of a method other than noise."""
+
+K_RAD_PER_PULSE, SF_COUNTS_PER_RAD = 4.0859845e-06, 43948.3
+"""The RLG's scale factor and the FOG's, on which their noise runs rest."""
+
+
+def _record(kind: str, rate_hz: float, source: str, method: str = 'noise') -> Any:
+    """One run of ``method`` on a sensor of ``kind`` (a noise run sampled at ``rate_hz``).
 
     A white rate noise of density N gives ADEV(τ₀) = N/√τ₀ at the shortest τ, τ₀ = 1/rate.
+    An RLG's noise run reads /gyro/pulses with its K, a FOG's /fog/output with its SF.
     """
     import dataclasses
 
     from gyro_calib.imu_calibration import ImuCalibration
 
+    if method != 'noise':
+        key, value = ONE_VALUE[method]
+        return method_calibration(method, {key: value, f'{key}_std': value * 1e-3},
+                                  Provenance(source, 0, 10))
     n = 1e-6
     tau0 = 1.0 / rate_hz
     table = {'tau_s': [tau0, 2 * tau0], 'm': [1, 2],
              'adev': [n / math.sqrt(tau0), n / math.sqrt(2 * tau0)]}
-    if kind == 'single gyro':
+    if kind in ('single gyro', 'RLG', 'FOG'):
+        said: dict[str, Any] = {
+            'single gyro': {}, 'RLG': {'settings': {'topic': '/gyro/pulses'}, 'conditions': {
+                'scale_factor_rad_per_pulse': K_RAD_PER_PULSE}},
+            'FOG': {'settings': {'topic': '/fog/output'}, 'conditions': {
+                'fog_scale_factor_counts_per_rad': SF_COUNTS_PER_RAD}}}[kind]
         return method_calibration('noise', {'angle_random_walk_rad_per_sqrt_s': n,
                                             'angle_random_walk_rad_per_sqrt_s_std': n / 10},
-                                  Provenance(source, 0, 10, deviations={'gyro': table}))
+                                  Provenance(source, 0, 10, deviations={'gyro': table}, **said))
     if kind == 'IMU':
         return method_calibration('noise', {'imu_gyro_x_angle_random_walk_rad_per_sqrt_s': n,
                                             'imu_gyro_x_angle_random_walk_rad_per_sqrt_s_std':
@@ -192,22 +217,39 @@ def _record(kind: str, rate_hz: float, source: str) -> Any:
             n / 10} for c in channels}))
 
 
-@settings(max_examples=300 if STRESS else 40, deadline=None, derandomize=True, database=None,
+SINGLE = ('single gyro', 'RLG', 'FOG')
+
+
+@st.composite
+def sensor_runs(draw: st.DrawFn) -> tuple[str, str, str, str, float, float]:
+    """(file's sensor, its run's method, run's sensor, run's method, file rate, rate ratio)."""
+    kinds = ['single gyro', 'RLG', 'FOG', 'IMU', 'triad']
+    file_kind = draw(st.sampled_from(kinds), label='file_kind')
+    file_method = draw(st.sampled_from(RUN_METHODS[file_kind]), label='file_method')
+    run_kind = draw(st.sampled_from(kinds), label='run_kind')
+    run_method = draw(st.sampled_from(RUN_METHODS[run_kind]), label='run_method')
+    return (file_kind, file_method, run_kind, run_method,
+            draw(st.sampled_from([100.0, 200.0, 500.0, 1000.0]), label='file_rate'),
+            draw(st.sampled_from([1.0, 1.001, 0.5, 2.5]), label='rate_ratio'))
+
+
+@settings(max_examples=400 if STRESS else 80, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(file_kind=st.sampled_from(['single gyro', 'IMU', 'triad']),
-       run_kind=st.sampled_from(['single gyro', 'IMU', 'triad']),
-       file_rate=st.sampled_from([100.0, 200.0, 500.0, 1000.0]),
-       rate_ratio=st.sampled_from([1.0, 1.001, 0.5, 2.5]))
+@given(drawn=sensor_runs())
 def test_a_run_of_another_sensor_is_refused_in_one_line_naming_what_differs(
-        tmp_path: Path, file_kind: str, run_kind: str, file_rate: float,
-        rate_ratio: float) -> None:
+        tmp_path: Path, drawn: tuple[str, str, str, str, float, float]) -> None:
+    """Another kind, another technology (an RLG's pulses, a FOG's counts), another rate."""
+    file_kind, file_method, run_kind, run_method, file_rate, rate_ratio = drawn
     path = tmp_path / 'sensor.yaml'
     path.unlink(missing_ok=True)
-    update_calibration(path, _record(file_kind, file_rate, 'bags/first'))
+    update_calibration(path, _record(file_kind, file_rate, 'bags/first', file_method))
     before = path.read_bytes()
-    run = _record(run_kind, file_rate * rate_ratio, 'bags/second')
-    differs = ['sensor kind'] * (run_kind != file_kind) + [
-        'sample rate'] * (abs(rate_ratio - 1) > 0.01)
+    run = _record(run_kind, file_rate * rate_ratio, 'bags/second', run_method)
+    single = file_kind in SINGLE and run_kind in SINGLE
+    differs = ['sensor kind'] * (not single and run_kind != file_kind) + [
+        'gyro technology'] * ('single gyro' not in (file_kind, run_kind) and single
+                              and run_kind != file_kind) + [
+        'sample rate'] * (abs(rate_ratio - 1) > 0.01 and file_method == run_method == 'noise')
     if not differs:
         update_calibration(path, run)
         return
@@ -215,5 +257,5 @@ def test_a_run_of_another_sensor_is_refused_in_one_line_naming_what_differs(
         update_calibration(path, run)
     line = str(refused.value)
     assert '\n' not in line and 'one sensor per file' in line
-    assert line.startswith(f'another sensor ({", ".join(differs)} differ')
+    assert line.startswith(f'another sensor ({", ".join(differs)} differ'), line
     assert path.read_bytes() == before  # nothing written

@@ -294,3 +294,241 @@ def test_importing_the_command_in_process_keeps_ctrl_c_as_it_was() -> None:
     import gyro_calib.cli
 
     assert signal.getsignal(signal.SIGINT) is not gyro_calib.cli._interrupted_while_starting
+
+
+# -- a config file's NaN / inf (issue 35 round 2) ------------------------------------------------
+def _bias_of(stdout: str) -> str:
+    return next(line for line in stdout.splitlines() if line.startswith('bias ω_B'))
+
+
+def test_a_config_files_nan_where_it_is_the_default_is_said_and_taken_as_not_given(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A dumped parameter file holds ``latitude_deg: .nan`` (not given): taken so, and said."""
+    code, plain, _ = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--no-progress')
+    assert code == 0
+    config = tmp_path / 'c.yaml'
+    config.write_text('latitude_deg: .nan\n', encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--config', config,
+                               '--no-progress')
+    assert code == 0, stderr
+    assert one_line(stderr) == (f'gyro-calib: note: config file {config}: latitude_deg = .nan '
+                                'is its documented default: taken as not given (give a number '
+                                'to set it).')
+    assert _bias_of(stdout) == _bias_of(plain)  # the bag's stored latitude, as without it
+
+
+BAD_CONFIG = {
+    'inf latitude': ('latitude_deg: .inf\n', 'latitude_deg = .inf is not a finite number (its '
+                     'default is .nan)'),
+    'nan heading': ('heading_deg: .nan\n', 'heading_deg = .nan is not a finite number;'),
+    'nan in a list': ('latitude_deg: [1.0, .nan]\n', 'latitude_deg = [1.0, .nan] holds a number '
+                      'that is not finite'),
+    'inf setting': ('revolutions_per_window: .inf\n', 'revolutions_per_window = .inf is not a '
+                    'finite number (its default is 5)'),
+    'nan node-only': ('process_period_s: .nan\n', 'process_period_s = .nan is not a finite '
+                      'number'),
+}
+
+
+@pytest.mark.parametrize('case', list(BAD_CONFIG))
+def test_a_config_files_nan_or_inf_anywhere_else_is_one_line_naming_the_key(
+        case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    text, says = BAD_CONFIG[case]
+    config = tmp_path / 'c.yaml'
+    config.write_text(text, encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--config', config,
+                               '--out', tmp_path / 'g.yaml', '--no-progress')
+    assert (code, stdout) == (2, '')
+    line = one_line(stderr)
+    assert line.startswith(f'gyro-calib: error: config file {config}: {says}'), line
+    assert line.endswith('give a number, or leave the key out for its default.')
+    assert listing(tmp_path) == ['c.yaml']
+
+
+def test_noise_takes_a_dumped_files_inf_default_and_refuses_a_nan_elsewhere(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    config = tmp_path / 'noise.yaml'
+    config.write_text('noise_node:\n  ros__parameters:\n    fit_max_tau_s: .inf\n'
+                      '    fit_min_tau_s: .nan\n', encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'noise', BAGS / 'noise_rlg_static', '--config', config,
+                               '--out', tmp_path / 'g.yaml', '--no-progress')
+    assert (code, stdout) == (2, '')
+    assert 'fit_min_tau_s = .nan is not a finite number' in one_line(stderr)
+    config.write_text('noise_node:\n  ros__parameters:\n    fit_max_tau_s: .inf\n',
+                      encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'noise', BAGS / 'noise_rlg_static', '--config', config,
+                               '--json', '--no-progress')
+    assert code == 0, stderr
+    assert (f'gyro-calib: note: config file {config}: fit_max_tau_s = .inf is its documented '
+            'default: the default is used') in stderr
+
+
+@pytest.mark.parametrize('text, says', [
+    ('latitude_deg: .inf\n', 'latitude_deg = .inf is not a finite number'),
+    ('latitude_deg: .nan\n', 'latitude_deg = .nan is its documented default: taken as not '
+     'given'),
+])
+@pytest.mark.parametrize('node', ['calibration_node', 'fog_calibration_node'])
+def test_a_node_reads_the_config_file_the_same_way(node: str, text: str, says: str,
+                                                   tmp_path: Path,
+                                                   capfd: pytest.CaptureFixture[str]) -> None:
+    """The node's ``config_file``: the same refusal, the same line (logged) as ``--config``."""
+    import importlib
+
+    import rclpy
+
+    from gyro_calib.errors import ConfigError
+    from gyro_calib.nodes.processes import ros_args
+
+    config = tmp_path / 'c.yaml'
+    config.write_text(text, encoding='utf-8')
+    module, cls = {'calibration_node': ('calibration_node', 'CalibrationNode'),
+                   'fog_calibration_node': ('fog_calibration_node', 'FogCalibrationNode')}[node]
+    klass = getattr(importlib.import_module(f'gyro_calib.nodes.{module}'), cls)
+    rclpy.init(args=ros_args({'output_file': '', 'config_file': str(config)}))
+    refused = ''
+    try:
+        try:
+            klass().destroy_node()
+        except ConfigError as exc:
+            refused = str(exc)
+    finally:
+        rclpy.shutdown()
+    logged = capfd.readouterr().err
+    assert says in (refused or logged), (refused, logged)
+    assert bool(refused) == ('inf' in text)
+
+
+# -- bench_demo (./run.sh demo) -----------------------------------------------------------------
+DEMO = {
+    'pairs 0': (['--pairs', '0'], '--pairs 0 is invalid: the K̃ phase needs at least 1'),
+    'speed 0': (['--speed', '0'], '--speed 0 is invalid: the real-time factor must be a '
+                'positive number'),
+    'speed negative': (['--speed', '-2'], '--speed -2 is invalid'),
+    'speed nan': (['--speed', 'nan'], '--speed nan is invalid'),
+    'seed negative': (['--seed', '-1'], '--seed -1 is invalid: a seed is an integer ≥ 0.'),
+    'out a directory': (['--out', '{tmp}'], '--out {tmp} is a directory; give a file name. '
+                        'Nothing was started.'),
+    'out in no directory': (['--out', '{tmp}/none/g.yaml'], '--out {tmp}/none/g.yaml: the '
+                            'directory {tmp}/none does not exist'),
+    'out under a file': (['--out', '{tmp}/file/g.yaml'], '--out {tmp}/file/g.yaml'),
+}
+
+
+@pytest.mark.parametrize('case', list(DEMO))
+def test_bench_demo_refuses_what_it_cannot_run_before_starting_anything(
+        case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """It waited until its timeout (minutes) with exit 1; now one line, exit 2, no node."""
+    from gyro_calib.nodes import bench_demo
+
+    def started(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError('a node or a DDS domain was started')
+
+    monkeypatch.setattr(bench_demo, 'pick_domain_id', started)
+    monkeypatch.setattr(bench_demo, 'start_node', started)
+    (tmp_path / 'file').write_text('x', encoding='utf-8')
+    argv, says = DEMO[case]
+    code = bench_demo.main([a.format(tmp=tmp_path) for a in argv])
+    out, err = capsys.readouterr()
+    assert (code, out) == (2, '')
+    assert one_line(err).startswith(f'bench_demo: error: {says.format(tmp=tmp_path)}'), err
+    assert listing(tmp_path) == ['file']
+
+
+# -- IMU spec keys naming a channel the IMU does not have -----------------------------------------
+def _spec_block_of_the_docs() -> dict[str, Any]:
+    text = (ROOT / 'docs' / 'certificates_imu.md').read_text(encoding='utf-8')
+    block = text.split('## Spec limits for an IMU')[1].split('```yaml\n')[1].split('```')[0]
+    return dict(yaml.safe_load(block))
+
+
+@pytest.mark.parametrize('key, says', [
+    ('imu.gy.scale_factor_rad_per_pulse', 'did you mean imu.y.scale_factor_rad_per_pulse?'),
+    ('imu.x.misalignment_x_rad', 'its channels are x, y, z, its pairs x-y, y-z, z-x'),
+    ('imu.y-x.non_orthogonality_rad', 'its pairs x-y, y-z, z-x'),
+    ('imu.noise.gz.angle_random_walk_rad_per_sqrt_s',
+     'did you mean imu.noise.z.angle_random_walk_rad_per_sqrt_s?'),
+])
+def test_an_imu_spec_key_naming_no_channel_of_the_file_is_refused_before_writing(
+        key: str, says: str, triad_handoff: dict[str, Any], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """A misspelt channel judged nothing (the certificate came out, exit 0): one line now."""
+    handoff = tmp_path / 'imu.yaml'
+    handoff.write_text(yaml.safe_dump(triad_handoff, allow_unicode=True, sort_keys=False),
+                       encoding='utf-8')
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(yaml.safe_dump({'quantities': {key: {'min': -1.0e9, 'max': 1.0e9}}}),
+                    encoding='utf-8')
+    out = tmp_path / 'cert'
+    code, stdout, stderr = run(capsys, 'report', handoff, '--out', out, '--spec', spec,
+                               '--no-pdf')
+    assert (code, stdout) == (2, '')
+    line = one_line(stderr)
+    assert f'quantities.{key} in spec file {spec} (for {handoff}) names no quantity of this ' \
+           'IMU' in line and says in line, line
+    assert not out.exists()
+
+
+def test_the_docs_imu_spec_names_the_committed_triads_channels(
+        triad_handoff: dict[str, Any], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """docs/certificates_imu.md's example spec (it named channel ``gy``) fits its own file."""
+    handoff = tmp_path / 'imu.yaml'
+    handoff.write_text(yaml.safe_dump(triad_handoff, allow_unicode=True, sort_keys=False),
+                       encoding='utf-8')
+    spec = tmp_path / 'imu_spec.yaml'
+    spec.write_text(yaml.safe_dump(_spec_block_of_the_docs(), allow_unicode=True),
+                    encoding='utf-8')
+    code, stdout, stderr = run(capsys, 'report', handoff, '--out', tmp_path / 'cert', '--spec',
+                               spec, '--no-pdf')
+    assert code == 0, stderr
+    page = next((tmp_path / 'cert').glob('*.html')).read_text(encoding='utf-8')
+    assert 'data-key="imu.y.scale_factor_rad_per_pulse"' in page
+
+
+# -- an empty --topic -----------------------------------------------------------------------------
+@pytest.mark.parametrize('argv', [
+    ['noise', BAGS / 'noise_rlg_static', '--topic', ''],
+    ['calibrate', BAGS / 'noise_rlg_static', '--method', 'noise', '--topic', ''],
+    ['calibrate', BAGS / 'noise_rlg_static', '--method', 'noise', '--topic', ' '],
+    ['info', BAGS / 'noise_rlg_static', '--topic', ''],
+    ['report', '{handoff}', '--out', '{tmp}/cert', '--topic', ''],
+    ['export', '{handoff}', '--format', 'kalibr', '--out', '{tmp}/k.yaml', '--topic', ''],
+    ['export', '{handoff}', '--format', 'kalibr', '--out', '{tmp}/k.yaml', '--accel-topic', ''],
+], ids=lambda a: ' '.join(str(x) for x in a if x in ('noise', 'calibrate', 'info', 'report',
+                                                       'export', '--topic', '--accel-topic')))
+def test_an_empty_topic_is_refused_not_taken_as_the_default(
+        argv: list[Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--topic ""`` ran on the default input (/gyro/pulses), exit 0."""
+    handoff = tmp_path / 'g.yaml'
+    handoff.write_text('format_version: 3\n', encoding='utf-8')
+    args = [str(a).format(handoff=handoff, tmp=tmp_path) for a in argv]
+    code, stdout, stderr = run(capsys, *args)
+    assert (code, stdout) == (2, '')
+    flag = args[-2]
+    assert one_line(stderr) == (f'gyro-calib: error: {args[0]}: argument {flag}: {args[-1]!r} is '
+                                'empty: name a topic (e.g. /gyro/pulses), or leave the flag out '
+                                f'for its default; see gyro-calib {args[0]} --help.')
+    assert listing(tmp_path) == ['g.yaml']
+
+
+# -- the count a noise term rests on --------------------------------------------------------------
+@pytest.mark.parametrize('bag, samples', [
+    ('noise_rlg_static', 139000 - 2),  # pulse counts in 2 gap-free segments: N − 1 rates each
+    ('noise_imu_static', 100025 - 25),  # rates received less the duplicate stamps dropped
+])
+def test_the_noise_tables_n_is_the_number_of_rate_samples_analysed(
+        bag: str, samples: int, capsys: pytest.CaptureFixture[str]) -> None:
+    """The n was the phase points (samples + 1 per segment): 139000 and 100001."""
+    import json
+
+    code, stdout, stderr = run(capsys, 'noise', BAGS / bag, '--json', '--no-progress')
+    assert code == 0, stderr
+    doc = json.loads(stdout)['methods']['noise']
+    for axis in doc['axes'].values():
+        assert axis['clusters'][0] == samples  # Σ (N_i − 1) / m at m = 1
+        for term in axis['results'].values():
+            assert term['n'] == samples
+    rows = [line for line in stderr.splitlines() if 'random walk N ' in line]
+    assert rows and all(line.split()[-1] == str(samples) for line in rows), rows

@@ -44,7 +44,7 @@ def test_imu_results_are_keyed_by_axis_then_term(imu_cal: NoiseCalibrator) -> No
     assert set(res) == set(IMU_AXES)
     n = res['gyro_y']['angle_random_walk_rad_per_sqrt_s']
     assert abs(n.value - 3e-4) < 3 * n.std_uncertainty
-    assert n.n_used == 60_001
+    assert n.n_used == 60_000  # rate samples: 60 000 drawn (not the 60 001 phase points)
     assert 'velocity_random_walk_m_s_per_sqrt_s' in res['accel_z']
     assert 'angle_random_walk_rad_per_sqrt_s' not in res['accel_z']
 

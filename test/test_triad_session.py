@@ -305,7 +305,8 @@ def test_a_format_3_file_still_loads_and_a_triad_run_is_not_put_into_a_single_gy
     assert cal is not None
     before = path.read_bytes()
     with pytest.raises(HandoffError, match=r'another sensor \(sensor kind differs\): the file '
-                                           r'holds a single-axis gyro, this run is of a gyro '
+                                           r'holds a single-axis gyro \(RLG, pulse output\), '
+                                           r'this run is of a gyro '
                                            r'triad'):
         update_calibration(path, cal)
     assert path.read_bytes() == before

@@ -18,6 +18,7 @@ usage error in one line:
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
@@ -49,6 +50,17 @@ class Parser(argparse.ArgumentParser):
         where = f'{command}: ' if command else ''
         self.exit(EXIT_BAD_INPUT, f'gyro-calib: error: {where}{" ".join(message.split())}; '
                                   f'see {self.prog} --help.\n')
+
+
+def topic_name(text: str) -> str:
+    """A topic flag's argparse ``type``: a name, never empty.
+
+    An empty ``--topic ""`` read as "not given" and the default input was used silently.
+    """
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f'{text!r} is empty: name a topic (e.g. /gyro/pulses), '
+                                         'or leave the flag out for its default')
+    return text
 
 
 def finite_float(text: str) -> float:
@@ -106,6 +118,32 @@ def refuse_unused_flags(args: argparse.Namespace, methods: Sequence[str]) -> Non
             if getattr(args, dest, None):
                 raise ConfigError(f'{flag} does not apply: no method runs on these bags. Drop '
                                   'it, or choose the method with --method. Nothing was read.')
+
+
+def say_config_defaults(path: Path | None, methods: Sequence[str]) -> None:
+    """Check ``--config`` before work; say on stderr each NaN / inf taken as its default.
+
+    A parameter file dumped from a node holds ``.nan`` where a parameter is not given:
+    taken so, with a line saying it; a non-finite number anywhere else is refused.
+
+    Raises:
+        ConfigError: the file cannot be read, or holds NaN / inf where it is not the key's
+            documented default (one line naming the key).
+    """
+    if path is None:
+        return
+    from gyro_calib.config import config_file_notes
+
+    said: list[str] = []
+    for name in methods:
+        method = METHODS[name]
+        if method.node and method.settings:
+            for line in config_file_notes(path, node_name=method.node,
+                                          fields=method.settings_defaults()):
+                if line not in said:
+                    said.append(line)
+    for line in said:
+        print(f'gyro-calib: note: {line}', file=sys.stderr)
 
 
 def check_calibration_file(path: Path | None) -> None:
@@ -172,7 +210,7 @@ def method_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument('--sense-axis-azimuth-deg', type=finite_float,
                         help='thermal: sense-axis azimuth, from North towards East (0 = '
                         'North, 90 = East; = 90 − a heading), °')
-    parser.add_argument('--topic', metavar='T',
+    parser.add_argument('--topic', metavar='T', type=topic_name,
                         help='noise: the input to characterise (/gyro/pulses, /fog/output, '
                         '/imu/pulses or a sensor_msgs/Imu topic; default: the only one there)')
     parser.add_argument('--gyro-id', default='', help="the gyro's serial or name (hand-off)")

@@ -30,6 +30,7 @@ from gyro_calib.cli.arguments import (
     method_arguments,
     options_from_args,
     refuse_unused_flags,
+    say_config_defaults,
 )
 from gyro_calib.cli.interrupt import Ledger
 from gyro_calib.cli.progress import progress_bar
@@ -114,6 +115,7 @@ def _run_checked(args: argparse.Namespace, plot_dir: Path | None) -> int:
     infos, _ = bag_infos(args.bags, args.namespace, strict=args.strict)
     to_run = [m.name for m in select_methods(infos, args.method)]
     refuse_unused_flags(args, to_run)
+    say_config_defaults(args.config, to_run)
     options = options_from_args(args)
     with progress_bar(args.progress, 'calibrating') as progress:
         outcome = calibrate_bags(args.bags, methods=args.method, options=options,
@@ -157,6 +159,7 @@ def _run_plain(args: argparse.Namespace, plot_dir: Path | None) -> int:
                           'multiposition method only; drop --method or give --method '
                           'multiposition.')
     refuse_unused_flags(args, ['multiposition'])
+    say_config_defaults(args.config, ['multiposition'])
     outcome = calibrate_recording(args.bags, fmt=args.format, rate_hz=args.rate_hz,
                                   options=options_from_args(args), sections=args.sections,
                                   turn_angle_deg=args.turn_angle_deg)

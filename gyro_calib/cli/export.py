@@ -19,6 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from gyro_calib.cli.arguments import topic_name
 from gyro_calib.errors import ConfigError
 
 
@@ -47,11 +48,11 @@ def add_commands(sub: Any) -> None:
                    help='IMU sample rate the consumer receives (kalibr/openvins update_rate; '
                    'fast-lio, autoware, robot-localization per-sample covariances); default: '
                    'the noise run\'s sample rate, where the hand-off keeps its curves')
-    p.add_argument('--topic', default='',
+    p.add_argument('--topic', type=topic_name,
                    help='sensor_msgs/Imu topic the consumer subscribes to (default: the one '
                    'imu_corrector publishes for this hand-off, /gyro/imu for a single gyro, '
                    '/imu/data for a triad or IMU)')
-    p.add_argument('--accel-topic', default='', metavar='TOPIC',
+    p.add_argument('--accel-topic', type=topic_name, metavar='TOPIC',
                    help='the IMU driver\'s sensor_msgs/Imu topic imu_corrector passes the '
                    'accelerometers from (its accel_input); consumers that need accelerometers '
                    'refuse a single-gyro or triad stream without it')
@@ -87,9 +88,9 @@ def run_export(args: argparse.Namespace) -> int:
         raise ConfigError('export: --out is the hand-off file itself; give another file. '
                           'Nothing was written.')
     refuse_to_overwrite_records(out, 'export: --out', 'an export')
-    options = ExportOptions(rate_hz=args.rate_hz, topic=args.topic, stream=args.stream,
+    options = ExportOptions(rate_hz=args.rate_hz, topic=args.topic or '', stream=args.stream,
                             raw_scale_rad_per_pulse=args.raw_scale_rad_per_pulse,
-                            accel_topic=args.accel_topic,
+                            accel_topic=args.accel_topic or '',
                             accel_from=str(args.accel_from or ''))
     theirs = _their_text(args.merge_into) if args.merge_into is not None else None
     text = export_text(args.handoff, args.format, options)

@@ -49,7 +49,9 @@ from gyro_calib.cli.arguments import (
     finite_float,
     namespace_argument,
     options_from_args,
+    say_config_defaults,
     strict_argument,
+    topic_name,
 )
 from gyro_calib.cli.calibrate import json_default, summary_text
 from gyro_calib.cli.interrupt import Ledger
@@ -65,8 +67,9 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument('bags', nargs='+', type=Path, metavar='BAG',
                    help='rosbag2 MCAP bag (directory, the .mcap file inside it, a lone .mcap '
                    'file) or a CSV/text table; several are taken together in stamp order')
-    p.add_argument('--topic', help='the input: a sensor_msgs/Imu topic, /gyro/pulses or '
-                   '/fog/output (default: the one input the bag holds)')
+    p.add_argument('--topic', type=topic_name,
+                   help='the input: a sensor_msgs/Imu topic, /gyro/pulses or /fog/output '
+                   '(default: the one input the bag holds)')
     scale = p.add_mutually_exclusive_group()
     scale.add_argument('--scale-factor-rad-per-pulse', type=finite_float, metavar='K',
                        help="/gyro/pulses: the RLG's scale factor, rad/pulse")
@@ -223,6 +226,7 @@ def run_noise(args: argparse.Namespace) -> int:
                           'single-axis gyro (use --out or --json). Nothing was read.')
     if targets.handoff is not None:  # after the bag, topic and scale-factor checks: before work
         check_handoff_out(args.out, args.gyro_id)
+    say_config_defaults(args.config, ['noise'])  # a NaN / inf of the file: said, or refused
 
     with progress_bar(args.progress, 'noise') as progress:
         outcome = calibrate_bags(args.bags, methods=['noise'], options=options,

@@ -126,11 +126,14 @@ def run_report(args: argparse.Namespace) -> int:
     from gyro_calib.handoff import load_calibration
     from gyro_calib.registry import handoff_schema
     from gyro_calib.report.certificate import certificate_stem, replacing
+    from gyro_calib.report.spec import refuse_unknown_imu_channels
 
     check_output_dir(args.out)
     spec = load_spec_arg(args.spec)
     lab, customer = lab_and_customer(args, args.out)
     calibration = load_calibration(args.handoff, handoff_schema())
+    refuse_unknown_imu_channels(spec, calibration.imu.channels if calibration.imu is not None
+                                else None, str(args.handoff))  # before the bags are read
     lock = certificate_lock(args.out, 'report')  # held from the first look to the last write
     lock.acquire()
     try:

@@ -3,10 +3,13 @@
 A hand-off file is one sensor's: a single-axis gyro (top-level ``gyro:`` keys), a gyro triad
 (the ``imu:`` section, its three channels) or an IMU read from ``sensor_msgs/Imu`` (the
 noise method's ``imu_<axis>_…`` keys, six axes). A noise run also says its sample rate
-(1/τ₀ of its stored curves). :func:`another_sensor` names, in one line, what differs between
-a run and the file it would be merged into (sensor kind, channels, sample rate), so that a
-MEMS IMU's noise run never lands in a triad's file, an RBRLG run never in a triad's, nor a
-triad run in a single gyro's.
+(1/τ₀ of its stored curves). A single-axis gyro is of one technology: a ring-laser gyro's pulse
+output (the rbrlg, dither and thermal methods, noise from ``/gyro/pulses``) or a fibre-optic
+gyro's closed-loop counts (the fog method, noise from ``/fog/output``). :func:`another_sensor`
+names, in one line, what differs between a run and the file it would be merged into (sensor
+kind, gyro technology, channels, sample rate), so that a MEMS IMU's noise run never lands in
+a triad's file, an RBRLG run never in a triad's, a triad run never in a single gyro's, nor a
+FOG run in an RLG's (or the other way round).
 """
 
 from __future__ import annotations
@@ -25,6 +28,15 @@ SINGLE_GYRO, TRIAD, IMU = 'a single-axis gyro', 'a gyro triad', 'an IMU (sensor_
 IMU_KEY_PREFIX = 'imu_'
 """The noise method's per-axis keys of an IMU: ``imu_<axis>_<term key>``."""
 
+RLG, FOG = 'RLG, pulse output', 'FOG, closed-loop counts'
+"""The technologies of a single-axis gyro (what its output counts are)."""
+
+PULSE_METHODS = ('rbrlg', 'dither', 'thermal')
+"""The methods of a ring-laser gyro's pulse output (``/gyro/pulses``)."""
+
+COUNTS_METHODS = ('fog',)
+"""The methods of a fibre-optic gyro's closed-loop counts (``/fog/output``)."""
+
 SAMPLE_RATE_TOLERANCE = 0.01
 """Relative difference of two noise runs' sample rates above which they are two sensors."""
 
@@ -38,15 +50,20 @@ class Sensor:
             check may hold more than one).
         channels: the triad's channel names (``imu.channels``), or ().
         sample_rate_hz: the noise run's sample rate (1/τ₀ of its curves), or None.
+        technologies: :data:`RLG`, :data:`FOG` (a file written before this check may hold
+            both), or none (a triad, an IMU, a record that does not say).
     """
 
     kinds: frozenset[str]
     channels: tuple[str, ...] = ()
     sample_rate_hz: float | None = None
+    technologies: frozenset[str] = frozenset()
 
     def words(self) -> str:
-        """The sensor in a phrase: kind, channels, sample rate."""
+        """The sensor in a phrase: kind, technology, channels, sample rate."""
         text = ' and '.join(sorted(self.kinds)) or 'no sensor'
+        if self.technologies:
+            text += f' ({"; ".join(sorted(self.technologies))})'
         if self.channels:
             text += f' (channels {", ".join(self.channels)})'
         if self.sample_rate_hz is not None:
@@ -76,6 +93,30 @@ def noise_sample_rate_hz(deviations: Mapping[str, Mapping[str, Any]]) -> float |
     return None
 
 
+def technologies_of(calibration: CalibrationLike) -> frozenset[str]:
+    """The gyro technologies a record's runs and keys say (:data:`RLG`, :data:`FOG`)."""
+    found = set()
+    for method, prov in calibration.methods.items():
+        if method in PULSE_METHODS:
+            found.add(RLG)
+        elif method in COUNTS_METHODS:
+            found.add(FOG)
+        elif method == 'noise':  # its input says: /gyro/pulses (K) or /fog/output (SF)
+            topic = str(prov.settings.get('topic', '') or '')
+            if topic.endswith('/fog/output') or 'fog_scale_factor_counts_per_rad' in \
+                    prov.conditions:
+                found.add(FOG)
+            elif topic.endswith('/gyro/pulses') or 'scale_factor_rad_per_pulse' in \
+                    prov.conditions:
+                found.add(RLG)
+    keys = {_base_key(k) for k in calibration.values}
+    if any(k.startswith('fog_') for k in keys):
+        found.add(FOG)
+    if keys & {'k_tilde_rad_per_pulse', 'scale_factor_rad_per_pulse', 'fix_error_angle_rad'}:
+        found.add(RLG)
+    return frozenset(found)
+
+
 def sensor_of(calibration: CalibrationLike) -> Sensor:
     """The sensor a record (a run, or a file's content) describes."""
     kinds = set()
@@ -98,14 +139,15 @@ def sensor_of(calibration: CalibrationLike) -> Sensor:
         else:  # one axis, 'gyro'
             kinds.add(SINGLE_GYRO)
     rate = noise_sample_rate_hz(noise.deviations) if noise is not None else None
-    return Sensor(frozenset(kinds), channels, rate)
+    return Sensor(frozenset(kinds), channels, rate, technologies_of(calibration))
 
 
 def another_sensor(run: CalibrationLike, older: CalibrationLike) -> str | None:
     """Why ``run`` is of another sensor than the file ``older``, in one phrase, or None.
 
-    Another kind (a single gyro, a triad, an IMU), other triad channels, or another sample
-    rate of the noise runs (by more than :data:`SAMPLE_RATE_TOLERANCE`).
+    Another kind (a single gyro, a triad, an IMU), another gyro technology (an RLG's pulses,
+    a FOG's counts), other triad channels, or another sample rate of the noise runs (by
+    more than :data:`SAMPLE_RATE_TOLERANCE`).
     """
     new, old = sensor_of(run), sensor_of(older)
     if not new.kinds or not old.kinds:
@@ -113,6 +155,8 @@ def another_sensor(run: CalibrationLike, older: CalibrationLike) -> str | None:
     differs: list[str] = []
     if not new.kinds <= old.kinds:
         differs.append('sensor kind')
+    if new.technologies and old.technologies and not new.technologies <= old.technologies:
+        differs.append('gyro technology')
     if new.channels and old.channels and set(new.channels) != set(old.channels):
         differs.append('channels')
     if (new.sample_rate_hz is not None and old.sample_rate_hz is not None

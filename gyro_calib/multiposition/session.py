@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gyro_calib.config import read_method_file
+from gyro_calib.config import field_defaults, read_method_file
 from gyro_calib.estimate import Rejection
 from gyro_calib.multiposition.accelerometer import MIN_POSES
 from gyro_calib.multiposition.calibrator import (
@@ -88,7 +88,7 @@ class MultipositionSession(MethodSession):
         source = 'settings'
         if options.config_file is not None:
             values.update(read_method_file(options.config_file, node_name=NODE_NAME,
-                                           fields=fields)[0])
+                                           fields=field_defaults(MultipositionSettings))[0])
             source = str(options.config_file)
         self.settings = settings_from_mapping(values, source=source)
         self.options = options

@@ -11,6 +11,7 @@ the hand-off file is written where ``--out`` says.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import signal
 import subprocess
@@ -36,9 +37,38 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return p.parse_args(argv)
 
 
+def refusal(opts: argparse.Namespace) -> str | None:
+    """Why the options cannot run the bench, in one line (None: they can), before any work.
+
+    ``--pairs`` at least 1 (the K̃ phase needs a forward/reverse pair), ``--speed`` a
+    positive finite real-time factor, ``--seed`` at least 0, ``--out`` a file that can be
+    written (not a directory, in an existing writable directory).
+    """
+    from gyro_calib.errors import ConfigError
+    from gyro_calib.outputs import check_output_file
+
+    if opts.pairs < 1:
+        return (f'--pairs {opts.pairs} is invalid: the K̃ phase needs at least 1 '
+                'forward/reverse window pair; give --pairs 1 or more.')
+    if not (math.isfinite(opts.speed) and opts.speed > 0):
+        return (f'--speed {opts.speed:g} is invalid: the real-time factor must be a positive '
+                'number (e.g. 5 for five times real time).')
+    if opts.seed < 0:
+        return f'--seed {opts.seed} is invalid: a seed is an integer ≥ 0.'
+    try:
+        check_output_file(opts.out, '--out', follow_links=True)
+    except ConfigError as exc:
+        return str(exc).replace('Nothing was read.', 'Nothing was started.')
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the bench; return 0 when K was measured."""
+    """Run the bench; return 0 when K was measured, 2 for options it cannot run with."""
     opts = parse_args(argv)
+    why = refusal(opts)
+    if why is not None:
+        print(f'bench_demo: error: {why}', file=sys.stderr)
+        return 2
     domain = pick_domain_id()
     env = ros_environment(domain)
     gyro = RingLaserGyroConfig(seed=opts.seed)

@@ -24,7 +24,13 @@ from std_msgs.msg import Float64
 from gyro_calib import topics
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import TopicColumns
-from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
+from gyro_calib.config import (
+    BENCH_SETTINGS,
+    config_file_notes,
+    field_defaults,
+    given,
+    read_method_file,
+)
 from gyro_calib.errors import InsufficientDataError
 from gyro_calib.handoff import Provenance, method_calibration
 from gyro_calib.nodes.conventions import CalibrationNodeBase, InputSpec
@@ -78,8 +84,11 @@ class CalibrationNode(CalibrationNodeBase):
         file_bench: dict[str, object] = {}
         if path:  # the node's whole parameter schema (bench settings too), as --config
             file_values, file_bench = read_method_file(
-                path, node_name='calibration_node', fields=list(values))
+                path, node_name='calibration_node', fields=field_defaults(KTildeConfig))
             self.config = k_tilde_config_from_mapping(file_values, source=path)
+            for line in config_file_notes(path, node_name='calibration_node',
+                                          fields=field_defaults(KTildeConfig)):
+                self.get_logger().warning(line)  # NaN / inf taken as its default, said
         else:
             self.config = k_tilde_config_from_mapping(values, source='ROS parameters')
         site = {name: described_parameter(self, name, default, text)

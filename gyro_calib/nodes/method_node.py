@@ -31,7 +31,7 @@ from std_msgs.msg import Float64, String
 from gyro_calib import topics
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import TopicColumns
-from gyro_calib.config import BENCH_SETTINGS, given, read_method_file
+from gyro_calib.config import BENCH_SETTINGS, config_file_notes, given, read_method_file
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import Calibration
 from gyro_calib.nodes.conventions import CalibrationNodeBase, InputSpec
@@ -114,9 +114,13 @@ class MethodNode(CalibrationNodeBase):
                                         else p['scale_factor_rad_per_pulse']),
             gyro_id=p['gyro_id'], settings=settings, given_by='parameter')
         if options.config_file is not None and self.method.node:
-            _, bench = read_method_file(options.config_file, node_name=self.method.node,
-                                        fields=self.method.settings_fields())
+            config_file = options.config_file
+            _, bench = read_method_file(config_file, node_name=self.method.node,
+                                        fields=self.method.settings_defaults())
             options = dataclasses.replace(options, config_bench=bench)
+            for line in config_file_notes(config_file, node_name=self.method.node,
+                                          fields=self.method.settings_defaults()):
+                self.get_logger().warning(line)  # NaN / inf taken as its default, said
         self.options = options
         self.output_file, self.gyro_id = p['output_file'], p['gyro_id']
         self.state = NodeState(self, method, p['gyro_id'],

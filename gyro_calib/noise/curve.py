@@ -64,6 +64,15 @@ class AllanCurve:
     at the same τ (NaN where the statistic has no term); only those computed."""
 
     @property
+    def n_rate_samples(self) -> int:
+        """Rate samples analysed, all segments: Σ (N_i − 1) (N_i phase points in segment i).
+
+        A segment of N phase points (the counts of a pulse or FOG output, or an IMU's rates
+        integrated from 0) holds N − 1 rate samples: the count every estimate rests on.
+        """
+        return self.n_samples - self.n_segments
+
+    @property
     def adev(self) -> FloatArray:
         """Allan deviation, rate unit."""
         return np.sqrt(self.avar)

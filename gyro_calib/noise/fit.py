@@ -497,7 +497,7 @@ def fit_noise_terms(curve: AllanCurve, units: TermUnits, *, min_significance: fl
     for k in reported:
         theta, sig = float(theta_final[k]), math.sqrt(max(float(cov_final[k, k]), 0.0))
         value = math.sqrt(theta)
-        estimates[units.keys[k]] = Estimate(value, sig / (2.0 * value), curve.n_samples,
+        estimates[units.keys[k]] = Estimate(value, sig / (2.0 * value), curve.n_rate_samples,
                                             n_used - in_model)
     bounds: dict[str, float] = {}
     for k, s in enumerate(SYMBOLS):

@@ -77,7 +77,7 @@ def _draw_axis(ax: Any, res: AxisResult) -> None:
     ax.set_yscale('log')
     ax.set_xlabel('averaging time τ (s)')
     ax.set_ylabel(f'Allan deviation ({units.rate_unit})')
-    ax.set_title(f'{res.axis}: {curve.n_samples} samples, {curve.n_segments} segment(s), '
+    ax.set_title(f'{res.axis}: {curve.n_rate_samples} samples, {curve.n_segments} segment(s), '
                  f'τ0 = {curve.tau0_s * 1e3:.4g} ms', fontsize=9)
     ax.grid(True, which='major', lw=0.4, alpha=0.5)
     # minor ticks at 2 and 5 only: log axes over many decades otherwise spend most of the

@@ -287,7 +287,7 @@ class NoiseReport:
         span = ''
         if curve is not None:
             span = (f'; the longest averaging time is {curve.tau_s[-1]:.3g} s of '
-                    f'{curve.n_samples * curve.tau0_s:.4g} s analysed, and a record k× '
+                    f'{curve.n_rate_samples * curve.tau0_s:.4g} s analysed, and a record k× '
                     f'longer narrows it about √k×')
         tail = (f'; {unresolved} term(s) not resolved (a longer record, or the slope is '
                 f'not there)' if unresolved else '')

@@ -7,12 +7,11 @@ the node.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import TYPE_CHECKING, Any
 
 from gyro_calib import topics
-from gyro_calib.config import read_method_file
+from gyro_calib.config import field_defaults, read_method_file
 from gyro_calib.errors import ConfigError
 from gyro_calib.estimate import Estimate
 from gyro_calib.rbrlg.calibration import RbrlgCalibrator, RbrlgResults, handoff_values
@@ -51,8 +50,8 @@ def rbrlg_calibrator(options: CalibrationOptions) -> RbrlgCalibrator:
     mount: dict[str, Any] = {}  # float values of MOUNT_SETTINGS
     if options.config_file is not None:
         values, _ = read_method_file(options.config_file, node_name=NODE_NAME,
-                                     fields=[*(f.name for f in dataclasses.fields(KTildeConfig)),
-                                             *MOUNT_SETTINGS])
+                                     fields={**field_defaults(KTildeConfig),
+                                             **dict.fromkeys(MOUNT_SETTINGS)})
         for name in MOUNT_SETTINGS:
             if name in values:
                 value = values.pop(name)

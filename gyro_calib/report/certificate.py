@@ -59,6 +59,7 @@ from gyro_calib.report.spec import (
     limit_for,
     overall,
     overall_class,
+    refuse_unknown_imu_channels,
     verdict,
 )
 from gyro_calib.report.uncertainty import (
@@ -418,6 +419,8 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
         ConfigError: the hand-off holds no measured value; a hand-off value (or its u) is
             contradicted by the bags (:data:`CONTRADICTION_U`) and not accepted.
     """
+    refuse_unknown_imu_channels(spec, calibration.imu.channels if calibration.imu is not None
+                                else None, handoff_path)
     imu_measured = calibration.imu is not None and bool(imu_quantities(calibration.imu))
     if not calibration.values and calibration.imu is not None and not imu_measured:
         raise ConfigError(f'the hand-off file {handoff_path or "given"} holds an imu: section '

@@ -27,9 +27,10 @@ run's, where the bags are given (:func:`budget_shares`).
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -81,6 +82,48 @@ def imu_group(key: str) -> str:
             return group
     noise = _NOISE.match(key)
     return f'imu.noise.{noise.group(1)}' if noise else ''
+
+
+def certificate_keys(channels: Sequence[str], noise_terms: Sequence[str]) -> list[str]:
+    """Every per-channel (pair, component) key a certificate of these channels may hold."""
+    ch = list(channels)
+    keys: list[str] = []
+    for i, c in enumerate(ch):
+        keys.append(f'imu.{c}.scale_factor_rad_per_pulse')
+        keys += [f'imu.{c}.misalignment_{e}_rad' for j, e in enumerate(BODY_AXES)
+                 if j != i]
+        keys.append(f'imu.{c}.axis_angle_rad')
+    if len(ch) == 3:
+        keys += [f'imu.{ch[a]}-{ch[b]}.non_orthogonality_rad' for a, b in ((0, 1), (1, 2), (2, 0))]
+    keys += [f'imu.bias_{e}_rad_s' for e in BODY_AXES]
+    keys += [f'imu.noise.{c}.{t}' for c in ch for t in noise_terms]
+    return keys
+
+
+def spec_key_refusal(key: str, channels: Sequence[str], noise_terms: Sequence[str],
+                     where: str) -> str | None:
+    """Why spec key ``key`` names no quantity of an IMU with ``channels`` (None: it does).
+
+    A group key (:data:`GROUPS`, ``imu.noise.<term>``) and a key that is not an IMU's pass;
+    a per-channel key (``imu.<c>.…``, ``imu.<a>-<b>.…``, ``imu.noise.<c>.<term>``) must
+    name a channel (pair, the channel's other body axes) of this IMU: a misspelt channel
+    would judge nothing. ``where``: the spec file and the hand-off file, as the line names
+    them.
+    """
+    if not is_imu_key(key) or key in GROUPS or not imu_group(key):
+        return None
+    valid = certificate_keys(channels, noise_terms)
+    if key in valid:
+        return None
+    ch = list(channels)
+    pairs = ', '.join(f'{ch[a]}-{ch[b]}' for a, b in ((0, 1), (1, 2), (2, 0))) \
+        if len(ch) == 3 else 'none'
+    near = difflib.get_close_matches(key, valid, n=1, cutoff=0.0)
+    hint = f'did you mean {near[0]}? ' if near else ''
+    return (f'quantities.{key} in {where} names no quantity of this IMU ({hint}its channels '
+            f'are {", ".join(ch)}, its pairs {pairs}; a channel\'s misalignments are toward '
+            'the other body axes): a misspelt channel would judge nothing; name one of them, '
+            'or use the group key ' f'{imu_group(key)} for every channel.')
 
 
 def is_imu_key(key: str) -> bool:

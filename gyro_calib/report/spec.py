@@ -205,6 +205,28 @@ def spec_from_dict(data: Any, *, source: str = 'spec',
     return Spec(str(rule), limits, source)
 
 
+def refuse_unknown_imu_channels(spec: Spec | None, channels: Sequence[str] | None,
+                                handoff: str) -> None:
+    """Refuse a spec key naming a channel (pair, body axis) the IMU ``channels`` does not have.
+
+    Checked once the hand-off file is known (its ``imu.channels``), before any certificate is
+    written; a spec judging no IMU (``channels`` None) is not checked.
+
+    Raises:
+        ConfigError: one line naming the key, the channels and pairs there are.
+    """
+    if spec is None or channels is None:
+        return
+    from gyro_calib.imu_calibration import NOISE_TERMS
+    from gyro_calib.report.imu import spec_key_refusal
+
+    where = f'spec file {spec.source} (for {handoff or "the hand-off file"})'
+    for key in spec.limits:
+        why = spec_key_refusal(key, channels, NOISE_TERMS, where)
+        if why is not None:
+            raise ConfigError(why)
+
+
 def limit_for(limits: Mapping[str, Limit], key: str) -> Limit | None:
     """The limit judging quantity ``key``: its own, else its IMU group's.
 

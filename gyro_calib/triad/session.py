@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from gyro_calib.config import read_method_file
+from gyro_calib.config import field_defaults, read_method_file
 from gyro_calib.errors import ConfigError
 from gyro_calib.session import CalibrationOptions, MethodSession
 from gyro_calib.triad.cutting import (
@@ -89,8 +89,7 @@ class TriadSession(MethodSession):
                                   if k in {f.name for f in dataclasses.fields(TriadSettings)}}
         if options.config_file is not None:
             from_file, _ = read_method_file(options.config_file, node_name=NODE_NAME,
-                                            fields=[f.name for f in
-                                                    dataclasses.fields(TriadSettings)])
+                                            fields=field_defaults(TriadSettings))
             values.update(from_file)
         source = str(options.config_file) if options.config_file is not None else 'settings'
         settings = triad_settings_from_mapping(values, source=source)
