@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from rate_bias_bench_physics import ARCSEC_PER_RAD, Bench, Recording, record
 
@@ -87,9 +87,37 @@ def _expected_windows(rec: Recording, bench: Bench, config: KTildeConfig,
     return out
 
 
+SLOW_BEAT_100_HZ = (Bench(
+    rate_deg_s=165.9985, accel_deg_s2=50.0, cruise_revolutions=4.3125, settle_s=2.0,
+    mark_deg=0.0, index_jitter_arcsec=0.0, pulse_rate_hz=100.0, table_rate_hz=100.0,
+    first_direction=1, start_phase=0.0, duration_s=115.1515785538785,
+    k_arcsec_per_pulse=1.949751, theta_arcsec=0.0, earth_bias_arcsec_s=4.1085,
+    arw_arcsec_sqrt_s=0.0, seed=0), 2)
+"""The falsifying example of 2026-12-06 (K̃ 1.57e-7 off against 4 × the white floor, 7.7e-8),
+printed to five digits then; here with K and the rate inside those digits so that the forward
+count advances 3064.9999 pulses per 10 ms sample: the count's phase barely moves in the fit
+span, each forward window end keeps up to ±½ pulse (windows off by −0.06 or +0.94 pulse) and
+K̃ errs by 1.3e-7: 1.4 × the sawtooth floor (8.9e-8), 0.8 × the stated uncertainty (1.6e-7)."""
+
+SLOW_BEAT_113_HZ = (Bench(
+    rate_deg_s=259.34979065155954, accel_deg_s2=703.3876867715596,
+    cruise_revolutions=4.262126353792749, settle_s=0.5965497276859586,
+    mark_deg=351.3392301638607, index_jitter_arcsec=0.3196653215726728,
+    pulse_rate_hz=113.4265387812636, table_rate_hz=546.3287685109317, first_direction=-1,
+    start_phase=0.9152367962235946, duration_s=46.4011602068701,
+    k_arcsec_per_pulse=0.8958762422783015, theta_arcsec=736.6984727215286,
+    earth_bias_arcsec_s=4.764710434384394, arw_arcsec_sqrt_s=0.04305931816301917,
+    seed=253135308), 3)
+"""The same in reverse at 113 Hz with ARW (found exploring): every reverse window −0.5…−0.63
+pulse off, K̃ −6.3e-8 against a white floor of 1.1e-8 (sawtooth floor 2.3e-8); the fits' residuals
+alone stated 1.0e-8, now 2.4e-8."""
+
+
 @settings(max_examples=50, deadline=None, derandomize=True, database=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(benches())
+@example(SLOW_BEAT_100_HZ)
+@example(SLOW_BEAT_113_HZ)
 def test_every_window_the_geometry_allows_is_found_and_k_tilde_is_exact(
         case: tuple[Bench, int]) -> None:
     bench, m = case
@@ -118,7 +146,7 @@ def test_every_window_the_geometry_allows_is_found_and_k_tilde_is_exact(
         # The stated uncertainty claims at least the whole pulses' part (its eq. (2b)).
         stated = cal.k_tilde().std_uncertainty / bench.true_k_tilde
         pulses = _k_tilde_floor(bench, config, m, len(cal.pairs), pulses_only=True)
-        assert stated >= 0.5 * pulses, (stated, pulses)
+        assert stated >= 0.8 * pulses, (stated, pulses)
 
 
 def _sawtooth_variance(steps_per_s: float, period_s: float, half_width_s: float) -> float:
