@@ -14,6 +14,7 @@ by less than the rate tolerance allows may or may not be used (an upper bound).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -149,6 +150,7 @@ def test_every_window_the_geometry_allows_is_found_and_k_tilde_is_exact(
         assert stated >= 0.8 * pulses, (stated, pulses)
 
 
+@functools.lru_cache(maxsize=64)
 def _sawtooth_variance(steps_per_s: float, period_s: float, half_width_s: float) -> float:
     """Variance of a line fit's value at an instant from whole steps, steps².
 
