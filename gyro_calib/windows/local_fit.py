@@ -49,7 +49,7 @@ class CountAtInstant:
 
 def quantisation_variance(x_s: npt.NDArray[np.float64], weights: npt.NDArray[np.float64],
                           rate_per_s: float, quantum: float) -> float:
-    """Variance of a fitted value Σ wᵢ·yᵢ from quantised samples, over the phase (eq. (2b)).
+    """Variance of a fitted Σ wᵢ·yᵢ of quantised samples over the phase (METHODS §A.2 eq. 2b).
 
     Sample i is a value rising at ``rate_per_s`` seen through steps of ``quantum``; its error
     is the sawtooth of the phase uᵢ = frac(rate·xᵢ/quantum + φ). Over a uniform unknown φ
