@@ -9,6 +9,7 @@ import pytest
 
 from gyro_calib.errors import WindowError
 from gyro_calib.windows import count_at_instant
+from gyro_calib.windows.local_fit import quantisation_variance
 
 RATE_PULSES_S = 640_712.345  # 150 °/s at K ≈ 0.8428 ″/pulse
 
@@ -48,6 +49,40 @@ def test_count_at_instant_reports_uncertainty_matching_its_scatter() -> None:
     assert np.std(errs) == pytest.approx(np.mean(stds), rel=0.15)
     assert est.n_used == 201
     assert est.rate_pulses_s == pytest.approx(truth_rate, rel=1e-2)
+
+
+@pytest.mark.parametrize('pulses_per_sample', [3064.0, 3064.003, 3064.02, 3064.1, 3064.5,
+                                               3064.333, 3064.7123])
+def test_quantisation_variance_is_the_fits_error_variance_over_the_phase(
+        pulses_per_sample: float) -> None:
+    """Eq. (2b) equals the brute-force variance of a line fit of floor(r·t + φ) over φ."""
+    period_s = 0.01  # 100 Hz, ±0.2142 s: the widened span of a slow stream
+    x = (np.arange(43) - 21) * period_s - 0.0037
+    dx = x - x.mean()
+    weights = 1 / len(x) - x.mean() * dx / (dx @ dx)
+    rate = pulses_per_sample / period_s
+    phase = (np.arange(20_000) + 0.5) / 20_000
+    exact = rate * x[None, :] + phase[:, None]
+    brute = float(np.var((np.floor(exact) - exact) @ weights))
+    assert quantisation_variance(x, weights, rate, 1.0) == pytest.approx(brute, rel=1e-6)
+
+
+def test_count_at_instant_states_the_half_pulse_a_whole_number_per_sample_leaves() -> None:
+    """Whole pulses per sample: residuals are zero, yet the instant's count is ±½ pulse."""
+    rng = np.random.default_rng(9)
+    t_ns = np.arange(0, 1_000_000_001, 10_000_000, dtype=np.int64)  # 100 Hz
+    errors, stated = [], []
+    for _ in range(300):
+        phase0 = rng.uniform()
+        counts = np.floor(phase0 + 306_400.0 * t_ns / 1e9)  # 3064 pulses per sample
+        instant = int(rng.integers(300_000_000, 700_000_000))
+        est = count_at_instant(t_ns, counts, instant, half_width_s=0.2142, quantum=1.0)
+        errors.append(est.value - (phase0 + 306_400.0 * instant / 1e9 - 0.5))
+        stated.append(est.std_uncertainty)
+    assert np.std(errors) == pytest.approx(1 / math.sqrt(12), rel=0.1)
+    assert np.allclose(stated, 1 / math.sqrt(12), rtol=1e-6)
+    without = count_at_instant(t_ns, counts, instant, half_width_s=0.2142)
+    assert without.std_uncertainty < 1e-6  # the residuals alone claim (near) exactness
 
 
 def test_count_at_instant_second_order_absorbs_curvature() -> None:

@@ -130,7 +130,8 @@ def resolve_index_event(cfg: WindowSettings, t_event: int, p_t: npt.NDArray[np.i
     try:
         count = count_at_instant(
             p_t, counts, t_event, half_width_s=half_s, order=cfg.fit_order,
-            min_samples_per_side=cfg.min_fit_samples_per_side, max_gap_s=pulse_gap_s)
+            min_samples_per_side=cfg.min_fit_samples_per_side, max_gap_s=pulse_gap_s,
+            quantum=1.0)  # whole pulses: their quantisation floor (eq. (2b))
     except WindowError as exc:
         return IndexEvent(t_event, angle, rate, None, str(exc), **state)
     if count.max_residual > cfg.max_fit_residual_pulses:

@@ -4,6 +4,13 @@
 around it, not by interpolating between the two neighbouring samples: the quantisation error
 of the integer counts averages down over the fit span. The same fit gives the encoder angle
 at the instant, so both ends of a window are measured alike.
+
+Whole-pulse counts are not white noise: each sample's error is the sawtooth of the count's
+phase, which advances by the count rate × the sample period. When that advance is near a
+whole number of pulses (or a simple fraction) the phase drifts slowly across the fit span and
+the errors do not average down: up to ±½ pulse at the instant however many samples there
+are, with fit residuals near zero. :func:`quantisation_variance` is the exact variance of
+the fitted value over the unknown phase (eq. (2b)); the stated uncertainty is never below it.
 """
 
 from __future__ import annotations
@@ -40,6 +47,31 @@ class CountAtInstant:
     max_residual: float
 
 
+def quantisation_variance(x_s: npt.NDArray[np.float64], weights: npt.NDArray[np.float64],
+                          rate_per_s: float, quantum: float) -> float:
+    """Variance of a fitted Σ wᵢ·yᵢ of quantised samples over the phase (METHODS §A.2 eq. 2b).
+
+    Sample i is a value rising at ``rate_per_s`` seen through steps of ``quantum``; its error
+    is the sawtooth of the phase uᵢ = frac(rate·xᵢ/quantum + φ). Over a uniform unknown φ
+    the sawtooth's autocorrelation is ½·B₂(frac(uᵢ − uⱼ)) quantum² (B₂(u) = u² − u + 1/6,
+    the Bernoulli polynomial), and for |d| < 1, B₂(frac d) = d² − |d| + 1/6, so
+
+        var = ½·quantum²·(2·S₀S₂ − 2·S₁² − Σᵢⱼ wᵢwⱼ|uᵢ − uⱼ| + S₀²/6),   Sₖ = Σ wᵢ·uᵢᵏ
+
+    exact for any stamps, in O(n log n). 1/12 quantum² (one whole step) when every uᵢ is
+    equal; ≈ Σwᵢ²/12 quantum² (white) when the phases spread evenly.
+    """
+    u = np.mod(rate_per_s * x_s / quantum, 1.0)
+    order = np.argsort(u, kind='stable')
+    u, w = u[order], weights[order]
+    s0, s1, s2 = float(w.sum()), float(w @ u), float(w @ (u * u))
+    below_w = np.cumsum(w) - w  # Σ wⱼ over uⱼ below uᵢ
+    below_wu = np.cumsum(w * u) - w * u
+    spread = 2.0 * float(w @ (u * below_w - below_wu))  # Σᵢⱼ wᵢwⱼ|uᵢ − uⱼ|
+    var = 0.5 * (2.0 * s0 * s2 - 2.0 * s1 * s1 - spread + s0 * s0 / 6.0)
+    return max(var, 0.0) * quantum * quantum
+
+
 def count_at_instant(
     t_ns: npt.NDArray[np.int64],
     counts: npt.NDArray[np.float64],
@@ -50,6 +82,7 @@ def count_at_instant(
     min_samples_per_side: int = 20,
     max_gap_s: float = 0.01,
     stream: str = 'pulse',
+    quantum: float = 0.0,
 ) -> CountAtInstant:
     """Least-squares estimate of the cumulative count at ``instant_ns``.
 
@@ -65,6 +98,9 @@ def count_at_instant(
         min_samples_per_side: samples required before and after the instant.
         max_gap_s: largest gap between consecutive samples inside the span, s.
         stream: what the samples are, for messages ('pulse', 'joint_states').
+        quantum: the step of the values (1 for whole pulses); when every value in the span
+            is a multiple of it, the uncertainty is at least the quantisation variance of the
+            fit (:func:`quantisation_variance`, eq. (2b)). 0: values taken as unquantised.
 
     The same fit gives the encoder angle at the instant (``counts`` = angles): both ends of
     a window are then measured alike, so a fit error common to both streams cancels.
@@ -104,6 +140,7 @@ def count_at_instant(
         residual = y - (intercept + slope * x)
         s2 = float(residual @ residual) / (n - 2)
         value, var0, rate = intercept, s2 * (1.0 / n + xm * xm / sxx), slope
+        weights = 1.0 / n - xm * dx / sxx  # the intercept as Σ wᵢ·yᵢ
     else:
         design = np.vander(x, order + 1, increasing=True)
         coef, *_ = np.linalg.lstsq(design, y, rcond=None)
@@ -111,6 +148,9 @@ def count_at_instant(
         s2 = float(residual @ residual) / (n - (order + 1))
         var0 = float((s2 * np.linalg.inv(design.T @ design))[0, 0])
         value, rate = float(coef[0]), float(coef[1])
+        weights = np.linalg.solve(design.T @ design, design.T)[0]
+    if quantum > 0.0 and np.all(np.mod(y / quantum, 1.0) == 0.0):
+        var0 = max(var0, quantisation_variance(x, weights, rate, quantum))
     return CountAtInstant(
         value=value + float(y0),
         std_uncertainty=math.sqrt(var0),
