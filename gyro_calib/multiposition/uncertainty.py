@@ -55,17 +55,22 @@ def fit_covariance(jac: Array, residuals: Array, dof: int,
             np.asarray(nu_eff, dtype=np.float64), basis)
 
 
+def condition_number(jac: Array) -> tuple[float, Array]:
+    """cond(JᵀJ) of the column-normalised Jacobian and its weakest eigenvector (§G.5)."""
+    norms = np.linalg.norm(jac, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    jn = jac / norms
+    w, v = np.linalg.eigh(jn.T @ jn)
+    return float(w[-1] / max(w[0], 1e-300)), np.asarray(v[:, 0], dtype=np.float64)
+
+
 def weakest(names: tuple[str, ...], jac: Array, std: Array) -> str:
     """The conditioning statement (§G.5).
 
     cond(JᵀJ) of the column-normalised Jacobian and the parameter the weakest direction
     loads on most.
     """
-    norms = np.linalg.norm(jac, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
-    jn = jac / norms
-    w, v = np.linalg.eigh(jn.T @ jn)
-    cond = float(w[-1] / max(w[0], 1e-300))
-    i = int(np.argmax(np.abs(v[:, 0])))
+    cond, v = condition_number(jac)
+    i = int(np.argmax(np.abs(v)))
     return (f'cond(JᵀJ) = {cond:.3g} (columns normalised); weakest direction mostly '
             f'{names[i]} (u = {std[i]:.3g})')
