@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from multiposition_physics import random_unit, record
 
 from gyro_calib.bagio import SampleBatch
 from gyro_calib.bagio.columns import FrameIds, TopicColumns
@@ -19,7 +20,6 @@ from gyro_calib.multiposition.calibrator import MAX_CONDITION, calibrate, lackin
 from gyro_calib.multiposition.recording import Recording
 from gyro_calib.multiposition.session import IMU, MultipositionSession
 from gyro_calib.session import CalibrationOptions
-from multiposition_physics import random_unit, record
 
 START_NS = 1_700_000_000_000_000_000
 TOPIC = '/imu/data'

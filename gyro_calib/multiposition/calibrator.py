@@ -184,5 +184,5 @@ def misalignment_deg(fit: TriadFit) -> dict[str, tuple[float, float]]:
             for i, n in enumerate(fit.names) if n.startswith('misalignment')}
 
 
-__all__ = ['MAX_CONDITION', 'MultipositionResult', 'calibrate', 'direction_held', 'lacking', 'inverse_scale', 'misalignment_deg',
-           'misalignment_matrix', 'pose_spread']
+__all__ = ['MAX_CONDITION', 'MultipositionResult', 'calibrate', 'direction_held',
+           'inverse_scale', 'lacking', 'misalignment_deg', 'misalignment_matrix', 'pose_spread']

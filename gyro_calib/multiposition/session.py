@@ -455,12 +455,12 @@ class MultipositionSession(MethodSession):
             lines.append('pose set: well-conditioned (§G.5)' if r.well_conditioned else
                          f'pose set: not well-conditioned (§G.5): it lacks '
                          f'{"; ".join(r.lacking)}')
-        if self._finished_line:
-            lines.append(f'live: {self._finished_line} {self._after_finish} later samples '
-                         'not used.')
             for fit in (r.accelerometer, r.gyro):
                 if fit is not None:
                     lines.append(f'{fit.sensor} uncertainty: {fit.basis}')
+        if self._finished_line:
+            lines.append(f'live: {self._finished_line} {self._after_finish} later samples '
+                         'not used.')
         lines += [f'{key}: not measured — {why}' for key, why in self.missing().items()]
         return lines
 

@@ -79,8 +79,8 @@ def settings_from_mapping(values: dict[str, Any], *, source: str) -> Multipositi
     if bad:
         raise ConfigError(f'{source}: multiposition setting {bad[0]!r} must be true or false.')
     try:
-        return MultipositionSettings(**{k: v if k in flags else float(v)
-                                        for k, v in values.items()})
+        typed: dict[str, Any] = {k: v if k in flags else float(v) for k, v in values.items()}
+        return MultipositionSettings(**typed)
     except (TypeError, ValueError):
         raise ConfigError(f'{source}: multiposition settings must be numbers (and '
                           'finish_when_conditioned true or false).') from None
