@@ -245,7 +245,10 @@ class MultipositionSession(MethodSession):
         self._problem = self._result.problem
         self._t0 = rec.t_s[0]
         lines, self._lines = self._lines, []
-        lines += [f'rejected: {r.reason}' for r in self.rejections() if r.reason not in old]
+        going_on = {x.reason for x in self._result.detection.rejected  # a rest the data end in
+                    if upto_ns is not None and x.interval.stop >= len(rec.t_s)}
+        lines += [f'rejected: {r.reason}' for r in self.rejections()
+                  if r.reason not in old and r.reason not in going_on]
         return lines + self._pose_lines(self._result)
 
     def _pose_lines(self, r: MultipositionResult) -> list[str]:
