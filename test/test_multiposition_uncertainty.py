@@ -1,10 +1,10 @@
 """An input propagated into a least-squares fit is counted once (§G eqs. (7a), (8)).
 
 A linear fit whose residuals hold the effect of an input x taken as known (covariance C_x),
-partly absorbed by the parameters: the input's term G·C_x·Gᵀ is its whole share, so the residual scatter must not add that part of x again (eq. (7a) takes its expected share
-out of the RSS). With white noise on top (x 42–68 % of the residual sum), over 2000 draws the
-stated variance matches the scatter of the estimates (0.95–1.07); the whole RSS as s² gave
-1.2–2.7.
+partly absorbed by the parameters: the input's term G·C_x·Gᵀ is its whole share, so the
+residual scatter must not add that part of x again (eq. (7a) takes its expected share out of
+the RSS). With white noise on top (x 42–68 % of the residual sum), over 2000 draws the stated
+variance matches the scatter of the estimates (0.95–1.07); the whole RSS as s² gave 1.2–2.7.
 """
 
 from __future__ import annotations
