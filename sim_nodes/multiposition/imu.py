@@ -8,7 +8,7 @@ rotation. The accelerometer senses the specific force (gravity's reaction in the
 the tangential and centripetal terms of its lever arm during a turn), the gyro the body rate
 plus the Earth rate. Each sensor reads
 
-    raw = (T·diag(s))⁻¹·true + b + white noise                                  (§G eq. (3))
+    raw = (T·diag(s))⁻¹·true + b + white noise, rounded to the LSB            (§G eq. (3))
 
 with T as the multiposition method writes it (accelerometer: three angles yz, zy, zx; gyro:
 six, yz, zy, zx, xz, xy, yx), s the scales and b the biases in the raw unit (the IMU reports
@@ -61,6 +61,8 @@ class MemsImuConfig:
         acc_noise: white noise per sample, raw.
         gyro_noise: white noise per sample, raw.
         lever_arm_m: the accelerometer's offset from the turn axes, m (body frame).
+        acc_lsb: the accelerometer's output resolution, raw (0: none).
+        gyro_lsb: the gyro's output resolution, raw (0: none).
     """
 
     acc_misalignment_rad: tuple[float, float, float] = (0.004, -0.006, 0.009)
@@ -72,6 +74,8 @@ class MemsImuConfig:
     acc_noise: float = 0.02
     gyro_noise: float = 0.002
     lever_arm_m: tuple[float, float, float] = (0.03, -0.02, 0.04)
+    acc_lsb: float = 0.0
+    gyro_lsb: float = 0.0
 
     def acc_truth(self) -> Array:
         """The accelerometer in the method's parameter order (angles, scales, biases)."""
@@ -193,4 +197,8 @@ def simulate(imu: MemsImuConfig, procedure: PoseProcedureConfig) -> HandTurnedRu
                                                                       (len(t), 3))
     gyro = w_body @ gyro_from.T + np.asarray(imu.gyro_bias) + rng.normal(0, imu.gyro_noise,
                                                                          (len(t), 3))
+    if imu.acc_lsb > 0:
+        acc = np.round(acc / imu.acc_lsb) * imu.acc_lsb
+    if imu.gyro_lsb > 0:
+        gyro = np.round(gyro / imu.gyro_lsb) * imu.gyro_lsb
     return HandTurnedRun(t, acc, gyro, np.concatenate(rest), g, len(procedure.up_axes))

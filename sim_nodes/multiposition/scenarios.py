@@ -4,6 +4,10 @@
   0.2–0.7°, biases of 0.1–0.35 m/s² and 4–11 mrad/s, white noise) turned by hand through 18
   poses — gravity along each body axis both ways, then along the 12 edges between them, each
   pose at its own heading — at 50 Hz, ``sensor_msgs/Imu`` on ``/imu/data``.
+- ``multiposition_few_poses_low_rate``: the odd-but-legal end of the same procedure — 13
+  poses (the six faces and seven edges: one more than the accelerometer needs), 20 Hz,
+  rests of 2.5–3 s, outputs rounded to 16-bit LSBs (±4 g: 2.4·10⁻³ m/s², ±500 °/s:
+  2.66·10⁻⁴ rad/s).
 
 The stored scenario has the ``bench:`` settings the calibration reads (the site's latitude)
 and the truth in the method's parameter order; the expected file says how close a correct
@@ -21,6 +25,8 @@ import numpy as np
 
 from sim_nodes import scenario_files
 from sim_nodes.multiposition.imu import (
+    EDGES,
+    FACES,
     HandTurnedRun,
     MemsImuConfig,
     PoseProcedureConfig,
@@ -88,6 +94,7 @@ class MultipositionScenario:
         return {'scenario': self.name, 'truth': self.truth(),
                 'tolerance': {'k_standard_uncertainties': 3.0},
                 'static_poses': len(self.procedure.up_axes),
+                'well_conditioned': True,
                 'note': 'the gyro bias estimate holds the Earth rate averaged over the poses '
                         '(docs/methods.md §G.3), inside its u'}
 
@@ -111,7 +118,14 @@ SCENARIOS: dict[str, MultipositionScenario] = {s.name: s for s in (
     MultipositionScenario(
         'multiposition_hand_turned',
         'A MEMS IMU turned by hand through 18 poses (gravity along ±x, ±y, ±z, then the 12 '
-        'edges), 3–4.5 s rests, 1.5–2.5 s turns, 50 Hz sensor_msgs/Imu on /imu/data.'),)}
+        'edges), 3–4.5 s rests, 1.5–2.5 s turns, 50 Hz sensor_msgs/Imu on /imu/data.'),
+    MultipositionScenario(
+        'multiposition_few_poses_low_rate',
+        'The same IMU with 16-bit outputs turned through 13 poses (the six faces, seven '
+        'edges), 2.5–3 s rests, 20 Hz sensor_msgs/Imu on /imu/data.',
+        MemsImuConfig(acc_lsb=2.4e-3, gyro_lsb=2.66e-4),
+        PoseProcedureConfig(up_axes=FACES + EDGES[:7], first_rest_s=4.0, rest_s=(2.5, 3.0),
+                            sample_rate_hz=20.0, seed=7)))}
 """The committed multiposition scenarios (``bags/<name>``)."""
 
 
