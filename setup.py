@@ -78,6 +78,7 @@ setup(
             'triad_calibration_node = gyro_calib.nodes.triad_calibration_node:main',
             'multiposition_calibration_node = '
             'gyro_calib.nodes.multiposition_calibration_node:main',
+            'imu_multiposition_sim = sim_nodes.multiposition.imu_node:main',
         ],
     },
 )

@@ -4,6 +4,7 @@ Run (from the repository root):
 
     nice -n 10 .venv/bin/python benchmarks/multiposition_coverage.py           # 120 seeds
     nice -n 10 .venv/bin/python benchmarks/multiposition_coverage.py --n 30    # a quick look
+    nice -n 10 .venv/bin/python benchmarks/multiposition_coverage.py --first 120  # other seeds
 
 Each seed is a unit and a recording from test/multiposition_physics.py (random poses and
 turns about random body axes, lever-arm accelerations, Earth rate, white noise of a random
@@ -49,10 +50,11 @@ def main() -> None:
     """Print the coverage table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('--n', type=int, default=120, help='seeds (default 120)')
-    n = parser.parse_args().n
+    parser.add_argument('--first', type=int, default=0, help='first seed (default 0)')
+    args = parser.parse_args()
     start = time.perf_counter()
     za, zg, failed = [], [], 0
-    for seed in range(n):
+    for seed in range(args.first, args.first + args.n):
         got = z_scores(seed)
         if got is None:
             failed += 1

@@ -298,6 +298,9 @@ class MethodSession(ABC):
     """The settings the run was given (:func:`run_settings`; set by
     :meth:`gyro_calib.registry.Method.make_session`), written with its hand-off record."""
 
+    live: bool = False
+    """Set by a live node: the session may end the run by itself (:meth:`finished`)."""
+
     @abstractmethod
     def topics(self) -> dict[str, str]:
         """Topic → message type this session reads."""
@@ -325,6 +328,14 @@ class MethodSession(ABC):
     @abstractmethod
     def data_span_ns(self) -> tuple[int, int] | None:
         """First and last stamp the results rest on, or None."""
+
+    def finished(self) -> str:
+        """'' while the run goes on; else why it is over (a live node then exits 0).
+
+        A live session (:attr:`live`) whose calibration is complete by its own criterion
+        says so here, once, and takes no more data; by default a run ends only when stopped.
+        """
+        return ''
 
     def notices(self) -> list[str]:
         """Stream events worth reporting (restarts, dropped samples)."""

@@ -15,7 +15,8 @@ from typing import Any
 
 SCENARIO_MODULES = ('sim_nodes.rbrlg.scenarios', 'sim_nodes.fog.bag_scenarios',
                     'sim_nodes.dither.bag_scenarios', 'sim_nodes.noise.bag_scenarios',
-                    'sim_nodes.thermal.bag_scenarios', 'sim_nodes.triad.scenarios')
+                    'sim_nodes.thermal.bag_scenarios', 'sim_nodes.triad.scenarios',
+                    'sim_nodes.multiposition.scenarios')
 """The methods' scenario modules, in listing order."""
 
 

@@ -18,7 +18,12 @@ import numpy.typing as npt
 from scipy.optimize import least_squares
 
 from gyro_calib.multiposition.records import ACC_NAMES, TriadFit, misalignment_matrix
-from gyro_calib.multiposition.uncertainty import Input, fit_covariance, weakest
+from gyro_calib.multiposition.uncertainty import (
+    Input,
+    condition_number,
+    fit_covariance,
+    weakest,
+)
 
 Array = npt.NDArray[np.float64]
 
@@ -72,4 +77,5 @@ def fit_accelerometer(means: Array, g: float, u_g: float, *, raw_unit: str = '')
     std = np.sqrt(np.diag(cov))
     return TriadFit('accelerometer', ACC_NAMES, p, cov, nu, k,
                     float(np.sqrt(np.mean(res ** 2))), np.abs(res), basis,
-                    weakest(ACC_NAMES, jac, std), raw_unit)
+                    weakest(ACC_NAMES, jac, std), raw_unit,
+                    condition=condition_number(jac)[0])

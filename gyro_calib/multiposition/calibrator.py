@@ -7,7 +7,7 @@ bias, scale and misalignment from the motions (§G.3) → the conditioning state
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,6 +30,10 @@ class MultipositionResult:
         gravity_std_m_s2: its standard uncertainty.
         conditioning: the conditioning statement, one line per sensor.
         problem: why a fit is missing, '' when both are there.
+        directions: each pose's gravity direction (K×3, unit; from the calibrated
+            accelerometer, from the raw means before it is calibrated).
+        lacking: what the pose set still lacks to be well-conditioned (§G.5 criterion;
+            empty: well-conditioned).
     """
 
     detection: Detection
@@ -39,6 +43,13 @@ class MultipositionResult:
     gravity_std_m_s2: float
     conditioning: tuple[str, ...]
     problem: str = ''
+    directions: Array = field(default_factory=lambda: np.zeros((0, 3)))
+    lacking: tuple[str, ...] = ()
+
+    @property
+    def well_conditioned(self) -> bool:
+        """Both sensors calibrated and the pose set meets the §G.5 criterion."""
+        return not self.lacking
 
 
 def _direction_sensitivity(p: Array, means: Array) -> Array:
@@ -73,6 +84,46 @@ def directions_not_held(u: Array, within_deg: float = 35.0) -> list[str]:
     return [name for name, h in zip(AXIS_NAMES, hit, strict=True) if not h]
 
 
+def direction_held(u: Array, within_deg: float = 35.0) -> str:
+    """The axis direction (±x, ±y, ±z) one gravity direction lies within ``within_deg`` of.
+
+    '' when it lies between the axes.
+    """
+    axes = np.vstack((np.eye(3), -np.eye(3)))[[0, 3, 1, 4, 2, 5]]
+    cos = axes @ u
+    i = int(np.argmax(cos))
+    return AXIS_NAMES[i] if cos[i] >= np.cos(np.radians(within_deg)) else ''
+
+
+MAX_CONDITION = 20.0
+"""Default largest cond(JᵀJ) of a well-conditioned fit (§G.5): the real recordings give
+5–17 (docs/multiposition.md); a set of 12–13 random poses gives 50–80."""
+
+
+def lacking(k: int, u: Array, fits: tuple[TriadFit | None, TriadFit | None],
+            max_condition: float = MAX_CONDITION) -> tuple[str, ...]:
+    """What the pose set still lacks to be well-conditioned (§G.5 criterion); () when not.
+
+    Well-conditioned: both sensors calibrated (≥ 12 poses, ≥ 9 turns), gravity has lain
+    within 35° of each of ±x, ±y, ±z, and cond(JᵀJ) of each fit ≤ ``max_condition``.
+    """
+    acc, gyro = fits
+    out = []
+    if acc is None:
+        out.append(f'{MIN_POSES - k} more static poses (the accelerometer needs {MIN_POSES})')
+    elif gyro is None:
+        out.append(f'{MIN_MOTIONS + 1 - k} more static poses (the gyro needs {MIN_MOTIONS} '
+                   'turns between poses)')
+    gone = directions_not_held(u)
+    if gone:
+        out.append(f'a pose with gravity near {", ".join(gone)}')
+    for fit in fits:
+        if fit is not None and not fit.condition <= max_condition:
+            out.append(f'{fit.sensor} cond(JᵀJ) = {fit.condition:.3g} > {max_condition:g} '
+                       '(more poses, spread over the sphere, turns about every axis)')
+    return tuple(out)
+
+
 def rotation_per_axis_deg(rec: Recording, fit: TriadFit) -> Array:
     """Σ|ω_j|·dt per calibrated gyro axis over the whole recording, °."""
     w = (rec.gyro - fit.bias_raw) @ fit.matrix.T
@@ -81,17 +132,21 @@ def rotation_per_axis_deg(rec: Recording, fit: TriadFit) -> Array:
 
 
 def calibrate(rec: Recording, *, gravity_m_s2: float, gravity_std_m_s2: float,
-              window_s: float = 1.0, min_static_s: float = 1.0) -> MultipositionResult:
+              window_s: float = 1.0, min_static_s: float = 1.0,
+              max_condition: float = MAX_CONDITION) -> MultipositionResult:
     """Calibrate accelerometer and gyro of one recording (§G)."""
     det = detect_static(rec.t_s, rec.acc, rec.gyro, window_s=window_s,
                         min_static_s=min_static_s)
     k = len(det.intervals)
+    means = np.array([rec.acc[iv.start:iv.stop].mean(axis=0) for iv in det.intervals]
+                     ).reshape(-1, 3)
     if k < MIN_POSES:
+        raw_u = directions(means) if k else np.zeros((0, 3))
         return MultipositionResult(det, None, None, gravity_m_s2, gravity_std_m_s2, (),
                                    f'{k} static poses found; the accelerometer needs at least '
                                    f'{MIN_POSES} (turn the IMU to more poses, at rest '
-                                   'a few seconds each).')
-    means = np.array([rec.acc[iv.start:iv.stop].mean(axis=0) for iv in det.intervals])
+                                   'a few seconds each).', raw_u,
+                                   lacking(k, raw_u, (None, None), max_condition))
     acc = fit_accelerometer(means, gravity_m_s2, gravity_std_m_s2, raw_unit=rec.acc_unit)
     u = directions(calibrated(acc.values, means))
     spread = pose_spread(u)
@@ -102,7 +157,8 @@ def calibrate(rec: Recording, *, gravity_m_s2: float, gravity_std_m_s2: float,
                 + f'; {acc.weak}')
     if k - 1 < MIN_MOTIONS:
         return MultipositionResult(det, acc, None, gravity_m_s2, gravity_std_m_s2, (acc_line,),
-                                   f'{k - 1} motions; the gyro needs at least {MIN_MOTIONS}.')
+                                   f'{k - 1} motions; the gyro needs at least {MIN_MOTIONS}.',
+                                   u, lacking(k, u, (acc, None), max_condition))
     gyro = fit_gyro(rec.t_s, rec.gyro, det.intervals, u,
                     _direction_sensitivity(acc.values, means), acc.covariance,
                     float(acc.n_used - 9), nominal_scale=rec.nominal_gyro_scale,
@@ -111,7 +167,8 @@ def calibrate(rec: Recording, *, gravity_m_s2: float, gravity_std_m_s2: float,
     gyro_line = (f'gyro: {gyro.n_used} motions, turned {turned[0]:.0f}° / {turned[1]:.0f}° / '
                  f'{turned[2]:.0f}° about x / y / z; {gyro.weak}')
     return MultipositionResult(det, acc, gyro, gravity_m_s2, gravity_std_m_s2,
-                               (acc_line, gyro_line))
+                               (acc_line, gyro_line), '', u,
+                               lacking(k, u, (acc, gyro), max_condition))
 
 
 def inverse_scale(fit: TriadFit) -> tuple[Array, Array]:
@@ -127,5 +184,5 @@ def misalignment_deg(fit: TriadFit) -> dict[str, tuple[float, float]]:
             for i, n in enumerate(fit.names) if n.startswith('misalignment')}
 
 
-__all__ = ['MultipositionResult', 'calibrate', 'inverse_scale', 'misalignment_deg',
-           'misalignment_matrix', 'pose_spread']
+__all__ = ['MAX_CONDITION', 'MultipositionResult', 'calibrate', 'direction_held',
+           'inverse_scale', 'lacking', 'misalignment_deg', 'misalignment_matrix', 'pose_spread']

@@ -22,7 +22,12 @@ from scipy.optimize import least_squares
 from gyro_calib.multiposition.records import GYRO_NAMES, TriadFit, misalignment_matrix
 from gyro_calib.multiposition.rotation import body_rotations
 from gyro_calib.multiposition.static import StaticInterval
-from gyro_calib.multiposition.uncertainty import Input, fit_covariance, weakest
+from gyro_calib.multiposition.uncertainty import (
+    Input,
+    condition_number,
+    fit_covariance,
+    weakest,
+)
 
 Array = npt.NDArray[np.float64]
 
@@ -155,7 +160,8 @@ def fit_gyro(t_s: Array, gyro: Array, intervals: tuple[StaticInterval, ...], u: 
                     np.concatenate((nu, np.full(3, float(bias_dof)))), k - 1,
                     float(np.sqrt(np.mean(per_motion ** 2))), per_motion,
                     basis + f'; bias: scatter of {k} static means (ν = {bias_dof})',
-                    weakest(GYRO_NAMES[:9], jac, std[:9]), raw_unit)
+                    weakest(GYRO_NAMES[:9], jac, std[:9]), raw_unit,
+                    condition=condition_number(jac)[0])
 
 
 def _residual_wrt_directions(rot: Array) -> Array:

@@ -33,6 +33,7 @@ class TriadFit:
         basis: what the uncertainty rests on, one line.
         weak: the conditioning statement: which parameter the poses leave weak, one line.
         raw_unit: the raw samples' unit as read.
+        condition: cond(JᵀJ) of the fit's column-normalised Jacobian (§G.5; NaN: none).
     """
 
     sensor: str
@@ -47,6 +48,7 @@ class TriadFit:
     weak: str = ''
     raw_unit: str = ''
     notes: tuple[str, ...] = field(default=())
+    condition: float = math.nan
 
     @property
     def std(self) -> Array:

@@ -20,8 +20,10 @@ from gyro_calib.config import field_defaults, read_method_file
 from gyro_calib.estimate import Rejection
 from gyro_calib.multiposition.accelerometer import MIN_POSES
 from gyro_calib.multiposition.calibrator import (
+    AXIS_NAMES,
     MultipositionResult,
     calibrate,
+    direction_held,
     directions_not_held,
     inverse_scale,
 )
@@ -44,7 +46,7 @@ from gyro_calib.multiposition.settings import (
     settings_from_mapping,
 )
 from gyro_calib.session import CalibrationOptions, MethodSession
-from gyro_calib.units import NS_PER_S
+from gyro_calib.units import NS_PER_S, format_stamp
 
 if TYPE_CHECKING:
     from gyro_calib.bagio import SampleBatch
@@ -107,6 +109,12 @@ class MultipositionSession(MethodSession):
         self._fed = False
         self._ferraris: FerrarisResult | None = None
         self._ferraris_rec: Recording | None = None
+        self._origin_ns: int | None = None  # first stamp: the live analyses' grid origin
+        self._cuts_done = 0  # grid stamps analysed (live, finish_when_conditioned)
+        self._finished_ns: int | None = None  # the grid stamp the pose set was well-conditioned
+        self._finished_line = ''
+        self._after_finish = 0  # samples fed after that, not used
+        self._poses_told = 0
 
     # -- input ------------------------------------------------------------------------------
     def topics(self) -> dict[str, str]:
@@ -118,6 +126,11 @@ class MultipositionSession(MethodSession):
         col = batch.columns.get(self.topic)
         if col is None or not len(col) or col.msgtype != IMU:
             return
+        if self._finished_ns is not None:
+            self._after_finish += len(col)
+            return
+        first = int(np.min(col.stamp_ns))
+        self._origin_ns = first if self._origin_ns is None else min(self._origin_ns, first)
         self._stamps.append(np.asarray(col.stamp_ns, dtype=np.int64))
         self._gyro.append(np.asarray(col.values['angular_velocity_rad_s'], dtype=np.float64))
         self._acc.append(np.asarray(col.values['linear_acceleration_m_s2'], dtype=np.float64))
@@ -145,14 +158,19 @@ class MultipositionSession(MethodSession):
         self._ferraris_rec = rec
         self.topic = rec.source or self.topic
 
-    def recording(self) -> Recording | None:
-        """The samples held, sorted by stamp, repeated stamps dropped (None: none)."""
+    def recording(self, upto_ns: int | None = None) -> Recording | None:
+        """The samples held, sorted by stamp, repeated stamps dropped (None: none).
+
+        ``upto_ns``: only those stamped at or before it.
+        """
         if not self._stamps:
             return None
         t = np.concatenate(self._stamps)
         order = np.argsort(t, kind='stable')
         t = t[order]
         keep = np.concatenate(([True], np.diff(t) > 0))
+        if upto_ns is not None:
+            keep &= t <= upto_ns
         acc = np.concatenate(self._acc)[order][keep]
         gyro = np.concatenate(self._gyro)[order][keep]
         ok = np.all(np.isfinite(acc), axis=1) & np.all(np.isfinite(gyro), axis=1)
@@ -169,17 +187,51 @@ class MultipositionSession(MethodSession):
 
         At the end; live every ``analysis_period_s`` of data and whenever the input paused
         (nothing fed since the last call), so the numbers at the end of the data are the
-        offline ones.
+        offline ones. A live session with ``finish_when_conditioned`` analyses the data up
+        to each stamp first stamp + n·``analysis_period_s`` in turn (stamps, not arrival)
+        and stops at the first whose pose set is well-conditioned (§G.5): :meth:`finished`.
         """
         fed, self._fed = self._fed, False
-        if not self._dirty:
+        if not self._dirty or self._finished_ns is not None:
             return []
         newest = int(self._stamps[-1].max()) if self._stamps else 0
+        if self.live and self.settings.finish_when_conditioned and not flush:
+            return self._process_grid(newest, fed)
         if not flush and fed and self._analysed_ns is not None and newest - self._analysed_ns \
                 < self.settings.analysis_period_s * NS_PER_S:
             return []
-        rec = self.recording()
         self._dirty = False
+        return self._analyse(newest, None)
+
+    def _process_grid(self, newest: int, fed: bool) -> list[str]:
+        """Live, finishing: the data up to each grid stamp crossed, in turn; all when paused."""
+        assert self._origin_ns is not None
+        period = int(round(self.settings.analysis_period_s * NS_PER_S))
+        lines: list[str] = []
+        while self._origin_ns + (self._cuts_done + 1) * period <= newest:
+            self._cuts_done += 1
+            cut = self._origin_ns + self._cuts_done * period
+            lines += self._analyse(cut, cut)
+            r = self._result
+            if r is not None and r.well_conditioned and r.gyro is not None \
+                    and r.accelerometer is not None:
+                self._finished_ns = cut
+                self._finished_line = (
+                    f'pose set well-conditioned (§G.5) with the data up to '
+                    f'{format_stamp(cut)} ({(cut - self._origin_ns) / NS_PER_S:.1f} s): '
+                    f'{len(r.detection.intervals)} poses, cond(JᵀJ) '
+                    f'{r.accelerometer.condition:.3g} (accelerometer) / '
+                    f'{r.gyro.condition:.3g} (gyro) ≤ {self.settings.max_condition:g}, gravity '
+                    f'near all of {", ".join(AXIS_NAMES)}; finished (finish_when_conditioned).')
+                return lines + [self._finished_line]
+        if not fed and not lines:  # the input paused: everything so far (shown, no stop)
+            self._dirty = False
+            lines += self._analyse(newest, None)
+        return lines
+
+    def _analyse(self, newest: int, upto_ns: int | None) -> list[str]:
+        """Calibrate the samples up to ``upto_ns`` (None: all); new log lines."""
+        rec = self.recording(upto_ns)
         self._analysed_ns = newest
         if rec is None:
             self._problem = f'fewer than two Imu samples with finite values on {self.topic}.'
@@ -188,12 +240,36 @@ class MultipositionSession(MethodSession):
         self._result = calibrate(rec, gravity_m_s2=self.gravity,
                                  gravity_std_m_s2=self.gravity_std,
                                  window_s=self.settings.window_s,
-                                 min_static_s=self.settings.min_static_s)
+                                 min_static_s=self.settings.min_static_s,
+                                 max_condition=self.settings.max_condition)
         self._problem = self._result.problem
         self._t0 = rec.t_s[0]
         lines, self._lines = self._lines, []
-        return lines + [f'rejected: {r.reason}' for r in self.rejections()
-                        if r.reason not in old]
+        going_on = {x.reason for x in self._result.detection.rejected  # a rest the data end in
+                    if upto_ns is not None and x.interval.stop >= len(rec.t_s)}
+        lines += [f'rejected: {r.reason}' for r in self.rejections()
+                  if r.reason not in old and r.reason not in going_on]
+        return lines + self._pose_lines(self._result)
+
+    def _pose_lines(self, r: MultipositionResult) -> list[str]:
+        """Live: one line when new static poses were found (which, which still needed)."""
+        k = len(r.detection.intervals)
+        if not self.live or k <= self._poses_told:
+            self._poses_told = min(self._poses_told, k)
+            return []
+        new = [f'#{i + 1} from {r.detection.intervals[i].t_start_s - self._t0:.1f} s '
+               f'({direction_held(r.directions[i]) or "between axes"})'
+               for i in range(self._poses_told, k)]
+        self._poses_told = k
+        held = [a for a in AXIS_NAMES if a not in directions_not_held(r.directions)]
+        return [f'{k} static poses (new: {", ".join(new)}); gravity near '
+                f'{", ".join(held) or "no axis"} so far; '
+                + (f'still needed: {"; ".join(r.lacking)}.' if r.lacking
+                   else 'the pose set is well-conditioned (§G.5).')]
+
+    def finished(self) -> str:
+        """Live: why the run is over (the pose set well-conditioned), else ''."""
+        return self._finished_line
 
     # -- results ----------------------------------------------------------------------------
     @property
@@ -245,9 +321,15 @@ class MultipositionSession(MethodSession):
         return out
 
     def needs(self) -> dict[str, str]:
-        """The static poses and turns found so far against those the fits need."""
+        """The static poses and turns found so far against those the fits need.
+
+        Live, once both are calibrated: what the pose set lacks to be well-conditioned.
+        """
         r = self._result
         if r is not None and r.accelerometer is not None and r.gyro is not None:
+            if self.live and r.lacking and self._finished_ns is None:
+                return {'imu': f'{len(r.detection.intervals)} static poses; for a '
+                               f'well-conditioned set still needed: {"; ".join(r.lacking)}.'}
             return {}
         k = len(r.detection.intervals) if r is not None else 0
         where = ''
@@ -287,6 +369,8 @@ class MultipositionSession(MethodSession):
                 'gravity_source': self.gravity_source, 'topic': self.topic,
                 'window_s': self.settings.window_s, 'min_static_s': self.settings.min_static_s,
                 'latitude_deg': self.options.latitude,
+                **({'finished_at_stamp_ns': self._finished_ns}
+                   if self._finished_ns is not None else {}),
                 'gyro_bias_basis': 'mean of the static intervals; the Earth rate averaged over '
                                    'the poses is not removed (docs/methods.md §G.3)'}
 
@@ -371,9 +455,15 @@ class MultipositionSession(MethodSession):
             lines.append(f'g = {self.gravity:.6f} ± {self.gravity_std:.2g} m/s² '
                          f'({self.gravity_source})')
             lines += [f'conditioning: {c}' for c in r.conditioning]
+            lines.append('pose set: well-conditioned (§G.5)' if r.well_conditioned else
+                         f'pose set: not well-conditioned (§G.5): it lacks '
+                         f'{"; ".join(r.lacking)}')
             for fit in (r.accelerometer, r.gyro):
                 if fit is not None:
                     lines.append(f'{fit.sensor} uncertainty: {fit.basis}')
+        if self._finished_line:
+            lines.append(f'live: {self._finished_line} {self._after_finish} later samples '
+                         'not used.')
         lines += [f'{key}: not measured — {why}' for key, why in self.missing().items()]
         return lines
 

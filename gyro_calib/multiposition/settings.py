@@ -30,7 +30,13 @@ class MultipositionSettings:
         gravity_m_s2: local g given directly (NaN: from latitude and height, eq. (1)).
         gravity_std_m_s2: its standard uncertainty (NaN: the anomaly, or the whole Earth's
             range when the latitude is not given either).
-        analysis_period_s: live: the calibration is redone after this much more data, s.
+        analysis_period_s: live: the calibration is redone after this much more data, s
+            (at stamps first stamp + n·period, on the data up to there).
+        finish_when_conditioned: live: the node writes the hand-off and exits 0 at the first
+            analysis whose pose set is well-conditioned (§G.5 criterion); false: it runs
+            until stopped.
+        max_condition: the largest cond(JᵀJ) (columns normalised) of either fit in a
+            well-conditioned pose set (§G.5).
     """
 
     window_s: float = 1.0
@@ -39,6 +45,8 @@ class MultipositionSettings:
     gravity_m_s2: float = math.nan
     gravity_std_m_s2: float = math.nan
     analysis_period_s: float = 10.0
+    finish_when_conditioned: bool = True
+    max_condition: float = 20.0
 
     def __post_init__(self) -> None:
         """Range-check every field (ConfigError naming it)."""
@@ -51,6 +59,7 @@ class MultipositionSettings:
             ('gravity_std_m_s2', math.isnan(self.gravity_std_m_s2)
              or 0 <= self.gravity_std_m_s2 < 0.1, 'between 0 and 0.1 m/s² (or unset)'),
             ('analysis_period_s', self.analysis_period_s > 0, 'positive'),
+            ('max_condition', 1 <= self.max_condition <= 1e6, 'between 1 and 10⁶'),
         ])
 
 
@@ -65,7 +74,13 @@ def settings_from_mapping(values: dict[str, Any], *, source: str) -> Multipositi
     if unknown:
         raise ConfigError(f'{source}: unknown multiposition setting {unknown[0]!r}; the '
                           f'settings are {", ".join(sorted(names))}.')
+    flags = {'finish_when_conditioned'}
+    bad = sorted(k for k, v in values.items() if k in flags and not isinstance(v, bool))
+    if bad:
+        raise ConfigError(f'{source}: multiposition setting {bad[0]!r} must be true or false.')
     try:
-        return MultipositionSettings(**{k: float(v) for k, v in values.items()})
+        typed: dict[str, Any] = {k: v if k in flags else float(v) for k, v in values.items()}
+        return MultipositionSettings(**typed)
     except (TypeError, ValueError):
-        raise ConfigError(f'{source}: multiposition settings must be numbers.') from None
+        raise ConfigError(f'{source}: multiposition settings must be numbers (and '
+                          'finish_when_conditioned true or false).') from None

@@ -22,6 +22,14 @@ Modes, chosen by the hand-off file (re-read when it changes):
   message's own accelerometers are passed through — with diag(N_a²·f) as covariance where
   the file has the accelerometer noise — to :data:`IMU_DATA`.
 
+With a multiposition (or Ferraris) hand-off — an ``imu:`` section with ``accelerometer``,
+docs/multiposition.md — the section's gyro "pulse" is one raw unit·s of the recorded
+sensor_msgs/Imu, so in Imu mode K₀ is 1 unless ``raw_scale_rad_per_pulse`` says otherwise:
+ω = M·ω_raw − b. Its accelerometer part is applied to every accelerometer sample (Imu mode or
+``accel_input``): a = A·r − b_a, with covariance A·C_r·Aᵀ + (I⊗rᵀ)·C_A·(I⊗r) + diag(u²(b_a))
+(C_r the driver's, C_A the section's ``raw_to_body_covariance``; the A–b_a correlation is not
+in the file and is left out).
+
 With an accelerometer input (``accel_input``: the IMU driver's sensor_msgs/Imu, issue 36 §3)
 each rate is held until the accelerometer sample of its stamp (within
 ``accel_tolerance_ns``) arrives, and is published with its linear acceleration and
@@ -67,6 +75,33 @@ MAX_HELD_RATES = 2000
 """Rates held for their accelerometer sample at most; beyond, the oldest is dropped."""
 
 Output = tuple[str, ImuAngularVelocity]
+
+
+class AccelerometerCorrection:
+    """a = A·r − b_a from a section's ``imu.accelerometer``, with its covariance."""
+
+    def __init__(self, section: dict[str, Any]) -> None:
+        """A (raw_to_body), b_a (bias_m_s2) and their uncertainty (absent: zero)."""
+        self.a = np.asarray(section['raw_to_body'], dtype=np.float64).reshape(3, 3)
+        self.b = np.asarray(section['bias_m_s2'], dtype=np.float64).reshape(3)
+        cov = section.get('raw_to_body_covariance')
+        self.a_cov = (np.zeros((9, 9)) if cov is None
+                      else np.asarray(cov, dtype=np.float64).reshape(9, 9))
+        u_b = section.get('bias_m_s2_std')
+        self.b_var = np.zeros(3) if u_b is None else np.asarray(u_b, dtype=np.float64) ** 2
+
+    def apply(self, raw: tuple[float, float, float], covariance: tuple[float, ...]
+              ) -> tuple[tuple[float, float, float], tuple[float, ...]]:
+        """The corrected sample and its covariance (row-major 3×3)."""
+        r = np.asarray(raw, dtype=np.float64)
+        a = self.a @ r - self.b
+        j = np.kron(np.eye(3), r)  # ∂(A·r)/∂vec(A), vec row-major
+        c_r = np.asarray(covariance, dtype=np.float64).reshape(3, 3)
+        if c_r[0, 0] < 0:  # the driver marks its acceleration unknown: calibration part only
+            c_r = np.zeros((3, 3))
+        cov = self.a @ c_r @ self.a.T + j @ self.a_cov @ j.T + np.diag(self.b_var)
+        return ((float(a[0]), float(a[1]), float(a[2])),
+                tuple(float(v) for v in (0.5 * (cov + cov.T)).ravel()))
 
 
 class ImuNoise:
@@ -127,6 +162,8 @@ class ImuCorrector:
             accel_input = imu_input  # the Imu's own accelerometers, paired by its stamp
         self.accel_input, self.accel_tolerance_ns = accel_input, accel_tolerance_ns
         self.imu_noise: ImuNoise | None = None
+        self.accel_correction: AccelerometerCorrection | None = None
+        self._section_raw_scale = 0.0  # K0 a multiposition section implies (1: raw unit·s)
         self._imu_last: tuple[int, Any] | None = None
         self._imu_counts: npt.NDArray[np.float64] | None = None
         self._held: deque[Output] = deque()
@@ -202,7 +239,8 @@ class ImuCorrector:
                                                 thermal_max_age_s=self.thermal_max_age_s)
         else:
             self.converter.calibration = calibration
-        self.triad = None
+        self.triad = self.accel_correction = None
+        self._section_raw_scale = 0.0
         c = calibration
         source = topics.FOG_OUTPUT if c.is_fog else topics.GYRO_PULSES
         self.log.info(
@@ -253,7 +291,8 @@ class ImuCorrector:
               if all('N' in src.accel[a] for a in AXES) else None)
         self.imu_noise = ImuNoise(tuple(t.value for t in n if t is not None), tuple(q),
                                   None if na is None else tuple(na))
-        self.triad = self.converter = None
+        self.triad = self.converter = self.accel_correction = None
+        self._section_raw_scale = 0.0
         self.log.info(
             f'IMU noise calibration loaded from {path}: N = '
             + ', '.join(f'{v:.6g}' for v in self.imu_noise.arw) + ' rad/√s (x, y, z); '
@@ -263,9 +302,17 @@ class ImuCorrector:
         self.log.warning('the file holds no gyro bias or scale factor (a noise run measures '
                          'none): the rates are passed as the driver gives them.')
 
+    @property
+    def k0(self) -> float:
+        """K₀ of Imu mode: the parameter, else the section's (1 for a multiposition one)."""
+        return self.raw_scale if self.raw_scale > 0 else self._section_raw_scale
+
     def _load_triad(self, path: str) -> None:
         cal = load_imu_calibration(path)
         model = triad_rate_model(cal, source=f'calibration file {path}')
+        self.accel_correction = (AccelerometerCorrection(cal.accelerometer)
+                                 if cal.accelerometer else None)
+        self._section_raw_scale = 1.0 if cal.accelerometer else 0.0
         thermal = channel_thermal_models(cal, model)
         old = self.triad
         if old is not None and not thermal and not old.thermal:
@@ -276,7 +323,18 @@ class ImuCorrector:
                                             equal=self.equal_variances)
         self.converter = None
         self.imu_noise = None
-        if self.imu_input and not self.raw_scale > 0:
+        if self.imu_input and self.accel_correction is not None:
+            unit = self.accel_correction_unit(cal.accelerometer)
+            self.log.info(
+                f'IMU section (multiposition): the gyro\'s M is per raw unit of the recorded '
+                f'Imu, ω = M·ω_raw − b with K0 = {self.k0:g}'
+                + ('' if self.raw_scale <= 0 or self.raw_scale == 1.0 else
+                   ' (raw_scale_rad_per_pulse as given; the section implies 1)')
+                + f'; accelerometers corrected, a = A·r − b_a (raw unit {unit})')
+        elif self.accel_input and self.accel_correction is not None:
+            self.log.info('IMU section (multiposition): accelerometers from '
+                          f'{self.accel_input} corrected, a = A·r − b_a')
+        if self.imu_input and not self.k0 > 0:
             self.log.error(f'imu_input with a triad\'s file needs raw_scale_rad_per_pulse (K0, '
                            f'the scale factor the driver publishes each channel\'s rate with, '
                            f'ω = K0·Δn/Δt): set it; nothing is published from '
@@ -301,6 +359,11 @@ class ImuCorrector:
         if no_arw:
             self.log.warning(f'no angle random walk for channel(s) {", ".join(no_arw)} '
                              '(imu.noise): their count noise is quantisation only.')
+
+    @staticmethod
+    def accel_correction_unit(section: dict[str, Any]) -> str:
+        """The raw unit the section's accelerometer was calibrated in ('m/s²' if not said)."""
+        return str(section.get('raw_unit') or 'm/s²')
 
     def _problem(self, message: str) -> None:
         if message != self._last_problem:  # once per distinct problem, not every poll
@@ -391,10 +454,10 @@ class ImuCorrector:
         last, self._imu_last = self._imu_last, (t_ns, np.asarray(angular_velocity_rad_s,
                                                                  dtype=float))
         rates: list[ImuAngularVelocity | Rejection] = []
-        if self.triad is not None and self.raw_scale > 0:
+        if self.triad is not None and self.k0 > 0:
             counts = (np.zeros(3) if last is None or self._imu_counts is None
                       else self._imu_counts + np.asarray(angular_velocity_rad_s, dtype=float)
-                      / self.raw_scale * (t_ns - last[0]) * 1e-9)
+                      / self.k0 * (t_ns - last[0]) * 1e-9)
             self._imu_counts = counts
             rates = self.triad.add_pulses(t_ns, list(self.triad.model.channels),
                                           [float(c) for c in counts])
@@ -413,6 +476,9 @@ class ImuCorrector:
         """A sample of the IMU driver's accelerometers (``accel_input``, issue 36 §3)."""
         if not self.accel_input:
             return []
+        if self.accel_correction is not None:
+            acceleration_m_s2, covariance = self.accel_correction.apply(acceleration_m_s2,
+                                                                        covariance)
         self._accels.append((t_ns, acceleration_m_s2, tuple(covariance)))
         while len(self._accels) > MAX_HELD_RATES:
             self._accels.popleft()

@@ -32,7 +32,9 @@ file has no K), ``frame_id`` (single gyro), ``imu_frame_id`` (triad), ``equal_va
 
 **Imu mode** (``imu_input``, issue 36 §5): a MEMS or FOG IMU driver's sensor_msgs/Imu in,
 /imu/data out with the message's own accelerometers (see
-:mod:`gyro_calib.nodes.imu_corrector_core`).
+:mod:`gyro_calib.nodes.imu_corrector_core`). With a multiposition hand-off (an ``imu:``
+section with ``accelerometer``) the gyro is ω = M·ω_raw − b (K₀ = 1: the section's pulse is
+one raw unit·s) and the accelerometers are corrected too, a = A·r − b_a, with covariance.
 A file without the scale factor it needs is refused, naming the missing key; one without the
 bias is used with a warning (the rates are then not bias-corrected).
 The file is polled (inode, mtime, size) and reloaded when it changes; a missing or bad

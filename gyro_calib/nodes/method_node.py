@@ -131,6 +131,7 @@ class MethodNode(CalibrationNodeBase):
                                                           settings),
                                bench_max_rate_deg_s=float(p['bench_max_rate_deg_s']))
         self.session: MethodSession = self.method.make_session(options)
+        self.session.live = True
         self.add_on_set_parameters_callback(self._refuse_runtime_change)
         self._buffers: dict[str, TopicBuffer] = {}
         self._inputs_as_given: tuple[str, ...] = ()
@@ -197,7 +198,13 @@ class MethodNode(CalibrationNodeBase):
 
     def new_session(self) -> MethodSession:
         """A fresh session with the node's options (``~/reset``, cleanup)."""
-        return self.method.make_session(self.options)
+        session = self.method.make_session(self.options)
+        session.live = True
+        return session
+
+    def session_finished(self) -> bool:
+        """The session ended the run by itself (:meth:`MethodSession.finished`)."""
+        return bool(self.session.finished())
 
     def start_over(self) -> str:
         """A new session (``~/reset``, cleanup); how many quantities were measured."""
@@ -390,6 +397,9 @@ class SimScenarioBench:
 
 def run_method_node(method: str, node_name: str, result_topics: Mapping[str, str],
                     settings_cls: type | None = None, args: list[str] | None = None) -> None:
-    """Run a method's node until SIGINT/SIGTERM, then judge what is open and write the hand-off."""
+    """Run a method's node until SIGINT/SIGTERM or the session finished by itself.
+
+    Then judge what is open and write the hand-off (exit 0 either way).
+    """
     run_node(node_name, lambda: MethodNode(method, node_name, result_topics, settings_cls), args,
-             on_stop=lambda node, _executor: node.finish())
+             on_stop=lambda node, _executor: node.finish(), done=MethodNode.session_finished)

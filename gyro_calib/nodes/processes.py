@@ -31,6 +31,7 @@ NODE_MODULES = {
     'triad_sim': 'sim_nodes.triad.triad_node',
     'triad_calibration_node': 'gyro_calib.nodes.triad_calibration_node',
     'multiposition_calibration_node': 'gyro_calib.nodes.multiposition_calibration_node',
+    'imu_multiposition_sim': 'sim_nodes.multiposition.imu_node',
 }
 
 

@@ -6,6 +6,7 @@ hand-off (the imu: section's M and the accelerometer's A) bit for bit.
 
 from __future__ import annotations
 
+import subprocess
 import time
 from pathlib import Path
 
@@ -53,4 +54,45 @@ def test_replayed_imu_bag_gives_the_offline_imu_section(nodes: list[NodeProcess]
         time.sleep(1.0)
     assert got is not None, node.log()[-3000:]
     np.testing.assert_array_equal(np.array(got.accelerometer['raw_to_body']),
+                                  np.array(expected.accelerometer['raw_to_body']))
+
+
+def test_the_node_finishes_by_itself_once_the_pose_set_is_well_conditioned(
+        nodes: list[NodeProcess], tmp_path: Path) -> None:
+    """A replayed recording: the node exits 0 by itself, with the offline result up to then."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from multiposition_physics import random_unit, record
+    from test_multiposition_cli import START_NS, imu_bag
+
+    rng = np.random.default_rng(1)  # 30 poses: well-conditioned from 120 s of 147 s
+    t, acc, gyro, _ = record(random_unit(rng), rng, poses=30)
+    bag = imu_bag(tmp_path / 'turned', t, gyro, acc)
+    out = tmp_path / 'imu.yaml'
+    node = launch('multiposition_calibration_node', {'output_file': str(out)})
+    nodes.append(node)
+    time.sleep(1.5)
+    nodes.append(launch('bag_player', {'bag': str(bag), 'rate': 0.0}, expect_exit=(0, 3)))
+    try:
+        status = node.proc.wait(timeout=120.0)
+    except subprocess.TimeoutExpired:
+        raise AssertionError('the node did not finish by itself:\n'
+                             + node.log()[-3000:]) from None
+    assert status == 0, node.log()[-3000:]
+    assert 'pose set well-conditioned' in node.log()
+    assert 'still needed: a pose with gravity near' in node.log()
+    cal = load_calibration(out)
+    cut = int(cal.methods['multiposition'].conditions['finished_at_stamp_ns'])
+    stamps = START_NS + np.round(t * 1e9).astype(np.int64)
+    assert stamps[0] < cut < stamps[-1]
+    keep = stamps <= cut
+    part = imu_bag(tmp_path / 'up_to_then', t[keep], gyro[keep], acc[keep])
+    offline = calibrate_bags([part], methods=['multiposition']).sessions['multiposition']
+    assert isinstance(offline, MultipositionSession)
+    expected = offline.imu_calibration()
+    assert expected is not None and expected.pulses_to_body_rad is not None
+    assert cal.imu is not None and cal.imu.pulses_to_body_rad is not None
+    np.testing.assert_array_equal(cal.imu.pulses_to_body_rad, expected.pulses_to_body_rad)
+    np.testing.assert_array_equal(np.array(cal.imu.accelerometer['raw_to_body']),
                                   np.array(expected.accelerometer['raw_to_body']))
