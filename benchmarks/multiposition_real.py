@@ -4,15 +4,17 @@ Run (from the repository root):
 
     nice -n 10 .venv/bin/python benchmarks/multiposition_real.py
 
-Prints the Xsens comparison with IMU-TK (its own g, 9.81744 m/s²), the Ferraris session
-beside imucal 2.6.0 (when installed), the three MPU-9150 units with their spread, and the
-conditioning line of each recording.
+Prints the Xsens comparison with IMU-TK (its own g, 9.81744 m/s²; the misalignments, which
+IMU-TK does not publish, from its re-implementation test/peers/imu_tk_reference.py), the
+Ferraris session beside imucal 2.6.0 (when installed), the three MPU-9150 units with their
+spread, and the conditioning line of each recording.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +24,10 @@ from gyro_calib.multiposition.ferraris import ferraris
 from gyro_calib.multiposition.readers import read_imu_tk, read_imucal, read_xyz6
 
 REAL = Path(__file__).resolve().parents[1] / 'test' / 'data' / 'real'
+sys.path.insert(0, str(REAL.parents[1]))  # test/: the IMU-TK peer (test/peers/)
+
+from peers.imu_tk_reference import calibrate as imu_tk_calibrate  # noqa: E402
+
 IMU_TK = {'gyro inverse scale': [4777.96, 4764.21, 4773.66],
           'gyro bias': [32777.14, 32459.80, 32511.85],
           'accelerometer inverse scale': [414.459, 412.010, 414.649],
@@ -34,6 +40,10 @@ def xsens() -> None:
                       REAL / 'imu_tk_xsens' / 'xsens_gyro.mat.xz')
     r = calibrate(rec, gravity_m_s2=9.81744, gravity_std_m_s2=0.0)
     assert r.accelerometer is not None and r.gyro is not None
+    peer = imu_tk_calibrate(REAL / 'imu_tk_xsens' / 'xsens_acc.mat.xz',
+                            REAL / 'imu_tk_xsens' / 'xsens_gyro.mat.xz', g=9.81744)
+    peer_angles = {'accelerometer': np.degrees(peer.acc.misalignment[:3]),
+                   'gyro': np.degrees(peer.gyro.misalignment)}
     print('## Xsens MTi (IMU-TK recording), counts')
     print('| quantity | axis | ours | u (k = 1) | ν | IMU-TK | ours − IMU-TK | in 95 % interval |')
     print('|---|---|---|---|---|---|---|---|')
@@ -51,8 +61,12 @@ def xsens() -> None:
                 print(f'| {label} | {axis} | {vals[j]:.2f} | {us[j]:.2f} | {nus[j]:.0f} | '
                       f'{peer:.2f} | {diff:+.2f} ({diff / peer * 100:+.3f} %) | '
                       f'{"yes" if abs(diff) <= k * us[j] else "no"} |')
-        for name, (v, u) in misalignment_deg(fit).items():
-            print(f'| {sensor} {name[:-4]} | | {v:.3f}° | {u:.3f}° | | (not published) | | |')
+        for j, (name, (v, u)) in enumerate(misalignment_deg(fit).items()):
+            theirs = float(peer_angles[sensor][j])
+            k = float(stats.t.ppf(0.975, min(float(fit.dof[j]), 1e6)))
+            print(f'| {sensor} {name[:-4]} | | {v:.4f}° | {u:.4f}° | {fit.dof[j]:.0f} | '
+                  f'{theirs:.4f}° (peer) | {v - theirs:+.4f}° | '
+                  f'{"yes" if abs(v - theirs) <= k * u else "no"} |')
     print()
     for line in r.conditioning:
         print(f'conditioning: {line}')
