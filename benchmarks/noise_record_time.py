@@ -17,8 +17,8 @@ time (user + sys through ``wait4``, less disturbed by other processes on the cor
 RSS, and after/before ratios of both. Floors, run in turn with them: ``python -c "import
 numpy"`` (the least any command pays) and the record's decode alone (the columnar reader
 over the IMU topic, no calibration). Where the time goes: one more run of this tree under
-cProfile (imports, decode, Allan sums and screen, term fit, rest; shares of the profiled
-run, which cProfile slows alike). The load average is printed.
+a stopwatch (imports, decode, Allan sums and screen, term fit, rest; each exclusive of
+the others). The load average is printed.
 """
 
 from __future__ import annotations
@@ -42,27 +42,69 @@ DECODE = ('import sys\n'
           '    n += batch.messages\n'
           'assert n > 0\n')
 
-PROFILE = ('import cProfile, pstats, sys\n'
-           'from gyro_calib.cli import main\n'
-           'prof = cProfile.Profile()\n'
-           'try:\n'
-           '    prof.runcall(main, ["noise", sys.argv[1], "--no-progress"])\n'
-           'except SystemExit:\n'
-           '    pass\n'
-           'stats = pstats.Stats(prof).stats\n'
-           'total = sum(v[2] for v in stats.values())\n'
-           'parts = {"imports": "_find_and_load", "decode": "iter_bags",\n'
-           '         "Allan sums and screen": "process", "term fit": "fit_noise_terms"}\n'
-           'files = {"imports": "<frozen", "decode": "bagio/reader.py",\n'
-           '         "Allan sums and screen": "noise/session.py",\n'
-           '         "term fit": "noise/fit.py"}\n'
-           'got = {}\n'
-           'for (file, _, name), v in stats.items():\n'
-           '    for part, fn in parts.items():\n'
-           '        if name == fn and files[part] in file:\n'
-           '            got[part] = got.get(part, 0.0) + v[3]\n'
-           'whole = max(v[3] for v in stats.values())\n'
-           'print(repr((whole, got)))\n')
+PROFILE = r"""
+import sys, time
+import importlib._bootstrap as boot
+spent, stack = {}, []  # exclusive wall time per part; the parts open now
+
+
+def enter(part):
+    stack.append([part, time.perf_counter(), 0.0])
+
+
+def leave():
+    part, t0, inner = stack.pop()
+    dt = time.perf_counter() - t0
+    spent[part] = spent.get(part, 0.0) + dt - inner
+    if stack:
+        stack[-1][2] += dt
+
+
+def timed(part, fn):
+    def wrapper(*args, **kwargs):
+        enter(part)
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            leave()
+    return wrapper
+
+
+def timed_iter(part, fn):
+    def wrapper(*args, **kwargs):
+        it = fn(*args, **kwargs)
+        while True:
+            enter(part)
+            try:
+                item = next(it)
+            except StopIteration:
+                return
+            finally:
+                leave()
+            yield item
+    return wrapper
+
+
+boot._find_and_load = timed('imports', boot._find_and_load)
+t_start = time.perf_counter()
+enter('rest')
+import gyro_calib.bag_calibration as bc
+import gyro_calib.noise.fit as fit
+import gyro_calib.noise.session as session
+from gyro_calib.cli import main
+bc.iter_bags = timed_iter('decode', bc.iter_bags)
+session.NoiseSession.feed = timed('Allan sums and screen', session.NoiseSession.feed)
+session.NoiseSession.process = timed('Allan sums and screen', session.NoiseSession.process)
+fit.fit_noise_terms = timed('term fit', fit.fit_noise_terms)
+import gyro_calib.noise.axis as axis
+axis.fit_noise_terms = fit.fit_noise_terms
+try:
+    main(['noise', sys.argv[1], '--no-progress'])
+except SystemExit:
+    pass
+leave()
+print(repr((time.perf_counter() - t_start, spent)))
+"""
 
 
 def child(args: list[str], tree: str) -> tuple[float, float, float, str]:
@@ -122,7 +164,8 @@ def main() -> None:
                 got.setdefault(label, []).append(child(command, tree))
             for label, cmd in floors.items():
                 got.setdefault(label, []).append(child(cmd, str(ROOT)))
-        whole, parts = eval(child([sys.executable, '-c', PROFILE, str(bag)], str(ROOT))[3])
+        profiled = child([sys.executable, "-c", PROFILE, str(bag)], str(ROOT))[3]
+        whole, parts = eval(profiled.strip().splitlines()[-1])
     load = ', '.join(f'{x:.1f}' for x in os.getloadavg())
     print(f'gyro-calib noise of {bag.name} ({args.samples} Imu messages, 6 axes, 400 Hz); '
           f'{args.runs} runs each, interleaved; load average {load}')
@@ -139,9 +182,9 @@ def main() -> None:
     best = min(r[0] for r in got['after'])
     print(f'  goal ≤ 2.0 s all in: {"met" if best <= 2.0 else "not met"} (min wall {best:.2f} s, '
           f'median {med["after"][0]:.2f} s)')
-    rest = whole - sum(parts.values())
-    print('  where the time goes (this tree under cProfile, {:.2f} s): '.format(whole) + ', '.join(
-        f'{k} {v:.2f} s ({100 * v / whole:.0f} %)' for k, v in [*parts.items(), ('rest', rest)]))
+    print(f'  where the time goes (this tree, one more run, wall {whole:.2f} s; exclusive, '
+          f'imports wherever they happen): ' + ', '.join(
+              f'{k} {v:.2f} s ({100 * v / whole:.0f} %)' for k, v in parts.items()))
 
 
 if __name__ == '__main__':
