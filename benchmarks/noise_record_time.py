@@ -177,7 +177,8 @@ def main() -> None:
            for k, v in got.items()}
     print(f'  after/before: wall {med["after"][0] / med["before"][0]:.2f}, CPU '
           f'{med["after"][1] / med["before"][1]:.2f} (medians)')
-    print(f'  after against the floors (CPU medians): {med["after"][1] / med[next(iter(floors))][1]:.1f}× '
+    numpy_floor = med[next(iter(floors))][1]
+    print(f'  after against the floors (CPU medians): {med["after"][1] / numpy_floor:.1f}× '
           f'import numpy, {med["after"][1] / med["decode alone"][1]:.1f}× the decode alone')
     best = min(r[0] for r in got['after'])
     print(f'  goal ≤ 2.0 s all in: {"met" if best <= 2.0 else "not met"} (min wall {best:.2f} s, '

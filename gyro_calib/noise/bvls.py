@@ -33,13 +33,13 @@ def _kkt_optimality(g: FloatArray, on_bound: FloatArray) -> float:
 
 
 def nonnegative_least_squares(a: FloatArray, b: FloatArray, tol: float = TOL) -> FloatArray:
-    """x ≥ 0 minimising ‖a·x − b‖ (``lsq_linear(a, b, (0, inf), method='bvls').x``)."""
+    """The x ≥ 0 minimising ‖a·x − b‖: ``lsq_linear(a, b, (0, inf), method='bvls').x``."""
     n = a.shape[1]
     lb = np.zeros(n)
     ub = np.full(n, np.inf)
-    x_lsq = np.linalg.lstsq(a, b, rcond=-1)[0]
+    x_lsq = np.asarray(np.linalg.lstsq(a, b, rcond=-1)[0], dtype=np.float64)
     if np.all((x_lsq >= lb) & (x_lsq <= ub)):
-        return np.asarray(x_lsq, dtype=np.float64)
+        return x_lsq
     return _bvls(a, b, x_lsq, lb, ub, tol)
 
 
