@@ -42,69 +42,11 @@ DECODE = ('import sys\n'
           '    n += batch.messages\n'
           'assert n > 0\n')
 
-PROFILE = r"""
-import sys, time
-import importlib._bootstrap as boot
-spent, stack = {}, []  # exclusive wall time per part; the parts open now
-
-
-def enter(part):
-    stack.append([part, time.perf_counter(), 0.0])
-
-
-def leave():
-    part, t0, inner = stack.pop()
-    dt = time.perf_counter() - t0
-    spent[part] = spent.get(part, 0.0) + dt - inner
-    if stack:
-        stack[-1][2] += dt
-
-
-def timed(part, fn):
-    def wrapper(*args, **kwargs):
-        enter(part)
-        try:
-            return fn(*args, **kwargs)
-        finally:
-            leave()
-    return wrapper
-
-
-def timed_iter(part, fn):
-    def wrapper(*args, **kwargs):
-        it = fn(*args, **kwargs)
-        while True:
-            enter(part)
-            try:
-                item = next(it)
-            except StopIteration:
-                return
-            finally:
-                leave()
-            yield item
-    return wrapper
-
-
-boot._find_and_load = timed('imports', boot._find_and_load)
-t_start = time.perf_counter()
-enter('rest')
-import gyro_calib.bag_calibration as bc
-import gyro_calib.noise.fit as fit
-import gyro_calib.noise.session as session
-from gyro_calib.cli import main
-bc.iter_bags = timed_iter('decode', bc.iter_bags)
-session.NoiseSession.feed = timed('Allan sums and screen', session.NoiseSession.feed)
-session.NoiseSession.process = timed('Allan sums and screen', session.NoiseSession.process)
-fit.fit_noise_terms = timed('term fit', fit.fit_noise_terms)
-import gyro_calib.noise.axis as axis
-axis.fit_noise_terms = fit.fit_noise_terms
-try:
-    main(['noise', sys.argv[1], '--no-progress'])
-except SystemExit:
-    pass
-leave()
-print(repr((time.perf_counter() - t_start, spent)))
-"""
+PARTS = ['decode=gyro_calib.bag_calibration:iter_bags:iter',
+         'Allan sums and screen=gyro_calib.noise.session:NoiseSession.feed',
+         'Allan sums and screen=gyro_calib.noise.session:NoiseSession.process',
+         'term fit=gyro_calib.noise.axis:fit_noise_terms']
+"""The stopwatch's parts (benchmarks/where_time_goes.py); imports and the rest besides."""
 
 
 def child(args: list[str], tree: str) -> tuple[float, float, float, str]:
@@ -164,7 +106,8 @@ def main() -> None:
                 got.setdefault(label, []).append(child(command, tree))
             for label, cmd in floors.items():
                 got.setdefault(label, []).append(child(cmd, str(ROOT)))
-        profiled = child([sys.executable, "-c", PROFILE, str(bag)], str(ROOT))[3]
+        profiled = child([sys.executable, str(ROOT / 'benchmarks' / 'where_time_goes.py'),
+                          *PARTS, '--', 'noise', str(bag), '--no-progress'], str(ROOT))[3]
         whole, parts = eval(profiled.strip().splitlines()[-1])
     load = ', '.join(f'{x:.1f}' for x in os.getloadavg())
     print(f'gyro-calib noise of {bag.name} ({args.samples} Imu messages, 6 axes, 400 Hz); '
