@@ -95,3 +95,16 @@ def test_a_long_record_in_order_is_held_without_a_copy_per_batch() -> None:
     assert len(t_held) == 50_000
     assert np.all(np.diff(t_held) == 1000)
     assert np.array_equal(v_held[:, 0], np.repeat(np.arange(150, 200), 1000).astype(float))
+
+
+def test_a_restart_clears_the_room_and_the_next_batches_follow_the_new_timeline() -> None:
+    buf = StampedBuffer(1, restart_backstep_ns=10**9)
+    t = 10**12 + 1000 * np.arange(5000, dtype=np.int64)
+    assert not buf.extend(t, np.arange(5000.0))
+    held_before, _ = buf.arrays()
+    assert buf.extend(t[:100] - 10**11, np.full(100, -1.0))  # 100 s back: a restart
+    assert buf.extend(t[100:200] - 10**11, np.full(100, -2.0)) is False
+    t_held, v_held = buf.arrays()
+    assert np.array_equal(t_held, t[:200] - 10**11)
+    assert np.array_equal(v_held[:, 0], np.repeat([-1.0, -2.0], 100))
+    assert np.array_equal(held_before, t)  # what was handed out before stays as it was
