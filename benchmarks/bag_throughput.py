@@ -7,9 +7,13 @@ Run (from the repository root, in the project's venv):
 
 (a) Offline. A rate-bias bench bag of ``--hours`` (paper bench, 1 kHz pulses, 200 Hz
     joint states; generated once into ``--cache``) is calibrated by the ``gyro-calib
-    calibrate`` console script in a child process. Figures: wall time, throughput =
-    bag duration / wall time (target ≥ 500×), peak RSS of the child (target < 500 MB),
-    K̃ pairs found.
+    calibrate`` console script in a child process, ``--runs`` times after a warm-up, in
+    turn with the same command on the ``--reference`` revision's tree and the floors
+    (``python -c "import numpy"``; the bag's decode alone by our columnar reader).
+    Figures: wall and CPU time (min, median), throughput = bag duration / wall time
+    (issue 40 goal ≥ 1500×), peak RSS of the child (goal < 200 MB), the ratios
+    after/before and to the floors, K̃ pairs found, and where the time goes (imports,
+    decode, the RBRLG calibration, the rest: ``benchmarks/where_time_goes.py``).
 
 (b) Reader floor. The same bag iterated by the MCAP readers we may use (rosbags'
     Reader, the mcap library's reader), undecoded and with rosbags' CDR deserialiser, in
@@ -30,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -64,36 +67,104 @@ def _bag(cache: Path, name: str, duration_s: float) -> Path:
     return path
 
 
-def offline(cache: Path, hours: float) -> None:
+DECODE = ('import sys\n'
+          'from gyro_calib.bagio.reader import iter_sample_batches\n'
+          'n = 0\n'
+          'for batch in iter_sample_batches(sys.argv[1]):\n'
+          '    n += batch.messages\n'
+          'assert n > 0\n')
+"""The floor: the bag's contract topics decoded by our columnar reader, nothing calibrated."""
+
+PARTS = ['decode=gyro_calib.bag_calibration:iter_bags:iter',
+         'RBRLG calibration=gyro_calib.rbrlg.session:RbrlgSession.feed',
+         'RBRLG calibration=gyro_calib.rbrlg.session:RbrlgSession.process',
+         'RBRLG calibration=gyro_calib.rbrlg.session:RbrlgSession.results']
+"""The stopwatch's parts (benchmarks/where_time_goes.py); imports and the rest besides."""
+
+
+def _child(args: list[str], tree: str) -> tuple[int, float, float, float, str]:
+    """Run ``args`` with ``tree`` first on the path: (exit, wall s, CPU s, peak RSS MB, out).
+
+    wait4 gives this child's own rusage; RUSAGE_CHILDREN would also count the bag
+    generator child (≈ 630 MB for the 1-hour bag).
+    """
+    env = dict(os.environ, PYTHONPATH=tree, OPENBLAS_NUM_THREADS='1')
+    env.pop('PYTHONDONTWRITEBYTECODE', None)  # an installed package has its .pyc
+    with tempfile.TemporaryFile('w+') as out:
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(args, stdout=out, stderr=subprocess.STDOUT, text=True, env=env,
+                                cwd=tempfile.gettempdir())
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t0
+        out.seek(0)
+        text = out.read()
+    return (os.waitstatus_to_exitcode(status), wall, usage.ru_utime + usage.ru_stime,
+            usage.ru_maxrss / 1024, text)
+
+
+def offline(cache: Path, hours: float, runs: int = 3, reference: str = '') -> None:
+    """``gyro-calib calibrate`` of the bag, ``runs`` times, in turn with reference and floors."""
+    import statistics
+
     from gyro_calib.bagio import bag_info
 
     bag = _bag(cache, f'k_tilde_{hours:g}h', hours * 3600.0)
     info = bag_info(bag)
     size = sum(f.stat().st_size for f in bag.iterdir()) / 1e6
-    exe = Path(sys.executable).with_name('gyro-calib')
-    parent_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    with tempfile.TemporaryFile('w+') as out, tempfile.TemporaryFile('w+') as err:
-        t0 = time.perf_counter()
-        proc = subprocess.Popen([str(exe), 'calibrate', str(bag), '--no-progress'],
-                                stdout=out, stderr=err, text=True)
-        # wait4 gives this child's own rusage; RUSAGE_CHILDREN would also count the bag
-        # generator child above (≈ 630 MB for the 1-hour bag).
-        _, status, usage = os.wait4(proc.pid, 0)
-        wall = time.perf_counter() - t0
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        out.seek(0)
-        err.seek(0)
-        stdout, stderr = out.read(), err.read()
-    peak_mb = usage.ru_maxrss / 1024
-    pairs = [ln for ln in stdout.splitlines() if 'pairs' in ln]
+    exe = str(Path(sys.executable).with_name('gyro-calib'))
+    root = str(Path(__file__).resolve().parent.parent)
+    command = [exe, 'calibrate', str(bag), '--no-progress']
+    commands = {'after (this tree)': (command, root)}
+    floors = {'floor: python -c "import numpy"': [sys.executable, '-c', 'import numpy'],
+              'floor: decode alone (columnar reader, contract topics)':
+                  [sys.executable, '-c', DECODE, str(bag)]}
+    with tempfile.TemporaryDirectory() as ref:
+        if reference:
+            archive = subprocess.run(['git', 'archive', reference, 'gyro_calib'], cwd=root,
+                                     check=True, capture_output=True).stdout
+            subprocess.run(['tar', '-x', '-C', ref], input=archive, check=True)
+            commands = {f'before ({reference})': (command, ref), **commands}
+        commands.update({k: (v, root) for k, v in floors.items()})
+        for args, tree in commands.values():  # warm-up: .pyc written, the bag in the cache
+            if args is command:
+                _child(args, tree)
+        got: dict[str, list[tuple[int, float, float, float, str]]] = {}
+        for _ in range(runs):
+            for label, (args, tree) in commands.items():
+                got.setdefault(label, []).append(_child(args, tree))
+        stopwatch = _child([sys.executable, str(Path(__file__).with_name('where_time_goes.py')),
+                            *PARTS, '--', 'calibrate', str(bag), '--no-progress'], root)
+    load = ', '.join(f'{x:.1f}' for x in os.getloadavg())
     print(f'(a) offline: bag {info.duration_s:.0f} s, {info.message_count} messages, '
-          f'{size:.1f} MB')
-    print(f'    gyro-calib calibrate: exit {proc.returncode}, wall {wall:.1f} s, '
-          f'throughput {info.duration_s / wall:.1f}× real time '
-          f'({info.message_count / wall / 1e3:.1f} k msg/s), peak RSS {peak_mb:.0f} MB '
-          f'(the child\'s own ru_maxrss; may include up to {parent_mb:.0f} MB inherited at '
-          f'fork)')
-    print(f'    {pairs[0] if pairs else stderr.strip()[-300:]}')
+          f'{size:.1f} MB; {runs} runs each, in turn; load average {load}')
+    med: dict[str, tuple[float, float]] = {}
+    for label, rs in got.items():
+        if any(r[0] != 0 for r in rs):
+            raise SystemExit(f'{label} failed: {rs[0][4].strip()[-300:]}')
+        walls, cpus = [r[1] for r in rs], [r[2] for r in rs]
+        med[label] = (statistics.median(walls), statistics.median(cpus))
+        print(f'    {label}: wall min {min(walls):.2f} s, median {med[label][0]:.2f} s → '
+              f'{info.duration_s / min(walls):.0f}× / {info.duration_s / med[label][0]:.0f}× '
+              f'real time; CPU min {min(cpus):.2f} s, median {med[label][1]:.2f} s → '
+              f'{info.duration_s / med[label][1]:.0f}× on CPU time; peak RSS '
+              f'{max(r[3] for r in rs):.0f} MB')
+    after = med['after (this tree)']
+    if reference:
+        before = med[f'before ({reference})']
+        print(f'    after/before (medians): wall {after[0] / before[0]:.2f}, CPU '
+              f'{after[1] / before[1]:.2f}')
+    for label in floors:
+        print(f'    after / {label.split(": ", 1)[1]} (CPU medians): '
+              f'{after[1] / med[label][1]:.2f}')
+    best = min(r[1] for r in got['after (this tree)'])
+    print(f'    goal ≥ 1500× real time, < 200 MB: {info.duration_s / best:.0f}× at the fastest '
+          f'run, {max(r[3] for r in got["after (this tree)"]):.0f} MB')
+    pairs = [ln for ln in got['after (this tree)'][0][4].splitlines() if 'pairs' in ln]
+    print(f'    {pairs[0].strip() if pairs else "no K̃ pairs line"}')
+    whole, parts = eval(stopwatch[4].strip().splitlines()[-1])
+    print(f'    where the time goes (one more run, wall {whole:.2f} s; exclusive, imports '
+          f'wherever they happen): ' + ', '.join(
+              f'{k} {v:.2f} s ({100 * v / whole:.0f} %)' for k, v in parts.items()))
 
 
 def reader_floor(cache: Path, hours: float) -> None:
@@ -195,10 +266,13 @@ def main() -> None:
     parser.add_argument('--skip-replay', action='store_true')
     parser.add_argument('--skip-offline', action='store_true')
     parser.add_argument('--skip-floor', action='store_true')
+    parser.add_argument('--runs', type=int, default=3, help='(a): runs of each command')
+    parser.add_argument('--reference', default='d233d2c',
+                        help="(a): git revision whose gyro_calib is run in turn ('' for none)")
     args = parser.parse_args()
     args.cache.mkdir(parents=True, exist_ok=True)
     if not args.skip_offline:
-        offline(args.cache, args.hours)
+        offline(args.cache, args.hours, args.runs, args.reference)
     if not args.skip_floor:
         reader_floor(args.cache, args.hours)
     if not args.skip_replay:

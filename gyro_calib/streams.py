@@ -69,6 +69,11 @@ class StampedBuffer:
     _pending_v: list[tuple[float, ...]] = field(default_factory=list)
     _newest_ns: int | None = None
     _floor_ns: int | None = None
+    _store_t: npt.NDArray[np.int64] | None = None
+    _store_v: npt.NDArray[np.float64] | None = None
+    _store_end: int = 0
+    """Room behind the samples held: ``_t``/``_v`` end at row ``_store_end`` of these, and a
+    batch in stamp order is written after it (no copy of what is held per batch)."""
 
     def __post_init__(self) -> None:
         """Allocate the empty value array."""
@@ -115,9 +120,11 @@ class StampedBuffer:
             self.stats.restarts += len(starts)
             t, v = t[starts[-1]:], v[starts[-1]:]
         finite = np.all(np.isfinite(v), axis=1)
-        self.stats.non_finite += int(np.count_nonzero(~finite))
-        t, v = t[finite], v[finite]
-        if self._floor_ns is not None:
+        n_bad = len(t) - int(np.count_nonzero(finite))
+        if n_bad:  # (the usual case, all finite, copies nothing)
+            self.stats.non_finite += n_bad
+            t, v = t[finite], v[finite]
+        if self._floor_ns is not None and len(t) and int(t.min()) < self._floor_ns:
             late = t < self._floor_ns
             self.stats.late += int(np.count_nonzero(late))
             t, v = t[~late], v[~late]
@@ -125,13 +132,37 @@ class StampedBuffer:
             self._consolidate()
             in_order = bool(np.all(t[1:] > t[:-1])) and (len(self._t) == 0
                                                         or int(t[0]) > int(self._t[-1]))
-            self._t = np.concatenate((self._t, t))
-            self._v = np.concatenate((self._v, v))
+            self._append(t, v)
             newest = int(t.max())
             self._newest_ns = newest if self._newest_ns is None else max(self._newest_ns, newest)
             if not in_order:  # the common case (strictly after what is held) needs no sort
                 self._sort_and_dedupe()
         return restarted
+
+    def _append(self, t: npt.NDArray[np.int64], v: npt.NDArray[np.float64]) -> None:
+        """Hold ``t``/``v`` after ``_t``/``_v``.
+
+        Written into the room behind them when they end where it does, else both copied
+        into new room of twice their length.
+        """
+        held, k = len(self._t), len(t)
+        st, sv, end = self._store_t, self._store_v, self._store_end
+        if st is not None and sv is not None and end + k <= len(st) and end >= held:
+            start = end - held
+            views = self._t.base is st and self._v.base is sv  # (a bool: no narrowing)
+            if (views and self._t.ctypes.data == st.ctypes.data + start * st.strides[0]
+                    and self._v.ctypes.data == sv.ctypes.data + start * sv.strides[0]):
+                st[end:end + k] = t
+                sv[end:end + k] = v
+                self._t, self._v, self._store_end = st[start:end + k], sv[start:end + k], end + k
+                return
+        room = max(2 * (held + k), 1024)
+        st = np.empty(room, dtype=np.int64)
+        sv = np.empty((room, self.n_values))
+        st[:held], st[held:held + k] = self._t, t
+        sv[:held], sv[held:held + k] = self._v, v
+        self._store_t, self._store_v, self._store_end = st, sv, held + k
+        self._t, self._v = st[:held + k], sv[:held + k]
 
     def clear(self) -> None:
         """Forget every sample and the stamp history (after a restart of the source)."""
@@ -141,6 +172,8 @@ class StampedBuffer:
         self._pending_v.clear()
         self._newest_ns = None
         self._floor_ns = None
+        self._store_t = self._store_v = None
+        self._store_end = 0
 
     def _consolidate(self) -> None:
         if not self._pending_t:

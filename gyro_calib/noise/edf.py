@@ -32,6 +32,7 @@ reported.
 
 from __future__ import annotations
 
+import math
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
@@ -109,16 +110,147 @@ def adev_std(adev: npt.ArrayLike, edf: npt.ArrayLike) -> FloatArray:
     return np.asarray(adev, dtype=np.float64) / np.sqrt(2.0 * np.asarray(edf, dtype=np.float64))
 
 
+_J_MAX = 100
+"""Greenhall's cap on the terms of the basic sum (J_max of [Greenhall & Riley 2004] §4)."""
+
+_TABLE1 = {  # (α, d) -> (a0, a1), modified variances (F = 1), r > d + 1
+    (2, 2): (7.0 / 9.0, 1.0 / 2.0), (2, 3): (22.0 / 25.0, 2.0 / 3.0),
+    (1, 2): (0.997, 0.616), (1, 3): (1.141, 0.843),
+    (0, 2): (1.033, 0.607), (0, 3): (1.184, 0.848),
+    (-1, 2): (1.048, 0.534), (-1, 3): (1.180, 0.816),
+    (-2, 2): (1.302, 0.535), (-2, 3): (1.175, 0.777),
+}
+"""Greenhall & Riley 2004 Table 1 (d = 2, 3)."""
+
+_TABLE2 = {  # (α, d) -> (a0, a1), unmodified variances (F = m), r > d + 1
+    (2, 2): (35.0 / 18.0, 1.0), (2, 3): (231.0 / 100.0, 3.0 / 2.0),
+    (1, 2): (790.0, 410.0), (1, 3): (9950.0, 6520.0),
+    (0, 2): (2.0 / 3.0, 1.0 / 3.0), (0, 3): (7.0 / 9.0, 1.0 / 2.0),
+    (-1, 2): (0.852, 0.375), (-1, 3): (0.997, 0.617),
+    (-2, 2): (1.079, 0.368), (-2, 3): (1.033, 0.607),
+}
+"""Greenhall & Riley 2004 Table 2 (d = 2, 3)."""
+
+_TABLE3 = {2: (15.23, 12.0), 3: (47.8, 40.0)}
+"""Greenhall & Riley 2004 Table 3 (α = 1, unmodified): d -> (b0, b1)."""
+
+_DIFFERENCE = {2: (6.0, (4.0, 1.0)), 3: (20.0, (15.0, 6.0, 1.0))}
+"""The d-th difference's weights (eq. 9): the centre, then the pair at lags ±1, ±2, (±3)."""
+
+
+def _sw(t: float, alpha: int) -> float:
+    """Greenhall's generalised autocovariance sw(t) (eq. 7)."""
+    if alpha == 2:
+        return -abs(t)
+    if alpha in (1, -1):
+        return 0.0 if t == 0 else pow(t, 3 - alpha) * float(np.log(abs(t)))
+    return abs(pow(t, 3 - alpha))  # α = 0: |t|³; α = −2: |t|⁵
+
+
+def _sx(t: float, f: float, alpha: int) -> float:
+    """sx(t) = F²·(2sw(t) − sw(t − 1/F) − sw(t + 1/F)); sw of α + 2 for F = ∞ (eq. 8)."""
+    if f == float('inf'):
+        return _sw(t, alpha + 2)
+    a = 2 * _sw(t, alpha)
+    b = _sw(t - 1.0 / float(f), alpha)
+    c = _sw(t + 1.0 / float(f), alpha)
+    return float(pow(f, 2) * (a - b - c))
+
+
+def _sz(t: float, f: float, alpha: int, d: int) -> float:
+    """sz(t): the d-th difference of sx at unit lags (eq. 9), centre, then lags −k, +k."""
+    centre, pairs = _DIFFERENCE[d]
+    out = centre * _sx(t, f, alpha)
+    for k, w in enumerate(pairs, start=1):
+        lo, hi = w * _sx(t - float(k), f, alpha), w * _sx(t + float(k), f, alpha)
+        out = out - lo - hi if k % 2 else out + lo + hi
+    return out
+
+
+def _basic_sum(j_terms: float, m_terms: float, s: float, f: float, alpha: int, d: int) -> float:
+    """Greenhall's basic sum (eq. 10)."""
+    first = pow(_sz(0, f, alpha, d), 2)
+    second = (1 - float(j_terms) / float(m_terms)) * pow(
+        _sz(float(j_terms) / float(s), f, alpha, d), 2)
+    third = 0.0
+    for j in range(1, int(j_terms)):
+        third += 2 * (1.0 - float(j) / float(m_terms)) * pow(
+            _sz(float(j) / float(s), f, alpha, d), 2)
+    return first + second + third
+
+
+def _greenhall_edf(alpha: int, d: int, m: int, n_points: int, modified: bool) -> float:
+    """Greenhall's EDF of an overlapping estimator (Greenhall & Riley 2004 §4, eqs. 7–13).
+
+    The arithmetic in ``allantools.edf_greenhall``'s order (so the same float, tested on a
+    grid in test/test_noise_edf.py), without its import (scipy.stats and scipy.signal, most
+    of ``gyro-calib noise``'s start-up). Raises NotImplementedError for white PM with
+    ⌈r⌉ ≤ d, as it does.
+    """
+    f = 1 if modified else m  # filter factor: 1 modified variance, m unmodified
+    s = m  # stride factor: m for the overlapping estimator
+    if not alpha + 2 * d > 1.0:
+        raise AssertionError('Greenhall needs α + 2d > 1')
+    length = m / f + m * d  # length of the filter applied to the phase
+    m_terms = 1 + math.floor(s * (n_points - length) / m)
+    j_terms = min(m_terms, (d + 1) * s)
+    r = m_terms / s
+    if f == 1 and modified:  # case 1: modified variances, every α
+        if j_terms <= _J_MAX:
+            inv = (1.0 / (pow(_sz(0, 1, alpha, d), 2) * m_terms)) * _basic_sum(
+                j_terms, m_terms, s, 1, alpha, d)
+        elif r > d + 1:
+            a0, a1 = _TABLE1[(alpha, d)]
+            inv = (1.0 / r) * (a0 - a1 / r)
+        else:
+            m_prime = _J_MAX / r
+            inv = (1.0 / (pow(_sz(0, f, alpha, d), 2) * _J_MAX)) * _basic_sum(
+                _J_MAX, _J_MAX, m_prime, 1, alpha, d)
+        return 1.0 / inv
+    if alpha <= 0:  # case 2: unmodified variances, α ≤ 0
+        if j_terms <= _J_MAX:
+            f_prime = m if m * (d + 1) <= _J_MAX else float('inf')
+            inv = (1.0 / (pow(_sz(0, f_prime, alpha, d), 2) * m_terms)) * _basic_sum(
+                j_terms, m_terms, s, f_prime, alpha, d)
+        elif r > d + 1:
+            a0, a1 = _TABLE2[(alpha, d)]
+            inv = (1.0 / r) * (a0 - a1 / r)
+        else:
+            m_prime = _J_MAX / r
+            inv = (1.0 / (pow(_sz(0, float('inf'), alpha, d), 2) * _J_MAX)) * _basic_sum(
+                _J_MAX, _J_MAX, m_prime, float('inf'), alpha, d)
+        return 1.0 / inv
+    if alpha == 1:  # case 3: unmodified variances, flicker PM
+        if j_terms <= _J_MAX:
+            inv = (1.0 / (pow(_sz(0, m, 1, d), 2) * m_terms)) * _basic_sum(
+                j_terms, m_terms, s, m, 1, d)
+        else:
+            b0, b1 = _TABLE3[d]
+            scale = pow(b0 + b1 * float(np.log(m)), 2)
+            if r > d + 1:
+                a0, a1 = _TABLE2[(alpha, d)]
+                inv = (1.0 / (scale * r)) * (a0 - a1 / r)
+            else:
+                m_prime = _J_MAX / r
+                inv = (1.0 / (scale * _J_MAX)) * _basic_sum(_J_MAX, _J_MAX, m_prime, m_prime,
+                                                            1, d)
+        return 1.0 / inv
+    # case 4: unmodified variances, white PM
+    if math.ceil(r) <= d:
+        raise NotImplementedError('Greenhall white PM with r <= d')
+    a0 = math.comb(4 * d, 2 * d) / pow(float(math.comb(2 * d, d)), 2)
+    a1 = d / 2.0
+    return 1.0 / ((1.0 / m_terms) * (a0 - a1 / r))
+
+
 @lru_cache(maxsize=65536)
 def _greenhall(alpha: int, d: int, m: int, n_points: int, modified: bool) -> float:
-    import allantools
-
     try:
-        value = float(allantools.edf_greenhall(alpha=alpha, d=d, m=m, N=n_points,
-                                               overlapping=True, modified=modified))
+        value = _greenhall_edf(alpha, d, m, n_points, modified)
     except NotImplementedError:
-        # allantools 2024.6 lacks Greenhall's white-PM case for r ≤ d (a handful of terms):
-        # the SP 1065 Table 5 formula there for the Allan variance, the floor otherwise
+        # Greenhall's white-PM case for r ≤ d (a handful of terms) is not in allantools
+        # 2024.6 either: the SP 1065 Table 5 formula there for the Allan variance, the
+        # floor otherwise
         if d == 2 and not modified:
             return float(edf_oadev(n_points, m, alpha))
         return MIN_EDF
