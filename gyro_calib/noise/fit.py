@@ -6,7 +6,7 @@ Model (IEEE Std 952-1997 Annex C, linear in θ = (Q², N², B², K², R²))::
 
 Estimator:
 
-1. Weighted least squares with θ ≥ 0 (BVLS, :mod:`gyro_calib.noise.bvls`), weights
+1. Weighted least squares with θ ≥ 0 (``scipy.optimize.lsq_linear``, bounded), weights
    1/Var(AVAR̂_k) with Var = 2·noise_k²/EDF_k (+ a ramp–noise cross term) from the model's
    random part (Q, N, B, K) — the model, not the noisy estimate, so the weights do not
    bias the fit low; the deterministic ramp adds almost no variance (the noise mean
@@ -49,7 +49,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gyro_calib.estimate import Estimate
-from gyro_calib.noise.bvls import nonnegative_least_squares
 from gyro_calib.noise.covariance import allan_correlation
 from gyro_calib.noise.edf import alpha_from_slope
 from gyro_calib.noise.terms import AVAR_EXPONENT, SYMBOLS, avar_basis
@@ -166,6 +165,8 @@ def _solve(curve: AllanCurve, used: npt.NDArray[np.bool_], active: list[int],
     (present by construction, §E.3: Q of a pulse count): then the others keep the
     uncertainty of the model that has it.
     """
+    from scipy.optimize import lsq_linear  # imported on use: keeps the core import fast
+
     tau = curve.tau_s[used]
     y = curve.avar[used]
     basis = avar_basis(tau)
@@ -180,7 +181,8 @@ def _solve(curve: AllanCurve, used: npt.NDArray[np.bool_], active: list[int],
         yw = y / sd
         col = np.linalg.norm(aw, axis=0)
         col = np.where(col > 0, col, 1.0)
-        new = nonnegative_least_squares(aw / col, yw) / col
+        res = lsq_linear(aw / col, yw, bounds=(0.0, np.inf), method='bvls')
+        new = res.x / col
         converged = np.all(np.abs(new - theta_a) <= 1e-9 * np.maximum(np.abs(new), 1e-300))
         theta_a = new
         full = np.zeros(5)
