@@ -49,17 +49,28 @@ class CountWalk:
     dof: tuple[int, int, int] = (0, 0, 0)
 
 
-def with_count_walk(pair: TriadPair, density_pulses2_per_s: Array) -> TriadPair:
+def with_count_walk(pair: TriadPair, density_pulses2_per_s: Array,
+                    model_density_pulses2_per_s: Array | None = None) -> TriadPair:
     """``pair`` with each channel's count random walk a_i added (eq. (6b)).
 
-    u²(ΔN_i) += a_i·walk_weight_s, u²(Σ_i) += a_i/(T⁺ + T⁻).
+    u²(ΔN_i) += a_i·walk_weight_s, u²(Σ_i) += a_i/(T⁺ + T⁻): to the weights' with
+    ``density_pulses2_per_s``, to the model's with ``model_density_pulses2_per_s`` (default
+    the same).
     """
     a = np.where(np.isfinite(density_pulses2_per_s), density_pulses2_per_s, 0.0)
+    am = a if model_density_pulses2_per_s is None else np.where(
+        np.isfinite(model_density_pulses2_per_s), model_density_pulses2_per_s, 0.0)
     diff_std = np.sqrt(pair.count_difference_std ** 2 + a * pair.walk_weight_s)
     sum_std = pair.sum_rate_std
     if sum_std is not None and pair.duration_s > 0:
         sum_std = np.sqrt(sum_std ** 2 + a / pair.duration_s)
-    return dataclasses.replace(pair, count_difference_std=diff_std, sum_rate_std=sum_std)
+    model_diff, model_sum = pair.model_difference_std, pair.model_sum_rate_std
+    if model_diff is not None:
+        model_diff = np.sqrt(model_diff ** 2 + am * pair.walk_weight_s)
+    if model_sum is not None and pair.duration_s > 0:
+        model_sum = np.sqrt(model_sum ** 2 + am / pair.duration_s)
+    return dataclasses.replace(pair, count_difference_std=diff_std, sum_rate_std=sum_std,
+                               model_difference_std=model_diff, model_sum_rate_std=model_sum)
 
 
 def stated_walk(arw_rad_sqrt_s: Array, scale_factor_rad_per_pulse: Array) -> CountWalk:

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gyro_calib.estimate import Rejection
-from gyro_calib.triad.quantisation import end_floor
+from gyro_calib.triad.quantisation import end_floor, window_quantisation_std
 from gyro_calib.units import format_stamp
 from gyro_calib.windows import RevolutionWindow, WholeRevolutionWindows, resolve_index_event
 
@@ -45,7 +45,10 @@ class TriadWindow:
         angle_rad: |swept angle|, rad; angle_std_rad its uncertainty.
         duration_s: end − start, s.
         counts: N per channel (3,), pulses (0 where rejected for the channel).
-        counts_std: u(N) per channel (3,), pulses.
+        counts_std: u(N) per channel (3,), pulses: the end fits' residuals floored by the
+            quantisation bound, the weights of the solve (the estimates rest on them).
+        counts_model_std: u(N) per channel (3,), pulses, from the rounding at the two end fits
+            (eq. (6a)): what the covariance rests on; None: as ``counts_std``.
         rejected: per channel, why this window is not used for it ('' = used).
         station_rad: outer windows: the rate-table encoder angle ψ held, rad; else NaN.
         other_table_rad: inner windows: the position-table angle χ (Earth rate), rad; or NaN.
@@ -63,6 +66,7 @@ class TriadWindow:
     rejected: tuple[str, str, str]
     station_rad: float = math.nan
     other_table_rad: float = math.nan
+    counts_model_std: Array | None = None
 
 
 def _window_config(settings: TriadSettings, revolutions: int) -> TriadSettings:
@@ -127,15 +131,16 @@ def combine_windows(settings: TriadSettings, channels: tuple[str, str, str],
 
     ``other`` is the other table's joint_states: for an outer window the rate table must be
     held (its angle is the station ψ); for an inner window the position table's angle χ
-    places oZ for the Earth rate. Each window's count uncertainty is at least the
-    quantisation floor of its two ends (:func:`quantisation_floor`).
+    places oZ for the Earth rate. Each window's count uncertainty (the weights) is at least the
+    quantisation floor of its two ends (:func:`quantisation_floor`); its model uncertainty
+    is the rounding at the two end fits (:func:`window_quantisation_std`, eq. (6a)).
     """
     out: list[TriadWindow] = []
     rejections: list[Rejection] = []
     o_t, o_v = other
     for start, per in windows:
         ref = next(w for w in per if w is not None)
-        counts, stds = np.zeros(3), np.ones(3)
+        counts, stds, model = np.zeros(3), np.ones(3), np.ones(3)
         why = ['', '', '']
         for c, w in enumerate(per):
             if w is None:
@@ -152,8 +157,12 @@ def combine_windows(settings: TriadSettings, channels: tuple[str, str, str],
                 continue
             counts[c] = w.pulses
             floor = MIN_COUNT_STD_PULSES
+            model[c] = max(w.pulses_std, floor)
             if pulses is not None:
                 floor = max(floor, end_floor(settings, pulses, c, w.start_ns, w.end_ns))
+                rounding = window_quantisation_std(settings, pulses, c, w.start_ns, w.end_ns)
+                if math.isfinite(rounding):
+                    model[c] = max(rounding, MIN_COUNT_STD_PULSES)
             stds[c] = max(w.pulses_std, floor)
         other_angle, other_rate = _median_in(o_t, o_v, ref.start_ns, ref.end_ns)
         station = held = math.nan
@@ -176,5 +185,6 @@ def combine_windows(settings: TriadSettings, channels: tuple[str, str, str],
             held = other_angle
         out.append(TriadWindow(axis, ref.start_ns, ref.end_ns, ref.direction,
                                ref.swept_angle_rad, ref.angle_std_rad, ref.duration_s, counts,
-                               stds, (why[0], why[1], why[2]), station, held))
+                               stds, (why[0], why[1], why[2]), station, held,
+                               model if pulses is not None else None))
     return out, rejections

@@ -164,6 +164,7 @@ class _Solver:
                  solved: list[int], fit_idx: list[int], problems: list[str],
                  rejected: list[list[Rejection]], prediction_complete: bool) -> None:
         self.pairs, self.channels, self.parameters = pairs, channels, parameters
+        self.modelled = [p.as_modelled() for p in pairs]
         self.solved, self.fit_idx, self.problems = solved, fit_idx, problems
         self.rejected, self.complete = rejected, prediction_complete
         self.col = {c: 3 * j for j, c in enumerate(solved)}
@@ -212,9 +213,14 @@ class _Solver:
             res.append(np.array([-delta[j] / self.parameters[i].std_rad]))
         return np.vstack(rows), np.concatenate(res), whiten
 
-    def _pair_cov(self, k: int, cs: list[int], parts: str = 'all') -> Array:
-        """Covariance of one pair's ΔN over channels ``cs``: counts + common swept angle."""
-        p = self.pairs[k]
+    def _pair_cov(self, k: int, cs: list[int], parts: str = 'all',
+                  modelled: bool = False) -> Array:
+        """Covariance of one pair's ΔN over channels ``cs``: counts + common swept angle.
+
+        ``modelled``: the counts' uncertainty from the error model (eq. (6a)), else the
+        weights' (:attr:`TriadPair.model_difference_std`).
+        """
+        p = self.modelled[k] if modelled else self.pairs[k]
         g = np.array([p.count_difference[c] for c in cs]) / p.swept_angle_rad
         counts = np.diag([p.count_difference_std[c] ** 2 for c in cs])
         angle = np.outer(g, g) * p.swept_angle_std_rad**2
@@ -237,7 +243,8 @@ class _Solver:
         dof = n_obs - 3 * len(self.solved)
         cov_pred = np.linalg.inv(jac.T @ jac)
         gain = cov_pred @ jac.T  # whitened observations → unknowns
-        birge2 = float(res @ res) / dof if dof > 0 else math.nan
+        birge2 = float(res @ res) / self._expected_chi2(jac, gain, whiten) if dof > 0 \
+            else math.nan
         scale, basis = 1.0, f'predicted from the counts and angles of {len(self.groups)} pairs'
         if dof > 0:
             from scipy.stats import chi2
@@ -257,13 +264,31 @@ class _Solver:
         cov = sum(sources.values(), np.zeros((self.n_unknown, self.n_unknown)))
         return self._report(x, cov, sources, dof, birge2, basis)
 
+    def _expected_chi2(self, jac: Array, gain: Array, whiten: list[Array]) -> float:
+        """E[χ²] of the weighted residuals under the modelled covariance (sandwich).
+
+        The residuals are (I − P)·ỹ, P = J·G in the whitened rows; with the model's covariance
+        S of ỹ, E[χ²] = trace((I − P)·S·(I − P)ᵀ): the dof when the weights are the model.
+        """
+        n_obs = sum(len(cs) for _, cs in self.groups)
+        blocks = [li @ self._pair_cov(k, cs, modelled=True) @ li.T
+                  for (k, cs), li in zip(self.groups, whiten, strict=True)]
+        s = np.eye(jac.shape[0])
+        s[:n_obs, :n_obs] = _block_diag(blocks, n_obs)
+        resid = np.eye(jac.shape[0]) - jac @ gain
+        return float(np.trace(resid @ s @ resid.T))
+
     def _source_covariances(self, x: Array, gain: Array, whiten: list[Array],
                             scale: float) -> dict[str, Array]:
-        """Covariance of the unknowns split by source (eq. 12)."""
+        """Covariance of the unknowns split by source (eq. 12).
+
+        G·S·Gᵀ with the whitened gain G of the weights and the modelled covariance S of each
+        source (a sandwich: the weights need not be the model, the covariance is).
+        """
         n_obs_rows = sum(len(cs) for _, cs in self.groups)
         out: dict[str, Array] = {}
         for part in (COUNTS, SWEPT_ANGLE):
-            blocks = [li @ self._pair_cov(k, cs, part) @ li.T
+            blocks = [li @ self._pair_cov(k, cs, part, modelled=True) @ li.T
                       for (k, cs), li in zip(self.groups, whiten, strict=True)]
             s = _block_diag(blocks, n_obs_rows)
             g = gain[:, :n_obs_rows]
@@ -346,7 +371,7 @@ class _Solver:
             m_est = tuple(tuple(Estimate(float(mmat[i, j]), float(m_std[i, j]), n_all, dof, (),
                                          basis) for j in range(3)) for i in range(3))
         budget = tuple(BudgetLine(s, budget_k[s], budget_s[s], budget_m[s]) for s in sources)
-        chans, bias_body, bias_missing = biases(self.pairs, chans, self.col, x, m_est,
+        chans, bias_body, bias_missing = biases(self.modelled, chans, self.col, x, m_est,
                                                  k_values)
         return TriadResult(tuple(chans), m_est, m_cov, bias_body, params, budget,
                            math.sqrt(birge2) if dof > 0 else math.nan, basis, not_measurable,

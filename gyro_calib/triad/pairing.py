@@ -124,6 +124,9 @@ def _pair(bench: Bench, a: TriadWindow, b: TriadWindow,
                                      bench.latitude_deg)
         label = 'inner axis'
     std = np.sqrt(0.5 * (fwd.counts_std ** 2 + rev.counts_std ** 2))
+    model = None
+    if fwd.counts_model_std is not None and rev.counts_model_std is not None:
+        model = np.sqrt(0.5 * (fwd.counts_model_std ** 2 + rev.counts_model_std ** 2))
     angle_std = math.sqrt(0.5 * (fwd.angle_std_rad ** 2 + rev.angle_std_rad ** 2))
     rejected = tuple(f or r for f, r in zip(fwd.rejected, rev.rejected, strict=True))
     pair = pair_from_windows(
@@ -132,5 +135,5 @@ def _pair(bench: Bench, a: TriadWindow, b: TriadWindow,
         forward_s=fwd.duration_s, reverse_s=rev.duration_s, angle_std_rad=angle_std,
         earth_rate_along_u_rad_s=omega, direction_sensitivity=sens,
         stamp_ns=min(a.start_ns, b.start_ns),
-        rejected=(rejected[0], rejected[1], rejected[2]))
+        rejected=(rejected[0], rejected[1], rejected[2]), model_counts_std=model)
     return pair, label

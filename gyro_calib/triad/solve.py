@@ -47,9 +47,11 @@ def solve_pairs(pairs: list[tuple[TriadPair, str]], channels: tuple[str, str, st
     use = [pr if outer else dataclasses.replace(pr, direction_sensitivity=None)
            for pr, _ in pairs]
 
-    def solve(walk: CountWalk | None) -> TriadResult:
-        given = use if walk is None else [with_count_walk(p, walk.density_pulses2_per_s)
-                                          for p in use]
+    def solve(walk: CountWalk | None, model: CountWalk | None = None) -> TriadResult:
+        given = use if walk is None else [
+            with_count_walk(p, walk.density_pulses2_per_s,
+                            None if model is None else model.density_pulses2_per_s)
+            for p in use]
         return triad_calibration(given, channels=channels, parameters=params,
                                  prediction_complete=True)
 
@@ -75,4 +77,8 @@ def solve_pairs(pairs: list[tuple[TriadPair, str]], channels: tuple[str, str, st
         walk = again
         if settled:
             break
-    return solve(walk), '', walk
+    # The weights' walk above keeps the estimates; the covariance's walk is measured from the
+    # same residuals against the count error model (eq. (6a)), the prediction it completes.
+    result = solve(walk)
+    model = measured_walk([p.as_modelled() for p in use], result, fitted)
+    return solve(walk, model), '', model
