@@ -95,6 +95,7 @@ def triad_calibration(
     parameters: Sequence[BenchParameter] = (),
     prediction_complete: bool = True,
     rank_threshold: float = RANK_THRESHOLD,
+    count_noise_dof: Sequence[int] | None = None,
 ) -> TriadResult:
     """Rows, K_i, s_i, M with covariance and budget, and biases (METHODS §F eqs. 7–14).
 
@@ -106,6 +107,9 @@ def triad_calibration(
             hold every random source; otherwise the scatter (Birge ratio) is widened by its
             Student-t factor and used whenever larger (as §A eq. (18a)).
         rank_threshold: eq. (9)'s limit on the smallest normalised singular value.
+        count_noise_dof: per channel, the degrees of freedom its count uncertainty rests on
+            where that was measured (the count random walk from the residuals, eq. (6c)); K_i
+            and s_i then state it (0 or None: the row's residual dof n_i − 3).
 
     Raises:
         InsufficientDataError: no pairs.
@@ -144,7 +148,7 @@ def triad_calibration(
     if not solved:
         return _unsolved(channels, problems, rejected)
     return _Solver(pairs, channels, parameters, used, solved, fit_idx, problems, rejected,
-                   prediction_complete).result()
+                   prediction_complete, count_noise_dof).result()
 
 
 def _unsolved(channels: tuple[str, str, str], problems: list[str],
@@ -162,11 +166,14 @@ class _Solver:
     def __init__(self, pairs: Sequence[TriadPair], channels: tuple[str, str, str],
                  parameters: Sequence[BenchParameter], used: list[list[int]],
                  solved: list[int], fit_idx: list[int], problems: list[str],
-                 rejected: list[list[Rejection]], prediction_complete: bool) -> None:
+                 rejected: list[list[Rejection]], prediction_complete: bool,
+                 count_noise_dof: Sequence[int] | None = None) -> None:
         self.pairs, self.channels, self.parameters = pairs, channels, parameters
         self.modelled = [p.as_modelled() for p in pairs]
         self.solved, self.fit_idx, self.problems = solved, fit_idx, problems
         self.rejected, self.complete = rejected, prediction_complete
+        self.count_noise_dof = tuple(count_noise_dof) if count_noise_dof is not None \
+            else (0, 0, 0)
         self.col = {c: 3 * j for j, c in enumerate(solved)}
         self.n_unknown = 3 * len(solved) + len(fit_idx)
         # observations grouped by pair: (pair index, [channels])
@@ -329,6 +336,8 @@ class _Solver:
             r = x[sl]
             c_r = cov[sl, sl]
             n, d = self.n_used[c], self.n_used[c] - 3
+            if self.count_noise_dof[c] > 0:  # measured walk: its ν (eq. (6c)), one per quantity
+                d = self.count_noise_dof[c]
             norm = float(np.linalg.norm(r))
             k = 1.0 / norm
             k_values[c] = k

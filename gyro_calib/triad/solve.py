@@ -53,7 +53,8 @@ def solve_pairs(pairs: list[tuple[TriadPair, str]], channels: tuple[str, str, st
                             None if model is None else model.density_pulses2_per_s)
             for p in use]
         return triad_calibration(given, channels=channels, parameters=params,
-                                 prediction_complete=True)
+                                 prediction_complete=True,
+                                 count_noise_dof=None if model is None else model.dof)
 
     try:
         result = solve(None)
