@@ -57,7 +57,8 @@ def sawtooth_covariance(phase_difference_pulses: Array) -> Array:
 
 
 def fitted_count_variance(t_ns: npt.NDArray[np.int64], counts: Array, instant_ns: int,
-                          half_width_ns: int, order: int = 1) -> float:
+                          half_width_ns: int, order: int = 1,
+                          rate_pulses_s: float | None = None) -> float:
     """Variance of the local fit's count at an instant from the whole-pulse rounding, pulses².
 
     The fit (§A eq. (2a), :func:`~gyro_calib.windows.count_at_instant`) over the samples
@@ -69,7 +70,9 @@ def fitted_count_variance(t_ns: npt.NDArray[np.int64], counts: Array, instant_ns
         u²_end = Σ_jk w_j·w_k·R(ρ·(t_j − t_k))                                          (6a)
 
     small (~1/L²) when the phase runs through its cycle, up to 1/12 when ρ·period is near a
-    whole number (every sample the same fractional part). NaN with fewer than order + 2 samples.
+    whole number (every sample the same fractional part). ρ is ``rate_pulses_s`` or, not
+    given, the same fit's slope (its own rounding error moves u²_end by ~10 %, see
+    test/test_triad_count_rounding.py). NaN with fewer than order + 2 samples.
     """
     lo = int(np.searchsorted(t_ns, instant_ns - half_width_ns, 'left'))
     hi = int(np.searchsorted(t_ns, instant_ns + half_width_ns, 'right'))
@@ -79,7 +82,7 @@ def fitted_count_variance(t_ns: npt.NDArray[np.int64], counts: Array, instant_ns
     y = counts[lo:hi] - counts[lo]
     design = np.vander(x, order + 1, increasing=True)
     solve = np.linalg.pinv(design)  # (order + 1, L): coefficients = solve @ y
-    rate = float(solve[1] @ y)
+    rate = float(solve[1] @ y) if rate_pulses_s is None else rate_pulses_s
     w = solve[0]
     phase = rate * x
     return float(w @ sawtooth_covariance(phase[:, None] - phase[None, :]) @ w)
