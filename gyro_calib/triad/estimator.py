@@ -281,9 +281,40 @@ class _Solver:
         blocks = [li @ self._pair_cov(k, cs, modelled=True) @ li.T
                   for (k, cs), li in zip(self.groups, whiten, strict=True)]
         s = np.eye(jac.shape[0])
-        s[:n_obs, :n_obs] = _block_diag(blocks, n_obs)
+        s[:n_obs, :n_obs] = _block_diag(blocks, n_obs) + self._shared_ends(whiten, n_obs)
         resid = np.eye(jac.shape[0]) - jac @ gain
         return float(np.trace(resid @ s @ resid.T))
+
+    def _shared_ends(self, whiten: list[Array], n_obs: int) -> Array:
+        """Whitened covariance between pairs whose windows share an end (eq. (6a)).
+
+        Back-to-back windows share the count fitted at their common zero-index event: pairs
+        k ≠ k' holding it carry, on channel c, ∂ΔN_k/∂n·∂ΔN_k'/∂n·u²_end,c (``end_terms``).
+        """
+        at: dict[int, list[tuple[int, float, Array]]] = {}
+        offset, row = 0, []
+        for k, cs in self.groups:
+            row.append(offset)
+            offset += len(cs)
+            for stamp, coef, var in self.pairs[k].end_terms:
+                at.setdefault(stamp, []).append((len(row) - 1, coef, var))
+        raw = np.zeros((n_obs, n_obs))
+        shared = False
+        for terms in at.values():
+            for a, (g, coef_g, var_g) in enumerate(terms):
+                for h, coef_h, _ in terms[a + 1:]:
+                    if g == h:
+                        continue
+                    cs_g, cs_h = self.groups[g][1], self.groups[h][1]
+                    for c in set(cs_g) & set(cs_h):
+                        i, j = row[g] + cs_g.index(c), row[h] + cs_h.index(c)
+                        raw[i, j] += coef_g * coef_h * float(var_g[c])
+                        raw[j, i] = raw[i, j]
+                        shared = True
+        if not shared:
+            return raw
+        lw = _block_diag(whiten, n_obs)
+        return np.asarray(lw @ raw @ lw.T, dtype=np.float64)
 
     def _source_covariances(self, x: Array, gain: Array, whiten: list[Array],
                             scale: float) -> dict[str, Array]:
@@ -298,6 +329,8 @@ class _Solver:
             blocks = [li @ self._pair_cov(k, cs, part, modelled=True) @ li.T
                       for (k, cs), li in zip(self.groups, whiten, strict=True)]
             s = _block_diag(blocks, n_obs_rows)
+            if part == COUNTS:
+                s = s + self._shared_ends(whiten, n_obs_rows)
             g = gain[:, :n_obs_rows]
             out[part] = scale * g @ s @ g.T
         for j, i in enumerate(self.fit_idx):

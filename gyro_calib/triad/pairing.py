@@ -8,6 +8,7 @@ rate along u (eq. (13)) when the bench says where u points.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -136,4 +137,13 @@ def _pair(bench: Bench, a: TriadWindow, b: TriadWindow,
         earth_rate_along_u_rad_s=omega, direction_sensitivity=sens,
         stamp_ns=min(a.start_ns, b.start_ns),
         rejected=(rejected[0], rejected[1], rejected[2]), model_counts_std=model)
+    if fwd.end_model_var is not None and rev.end_model_var is not None:
+        # ΔN = 2·(w⁺·N⁺ − w⁻·N⁻), N = count(end) − count(start), w⁺ = T⁻/(T⁺ + T⁻) (eq. (5))
+        t_sum = fwd.duration_s + rev.duration_s
+        wp, wm = rev.duration_s / t_sum, fwd.duration_s / t_sum
+        terms = ((fwd.start_ns, -2.0 * wp, fwd.end_model_var[0]),
+                 (fwd.end_ns, 2.0 * wp, fwd.end_model_var[1]),
+                 (rev.start_ns, 2.0 * wm, rev.end_model_var[0]),
+                 (rev.end_ns, -2.0 * wm, rev.end_model_var[1]))
+        pair = dataclasses.replace(pair, end_terms=terms)
     return pair, label

@@ -88,6 +88,17 @@ def fitted_count_variance(t_ns: npt.NDArray[np.int64], counts: Array, instant_ns
     return float(w @ sawtooth_covariance(phase[:, None] - phase[None, :]) @ w)
 
 
+def end_quantisation_variances(settings: TriadSettings,
+                               pulses: tuple[npt.NDArray[np.int64], Array], c: int,
+                               start_ns: int, end_ns: int) -> tuple[float, float]:
+    """u²_end of a window's start and end count (eq. (6a)), pulses²; NaN: too few samples."""
+    t, counts = pulses
+    col = np.ascontiguousarray(counts[:, c], dtype=np.float64)
+    v = [fitted_count_variance(t, col, at, fit_half_width_ns(settings, at, t),
+                               settings.fit_order) for at in (start_ns, end_ns)]
+    return v[0], v[1]
+
+
 def window_quantisation_std(settings: TriadSettings,
                             pulses: tuple[npt.NDArray[np.int64], Array], c: int,
                             start_ns: int, end_ns: int) -> float:
@@ -97,13 +108,7 @@ def window_quantisation_std(settings: TriadSettings,
     fit spans what the cutter's fit spans (:func:`~gyro_calib.windows.fit_half_width_ns`).
     NaN where an end has too few samples.
     """
-    t, counts = pulses
-    col = np.ascontiguousarray(counts[:, c], dtype=np.float64)
-    var = 0.0
-    for at in (start_ns, end_ns):
-        var += fitted_count_variance(t, col, at, fit_half_width_ns(settings, at, t),
-                                     settings.fit_order)
-    return math.sqrt(var)
+    return math.sqrt(sum(end_quantisation_variances(settings, pulses, c, start_ns, end_ns)))
 
 
 def end_floor(settings: TriadSettings, pulses: tuple[npt.NDArray[np.int64], Array], c: int,
