@@ -291,7 +291,7 @@ class _Solver:
         Back-to-back windows share the count fitted at their common zero-index event: pairs
         k ≠ k' holding it carry, on channel c, ∂ΔN_k/∂n·∂ΔN_k'/∂n·u²_end,c (``end_terms``).
         """
-        at: dict[int, list[tuple[int, float, Array]]] = {}
+        at: dict[tuple[str, int], list[tuple[int, float, Array]]] = {}
         offset, row = 0, []
         for k, cs in self.groups:
             row.append(offset)

@@ -141,9 +141,21 @@ def _pair(bench: Bench, a: TriadWindow, b: TriadWindow,
         # ΔN = 2·(w⁺·N⁺ − w⁻·N⁻), N = count(end) − count(start), w⁺ = T⁻/(T⁺ + T⁻) (eq. (5))
         t_sum = fwd.duration_s + rev.duration_s
         wp, wm = rev.duration_s / t_sum, fwd.duration_s / t_sum
-        terms = ((fwd.start_ns, -2.0 * wp, fwd.end_model_var[0]),
-                 (fwd.end_ns, 2.0 * wp, fwd.end_model_var[1]),
-                 (rev.start_ns, 2.0 * wm, rev.end_model_var[0]),
-                 (rev.end_ns, -2.0 * wm, rev.end_model_var[1]))
-        pair = dataclasses.replace(pair, end_terms=terms)
+        # an end is its zero-index event within its bag's mount (remount bags share a clock)
+        terms = (((mount_axis, fwd.start_ns), -2.0 * wp, fwd.end_model_var[0]),
+                 ((mount_axis, fwd.end_ns), 2.0 * wp, fwd.end_model_var[1]),
+                 ((mount_axis, rev.start_ns), 2.0 * wm, rev.end_model_var[0]),
+                 ((mount_axis, rev.end_ns), -2.0 * wm, rev.end_model_var[1]))
+        # the pair's own u² from the same ends (an end shared by its two windows counted once),
+        # so that with the covariance between pairs it is one sum over ends: positive definite
+        by_end: dict[tuple[str, int], tuple[float, float, Array]] = {}
+        for (stamp, coef, var), sign in zip(terms, (-1.0, 1.0, -1.0, 1.0), strict=True):
+            d, s_, _ = by_end.get(stamp, (0.0, 0.0, var))
+            by_end[stamp] = (d + coef, s_ + sign / t_sum, var)
+        diff_var = sum(d * d * v for d, _, v in by_end.values())
+        sum_var = sum(s_ * s_ * v for _, s_, v in by_end.values())
+        pair = dataclasses.replace(
+            pair, end_terms=tuple((stamp, d, v) for stamp, (d, _, v) in by_end.items()),
+            model_difference_std=np.sqrt(np.maximum(diff_var, 0.0)),
+            model_sum_rate_std=np.sqrt(np.maximum(sum_var, 0.0)))
     return pair, label

@@ -47,9 +47,10 @@ class TriadPair:
             ``sum_rate_std`` from the count error model (rounding at the end fits, eq. (6a))
             where those (the weights of the solve) differ; None: the same. The covariance and
             the measured walk rest on the model; the weights, and so the estimates, do not.
-        end_terms: the window ends' counts ΔN rests on: (stamp ns, ∂ΔN/∂count, u²_end per
-            channel (3,) pulses²) each, eq. (6a); two pairs whose windows share an end (windows
-            back to back) share its error, a covariance between the pairs. Empty: unknown.
+        end_terms: the window ends' counts ΔN rests on: ((mount, stamp ns), ∂ΔN/∂count,
+            u²_end per channel (3,) pulses²) each, eq. (6a); two pairs whose windows share an
+            end (windows back to back) share its error, a covariance between the pairs.
+            Empty: unknown.
     """
 
     direction: Array
@@ -68,7 +69,7 @@ class TriadPair:
     duration_s: float = 0.0
     model_difference_std: Array | None = None
     model_sum_rate_std: Array | None = None
-    end_terms: tuple[tuple[int, float, Array], ...] = ()
+    end_terms: tuple[tuple[tuple[str, int], float, Array], ...] = ()
 
     def as_modelled(self) -> TriadPair:
         """This pair with its count uncertainties from the error model (eq. (6a))."""
