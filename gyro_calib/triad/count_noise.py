@@ -156,7 +156,7 @@ def walk_from_residuals(e: Array, v0: Array, weight: Array, dof: float) -> float
 
 
 def measured_walk(pairs: Sequence[TriadPair], result: TriadResult,
-                  fitted: Sequence[int] = ()) -> CountWalk:
+                  fitted: Sequence[int] = (), *, dof_at_most_pairs: bool = True) -> CountWalk:
     """a_i measured from gyro i's own pair residuals of the joint fit (eq. (6c)).
 
     The pair differences' residuals (ν = n_i − 3 − q/3: its pairs, its row, its share of the
@@ -164,8 +164,9 @@ def measured_walk(pairs: Sequence[TriadPair], result: TriadResult,
     the Earth rate along u is known) together: a solves Σ e²/(V0 + a·A) = ν. Estimated from
     ν degrees of freedom (stated as at most n_i − 1, the pairs it rests on), a is used × t_ν²
     (Student t, §A eq. (3d)), so the share of the uncertainty it carries covers as a known one
-    would; K_i and s_i state the same ν (:attr:`CountWalk.dof`). The residuals must come from a fit
-    weighted with the same a (iterate: solve, measure).
+    would; K_i and s_i state the same ν (:attr:`CountWalk.dof`). ``dof_at_most_pairs``
+    False: ν uncapped (the solve's weights, kept as they were so the estimates do not move).
+    The residuals must come from a fit weighted with the same a (iterate: solve, measure).
     """
     from gyro_calib.estimate import student_t_factor
 
@@ -180,7 +181,8 @@ def measured_walk(pairs: Sequence[TriadPair], result: TriadResult,
         dof = len(e) - 3 - len(fitted) / 3.0 + max(len(es) - 1, 0)
         # at most n_i − 1, as any statement resting on n_i pairs (Estimate.supported_dof): the
         # same ν the channel's K_i and s_i then state (summary and hand-off)
-        dofs[c] = max(min(int(round(dof)), len(e) - 1), 0)
+        dofs[c] = max(min(int(round(dof)), len(e) - 1) if dof_at_most_pairs
+                      else int(round(dof)), 0)
         a = walk_from_residuals(np.concatenate((e, es)), np.concatenate((v0, v0s)),
                                 np.concatenate((w, ws)), dof)
         arw[c] = math.sqrt(a) * ch.scale_factor_rad_per_pulse.value

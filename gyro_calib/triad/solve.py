@@ -69,10 +69,10 @@ def solve_pairs(pairs: list[tuple[TriadPair, str]], channels: tuple[str, str, st
                       is not None else math.nan for c in result.channels])
         walk = stated_walk(stated, k)
         return solve(walk), '', walk
-    walk = measured_walk(use, result, fitted)
+    walk = measured_walk(use, result, fitted, dof_at_most_pairs=False)
     for _ in range(MEASURE_ITERATIONS):
         result = solve(walk)
-        again = measured_walk(use, result, fitted)
+        again = measured_walk(use, result, fitted, dof_at_most_pairs=False)
         settled = np.allclose(np.nan_to_num(again.density_pulses2_per_s),
                               np.nan_to_num(walk.density_pulses2_per_s), rtol=1e-3, atol=1e-12)
         walk = again
