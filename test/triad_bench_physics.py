@@ -111,6 +111,8 @@ class Recording:
     position_t: npt.NDArray[np.int64]
     position: Array
     position_index: npt.NDArray[np.int64]
+    unrounded: Array | None = None
+    """(n, 3): the counts before rounding to whole pulses (the truth a window count estimates)."""
 
 
 def _trapezoid(delta: float, rate: float, accel: float) -> tuple[float, float]:
@@ -236,7 +238,8 @@ def record(bench: Bench, triad: Triad, rng: np.random.Generator) -> Recording:
     if triad.arw_rad_sqrt_s > 0:
         sensed += np.cumsum(rng.normal(0.0, triad.arw_rad_sqrt_s * math.sqrt(dt),
                                        sensed.shape), axis=0)
-    counts = np.floor(sensed / triad.scale_factor_rad_per_pulse + rng.uniform(0, 1, 3))
+    unrounded = sensed / triad.scale_factor_rad_per_pulse + rng.uniform(0, 1, 3)
+    counts = np.floor(unrounded)
     enc_stride = int(round(bench.pulse_hz / bench.encoder_hz))
     te = t[::enc_stride]
     base = 1_700_000_000 * 10 ** 9
@@ -265,4 +268,4 @@ def record(bench: Bench, triad: Triad, rng: np.random.Generator) -> Recording:
         ns(te) if with_pos else np.zeros(0, np.int64),
         np.column_stack((encoder(chi[::enc_stride]), chi_rate[::enc_stride])) if with_pos
         else np.zeros((0, 2)),
-        ns(pos_index) if with_pos else np.zeros(0, np.int64))
+        ns(pos_index) if with_pos else np.zeros(0, np.int64), unrounded)

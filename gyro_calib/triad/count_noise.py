@@ -49,17 +49,28 @@ class CountWalk:
     dof: tuple[int, int, int] = (0, 0, 0)
 
 
-def with_count_walk(pair: TriadPair, density_pulses2_per_s: Array) -> TriadPair:
+def with_count_walk(pair: TriadPair, density_pulses2_per_s: Array,
+                    model_density_pulses2_per_s: Array | None = None) -> TriadPair:
     """``pair`` with each channel's count random walk a_i added (eq. (6b)).
 
-    u²(ΔN_i) += a_i·walk_weight_s, u²(Σ_i) += a_i/(T⁺ + T⁻).
+    u²(ΔN_i) += a_i·walk_weight_s, u²(Σ_i) += a_i/(T⁺ + T⁻): to the weights' with
+    ``density_pulses2_per_s``, to the model's with ``model_density_pulses2_per_s`` (default
+    the same).
     """
     a = np.where(np.isfinite(density_pulses2_per_s), density_pulses2_per_s, 0.0)
+    am = a if model_density_pulses2_per_s is None else np.where(
+        np.isfinite(model_density_pulses2_per_s), model_density_pulses2_per_s, 0.0)
     diff_std = np.sqrt(pair.count_difference_std ** 2 + a * pair.walk_weight_s)
     sum_std = pair.sum_rate_std
     if sum_std is not None and pair.duration_s > 0:
         sum_std = np.sqrt(sum_std ** 2 + a / pair.duration_s)
-    return dataclasses.replace(pair, count_difference_std=diff_std, sum_rate_std=sum_std)
+    model_diff, model_sum = pair.model_difference_std, pair.model_sum_rate_std
+    if model_diff is not None:
+        model_diff = np.sqrt(model_diff ** 2 + am * pair.walk_weight_s)
+    if model_sum is not None and pair.duration_s > 0:
+        model_sum = np.sqrt(model_sum ** 2 + am / pair.duration_s)
+    return dataclasses.replace(pair, count_difference_std=diff_std, sum_rate_std=sum_std,
+                               model_difference_std=model_diff, model_sum_rate_std=model_sum)
 
 
 def stated_walk(arw_rad_sqrt_s: Array, scale_factor_rad_per_pulse: Array) -> CountWalk:
@@ -145,15 +156,17 @@ def walk_from_residuals(e: Array, v0: Array, weight: Array, dof: float) -> float
 
 
 def measured_walk(pairs: Sequence[TriadPair], result: TriadResult,
-                  fitted: Sequence[int] = ()) -> CountWalk:
+                  fitted: Sequence[int] = (), *, dof_at_most_pairs: bool = True) -> CountWalk:
     """a_i measured from gyro i's own pair residuals of the joint fit (eq. (6c)).
 
     The pair differences' residuals (ν = n_i − 3 − q/3: its pairs, its row, its share of the
     q fitted bench parameters) and the pair sums' scatter about their mean (ν = n_i − 1, when
     the Earth rate along u is known) together: a solves Σ e²/(V0 + a·A) = ν. Estimated from
-    ν degrees of freedom, a is used × t_ν² (Student t, §A eq. (3d)), so the share of the
-    uncertainty it carries covers as a known one would. The residuals must come from a fit
-    weighted with the same a (iterate: solve, measure).
+    ν degrees of freedom (stated as at most n_i − 1, the pairs it rests on), a is used × t_ν²
+    (Student t, §A eq. (3d)), so the share of the uncertainty it carries covers as a known one
+    would; K_i and s_i state the same ν (:attr:`CountWalk.dof`). ``dof_at_most_pairs``
+    False: ν uncapped (the solve's weights, kept as they were so the estimates do not move).
+    The residuals must come from a fit weighted with the same a (iterate: solve, measure).
     """
     from gyro_calib.estimate import student_t_factor
 
@@ -166,7 +179,10 @@ def measured_walk(pairs: Sequence[TriadPair], result: TriadResult,
         e, v0, w = channel_residuals(pairs, result, c, fitted)
         es, v0s, ws = sum_residuals(pairs, result, c)
         dof = len(e) - 3 - len(fitted) / 3.0 + max(len(es) - 1, 0)
-        dofs[c] = max(int(round(dof)), 0)
+        # at most n_i − 1, as any statement resting on n_i pairs (Estimate.supported_dof): the
+        # same ν the channel's K_i and s_i then state (summary and hand-off)
+        dofs[c] = max(min(int(round(dof)), len(e) - 1) if dof_at_most_pairs
+                      else int(round(dof)), 0)
         a = walk_from_residuals(np.concatenate((e, es)), np.concatenate((v0, v0s)),
                                 np.concatenate((w, ws)), dof)
         arw[c] = math.sqrt(a) * ch.scale_factor_rad_per_pulse.value

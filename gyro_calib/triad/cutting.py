@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from gyro_calib.estimate import Rejection
-from gyro_calib.triad.quantisation import end_floor
+from gyro_calib.triad.quantisation import end_floor, end_quantisation_variances
 from gyro_calib.units import format_stamp
 from gyro_calib.windows import RevolutionWindow, WholeRevolutionWindows, resolve_index_event
 
@@ -45,7 +45,12 @@ class TriadWindow:
         angle_rad: |swept angle|, rad; angle_std_rad its uncertainty.
         duration_s: end − start, s.
         counts: N per channel (3,), pulses (0 where rejected for the channel).
-        counts_std: u(N) per channel (3,), pulses.
+        counts_std: u(N) per channel (3,), pulses: the end fits' residuals floored by the
+            quantisation bound, the weights of the solve (the estimates rest on them).
+        counts_model_std: u(N) per channel (3,), pulses, from the rounding at the two end fits
+            (eq. (6a)): what the covariance rests on; None: as ``counts_std``.
+        end_model_var: u²_end of the start and the end count per channel (2, 3), pulses²
+            (eq. (6a)): a window sharing an end with another shares its error; or None.
         rejected: per channel, why this window is not used for it ('' = used).
         station_rad: outer windows: the rate-table encoder angle ψ held, rad; else NaN.
         other_table_rad: inner windows: the position-table angle χ (Earth rate), rad; or NaN.
@@ -63,6 +68,8 @@ class TriadWindow:
     rejected: tuple[str, str, str]
     station_rad: float = math.nan
     other_table_rad: float = math.nan
+    counts_model_std: Array | None = None
+    end_model_var: Array | None = None
 
 
 def _window_config(settings: TriadSettings, revolutions: int) -> TriadSettings:
@@ -127,15 +134,17 @@ def combine_windows(settings: TriadSettings, channels: tuple[str, str, str],
 
     ``other`` is the other table's joint_states: for an outer window the rate table must be
     held (its angle is the station ψ); for an inner window the position table's angle χ
-    places oZ for the Earth rate. Each window's count uncertainty is at least the
-    quantisation floor of its two ends (:func:`quantisation_floor`).
+    places oZ for the Earth rate. Each window's count uncertainty (the weights) is at least the
+    quantisation floor of its two ends (:func:`quantisation_floor`); its model uncertainty
+    is the rounding at the two end fits (:func:`end_quantisation_variances`, eq. (6a)).
     """
     out: list[TriadWindow] = []
     rejections: list[Rejection] = []
     o_t, o_v = other
     for start, per in windows:
         ref = next(w for w in per if w is not None)
-        counts, stds = np.zeros(3), np.ones(3)
+        counts, stds, model = np.zeros(3), np.ones(3), np.ones(3)
+        ends = np.zeros((2, 3))
         why = ['', '', '']
         for c, w in enumerate(per):
             if w is None:
@@ -152,8 +161,14 @@ def combine_windows(settings: TriadSettings, channels: tuple[str, str, str],
                 continue
             counts[c] = w.pulses
             floor = MIN_COUNT_STD_PULSES
+            model[c] = max(w.pulses_std, floor)
             if pulses is not None:
                 floor = max(floor, end_floor(settings, pulses, c, w.start_ns, w.end_ns))
+                v_start, v_end = end_quantisation_variances(settings, pulses, c, w.start_ns,
+                                                            w.end_ns)
+                if math.isfinite(v_start + v_end):
+                    model[c] = max(math.sqrt(v_start + v_end), MIN_COUNT_STD_PULSES)
+                    ends[:, c] = v_start, v_end
             stds[c] = max(w.pulses_std, floor)
         other_angle, other_rate = _median_in(o_t, o_v, ref.start_ns, ref.end_ns)
         station = held = math.nan
@@ -176,5 +191,7 @@ def combine_windows(settings: TriadSettings, channels: tuple[str, str, str],
             held = other_angle
         out.append(TriadWindow(axis, ref.start_ns, ref.end_ns, ref.direction,
                                ref.swept_angle_rad, ref.angle_std_rad, ref.duration_s, counts,
-                               stds, (why[0], why[1], why[2]), station, held))
+                               stds, (why[0], why[1], why[2]), station, held,
+                               model if pulses is not None else None,
+                               ends if pulses is not None else None))
     return out, rejections

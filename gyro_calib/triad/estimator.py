@@ -95,6 +95,7 @@ def triad_calibration(
     parameters: Sequence[BenchParameter] = (),
     prediction_complete: bool = True,
     rank_threshold: float = RANK_THRESHOLD,
+    count_noise_dof: Sequence[int] | None = None,
 ) -> TriadResult:
     """Rows, K_i, s_i, M with covariance and budget, and biases (METHODS §F eqs. 7–14).
 
@@ -106,6 +107,9 @@ def triad_calibration(
             hold every random source; otherwise the scatter (Birge ratio) is widened by its
             Student-t factor and used whenever larger (as §A eq. (18a)).
         rank_threshold: eq. (9)'s limit on the smallest normalised singular value.
+        count_noise_dof: per channel, the degrees of freedom its count uncertainty rests on
+            where that was measured (the count random walk from the residuals, eq. (6c)); K_i
+            and s_i then state it (0 or None: the row's residual dof n_i − 3).
 
     Raises:
         InsufficientDataError: no pairs.
@@ -144,7 +148,7 @@ def triad_calibration(
     if not solved:
         return _unsolved(channels, problems, rejected)
     return _Solver(pairs, channels, parameters, used, solved, fit_idx, problems, rejected,
-                   prediction_complete).result()
+                   prediction_complete, count_noise_dof).result()
 
 
 def _unsolved(channels: tuple[str, str, str], problems: list[str],
@@ -162,10 +166,14 @@ class _Solver:
     def __init__(self, pairs: Sequence[TriadPair], channels: tuple[str, str, str],
                  parameters: Sequence[BenchParameter], used: list[list[int]],
                  solved: list[int], fit_idx: list[int], problems: list[str],
-                 rejected: list[list[Rejection]], prediction_complete: bool) -> None:
+                 rejected: list[list[Rejection]], prediction_complete: bool,
+                 count_noise_dof: Sequence[int] | None = None) -> None:
         self.pairs, self.channels, self.parameters = pairs, channels, parameters
+        self.modelled = [p.as_modelled() for p in pairs]
         self.solved, self.fit_idx, self.problems = solved, fit_idx, problems
         self.rejected, self.complete = rejected, prediction_complete
+        self.count_noise_dof = tuple(count_noise_dof) if count_noise_dof is not None \
+            else (0, 0, 0)
         self.col = {c: 3 * j for j, c in enumerate(solved)}
         self.n_unknown = 3 * len(solved) + len(fit_idx)
         # observations grouped by pair: (pair index, [channels])
@@ -212,9 +220,14 @@ class _Solver:
             res.append(np.array([-delta[j] / self.parameters[i].std_rad]))
         return np.vstack(rows), np.concatenate(res), whiten
 
-    def _pair_cov(self, k: int, cs: list[int], parts: str = 'all') -> Array:
-        """Covariance of one pair's ΔN over channels ``cs``: counts + common swept angle."""
-        p = self.pairs[k]
+    def _pair_cov(self, k: int, cs: list[int], parts: str = 'all',
+                  modelled: bool = False) -> Array:
+        """Covariance of one pair's ΔN over channels ``cs``: counts + common swept angle.
+
+        ``modelled``: the counts' uncertainty from the error model (eq. (6a)), else the
+        weights' (:attr:`TriadPair.model_difference_std`).
+        """
+        p = self.modelled[k] if modelled else self.pairs[k]
         g = np.array([p.count_difference[c] for c in cs]) / p.swept_angle_rad
         counts = np.diag([p.count_difference_std[c] ** 2 for c in cs])
         angle = np.outer(g, g) * p.swept_angle_std_rad**2
@@ -237,7 +250,8 @@ class _Solver:
         dof = n_obs - 3 * len(self.solved)
         cov_pred = np.linalg.inv(jac.T @ jac)
         gain = cov_pred @ jac.T  # whitened observations → unknowns
-        birge2 = float(res @ res) / dof if dof > 0 else math.nan
+        birge2 = float(res @ res) / self._expected_chi2(jac, gain, whiten) if dof > 0 \
+            else math.nan
         scale, basis = 1.0, f'predicted from the counts and angles of {len(self.groups)} pairs'
         if dof > 0:
             from scipy.stats import chi2
@@ -257,15 +271,66 @@ class _Solver:
         cov = sum(sources.values(), np.zeros((self.n_unknown, self.n_unknown)))
         return self._report(x, cov, sources, dof, birge2, basis)
 
+    def _expected_chi2(self, jac: Array, gain: Array, whiten: list[Array]) -> float:
+        """E[χ²] of the weighted residuals under the modelled covariance (sandwich).
+
+        The residuals are (I − P)·ỹ, P = J·G in the whitened rows; with the model's covariance
+        S of ỹ, E[χ²] = trace((I − P)·S·(I − P)ᵀ): the dof when the weights are the model.
+        """
+        n_obs = sum(len(cs) for _, cs in self.groups)
+        blocks = [li @ self._pair_cov(k, cs, modelled=True) @ li.T
+                  for (k, cs), li in zip(self.groups, whiten, strict=True)]
+        s = np.eye(jac.shape[0])
+        s[:n_obs, :n_obs] = _block_diag(blocks, n_obs) + self._shared_ends(whiten, n_obs)
+        resid = np.eye(jac.shape[0]) - jac @ gain
+        return float(np.trace(resid @ s @ resid.T))
+
+    def _shared_ends(self, whiten: list[Array], n_obs: int) -> Array:
+        """Whitened covariance between pairs whose windows share an end (eq. (6a)).
+
+        Back-to-back windows share the count fitted at their common zero-index event: pairs
+        k ≠ k' holding it carry, on channel c, ∂ΔN_k/∂n·∂ΔN_k'/∂n·u²_end,c (``end_terms``).
+        """
+        at: dict[tuple[str, int], list[tuple[int, float, Array]]] = {}
+        offset, row = 0, []
+        for k, cs in self.groups:
+            row.append(offset)
+            offset += len(cs)
+            for stamp, coef, var in self.pairs[k].end_terms:
+                at.setdefault(stamp, []).append((len(row) - 1, coef, var))
+        raw = np.zeros((n_obs, n_obs))
+        shared = False
+        for terms in at.values():
+            for a, (g, coef_g, var_g) in enumerate(terms):
+                for h, coef_h, _ in terms[a + 1:]:
+                    if g == h:
+                        continue
+                    cs_g, cs_h = self.groups[g][1], self.groups[h][1]
+                    for c in set(cs_g) & set(cs_h):
+                        i, j = row[g] + cs_g.index(c), row[h] + cs_h.index(c)
+                        raw[i, j] += coef_g * coef_h * float(var_g[c])
+                        raw[j, i] = raw[i, j]
+                        shared = True
+        if not shared:
+            return raw
+        lw = _block_diag(whiten, n_obs)
+        return np.asarray(lw @ raw @ lw.T, dtype=np.float64)
+
     def _source_covariances(self, x: Array, gain: Array, whiten: list[Array],
                             scale: float) -> dict[str, Array]:
-        """Covariance of the unknowns split by source (eq. 12)."""
+        """Covariance of the unknowns split by source (eq. 12).
+
+        G·S·Gᵀ with the whitened gain G of the weights and the modelled covariance S of each
+        source (a sandwich: the weights need not be the model, the covariance is).
+        """
         n_obs_rows = sum(len(cs) for _, cs in self.groups)
         out: dict[str, Array] = {}
         for part in (COUNTS, SWEPT_ANGLE):
-            blocks = [li @ self._pair_cov(k, cs, part) @ li.T
+            blocks = [li @ self._pair_cov(k, cs, part, modelled=True) @ li.T
                       for (k, cs), li in zip(self.groups, whiten, strict=True)]
             s = _block_diag(blocks, n_obs_rows)
+            if part == COUNTS:
+                s = s + self._shared_ends(whiten, n_obs_rows)
             g = gain[:, :n_obs_rows]
             out[part] = scale * g @ s @ g.T
         for j, i in enumerate(self.fit_idx):
@@ -304,6 +369,8 @@ class _Solver:
             r = x[sl]
             c_r = cov[sl, sl]
             n, d = self.n_used[c], self.n_used[c] - 3
+            if self.count_noise_dof[c] > 0:  # measured walk: its ν (eq. (6c)), one per quantity
+                d = self.count_noise_dof[c]
             norm = float(np.linalg.norm(r))
             k = 1.0 / norm
             k_values[c] = k
@@ -346,7 +413,7 @@ class _Solver:
             m_est = tuple(tuple(Estimate(float(mmat[i, j]), float(m_std[i, j]), n_all, dof, (),
                                          basis) for j in range(3)) for i in range(3))
         budget = tuple(BudgetLine(s, budget_k[s], budget_s[s], budget_m[s]) for s in sources)
-        chans, bias_body, bias_missing = biases(self.pairs, chans, self.col, x, m_est,
+        chans, bias_body, bias_missing = biases(self.modelled, chans, self.col, x, m_est,
                                                  k_values)
         return TriadResult(tuple(chans), m_est, m_cov, bias_body, params, budget,
                            math.sqrt(birge2) if dof > 0 else math.nan, basis, not_measurable,

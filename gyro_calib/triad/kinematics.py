@@ -115,6 +115,7 @@ def pair_from_windows(
     earth_rate_along_u_rad_s: float = math.nan,
     direction_sensitivity: ArrayLike | None = None,
     stamp_ns: int = 0, rejected: tuple[str, str, str] = ('', '', ''),
+    model_counts_std: ArrayLike | None = None,
 ) -> TriadPair:
     """One forward and one reverse window of all channels as a pair (METHODS §F eqs. 5–6).
 
@@ -139,6 +140,8 @@ def pair_from_windows(
         direction_sensitivity: ∂u/∂p (3, q) for the bench parameters p, or None.
         stamp_ns: start stamp of the pair (for rejection lines).
         rejected: per channel, why that channel's windows are not used ('' = used).
+        model_counts_std: the windows' count uncertainty from the error model (the rounding
+            at the end fits, eq. (6a)) where ``counts_std`` (the weights) differs; None: the same.
     """
     from gyro_calib.triad.records import TriadPair
 
@@ -150,6 +153,7 @@ def pair_from_windows(
     phi = forward_angle_rad * wp + reverse_angle_rad * wm
     diff = 2.0 * (n_p * wp - n_m * wm)
     diff_std = 2.0 * np.hypot(wp * std, wm * std)
+    model = None if model_counts_std is None else np.asarray(model_counts_std, dtype=np.float64)
     phi_std = angle_std_rad * math.hypot(wp, wm)
     return TriadPair(
         direction=np.asarray(direction, dtype=np.float64), swept_angle_rad=phi,
@@ -160,4 +164,6 @@ def pair_from_windows(
         excess_rate_rad_s=(forward_angle_rad - reverse_angle_rad) / t_sum,
         earth_rate_along_u_rad_s=earth_rate_along_u_rad_s,
         stamp_ns=stamp_ns, rejected=rejected,
-        walk_weight_s=4.0 * (wp * wp * forward_s + wm * wm * reverse_s), duration_s=t_sum)
+        walk_weight_s=4.0 * (wp * wp * forward_s + wm * wm * reverse_s), duration_s=t_sum,
+        model_difference_std=None if model is None else 2.0 * np.hypot(wp * model, wm * model),
+        model_sum_rate_std=None if model is None else math.sqrt(2.0) * model / t_sum)

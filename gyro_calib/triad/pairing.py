@@ -8,6 +8,7 @@ rate along u (eq. (13)) when the bench says where u points.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from typing import TYPE_CHECKING
 
@@ -124,6 +125,9 @@ def _pair(bench: Bench, a: TriadWindow, b: TriadWindow,
                                      bench.latitude_deg)
         label = 'inner axis'
     std = np.sqrt(0.5 * (fwd.counts_std ** 2 + rev.counts_std ** 2))
+    model = None
+    if fwd.counts_model_std is not None and rev.counts_model_std is not None:
+        model = np.sqrt(0.5 * (fwd.counts_model_std ** 2 + rev.counts_model_std ** 2))
     angle_std = math.sqrt(0.5 * (fwd.angle_std_rad ** 2 + rev.angle_std_rad ** 2))
     rejected = tuple(f or r for f, r in zip(fwd.rejected, rev.rejected, strict=True))
     pair = pair_from_windows(
@@ -132,5 +136,26 @@ def _pair(bench: Bench, a: TriadWindow, b: TriadWindow,
         forward_s=fwd.duration_s, reverse_s=rev.duration_s, angle_std_rad=angle_std,
         earth_rate_along_u_rad_s=omega, direction_sensitivity=sens,
         stamp_ns=min(a.start_ns, b.start_ns),
-        rejected=(rejected[0], rejected[1], rejected[2]))
+        rejected=(rejected[0], rejected[1], rejected[2]), model_counts_std=model)
+    if fwd.end_model_var is not None and rev.end_model_var is not None:
+        # ΔN = 2·(w⁺·N⁺ − w⁻·N⁻), N = count(end) − count(start), w⁺ = T⁻/(T⁺ + T⁻) (eq. (5))
+        t_sum = fwd.duration_s + rev.duration_s
+        wp, wm = rev.duration_s / t_sum, fwd.duration_s / t_sum
+        # an end is its zero-index event within its bag's mount (remount bags share a clock)
+        terms = (((mount_axis, fwd.start_ns), -2.0 * wp, fwd.end_model_var[0]),
+                 ((mount_axis, fwd.end_ns), 2.0 * wp, fwd.end_model_var[1]),
+                 ((mount_axis, rev.start_ns), 2.0 * wm, rev.end_model_var[0]),
+                 ((mount_axis, rev.end_ns), -2.0 * wm, rev.end_model_var[1]))
+        # the pair's own u² from the same ends (an end shared by its two windows counted once),
+        # so that with the covariance between pairs it is one sum over ends: positive definite
+        by_end: dict[tuple[str, int], tuple[float, float, Array]] = {}
+        for (stamp, coef, var), sign in zip(terms, (-1.0, 1.0, -1.0, 1.0), strict=True):
+            d, s_, _ = by_end.get(stamp, (0.0, 0.0, var))
+            by_end[stamp] = (d + coef, s_ + sign / t_sum, var)
+        diff_var = sum(d * d * v for d, _, v in by_end.values())
+        sum_var = sum(s_ * s_ * v for _, s_, v in by_end.values())
+        pair = dataclasses.replace(
+            pair, end_terms=tuple((stamp, d, v) for stamp, (d, _, v) in by_end.items()),
+            model_difference_std=np.sqrt(np.maximum(diff_var, 0.0)),
+            model_sum_rate_std=np.sqrt(np.maximum(sum_var, 0.0)))
     return pair, label

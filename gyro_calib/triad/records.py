@@ -7,6 +7,7 @@ gyro and the :class:`BudgetLine` s of its uncertainty (eq. 12) come out.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -42,6 +43,14 @@ class TriadPair:
         walk_weight_s: ∂Var(ΔN)/∂a = 4·(w⁺²·T⁺ + w⁻²·T⁻), s: what a count random walk of
             density a (pulses²/s, the ARW over K²) adds to ``count_difference_std``² (eq. 6b).
         duration_s: T⁺ + T⁻, s (a adds a/(T⁺ + T⁻) to ``sum_rate_std``²).
+        model_difference_std, model_sum_rate_std: ``count_difference_std`` and
+            ``sum_rate_std`` from the count error model (rounding at the end fits, eq. (6a))
+            where those (the weights of the solve) differ; None: the same. The covariance and
+            the measured walk rest on the model; the weights, and so the estimates, do not.
+        end_terms: the window ends' counts ΔN rests on: ((mount, stamp ns), ∂ΔN/∂count,
+            u²_end per channel (3,) pulses²) each, eq. (6a); two pairs whose windows share an
+            end (windows back to back) share its error, a covariance between the pairs.
+            Empty: unknown.
     """
 
     direction: Array
@@ -58,6 +67,19 @@ class TriadPair:
     rejected: tuple[str, str, str] = ('', '', '')
     walk_weight_s: float = 0.0
     duration_s: float = 0.0
+    model_difference_std: Array | None = None
+    model_sum_rate_std: Array | None = None
+    end_terms: tuple[tuple[tuple[str, int], float, Array], ...] = ()
+
+    def as_modelled(self) -> TriadPair:
+        """This pair with its count uncertainties from the error model (eq. (6a))."""
+        if self.model_difference_std is None:
+            return self
+        return dataclasses.replace(
+            self, count_difference_std=self.model_difference_std,
+            sum_rate_std=(self.sum_rate_std if self.model_sum_rate_std is None
+                          else self.model_sum_rate_std),
+            model_difference_std=None, model_sum_rate_std=None)
 
 
 @dataclass(frozen=True, slots=True)

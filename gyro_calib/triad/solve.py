@@ -47,11 +47,14 @@ def solve_pairs(pairs: list[tuple[TriadPair, str]], channels: tuple[str, str, st
     use = [pr if outer else dataclasses.replace(pr, direction_sensitivity=None)
            for pr, _ in pairs]
 
-    def solve(walk: CountWalk | None) -> TriadResult:
-        given = use if walk is None else [with_count_walk(p, walk.density_pulses2_per_s)
-                                          for p in use]
+    def solve(walk: CountWalk | None, model: CountWalk | None = None) -> TriadResult:
+        given = use if walk is None else [
+            with_count_walk(p, walk.density_pulses2_per_s,
+                            None if model is None else model.density_pulses2_per_s)
+            for p in use]
         return triad_calibration(given, channels=channels, parameters=params,
-                                 prediction_complete=True)
+                                 prediction_complete=True,
+                                 count_noise_dof=None if model is None else model.dof)
 
     try:
         result = solve(None)
@@ -66,13 +69,17 @@ def solve_pairs(pairs: list[tuple[TriadPair, str]], channels: tuple[str, str, st
                       is not None else math.nan for c in result.channels])
         walk = stated_walk(stated, k)
         return solve(walk), '', walk
-    walk = measured_walk(use, result, fitted)
+    walk = measured_walk(use, result, fitted, dof_at_most_pairs=False)
     for _ in range(MEASURE_ITERATIONS):
         result = solve(walk)
-        again = measured_walk(use, result, fitted)
+        again = measured_walk(use, result, fitted, dof_at_most_pairs=False)
         settled = np.allclose(np.nan_to_num(again.density_pulses2_per_s),
                               np.nan_to_num(walk.density_pulses2_per_s), rtol=1e-3, atol=1e-12)
         walk = again
         if settled:
             break
-    return solve(walk), '', walk
+    # The weights' walk above keeps the estimates; the covariance's walk is measured from the
+    # same residuals against the count error model (eq. (6a)), the prediction it completes.
+    result = solve(walk)
+    model = measured_walk([p.as_modelled() for p in use], result, fitted)
+    return solve(walk, model), '', model
