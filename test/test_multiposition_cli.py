@@ -197,3 +197,33 @@ def test_the_ferraris_session_through_format_imucal_and_sections(
     status, text, err = run(capsys, REAL / 'mikoff_mpu9150' / 'imu0.log.xz', '--format', 'xyz6',
                             '--rate-hz', '100', '--sections', sections)
     assert status == 2 and text == '' and '--format imucal' in err
+
+
+def test_the_advice_info_prints_runs_on_an_imu_on_another_topic(
+        hand_turned: tuple[Path, Any, np.ndarray], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """``info`` advises a command that runs; ``--topic`` chooses the Imu topic read."""
+    rng = np.random.default_rng(7)
+    t, acc, gyro, _ = record(random_unit(rng), rng, rate_hz=100.0)
+    bag = imu_bag(tmp_path / 'imu0', t, gyro, acc, topic='/sensors/imu0')
+    assert main(['info', str(bag)]) == 0
+    out = capsys.readouterr().out
+    advice = next(line.split(maxsplit=2)[2] for line in out.splitlines()
+                  if line.startswith('  multiposition '))
+    assert advice == ('gyro-calib calibrate BAG --method multiposition --topic T, T one of '
+                      '/sensors/imu0')
+    argv = advice.split(',')[0].replace('BAG', str(bag)).replace(' T', ' /sensors/imu0')
+    status, out, err = run(capsys, *argv.split()[2:], '--out', tmp_path / 'imu.yaml')
+    assert status == 0, err
+    assert 'gyro misalignment_yz' in out
+    assert load_calibration(tmp_path / 'imu.yaml').imu is not None
+
+
+def test_info_says_what_a_method_without_its_input_needs(
+        hand_turned: tuple[Path, Any, np.ndarray], capsys: pytest.CaptureFixture[str]) -> None:
+    """Not the garbled 'needs one of a sensor_msgs/msg/Imu topic'."""
+    assert main(['info', str(Path(__file__).resolve().parents[1] / 'bags' / 'k_tilde_bench')]
+                ) == 0
+    out = capsys.readouterr().out
+    assert 'needs one of a ' not in out
+    assert '  multiposition no   needs a sensor_msgs/msg/Imu topic\n' in out
