@@ -422,6 +422,7 @@ def calibrate_recording(paths: Sequence[Path], *, fmt: str, rate_hz: float | Non
         raise ConfigError(str(exc)) from None
     options = options or CalibrationOptions()
     session = MultipositionSession(options)
+    notes: list[str] = []
     if sections is not None:
         if fmt != 'imucal':
             raise ConfigError('--sections (the Ferraris variant) reads an imucal session: give '
@@ -439,11 +440,14 @@ def calibrate_recording(paths: Sequence[Path], *, fmt: str, rate_hz: float | Non
     else:
         session.feed_recording(rec)
         log = [f'multiposition: {line}' for line in session.process(flush=True)]
+        if fmt == 'imucal' and session.missing():
+            notes.append('note: an imucal session of six positions and three turns is the '
+                         'Ferraris variant (§G.6): give its section list with --sections.')
     start, end = int(round(rec.t_s[0] * 1e9)), int(round(rec.t_s[-1] * 1e9))
     info = BagInfo(Path(rec.source), {session.topic: TopicInfo(session.topic, IMU, len(rec))},
                    start, end, len(rec), {})
     return BagCalibration([info], {'multiposition': session}, len(rec), log,
-                          {'multiposition': options})
+                          {'multiposition': options}, notes)
 
 
 def json_document(outcome: BagCalibration, command: str = 'calibrate') -> dict[str, Any]:

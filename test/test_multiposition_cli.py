@@ -8,6 +8,7 @@ Xsens recordings through ``--format``; the hand-off read back by the loader (for
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -197,3 +198,70 @@ def test_the_ferraris_session_through_format_imucal_and_sections(
     status, text, err = run(capsys, REAL / 'mikoff_mpu9150' / 'imu0.log.xz', '--format', 'xyz6',
                             '--rate-hz', '100', '--sections', sections)
     assert status == 2 and text == '' and '--format imucal' in err
+
+
+def test_the_advice_info_prints_runs_on_an_imu_on_another_topic(
+        hand_turned: tuple[Path, Any, np.ndarray], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """``info`` advises a command that runs; ``--topic`` chooses the Imu topic read."""
+    rng = np.random.default_rng(7)
+    t, acc, gyro, _ = record(random_unit(rng), rng, rate_hz=100.0)
+    bag = imu_bag(tmp_path / 'imu0', t, gyro, acc, topic='/sensors/imu0')
+    assert main(['info', str(bag)]) == 0
+    out = capsys.readouterr().out
+    advice = next(line.split(maxsplit=2)[2] for line in out.splitlines()
+                  if line.startswith('  multiposition '))
+    assert advice == ('gyro-calib calibrate BAG --method multiposition --topic T, T one of '
+                      '/sensors/imu0')
+    argv = advice.split(',')[0].replace('BAG', str(bag)).replace(' T', ' /sensors/imu0')
+    status, out, err = run(capsys, *argv.split()[2:], '--out', tmp_path / 'imu.yaml')
+    assert status == 0, err
+    assert 'gyro misalignment_yz' in out
+    assert load_calibration(tmp_path / 'imu.yaml').imu is not None
+
+
+def test_info_says_what_a_method_without_its_input_needs(
+        hand_turned: tuple[Path, Any, np.ndarray], capsys: pytest.CaptureFixture[str]) -> None:
+    """Not the garbled 'needs one of a sensor_msgs/msg/Imu topic'."""
+    assert main(['info', str(Path(__file__).resolve().parents[1] / 'bags' / 'k_tilde_bench')]
+                ) == 0
+    out = capsys.readouterr().out
+    assert 'needs one of a ' not in out
+    assert '  multiposition no   needs a sensor_msgs/msg/Imu topic\n' in out
+
+
+def test_a_ferraris_session_without_its_sections_is_not_reported_as_measured(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Gravity never near ±z: cond(JᵀJ) 2e11 > 1e6 (§G.5) — exit 1, one line why, no file.
+
+    Before: exit 0 and a hand-off with `complete: true` holding gyro misalignments of 9088°.
+    """
+    out = tmp_path / 'imu.yaml'
+    status, text, err = run(capsys, REAL / 'imucal' / 'example_ferraris_session.csv.xz',
+                            '--format', 'imucal', '--rate-hz', '102.4', '--out', out)
+    assert status == 1, text
+    assert not out.exists() and 'nothing written' in err
+    assert not re.search(r'^(accelerometer|gyro) (misalignment|scale|bias)', text,
+                         re.MULTILINE)  # no parameter row
+    why = next(line for line in text.splitlines()
+               if line.startswith('imu.accelerometer: not measured — '))
+    assert 'the poses do not determine the accelerometer' in why
+    assert '> 1e+06' in why and 'gravity never came near +z, −z' in why
+    assert 'Record poses with gravity near +z, −z' in why
+    assert 'imu.gyro: not measured' in text
+    assert 'give its section list with --sections' in text
+
+
+def test_a_weak_but_determined_pose_set_still_gives_its_numbers(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """cond(JᵀJ) between max_condition (20) and the hard limit: numbers, u, conditioning line."""
+    rng = np.random.default_rng(3)
+    t, acc, gyro, _ = record(random_unit(rng), rng, poses=12, rate_hz=50.0)
+    bag = imu_bag(tmp_path / 'weak', t, gyro, acc)
+    status, text, err = run(capsys, bag, '--method', 'multiposition', '--out',
+                            tmp_path / 'imu.yaml')
+    assert status == 0, err
+    assert 'pose set: not well-conditioned' in text and 'not measured' not in text
+    conds = [float(c) for c in re.findall(r'cond\(JᵀJ\) = ([0-9.e+]+) \(columns', text)]
+    assert len(conds) == 2 and max(conds) > 20 and max(conds) < 1e6, conds
+    assert 'gyro misalignment_yz' in text and 'accelerometer scale_z' in text

@@ -38,3 +38,17 @@ def test_stated_variance_matches_the_scatter_with_a_propagated_input(noise: floa
     truth = np.var(estimates, axis=0)
     np.testing.assert_allclose(np.mean(stated, axis=0) / truth, 1.0, atol=0.1)
     assert np.max(np.mean(twice, axis=0) / truth) > 1.3  # x counted twice: overstated
+
+
+def test_a_propagated_share_above_the_residual_sum_is_said_not_hidden() -> None:
+    """Eq. (7a) truncated at 0: the basis says the residual term is 0, not a bare s = 0."""
+    rng = np.random.default_rng(1)
+    jac = rng.normal(size=(20, 2))
+    residuals = 1e-3 * rng.normal(size=20)
+    big = Input('g', rng.normal(size=(20, 1)), np.array([[1.0]]), np.inf)
+    _, _, basis = fit_covariance(jac, residuals, 18, (big,))
+    assert 'exceeds it: the residual term is 0 and u rests on the propagated inputs alone' \
+        in basis
+    small = Input('g', rng.normal(size=(20, 1)), np.array([[1e-12]]), np.inf)
+    _, _, basis = fit_covariance(jac, residuals, 18, (small,))
+    assert 'exceeds' not in basis and 'taken out' in basis

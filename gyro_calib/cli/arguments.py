@@ -89,7 +89,7 @@ FLAG_METHODS: dict[str, tuple[str, ...]] = {
     'calibration': ('rbrlg', 'dither', 'thermal', 'noise'),
     'sense_axis_elevation_deg': ('thermal',),
     'sense_axis_azimuth_deg': ('thermal',),
-    'topic': ('noise',),
+    'topic': ('noise', 'multiposition'),
 }
 """Flag (argparse dest) → the methods that use it; a flag none of the methods run uses is
 refused (:func:`refuse_unused_flags`). ``--config`` and ``--gyro-id`` serve every method."""
@@ -212,7 +212,9 @@ def method_arguments(parser: argparse.ArgumentParser) -> None:
                         'North, 90 = East; = 90 − a heading), °')
     parser.add_argument('--topic', metavar='T', type=topic_name,
                         help='noise: the input to characterise (/gyro/pulses, /fog/output, '
-                        '/imu/pulses or a sensor_msgs/Imu topic; default: the only one there)')
+                        '/imu/pulses or a sensor_msgs/Imu topic; default: the only one there); '
+                        'multiposition: the sensor_msgs/Imu topic to calibrate (default '
+                        '/imu/data)')
     parser.add_argument('--gyro-id', default='', help="the gyro's serial or name (hand-off)")
     namespace_argument(parser)
     strict_argument(parser)

@@ -43,6 +43,11 @@ def add_commands(sub: Any) -> None:
     info.set_defaults(run=run_info)
 
 
+OWN_COMMAND = ('noise',)
+"""The methods with a subcommand of their own (``gyro-calib noise``); the others run as
+``gyro-calib calibrate BAG --method NAME``."""
+
+
 def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
     """What each method could do with the bag(s): ``{"runs": bool, "how": line}`` by name.
 
@@ -69,12 +74,14 @@ def method_prospects(infos: Sequence[Any]) -> dict[str, dict[str, Any]]:
         if m.any_topic:
             inputs += sorted(t for t, typ in present.items()
                              if typ == m.any_topic and counts.get(t))
-        out[m.name] = ({'runs': True, 'how': f'gyro-calib {m.name} BAG --topic T, T one of '
+        command = (f'gyro-calib {m.name} BAG' if m.name in OWN_COMMAND
+                   else f'gyro-calib calibrate BAG --method {m.name}')
+        out[m.name] = ({'runs': True, 'how': f'{command} --topic T, T one of '
                         + ', '.join(f'{t} ({m.needs[t]})' if t in m.needs else t
                                     for t in inputs)} if inputs else
-                       {'runs': False, 'how': 'needs one of '
-                        + ', '.join([*m.inputs(), *([f"a {m.any_topic} topic"]
-                                                  if m.any_topic else [])])})
+                       {'runs': False, 'how': 'needs '
+                        + ' or '.join([*m.inputs(), *([f"a {m.any_topic} topic"]
+                                                     if m.any_topic else [])])})
     return out
 
 

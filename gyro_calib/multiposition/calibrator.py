@@ -100,6 +100,24 @@ MAX_CONDITION = 20.0
 5–17 (docs/multiposition.md); a set of 12–13 random poses gives 50–80."""
 
 
+HARD_CONDITION = 1e6
+"""Largest cond(JᵀJ) (columns normalised) at which a fit's numbers are reported (§G.5).
+
+Beyond it the poses do not determine the fit: u of the weakest direction is ≥ 10³ × that of a
+well-posed fit, the first-order uncertainty (§G.4) no longer describes the solution (a Ferraris
+session without its sections gives 2e11: misalignments of 9088°), and that sensor (with the
+gyro, which rests on the accelerometer) is not measured. 5·10⁴ × the well-conditioned default."""
+
+
+def undetermined(sensor: str, fit: TriadFit, gone: list[str]) -> str:
+    """Why a fit beyond :data:`HARD_CONDITION` is not reported, and what to record (§G.5)."""
+    where = ', '.join(gone) if gone else 'each of ±x, ±y, ±z'
+    return (f'the poses do not determine the {sensor}: cond(JᵀJ) = {fit.condition:.3g} > '
+            f'{HARD_CONDITION:g}, where its solution is numerically meaningless (§G.5)'
+            + (f'; gravity never came near {", ".join(gone)}' if gone else '')
+            + f'. Record poses with gravity near {where}, turned about every axis.')
+
+
 def lacking(k: int, u: Array, fits: tuple[TriadFit | None, TriadFit | None],
             max_condition: float = MAX_CONDITION) -> tuple[str, ...]:
     """What the pose set still lacks to be well-conditioned (§G.5 criterion); () when not.
@@ -111,7 +129,7 @@ def lacking(k: int, u: Array, fits: tuple[TriadFit | None, TriadFit | None],
     out = []
     if acc is None:
         out.append(f'{MIN_POSES - k} more static poses (the accelerometer needs {MIN_POSES})')
-    elif gyro is None:
+    elif gyro is None and k < MIN_MOTIONS + 1:
         out.append(f'{MIN_MOTIONS + 1 - k} more static poses (the gyro needs {MIN_MOTIONS} '
                    'turns between poses)')
     gone = directions_not_held(u)
@@ -155,6 +173,11 @@ def calibrate(rec: Recording, *, gravity_m_s2: float, gravity_std_m_s2: float,
                 f'{spread[1]:.2f} / {spread[2]:.2f} (⅓ each ideal)'
                 + (f', gravity never near {", ".join(gone)}' if gone else '')
                 + f'; {acc.weak}')
+    if not acc.condition <= HARD_CONDITION:
+        return MultipositionResult(det, None, None, gravity_m_s2, gravity_std_m_s2, (acc_line,),
+                                   undetermined('accelerometer', acc, gone)
+                                   + ' (The gyro fit rests on it.)',
+                                   u, lacking(k, u, (acc, None), max_condition))
     if k - 1 < MIN_MOTIONS:
         return MultipositionResult(det, acc, None, gravity_m_s2, gravity_std_m_s2, (acc_line,),
                                    f'{k - 1} motions; the gyro needs at least {MIN_MOTIONS}.',
@@ -166,6 +189,10 @@ def calibrate(rec: Recording, *, gravity_m_s2: float, gravity_std_m_s2: float,
     turned = rotation_per_axis_deg(rec, gyro)
     gyro_line = (f'gyro: {gyro.n_used} motions, turned {turned[0]:.0f}° / {turned[1]:.0f}° / '
                  f'{turned[2]:.0f}° about x / y / z; {gyro.weak}')
+    if not gyro.condition <= HARD_CONDITION:
+        return MultipositionResult(det, acc, None, gravity_m_s2, gravity_std_m_s2,
+                                   (acc_line, gyro_line), undetermined('gyro', gyro, gone), u,
+                                   lacking(k, u, (acc, gyro), max_condition))
     return MultipositionResult(det, acc, gyro, gravity_m_s2, gravity_std_m_s2,
                                (acc_line, gyro_line), '', u,
                                lacking(k, u, (acc, gyro), max_condition))
@@ -184,5 +211,6 @@ def misalignment_deg(fit: TriadFit) -> dict[str, tuple[float, float]]:
             for i, n in enumerate(fit.names) if n.startswith('misalignment')}
 
 
-__all__ = ['MAX_CONDITION', 'MultipositionResult', 'calibrate', 'direction_held',
-           'inverse_scale', 'lacking', 'misalignment_deg', 'misalignment_matrix', 'pose_spread']
+__all__ = ['HARD_CONDITION', 'MAX_CONDITION', 'MultipositionResult', 'calibrate',
+           'direction_held', 'inverse_scale', 'lacking', 'misalignment_deg',
+           'misalignment_matrix', 'pose_spread', 'undetermined']

@@ -332,6 +332,9 @@ class MultipositionSession(MethodSession):
                                f'well-conditioned set still needed: {"; ".join(r.lacking)}.'}
             return {}
         k = len(r.detection.intervals) if r is not None else 0
+        if r is not None and r.problem and (r.accelerometer is None and k >= MIN_POSES
+                                            or r.gyro is None and k - 1 >= MIN_MOTIONS):
+            return {'imu': f'{k} static poses; {r.problem}'}  # enough, but undetermined
         where = ''
         rec = self.recording() if r is not None and k else None
         if r is not None and rec is not None:

@@ -44,7 +44,8 @@ def fit_covariance(jac: Array, residuals: Array, dof: int,
     """(covariance, ν per parameter, basis) of a least-squares fit (§G eqs. (7)–(9)).
 
     s² = (RSS − Σ_x tr((I − H)·S_x·C_x·S_xᵀ))/ν, at least 0 (eq. (7a)): the residual scatter
-    the propagated inputs do not already explain.
+    the propagated inputs do not already explain. When their expected share reaches the RSS the
+    basis says so (the u then rests on the propagated inputs alone).
     """
     jtj_inv = np.linalg.pinv(jac.T @ jac)
     rss = float(residuals @ residuals)
@@ -63,8 +64,13 @@ def fit_covariance(jac: Array, residuals: Array, dof: int,
                 np.zeros(len(var)))
     with np.errstate(divide='ignore'):
         nu_eff = np.where(denom > 0, var ** 2 / np.where(denom > 0, denom, 1.0), np.inf)
+    over = inputs and explained >= rss  # eq. (7a) leaves nothing: say so, never silently
     basis = (f'residual scatter s = {math.sqrt(s2):.3g} over ν = {dof}'
-             + (f' ({explained / rss:.0%} of the residual sum, the propagated inputs\' '
+             + (f' (the propagated inputs\' expected share, {explained / rss:.0%} of the '
+                'residual sum, exceeds it: the residual term is 0 and u rests on the '
+                'propagated inputs alone)' if over and rss > 0 else
+                ' (the residual sum is 0: the residual term is 0)' if over else
+                f' ({explained / rss:.0%} of the residual sum, the propagated inputs\' '
                 'expected share, taken out)' if inputs and rss > 0 else '')
              + ''.join(f'; {inp.name} propagated' for inp in inputs))
     return (np.asarray(0.5 * (cov + cov.T), dtype=np.float64),
