@@ -890,3 +890,58 @@ def test_a_rerun_that_fails_keeps_the_issued_certificate_and_says_so(
                              'earlier run stays in F-1/ (not replaced)')
     assert (out / 'F-1' / 'F-1.html').read_bytes() == html
     assert _register(out) == [old]
+
+
+def test_ctrl_c_once_every_file_is_written_prints_the_summary_and_exits_as_done(
+        tmp_path: Path) -> None:
+    """Ctrl-C once the fleet files are written (while the local cluster closes) is no interrupt.
+
+    The fleet tutorial's manifest and spec; SIGINT to the process group as soon as every
+    fleet file is in place and fleet.csv says ``complete``: the per-gyro lines and the
+    ``written:`` lines on stdout, one stderr line saying every file was written, exit 0 —
+    never ``interrupted; nothing written.`` over files it wrote (docs/howto/offline.md: a
+    Ctrl-C once every file is written says so and exits as done).
+    """
+    import signal
+
+    (tmp_path / 'spec.yaml').write_text(
+        'decision_rule: guarded_k2\nquantities:\n'
+        '  k_tilde_rad_per_pulse: {unit: ″/pulse, min: 0.8427, max: 0.8429}\n'
+        '  bias_rad_s: {unit: °/h, min: -0.05, max: 0.05}\n', encoding='utf-8')
+    (tmp_path / 'manifest.yaml').write_text(yaml.safe_dump({'gyros': [
+        {'id': gid, 'bags': [str(BAGS / bag)], 'methods': ['rbrlg'],
+         'settings': {'latitude_deg': 28.2}}
+        for gid, bag in (('RLG-101', 'k_tilde_bench'), ('RLG-102', 'theta_four_position'))]}),
+        encoding='utf-8')
+    out = tmp_path / 'l4'
+    fleet = [out / f'fleet.{ext}' for ext in ('csv', 'html', 'jsonl', 'parquet')]
+    env = {**os.environ, 'PYTHONPATH': os.pathsep.join(
+        [str(Path(__file__).resolve().parent.parent), os.environ.get('PYTHONPATH', '')])}
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'gyro_calib.cli', 'batch', 'manifest.yaml', '--out', 'l4',
+         '--workers', '1', '--no-pdf', '--spec', 'spec.yaml', '--no-progress'], env=env,
+        cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and proc.poll() is None:
+            if all(p.exists() for p in fleet) and ',complete' in fleet[0].read_text('utf-8'):
+                break
+            time.sleep(0.005)
+        assert proc.poll() is None, 'the run ended before the test could interrupt it'
+        os.killpg(proc.pid, signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 0, (stdout, stderr)
+    assert stdout.splitlines()[:3] == [
+        'RLG-101: ok PASS', 'RLG-102: ok PASS', '2 gyros: 2 ok, 0 failed, 0 skipped as unchanged']
+    assert {line.removeprefix('written: ') for line in stdout.splitlines()[3:]} >= {
+        str(p.resolve()) for p in fleet}
+    assert stderr == ('gyro-calib: interrupted after every file was written (the written: '
+                      'lines above); the run is complete.\n'), stderr
+    with fleet[0].open(encoding='utf-8') as stream:
+        assert {r['fleet_run'] for r in csv.DictReader(stream)} == {'complete'}
+    assert not (out / 'batch.lock').exists()

@@ -335,3 +335,100 @@ def test_a_published_bench_never_changes_a_nodes_session_it_names_what_it_would_
             node.destroy_node()
     finally:
         rclpy.shutdown()
+
+
+def _rbrlg_write(end: int, *, whole: bool) -> Calibration:
+    """One write of a live rbrlg run (data from stamp 100): K̃ early, θ and the bias later."""
+    values: dict[str, Any] = {
+        'k_tilde_rad_per_pulse': K, 'k_tilde_rad_per_pulse_std': 2e-13, 'window_pairs': 3}
+    if whole:
+        values.update({'fix_error_angle_rad': 1.2e-3, 'fix_error_angle_rad_std': 1e-5,
+                       'scale_factor_rad_per_pulse': K * (1 - 0.72e-6),
+                       'scale_factor_rad_per_pulse_std': 2e-13, 'stations': 4,
+                       'bias_rad_s': 1e-7, 'bias_rad_s_std': 1e-8})
+    missing = {} if whole else {k: 'needs the position-table stations (none yet)' for k in (
+        'fix_error_angle_rad', 'scale_factor_rad_per_pulse', 'bias_rad_s')}
+    return method_calibration('rbrlg', values, Provenance('live', 100, end, missing=missing))
+
+
+def test_the_same_run_again_keeps_what_its_first_writes_have_not_re_measured(
+        tmp_path: Path) -> None:
+    """The same run again (a bag replayed twice, ./run.sh demo twice) loses nothing unsaid.
+
+    The file holds the whole run (K̃, θ, K, the bias, stations). The same run's first write
+    again rests on less data and gives K̃ only: θ, K, stations and the bias are kept, each
+    with a ``kept: … (not measured by this run).`` line a node prints, and the file stays
+    complete. Once the run has re-measured them they are its values again, updated in place
+    (nothing said). A live run that goes on and withdraws a value: the test above.
+    """
+    path = update_calibration(tmp_path / 'h.yaml', _rbrlg_write(900, whole=True))
+    whole = load_calibration(path).values
+    report: list[str] = []
+    update_calibration(path, _rbrlg_write(300, whole=False), report=report)
+    after = load_calibration(path)
+    assert after.values == whole and after.complete
+    lost = ('bias_rad_s', 'fix_error_angle_rad', 'scale_factor_rad_per_pulse', 'stations')
+    said = merge_lines(report)
+    assert sorted(line.split()[1] for line in said) == list(lost), said
+    assert all(line.startswith('kept: ') and line.endswith('(not measured by this run).')
+               for line in said), said
+    assert after.source_of('fix_error_angle_rad') is not None
+    report = []
+    again = _rbrlg_write(900, whole=True)
+    update_calibration(path, dataclasses.replace(again, values={
+        **again.values, 'bias_rad_s': 1.1e-7}), report=report)
+    assert load_calibration(path).values['bias_rad_s'] == 1.1e-7
+    assert merge_lines(report) == [] and any('bias_rad_s' in line for line in report)
+    assert load_calibration(path).methods['rbrlg'].earlier == ()
+
+
+def test_a_bag_replayed_twice_into_a_calibration_node_keeps_every_value_at_every_write(
+        tmp_path: Path) -> None:
+    """The same bag replayed twice into calibration_node (built in-process): nothing vanishes.
+
+    The first replay writes the whole run (K̃, θ, K, the bias, stations). At every write of
+    the second replay of the same data the file still holds every one of those values (the
+    run's first writes lack θ: it is kept until re-measured), and the last write equals the
+    first replay's.
+    """
+    import rclpy
+
+    from gyro_calib.bagio import iter_sample_batches
+    from gyro_calib.nodes.calibration_node import CalibrationNode
+    from gyro_calib.nodes.processes import ros_args
+    from gyro_calib.rbrlg.session import TOPICS
+
+    bag = BAGS / 'theta_four_position'
+    bench = bag_info(bag).scenario['bench']
+    out = tmp_path / 'gyro_calibration.yaml'
+
+    def replay(n: int) -> list[dict[str, Any]]:
+        rclpy.init(args=ros_args({
+            'output_file': str(out), 'latitude_deg': bench['latitude_deg'],
+            'position_table_revolutions': bench['position_table_revolutions'],
+            'state_dir': str(tmp_path / f'state{n}')}))
+        try:
+            node = CalibrationNode()
+            try:
+                written = []
+                for batch in iter_sample_batches(bag, TOPICS):
+                    node._extend(batch)
+                    node._consume(*node.bench.process())
+                    node._write_handoff()
+                    if out.exists():
+                        written.append(dict(load_calibration(out).values))
+            finally:
+                node.destroy_node()
+        finally:
+            rclpy.shutdown()
+        return written
+
+    first = replay(1)
+    whole = first[-1]
+    assert {'fix_error_angle_rad', 'scale_factor_rad_per_pulse', 'bias_rad_s',
+            'stations'} <= set(whole)
+    second = replay(2)
+    assert len(second) > 1
+    for values in second:
+        assert set(values) == set(whole)
+    assert second[-1] == whole

@@ -40,7 +40,8 @@ from gyro_calib.batch.tasks import (
 from gyro_calib.errors import ConfigError
 from gyro_calib.report.lab import reserve_number
 
-__all__ = ['BatchOutcome', 'gyro_stem', 'make_client', 'print_summary', 'run_batch']
+__all__ = ['BatchOutcome', 'gyro_stem', 'make_client', 'print_summary', 'run_batch',
+           'sigint_noted']
 
 RECORD = 'record.json'
 """Each gyro's record (fingerprint, inputs, certificate rows) in its folder."""
@@ -54,6 +55,8 @@ class BatchOutcome:
     skipped: list[str] = field(default_factory=list)
     interrupted: bool = False
     files: list[Path] = field(default_factory=list)
+    interrupted_once_written: bool = False
+    """A Ctrl-C came once every file was being (or had been) written: noted, not acted on."""
 
     @property
     def failed(self) -> list[str]:
@@ -185,6 +188,30 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
               spec_path: Path | None = None, force: bool = False, pdf: bool = True,
               progress: Callable[[int, int], None] | None = None,
               lab: Any = None, replace: bool = False) -> BatchOutcome:
+    """Calibrate every gyro of ``jobs`` on the cluster (see :func:`_run_batch`).
+
+    From the moment the fleet files are written a Ctrl-C is noted, not raised (the outcome's
+    ``interrupted_once_written``): the run's futures are released as :func:`_run_batch`
+    returns, and a ``KeyboardInterrupt`` in their ``__del__`` would be lost in an
+    ``Exception ignored`` traceback.
+    """
+    arrived: list[int] = []
+    previous = signal.getsignal(signal.SIGINT)
+    try:
+        outcome = _run_batch(jobs, out_dir, client=client, spec=spec, spec_path=spec_path,
+                             force=force, pdf=pdf, progress=progress, lab=lab, replace=replace,
+                             arrived=arrived)
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, previous)
+    outcome.interrupted_once_written = bool(arrived)
+    return outcome
+
+
+def _run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any,
+               spec_path: Path | None, force: bool, pdf: bool,
+               progress: Callable[[int, int], None] | None, lab: Any, replace: bool,
+               arrived: list[int]) -> BatchOutcome:
     """Calibrate every gyro of ``jobs`` on the cluster.
 
     Calibrate every gyro of ``jobs`` on ``client``'s cluster; write per-gyro and fleet
@@ -290,12 +317,37 @@ def run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any 
                     records[gid] = {**_not_run(by_id[gid], stems[gid]), 'reason': burned(
                         reserved[gid], 'the run was stopped before its certificate was made')}
             client.cancel(submitted)
-    with _sigint_deferred():  # a second Ctrl-C must not leave the fleet files half-updated
-        ordered = [records[j.gyro_id] if j.gyro_id in records
-                   else _not_run(j, stems[j.gyro_id]) for j in jobs]
-        files = write_fleet(ordered, out_dir, spec_limits=spec.limits if spec is not None
-                            else None, interrupted=interrupted)
+    # a Ctrl-C from here on must not leave the fleet files half-updated: noted in `arrived`
+    # (and left so until run_batch, after this frame's futures are released, puts it back)
+    _note_sigint(arrived)
+    ordered = [records[j.gyro_id] if j.gyro_id in records
+               else _not_run(j, stems[j.gyro_id]) for j in jobs]
+    files = write_fleet(ordered, out_dir, spec_limits=spec.limits if spec is not None
+                        else None, interrupted=interrupted)
     return BatchOutcome(ordered, skipped, interrupted, files)
+
+
+def _note_sigint(arrived: list[int]) -> None:
+    """From now on a Ctrl-C (main thread only) is appended to ``arrived``, not raised."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
+
+
+@contextlib.contextmanager
+def sigint_noted() -> Iterator[list[int]]:
+    """While the block runs a Ctrl-C is noted in the yielded list (non-empty: it came).
+
+    For what follows the writing of every file (closing the cluster, printing the summary):
+    the run is done, and a Ctrl-C then is said, not acted on.
+    """
+    arrived: list[int] = []
+    previous = signal.getsignal(signal.SIGINT)
+    _note_sigint(arrived)
+    try:
+        yield arrived
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager

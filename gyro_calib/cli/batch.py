@@ -10,7 +10,9 @@ uncertainties from its earlier hand-off is such a row unless ``--replace``; 2 ba
 (manifest, spec, output directory, ids whose files would collide) or another run writes
 the output directory (``DIR/batch.lock``), nothing written; 130 interrupted (what finished
 is kept; every other gyro is a row ``not run (interrupted)``; a Ctrl-C while the local
-cluster starts: ``interrupted; nothing written.``).
+cluster starts: ``interrupted; nothing written.``). A Ctrl-C once the fleet files are
+written (while the cluster closes) is said in one line after the summary; the exit status
+stays the run's.
 
 Under a lab file a certificate number is reserved only after the gyro's certificate is built
 (a failed gyro burns none; a failure after it names the number); a re-issued certificate names
@@ -96,7 +98,13 @@ def run(args: argparse.Namespace) -> int:
 def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
                 created: bool) -> int:
     """Start or reach the cluster, run the fleet, print the summary (the lock is held)."""
-    from gyro_calib.batch.run import make_client, print_summary, run_batch
+    from gyro_calib.batch.run import (
+        BatchOutcome,
+        make_client,
+        print_summary,
+        run_batch,
+        sigint_noted,
+    )
 
     show = show_progress(args.progress)
     try:
@@ -107,6 +115,8 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
         raise ConfigError(f'--scheduler {args.scheduler!r} is not a Dask scheduler address '
                           f'({exc}); give it as tcp://HOST:PORT.') from None
     bar = None
+    outcome: BatchOutcome | None = None
+    late = False
     try:
         if show:
             from tqdm import tqdm
@@ -127,17 +137,34 @@ def _run_locked(args: argparse.Namespace, jobs: Any, spec: Any, lab: Any,
             raise write_failed(exc, '--out', args.out) from None  # the lock removes --out
         raise write_failed(exc, '--out', args.out,
                            ['the files of the gyros stored before it']) from None
+    except KeyboardInterrupt:
+        if outcome is None:
+            raise
+        late = True  # in the instant between run_batch's return and the block below
     finally:
-        if bar is not None:
-            bar.close()
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    print_summary(outcome)
+        if outcome is None:
+            _close(bar, client, cluster)
+    # every file is written: a Ctrl-C while the cluster closes (or the summary prints) is said,
+    # not taken for an interrupt of the run
+    with sigint_noted() as arrived:
+        _close(bar, client, cluster)
+        print_summary(outcome)
     if outcome.interrupted:
         print('gyro-calib: interrupted; the gyros that finished are kept.', file=sys.stderr)
         return EXIT_INTERRUPTED
+    if late or arrived or outcome.interrupted_once_written:
+        print('gyro-calib: interrupted after every file was written (the written: lines '
+              'above); the run is complete.', file=sys.stderr)
     return EXIT_SOME_FAILED if outcome.failed else EXIT_OK
+
+
+def _close(bar: Any, client: Any, cluster: Any) -> None:
+    """Close the progress bar, the client and the local cluster (if one was started)."""
+    if bar is not None:
+        bar.close()
+    client.close()
+    if cluster is not None:
+        cluster.close()
 
 
 def batch_lock(out_dir: Path) -> DirectoryLock:

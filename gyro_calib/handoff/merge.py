@@ -207,7 +207,8 @@ def _merge_method(method: str, prov: Provenance, new_values: Mapping[str, Any],
         for key in _run_keys(run, method, older.values, schema):
             old_owner.setdefault(key, i)
     for key, i in list(old_owner.items()):  # a live run rewriting itself: its latest word
-        if old_runs[i].same_run(prov) and key not in new_keys:
+        if old_runs[i].same_run(prov) and key not in new_keys and not _restarted(
+                prov, old_runs[i]):
             lines.append(f'withdrawn: {key} {SAME_RUN}')
             values.pop(key, None)
             _pop_twins(values, key)
@@ -233,6 +234,17 @@ def _merge_method(method: str, prov: Provenance, new_values: Mapping[str, Any],
         if mine:
             earlier.append(dataclasses.replace(run, keys=mine))
     return dataclasses.replace(prov, keys=_ordered(taken, schema), earlier=tuple(earlier))
+
+
+def _restarted(prov: Provenance, old_run: Provenance) -> bool:
+    """``prov`` is ``old_run`` begun again (rests on less of the same data), not its sequel.
+
+    The same bag replayed into a node again, or ``./run.sh demo`` run twice: its first writes
+    lack what the file holds from the whole run. Those values are kept (a ``kept:`` line
+    each) until the run re-measures them; a live run that goes on (as much data or more)
+    and no longer gives a value withdraws it.
+    """
+    return prov.data_end_stamp_ns < old_run.data_end_stamp_ns
 
 
 def _merge_group(lead: str, members: list[str], new_has: bool, prov: Provenance,
