@@ -70,10 +70,21 @@ def accelerometers_on_stream(src: ExportSource, options: ExportOptions) -> bool:
     """Whether the stream the consumer reads carries the IMU's accelerometers.
 
     The driver's raw stream does, and so does imu_corrector's Imu mode (an IMU hand-off:
-    the driver's Imu in, its accelerometers passed through); its pulse modes (a single gyro,
+    the driver's Imu in, its accelerometers passed through; a multiposition hand-off, whose
+    ``imu.accelerometer`` imu_corrector applies to them); its pulse modes (a single gyro,
     a triad) do only when given the driver's Imu as ``accel_input`` (``--accel-topic``).
     """
-    return options.stream == 'raw' or src.kind == 'imu' or bool(options.accel_topic)
+    return (options.stream == 'raw' or src.kind == 'imu' or has_accelerometer_part(src)
+            or bool(options.accel_topic))
+
+
+def has_accelerometer_part(src: ExportSource) -> bool:
+    """Whether the hand-off's ``imu:`` section is an IMU's: the gyro with ``imu.accelerometer``.
+
+    A multiposition calibration (docs/multiposition.md): imu_corrector with the IMU driver's
+    Imu (``imu_input``) publishes its rates and its accelerations corrected.
+    """
+    return src.imu is not None and bool(src.imu.accelerometer)
 
 
 def need_accelerometers(src: ExportSource, fmt: str, options: ExportOptions,
@@ -287,7 +298,11 @@ def header(src: ExportSource, fmt: str, options: ExportOptions,
     stream = ('the stream compensated upstream by gyro_calib imu_corrector (scale factor, '
               'axes, bias and thermal model removed there)' if options.stream == 'compensated'
               else 'the sensor driver\'s raw stream')
-    if options.stream == 'compensated' and src.kind == 'imu':
+    if options.stream == 'compensated' and has_accelerometer_part(src):
+        stream = ('the stream of gyro_calib imu_corrector\'s Imu mode with this multiposition '
+                  'calibration (-p imu_input:=YOUR_IMU_DRIVER_TOPIC: ω = M·ω_raw − b and '
+                  'a = A·r − b_a of each message of the driver)')
+    elif options.stream == 'compensated' and src.kind == 'imu':
         stream = ('the stream of gyro_calib imu_corrector\'s Imu mode (-p imu_input:='
                   'YOUR_IMU_DRIVER_TOPIC: the driver\'s rates with this noise run\'s '
                   'per-sample covariance, its accelerometers passed through)')

@@ -1,15 +1,25 @@
 """One sensor per hand-off file: what sensor a record or a file describes.
 
 A hand-off file is one sensor's: a single-axis gyro (top-level ``gyro:`` keys), a gyro triad
-(the ``imu:`` section, its three channels) or an IMU read from ``sensor_msgs/Imu`` (the
-noise method's ``imu_<axis>_…`` keys, six axes). A noise run also says its sample rate
-(1/τ₀ of its stored curves). A single-axis gyro is of one technology: a ring-laser gyro's pulse
+(the ``imu:`` section of a triad's pulse channels, ``/imu/pulses``) or an IMU read from
+``sensor_msgs/Imu`` (the noise method's ``imu_<axis>_…`` keys, six axes, and the multiposition
+method's ``imu:`` section: the gyro in the triad's layout with ``imu.accelerometer`` beside
+it, :data:`IMU_SECTION_METHODS`). A noise run also says its sample rate (1/τ₀ of its stored
+curves). A single-axis gyro is of one technology: a ring-laser gyro's pulse
 output (the rbrlg, dither and thermal methods, noise from ``/gyro/pulses``) or a fibre-optic
 gyro's closed-loop counts (the fog method, noise from ``/fog/output``). :func:`another_sensor`
 names, in one line, what differs between a run and the file it would be merged into (sensor
 kind, gyro technology, channels, sample rate), so that a MEMS IMU's noise run never lands in
 a triad's file, an RBRLG run never in a triad's, a triad run never in a single gyro's, nor a
 FOG run in an RLG's (or the other way round).
+
+The sample rate is compared between noise runs only: their terms (and the curves they rest
+on) are of the output stream at that rate, through that output's own filter (a 100-Hz output
+decimated from a 400-Hz core bends the short-τ curve), so two noise runs at other rates are
+two outputs, not one to replace the other. A calibration's parameters (scale, misalignment,
+bias: a multiposition run at 50 Hz) are the sensor's, not its output rate's: the same IMU
+recorded at 50 Hz for the poses and at 200 Hz lying still for its noise is one sensor, and
+its noise run goes into the calibration's file (docs/multiposition.md).
 """
 
 from __future__ import annotations
@@ -36,6 +46,10 @@ PULSE_METHODS = ('rbrlg', 'dither', 'thermal')
 
 COUNTS_METHODS = ('fog',)
 """The methods of a fibre-optic gyro's closed-loop counts (``/fog/output``)."""
+
+IMU_SECTION_METHODS = ('multiposition',)
+"""The methods whose ``imu:`` section is an IMU's read from ``sensor_msgs/Imu`` (or its
+table files): a MEMS IMU's gyro in the triad's layout, its accelerometer beside it."""
 
 SAMPLE_RATE_TOLERANCE = 0.01
 """Relative difference of two noise runs' sample rates above which they are two sensors."""
@@ -117,19 +131,33 @@ def technologies_of(calibration: CalibrationLike) -> frozenset[str]:
     return frozenset(found)
 
 
+def imu_section_is_an_imus(calibration: CalibrationLike) -> bool:
+    """True when the record's ``imu:`` section is an IMU's (sensor_msgs/Imu), not a triad's.
+
+    The multiposition method's section (:data:`IMU_SECTION_METHODS`) holds the gyro in the
+    triad's layout with the accelerometer beside it (``imu.accelerometer``); a pulse triad's
+    section has no accelerometer and comes from the triad method.
+    """
+    imu = calibration.imu
+    return imu is not None and (bool(imu.accelerometer)
+                                or any(m in IMU_SECTION_METHODS for m in calibration.methods))
+
+
 def sensor_of(calibration: CalibrationLike) -> Sensor:
     """The sensor a record (a run, or a file's content) describes."""
     kinds = set()
     keys = _keys(calibration)
+    imus_section = imu_section_is_an_imus(calibration)
     if calibration.imu is not None:
-        kinds.add(TRIAD)
+        kinds.add(IMU if imus_section else TRIAD)
     if any(k.startswith(IMU_KEY_PREFIX) for k in keys):
         kinds.add(IMU)
     if any(not k.startswith(IMU_KEY_PREFIX) for k in keys):
         kinds.add(SINGLE_GYRO)
     noise = calibration.methods.get('noise')
     axes = tuple(noise.deviations) if noise is not None else ()
-    channels = tuple(calibration.imu.channels) if calibration.imu is not None else ()
+    channels = (tuple(calibration.imu.channels)
+                if calibration.imu is not None and not imus_section else ())
     if not kinds and axes:  # a run of curves alone: its axes say the sensor
         if any(a.startswith(('gyro_', 'accel_')) for a in axes):
             kinds.add(IMU)
