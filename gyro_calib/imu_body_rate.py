@@ -109,6 +109,11 @@ class TriadRateModel:
         bias_known: the section holds ``bias_rad_s``.
         scale_factor_rad_per_pulse: K_i = 1/|r_i|, R = M⁻¹ (3,).
         arw_rad_per_sqrt_s: N_i per channel (3,), 0 where not measured.
+        rounding_variance_pulses2: the variance a count difference gets from rounding, per
+            channel (3,), pulse²; None: 1/6 (a pulse triad's integer counts). An IMU's
+            section (``imu.accelerometer``: the driver's rates, one "pulse" = one raw unit·s)
+            has no count rounding: 2·(Q_i/K_i)², Q_i the channel's angle quantisation noise
+            where the noise run gives it (or its 2σ bound), else 0 (METHODS §E.5 eq. (16)).
     """
 
     channels: tuple[str, str, str]
@@ -119,6 +124,7 @@ class TriadRateModel:
     bias_known: bool
     scale_factor_rad_per_pulse: Array
     arw_rad_per_sqrt_s: Array
+    rounding_variance_pulses2: Array | None = None
 
 
 def triad_rate_model(cal: ImuCalibration, *, source: str = 'hand-off') -> TriadRateModel:
@@ -140,7 +146,22 @@ def triad_rate_model(cal: ImuCalibration, *, source: str = 'hand-off') -> TriadR
         cal.channels, m, np.asarray(cal.pulses_to_body_rad_covariance, dtype=float),
         np.asarray(cal.bias_rad_s, dtype=float) if known else np.zeros(3),
         np.asarray(cal.bias_rad_s_std, dtype=float) if known else np.zeros(3),
-        known, k, arw)
+        known, k, arw, rounding_variances(cal, k))
+
+
+def rounding_variances(cal: ImuCalibration, scale_factor_rad_per_pulse: Array
+                       ) -> Array | None:
+    """Per channel, the rounding variance of a count difference, pulse² (None: 1/6 each).
+
+    A pulse triad's counts are integers (None). An IMU's section (``imu.accelerometer``, a
+    multiposition calibration) reads the driver's rates: 2·(Q_i/K_i)², Q_i the channel's
+    angle quantisation noise (measured, else its 2σ bound, else 0; METHODS §E.5 eq. (16)).
+    """
+    if not cal.accelerometer:
+        return None
+    q = np.array([channel_quantisation(cal.noise.get(c, {})) for c in cal.channels])
+    return np.asarray(2.0 * (q / np.asarray(scale_factor_rad_per_pulse, dtype=float)) ** 2,
+                      dtype=float)
 
 
 def channel_arw(noise: dict[str, float]) -> float:
@@ -149,13 +170,25 @@ def channel_arw(noise: dict[str, float]) -> float:
     return float(noise.get(key, noise.get(key + '_upper_bound_2sigma', 0.0)))
 
 
+def channel_quantisation(noise: dict[str, float]) -> float:
+    """Q of one channel, rad: its measured value, else its 2σ upper bound, else 0."""
+    key = 'quantization_noise_rad'
+    return float(noise.get(key, noise.get(key + '_upper_bound_2sigma', 0.0)))
+
+
 def count_rate_variances(dt_s: float, scale_factor_rad_per_pulse: Array,
-                         arw_rad_per_sqrt_s: Array) -> Array:
-    """The diagonal of C_ṅ, §F.6 eq. (17): N_i²/(K_i²·Δt) + 1/(6·Δt²) per channel, pulses²/s²."""
+                         arw_rad_per_sqrt_s: Array,
+                         rounding_variance_pulses2: Array | None = None) -> Array:
+    """The diagonal of C_ṅ, §F.6 eq. (17): N_i²/(K_i²·Δt) + 1/(6·Δt²) per channel, pulses²/s².
+
+    ``rounding_variance_pulses2`` replaces the 1/6 pulse² of integer counts (an IMU's
+    section: :class:`TriadRateModel`).
+    """
     arw_pulses = np.asarray(arw_rad_per_sqrt_s, dtype=float) / np.asarray(
         scale_factor_rad_per_pulse, dtype=float)
-    return np.asarray(arw_pulses**2 / dt_s + QUANTISATION_VARIANCE_PULSES2 / dt_s**2,
-                      dtype=float)
+    rounding = (np.full(3, QUANTISATION_VARIANCE_PULSES2) if rounding_variance_pulses2 is None
+                else np.asarray(rounding_variance_pulses2, dtype=float))
+    return np.asarray(arw_pulses**2 / dt_s + rounding / dt_s**2, dtype=float)
 
 
 def body_rate_covariance(count_rate: Array, m: Array, m_covariance: Array,
@@ -195,7 +228,8 @@ def body_rate(counts0: Array, counts1: Array, dt_s: float, model: TriadRateModel
     omega = model.m @ n_dot - b
     cov = body_rate_covariance(
         n_dot, model.m, model.m_covariance,
-        count_rate_variances(dt_s, model.scale_factor_rad_per_pulse, model.arw_rad_per_sqrt_s),
+        count_rate_variances(dt_s, model.scale_factor_rad_per_pulse, model.arw_rad_per_sqrt_s,
+                             model.rounding_variance_pulses2),
         c_b)
     return np.asarray(omega, dtype=float), cov
 

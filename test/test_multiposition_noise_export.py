@@ -138,3 +138,32 @@ def test_a_pulse_triad_and_an_imu_never_share_a_file(
     (line,) = err.strip().splitlines()
     assert 'another sensor (sensor kind differs)' in line and says in line, line
     assert target.read_bytes() == before
+
+
+def test_the_published_and_exported_rate_sigma_is_the_noise_runs_not_a_count_rounding(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], calibrated_with_noise: Path) -> None:
+    """An IMU's rates are not integer counts: no 1/6 pulse² (1 "pulse" = 1 rad here) per sample.
+
+    imu_corrector (Imu mode) publishes ≈ N·√f per axis at rest (was ≈ 80 rad/s at 200 Hz:
+    the pulse triad's count rounding, 1/(6·Δt²) rad²/s²), and the Autoware export writes the
+    largest of them.
+    """
+    from fake_node import FakeNode
+
+    from gyro_calib.nodes.imu_corrector_core import ImuCorrector
+
+    held = load_calibration(calibrated_with_noise, handoff_schema()).values
+    n = np.array([held[f'imu_gyro_{a}_angle_random_walk_rad_per_sqrt_s'] for a in 'xyz'])
+    corrector = ImuCorrector(FakeNode(), imu_input='/imu/raw')  # type: ignore[arg-type]
+    corrector.poll_file(str(calibrated_with_noise))
+    out = []
+    for i in range(3):  # 200 Hz, at rest
+        out += corrector.on_imu(1_000_000_000 + i * 5_000_000, (0.0, 0.0, 0.0),
+                                (0.0, 0.0, 9.8), (4e-4, 0, 0, 0, 4e-4, 0, 0, 0, 4e-4))
+    sigma = np.sqrt(np.diag(np.reshape(out[-1][1].covariance_rad2_s2, (3, 3))))
+    assert sigma == pytest.approx(n * np.sqrt(200.0), rel=0.05)
+    out_file = tmp_path / 'autoware.yaml'
+    assert _cli(capsys, 'export', str(calibrated_with_noise), '--format', 'autoware',
+                '--rate-hz', '200', '--out', str(out_file))[0] == 0
+    params = yaml.safe_load(out_file.read_text(encoding='utf-8'))['/**']['ros__parameters']
+    assert params['angular_velocity_stddev_xx'] == pytest.approx(max(sigma), rel=0.01)

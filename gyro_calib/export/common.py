@@ -26,7 +26,7 @@ from gyro_calib.export.source import (
     ExportSource,
     Term,
 )
-from gyro_calib.imu_body_rate import channel_arw, count_rate_variances
+from gyro_calib.imu_body_rate import channel_arw, count_rate_variances, rounding_variances
 from gyro_calib.imu_calibration import ImuCalibration
 
 STREAMS = ('compensated', 'raw')
@@ -248,12 +248,14 @@ def triad_sample_variance(imu: ImuCalibration, rate_hz: float) -> tuple[float, s
     m = np.asarray(imu.pulses_to_body_rad, dtype=float)
     k = 1.0 / np.linalg.norm(np.linalg.inv(m), axis=1)
     arw = np.array([channel_arw(imu.noise.get(c, {})) for c in imu.channels])
-    c_n = count_rate_variances(1.0 / rate_hz, k, arw)
+    rounding_pulses2 = rounding_variances(imu, k)
+    c_n = count_rate_variances(1.0 / rate_hz, k, arw, rounding_pulses2)
     variance = float(np.max(np.diag(m @ np.diag(c_n) @ m.T)))
+    rounding = ('the count quantisation 1/6 pulse² × (K_i·f)²' if rounding_pulses2 is None else
+                'the angle quantisation 2·Q_i²·f² (an IMU\'s rates: no count rounding)')
     text = (f'largest diagonal of M·C_ṅ·Mᵀ, the covariance imu_corrector publishes (METHODS '
             f'§F.6 eq. (17)): N_i = {", ".join(f"{v:.6g}" for v in arw)} rad/√s of channels '
-            f'{", ".join(imu.channels)} squared × f, with the count quantisation 1/6 pulse² '
-            '× (K_i·f)²')
+            f'{", ".join(imu.channels)} squared × f, with {rounding}')
     return variance, text
 
 
