@@ -149,8 +149,11 @@ class _Node:
             line = raw.decode(errors='replace')
             if '[FATAL]' in line or ('[ERROR]' in line and not self.fatal):
                 self.fatal = line.strip()
-            sys.stderr.write(line)
-            sys.stderr.flush()
+            try:
+                sys.stderr.write(line)
+                sys.stderr.flush()
+            except (OSError, ValueError):  # our stderr closed: keep draining the node's
+                pass
 
     def failed(self, *, may_end: bool) -> int | None:
         """The node's exit status if it ended when it should not have (None: it did not)."""
