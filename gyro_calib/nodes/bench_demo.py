@@ -6,22 +6,59 @@ spinning on the tilted mount), then the θ phase (rate table at four stations, p
 table turning). Every node's own log (accepted windows and stations, rejections) is shown
 as it comes; at the end K̃, θ, K and bias are printed beside the simulator's truth, and
 the hand-off file is written where ``--out`` says.
+
+Ctrl-C (at any instant, to the demo alone or to its whole process group as a terminal
+sends it): one line, ``bench_demo: interrupted; …`` naming what was written, exit 130, no
+traceback. The nodes run in their own process group, so a terminal's Ctrl-C reaches only
+the demo, which stops them itself (SIGTERM: silent while a node still starts, a clean stop
+once it runs). A node that exits with an error stops the demo at once: the others are
+stopped and one line names the node and its fatal line (exit 2 when the node refused its
+input, 1 otherwise). An ``--out`` whose state directory another run holds is refused before
+anything starts (exit 2).
 """
 
 from __future__ import annotations
 
-import argparse
-import math
 import os
 import signal
-import subprocess
 import sys
-import time
 
-from gyro_calib.nodes.processes import pick_domain_id, ros_environment, start_node
-from gyro_calib.units import ARCSEC_PER_RAD
-from sim_nodes.rbrlg.bench import true_k_tilde_arcsec_per_pulse
-from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig
+
+def _interrupted_while_starting(signum: int, frame: object) -> None:
+    """Ctrl-C while the demo loads its modules: nothing was started or written yet."""
+    sys.stderr.write('bench_demo: interrupted; nothing started, nothing written.\n')
+    sys.stderr.flush()
+    os._exit(130)  # not SystemExit: half-imported modules would raise on the way out
+
+
+def _starting_as_the_command() -> bool:
+    """This import is the ``bench_demo`` command starting (console script, ``python -m``)."""
+    start = os.path.basename(sys.argv[0]) if sys.argv else ''
+    return start in ('bench_demo', '-m') or sys.argv[0].endswith(
+        os.path.join('gyro_calib', 'nodes', 'bench_demo.py'))
+
+
+if _starting_as_the_command() and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+    signal.signal(signal.SIGINT, _interrupted_while_starting)
+
+import argparse  # noqa: E402  (after the interrupt handler: the imports below take seconds)
+import math  # noqa: E402
+import subprocess  # noqa: E402
+import threading  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import IO  # noqa: E402
+
+from gyro_calib.nodes.processes import pick_domain_id, ros_environment, start_node  # noqa: E402
+from gyro_calib.units import ARCSEC_PER_RAD  # noqa: E402
+from sim_nodes.rbrlg.bench import true_k_tilde_arcsec_per_pulse  # noqa: E402
+from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig  # noqa: E402
+
+EXIT_INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT), as every gyro_calib command."""
+
+STOP_WAIT_S = 10.0
+"""How long a node may take to stop cleanly (write its hand-off) before it is killed, s."""
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -59,50 +96,170 @@ def refusal(opts: argparse.Namespace) -> str | None:
         check_output_file(opts.out, '--out', follow_links=True)
     except ConfigError as exc:
         return str(exc).replace('Nothing was read.', 'Nothing was started.')
+    holder = state_lock_holder(os.path.abspath(opts.out))
+    if holder is not None:
+        return (f'another run ({holder}) is writing {opts.out}: wait for it or give another '
+                '--out. Nothing was started.')
     return None
 
 
+def state_lock_holder(out: str) -> str | None:
+    """Who holds the state-directory lock of the hand-off file ``out`` (None: nobody).
+
+    The calibration node keeps its record in ``<out>.state`` and takes ``<out>.state.lock``
+    (:class:`~gyro_calib.state_record.StateLock`); a second node on the same file stops
+    with a fatal line. The lock is only tested here (never created, never kept).
+    """
+    import fcntl
+
+    from gyro_calib.nodes.node_state import state_directory
+
+    directory = state_directory('', out)
+    assert directory is not None
+    try:
+        fd = os.open(directory.with_name(directory.name + '.lock'), os.O_RDONLY)
+    except OSError:  # no lock file (or none readable): no live holder to wait for
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return ' '.join(os.pread(fd, 300, 0).decode(errors='replace').split()) or 'a process'
+    else:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)
+
+
+class _Node:
+    """A node the demo started: its process, and the last fatal/error line it logged."""
+
+    def __init__(self, name: str, proc: subprocess.Popen[bytes]) -> None:
+        self.name = name
+        self.proc = proc
+        self.fatal = ''
+        self._copier = threading.Thread(target=self._copy, args=(proc.stderr,), daemon=True)
+        self._copier.start()
+
+    def _copy(self, stream: IO[bytes] | None) -> None:
+        """Pass the node's log on to the demo's stderr, keeping its last fatal/error line."""
+        if stream is None:
+            return
+        for raw in iter(stream.readline, b''):
+            line = raw.decode(errors='replace')
+            if '[FATAL]' in line or ('[ERROR]' in line and not self.fatal):
+                self.fatal = line.strip()
+            try:
+                sys.stderr.write(line)
+                sys.stderr.flush()
+            except (OSError, ValueError):  # our stderr closed: keep draining the node's
+                pass
+
+    def failed(self, *, may_end: bool) -> int | None:
+        """The node's exit status if it ended when it should not have (None: it did not)."""
+        code = self.proc.poll()
+        if code is None or (code == 0 and may_end):
+            return None
+        return code
+
+    def stop(self) -> None:
+        """SIGTERM (silent while it starts, a clean stop once it runs), then kill."""
+        if self.proc.poll() is None:
+            self.proc.terminate()
+        try:
+            self.proc.wait(timeout=STOP_WAIT_S)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+        self._copier.join(timeout=2.0)
+
+    def why(self) -> str:
+        """The node's fatal line without its level/stamp/name prefix."""
+        return self.fatal.split(']: ', 1)[-1] if self.fatal else ''
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the bench; return 0 when K was measured, 2 for options it cannot run with."""
+    """Run the bench; 0 when K was measured, 2 for options it cannot run with, 130 on Ctrl-C.
+
+    1 when the calibration did not complete or a node failed (2 if it refused its input).
+    """
     opts = parse_args(argv)
     why = refusal(opts)
     if why is not None:
         print(f'bench_demo: error: {why}', file=sys.stderr)
         return 2
+    stop = threading.Event()
+    previous = {sig: signal.signal(sig, lambda *_: stop.set())
+                for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        return _run(opts, stop)
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _run(opts: argparse.Namespace, stop: threading.Event) -> int:
+    """Run the nodes until the calibration is complete, one fails or Ctrl-C; the exit status.
+
+    The nodes are stopped on every way out (``stop`` is set by SIGINT/SIGTERM).
+    """
     domain = pick_domain_id()
     env = ros_environment(domain)
     gyro = RingLaserGyroConfig(seed=opts.seed)
     print(f'bench_demo: DDS domain {domain} (loopback only); full procedure at '
           f'{opts.speed:g}× real time', flush=True)
     out = os.path.abspath(opts.out)
-    procs = [
-        start_node('calibration_node', {'latitude_deg': gyro.latitude_deg, 'output_file': out,
-                                        'angle_random_walk_deg_sqrt_h':
-                                            gyro.angle_random_walk_deg_sqrt_h},
-                   env),
-        start_node('rlg_sim', {'seed': opts.seed}, env),
-    ]
-    table = start_node('rate_table_sim', {'scenario': 'full', 'k_tilde_pairs': opts.pairs,
-                                          'real_time_factor': float(opts.speed),
-                                          'seed': opts.seed}, env)
-    procs.append(table)
+    before, state_before = _file_state(out), _file_state(out + '.state')
+
+    def started(name: str, params: dict[str, object]) -> _Node:
+        # own process group: a terminal's Ctrl-C reaches the demo only, which stops them
+        return _Node(name, start_node(name, params, env, process_group=0,
+                                      stderr=subprocess.PIPE))
+
+    nodes: list[_Node] = []
     try:
-        result = _watch(env, table, timeout_s=(60 * opts.pairs + 230) / max(opts.speed, 0.1)
-                        + 300.0)
+        nodes.append(started('calibration_node', {
+            'latitude_deg': gyro.latitude_deg, 'output_file': out,
+            'angle_random_walk_deg_sqrt_h': gyro.angle_random_walk_deg_sqrt_h}))
+        nodes.append(started('rlg_sim', {'seed': opts.seed}))
+        nodes.append(started('rate_table_sim', {
+            'scenario': 'full', 'k_tilde_pairs': opts.pairs,
+            'real_time_factor': float(opts.speed), 'seed': opts.seed}))
+        result, failed = _watch(env, nodes, stop, timeout_s=(60 * opts.pairs + 230)
+                                / max(opts.speed, 0.1) + 300.0)
     finally:
-        for proc in procs:
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        for proc in procs:
-            try:
-                proc.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
+        for node in nodes:
+            if node.proc.poll() is None:
+                node.proc.terminate()
+        for node in nodes:
+            node.stop()
+    if stop.is_set():
+        state = out + '.state'
+        written = (f'{out} holds what was measured so far' if _file_state(out) != before
+                   else f'{out} not written (the calibration node kept its record in {state})'
+                   if _file_state(state) != state_before else 'nothing written')
+        print(f'bench_demo: interrupted; {written}.', file=sys.stderr, flush=True)
+        return EXIT_INTERRUPTED
+    if failed is not None:
+        code = failed.proc.returncode
+        said = failed.why() or 'see its log above'
+        print(f'bench_demo: error: {failed.name} stopped (exit {code}): {said}; the other '
+              'nodes were stopped.', file=sys.stderr, flush=True)
+        return 2 if code == 2 else 1
     if 'scale_factor_rad_per_pulse' not in result:
         print('bench_demo: the calibration did not complete.', file=sys.stderr)
         return 1
     _print_summary(result, gyro, out)
     return 0
+
+
+def _file_state(path: str) -> tuple[int, int] | None:
+    """(mtime ns, size) of ``path``, None if absent: tells whether a node wrote it."""
+    try:
+        st = Path(path).stat()
+    except OSError:
+        return None
+    return st.st_mtime_ns, st.st_size
 
 
 def _print_summary(diag: dict[str, str], gyro: RingLaserGyroConfig, out: str) -> None:
@@ -128,9 +285,13 @@ def _print_summary(diag: dict[str, str], gyro: RingLaserGyroConfig, out: str) ->
           f'hand-off file: {out}', flush=True)
 
 
-def _watch(env: dict[str, str], table: subprocess.Popen[bytes],
-           timeout_s: float) -> dict[str, str]:
-    """Listen to /diagnostics in this process until the table has finished."""
+def _watch(env: dict[str, str], nodes: list[_Node], stop: threading.Event,
+           timeout_s: float) -> tuple[dict[str, str], _Node | None]:
+    """Listen to /diagnostics in this process until the table has finished.
+
+    Also ends at once when ``stop`` is set (Ctrl-C) or a node ends when it should not
+    (returned second; the table may end with 0, the others not before the demo stops them).
+    """
     os.environ.update(env)
     import rclpy
     from diagnostic_msgs.msg import DiagnosticArray
@@ -139,8 +300,12 @@ def _watch(env: dict[str, str], table: subprocess.Popen[bytes],
     from gyro_calib.nodes.ros_distribution import ros_context
     from gyro_calib.nodes.ros_io import make_executor
 
+    table = nodes[-1]
     latest: dict[str, str] = {}
-    with ros_context():
+    failed: _Node | None = None
+    if stop.is_set():
+        return latest, None
+    with ros_context(own_signals=True):
         node = rclpy.create_node('bench_demo')
 
         def on_diag(msg: DiagnosticArray) -> None:
@@ -154,15 +319,20 @@ def _watch(env: dict[str, str], table: subprocess.Popen[bytes],
         executor.add_node(node)
         deadline = time.monotonic() + timeout_s
         finished_at = None
-        while time.monotonic() < deadline:
+        while time.monotonic() < deadline and not stop.is_set():
             executor.spin_once(timeout_sec=0.1)
-            if finished_at is None and table.poll() is not None:
+            failed = next((n for n in nodes if n.failed(may_end=n is table) is not None), None)
+            if failed is not None:
+                break
+            if finished_at is None and table.proc.poll() is not None:
                 finished_at = time.monotonic()
             if finished_at is not None and latest.get('stations') == '4' and (
                     'scale_factor_rad_per_pulse' in latest):
                 break
+        executor.remove_node(node)
+        executor.shutdown()
         node.destroy_node()
-    return dict(latest)
+    return dict(latest), failed
 
 
 if __name__ == '__main__':
