@@ -20,6 +20,7 @@ from gyro_calib.bagio import (
     BagError,
     BagInfo,
     CorruptBagError,
+    EmptyBagError,
     MissingTopicError,
     WrongMessageTypeError,
     bag_info,
@@ -368,6 +369,12 @@ def calibrate_bags(paths: Sequence[str | Path], *, methods: Sequence[str] | None
                                                  namespace=ns, recover=not strict):
                     yield index, batch
         run(separate, one_by_one, True)
+    if counts[0] == 0 and (any(i.damage is not None for i in infos)
+                           or any(n.startswith('note: ') for n in notes)):
+        # nothing readable: as a bag holding no message (docs/recovery.md), not a 0-message run
+        raise EmptyBagError(f'{", ".join(str(i.path) for i in infos)}: no message is readable '
+                            '(every chunk holding one is cut off or damaged: '
+                            + '; '.join(n.removeprefix('note: ') for n in notes) + ').')
     for name, s in sessions.items():
         log += [f'{name}: {line}' for line in s.process(flush=True)]
     if progress is not None:

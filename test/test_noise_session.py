@@ -139,7 +139,7 @@ def test_json_section_has_exactly_the_issue_shape(imu_session: NoiseSession) -> 
 def test_summary_rows_give_si_and_the_quoted_units(imu_session: NoiseSession) -> None:
     rows = {q: (v, s, n) for q, v, s, n in imu_session.summary_rows()}
     value, std, n = rows['gyro_x: angle random walk N']
-    assert 'rad/√s' in value and '°/√h' in value and '°/√h' in std and n == '20001'
+    assert 'rad/√s' in value and '°/√h' in value and '°/√h' in std and n == '20000'
     si, quoted = (float(p.split()[0]) for p in value.split(' = '))
     assert quoted == pytest.approx(si * 180 / math.pi * 60, rel=1e-3)
     assert any(q.startswith('accel_z: velocity random walk N') for q in rows)

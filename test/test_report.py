@@ -48,8 +48,9 @@ from gyro_calib.session import CalibrationOptions
 
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 SCENARIO_BAGS = sorted(p.name for p in BAGS.iterdir()
-                       if p.is_dir() and not p.name.startswith('triad_'))
-"""Every committed bag of one gyro (a triad's certificate: test/test_certificate_imu.py)."""
+                       if p.is_dir() and not p.name.startswith(('triad_', 'multiposition_')))
+"""Every committed bag of one gyro (a triad's certificate: test/test_certificate_imu.py; a MEMS
+IMU's multiposition bags calibrate only when asked, ``--method multiposition``)."""
 WITH_FIGURES = {'k_tilde_bench', 'theta_four_position', 'fog_mapping_self_cal', 'dither_z',
                 'thermal_validation', 'noise_rlg_static'}
 """One bag per method (two for the RBRLG: K̃ alone, K̃ + θ) is drawn with its figures; the
