@@ -131,6 +131,9 @@ def test_managed_node_consumes_only_while_active(graph: Graph,
     assert settles_at(0), node.log()
     go(Transition.TRANSITION_CLEANUP)
     assert state() == 'unconfigured', node.log()
+    deadline = time.monotonic() + 20  # the node's log reaches us after its service answer
+    while 'cleaned up: new session' not in node.log() and time.monotonic() < deadline:
+        time.sleep(0.1)
     log = node.log()
     assert 'managed node: unconfigured' in log
     assert 'active: consuming /gyro/pulses, /vibration_table/joint_states' in log
