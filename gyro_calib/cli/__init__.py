@@ -42,23 +42,10 @@ import os
 import signal
 import sys
 
+from gyro_calib.startup_interrupt import end_of_starting, quiet_interrupt_while_starting
 
-def _interrupted_while_starting(signum: int, frame: object) -> None:
-    """Ctrl-C while the command starts (its imports take seconds): nothing was written yet."""
-    sys.stderr.write('gyro-calib: interrupted; nothing written.\n')
-    sys.stderr.flush()
-    os._exit(130)  # not SystemExit: half-imported modules would raise on the way out
-
-
-def _starting_as_the_command() -> bool:
-    """This import is the ``gyro-calib`` command starting (console script, ``python -m``)."""
-    start = os.path.basename(sys.argv[0]) if sys.argv else ''
-    return start in ('gyro-calib', '-m') or sys.argv[0].endswith(
-        os.path.join('gyro_calib', 'cli', '__main__.py'))
-
-
-if _starting_as_the_command() and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-    signal.signal(signal.SIGINT, _interrupted_while_starting)
+quiet_interrupt_while_starting('gyro-calib', os.path.join('gyro_calib', 'cli', '__main__.py'),
+                               'nothing written')
 
 import argparse  # noqa: E402  (after the interrupt handler: the imports below take seconds)
 from collections.abc import Sequence  # noqa: E402
@@ -99,8 +86,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print('gyro-calib: interrupted; nothing written.', file=sys.stderr)
         return EXIT_INTERRUPTED
-    if signal.getsignal(signal.SIGINT) is _interrupted_while_starting:
-        signal.signal(signal.SIGINT, signal.default_int_handler)  # the ledger's turn
+    end_of_starting()  # the ledger's turn
     try:
         return int(args.run(args))
     except GyroCalibError as exc:

@@ -23,23 +23,10 @@ import os
 import signal
 import sys
 
+from gyro_calib.startup_interrupt import quiet_interrupt_while_starting
 
-def _interrupted_while_starting(signum: int, frame: object) -> None:
-    """Ctrl-C while the demo loads its modules: nothing was started or written yet."""
-    sys.stderr.write('bench_demo: interrupted; nothing started, nothing written.\n')
-    sys.stderr.flush()
-    os._exit(130)  # not SystemExit: half-imported modules would raise on the way out
-
-
-def _starting_as_the_command() -> bool:
-    """This import is the ``bench_demo`` command starting (console script, ``python -m``)."""
-    start = os.path.basename(sys.argv[0]) if sys.argv else ''
-    return start in ('bench_demo', '-m') or sys.argv[0].endswith(
-        os.path.join('gyro_calib', 'nodes', 'bench_demo.py'))
-
-
-if _starting_as_the_command() and signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-    signal.signal(signal.SIGINT, _interrupted_while_starting)
+quiet_interrupt_while_starting('bench_demo', os.path.join('gyro_calib', 'nodes', 'bench_demo.py'),
+                               'nothing started, nothing written')
 
 import argparse  # noqa: E402  (after the interrupt handler: the imports below take seconds)
 import math  # noqa: E402
