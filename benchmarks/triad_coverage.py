@@ -22,7 +22,11 @@ compared with the truth: the fraction within ±1σ of its stated u (target 60–
 z = error/u and the largest |z| (target ≤ 4.5). Two ways of knowing the count noise, from the
 same pairs: ``stated`` (the true ARW given as ``angle_random_walk_deg_sqrt_h``, as from a
 datasheet or a noise run) and ``measured`` (not given: measured from each gyro's own pair
-residuals, METHODS §F eq. (6c)). The last table gives, per generator at ARW 0.0005 °/√h, the
+residuals, METHODS §F eq. (6c)). Each parameter states ν besides u; per parameter the report
+also gives ν and the largest t-equivalent score |z_t|, z_t = Φ⁻¹(F_t(ν)(t_ν·error/u)) (u is
+widened by t_ν, docs/methods.md §A (3d), so ±u is the claim's t(ν) interval at 68.27 %), and
+per generator, ARW and count noise a check of ν against the errors (the tails of z_t, a KS
+test, the Student t fitted to z). The last table gives, per generator at ARW 0.0005 °/√h, the
 95th percentile of |ΔK_x/K_x| and |ΔK_y/K_y|, against the 1e-7 target.
 """
 

@@ -83,3 +83,19 @@ def test_k_and_sense_axes_cover_within_the_binomial_band_with_arw_stated(
             lo, hi = band(zm[:, cols].size)
             assert lo <= inside <= hi, (cols, inside, (lo, hi), zm)
         assert float(np.max(np.abs(t_equivalent_scores(zm, dof)))) <= 4.5, zm
+
+
+def test_the_t_equivalent_score_is_normal_for_errors_that_follow_their_claim() -> None:
+    """An error that is u·T_ν/t_ν (u widened by t_ν, methods §A (3d)) scores as N(0, 1)."""
+    from scipy.stats import kstest, norm
+    from scipy.stats import t as student
+
+    rng = np.random.default_rng(3)
+    for nu in (3, 5, 10):
+        z = student.rvs(nu, size=20_000, random_state=rng) / student.ppf(norm.cdf(1.0), nu)
+        zt = t_equivalent_scores(z[:, None], np.full((len(z), 1), float(nu)))[:, 0]
+        assert kstest(zt, 'norm').pvalue > 1e-3, nu
+        assert np.array_equal(np.abs(zt) <= 1.0, np.abs(z) <= 1.0), nu  # ±u: its t(ν) 68.27 %
+    z = np.array([[0.5, -6.6]])
+    assert np.array_equal(t_equivalent_scores(z, np.full((1, 2), np.nan)), z)  # ν unknown: z
+    assert 3.0 < float(t_equivalent_scores(np.array([[6.59]]), np.array([[5.0]]))[0, 0]) < 3.5
