@@ -95,3 +95,42 @@ def scores(result: TriadResult, k_true: np.ndarray, s_true: np.ndarray
             if j != i:
                 z.append((axis[j].value - s_true[i, j]) / axis[j].std_uncertainty)
     return z, rel
+
+
+def stated_dofs(result: TriadResult) -> list[float]:
+    """ν each of the nine parameters states (order of :func:`z_scores`); NaN where not solved."""
+    out: list[float] = []
+    for i, ch in enumerate(result.channels):
+        k, axis = ch.scale_factor_rad_per_pulse, ch.sense_axis
+        if k is None or axis is None:
+            return [math.nan] * 9
+        out.append(float(k.dof))
+        out.extend(float(axis[j].dof) for j in range(3) if j != i)
+    return out
+
+
+def t_statistic(z: np.ndarray, dof: np.ndarray) -> np.ndarray:
+    """T = t_ν·error/u: what the claim (u, ν) says is Student-t(ν) distributed.
+
+    The estimators widen the share of u that rests on ν degrees of freedom by t_ν
+    (docs/methods.md §A eq. (3d): u = t_ν·s, ±u covers 68.27 %), so the claim is
+    error = u·T_ν/t_ν, and |z| ≤ 1 is the t(ν) interval at 68.27 %. ν ≤ 0 or ∞: normal.
+    """
+    from scipy.stats import t as student
+
+    finite = np.isfinite(dof) & (dof >= 1)
+    factor = np.where(finite, student.ppf(0.8413447460685429, np.where(finite, dof, 1.0)), 1.0)
+    return np.asarray(z * factor, dtype=np.float64)
+
+
+def t_equivalent_scores(z: np.ndarray, dof: np.ndarray) -> np.ndarray:
+    """z_t = Φ⁻¹(F_t(ν)(t_ν·error/u)): the normal score of each error under its own (u, ν)."""
+    from scipy.stats import norm
+    from scipy.stats import t as student
+
+    tt = t_statistic(z, dof)
+    finite = np.isfinite(dof) & (dof >= 1)
+    nu = np.where(finite, dof, 1.0)
+    # the upper tail for positive T keeps Φ⁻¹ exact far out (|z_t| up to ~37)
+    upper = norm.isf(student.sf(np.abs(tt), nu))
+    return np.asarray(np.where(finite, np.sign(tt) * upper, z), dtype=np.float64)
