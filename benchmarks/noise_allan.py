@@ -170,7 +170,7 @@ def child_ours(n: int, seed: int, deviations: str, out: str, paths: list[str]) -
 
 
 def kernel_floor_ns(block: int = 1 << 15, reps: int = 200) -> dict[str, float]:
-    """ns per term of the NumPy operations each statistic's exact sums cannot do without.
+    """Ns per term of the NumPy operations each statistic's exact sums cannot do without.
 
     The sums are bit-identical to the shipped ones only if every term is formed by the same
     IEEE operations and summed by the same BLAS dot over the same pieces: for the ADEV
@@ -340,8 +340,8 @@ def _ours(n: int, seed: int, deviations: str, tmp: str, label: str,
     run = info['paths']['screened']
     sums = run['parts'].get('sums', float('nan'))
     info['floor_sums_s'] = floor_sums
-    print(f'    floor of the exact sums (the NumPy operations every term needs for the same '
-          f'floats, one cached block, no file, no Python): '
+    print('    floor of the exact sums (the NumPy operations every term needs for the same '
+          'floats, one cached block, no file, no Python): '
           + ', '.join(f'{d} {v:.2f}' for d, v in need.items())
           + f' ns per term and factor × {n:.0e} terms × {factors} factors = {floor_sums:.2f} s '
           f'CPU; our sums took {sums:.2f} s = {sums / floor_sums:.2f}× it')
