@@ -51,6 +51,7 @@ from gyro_calib.cli.arguments import (
     finite_float,
     namespace_argument,
     options_from_args,
+    output_file,
     say_config_defaults,
     strict_argument,
     topic_name,
@@ -88,12 +89,12 @@ def add_commands(subparsers: Any) -> None:
                    'noise_node): taus_per_octave, overlap, fit_min_tau_s, ...')
     p.add_argument('--json', action='store_true', help='print one JSON document on stdout '
                    '(the human summary goes to stderr)')
-    p.add_argument('--kalibr', type=Path, metavar='IMU_YAML',
+    p.add_argument('--kalibr', type=output_file('imu.yaml'), metavar='IMU_YAML',
                    help="write Kalibr's imu.yaml (IMU input only)")
     p.add_argument('--plot', type=Path, metavar='DIR',
                    help='write the log-log ADEV figure (a panel per axis) as noise_adev.png '
                    'into DIR (created if absent, in an existing directory)')
-    p.add_argument('--out', type=Path, metavar='HANDOFF_YAML',
+    p.add_argument('--out', type=output_file('handoff.yaml'), metavar='HANDOFF_YAML',
                    help='write (or update) the INS hand-off file of this sensor')
     p.add_argument('--replace', action='store_true',
                    help="--out: take this run's values where they differ from the file's by "
