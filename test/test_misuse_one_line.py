@@ -429,7 +429,7 @@ def test_bench_demo_refuses_what_it_cannot_run_before_starting_anything(
     def started(*args: Any, **kwargs: Any) -> None:
         raise AssertionError('a node or a DDS domain was started')
 
-    monkeypatch.setattr(bench_demo, 'pick_domain_id', started)
+    monkeypatch.setattr(bench_demo, 'choose_domain', started)
     monkeypatch.setattr(bench_demo, 'start_node', started)
     (tmp_path / 'file').write_text('x', encoding='utf-8')
     argv, says = DEMO[case]
