@@ -121,6 +121,20 @@ def with_overrides(name: str, overrides: dict[str, Any]) -> Any:
     return scenario
 
 
+def with_node_parameters(name: str, seed: int, sample_rate_hz: float) -> Any:
+    """Scenario ``name`` as a simulator node's parameters give it (:func:`with_overrides`).
+
+    ``seed`` −1 keeps the scenario's seeds (else each becomes SEED + k), ``sample_rate_hz``
+    0 keeps its rate; so the node publishes what ``gyro-calib simulate`` writes, bit for bit.
+    """
+    overrides: dict[str, Any] = {}
+    if seed >= 0:
+        overrides['seed'] = seed
+    if sample_rate_hz > 0:
+        overrides['sample_rate_hz'] = sample_rate_hz
+    return with_overrides(name, overrides) if overrides else SCENARIOS[name]
+
+
 def _spellings(key: str, value: Any) -> list[str]:
     """How a description writes a parameter value: '280 s', '500 Hz', '1 kHz', 'seed 101'."""
     if key == 'seed':
