@@ -43,7 +43,7 @@ def test_an_unknown_scenario_is_one_fatal_line_and_exit_2(
 
 @pytest.mark.parametrize('name', ['triad_remount_bench_py', 'multiposition_hand_turned'])
 def test_the_node_parameters_give_the_scenario_simulate_writes(name: str) -> None:
-    """seed −1 and rate 0 keep the scenario's; others are ``gyro-calib simulate``'s overrides."""
+    """Seed −1 and rate 0 keep the scenario's; others are simulate's overrides."""
     assert with_node_parameters(name, -1, 0.0) == with_overrides(name, {})
     assert with_node_parameters(name, 5, 40.0) == with_overrides(
         name, {'seed': 5, 'sample_rate_hz': 40.0})
