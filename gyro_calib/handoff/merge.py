@@ -152,8 +152,8 @@ def _merged_imu(new: CalibrationLike, older: CalibrationLike,
     if run is None:
         return old
     if old is None:
-        lines.append(f'imu: added (K, sense axes, M and b of the {_imu_method(new)} '
-                     'calibration).' if any(m in IMU_METHODS for m in new.methods) else
+        lines.append(f'imu: added (K, sense axes, M and b of the {IMU_SOURCES[_imu_method(new)]}).'
+                     if any(m in IMU_METHODS for m in new.methods) else
                      f'imu: added with the channels {list(run.channels)} and their '
                      f'{_per_channel_words(run)} only.')
         return run
@@ -183,6 +183,10 @@ def _per_channel_words(imu: ImuCalibration) -> str:
     """'noise', 'thermal' or 'noise and thermal' terms per channel of a section."""
     return ' and '.join(n for n in ('noise', 'thermal') if getattr(imu, n)) + ' terms' \
         if imu.noise or imu.thermal else 'no terms'
+
+
+IMU_SOURCES = {'triad': 'triad', 'multiposition': 'multiposition calibration'}
+"""What an imu: section is of, by the method it came from (:data:`IMU_METHODS`)."""
 
 
 def _imu_method(calibration: CalibrationLike) -> str:
