@@ -135,12 +135,18 @@ def check_new_directory(path: str | Path, what: str) -> Path:
     return p.absolute()
 
 
-def check_plot_dir(path: str | Path, what: str = '--plot') -> Path:
-    """The figure directory's absolute path, checked before any work.
+PLOT_DIR_HOLDS = 'the figures are named by method inside it'
+"""What a ``--plot DIR`` holds, for the line refusing a file there."""
+
+
+def check_plot_dir(path: str | Path, what: str = '--plot', holds: str = PLOT_DIR_HOLDS,
+                   file_kind: str = 'a figure file', example: str = 'noise_adev.png') -> Path:
+    """The figure (or other output) directory's absolute path, checked before any work.
 
     The figure directory's absolute path, checked before any work (created later, by
     :func:`make_plot_dir`, when the figures are drawn): a file can be created in it, or,
-    when it is absent, a directory beside it.
+    when it is absent, a directory beside it. Other output directories (a certificate's,
+    a batch's) pass what they hold (``holds``, ``file_kind``, ``example``) for the lines.
 
     Raises:
         ConfigError: ``path`` is an existing file, names a figure file (``fig.png``), its
@@ -148,12 +154,11 @@ def check_plot_dir(path: str | Path, what: str = '--plot') -> Path:
     """
     p = Path(path)
     if p.exists() and not p.is_dir():
-        raise ConfigError(f'{what} {p} is a file; {what} takes a directory (the figures are '
-                          'named by method inside it). Nothing was read.')
-    if not p.exists() and p.suffix.lower() in IMAGE_SUFFIXES:
-        raise ConfigError(f'{what} {p} names a figure file; {what} takes a directory (the '
-                          'figures are named by method inside it, e.g. noise_adev.png). '
+        raise ConfigError(f'{what} {p} is a file; {what} takes a directory ({holds}). '
                           'Nothing was read.')
+    if not p.exists() and p.suffix.lower() in IMAGE_SUFFIXES:
+        raise ConfigError(f'{what} {p} names {file_kind}; {what} takes a directory ({holds}, '
+                          f'e.g. {example}). Nothing was read.')
     if p.is_dir():
         probe_writable(p.absolute(), what, p)
         return p.absolute()

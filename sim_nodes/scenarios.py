@@ -8,6 +8,7 @@ and its ``write_scenario_bag(scenario, path)``); this module only gathers them.
 from __future__ import annotations
 
 import importlib
+import math
 import os
 import re
 from pathlib import Path
@@ -120,6 +121,20 @@ def with_overrides(name: str, overrides: dict[str, Any]) -> Any:
     return scenario
 
 
+def with_node_parameters(name: str, seed: int, sample_rate_hz: float) -> Any:
+    """Scenario ``name`` as a simulator node's parameters give it (:func:`with_overrides`).
+
+    ``seed`` −1 keeps the scenario's seeds (else each becomes SEED + k), ``sample_rate_hz``
+    0 keeps its rate; so the node publishes what ``gyro-calib simulate`` writes, bit for bit.
+    """
+    overrides: dict[str, Any] = {}
+    if seed >= 0:
+        overrides['seed'] = seed
+    if sample_rate_hz > 0:
+        overrides['sample_rate_hz'] = sample_rate_hz
+    return with_overrides(name, overrides) if overrides else SCENARIOS[name]
+
+
 def _spellings(key: str, value: Any) -> list[str]:
     """How a description writes a parameter value: '280 s', '500 Hz', '1 kHz', 'seed 101'."""
     if key == 'seed':
@@ -192,3 +207,76 @@ def write_scenario_bag_with(name: str, path: str | Path, overrides: dict[str, An
     _, module = _ALL[name]
     return module.write_scenario_bag(  # type: ignore[no-any-return]
         with_overrides(name, overrides), path)
+
+
+MAX_SIMULATED_MESSAGES = 10_000_000
+"""The most messages ``gyro-calib simulate`` writes in one bag: a run whose estimate
+(:func:`estimated_message_count`) is larger is refused before any work. A million messages
+take about 20 s and 30 MB (noise_rlg_static, 2 cores); the committed scenarios hold at most
+0.15 million."""
+
+DEFAULT_RECORDS: dict[str, tuple[int, float]] = {
+    'k_tilde_bench': (120043, 100.0),
+    'theta_four_position': (94859, 270.9),
+    'theta_multi_station': (150079, 428.6),
+    'fault_lock_in': (120043, 100.0),
+    'fault_missing_zero_index': (120042, 100.0),
+    'fault_pulse_gap': (119643, 100.0),
+    'fault_index_jitter_burst': (120043, 100.0),
+    'k_tilde_mark_in_acceleration': (134445, 112.0),
+    'fault_out_of_order': (120043, 100.0),
+    'fog_turntable': (81446, 339.2),
+    'fog_mapping_self_cal': (84809, 353.1),
+    'fog_fault_short_plateau': (29608, 123.3),
+    'fog_fault_silent_injection': (31000, 129.1),
+    'fog_fault_saturating_staircase': (39694, 165.1),
+    'fog_slow_loop_low_rate': (19736, 197.1),
+    'dither_z': (88002, 40.0),
+    'dither_y': (88002, 40.0),
+    'dither_53arcmin_z': (66002, 30.0),
+    'dither_53arcmin_y': (66002, 30.0),
+    'dither_stripped': (44002, 20.0),
+    'dither_small_table': (44002, 20.0),
+    'noise_imu_static': (100025, 500.0),
+    'noise_imu_band_limited': (60000, 600.0),
+    'noise_rlg_static': (139000, 280.0),
+    'noise_rlg_spikes': (60000, 120.0),
+    'noise_rlg_turning': (60229, 200.8),
+    'thermal_calibration': (147004, 29400.0),
+    'thermal_validation': (90004, 18000.0),
+    'thermal_fault_stuck_sensor': (61204, 12300.0),
+    'thermal_ramp_only_sparse': (73081, 20880.0),
+    'triad_two_axis_bench': (140393, 140.4),
+    'triad_remount_bench_px': (44876, 59.8),
+    'triad_remount_bench_mx': (44876, 59.8),
+    'triad_remount_bench_py': (44876, 59.8),
+    'triad_remount_bench_my': (44876, 59.8),
+    'triad_remount_bench_pz': (44876, 59.8),
+    'triad_remount_bench_mz': (44876, 59.8),
+    'multiposition_hand_turned': (4880, 97.6),
+    'multiposition_few_poses_low_rate': (1209, 60.4),
+}
+"""Scenario name → (message count, record length in s) of its bag as committed in bags/
+(test/test_simulate_limit.py checks them against the bags)."""
+
+
+def estimated_message_count(name: str, overrides: dict[str, Any]) -> int:
+    """How many messages scenario (or group) ``name``'s bag(s) would hold with ``overrides``.
+
+    The committed bag's count scaled by the asked sample rate over the scenario's and the
+    asked ``duration_s`` over the committed record length (each only where the scenario has
+    that parameter): an upper estimate, since index events and table states do not follow the
+    sample rate. For a group, the largest member's.
+    """
+    if name in GROUPS:
+        return max(estimated_message_count(m, overrides) for m in GROUPS[name])
+    count, length_s = DEFAULT_RECORDS[name]
+    params = scenario_parameters(name)
+    scale = 1.0
+    rates = [v for p, v in params.items()
+             if p.rsplit('.', 1)[-1] in ('sample_rate_hz', 'output_rate_hz')]
+    if 'sample_rate_hz' in overrides and rates:
+        scale *= float(overrides['sample_rate_hz']) / float(rates[0])
+    if 'duration_s' in overrides and any(p.rsplit('.', 1)[-1] == 'duration_s' for p in params):
+        scale *= float(overrides['duration_s']) / length_s
+    return int(math.ceil(count * scale))

@@ -96,6 +96,8 @@ class PacedSimulatorNode(SimulatorNode):
     """Rate of the samples counted in ``_n_published``, Hz."""
     _chunks: Iterator[Any]
     """The run's chunks (for a run given as an iterator)."""
+    _scenario_name = ''
+    """The scenario :meth:`declare_scenario` took ('' = none)."""
 
     def __init__(self, node_name: str) -> None:
         """The node; its timer ticks once it is spun (after the subclass has set up)."""
@@ -126,6 +128,31 @@ class PacedSimulatorNode(SimulatorNode):
                                      min_readers=self.min_subscribers,
                                      logger=self.get_logger())
 
+    def declare_scenario(self, scenarios: Mapping[str, Any], default: str, *, seed: str,
+                         rate: str) -> Any:
+        """Declare ``scenario``, ``seed``, ``sample_rate_hz`` and the run parameters.
+
+        A scenario node's set-up (triad_sim, imu_multiposition_sim): the scenario named
+        (one of ``scenarios``; ``default`` if not given) with the seed and rate given
+        (:func:`sim_nodes.scenarios.with_node_parameters`); ``seed`` and ``rate`` are the
+        parameters' descriptions. It becomes :attr:`progress_what`'s name.
+
+        Raises:
+            ValueError: the scenario is not one of ``scenarios`` (one fatal line, exit 2).
+        """
+        from sim_nodes.scenarios import with_node_parameters
+
+        param = functools.partial(described_parameter, self)
+        name = str(param('scenario', default, f'One of {", ".join(scenarios)}.'))
+        seed_value = int(param('seed', -1, seed))
+        rate_value = float(param('sample_rate_hz', 0.0, rate))
+        self.declare_run_parameters()
+        if name not in scenarios:
+            raise ValueError(f'{self.get_name()}: scenario {name!r} is not one of '
+                             f'{", ".join(scenarios)}.')
+        self._scenario_name = name
+        return with_node_parameters(name, seed_value, rate_value)
+
     # -- what a simulator gives -----------------------------------------------------------
     @property
     def all_publishers(self) -> list[Publisher[Any]]:
@@ -147,8 +174,10 @@ class PacedSimulatorNode(SimulatorNode):
 
     @property
     def progress_what(self) -> str:
-        """What the progress lines are of."""
-        raise NotImplementedError
+        """What the progress lines are of (the scenario's name, after :meth:`declare_scenario`)."""
+        if not self._scenario_name:
+            raise NotImplementedError
+        return self._scenario_name
 
     def start_line(self) -> str:
         """The line logged when the run starts: '<what>: simulating T s at <pace>'."""

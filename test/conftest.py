@@ -4,15 +4,14 @@ The domain (1–100) is one no other test run on this machine holds: each run ta
 exclusive lock on ``gyro_calib_dds_domain_<N>.lock`` in the temporary directory for its
 whole life, starting from its process id (two runs whose ids agree modulo 100 once shared
 a domain, and one run's replayed zero-index events reached the other's nodes as "too
-late"). GYRO_CALIB_TEST_DOMAIN_ID names a domain instead. A ROS_DOMAIN_ID left in the
-shell is never joined by tests.
+late"), and none a DDS participant of another program has bound a port of
+(:func:`gyro_calib.nodes.processes.hold_free_domain`). GYRO_CALIB_TEST_DOMAIN_ID names a
+domain instead. A ROS_DOMAIN_ID left in the shell is never joined by tests.
 """
 
 from __future__ import annotations
 
-import fcntl
 import os
-import tempfile
 from pathlib import Path
 from typing import IO
 
@@ -25,19 +24,15 @@ import gyro_calib.registry  # noqa: F401
 
 
 def _private_domain() -> tuple[int, IO[bytes] | None]:
-    """A DDS domain no other test run on this machine holds, and the lock that keeps it."""
-    start = os.getpid() % 100
-    for k in range(100):
-        domain = 1 + (start + k) % 100
-        lock = open(os.path.join(tempfile.gettempdir(),  # noqa: SIM115 (held for the run)
-                                 f'gyro_calib_dds_domain_{domain}.lock'), 'wb')
-        try:
-            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            lock.close()
-            continue
-        return domain, lock
-    return 1 + start, None  # every domain held: fall back to the process id
+    """A DDS domain no other test run on this machine holds, and the lock that keeps it.
+
+    :func:`gyro_calib.nodes.processes.hold_free_domain`, as ``./run.sh demo`` takes its
+    own: no other run's lock, no port of another DDS participant on this machine.
+    """
+    from gyro_calib.nodes.processes import hold_free_domain
+
+    choice = hold_free_domain()
+    return choice.domain, choice.lock
 
 
 if 'GYRO_CALIB_TEST_DOMAIN_ID' in os.environ:

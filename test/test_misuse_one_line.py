@@ -6,7 +6,8 @@
 - ``simulate --seed -1``, a ``--duration-s`` that leaves no message or that the scenario's
   procedure ignores, or that its simulator cannot take;
 - Ctrl-C while the command loads its modules: one line, exit 130, no traceback;
-- ``noise --taus 1``: exit 1 (the curves are measured), the line naming ``--taus``;
+- ``noise --taus 1 --json``: exit 1 (the curves are measured), the line naming ``--taus``
+  (without an output of the curves it is refused: test/test_noise_taus.py);
   ``--latitude-deg nan`` refused;
 - the lines advise flags that exist: ``noise --replace``, ``calibrate --topic``;
 - ``calibrate --method noise`` on a bag without a noise input: exit 2 listing the topics;
@@ -194,9 +195,10 @@ def test_ctrl_c_while_the_modules_load_is_one_line_and_writes_nothing(
 
 
 # -- noise --taus, --latitude-deg nan ---------------------------------------------------------
-def test_noise_taus_1_exits_1_naming_taus(capsys: pytest.CaptureFixture[str]) -> None:
+def test_noise_taus_1_exits_1_naming_taus_when_the_curve_is_asked_for(
+        capsys: pytest.CaptureFixture[str]) -> None:
     code, stdout, stderr = run(capsys, 'noise', BAGS / 'noise_rlg_static', '--taus', '1',
-                               '--no-progress')
+                               '--json', '--no-progress')
     assert code == 1, stderr
     last = stderr.strip().splitlines()[-1]
     assert '--taus 1 lists 1 averaging time(s), fewer than the 8 a term fit needs' in last
@@ -427,7 +429,7 @@ def test_bench_demo_refuses_what_it_cannot_run_before_starting_anything(
     def started(*args: Any, **kwargs: Any) -> None:
         raise AssertionError('a node or a DDS domain was started')
 
-    monkeypatch.setattr(bench_demo, 'pick_domain_id', started)
+    monkeypatch.setattr(bench_demo, 'choose_domain', started)
     monkeypatch.setattr(bench_demo, 'start_node', started)
     (tmp_path / 'file').write_text('x', encoding='utf-8')
     argv, says = DEMO[case]

@@ -18,8 +18,9 @@ usage error in one line:
 from __future__ import annotations
 
 import argparse
+import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn
 
@@ -61,6 +62,23 @@ def topic_name(text: str) -> str:
         raise argparse.ArgumentTypeError(f'{text!r} is empty: name a topic (e.g. /gyro/pulses), '
                                          'or leave the flag out for its default')
     return text
+
+
+def output_file(example: str) -> Callable[[str], Path]:
+    """A file output flag's argparse ``type``: a path that does not end in a separator.
+
+    ``Path('out/')`` is ``out``: without this, ``--kalibr out/`` wrote a file named ``out``
+    where the user meant a directory. A file output takes a file name (docs/howto/offline.md,
+    "Outputs"; ``example`` is the name the refusal suggests); an existing directory is
+    refused by :func:`gyro_calib.outputs.check_output_file`.
+    """
+    def file_path(text: str) -> Path:
+        if text.endswith(('/', os.sep)):
+            raise argparse.ArgumentTypeError(f'{text!r} ends in {text[-1]}, a directory; it '
+                                             f'takes a file name (e.g. {text}{example})')
+        return Path(text)
+
+    return file_path
 
 
 def finite_float(text: str) -> float:
@@ -287,15 +305,21 @@ def calibrate_arguments(parser: argparse.ArgumentParser) -> None:
     lab_arguments(parser, '--report DIR')
 
 
-def check_output_dir(path: Path, what: str = '--out') -> Path:
+CERTIFICATE_DIR_HOLDS = 'the certificate is written inside it as HTML and PDF'
+"""What a certificate's directory (``calibrate --report``, ``report --out``) holds."""
+
+
+def check_output_dir(path: Path, what: str = '--out', holds: str = CERTIFICATE_DIR_HOLDS,
+                     example: str = '<gyro id>.html') -> Path:
     """The output directory, checked before any work.
 
     The output directory, checked before any work (the rule of :mod:`gyro_calib.outputs`:
-    created when absent, in an existing parent; a file is refused).
+    created when absent, in an existing parent; a file is refused, the line saying what the
+    directory holds: ``holds``, e.g. ``example``).
     """
     from gyro_calib.outputs import check_plot_dir
 
-    return check_plot_dir(path, what)
+    return check_plot_dir(path, what, holds, 'a file', example)
 
 
 def load_spec_arg(path: Path | None) -> Spec | None:

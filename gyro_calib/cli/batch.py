@@ -81,7 +81,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f'--workers {args.workers} is invalid: it must be at least 1.')
-    check_output_dir(args.out)
+    check_output_dir(args.out, '--out', 'one result directory per gyro and the fleet '
+                     'files are written inside it', 'fleet.csv')
     created = not args.out.exists()
     jobs = load_manifest(args.manifest)
     spec = load_spec_arg(args.spec)

@@ -29,6 +29,7 @@ from gyro_calib.cli.arguments import (
     check_handoff_out,
     method_arguments,
     options_from_args,
+    output_file,
     refuse_unused_flags,
     say_config_defaults,
 )
@@ -46,7 +47,8 @@ def add_commands(sub: Any) -> None:
     cal.add_argument('bags', nargs='+', type=Path, metavar='BAG',
                      help='rosbag2 MCAP bag (directory); several are taken together')
     method_arguments(cal)
-    cal.add_argument('--out', type=Path, help='write (or update) the INS hand-off YAML here')
+    cal.add_argument('--out', type=output_file('handoff.yaml'),
+                     help='write (or update) the INS hand-off YAML here')
     cal.add_argument('--replace', action='store_true',
                      help="--out: take this run's values even where the file's are more precise "
                      'or disagree with them (a repaired gyro, a corrected bench setting)')

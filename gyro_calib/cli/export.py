@@ -19,7 +19,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gyro_calib.cli.arguments import topic_name
+from gyro_calib.cli.arguments import output_file, topic_name
 from gyro_calib.errors import ConfigError
 
 
@@ -42,7 +42,7 @@ def add_commands(sub: Any) -> None:
                        'Autoware, robot_localization)')
     p.add_argument('handoff', type=Path, metavar='HANDOFF', help='the hand-off YAML file')
     p.add_argument('--format', required=True, choices=tuple(FORMATS), help='the consumer')
-    p.add_argument('--out', type=Path, required=True, metavar='FILE',
+    p.add_argument('--out', type=output_file('params.yaml'), required=True, metavar='FILE',
                    help='the file to write (replaced atomically if it exists)')
     p.add_argument('--rate-hz', type=_positive, metavar='HZ',
                    help='IMU sample rate the consumer receives (kalibr/openvins update_rate; '

@@ -15,6 +15,8 @@ Exit status: 0 terms measured (files written); 1 Allan deviations but no term re
 (the curves and each term's reason were measured: ``--json`` prints them, ``--plot`` draws
 them, ``--out`` gets the curves alone unless the file holds noise terms; no Kalibr file;
 the last line names a ``--taus`` list too short for a fit); 2 bad input in one line — a
+``--taus`` that is no grid, or that lists fewer distinct τ than a fit needs while none of
+``--json``, ``--plot``, ``--out`` asks for the curves (refused before any bag is read), a
 path that is not a bag, an ``--outliers`` other than keep or remove, an ``--outlier-sigma``
 that is not a positive number, a topic absent or
 of another type (the line lists the topics present with their types), a pulse or FOG
@@ -49,6 +51,7 @@ from gyro_calib.cli.arguments import (
     finite_float,
     namespace_argument,
     options_from_args,
+    output_file,
     say_config_defaults,
     strict_argument,
     topic_name,
@@ -86,12 +89,12 @@ def add_commands(subparsers: Any) -> None:
                    'noise_node): taus_per_octave, overlap, fit_min_tau_s, ...')
     p.add_argument('--json', action='store_true', help='print one JSON document on stdout '
                    '(the human summary goes to stderr)')
-    p.add_argument('--kalibr', type=Path, metavar='IMU_YAML',
+    p.add_argument('--kalibr', type=output_file('imu.yaml'), metavar='IMU_YAML',
                    help="write Kalibr's imu.yaml (IMU input only)")
     p.add_argument('--plot', type=Path, metavar='DIR',
                    help='write the log-log ADEV figure (a panel per axis) as noise_adev.png '
                    'into DIR (created if absent, in an existing directory)')
-    p.add_argument('--out', type=Path, metavar='HANDOFF_YAML',
+    p.add_argument('--out', type=output_file('handoff.yaml'), metavar='HANDOFF_YAML',
                    help='write (or update) the INS hand-off file of this sensor')
     p.add_argument('--replace', action='store_true',
                    help="--out: take this run's values where they differ from the file's by "
@@ -121,6 +124,38 @@ the N samples: the time grows at least as N² — 20 000 samples took 11 CPU min
 the 280 s ``noise_rlg_static`` (139 000 samples) would take hours."""
 TAUS_ALL_MEASURED = (20_000, 11.0)
 """(samples, CPU minutes) of one measured ``--taus all`` run, for the cost the refusal says."""
+
+
+def _refuse_a_taus_that_cannot_serve(args: argparse.Namespace) -> None:
+    """A ``--taus`` that is not a grid, or that no record can fit terms on, refused at once.
+
+    A list of fewer distinct τ than a term fit needs (:data:`MIN_FIT_POINTS`) gives no term
+    on any record: refused before the bag is read, unless the run asks for the curves alone
+    (``--json``, ``--plot`` or ``--out`` carry them; exit 1 then, as documented above).
+
+    Raises:
+        ConfigError: naming the list, what is wrong with it and what to give instead.
+    """
+    if args.taus is None:
+        return
+    from gyro_calib.errors import ConfigError
+    from gyro_calib.noise.allan import parse_taus
+    from gyro_calib.noise.run import MIN_FIT_POINTS
+
+    try:
+        spec = parse_taus(args.taus)
+    except ValueError as exc:
+        raise ConfigError(f'--taus: {exc}. Nothing was read.') from None
+    if not isinstance(spec, tuple) or len(set(spec)) >= MIN_FIT_POINTS:
+        return
+    if args.json or args.plot is not None or args.out is not None:
+        return  # the Allan deviation at the τ listed is what is asked for
+    distinct = len(set(spec))
+    raise ConfigError(
+        f'--taus {args.taus} lists {distinct} distinct averaging time(s), fewer than the '
+        f'{MIN_FIT_POINTS} a noise-term fit needs, so no record can give a term: list at least '
+        f'{MIN_FIT_POINTS} τ or leave --taus out (the default grid); for the Allan deviation '
+        'at these τ alone add --json or --plot DIR. Nothing was read.')
 
 
 def _refuse_a_slow_taus_all(samples: int, topic: str) -> None:
@@ -177,6 +212,7 @@ def run_noise(args: argparse.Namespace) -> int:
     from gyro_calib.outputs import check_plot_dir, make_plot_dir
     from gyro_calib.registry import handoff_schema
 
+    _refuse_a_taus_that_cannot_serve(args)  # before any path or bag is looked at
     targets = resolve_targets(args.kalibr, None, args.out, names=('--kalibr', '--plot', '--out'))
     if targets.kalibr is not None:
         from gyro_calib.cli.export import refuse_to_overwrite_records
@@ -193,13 +229,6 @@ def run_noise(args: argparse.Namespace) -> int:
                           for i in infos for k, v in i.topics.items()}))
     options = options_from_args(args)
     if args.taus is not None:
-        from gyro_calib.errors import ConfigError
-        from gyro_calib.noise.allan import parse_taus
-
-        try:
-            parse_taus(args.taus)
-        except ValueError as exc:
-            raise ConfigError(f'--taus: {exc}. Nothing was read.') from None
         options = dataclasses.replace(options, settings={**options.settings, 'taus': args.taus})
     given = outlier_settings(args.outliers, args.outlier_sigma)
     if given:

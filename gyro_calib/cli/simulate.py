@@ -68,6 +68,10 @@ def run_simulate(args: argparse.Namespace) -> int:
         print(f'gyro-calib: error: --seed = {args.seed} is invalid: a seed is an integer ≥ 0.',
               file=sys.stderr)
         return EXIT_BAD_INPUT
+    too_many = _too_many_messages(args.scenario, overrides)
+    if too_many:
+        print(f'gyro-calib: error: {too_many}; nothing was written.', file=sys.stderr)
+        return EXIT_BAD_INPUT
     out = Path(args.out).absolute()
     stage = out.with_name(f'.{out.name}.simulate-{os.getpid()}')  # checked, then moved out
     shutil.rmtree(stage, ignore_errors=True)
@@ -109,6 +113,25 @@ def run_simulate(args: argparse.Namespace) -> int:
 
 def _given(overrides: dict[str, Any]) -> str:
     return ', '.join(f'{k} = {v}' for k, v in overrides.items())
+
+
+def _too_many_messages(scenario: str, overrides: dict[str, Any]) -> str:
+    """Why ``scenario`` with ``overrides`` is too big to simulate ('' if it is not).
+
+    Over :data:`sim_nodes.scenarios.MAX_SIMULATED_MESSAGES` messages in a bag (docs/howto/
+    offline.md): without this a ``--sample-rate-hz 1e9`` ran for hours, silent.
+    """
+    from sim_nodes.scenarios import MAX_SIMULATED_MESSAGES, estimated_message_count
+
+    estimate = estimated_message_count(scenario, overrides)
+    if estimate <= MAX_SIMULATED_MESSAGES:
+        return ''
+    advice = ' or '.join(flag for key, flag in (('duration_s', 'a shorter --duration-s'),
+                                                  ('sample_rate_hz', 'a lower --sample-rate-hz'))
+                         if key in overrides)
+    return (f'scenario {scenario} with {_given(overrides)} would write about {estimate:.2g} '
+            f'messages, over the limit of {MAX_SIMULATED_MESSAGES:,} messages per bag '
+            f'(see "gyro-calib simulate" in docs/howto/offline.md); give {advice}')
 
 
 def _does_not_hold(scenario: str, stage: Path, overrides: dict[str, Any]) -> str:

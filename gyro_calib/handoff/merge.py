@@ -75,12 +75,18 @@ def _imu_replacement(key: str, new: tuple[Any, float], old: tuple[Any, float],
 
 def _triad_changes(new: CalibrationLike, older: CalibrationLike, run: ImuCalibration,
                    old: ImuCalibration, replace: bool) -> list[str]:
-    """A triad run's K_i and b against the file's section: a line each, old and new.
+    """A triad or multiposition run's K_i and b against the file's section: a line each.
+
+    A line each value replaced, old and new; a value this run gives exactly as the file
+    holds it (value and uncertainty) is not replaced and gets no line. The run's own method
+    (:data:`IMU_METHODS`) is the provenance compared: a live node rewriting its own run
+    says nothing (:data:`SAME_RUN`).
 
     Raises:
         HandoffError: see :func:`_imu_replacement`.
     """
-    prov, before = new.methods.get('triad'), older.methods.get('triad')
+    method = _imu_method(new)
+    prov, before = new.methods.get(method), older.methods.get(method)
     lines: list[str] = []
     for name, labels in (('scale_factor_rad_per_pulse', run.channels), ('bias_rad_s', 'xyz')):
         v_new, u_new = getattr(run, name), getattr(run, name + '_std')
@@ -93,6 +99,9 @@ def _triad_changes(new: CalibrationLike, older: CalibrationLike, run: ImuCalibra
             ub = float(u_old[j]) if u_old is not None else math.nan
             if v_new[i] is None or v_old[j] is None:
                 continue
+            same_std = ua == ub or (math.isnan(ua) and math.isnan(ub))
+            if float(v_new[i]) == float(v_old[j]) and same_std:
+                continue  # the same value: nothing replaced
             lines.append(_imu_replacement(f'imu.{name}[{label}]', (float(v_new[i]), ua),
                                           (float(v_old[j]), ub), prov, before, replace))
     return lines
@@ -143,7 +152,7 @@ def _merged_imu(new: CalibrationLike, older: CalibrationLike,
     if run is None:
         return old
     if old is None:
-        lines.append('imu: added (K, sense axes, M and b of the triad).'
+        lines.append(f'imu: added (K, sense axes, M and b of the {IMU_SOURCES[_imu_method(new)]}).'
                      if any(m in IMU_METHODS for m in new.methods) else
                      f'imu: added with the channels {list(run.channels)} and their '
                      f'{_per_channel_words(run)} only.')
@@ -176,10 +185,19 @@ def _per_channel_words(imu: ImuCalibration) -> str:
         if imu.noise or imu.thermal else 'no terms'
 
 
+IMU_SOURCES = {'triad': 'triad', 'multiposition': 'multiposition calibration'}
+"""What an imu: section is of, by the method it came from (:data:`IMU_METHODS`)."""
+
+
+def _imu_method(calibration: CalibrationLike) -> str:
+    """The method of :data:`IMU_METHODS` a record's imu section comes from ('triad' if none)."""
+    return next((m for m in IMU_METHODS if m in calibration.methods), 'triad')
+
+
 def _imu_run(calibration: CalibrationLike) -> str:
     """The run the file's imu section came from, as a phrase."""
-    from_triad = calibration.methods.get('triad')
-    return f'run {from_triad.label()}' if from_triad is not None else 'an earlier run'
+    run = calibration.methods.get(_imu_method(calibration))
+    return f'run {run.label()}' if run is not None else 'an earlier run'
 
 
 def _lead(key: str, schema: Mapping[str, HandoffKey]) -> str:

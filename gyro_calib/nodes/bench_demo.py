@@ -36,7 +36,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import IO  # noqa: E402
 
-from gyro_calib.nodes.processes import pick_domain_id, ros_environment, start_node  # noqa: E402
+from gyro_calib.nodes.processes import choose_domain, ros_environment, start_node  # noqa: E402
 from gyro_calib.units import ARCSEC_PER_RAD  # noqa: E402
 from sim_nodes.rbrlg.bench import true_k_tilde_arcsec_per_pulse  # noqa: E402
 from sim_nodes.rbrlg.ring_laser_gyro import RingLaserGyroConfig  # noqa: E402
@@ -190,11 +190,11 @@ def _run(opts: argparse.Namespace, stop: threading.Event) -> int:
 
     The nodes are stopped on every way out (``stop`` is set by SIGINT/SIGTERM).
     """
-    domain = pick_domain_id()
-    env = ros_environment(domain)
+    domain = choose_domain()
+    env = ros_environment(domain.domain)
     gyro = RingLaserGyroConfig(seed=opts.seed)
-    print(f'bench_demo: DDS domain {domain} (loopback only); full procedure at '
-          f'{opts.speed:g}× real time', flush=True)
+    print(f'bench_demo: DDS domain {domain.domain} (loopback only; {domain.how}); full '
+          f'procedure at {opts.speed:g}× real time', flush=True)
     out = os.path.abspath(opts.out)
     before, state_before = _file_state(out), _file_state(out + '.state')
 

@@ -67,6 +67,9 @@ def ros_context(args: list[str] | None = None, *, own_signals: bool = False) -> 
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
+    from gyro_calib.startup_interrupt import end_of_starting
+
+    end_of_starting()  # the node's modules are loaded: Ctrl-C is the node's (or rclpy's) now
     check_rclpy()
     options = SignalHandlerOptions.NO if own_signals else None
     rclpy.init(args=args, signal_handler_options=options)

@@ -252,7 +252,9 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
 
     from gyro_calib.errors import GyroCalibError
     from gyro_calib.nodes.ros_distribution import ros_context
+    from gyro_calib.startup_interrupt import end_of_starting
 
+    end_of_starting()  # loaded: from here Ctrl-C stops the node cleanly (not restored after)
     stop = threading.Event()
     stalled = False
     previous = {sig: signal.signal(sig, lambda *_: stop.set())

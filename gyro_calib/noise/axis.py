@@ -8,7 +8,7 @@ report (§E.6), and for an axis without terms the sentence saying why.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -75,6 +75,32 @@ class AxisResult:
     shares: FloatArray | None = None
     outliers: OutlierReport | None = None
     """The spikes found and what removing them (or keeping them) changes (§E.6)."""
+    taus_left_out: str = ''
+    """The τ of a ``--taus`` list this record cannot give, each with why (a summary line)."""
+
+
+def listed_taus_left_out(taus: tuple[float, ...], tau0_s: float, longest_samples: int,
+                         max_tau_fraction: float) -> str:
+    """The τ of a ``--taus`` list a record cannot give, each with why ('' if none).
+
+    A listed τ is averaged over m = round(τ/τ0) samples (§E.1): m < 1 is shorter than one
+    sample interval; m above ``max_tau_fraction`` of the longest gap-free segment
+    (``longest_samples``) is too long for the record.
+    """
+    m_max = int(max_tau_fraction * longest_samples)
+    short = [t for t in taus if round(t / tau0_s) < 1]
+    long = [t for t in taus if round(t / tau0_s) > m_max]
+    parts = []
+    if short:
+        parts.append(f'τ = {", ".join(f"{t:g}" for t in short)} s is shorter than the sample '
+                     f'interval ({tau0_s:g} s)')
+    if long:
+        parts.append(f'τ = {", ".join(f"{t:g}" for t in long)} s is longer than '
+                     f'{m_max * tau0_s:g} s (a fraction {max_tau_fraction:g} of the longest '
+                     f'gap-free segment, {longest_samples * tau0_s:g} s)')
+    if not parts:
+        return ''
+    return f'--taus (the setting taus): {"; ".join(parts)}: left out of the curve.'
 
 
 class AxisAnalysis(TableReport):
@@ -164,6 +190,13 @@ class AxisAnalysis(TableReport):
                         f'one segment.{motion}')
         context = 'pulses' if stream.topic in PULSE_TOPICS else ''
         fit = self._fit(curve, units, context)
+        left_out = ''
+        if isinstance(s.tau_spec, tuple):  # a τ the record cannot give is named, not dropped
+            longest = max((g.n_samples for g in ch.segments), default=0)
+            left_out = listed_taus_left_out(s.tau_spec, curve.tau0_s, longest,
+                                            s.max_tau_fraction)
+            if left_out:  # said in the summary (taus_left_out) and in the fit's notes (JSON)
+                fit = replace(fit, notes=(left_out, *fit.notes))
         # error bars (§E.2): the EDF blended over the noise types by their shares at each τ
         model = self._noise_model(curve, fit, units)
         shares = curve_shares(curve, model)
@@ -178,7 +211,8 @@ class AxisAnalysis(TableReport):
         totdev = (self._totdev(ch, model, curve.tau0_s, stream.topic in PULSE_TOPICS)
                   if curve.overlap == 'partial' else None)
         return AxisResult(ch.name, units, curve, fit, std, totdev, '', alpha, others, edf,
-                          shares, self._outlier_report(ch, units, curve, fit, context))
+                          shares, self._outlier_report(ch, units, curve, fit, context),
+                          left_out)
 
     def _fit(self, curve: AllanCurve, units: TermUnits, context: str) -> NoiseFit:
         """The joint term fit of one curve with the settings' limits (§E.3)."""

@@ -233,6 +233,8 @@ class NoiseReport:
             if res.fit is None:
                 lines.append(f'{axis}: no term — {res.reason}')
                 continue
+            if res.taus_left_out:
+                lines.append(f'{axis}: {res.taus_left_out}')
             bounds = self._bounds(res)
             if bounds:
                 lines.append(f'{axis}: not resolved (2σ upper bounds): {bounds}.')

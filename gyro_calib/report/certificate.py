@@ -40,7 +40,11 @@ from gyro_calib.errors import ConfigError
 from gyro_calib.handoff import Calibration, HandoffKey
 from gyro_calib.outputs import write_all_or_none
 from gyro_calib.registry import METHODS, handoff_schema
-from gyro_calib.report.conditions import calibration_date, temperature_text
+from gyro_calib.report.conditions import (
+    WALL_CLOCK_FROM_NS,
+    calibration_date,
+    temperature_text,
+)
 from gyro_calib.report.evidence import MethodEvidence, RunEvidence
 from gyro_calib.report.imu import (
     budget_shares,
@@ -361,8 +365,13 @@ def _span_text(start_ns: int, end_ns: int) -> str:
     """A data span in UTC, the stamps' clock.
 
     E.g. '2026-01-01 00:00:00.000 → 00:04:39.998 UTC (279.998 s)' (the end's date only
-    when it is another day).
+    when it is another day). Stamps before 2000 (:data:`WALL_CLOCK_FROM_NS`: a simulation's
+    or a monotonic clock, near 1970 as UTC) are no calendar dates and are given in seconds:
+    'stamps 0.000 → 100.000 s (simulation or monotonic time, not calendar dates; 100.000 s)'.
     """
+    if start_ns < WALL_CLOCK_FROM_NS:
+        return (f'stamps {start_ns / 1e9:.3f} → {end_ns / 1e9:.3f} s (simulation or monotonic '
+                f'time, not calendar dates; {(end_ns - start_ns) / 1e9:.3f} s)')
     same_day = start_ns // 86_400_000_000_000 == end_ns // 86_400_000_000_000
     return (f'{_utc(start_ns)} → {_utc(end_ns, time_only=same_day)} UTC '
             f'({(end_ns - start_ns) / 1e9:.3f} s)')
@@ -701,10 +710,16 @@ def _imu_conditions(calibration: Calibration,
         return ()
     prov = calibration.methods.get('triad')
     cond: Mapping[str, Any] = (getattr(prov, 'conditions', None) or {}) if prov else {}
+    multiposition = calibration.methods.get('multiposition')
     out = [('channels', ', '.join(imu.channels) + ' (rows of M, in this order)'),
-           ('procedure', procedure_text(cond) if prov else 'not recorded: no triad run in '
-            'the hand-off file')]
+           ('procedure', procedure_text(cond) if prov else
+            'multiposition: the IMU turned by hand through static poses, no table '
+            f'(docs/methods.md §G; run on {multiposition.source})'
+            if multiposition is not None else
+            'not recorded: no triad or multiposition run in the hand-off file')]
     out.append(('pairs and stations', triad.summary[0] if triad is not None and triad.summary
+                else 'none: a multiposition calibration has static poses, no table'
+                if prov is None and multiposition is not None
                 else 'not known: the hand-off file does not record them; give the bags'))
     if cond.get('mount_axis'):
         out.append(('tilt α', 'none: the remount procedure uses the single-axis table only'))

@@ -20,7 +20,6 @@ readers acknowledge), ``exit_when_done``, ``wait_for_subscribers`` and ``min_sub
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Iterator
 from typing import Any
 
@@ -28,7 +27,7 @@ import numpy as np
 from rclpy.publisher import Publisher
 from sensor_msgs.msg import Imu
 
-from gyro_calib.nodes.ros_io import SENSOR_QOS, described_parameter, ns_to_stamp, publish_paced
+from gyro_calib.nodes.ros_io import SENSOR_QOS, ns_to_stamp, publish_paced
 from gyro_calib.topics import relative
 from sim_nodes.multiposition.scenarios import (
     IMU_FRAME,
@@ -44,14 +43,9 @@ CHUNK_SAMPLES = 50
 
 def scenario_with(name: str, seed: int, sample_rate_hz: float) -> MultipositionScenario:
     """Scenario ``name`` with its seed (−1 keeps it) and sample rate (0 keeps it)."""
-    from sim_nodes.scenarios import with_overrides
+    from sim_nodes.scenarios import with_node_parameters
 
-    overrides: dict[str, Any] = {}
-    if seed >= 0:
-        overrides['seed'] = seed
-    if sample_rate_hz > 0:
-        overrides['sample_rate_hz'] = sample_rate_hz
-    scenario = with_overrides(name, overrides) if overrides else SCENARIOS[name]
+    scenario = with_node_parameters(name, seed, sample_rate_hz)
     assert isinstance(scenario, MultipositionScenario)
     return scenario
 
@@ -64,16 +58,9 @@ class ImuMultipositionNode(PacedSimulatorNode):
     def __init__(self) -> None:
         """Declare parameters, simulate the run and start the pacing timer."""
         super().__init__('imu_multiposition_sim')
-        param = functools.partial(described_parameter, self)
-        name = str(param('scenario', 'multiposition_hand_turned',
-                         f'One of {", ".join(SCENARIOS)}.'))
-        seed = int(param('seed', -1, "Seed of the run (−1 = the scenario's)."))
-        rate = float(param('sample_rate_hz', 0.0, "IMU output rate, Hz (0 = the scenario's)."))
-        self.declare_run_parameters()
-        if name not in SCENARIOS:
-            raise ValueError(f'imu_multiposition_sim: scenario {name!r} is not one of '
-                             f'{", ".join(SCENARIOS)}.')
-        self.scenario = scenario_with(name, seed, rate)
+        self.scenario: MultipositionScenario = self.declare_scenario(
+            SCENARIOS, 'multiposition_hand_turned', seed="Seed of the run (−1 = the scenario's).",
+            rate="IMU output rate, Hz (0 = the scenario's).")
         run = self.scenario.run()
         self.sample_rate_hz = self.scenario.procedure.sample_rate_hz
         self.duration_s = float(run.t_s[-1] + 1 / self.sample_rate_hz)
@@ -93,11 +80,6 @@ class ImuMultipositionNode(PacedSimulatorNode):
     def total_s(self) -> float:
         """The run's simulated seconds."""
         return self.duration_s
-
-    @property
-    def progress_what(self) -> str:
-        """The scenario name."""
-        return str(self.scenario.name)
 
     def _publish(self, chunk: tuple[np.ndarray, np.ndarray, np.ndarray]) -> None:
         stamps, acc, gyro = chunk

@@ -22,7 +22,6 @@ second; 0 = as fast as the readers acknowledge), ``exit_when_done``,
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Iterator
 from typing import Any
 
@@ -34,7 +33,6 @@ from gyro_calib import topics
 from gyro_calib.nodes.ros_io import (
     EVENT_QOS,
     SENSOR_QOS,
-    described_parameter,
     ns_to_stamp,
     publish_paced,
 )
@@ -49,14 +47,9 @@ IMU_FRAME = 'imu'
 
 def scenario_with(name: str, seed: int, sample_rate_hz: float) -> TriadScenario:
     """Scenario ``name`` with its seeds (SEED + k; −1 keeps them) and sample rate (0 keeps)."""
-    from sim_nodes.scenarios import with_overrides
+    from sim_nodes.scenarios import with_node_parameters
 
-    overrides: dict[str, Any] = {}
-    if seed >= 0:
-        overrides['seed'] = seed
-    if sample_rate_hz > 0:
-        overrides['sample_rate_hz'] = sample_rate_hz
-    scenario = with_overrides(name, overrides) if overrides else SCENARIOS[name]
+    scenario = with_node_parameters(name, seed, sample_rate_hz)
     assert isinstance(scenario, TriadScenario)
     return scenario
 
@@ -69,16 +62,11 @@ class TriadBenchNode(PacedSimulatorNode):
     def __init__(self) -> None:
         """Declare parameters, build the scenario and start the pacing timer."""
         super().__init__('triad_sim')
-        param = functools.partial(described_parameter, self)
-        name = str(param('scenario', 'triad_two_axis_bench', f'One of {", ".join(SCENARIOS)}.'))
-        seed = int(param('seed', -1, "Seed of the run (−1 = the scenario's; else each of the "
-                                     "scenario's seeds becomes seed + k)."))
-        rate = float(param('sample_rate_hz', 0.0, "Pulse sample rate, Hz (0 = the scenario's)."))
-        self.declare_run_parameters()
-        if name not in SCENARIOS:
-            raise SystemExit(f'triad_sim: scenario {name!r} is not one of '
-                             f'{", ".join(SCENARIOS)}')
-        self.scenario = scenario_with(name, seed, rate)
+        self.scenario: TriadScenario = self.declare_scenario(
+            SCENARIOS, 'triad_two_axis_bench',
+            seed="Seed of the run (−1 = the scenario's; else each of the scenario's seeds "
+                 'becomes seed + k).',
+            rate="Pulse sample rate, Hz (0 = the scenario's).")
         bench = self.scenario.bench()
         self.duration_s = bench.profiles()[0].duration_s
         self.sample_rate_hz = self.scenario.table.sample_rate_hz
@@ -107,11 +95,6 @@ class TriadBenchNode(PacedSimulatorNode):
     def total_s(self) -> float:
         """The scenario's simulated seconds."""
         return float(self.duration_s)
-
-    @property
-    def progress_what(self) -> str:
-        """The scenario name."""
-        return str(self.scenario.name)
 
     def _publish(self, chunk: TriadChunk) -> None:
         for t_ns, counts in zip(chunk.pulse_t_ns.tolist(), chunk.pulse_counts.tolist()):

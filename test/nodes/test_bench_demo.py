@@ -134,7 +134,8 @@ def test_a_node_that_stops_with_an_error_stops_the_demo_at_once(tmp_path: Path) 
     proc = demo(out)
     assert proc.stdout is not None
     first = proc.stdout.readline()  # printed once the options were checked, before any node
-    assert first.startswith('bench_demo: DDS domain'), first
+    assert first.startswith(f'bench_demo: DDS domain {os.environ["ROS_DOMAIN_ID"]} (loopback '
+                            'only; ROS_DOMAIN_ID); full procedure at'), first
     lock = StateLock(Path(f'{out}.state'))
     lock.acquire()  # the node is still importing (seconds): it finds the lock taken
     time.sleep(0.5)

@@ -59,7 +59,11 @@ def test_replayed_imu_bag_gives_the_offline_imu_section(nodes: list[NodeProcess]
 
 def test_the_node_finishes_by_itself_once_the_pose_set_is_well_conditioned(
         nodes: list[NodeProcess], tmp_path: Path) -> None:
-    """A replayed recording: the node exits 0 by itself, with the offline result up to then."""
+    """A replayed recording: the node exits 0 by itself, with the offline result up to then.
+
+    Its hand-off is written at each analysis; the rewrites of its own run log no "replaced"
+    line (the new-user walk found one per value at each write, marked "newer run").
+    """
     import sys
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -82,6 +86,9 @@ def test_the_node_finishes_by_itself_once_the_pose_set_is_well_conditioned(
     assert status == 0, node.log()[-3000:]
     assert 'pose set well-conditioned' in node.log()
     assert 'still needed: a pose with gravity near' in node.log()
+    # each write of the hand-off rewrites this run's own values: no "replaced … (newer run)"
+    assert node.log().count('calibration written to') + node.log().count('hand-off ') >= 1
+    assert 'replaced:' not in node.log(), node.log()[-3000:]
     cal = load_calibration(out)
     cut = int(cal.methods['multiposition'].conditions['finished_at_stamp_ns'])
     stamps = START_NS + np.round(t * 1e9).astype(np.int64)
