@@ -36,7 +36,7 @@ Then the figures the fleet is judged by (issue 25 §5):
 from __future__ import annotations
 
 import argparse
-import logging
+import contextlib
 import os
 import subprocess
 import sys
@@ -181,7 +181,37 @@ def _thread_kind(name: str) -> str:
     return name or 'other'
 
 
-def run(paths: list[Path], workers: int, pdf: bool, pin: bool = False,
+def _timeline(tasks: list[dict], t0: float, wall: float, workers: int) -> str:
+    """Where the run's wall time goes, from Dask's task stream.
+
+    Per task kind (plan, rbrlg, finish, ...): count, total and largest compute s; per
+    worker: busy s (compute), idle s before its first task, between tasks and after its
+    last one until ``run_batch`` returned (the parent writing the fleet files; the other
+    worker's tail). ``t0``: the wall-clock time (``time.time``) the run started.
+    """
+    kinds: dict[str, list[float]] = {}
+    spans: dict[str, list[tuple[float, float]]] = {}
+    for task in tasks:
+        key = str(task['key']).strip("()',").split('-')[0]
+        for ss in task['startstops']:
+            if ss['action'] == 'compute':
+                kinds.setdefault(key, []).append(ss['stop'] - ss['start'])
+                spans.setdefault(task['worker'], []).append((ss['start'], ss['stop']))
+    end = t0 + wall
+    lines = ['  tasks: ' + ', '.join(f'{k} {len(v)}× {sum(v):.2f} s (max {max(v):.2f})'
+                                     for k, v in kinds.items())]
+    for worker, s in sorted(spans.items()):
+        s.sort()
+        busy = sum(b - a for a, b in s)
+        gaps = sum(max(0.0, s[i + 1][0] - s[i][1]) for i in range(len(s) - 1))
+        lines.append(f'  worker {worker.rsplit(":", 1)[-1]}: busy {busy:.2f} s, idle before '
+                     f'the first task {s[0][0] - t0:.2f} s, between tasks {gaps:.2f} s '
+                     f'({len(s) - 1} gaps), after its last {end - s[-1][1]:.2f} s')
+    return '\n'.join(lines)
+
+
+def run(paths: list[Path], workers: int, pdf: bool, pin: bool = False, profile: bool = False,
+        warm: bool = False,
         ) -> tuple[float, list[tuple[float, float]], list[str], dict[str, float], float]:
     """Calibrate the fleet on a new local cluster.
 
@@ -189,26 +219,29 @@ def run(paths: list[Path], workers: int, pdf: bool, pin: bool = False,
     ``pin``; wall s, (peak RSS MB, CPU s) per worker, the reasons of the gyros that failed,
     the workers' CPU s by thread kind during the run, the driver process's CPU s.
     """
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import get_task_stream
 
     from gyro_calib.batch.manifest import GyroJob
-    from gyro_calib.batch.run import run_batch
+    from gyro_calib.batch.run import make_client, run_batch
 
     jobs = [GyroJob(f'RLG-{i:03d}', (str(p),)) for i, p in enumerate(paths)]
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      host='127.0.0.1', dashboard_address='127.0.0.1:0',
-                      silence_logs=logging.CRITICAL) as cluster, \
-            Client(cluster) as client, tempfile.TemporaryDirectory() as tmp:
-        client.run(lambda: __import__('gyro_calib.bag_calibration'))  # warm imports, both runs
+    client, cluster = make_client(workers, None)  # the cluster gyro-calib batch starts
+    with cluster, client, tempfile.TemporaryDirectory() as tmp:
+        if warm:  # not what a fleet run does: its workers import as their first tasks run
+            client.run(lambda: __import__('gyro_calib.bag_calibration'))
         if pin:
             for core, address in enumerate(sorted(client.scheduler_info()['workers'])):
                 client.run(_pin_to, core % (os.cpu_count() or 1), workers=[address])
         client.run(_count_thread_cpu)
         before = client.run(_thread_cpu_s)
         driver0 = time.process_time()
+        epoch = time.time()
         t0 = time.perf_counter()
-        outcome = run_batch(jobs, Path(tmp) / 'out', client=client, force=True, pdf=pdf)
+        with get_task_stream(client) if profile else contextlib.nullcontext() as stream:
+            outcome = run_batch(jobs, Path(tmp) / 'out', client=client, force=True, pdf=pdf)
         wall = time.perf_counter() - t0
+        if profile:
+            print(_timeline(stream.data, epoch, wall, workers), flush=True)
         driver = time.process_time() - driver0
         after = client.run(_thread_cpu_s)
         rss = sorted(client.run(_peak_rss_mb_and_cpu_s).values())
@@ -250,6 +283,13 @@ def main() -> None:
     parser.add_argument('--pdf', action=argparse.BooleanOptionalAction, default=True)
     parser.add_argument('--distinct', type=int, default=None,
                         help='generate only this many distinct bags; gyros share them in turn')
+    parser.add_argument('--warm', action='store_true',
+                        help='import gyro_calib.bag_calibration in every worker before the '
+                        'clock starts (the figures before issue 40 (d); a fleet run does not)')
+    parser.add_argument('--profile', action='store_true',
+                        help='print where each run\'s wall time goes (Dask task stream)')
+    parser.add_argument('--pinned-only', action='store_true',
+                        help='only the runs with every worker pinned to one core')
     parser.add_argument('--standalone', type=int, default=4, metavar='N',
                         help='time standalone calibrate on the first N bags (0: skip)')
     args = parser.parse_args()
@@ -269,10 +309,11 @@ def main() -> None:
             what = 'calibrate --out --report' if report and args.pdf else 'calibrate --out'
             print(f'standalone {what}: {alone[report][0]:.2f} s wall, {alone[report][1]:.2f} s '
                   f'CPU per gyro ({alone[report][1] / alone[report][0]:.2f} cores)', flush=True)
-    for pin in (False, True):
+    for pin in (True,) if args.pinned_only else (False, True):
         base = None
         for n in args.workers:
-            wall, rss, failed, kinds, driver = run(paths, n, args.pdf, pin)
+            wall, rss, failed, kinds, driver = run(paths, n, args.pdf, pin, args.profile,
+                                                   args.warm)
             base = base or (wall * n if n != 1 else wall)
             speed = args.gyros * args.hours * 3600.0 / wall
             total = sum(kinds.values())
