@@ -35,10 +35,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gyro_calib.bag_compensation import compensate_bags, write_compensated_bag
 from gyro_calib.errors import ConfigError
 from gyro_calib.registry import IMU
-from gyro_calib.thermal.compensation_summary import json_document, summary_text
 from gyro_calib.thermal.topics import GYRO_IMU
 
 
@@ -71,12 +69,14 @@ def add_commands(subparsers: Any) -> None:
 
 def run_compensate(args: argparse.Namespace) -> int:
     """``gyro-calib compensate``: exit status 0, or a GyroCalibError for main() to print."""
+    from gyro_calib.bag_compensation import compensate_bags, write_compensated_bag
     from gyro_calib.outputs import (
         check_new_directory,
         check_plot_dir,
         write_failed,
         write_figures,
     )
+    from gyro_calib.thermal.compensation_summary import json_document, summary_text
 
     if args.out is not None:
         check_new_directory(args.out, '--out')

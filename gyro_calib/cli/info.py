@@ -19,7 +19,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from gyro_calib.bag_calibration import calibrate_bags, json_document
 from gyro_calib.cli.arguments import (
     EXIT_OK,
     check_calibration_file,
@@ -144,7 +143,7 @@ def _print_bag(desc: dict[str, Any], out: Any) -> None:
 
 def run_info(args: argparse.Namespace) -> int:
     """``gyro-calib info``: describe the bags, the methods' prospects, what they read."""
-    from gyro_calib.bag_calibration import bag_infos
+    from gyro_calib.bag_calibration import bag_infos, calibrate_bags, json_document
 
     check_calibration_file(args.calibration)
     infos, namespace_note = bag_infos(args.bags, args.namespace, strict=args.strict)
