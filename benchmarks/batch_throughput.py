@@ -235,6 +235,7 @@ def run(paths: list[Path], workers: int, pdf: bool, pin: bool = False, profile: 
         client.run(_count_thread_cpu)
         before = client.run(_thread_cpu_s)
         driver0 = time.process_time()
+        threads0 = _thread_cpu_s()
         epoch = time.time()
         t0 = time.perf_counter()
         with get_task_stream(client) if profile else contextlib.nullcontext() as stream:
@@ -243,6 +244,12 @@ def run(paths: list[Path], workers: int, pdf: bool, pin: bool = False, profile: 
         if profile:
             print(_timeline(stream.data, epoch, wall, workers), flush=True)
         driver = time.process_time() - driver0
+        threads1 = _thread_cpu_s()
+        if profile:  # the driver's threads: run_batch's loop (main), the cluster's event loop
+            print('  driver threads: ' + ', '.join(
+                f'{name or "?"} {cpu - threads0.get(name, 0.0):.2f} s'
+                for name, cpu in sorted(threads1.items(), key=lambda kv: -kv[1])
+                if cpu - threads0.get(name, 0.0) >= 0.01), flush=True)
         after = client.run(_thread_cpu_s)
         rss = sorted(client.run(_peak_rss_mb_and_cpu_s).values())
     kinds: Counter[str] = Counter()
