@@ -3,7 +3,8 @@
 Run (from the repository root, in the project's venv):
 
     python benchmarks/batch_throughput.py [--gyros 16] [--hours 1.0] [--workers 1 2]
-        [--cache /tmp/gyro_calib_batch_bench] [--no-pdf]
+        [--cache /tmp/gyro_calib_batch_bench] [--no-pdf] [--distinct N] [--standalone N]
+        [--pinned-only] [--profile] [--no-ceiling] [--warm]
 
 Each gyro gets its own bag: the paper's rate-bias bench (``k_tilde_bench``: m = 5, 150 °/s,
 1 kHz pulses, 200 Hz joint states) run for ``--hours`` with its own seeds, generated once
@@ -14,6 +15,19 @@ the certificate (HTML + PDF unless ``--no-pdf``). Figures: wall time, fleet thro
 bag time calibrated / wall time, speed-up of N workers over 1 (target ≥ 1.8× for 2 on a
 2-core machine), and the peak RSS of every worker process (``ru_maxrss`` read on the worker
 after the run: the streaming calibration keeps it bounded, whatever the fleet size).
+
+The cluster is the one ``gyro-calib batch`` starts (:func:`gyro_calib.batch.run.make_client`);
+the clock runs from ``run_batch`` to its return, the workers importing as their first tasks
+run, as in a fleet run (``--warm``: ``gyro_calib.bag_calibration`` imported in every worker
+before the clock starts, as the figures before issue 40 (d) were taken). ``--profile``:
+where each run's wall goes (Dask's task stream: per task kind, each worker's busy and idle
+time, its tail) and the driver's CPU by thread. ``--pinned-only`` skips the unpinned runs.
+
+**Ceiling** (pinned runs, ``--no-ceiling`` to skip): right before N pinned workers, the same
+tasks (plan, calibration, finish) in one fresh process pinned to a core, then dealt to N
+fresh processes run at once, one core each, no Dask: the speed-up this (virtual) machine
+allows at that moment, whose two vCPUs do not always run two identical processes as fast
+as one (measured 1.03–1.45× slower). ``speed-up / ceiling`` is what the fleet keeps of it.
 
 Then the figures the fleet is judged by (issue 25 §5):
 
@@ -219,10 +233,16 @@ def run(paths: list[Path], workers: int, pdf: bool, pin: bool = False, profile: 
     ``pin``; wall s, (peak RSS MB, CPU s) per worker, the reasons of the gyros that failed,
     the workers' CPU s by thread kind during the run, the driver process's CPU s.
     """
+    import importlib
+
     from dask.distributed import get_task_stream
 
     from gyro_calib.batch.manifest import GyroJob
     from gyro_calib.batch.run import make_client, run_batch
+
+    for module in ('pyarrow.parquet', 'gyro_calib.batch.fleet', 'tqdm'):
+        importlib.import_module(module)  # the driver's imports, before every clock alike (the
+        # first run would pay them alone: 0.9 s CPU of its driver's main thread)
 
     jobs = [GyroJob(f'RLG-{i:03d}', (str(p),)) for i, p in enumerate(paths)]
     client, cluster = make_client(workers, None)  # the cluster gyro-calib batch starts
@@ -260,6 +280,44 @@ def run(paths: list[Path], workers: int, pdf: bool, pin: bool = False, profile: 
             dict(kinds), driver)
 
 
+SEQUENCE = '''
+import sys
+from gyro_calib.batch.manifest import GyroJob
+from gyro_calib.batch.tasks import finish_gyro, plan_gyro, run_method
+pdf = sys.argv[1] == 'pdf'
+for i, bag in enumerate(sys.argv[2:]):
+    job = GyroJob(f'RLG-{i:03d}', (bag,))
+    plan = plan_gyro(job, '', '', True)
+    runs = [run_method(job, m, plan.hashed) for m in plan.methods]
+    assert finish_gyro(job, plan, None, pdf, f'g{i}', *runs).record['status'] == 'ok'
+'''
+
+
+def ceiling(paths: list[Path], workers: int, pdf: bool) -> float:
+    """The speed-up this machine allows ``workers`` processes now, without Dask.
+
+    The batch's tasks of every gyro (plan, calibration, finish) in one fresh process pinned
+    to core 0, then the gyros dealt out to ``workers`` fresh processes run at once, each
+    pinned to its own core: the first wall over the second. Each process pays its imports
+    as a worker does. Two identical processes on two cores of this (virtual) machine do not
+    always finish as fast as one: the ratio is the ceiling of the fleet's speed-up, and the
+    fleet's speed-up over it is what Dask's scheduling keeps of it.
+    """
+    def start(share: list[Path], core: int) -> subprocess.Popen[bytes]:
+        return subprocess.Popen(
+            [sys.executable, '-c', SEQUENCE, 'pdf' if pdf else 'nopdf', *map(str, share)],
+            cwd=ROOT, preexec_fn=lambda: os.sched_setaffinity(0, {core}))  # noqa: PLW1509
+
+    t0 = time.perf_counter()
+    start(paths, 0).wait()
+    alone = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    procs = [start(paths[k::workers], k % (os.cpu_count() or 1)) for k in range(workers)]
+    if any(proc.wait() for proc in procs):
+        raise SystemExit('a task sequence failed')
+    return alone / (time.perf_counter() - t0)
+
+
 def standalone(paths: list[Path], report: bool) -> tuple[float, float]:
     """Wall and CPU s per gyro of ``gyro-calib calibrate`` run once per bag, one at a time."""
     import resource
@@ -293,6 +351,9 @@ def main() -> None:
     parser.add_argument('--warm', action='store_true',
                         help='import gyro_calib.bag_calibration in every worker before the '
                         'clock starts (the figures before issue 40 (d); a fleet run does not)')
+    parser.add_argument('--ceiling', action=argparse.BooleanOptionalAction, default=True,
+                        help='before each pinned run of several workers, the speed-up the '
+                        'machine allows now: the same tasks in 1 process, then in N at once')
     parser.add_argument('--profile', action='store_true',
                         help='print where each run\'s wall time goes (Dask task stream)')
     parser.add_argument('--pinned-only', action='store_true',
@@ -319,6 +380,11 @@ def main() -> None:
     for pin in (True,) if args.pinned_only else (False, True):
         base = None
         for n in args.workers:
+            ceil = None
+            if pin and n > 1 and args.ceiling:
+                ceil = ceiling(paths, n, args.pdf)
+                print(f'  ceiling: the same tasks in 1 pinned process, then in {n} at once '
+                      f'(one core each), no Dask: speed-up {ceil:.2f}×', flush=True)
             wall, rss, failed, kinds, driver = run(paths, n, args.pdf, pin, args.profile,
                                                    args.warm)
             base = base or (wall * n if n != 1 else wall)
@@ -328,7 +394,8 @@ def main() -> None:
                   f'{wall / args.gyros:.2f} s per gyro, {speed:.0f}× real time, speed-up over '
                   f'1 worker {base / wall:.2f}×, peak RSS per worker '
                   f'{", ".join(f"{r:.0f}" for r, _ in rss)} MB, failed {len(failed)}; '
-                  f'load average {os.getloadavg()[0]:.1f}', flush=True)
+                  + (f'speed-up / ceiling {base / wall / ceil:.2f}; ' if ceil else '')
+                  + f'load average {os.getloadavg()[0]:.1f}', flush=True)
             print(f'  worker CPU {total:.1f} s = {total / wall / n:.2f} cores per worker: '
                   + ', '.join(f'{k} {v:.1f} s' for k, v in sorted(kinds.items(),
                                                                   key=lambda kv: -kv[1]))
