@@ -247,6 +247,8 @@ def run(paths: list[Path], workers: int, pdf: bool, pin: bool = False, profile: 
     jobs = [GyroJob(f'RLG-{i:03d}', (str(p),)) for i, p in enumerate(paths)]
     client, cluster = make_client(workers, None)  # the cluster gyro-calib batch starts
     with cluster, client, tempfile.TemporaryDirectory() as tmp:
+        run_batch([], Path(tmp) / 'driver', client=client)  # the driver's first-run costs,
+        # outside every clock alike (a fleet run pays them once, whatever its worker count)
         if warm:  # not what a fleet run does: its workers import as their first tasks run
             client.run(lambda: __import__('gyro_calib.bag_calibration'))
         if pin:
