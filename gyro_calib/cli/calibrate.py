@@ -41,6 +41,17 @@ if TYPE_CHECKING:
     from gyro_calib.bag_calibration import BagCalibration
 
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bag_calibration',
+    'gyro_calib.handoff.load',
+    'gyro_calib.handoff.write',
+    'gyro_calib.outputs',
+    'gyro_calib.session',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
+
 def add_commands(sub: Any) -> None:
     """Add ``calibrate`` to the ``gyro-calib`` subcommands."""
     cal = sub.add_parser('calibrate', help='calibrate bags: every method whose topics are there')

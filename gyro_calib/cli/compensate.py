@@ -39,6 +39,14 @@ from gyro_calib.errors import ConfigError
 from gyro_calib.registry import IMU
 from gyro_calib.thermal.topics import GYRO_IMU
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bag_compensation',
+    'gyro_calib.thermal.compensation_summary',
+    'gyro_calib.outputs',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
 
 def add_commands(subparsers: Any) -> None:
     """Add ``compensate`` to the ``gyro-calib`` subcommands."""

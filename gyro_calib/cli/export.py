@@ -22,6 +22,14 @@ from typing import Any
 from gyro_calib.cli.arguments import topic_name
 from gyro_calib.errors import ConfigError
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.export.common',
+    'gyro_calib.export.source',
+    'gyro_calib.outputs',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
 
 def _positive(text: str) -> float:
     try:

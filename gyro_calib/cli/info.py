@@ -30,6 +30,14 @@ from gyro_calib.cli.calibrate import json_default
 from gyro_calib.registry import METHODS
 from gyro_calib.units import format_stamp
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bag_calibration',
+    'gyro_calib.bagio.reader',
+    'gyro_calib.session',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
 
 def add_commands(sub: Any) -> None:
     """Add ``info`` to the ``gyro-calib`` subcommands."""
