@@ -15,8 +15,9 @@ import importlib
 from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
-from gyro_calib import handoff, topics
+from gyro_calib import topics
 from gyro_calib.bagio.messages import HEADER, IMU, JOINT_STATE, TEMPERATURE
+from gyro_calib.handoff.schema import install_default_schema
 
 if TYPE_CHECKING:
     from gyro_calib.handoff import HandoffKey
@@ -199,7 +200,7 @@ def handoff_schema() -> dict[str, HandoffKey]:
     return out
 
 
-handoff.install_default_schema(handoff_schema)  # the loader's default, handed down
+install_default_schema(handoff_schema)  # the loader's default, handed down
 
 
 def methods_revealed(topic_types: Mapping[str, str]) -> list[Method]:

@@ -842,7 +842,7 @@ def test_a_gyro_that_fails_under_a_lab_burns_no_certificate_number(
     import gyro_calib.batch.run as batch_run
     from gyro_calib.batch.tasks import MethodRun
 
-    def failing(job: Any, method: str) -> MethodRun:
+    def failing(job: Any, method: str, hashed: Any = None) -> MethodRun:
         return MethodRun(job.gyro_id, method, error=f'{method}: the bench stopped')
 
     lab, jobs, out = _lab_fleet(tmp_path, ('F-1', 'F-2'))
@@ -881,7 +881,7 @@ def test_a_rerun_that_fails_keeps_the_issued_certificate_and_says_so(
     first = run_batch(jobs, out, client=local_client, pdf=False, lab=lab)
     old = first.records[0]['certificate']['certificate_number']
     html = (out / 'F-1' / 'F-1.html').read_bytes()
-    monkeypatch.setattr(batch_run, 'run_method', lambda job, method: MethodRun(
+    monkeypatch.setattr(batch_run, 'run_method', lambda job, method, hashed=None: MethodRun(
         job.gyro_id, method, error=f'{method}: the bench stopped'))
     again = run_batch(jobs, out, client=local_client, pdf=False, lab=lab, force=True)
     rec, = again.records

@@ -19,44 +19,111 @@ This package re-exports the public names of its modules. (The old import paths
 ``gyro_calib.bag``, ``gyro_calib.mcap_columns`` and ``gyro_calib.table_input`` are gone.)
 """
 
-from gyro_calib.bagio.errors import (
-    BagError,
-    BagNotFoundError,
-    CorruptBagError,
-    EmptyBagError,
-    MissingTopicError,
-    NotABagError,
-    WrongMessageTypeError,
-)
-from gyro_calib.bagio.messages import (
-    CONTRACT_TYPES,
-    HEADER,
-    IMU,
-    JOINT_STATE,
-    TEMPERATURE,
-    topic_sort_key,
-    typestore,
-)
-from gyro_calib.bagio.metadata import (
-    SCENARIO_KEY,
-    parse_scenario_text,
-    scenario_key,
-    scenario_text,
-    store_custom_data,
-)
-from gyro_calib.bagio.reader import (
-    bag_info,
-    check_topics,
-    header_stamp_spans,
-    iter_bags,
-    iter_raw_messages,
-    iter_sample_batches,
-    topics_present,
-)
-from gyro_calib.bagio.records import BagInfo, Damage, SampleBatch, SkippedChunk, TopicInfo
-from gyro_calib.bagio.repair import repair_bag
-from gyro_calib.bagio.storage import checksum_chunks, open_reader
-from gyro_calib.bagio.writer import BagMessage, ContractMessages, write_bag
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as the type checker sees them; at run time, on first use
+    from gyro_calib.bagio.errors import (
+        BagError,
+        BagNotFoundError,
+        CorruptBagError,
+        EmptyBagError,
+        MissingTopicError,
+        NotABagError,
+        WrongMessageTypeError,
+    )
+    from gyro_calib.bagio.messages import (
+        CONTRACT_TYPES,
+        HEADER,
+        IMU,
+        JOINT_STATE,
+        TEMPERATURE,
+        topic_sort_key,
+        typestore,
+    )
+    from gyro_calib.bagio.metadata import (
+        SCENARIO_KEY,
+        parse_scenario_text,
+        scenario_key,
+        scenario_text,
+        store_custom_data,
+    )
+    from gyro_calib.bagio.reader import (
+        bag_info,
+        check_topics,
+        header_stamp_spans,
+        iter_bags,
+        iter_raw_messages,
+        iter_sample_batches,
+        topics_present,
+    )
+    from gyro_calib.bagio.records import BagInfo, Damage, SampleBatch, SkippedChunk, TopicInfo
+    from gyro_calib.bagio.repair import repair_bag
+    from gyro_calib.bagio.storage import checksum_chunks, open_reader
+    from gyro_calib.bagio.writer import BagMessage, ContractMessages, write_bag
+
+_WHERE = {
+    'BagError': 'gyro_calib.bagio.errors',
+    'BagNotFoundError': 'gyro_calib.bagio.errors',
+    'CorruptBagError': 'gyro_calib.bagio.errors',
+    'EmptyBagError': 'gyro_calib.bagio.errors',
+    'MissingTopicError': 'gyro_calib.bagio.errors',
+    'NotABagError': 'gyro_calib.bagio.errors',
+    'WrongMessageTypeError': 'gyro_calib.bagio.errors',
+    'CONTRACT_TYPES': 'gyro_calib.bagio.messages',
+    'HEADER': 'gyro_calib.bagio.messages',
+    'IMU': 'gyro_calib.bagio.messages',
+    'JOINT_STATE': 'gyro_calib.bagio.messages',
+    'TEMPERATURE': 'gyro_calib.bagio.messages',
+    'topic_sort_key': 'gyro_calib.bagio.messages',
+    'typestore': 'gyro_calib.bagio.messages',
+    'SCENARIO_KEY': 'gyro_calib.bagio.metadata',
+    'parse_scenario_text': 'gyro_calib.bagio.metadata',
+    'scenario_key': 'gyro_calib.bagio.metadata',
+    'scenario_text': 'gyro_calib.bagio.metadata',
+    'store_custom_data': 'gyro_calib.bagio.metadata',
+    'bag_info': 'gyro_calib.bagio.reader',
+    'check_topics': 'gyro_calib.bagio.reader',
+    'header_stamp_spans': 'gyro_calib.bagio.reader',
+    'iter_bags': 'gyro_calib.bagio.reader',
+    'iter_raw_messages': 'gyro_calib.bagio.reader',
+    'iter_sample_batches': 'gyro_calib.bagio.reader',
+    'topics_present': 'gyro_calib.bagio.reader',
+    'BagInfo': 'gyro_calib.bagio.records',
+    'Damage': 'gyro_calib.bagio.records',
+    'SampleBatch': 'gyro_calib.bagio.records',
+    'SkippedChunk': 'gyro_calib.bagio.records',
+    'TopicInfo': 'gyro_calib.bagio.records',
+    'repair_bag': 'gyro_calib.bagio.repair',
+    'checksum_chunks': 'gyro_calib.bagio.storage',
+    'open_reader': 'gyro_calib.bagio.storage',
+    'BagMessage': 'gyro_calib.bagio.writer',
+    'ContractMessages': 'gyro_calib.bagio.writer',
+    'write_bag': 'gyro_calib.bagio.writer',
+}
+"""Each re-exported name → the module defining it, imported on first use (:func:`__getattr__`)."""
+
+
+def __getattr__(name: str) -> Any:
+    """A re-exported name, its module imported on first use (PEP 562).
+
+    ``import gyro_calib.bagio`` alone imports none of its modules: the registry reads the
+    message type names (:mod:`~gyro_calib.bagio.messages`) without the reader, NumPy or
+    rosbags, so ``gyro-calib --help`` loads none of them. A submodule's name
+    (``bagio.reader``) imports that submodule.
+    """
+    module = _WHERE.get(name)
+    if module is None:
+        try:
+            return importlib.import_module(f'{__name__}.{name}')
+        except ModuleNotFoundError as exc:
+            if exc.name != f'{__name__}.{name}':
+                raise
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     'CONTRACT_TYPES', 'HEADER', 'IMU', 'JOINT_STATE', 'SCENARIO_KEY', 'TEMPERATURE',

@@ -26,6 +26,8 @@ class Plan:
     Attributes:
         gyro_id: the gyro.
         inputs: bag path → ((file, SHA-256), ...).
+        hashed: the same hashes by the path the bag reader gives the bag (``str(info.path)``),
+            for the certificate's evidence: each bag is hashed once per run.
         fingerprint: SHA-256 of inputs, settings, methods, spec and gyro_calib version.
         methods: the methods to run.
         skip: True when the fingerprint equals the previous run's (results exist).
@@ -38,6 +40,7 @@ class Plan:
     methods: tuple[str, ...] = ()
     skip: bool = False
     error: str = ''
+    hashed: dict[str, tuple[tuple[str, str], ...]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,26 +90,31 @@ def plan_gyro(job: GyroJob, previous_fingerprint: str, spec_digest: str, force: 
         from gyro_calib.bagio import bag_info
         from gyro_calib.report.evidence import sha256_files
 
-        inputs = {}
+        inputs, hashed = {}, {}
         for bag in job.bags:
             info = bag_info(bag)  # checks the path is a bag
-            inputs[bag] = sha256_files(info.path)
+            inputs[bag] = hashed[str(info.path)] = sha256_files(info.path)
         fingerprint = hashlib.sha256(json.dumps(
             {'version': __version__, 'inputs': inputs, 'settings': job.settings,
              'methods': job.methods, 'spec': spec_digest, 'gyro_id': job.gyro_id,
              **({'customer': job.customer} if job.customer else {})},
             sort_keys=True).encode()).hexdigest()
         if fingerprint == previous_fingerprint and not force:
-            return Plan(job.gyro_id, inputs, fingerprint, (), True)
+            return Plan(job.gyro_id, inputs, fingerprint, (), True, hashed=hashed)
         infos = [bag_info(b) for b in job.bags]
         methods = tuple(m.name for m in select_methods(infos, job.methods or None))
-        return Plan(job.gyro_id, inputs, fingerprint, methods)
+        return Plan(job.gyro_id, inputs, fingerprint, methods, hashed=hashed)
     except Exception as exc:  # noqa: BLE001  (a bad gyro is a row, not the end of the fleet)
         return Plan(job.gyro_id, error=reason(exc))
 
 
-def run_method(job: GyroJob, method: str) -> MethodRun:
-    """Calibrate the gyro's bags with one method (streaming, as ``gyro-calib calibrate``)."""
+def run_method(job: GyroJob, method: str,
+               hashed: dict[str, tuple[tuple[str, str], ...]] | None = None) -> MethodRun:
+    """Calibrate the gyro's bags with one method (streaming, as ``gyro-calib calibrate``).
+
+    ``hashed``: the plan's hashes of the bags (:attr:`Plan.hashed`), stated in the evidence
+    instead of hashing every bag a second time (None: hashed here).
+    """
     try:
         from gyro_calib.bag_calibration import calibrate_bags
         from gyro_calib.report.evidence import evidence_from_outcome
@@ -118,7 +126,8 @@ def run_method(job: GyroJob, method: str) -> MethodRun:
         if part is None:
             why = next(iter(session.missing().values()), 'nothing measured')
             return MethodRun(job.gyro_id, method, error=f'{method}: nothing measured: {why}')
-        return MethodRun(job.gyro_id, method, part, evidence_from_outcome(outcome, options),
+        return MethodRun(job.gyro_id, method, part,
+                         evidence_from_outcome(outcome, options, hashes=hashed),
                          notes=tuple(outcome.notes))
     except Exception as exc:  # noqa: BLE001  (as above)
         return MethodRun(job.gyro_id, method, error=f'{method}: {reason(exc)}')

@@ -48,6 +48,7 @@ quiet_interrupt_while_starting('gyro-calib', os.path.join('gyro_calib', 'cli', '
                                'nothing written')
 
 import argparse  # noqa: E402  (after the interrupt handler: the imports below take seconds)
+import importlib  # noqa: E402
 from collections.abc import Sequence  # noqa: E402
 
 from gyro_calib.cli import (  # noqa: E402
@@ -77,11 +78,15 @@ COMMANDS = (calibrate, info, methods, compensate, noise, report, batch, export, 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``gyro-calib`` console script; returns the exit status.
 
-    A Ctrl-C before the command runs (while the modules load) ends it with ``interrupted;
-    nothing written.`` (exit 130), as one once it runs and has written nothing.
+    A Ctrl-C before the command runs (while the modules load: those of the package, then
+    the command's own, its ``PRELOAD``, once the command line is parsed — ``--help`` needs
+    none of them) ends it with ``interrupted; nothing written.`` (exit 130), as one once it
+    runs and has written nothing.
     """
     try:
         args = _parser().parse_args(argv)
+        for module in sys.modules[args.run.__module__].PRELOAD:  # as the start-up's: on a
+            importlib.import_module(module)  # Ctrl-C meanwhile, nothing was done
         args.ledger = Ledger()  # what the command writes, for the interrupt line
     except KeyboardInterrupt:
         print('gyro-calib: interrupted; nothing written.', file=sys.stderr)

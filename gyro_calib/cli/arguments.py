@@ -26,11 +26,11 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 from gyro_calib.errors import ConfigError
 from gyro_calib.registry import METHODS, handoff_schema
-from gyro_calib.session import CalibrationOptions
 
 if TYPE_CHECKING:
     from gyro_calib.report.lab import Lab
     from gyro_calib.report.spec import Spec
+    from gyro_calib.session import CalibrationOptions
 
 EXIT_OK, EXIT_NOT_CALIBRATED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 """``gyro-calib``'s exit statuses: done; nothing (or not everything) calibrated; bad input
@@ -255,6 +255,8 @@ def namespace_argument(parser: argparse.ArgumentParser) -> None:
 
 def options_from_args(args: argparse.Namespace) -> CalibrationOptions:
     """The CalibrationOptions of the common flags (also used by method subcommands)."""
+    from gyro_calib.session import CalibrationOptions
+
     return CalibrationOptions(
         latitude_deg=args.latitude_deg, heading_deg=args.heading_deg, config_file=args.config,
         position_table_revolutions=args.position_table_revolutions,

@@ -42,6 +42,17 @@ from gyro_calib.file_lock import BATCH_LOCK, DirectoryLock
 EXIT_SOME_FAILED = EXIT_NOT_CALIBRATED  # some gyro failed (its row says why)
 
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.batch.manifest',
+    'gyro_calib.batch.run',
+    'gyro_calib.handoff.load',
+    'gyro_calib.handoff.write',
+    'gyro_calib.outputs',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
+
 def add_commands(sub: Any) -> None:
     """Add ``batch`` to the ``gyro-calib`` subcommands."""
     bat = sub.add_parser('batch', help='calibrate many gyros in parallel (Dask): hand-off files, '

@@ -18,9 +18,8 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from gyro_calib.bag_calibration import BagCalibration, calibrate_bags, json_document
 from gyro_calib.cli.arguments import (
     EXIT_NOT_CALIBRATED,
     EXIT_OK,
@@ -36,9 +35,22 @@ from gyro_calib.cli.arguments import (
 from gyro_calib.cli.interrupt import Ledger
 from gyro_calib.cli.progress import progress_bar
 from gyro_calib.errors import ConfigError
-from gyro_calib.handoff import load_calibration, update_calibration
 from gyro_calib.registry import METHODS, handoff_schema
 from gyro_calib.units import format_stamp
+
+if TYPE_CHECKING:
+    from gyro_calib.bag_calibration import BagCalibration
+
+
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bag_calibration',
+    'gyro_calib.handoff.load',
+    'gyro_calib.handoff.write',
+    'gyro_calib.outputs',
+    'gyro_calib.session',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
 
 
 def add_commands(sub: Any) -> None:
@@ -108,7 +120,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
 
 def _run_checked(args: argparse.Namespace, plot_dir: Path | None) -> int:
     """:func:`run_calibrate` once its outputs are checked (and ``--report DIR`` held)."""
-    from gyro_calib.bag_calibration import bag_infos, select_methods
+    from gyro_calib.bag_calibration import bag_infos, calibrate_bags, select_methods
 
     check_calibration_file(args.calibration)
     _refuse_a_bag_given_twice(args.bags)
@@ -184,6 +196,7 @@ def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human:
     An output that fails while being written (disk full) ends the command in one line
     naming it and what was written before it.
     """
+    from gyro_calib.bag_calibration import json_document
     from gyro_calib.outputs import write_failed, write_figures
 
     print(summary_text(outcome), file=human)
@@ -229,6 +242,8 @@ def _calibrate_outputs(args: argparse.Namespace, outcome: BagCalibration, human:
 
 
 def _write_handoff(args: argparse.Namespace, outcome: BagCalibration, human: Any) -> int:
+    from gyro_calib.handoff import load_calibration, update_calibration
+
     record = None
     for session in outcome.sessions.values():
         part = session.handoff(outcome.source, gyro_id=outcome.gyro_id(session.name))

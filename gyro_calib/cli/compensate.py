@@ -35,11 +35,17 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gyro_calib.bag_compensation import compensate_bags, write_compensated_bag
 from gyro_calib.errors import ConfigError
 from gyro_calib.registry import IMU
-from gyro_calib.thermal.compensation_summary import json_document, summary_text
 from gyro_calib.thermal.topics import GYRO_IMU
+
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bag_compensation',
+    'gyro_calib.thermal.compensation_summary',
+    'gyro_calib.outputs',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
 
 
 def add_commands(subparsers: Any) -> None:
@@ -71,12 +77,14 @@ def add_commands(subparsers: Any) -> None:
 
 def run_compensate(args: argparse.Namespace) -> int:
     """``gyro-calib compensate``: exit status 0, or a GyroCalibError for main() to print."""
+    from gyro_calib.bag_compensation import compensate_bags, write_compensated_bag
     from gyro_calib.outputs import (
         check_new_directory,
         check_plot_dir,
         write_failed,
         write_figures,
     )
+    from gyro_calib.thermal.compensation_summary import json_document, summary_text
 
     if args.out is not None:
         check_new_directory(args.out, '--out')

@@ -22,6 +22,14 @@ from typing import Any
 from gyro_calib.cli.arguments import output_file, topic_name
 from gyro_calib.errors import ConfigError
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.export.common',
+    'gyro_calib.export.source',
+    'gyro_calib.outputs',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
 
 def _positive(text: str) -> float:
     try:
@@ -35,13 +43,13 @@ def _positive(text: str) -> float:
 
 def add_commands(sub: Any) -> None:
     """Add ``export`` to the ``gyro-calib`` subcommands."""
-    from gyro_calib.export import FORMATS, STREAMS
+    from gyro_calib.export.names import FORMAT_NAMES, STREAMS
 
     p = sub.add_parser('export', help="write the hand-off in a navigation stack's own keys "
                        'and units (Kalibr, OpenVINS, GTSAM, LIO-SAM, FAST-LIO, VINS-Fusion, '
                        'Autoware, robot_localization)')
     p.add_argument('handoff', type=Path, metavar='HANDOFF', help='the hand-off YAML file')
-    p.add_argument('--format', required=True, choices=tuple(FORMATS), help='the consumer')
+    p.add_argument('--format', required=True, choices=FORMAT_NAMES, help='the consumer')
     p.add_argument('--out', type=output_file('params.yaml'), required=True, metavar='FILE',
                    help='the file to write (replaced atomically if it exists)')
     p.add_argument('--rate-hz', type=_positive, metavar='HZ',

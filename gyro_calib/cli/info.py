@@ -19,7 +19,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from gyro_calib.bag_calibration import calibrate_bags, json_document
 from gyro_calib.cli.arguments import (
     EXIT_OK,
     check_calibration_file,
@@ -30,6 +29,14 @@ from gyro_calib.cli.arguments import (
 from gyro_calib.cli.calibrate import json_default
 from gyro_calib.registry import METHODS
 from gyro_calib.units import format_stamp
+
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bag_calibration',
+    'gyro_calib.bagio.reader',
+    'gyro_calib.session',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
 
 
 def add_commands(sub: Any) -> None:
@@ -144,7 +151,7 @@ def _print_bag(desc: dict[str, Any], out: Any) -> None:
 
 def run_info(args: argparse.Namespace) -> int:
     """``gyro-calib info``: describe the bags, the methods' prospects, what they read."""
-    from gyro_calib.bag_calibration import bag_infos
+    from gyro_calib.bag_calibration import bag_infos, calibrate_bags, json_document
 
     check_calibration_file(args.calibration)
     infos, namespace_note = bag_infos(args.bags, args.namespace, strict=args.strict)

@@ -8,6 +8,10 @@ from typing import Any
 from gyro_calib.cli.arguments import EXIT_OK
 from gyro_calib.registry import METHODS
 
+PRELOAD: tuple[str, ...] = ()
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
 
 def add_commands(sub: Any) -> None:
     """Add ``methods`` to the ``gyro-calib`` subcommands."""

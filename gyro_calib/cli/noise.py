@@ -60,6 +60,17 @@ from gyro_calib.cli.calibrate import json_default, summary_text
 from gyro_calib.cli.interrupt import Ledger
 from gyro_calib.cli.progress import progress_bar
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bag_calibration',
+    'gyro_calib.bagio.reader',
+    'gyro_calib.handoff.load',
+    'gyro_calib.handoff.write',
+    'gyro_calib.outputs',
+    'gyro_calib.session',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
 
 def add_commands(subparsers: Any) -> None:
     """Add ``noise`` to ``gyro-calib``'s subcommands."""

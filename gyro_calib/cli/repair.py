@@ -16,6 +16,13 @@ from typing import Any
 
 from gyro_calib.cli.arguments import EXIT_OK
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bagio.repair',
+    'gyro_calib.outputs',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
 
 def add_commands(sub: Any) -> None:
     """Add ``repair`` to the ``gyro-calib`` subcommands."""

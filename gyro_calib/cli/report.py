@@ -45,6 +45,18 @@ if TYPE_CHECKING:
     from gyro_calib.report.spec import Spec
 
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bag_calibration',
+    'gyro_calib.bagio.reader',
+    'gyro_calib.handoff.load',
+    'gyro_calib.handoff.write',
+    'gyro_calib.outputs',
+    'gyro_calib.session',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
+
 def add_commands(sub: Any) -> None:
     """Add ``report`` to the ``gyro-calib`` subcommands."""
     rep = sub.add_parser('report', help='the calibration certificate of a gyro (HTML + PDF)')

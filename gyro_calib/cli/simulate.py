@@ -19,6 +19,13 @@ from typing import Any
 
 from gyro_calib.cli.arguments import EXIT_BAD_INPUT, EXIT_OK
 
+PRELOAD: tuple[str, ...] = (
+    'gyro_calib.bagio.writer',
+    'gyro_calib.outputs',
+)
+"""Modules the command uses, imported by :func:`gyro_calib.cli.main` once the command line
+parsed, while a Ctrl-C still means nothing was done (``--help`` imports none of them)."""
+
 
 def add_commands(sub: Any) -> None:
     """Add ``simulate`` to the ``gyro-calib`` subcommands."""

@@ -29,10 +29,6 @@ from gyro_calib.export.source import (
 from gyro_calib.imu_body_rate import channel_arw, count_rate_variances, rounding_variances
 from gyro_calib.imu_calibration import ImuCalibration
 
-STREAMS = ('compensated', 'raw')
-"""``compensated``: the consumer subscribes to gyro_calib's imu_corrector output (scale factor,
-axes, bias, thermal model applied upstream); ``raw``: to the sensor driver's own stream."""
-
 KALIBR_DENSITIES = (('accelerometer_noise_density', 'accel', 'N', 'm/s^2/sqrt(Hz)'),
                     ('accelerometer_random_walk', 'accel', 'K', 'm/s^3/sqrt(Hz)'),
                     ('gyroscope_noise_density', 'gyro', 'N', 'rad/s/sqrt(Hz)'),
@@ -49,7 +45,7 @@ class ExportOptions:
             update_rate); None if not given.
         topic: the sensor_msgs/Imu topic the consumer subscribes to; '' (the default): the
             one gyro_calib's imu_corrector publishes for this hand-off (:func:`default_topic`).
-        stream: one of :data:`STREAMS`.
+        stream: one of :data:`~gyro_calib.export.names.STREAMS`.
         raw_scale_rad_per_pulse: ``raw`` triad stream only: the driver's common scale factor
             K₀ (its rate is K₀·Δn/Δt per channel), rad/pulse.
         accel_topic: the IMU driver's sensor_msgs/Imu topic whose accelerometers

@@ -92,40 +92,104 @@ module re-exports their public names.
 
 from __future__ import annotations
 
-from gyro_calib.handoff.calibration import Calibration, method_calibration
-from gyro_calib.handoff.layout import (
-    DEVIATION_FIELDS,
-    CalibrationYaml,
-    ProvenanceYaml,
-    calibration_to_yaml_dict,
-)
-from gyro_calib.handoff.load import calibration_from_yaml_dict, load_calibration
-from gyro_calib.handoff.merge import MAX_DISAGREEMENT_SIGMA, SAME_RUN, merge_lines
-from gyro_calib.handoff.runs import CalibrationLike, Provenance
-from gyro_calib.handoff.scale_factor import (
-    MAX_MODEL_SCALE_FACTOR_PPM,
-    MAX_SCALE_FACTOR_SHIFT,
-    SCALE_FACTOR_CONDITIONS,
-    SCALE_FACTOR_FROM,
-    SCALE_FACTOR_NOTE,
-    ScaleFactorFindings,
-    scale_factor_findings,
-    scale_factor_inconsistency,
-)
-from gyro_calib.handoff.schema import (
-    CONVENTIONS,
-    FORMAT_VERSION,
-    IMU_CONVENTION,
-    IMU_FORMAT_VERSION,
-    IMU_METHODS,
-    READ_VERSIONS,
-    TWIN_SUFFIXES,
-    HandoffError,
-    HandoffKey,
-    install_default_schema,
-    keys_table,
-)
-from gyro_calib.handoff.write import calibration_text, update_calibration, write_calibration
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # the names as the type checker sees them; at run time, on first use
+    from gyro_calib.handoff.calibration import Calibration, method_calibration
+    from gyro_calib.handoff.layout import (
+        DEVIATION_FIELDS,
+        CalibrationYaml,
+        ProvenanceYaml,
+        calibration_to_yaml_dict,
+    )
+    from gyro_calib.handoff.load import calibration_from_yaml_dict, load_calibration
+    from gyro_calib.handoff.merge import MAX_DISAGREEMENT_SIGMA, SAME_RUN, merge_lines
+    from gyro_calib.handoff.runs import CalibrationLike, Provenance
+    from gyro_calib.handoff.scale_factor import (
+        MAX_MODEL_SCALE_FACTOR_PPM,
+        MAX_SCALE_FACTOR_SHIFT,
+        SCALE_FACTOR_CONDITIONS,
+        SCALE_FACTOR_FROM,
+        SCALE_FACTOR_NOTE,
+        ScaleFactorFindings,
+        scale_factor_findings,
+        scale_factor_inconsistency,
+    )
+    from gyro_calib.handoff.schema import (
+        CONVENTIONS,
+        FORMAT_VERSION,
+        IMU_CONVENTION,
+        IMU_FORMAT_VERSION,
+        IMU_METHODS,
+        READ_VERSIONS,
+        TWIN_SUFFIXES,
+        HandoffError,
+        HandoffKey,
+        install_default_schema,
+        keys_table,
+    )
+    from gyro_calib.handoff.write import calibration_text, update_calibration, write_calibration
+
+_WHERE = {
+    'Calibration': 'gyro_calib.handoff.calibration',
+    'method_calibration': 'gyro_calib.handoff.calibration',
+    'DEVIATION_FIELDS': 'gyro_calib.handoff.layout',
+    'CalibrationYaml': 'gyro_calib.handoff.layout',
+    'ProvenanceYaml': 'gyro_calib.handoff.layout',
+    'calibration_to_yaml_dict': 'gyro_calib.handoff.layout',
+    'calibration_from_yaml_dict': 'gyro_calib.handoff.load',
+    'load_calibration': 'gyro_calib.handoff.load',
+    'MAX_DISAGREEMENT_SIGMA': 'gyro_calib.handoff.merge',
+    'SAME_RUN': 'gyro_calib.handoff.merge',
+    'merge_lines': 'gyro_calib.handoff.merge',
+    'CalibrationLike': 'gyro_calib.handoff.runs',
+    'Provenance': 'gyro_calib.handoff.runs',
+    'MAX_MODEL_SCALE_FACTOR_PPM': 'gyro_calib.handoff.scale_factor',
+    'MAX_SCALE_FACTOR_SHIFT': 'gyro_calib.handoff.scale_factor',
+    'SCALE_FACTOR_CONDITIONS': 'gyro_calib.handoff.scale_factor',
+    'SCALE_FACTOR_FROM': 'gyro_calib.handoff.scale_factor',
+    'SCALE_FACTOR_NOTE': 'gyro_calib.handoff.scale_factor',
+    'ScaleFactorFindings': 'gyro_calib.handoff.scale_factor',
+    'scale_factor_findings': 'gyro_calib.handoff.scale_factor',
+    'scale_factor_inconsistency': 'gyro_calib.handoff.scale_factor',
+    'CONVENTIONS': 'gyro_calib.handoff.schema',
+    'FORMAT_VERSION': 'gyro_calib.handoff.schema',
+    'IMU_CONVENTION': 'gyro_calib.handoff.schema',
+    'IMU_FORMAT_VERSION': 'gyro_calib.handoff.schema',
+    'IMU_METHODS': 'gyro_calib.handoff.schema',
+    'READ_VERSIONS': 'gyro_calib.handoff.schema',
+    'TWIN_SUFFIXES': 'gyro_calib.handoff.schema',
+    'HandoffError': 'gyro_calib.handoff.schema',
+    'HandoffKey': 'gyro_calib.handoff.schema',
+    'install_default_schema': 'gyro_calib.handoff.schema',
+    'keys_table': 'gyro_calib.handoff.schema',
+    'calibration_text': 'gyro_calib.handoff.write',
+    'update_calibration': 'gyro_calib.handoff.write',
+    'write_calibration': 'gyro_calib.handoff.write',
+}
+"""Each re-exported name → the module defining it, imported on first use (:func:`__getattr__`)."""
+
+
+def __getattr__(name: str) -> Any:
+    """A re-exported name, its module imported on first use (PEP 562).
+
+    ``import gyro_calib.handoff`` alone imports none of its modules: the registry installs
+    the schema (:mod:`~gyro_calib.handoff.schema`) without NumPy or YAML, so ``gyro-calib
+    --help`` loads neither. A submodule's name (``handoff.schema``) imports that submodule.
+    """
+    module = _WHERE.get(name)
+    if module is None:
+        try:
+            return importlib.import_module(f'{__name__}.{name}')
+        except ModuleNotFoundError as exc:
+            if exc.name != f'{__name__}.{name}':
+                raise
+        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     'CONVENTIONS', 'DEVIATION_FIELDS', 'FORMAT_VERSION', 'IMU_CONVENTION', 'IMU_FORMAT_VERSION',

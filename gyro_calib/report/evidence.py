@@ -144,10 +144,14 @@ def sha256_files(path: Path) -> tuple[tuple[str, str], ...]:
     return tuple(out)
 
 
-def bag_input(info: BagInfo) -> BagInput:
-    """The bag's identity: files with their hashes, span, count; the temperatures it records."""
-    return BagInput(str(info.path), sha256_files(info.path), info.start_ns, info.end_ns,
-                    info.message_count, recorded_temperature(info))
+def bag_input(info: BagInfo, files: tuple[tuple[str, str], ...] | None = None) -> BagInput:
+    """The bag's identity: files with their hashes, span, count; the temperatures it records.
+
+    ``files``: the bag's (name, SHA-256) as :func:`sha256_files` gave them already (a batch's
+    plan task hashed the bag before it was calibrated); None: hashed here.
+    """
+    return BagInput(str(info.path), sha256_files(info.path) if files is None else files,
+                    info.start_ns, info.end_ns, info.message_count, recorded_temperature(info))
 
 
 def recorded_temperature(info: BagInfo) -> tuple[tuple[str, float, float, float, int], ...]:
@@ -314,11 +318,18 @@ def method_evidence(session: MethodSession, *, figures: bool = True) -> MethodEv
 
 
 def evidence_from_outcome(outcome: BagCalibration, options: CalibrationOptions, *,
-                          figures: bool = True) -> RunEvidence:
-    """The evidence of a finished bag calibration (hashes read from the bags' files)."""
+                          figures: bool = True,
+                          hashes: Mapping[str, tuple[tuple[str, str], ...]] | None = None,
+                          ) -> RunEvidence:
+    """The evidence of a finished bag calibration.
+
+    The bags' hashes are read from their files, or taken from ``hashes`` (bag path as
+    ``str(info.path)`` → :func:`sha256_files` of it) for the bags it names.
+    """
+    hashes = hashes or {}
     per_method = getattr(outcome, 'options', {}) or {}
     settings = tuple(s for name in outcome.sessions
                      for s in settings_used(per_method.get(name, options), name))
     return RunEvidence(
         tuple(method_evidence(s, figures=figures) for s in outcome.sessions.values()),
-        tuple(bag_input(i) for i in outcome.infos), settings)
+        tuple(bag_input(i, hashes.get(str(i.path))) for i in outcome.infos), settings)
