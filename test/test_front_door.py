@@ -32,7 +32,8 @@ import yaml
 
 import gyro_calib
 from gyro_calib.bagio import BagMessage, ContractMessages, bag_info, write_bag
-from gyro_calib.cli import calibrate, main
+from gyro_calib import bag_calibration
+from gyro_calib.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / 'bags'
@@ -116,7 +117,7 @@ def test_plot_at_an_existing_file_is_refused_before_any_work_and_nothing_written
 
     def no_work(*_: Any, **__: Any) -> None:
         raise AssertionError('the calibration ran before the output paths were checked')
-    monkeypatch.setattr(calibrate, 'calibrate_bags', no_work)
+    monkeypatch.setattr(bag_calibration, 'calibrate_bags', no_work)
     code, out_text, err = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--plot', fig,
                               '--out', out)
     assert code == 2 and out_text == ''
@@ -138,7 +139,7 @@ def test_plot_names_a_directory_for_every_command(
 def test_out_in_a_missing_directory_is_refused_before_any_work(
         tmp_path: Path, capsys: pytest.CaptureFixture[str],
         monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(calibrate, 'calibrate_bags', lambda *a, **k: pytest.fail('work was done'))
+    monkeypatch.setattr(bag_calibration, 'calibrate_bags', lambda *a, **k: pytest.fail('work was done'))
     code, _, err = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--out',
                        tmp_path / 'missing' / 'dir' / 'gyro.yaml')
     assert code == 2 and 'does not exist' in one_error_line(err)
