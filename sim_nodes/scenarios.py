@@ -121,6 +121,13 @@ def with_overrides(name: str, overrides: dict[str, Any]) -> Any:
     return scenario
 
 
+def parameters_changed(name: str, overrides: dict[str, Any]) -> list[tuple[str, Any, Any]]:
+    """(dotted path, scenario's value, value with ``overrides``) of each parameter they change."""
+    before = scenario_parameters(name)
+    after = dict(_walk(with_overrides(name, overrides)))
+    return [(p, v, after[p]) for p, v in before.items() if p in after and after[p] != v]
+
+
 def with_node_parameters(name: str, seed: int, sample_rate_hz: float) -> Any:
     """Scenario ``name`` as a simulator node's parameters give it (:func:`with_overrides`).
 

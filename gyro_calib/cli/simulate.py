@@ -59,6 +59,11 @@ def run_simulate(args: argparse.Namespace) -> int:
     from gyro_calib.outputs import check_new_directory
     from sim_nodes.scenarios import scenario_parameters, write_scenario_bag_with
 
+    if Path(args.out).suffix.lower() in ('.mcap', '.db3', '.yaml'):
+        print(f'gyro-calib: error: --out {args.out}: a bag is a directory (metadata.yaml and '
+              f'its .mcap file inside); give the directory\'s name, e.g. --out '
+              f'{Path(args.out).with_suffix("")}; nothing was written.', file=sys.stderr)
+        return EXIT_BAD_INPUT
     check_new_directory(args.out, '--out')  # exists, no parent, cannot be written: refused
     if args.scenario not in SCENARIOS and args.scenario not in GROUPS:
         print(f'gyro-calib: error: unknown scenario {args.scenario!r}; known: '
@@ -111,11 +116,18 @@ def run_simulate(args: argparse.Namespace) -> int:
         raise write_failed(exc, '--out', args.out) from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
-    changed = _given(overrides)
     member = GROUPS.get(args.scenario, (args.scenario,))[0]
-    print(f'wrote {args.out}' + (f' ({changed}; defaults: {scenario_parameters(member)})'
-                                 if changed else ''))
+    print(f'wrote {args.out}' + (f' ({_changes(member, overrides)})' if overrides else ''))
     return EXIT_OK
+
+
+def _changes(scenario: str, overrides: dict[str, Any]) -> str:
+    """'table.seed 21 → 3, gyro.seed 21 → 4, …': each parameter the flags set, old → new."""
+    from sim_nodes.scenarios import parameters_changed
+
+    moved = [f'{p} {old:g} → {new:g}' if isinstance(old, float) else f'{p} {old} → {new}'
+             for p, old, new in parameters_changed(scenario, overrides)]
+    return ', '.join(moved) or f"{_given(overrides)}: the scenario's own values"
 
 
 def _given(overrides: dict[str, Any]) -> str:
