@@ -31,8 +31,8 @@ import pytest
 import yaml
 
 import gyro_calib
-from gyro_calib.bagio import BagMessage, ContractMessages, bag_info, write_bag
 from gyro_calib import bag_calibration
+from gyro_calib.bagio import BagMessage, ContractMessages, bag_info, write_bag
 from gyro_calib.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -139,7 +139,8 @@ def test_plot_names_a_directory_for_every_command(
 def test_out_in_a_missing_directory_is_refused_before_any_work(
         tmp_path: Path, capsys: pytest.CaptureFixture[str],
         monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(bag_calibration, 'calibrate_bags', lambda *a, **k: pytest.fail('work was done'))
+    monkeypatch.setattr(bag_calibration, 'calibrate_bags',
+                        lambda *a, **k: pytest.fail('work was done'))
     code, _, err = run(capsys, 'calibrate', BAGS / 'k_tilde_bench', '--out',
                        tmp_path / 'missing' / 'dir' / 'gyro.yaml')
     assert code == 2 and 'does not exist' in one_error_line(err)

@@ -1,5 +1,8 @@
-"""``gyro-calib methods`` names only commands that exist (a new-user walk ran
-``gyro-calib multiposition``, which the listing offered and the CLI does not have)."""
+"""``gyro-calib methods`` names only commands that exist.
+
+A new-user walk ran ``gyro-calib multiposition``, which the listing offered and the CLI
+does not have.
+"""
 
 from __future__ import annotations
 
