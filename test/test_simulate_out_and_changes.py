@@ -1,8 +1,8 @@
 """``gyro-calib simulate``: --out names the bag directory; the written line says what changed.
 
-The line after writing says which of the scenario's parameters the flags set, old → new (a new-user walk found
-``--out r4.mcap`` writing ``r4.mcap/r4.mcap.mcap`` silently, and the seeds printed as a
-Python dict of the defaults without saying which ``--seed`` set).
+The line after writing says which of the scenario's parameters the flags set, old → new.
+A new-user walk found ``--out r4.mcap`` writing ``r4.mcap/r4.mcap.mcap`` silently, and
+the seeds printed as a Python dict of the defaults without saying which ``--seed`` set.
 """
 
 from __future__ import annotations
