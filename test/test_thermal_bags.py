@@ -334,3 +334,14 @@ def test_compensate_refuses_bags_that_store_different_gyro_ids(
     assert out == ''
     assert err.count('\n') == 1
     assert 'gyro_id' in err and str(a) in err and str(b) in err and '--gyro-id' in err
+
+
+def test_compensate_states_the_model_as_a_sum_of_fitted_terms_not_unit_coefficients(
+        model_file: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A walk read 'bias = b0 + H + H^2 + …' as every coefficient 1; the line names c_k."""
+    assert gyro_calib(['compensate', str(BAGS / 'thermal_validation'), '--calibration',
+                       str(model_file)]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith('model:'))
+    assert line.startswith("model: bias = b0 + Σ c_k·x_k over x = H, ")
+    assert "(b0, c_k: the file's thermal_model)" in line
+    assert '°C beyond' in line

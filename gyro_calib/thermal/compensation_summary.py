@@ -88,8 +88,10 @@ def summary_text(result: BagCompensation, calibration_file: Path) -> str:
     d = RAD_S_PER_DEG_H
     lines = [f'== compensate: {", ".join(str(b) for b in result.bags)} with the thermal model of '
              f'gyro {m.gyro_id or "(unnamed)"} from {calibration_file}',
-             f'model: bias = b0 + {" + ".join(m.terms) or "(constant)"}; calibrated H '
-             f'{m.h_range_c[0]:.2f}…{m.h_range_c[1]:.2f} °C ± {m.extrapolation_margin_c:g} °C; '
+             'model: bias = b0' + (f' + Σ c_k·x_k over x = {", ".join(m.terms)} (b0, c_k: '
+                                   f"the file's thermal_model)" if m.terms else ' (constant)')
+             + f'; calibrated H {m.h_range_c[0]:.2f}…{m.h_range_c[1]:.2f} °C, used to '
+             f'± {m.extrapolation_margin_c:g} °C beyond; '
              f'K = {m.scale_factor_rad_per_pulse!r} rad/pulse']
     rows = [('quantity', '°/h', 'rad/s', 'std (°/h)', 'n')]
     for key, est in r.results().items():
