@@ -7,8 +7,9 @@
                       [--merge-into THEIR_FILE]
 
 The output path is checked before the hand-off is read; on any refusal (one line, exit 2)
-nothing is written and an existing FILE is left as it was; a FILE written is replaced
-atomically, as ``noise --kalibr`` replaces its imu.yaml.
+nothing is written and an existing FILE is left as it was. An existing FILE is replaced
+(atomically, as ``noise --kalibr`` replaces its imu.yaml) only when it is an export of the
+same format this tool wrote, or the --merge-into file itself; any other file is refused.
 """
 
 from __future__ import annotations
@@ -51,7 +52,8 @@ def add_commands(sub: Any) -> None:
     p.add_argument('handoff', type=Path, metavar='HANDOFF', help='the hand-off YAML file')
     p.add_argument('--format', required=True, choices=FORMAT_NAMES, help='the consumer')
     p.add_argument('--out', type=output_file('params.yaml'), required=True, metavar='FILE',
-                   help='the file to write (replaced atomically if it exists)')
+                   help='the file to write; an existing one is replaced (atomically) only '
+                   'if it is an export of this --format gyro-calib wrote')
     p.add_argument('--rate-hz', type=_positive, metavar='HZ',
                    help='IMU sample rate the consumer receives (kalibr/openvins update_rate; '
                    'fast-lio, autoware, robot-localization per-sample covariances); default: '
