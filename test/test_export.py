@@ -146,14 +146,15 @@ def test_kalibr_has_its_six_keys_continuous_largest_axis_and_the_bound_said(
 def test_kalibr_from_a_gyro_only_handoff_says_what_is_missing_instead_of_zeros(
         gyro_only_handoff: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / 'imu.yaml'
-    out.write_text('old\n')
+    old = '# an earlier export; gyro-calib export --format kalibr.\nold: 1\n'  # replaceable
+    out.write_text(old)
     code = main(['export', str(gyro_only_handoff), '--format', 'kalibr', '--out', str(out),
                  '--rate-hz', '200'])
     err = capsys.readouterr()
     assert code == 2 and err.out == ''
     assert len(err.err.strip().splitlines()) == 1
     assert 'accelerometer_noise_density' in err.err and 'no accelerometer term' in err.err
-    assert out.read_text() == 'old\n'
+    assert out.read_text() == old
 
 
 # -- GTSAM: built with the gtsam wheel ----------------------------------------------------

@@ -18,6 +18,7 @@ import yaml
 from gyro_calib.bagio import BagMessage, ContractMessages, write_bag
 from gyro_calib.cli import main
 from gyro_calib.handoff import Calibration, write_calibration
+from gyro_calib.noise.kalibr import KALIBR_MARK
 from gyro_calib.registry import handoff_schema
 from sim_nodes.noise.bag_scenarios import imu_template
 
@@ -103,6 +104,8 @@ def outputs(tmp_path: Path) -> dict[str, Path]:
              'out': tmp_path / 'handoff.yaml'}
     for path in files.values():
         path.write_text(f'before {path.name}\n')
+    files['kalibr'].write_text(f'# {KALIBR_MARK} (an earlier run)\nbefore: imu.yaml\n')
+    BEFORE[files['kalibr']] = files['kalibr'].read_text()  # a run may replace it: ours
     write_calibration(files['out'], Calibration({}, {}), handoff_schema())
     BEFORE[files['out']] = files['out'].read_text()
     return files
@@ -264,6 +267,24 @@ def test_an_out_file_that_cannot_be_updated_is_refused_before_any_work_naming_ou
     assert line.startswith(f'gyro-calib: error: --out {out} exists and cannot be updated: ')
     assert text in line and line.endswith('Give a new path, or move the file away.'), line
     assert out.read_text() == before and sorted(tmp_path.iterdir()) == [out]
+
+
+def test_kalibr_replaces_only_a_kalibr_file_gyro_calib_wrote(
+        bags: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Walk S6: ``--kalibr notes.txt`` replaced the user's notes, exit 0."""
+    notes = tmp_path / 'notes.txt'
+    notes.write_text('turntable: 10 deg/s\n')
+    status, out, err = run(capsys, bags['imu'], '--kalibr', notes)
+    assert status == 2 and out == ''
+    line = one_line_error(err)
+    assert str(notes) in line and 'new path' in line and 'remove it' in line
+    assert notes.read_text() == 'turntable: 10 deg/s\n' and sorted(tmp_path.iterdir()) == [notes]
+    exported = tmp_path / 'imu.yaml'  # an export --format kalibr file: the same Kalibr file
+    exported.write_text('# COMPLETE Kalibr imu.yaml\n# kalibr parameters from gyro_calib '
+                        'hand-off h.yaml; gyro-calib export --format kalibr.\nrostopic: /x\n')
+    assert run(capsys, bags['imu'], '--kalibr', exported)[0] == 0
+    assert yaml.safe_load(exported.read_text())['rostopic'] == '/imu/data'
+    assert run(capsys, bags['imu'], '--kalibr', exported)[0] == 0  # its own file, a 2nd run
 
 
 def test_a_good_imu_run_writes_every_file_and_prints_their_paths(

@@ -7,8 +7,9 @@
                       [--merge-into THEIR_FILE]
 
 The output path is checked before the hand-off is read; on any refusal (one line, exit 2)
-nothing is written and an existing FILE is left as it was; a FILE written is replaced
-atomically, as ``noise --kalibr`` replaces its imu.yaml.
+nothing is written and an existing FILE is left as it was. An existing FILE is replaced
+(atomically, as ``noise --kalibr`` replaces its imu.yaml) only when it is an export of the
+same format this tool wrote, or the --merge-into file itself; any other file is refused.
 """
 
 from __future__ import annotations
@@ -51,7 +52,8 @@ def add_commands(sub: Any) -> None:
     p.add_argument('handoff', type=Path, metavar='HANDOFF', help='the hand-off YAML file')
     p.add_argument('--format', required=True, choices=FORMAT_NAMES, help='the consumer')
     p.add_argument('--out', type=output_file('params.yaml'), required=True, metavar='FILE',
-                   help='the file to write (replaced atomically if it exists)')
+                   help='the file to write; an existing one is replaced (atomically) only '
+                   'if it is an export of this --format gyro-calib wrote')
     p.add_argument('--rate-hz', type=_positive, metavar='HZ',
                    help='IMU sample rate the consumer receives (kalibr/openvins update_rate; '
                    'fast-lio, autoware, robot-localization per-sample covariances); default: '
@@ -96,19 +98,82 @@ def run_export(args: argparse.Namespace) -> int:
         raise ConfigError('export: --out is the hand-off file itself; give another file. '
                           'Nothing was written.')
     refuse_to_overwrite_records(out, 'export: --out', 'an export')
+    if args.merge_into is None or args.merge_into.absolute() != out:  # theirs: kept, merged
+        refuse_to_replace_a_foreign_file(out, args.format, 'export: --out')
     options = ExportOptions(rate_hz=args.rate_hz, topic=args.topic or '', stream=args.stream,
                             raw_scale_rad_per_pulse=args.raw_scale_rad_per_pulse,
                             accel_topic=args.accel_topic or '',
                             accel_from=str(args.accel_from or ''))
     theirs = _their_text(args.merge_into) if args.merge_into is not None else None
+    started_empty = theirs is not None and _their_mapping(theirs, args.merge_into) is None
     text = export_text(args.handoff, args.format, options)
     if theirs is not None:
         from gyro_calib.export.merge import merge_into
 
         text = merge_into(theirs, text, args.format, str(args.merge_into))
+        if not isinstance(_their_mapping(text, args.merge_into), dict):
+            raise ConfigError(f'export: --merge-into {args.merge_into}: the merged text is not '
+                              'a YAML mapping; use the file --out writes without --merge-into '
+                              'and copy its keys by hand. Nothing was written.')
     write_text_atomically(out, text)
+    if started_empty:
+        print(f'export: --merge-into {args.merge_into} holds no key (empty): started from '
+              "nothing, the file written holds only the export's keys.", file=sys.stderr)
     print(f'wrote {out} ({args.format}).', file=sys.stderr)
     return 0
+
+
+def _load_any_tags(text: str) -> Any:
+    """``text`` read by PyYAML's safe loader, a tagged node (``!!opencv-matrix``) untagged.
+
+    Raises:
+        yaml.YAMLError: not YAML.
+    """
+    import yaml
+
+    class AnyTagLoader(yaml.SafeLoader):
+        pass
+
+    def untagged(loader: yaml.SafeLoader, _suffix: str, node: yaml.Node) -> Any:
+        if isinstance(node, yaml.MappingNode):
+            return loader.construct_mapping(node)
+        if isinstance(node, yaml.SequenceNode):
+            return loader.construct_sequence(node)
+        return loader.construct_scalar(node)  # type: ignore[arg-type]
+
+    AnyTagLoader.add_multi_constructor('', untagged)
+    return yaml.load(text, Loader=AnyTagLoader)  # noqa: S506 - a SafeLoader subclass
+
+
+def _their_mapping(text: str, path: Path) -> dict[Any, Any] | None:
+    """The mapping of the --merge-into text, ``None`` when it holds no key (empty, comments).
+
+    An OpenCV ``%YAML:1.0`` first line is skipped (PyYAML rejects it; OpenCV needs it).
+
+    Raises:
+        ConfigError: the text does not parse as YAML, or is not a mapping (one line; nothing
+            written).
+    """
+    first, _, rest = text.partition('\n')
+    body = rest if first.strip().startswith('%YAML:') else text
+    keep = ('give your own config file (a YAML mapping of keys), or drop --merge-into to '
+            'write the export alone. Nothing was written.')
+    import yaml
+
+    try:
+        data = _load_any_tags(body)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, 'problem_mark', None)
+        where = f' (line {mark.line + 1 + (body is rest)})' if mark is not None else ''
+        raise ConfigError(f'export: --merge-into {path} is not YAML{where}: '
+                          f'{getattr(exc, "problem", None) or "cannot be parsed"}; '
+                          + keep) from None
+    if data is None:
+        return None
+    if not isinstance(data, dict):
+        raise ConfigError(f'export: --merge-into {path} is not a YAML mapping (it holds a '
+                          f'{type(data).__name__}, not keys); ' + keep)
+    return data
 
 
 def _their_text(path: Path) -> str:
@@ -122,6 +187,55 @@ def _their_text(path: Path) -> str:
         why = exc.strerror if isinstance(exc, OSError) else 'not UTF-8 text'
         raise ConfigError(f'export: --merge-into {path}: cannot be read ({why}). Nothing was '
                           'written.') from None
+
+
+def refuse_to_replace_a_foreign_file(out: Path, fmt: str, flag: str) -> None:
+    """An existing ``out`` is replaced only when it is this tool's file of the same format.
+
+    Ours: its leading comment block (after an OpenCV ``%YAML:1.0`` and ``---``) carries
+    :func:`~gyro_calib.export.names.export_mark` of ``fmt``, or, for Kalibr, the first line
+    of ``noise --kalibr`` (:data:`~gyro_calib.noise.kalibr.KALIBR_MARK`) — both write the same
+    Kalibr imu.yaml. Any other file (a user's config, notes, another format's export) is kept.
+
+    Raises:
+        ConfigError: ``out`` exists and is not ours (one line; nothing written).
+    """
+    from gyro_calib.export.merge import MERGEABLE
+    from gyro_calib.export.names import export_mark
+
+    if not out.is_file():
+        return
+    marks = [export_mark(fmt)]
+    if fmt == 'kalibr':
+        from gyro_calib.noise.kalibr import KALIBR_MARK
+
+        marks.append(KALIBR_MARK)
+    if any(mark in line for line in _leading_comments(out) for mark in marks):
+        return
+    what = "Kalibr imu.yaml" if fmt == 'kalibr' else f'--format {fmt} export'
+    keep = (f', or use gyro-calib export --merge-into {out} to keep its keys'
+            if fmt in MERGEABLE else '')
+    raise ConfigError(f'{flag} {out} exists and is not a {what} gyro-calib wrote (its first '
+                      f'comment lines do not say so); it is not replaced: give a new path, '
+                      f'remove it{keep}. Nothing was written.')
+
+
+def _leading_comments(path: Path) -> list[str]:
+    """The comment lines a file starts with (after ``%YAML:1.0``, ``---`` and blanks)."""
+    try:
+        with path.open('rb') as f:
+            head = f.read(65536).decode('utf-8', errors='replace')
+    except OSError:
+        return []
+    out: list[str] = []
+    for line in head.split('\n'):
+        text = line.strip()
+        if not out and (not text or text.startswith('%YAML') or text == '---'):
+            continue
+        if not text.startswith('#'):
+            break
+        out.append(text)
+    return out
 
 
 def refuse_to_overwrite_records(out: Path, flag: str, what_writes: str) -> None:

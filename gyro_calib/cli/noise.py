@@ -226,9 +226,13 @@ def run_noise(args: argparse.Namespace) -> int:
     _refuse_a_taus_that_cannot_serve(args)  # before any path or bag is looked at
     targets = resolve_targets(args.kalibr, None, args.out, names=('--kalibr', '--plot', '--out'))
     if targets.kalibr is not None:
-        from gyro_calib.cli.export import refuse_to_overwrite_records
+        from gyro_calib.cli.export import (
+            refuse_to_overwrite_records,
+            refuse_to_replace_a_foreign_file,
+        )
 
         refuse_to_overwrite_records(targets.kalibr, 'noise: --kalibr', "Kalibr's imu.yaml")
+        refuse_to_replace_a_foreign_file(targets.kalibr, 'kalibr', 'noise: --kalibr')
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     check_calibration_file(args.calibration)
     infos, _ = bag_infos(args.bags, args.namespace, strict=args.strict)

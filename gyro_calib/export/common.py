@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gyro_calib import topics
+from gyro_calib.export.names import export_mark
 from gyro_calib.export.source import (
     ACCEL_TERMS,
     AXES,
@@ -307,7 +308,7 @@ def header(src: ExportSource, fmt: str, options: ExportOptions,
     out = [completeness_line(fmt),
            f'{fmt} parameters from gyro_calib hand-off {src.path}'
            + (f' (gyro_id {src.gyro_id})' if src.gyro_id else '')
-           + f'; gyro-calib export --format {fmt}.',
+           + f'; {export_mark(fmt)}',
            f'Input: {options.topic}, {stream}'
            + (f'; accelerometers passed through from {options.accel_topic} '
               '(imu_corrector accel_input)' if options.accel_topic and options.stream ==

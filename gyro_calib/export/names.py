@@ -13,3 +13,12 @@ FORMAT_NAMES = ('kalibr', 'openvins', 'gtsam', 'lio-sam', 'fast-lio', 'vins-fusi
 STREAMS = ('compensated', 'raw')
 """``compensated``: the consumer subscribes to gyro_calib's imu_corrector output (scale factor,
 axes, bias, thermal model applied upstream); ``raw``: to the sensor driver's own stream."""
+
+
+def export_mark(fmt: str) -> str:
+    """The words every file of ``--format fmt`` carries in its leading comment block.
+
+    :func:`gyro_calib.export.common.header` writes them; ``export --out`` recognises by them
+    a file it may replace (an earlier export of the same format).
+    """
+    return f'gyro-calib export --format {fmt}.'

@@ -39,6 +39,11 @@ if TYPE_CHECKING:
     from gyro_calib.noise.terms import TermUnits
 
 
+KALIBR_MARK = 'Kalibr IMU noise parameters from gyro_calib noise'
+"""The words the first line of ``noise --kalibr``'s imu.yaml carries (by them ``noise
+--kalibr`` and ``export --format kalibr --out`` recognise a file they may replace)."""
+
+
 class KalibrExportError(InsufficientDataError):
     """The Kalibr imu.yaml cannot be written: a required noise term is not available."""
 
@@ -116,7 +121,7 @@ def kalibr_imu_yaml(cal: NoiseCalibrator, *, rostopic: str,
         raise KalibrExportError('cannot write update_rate for Kalibr: the sample rate is not '
                                 'known (no Imu samples analysed).')
     lines = [
-        '# Kalibr IMU noise parameters from gyro_calib noise (Allan deviation, joint fit to',
+        f'# {KALIBR_MARK} (Allan deviation, joint fit to',
         '# IEEE Std 952 Annex C). Each value is the largest of the measured axes.',
         *(f'# {line}' for line in kalibr_left_out(cal)),
         '# noise_density = angle/velocity random walk N; random_walk = rate/acceleration',
