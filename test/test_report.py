@@ -47,7 +47,7 @@ from gyro_calib.report.units import user_unit
 from gyro_calib.session import CalibrationOptions
 
 ONE_SIGMA = 0.8413447460685429
-"""P(z < 1): the Student t an estimator widens a scatter of few repetitions by (docs/methods.md)."""
+"""P(z < 1): the Student t a scatter of few repetitions is widened by (docs/methods.md)."""
 
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 SCENARIO_BAGS = sorted(p.name for p in BAGS.iterdir()
