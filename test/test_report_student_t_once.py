@@ -39,13 +39,14 @@ def test_a_quantity_from_few_repetitions_has_u_t0841_and_U_t0975_times_s_over_ro
     n = len(values)
     s_mean = float(np.std(values, ddof=1)) / math.sqrt(n)
     est = _estimate(values)
-    assert est.std_uncertainty == pytest.approx(scipy.stats.t.ppf(ONE_SIGMA, n - 1) * s_mean)
+    t68, t95 = scipy.stats.t.ppf(ONE_SIGMA, n - 1), scipy.stats.t.ppf(0.975, n - 1)
+    assert est.std_uncertainty == pytest.approx(t68 * s_mean, rel=1e-9, abs=0)
     line = BudgetLine(est.basis, est.std_uncertainty, float(est.dof), basis_widening(est.basis))
     exp = expanded_uncertainty(est.std_uncertainty, (line,), n)
-    assert exp.expanded == pytest.approx(scipy.stats.t.ppf(0.975, n - 1) * s_mean, rel=1e-9)
-    assert exp.k is not None and exp.expanded == pytest.approx(exp.k * est.std_uncertainty)
-    assert exp.k == pytest.approx(scipy.stats.t.ppf(0.975, n - 1)
-                                  / scipy.stats.t.ppf(ONE_SIGMA, n - 1))
+    assert exp.expanded == pytest.approx(t95 * s_mean, rel=1e-9, abs=0)
+    assert exp.k is not None
+    assert exp.expanded == pytest.approx(exp.k * est.std_uncertainty, rel=1e-9, abs=0)
+    assert exp.k == pytest.approx(t95 / t68)
 
 
 def test_an_unwidened_line_keeps_k95_and_a_mixed_budget_combines_unwidened() -> None:
@@ -85,7 +86,8 @@ def test_the_certificate_states_U_a_reader_recomputes_from_its_printed_lines() -
         {}, (), (), (), (), None),), (), ())
     row = next(r for r in build_certificate(record, ev).rows if r.key == key)
     s_mean = float(np.std(REPEATS, ddof=1)) / math.sqrt(3)
-    assert row.expanded_si == pytest.approx(scipy.stats.t.ppf(0.975, 2) * s_mean, rel=1e-9)
+    assert row.expanded_si == pytest.approx(scipy.stats.t.ppf(0.975, 2) * s_mean, rel=1e-9,
+                                            abs=0)
     # what is printed: u, k (= U/u), U, and the budget line's u unwidened (s/√n)
     f = row.factor
     assert _cells(row.expanded) == pytest.approx(_cells(row.k) * _cells(row.std), rel=0.03)
