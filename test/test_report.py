@@ -46,6 +46,9 @@ from gyro_calib.report.spec import (
 from gyro_calib.report.units import user_unit
 from gyro_calib.session import CalibrationOptions
 
+ONE_SIGMA = 0.8413447460685429
+"""P(z < 1): the Student t a scatter of few repetitions is widened by (docs/methods.md)."""
+
 BAGS = Path(__file__).resolve().parent.parent / 'bags'
 SCENARIO_BAGS = sorted(p.name for p in BAGS.iterdir()
                        if p.is_dir() and not p.name.startswith(('triad_', 'multiposition_')))
@@ -182,6 +185,9 @@ def test_certificate_of_each_committed_bag_holds_the_hand_off_values_k_and_U(nam
         if name.startswith('dither') and key.startswith('dither_misalignment'):
             assert dof != '—'  # Welch–Satterthwaite over statistical + rocking
             k95 = float(scipy.stats.t.ppf(0.975, float(dof)))
+        widened = re.search(r'× Student t [0-9.]+ \((\d+) dof\)', est.basis)
+        if widened:  # u = t₀.₈₄₁₃(ν)·s/√n: U = t₀.₉₇₅(ν)·s/√n, k = U/u (GUM G.3)
+            k95 /= float(scipy.stats.t.ppf(ONE_SIGMA, int(widened.group(1))))
         assert float(k) == pytest.approx(k95, abs=0.006)
         assert float(expanded) == pytest.approx(float(k) * std * factor, rel=0.02,
                                                 abs=2 * half_digit)

@@ -2,8 +2,9 @@
 
 One YAML file per gyro holds every value measured, by any method, each with its standard
 (k = 1) uncertainty beside it as ``<name>_std`` and, where the estimator knows them, the
-degrees of freedom ν of that uncertainty as ``<name>_dof`` (a certificate's k for 95 % is
-Student t at ν; never more than the n − 1 the n independent measurements support), under a
+degrees of freedom ν of that uncertainty as ``<name>_dof`` (never more than the n − 1 the n
+independent measurements support; a scatter of few repetitions is stated widened by
+t₀.₈₄₁₃(ν), a 68 % u: its 95 % U is u·t₀.₉₇₅(ν)/t₀.₈₄₁₃(ν), docs/methods.md), under a
 top-level ``gyro:`` mapping; which
 method produced them, from what data and when, under ``methods:``; and whether anything the
 methods that ran would measure is still missing (``complete``, ``missing`` with reasons). All

@@ -70,6 +70,7 @@ from gyro_calib.report.spec import (
 from gyro_calib.report.uncertainty import (
     BudgetLine,
     Expanded,
+    budget_source,
     contribution_percent,
     expanded_uncertainty,
     format_dof,
@@ -303,21 +304,27 @@ def _twin(key: str, values: Mapping[str, Any]) -> bool:
 def _quantity_row(key: str, method: str, description: str, value_si: float, std_si: float,
                   est_n: int | None, budget: tuple[BudgetLine, ...], spec: Spec | None,
                   in_handoff: bool, note: str = '', dof_given: float | None = None,
-                  interval_si: tuple[float, float] | None = None) -> QuantityRow:
-    """One row: k from the run's budget, else the hand-off's ν, else 2 (said in the row)."""
+                  interval_si: tuple[float, float] | None = None,
+                  dof_widening: float = 1.0) -> QuantityRow:
+    """One row: k from the run's budget, else the hand-off's ν, else 2 (said in the row).
+
+    ``dof_widening``: the Student t for 68 % the run's budget says the hand-off's u was
+    widened by (1: not, or not known: k₉₅(ν) on u, never an understatement).
+    """
     unit = user_unit(key)
     notes = [note] if note else []
     if not budget and dof_given is not None:
         budget = (BudgetLine('degrees of freedom stated in the hand-off file', std_si,
-                             float(dof_given)),)
+                             float(dof_given), dof_widening),)
     elif not budget:
         notes.append('k = 2 assumed: the hand-off file states no degrees of freedom for this '
                      'value (written before gyro_calib recorded them) and no bag gave them')
     exp: Expanded = expanded_uncertainty(std_si, budget, est_n)
     f = unit.factor
     u = std_si * f
-    rows = tuple((b.source, format_uncertainty(b.std * f, b.std * f),
-                  format_dof(b.dof), f'{contribution_percent(b, std_si):.1f} %')
+    std_gum = std_si if exp.std_gum is None else exp.std_gum
+    rows = tuple((budget_source(b), format_uncertainty(b.gum_std * f, b.gum_std * f),
+                  format_dof(b.dof), f'{contribution_percent(b, std_gum):.1f} %')
                  for b in exp.budget)
     interval = None
     if interval_si is not None:
@@ -623,9 +630,10 @@ def build_certificate(calibration: Calibration, evidence: RunEvidence | None = N
 def _budget_rows(lines: tuple[BudgetLine, ...], std_si: float,
                  factor: float) -> tuple[tuple[str, str, str, str], ...]:
     """A budget as printed: source, u in the quoted unit, ν, share of u²."""
-    return tuple((b.source, format_uncertainty(b.std * factor, b.std * factor),
-                  format_dof(b.dof), f'{contribution_percent(b, std_si):.1f} %')
-                 for b in sorted(lines, key=lambda b: -b.std))
+    std_gum = math.sqrt(sum(b.gum_std ** 2 for b in lines)) or std_si
+    return tuple((budget_source(b), format_uncertainty(b.gum_std * factor, b.gum_std * factor),
+                  format_dof(b.dof), f'{contribution_percent(b, std_gum):.1f} %')
+                 for b in sorted(lines, key=lambda b: -b.gum_std))
 
 
 def _imu_rows(calibration: Calibration, ev_methods: Mapping[str, MethodEvidence],
@@ -684,13 +692,20 @@ def _imu_rows(calibration: Calibration, ev_methods: Mapping[str, MethodEvidence]
                     k_est.value, float(k_value[index]), rel_tol=1e-9, abs_tol=0.0):
                 n = k_est.n_used  # the same row fit
                 dof = float(k_est.supported_dof) if dof is None else dof
-                lines = tuple(BudgetLine(source, u, nu) for source, u, nu in budget_shares(
-                    q.std, tuple((b.source, b.std, b.dof) for b in ev.budgets.get(q.budget, ()))))
+                run_lines = ev.budgets.get(q.budget, ())
+                widening = {b.source: b.widening for b in run_lines}
+                lines = tuple(BudgetLine(source, u, nu, widening[source])
+                              for source, u, nu in budget_shares(
+                                  q.std, tuple((b.source, b.std, b.dof) for b in run_lines)))
         limit = limit_for(spec.limits, q.key) if spec is not None else None
         row_spec = (None if spec is None or limit is None
                     else dataclasses.replace(spec, limits={q.key: limit}))
+        # the run's lines, where widened by Student t for 68 %, unwiden the hand-off's u alike
+        stated = math.sqrt(sum(b.std ** 2 for b in lines))
+        unwidened = math.sqrt(sum(b.gum_std ** 2 for b in lines))
         row = _quantity_row(q.key, method, q.description, q.value, q.std, n, (), row_spec,
-                            True, '; '.join(notes_q), dof)
+                            True, '; '.join(notes_q), dof,
+                            dof_widening=stated / unwidened if unwidened > 0 else 1.0)
         if lines:
             split = ('the run\'s sources (METHODS §F eq. (12))' if method == 'triad'
                      and not q.key.startswith('imu.bias_') else 'the run\'s')

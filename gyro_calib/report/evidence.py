@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.estimate import Estimate
 from gyro_calib.registry import METHODS
-from gyro_calib.report.uncertainty import BudgetLine
+from gyro_calib.report.uncertainty import BudgetLine, basis_widening
 from gyro_calib.units import format_stamp
 
 if TYPE_CHECKING:
@@ -231,7 +231,8 @@ def _budgets(session: MethodSession,
     out: dict[str, tuple[BudgetLine, ...]] = {}
     for key, est in estimates.items():
         source = est.basis or f'{session.name} estimator (stated u, {est.dof} dof)'
-        out[key] = (BudgetLine(source, est.std_uncertainty, float(est.dof)),)
+        out[key] = (BudgetLine(source, est.std_uncertainty, float(est.dof),
+                               basis_widening(est.basis)),)
     if session.name == 'dither':
         section = session.json_section()
         parts: dict[str, Any] = {}
@@ -275,11 +276,12 @@ def _triad_budgets(result: Any) -> dict[str, tuple[BudgetLine, ...]]:
         lines_k, lines_s = [], []
         for line in result.budget:
             dof = float(k.dof) if line.source == 'counts' else math.inf
+            widening = basis_widening(k.basis) if line.source == 'counts' else 1.0
             rel, direction = float(line.scale_factor_relative[i]), float(line.direction_rad[i])
             if math.isfinite(rel):
-                lines_k.append(BudgetLine(line.source, rel * k.value, dof))
+                lines_k.append(BudgetLine(line.source, rel * k.value, dof, widening))
             if math.isfinite(direction):
-                lines_s.append(BudgetLine(line.source, direction, dof))
+                lines_s.append(BudgetLine(line.source, direction, dof, widening))
         out[f'imu.{ch.name}.scale_factor_rad_per_pulse'] = tuple(lines_k)
         out[f'imu.{ch.name}.sense_axis_rad'] = tuple(lines_s)
     return out
