@@ -11,7 +11,8 @@ uncertainties from its earlier hand-off is such a row unless ``--replace``; 2 ba
 bags, a missing one is that gyro's row —, spec, output directory, ids whose files would
 collide) or another run writes
 the output directory (``DIR/batch.lock``), nothing written; 130 interrupted (what finished
-is kept; every other gyro is a row ``not run (interrupted)``; a Ctrl-C while the local
+is kept; every other gyro is a row ``not run (interrupted)``, or its earlier row if its
+folder holds one — the fleet files describe what the folders hold; a Ctrl-C while the local
 cluster starts: ``interrupted; nothing written.``). A Ctrl-C once the fleet files are
 written (while the cluster closes) is said in one line after the summary; the exit status
 stays the run's.
