@@ -352,9 +352,14 @@ def _run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any
                for j in jobs}
     written: set[str] = set()  # gyros whose folder this run wrote
 
-    def store(result: GyroResult) -> dict[str, Any]:
-        written.add(result.gyro_id)
-        return _store(out_dir, result, replace)
+    def store(result: GyroResult, late: bool = True) -> dict[str, Any]:
+        """Store a gyro whole: a Ctrl-C meanwhile is raised once its record is in place."""
+        with _sigint_postponed() as arrived:
+            written.add(result.gyro_id)
+            records[result.gyro_id] = record = _store(out_dir, result, replace)
+        if arrived and late:
+            raise KeyboardInterrupt
+        return record
     records: dict[str, dict[str, Any]] = {}
     skipped: list[str] = []
     by_id = {j.gyro_id: j for j in jobs}
@@ -429,7 +434,7 @@ def _run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any
                         fut.result().certificate is None)):
                     why = '' if replace or kind == 'issue' else _refused(out_dir, fut.result())
                     records[gid] = (_failed(by_id[gid], stems[gid], why) if why else
-                                    store(fut.result()))
+                                    store(fut.result(), late=False))
                 elif gid in reserved:
                     records[gid] = {**_not_run(by_id[gid], stems[gid]), 'reason': burned(
                         reserved[gid], 'the run was stopped before its certificate was made')}
@@ -472,6 +477,24 @@ def sigint_noted() -> Iterator[list[int]]:
     finally:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def _sigint_postponed() -> Iterator[list[int]]:
+    """A Ctrl-C while the block runs (main thread only) is noted in the yielded list.
+
+    For a gyro's files and record, written together: the caller acts on the Ctrl-C once
+    they are all in place, so a folder never holds one run's hand-off beside another's record.
+    """
+    arrived: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield arrived
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
+    try:
+        yield arrived
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
