@@ -233,7 +233,10 @@ def test_a_rerun_under_other_settings_that_moves_a_value_beyond_5_sigma_is_refus
     assert {p: p.read_bytes() for p in (out / 'R-1').iterdir()} == before
     with (out / 'fleet.csv').open(encoding='utf-8') as stream:
         rows = [r for r in csv.DictReader(stream) if r['gyro_id'] == 'R-1']
-    assert [(r['status'], r['reason']) for r in rows] == [('failed', row[len('R-1: failed: '):])]
+    # the fleet files keep what R-1/ holds (its earlier row), and say it was refused
+    assert {(r['status'], r['this_run']) for r in rows} == {
+        ('ok', row[len('R-1: failed: '):] + '; earlier results kept')}
+    assert len(rows) > 1 and all(r['value'] for r in rows)
     assert main([*argv, '--replace']) == 0
     printed = capsys.readouterr().out.splitlines()
     assert 'R-1: ok' in printed
@@ -274,7 +277,7 @@ def test_the_rerun_check_compares_a_triads_k_i_b_and_each_channels_terms(
 
 
 @pytest.mark.parametrize('case', ['missing manifest', 'unknown setting', 'out of range',
-                                  'duplicate id', 'workers 0'])
+                                  'duplicate id', 'workers 0', 'bag path typo'])
 def test_bad_manifest_is_one_line_exit_2_nothing_written(
         case: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     manifest = tmp_path / 'm.yaml'
@@ -283,7 +286,10 @@ def test_bad_manifest_is_one_line_exit_2_nothing_written(
                   'out of range': [{'id': 'A', 'bags': [bag],
                                     'settings': {'latitude_deg': 128.2}}],
                   'duplicate id': [{'id': 'A', 'bags': [bag]}, {'id': 'A', 'bags': [bag]}],
-                  'workers 0': [{'id': 'A', 'bags': [bag]}]}.get(case)
+                  'workers 0': [{'id': 'A', 'bags': [bag]}],
+                  'bag path typo': [{'id': 'A', 'bags': [bag]},
+                                    {'id': 'B', 'bags': [str(BAGS / 'k_tilde_bnch')]}],
+                  }.get(case)
     if gyros is not None:
         manifest.write_text(yaml.safe_dump(gyros), encoding='utf-8')
     argv = ['batch', str(manifest), '--out', str(tmp_path / 'out')]
@@ -294,6 +300,9 @@ def test_bad_manifest_is_one_line_exit_2_nothing_written(
     assert captured.out == '' and len(captured.err.strip().splitlines()) == 1
     assert captured.err.startswith('gyro-calib: error:')
     assert not (tmp_path / 'out').exists()
+    if case == 'bag path typo':
+        assert ("gyro B: bag " in captured.err and "k_tilde_bnch does not exist (did you mean "
+                "'k_tilde_bench'?)" in captured.err), captured.err
 
 
 def test_manifest_csv_and_directory_forms(tmp_path: Path) -> None:

@@ -41,10 +41,14 @@ row's non-orthogonality is to."""
 COLUMNS = ('gyro_id', 'status', 'overall', 'key', 'method', 'unit', 'value', 'std', 'k', 'U',
            'n', 'dof', 'limit', 'verdict', 'in_handoff', 'inputs_sha256', 'reason',
            'lsl', 'usl', 'display_unit', 'display_value', 'display_std', 'display_U',
-           'display_lsl', 'display_usl', 'fleet_run', 'replaces', *IMU_COLUMNS)
+           'display_lsl', 'display_usl', 'fleet_run', 'replaces', *IMU_COLUMNS, 'this_run')
 """The columns of fleet.csv and fleet.parquet (new ones appended, old ones in place).
 
 ``replaces``: the number of the issued certificate this gyro's certificate replaced ('' none).
+``this_run``: what this run did with the gyro (:func:`this_run`) — ``calibrated``,
+``skipped (unchanged)``, ``failed: …``, ``refused: …`` or ``not run (interrupted)``; a gyro
+this run left alone keeps the row of what its folder holds (``status`` … ``replaces`` as the
+earlier run wrote them) and its ``this_run`` ends ``; earlier results kept``.
 A gyro has one row per quantity (``key`` … ``display_usl``); an IMU one row per channel
 (:data:`IMU_COLUMNS`; ``key`` empty, ``method`` triad), its quantities beyond those columns
 (the other noise terms) in fleet.jsonl and on the fleet page.
@@ -61,6 +65,10 @@ QUANTITY_FIELDS = ('key', 'method', 'unit', 'value', 'std', 'U', 'k', 'n', 'dof'
 
 COMPLETE, INTERRUPTED = 'complete', 'interrupted'
 """The values of ``fleet_run``: the run finished, or was stopped with gyros not run."""
+
+CALIBRATED, SKIPPED, KEPT = 'calibrated', 'skipped (unchanged)', '; earlier results kept'
+"""``this_run`` of a gyro calibrated by this run, of one skipped as unchanged, and the ending
+of the ``this_run`` of a gyro whose row is the earlier run's (its folder left as it was)."""
 
 OUTLIER_ROBUST_Z = 3.5
 OUTLIER_MIN_N = 5
@@ -167,7 +175,7 @@ def fleet_rows(records: Sequence[dict[str, Any]], spec_limits: Mapping[str, Any]
         common = {'gyro_id': rec['gyro_id'], 'status': rec.get('status', ''),
                   'overall': cert.get('overall', ''), 'inputs_sha256': inputs_digest(rec),
                   'reason': rec.get('reason', ''), 'fleet_run': fleet_run,
-                  'replaces': rec.get('replaces', '')}
+                  'replaces': rec.get('replaces', ''), 'this_run': rec.get('this_run', '')}
         quantities = cert.get('quantities') or []
         if not quantities:
             rows.append({c: common.get(c) for c in COLUMNS})
@@ -209,7 +217,11 @@ def _atomic_write(path: Path, data: bytes) -> None:
 def write_fleet(records: Sequence[dict[str, Any]], out_dir: Path, *,
                 spec_limits: dict[str, Any] | None = None,
                 interrupted: bool = False) -> list[Path]:
-    """Write the four fleet files into ``out_dir``; return their paths.
+    """Write the four fleet files into ``out_dir``, all of them or none; return their paths.
+
+    Every file is rendered first, then all are written together
+    (:func:`~gyro_calib.outputs.write_all_or_none`): a failure leaves the earlier four as
+    they were, never a mix of two runs.
 
     Args:
         records: every gyro's record, in manifest order (a gyro not run has one too).
@@ -228,7 +240,6 @@ def write_fleet(records: Sequence[dict[str, Any]], out_dir: Path, *,
     writer.writerows(rows)
     paths = [out_dir / 'fleet.csv', out_dir / 'fleet.parquet', out_dir / 'fleet.jsonl',
              out_dir / 'fleet.html']
-    _atomic_write(paths[0], text.getvalue().encode('utf-8'))
     schema = pa.schema([(c, pa.float64() if c in FLOAT_COLUMNS else pa.int64()
                          if c in INT_COLUMNS else pa.bool_() if c == 'in_handoff'
                          else pa.string()) for c in COLUMNS],
@@ -239,12 +250,15 @@ def write_fleet(records: Sequence[dict[str, Any]], out_dir: Path, *,
         schema=schema)
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
-    _atomic_write(paths[1], sink.getvalue().to_pybytes())
     lines = [json.dumps(fleet_record(rec, spec_limits, run), sort_keys=True, allow_nan=False,
                         default=str) for rec in records]
-    _atomic_write(paths[2], ('\n'.join(lines) + '\n').encode('utf-8'))
-    _atomic_write(paths[3], fleet_html(records, spec_limits or {},
-                                       interrupted=interrupted).encode('utf-8'))
+    page = fleet_html(records, spec_limits or {}, interrupted=interrupted)
+    from gyro_calib.outputs import write_all_or_none
+
+    write_all_or_none([(paths[0], text.getvalue().encode('utf-8')),
+                       (paths[1], sink.getvalue().to_pybytes()),
+                       (paths[2], ('\n'.join(lines) + '\n').encode('utf-8')),
+                       (paths[3], page.encode('utf-8'))])
     return paths
 
 
@@ -453,6 +467,8 @@ def _gyro_table(records: Sequence[dict[str, Any]]) -> str:
                     f'<td>{esc((rec.get("certificate") or {}).get("overall", "") or "—")}</td>'
                     f'<td>{cert_link}</td><td>{esc(rec.get("reason", ""))}'
                     + (f' (replaces the issued certificate {esc(rec["replaces"])})'
-                       if rec.get('replaces') else '') + '</td></tr>')
+                       if rec.get('replaces') else '')
+                    + (f' — this run: {esc(rec["this_run"])}' if rec.get('this_run')
+                       and rec['this_run'] != CALIBRATED else '') + '</td></tr>')
     body.append('</table>')
     return ''.join(body)

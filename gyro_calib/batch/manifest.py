@@ -147,6 +147,30 @@ def load_manifest(path: Path) -> list[GyroJob]:
     return jobs
 
 
+def check_local_bags(jobs: Sequence[GyroJob], manifest: Path) -> None:
+    """Every bag path of the manifest exists here (a local cluster reads them from here).
+
+    Checked before any work: a typo in a bag path is one line, not a failed gyro after the
+    output directory and fleet files were made. (Under ``--scheduler`` the workers may be
+    other machines, whose paths this process cannot see: each worker checks them there.)
+
+    Raises:
+        ConfigError: naming the gyro, the path and the nearest existing name beside it.
+    """
+    for job in jobs:
+        for bag in job.bags:
+            path = Path(bag)
+            if path.exists():
+                continue
+            try:
+                beside = sorted(p.name for p in path.parent.iterdir())
+            except OSError:
+                beside = []
+            hint = _nearest(path.name, beside)
+            raise ConfigError(f'{manifest}: gyro {job.gyro_id}: bag {bag} does not exist'
+                              f'{hint}: correct its path in the manifest.')
+
+
 CSV_FIELDS = ('gyro_id', 'bags', 'methods', 'customer')
 """The columns of a CSV manifest besides the settings."""
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gyro_calib.batch.fleet import _atomic_write, write_fleet
+from gyro_calib.batch.fleet import CALIBRATED, KEPT, SKIPPED, _atomic_write, write_fleet
 from gyro_calib.batch.manifest import GyroJob, gyro_stem
 from gyro_calib.batch.rerun import refused_move, replaced_lines
 from gyro_calib.batch.tasks import (
@@ -57,6 +57,11 @@ class BatchOutcome:
     files: list[Path] = field(default_factory=list)
     interrupted_once_written: bool = False
     """A Ctrl-C came once every file was being (or had been) written: noted, not acted on."""
+    kept: list[str] = field(default_factory=list)
+    """Gyros this run left alone (not run, refused, failed before any file) whose earlier
+    results stay in their folders and so, as earlier rows, in the fleet files."""
+    fleet_not_written: str = ''
+    """Why an interrupted run left the earlier fleet files as they were ('' it wrote them)."""
 
     @property
     def failed(self) -> list[str]:
@@ -137,6 +142,79 @@ def _previous(out_dir: Path, stem: str) -> dict[str, Any] | None:
             out_dir / stem / f'{stem}.html').exists():
         return None
     return record
+
+
+def _earlier_fleet_rows(out_dir: Path) -> dict[str, dict[str, Any]]:
+    """Each gyro's record in the earlier run's fleet.jsonl (none if absent or unreadable)."""
+    try:
+        text = (out_dir / 'fleet.jsonl').read_text(encoding='utf-8')
+    except (OSError, UnicodeDecodeError):
+        return {}
+    rows: dict[str, dict[str, Any]] = {}
+    for line in text.splitlines():
+        try:
+            row = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(row, dict) and isinstance(row.get('gyro_id'), str):
+            rows[row['gyro_id']] = row
+    return rows
+
+
+def _earlier(out_dir: Path, stem: str, gyro_id: str,
+             fleet_rows: dict[str, dict[str, Any]]) -> dict[str, Any] | None:
+    """What the gyro's folder holds of an earlier run, as a record (None: nothing usable).
+
+    Its record.json when that is there; without one (removed, unreadable) its row of the
+    earlier fleet.jsonl, when that row is a result and its hand-off and certificate are there.
+    """
+    if (out_dir / stem / RECORD).exists():
+        return _previous(out_dir, stem)
+    row = fleet_rows.get(gyro_id)
+    if row is None or row.get('status') not in ('ok', 'partial') or not (
+            out_dir / stem / f'{stem}.yaml').exists() or not (
+            out_dir / stem / f'{stem}.html').exists():
+        return None
+    return {k: v for k, v in row.items() if k not in ('fleet_run', 'this_run')}
+
+
+def this_run(record: dict[str, Any], skipped: bool) -> str:
+    """What this run did with a gyro, as the fleet files' ``this_run`` says it."""
+    status, why = record.get('status'), str(record.get('reason', ''))
+    if skipped:
+        return SKIPPED
+    if status in ('ok', 'partial'):
+        return CALIBRATED
+    if status == NOT_RUN:
+        return NOT_RUN_STATE if why == NOT_RUN_REASON else why
+    return why if why.startswith('refused') else f'failed: {why}'
+
+
+NOT_RUN_STATE = 'not run (interrupted)'
+
+
+def fleet_entries(jobs: Sequence[GyroJob], records: Sequence[dict[str, Any]],
+                  skipped: Sequence[str], written: set[str],
+                  earlier: dict[str, dict[str, Any] | None]) -> tuple[list[dict[str, Any]],
+                                                                     list[str]]:
+    """The fleet files' records: what each gyro's folder holds, and what this run did.
+
+    A gyro whose folder this run wrote (or found unchanged) is its record; one it left
+    alone (not run, refused, failed before writing a file) with an earlier result in its
+    folder is that earlier record, its ``this_run`` saying what happened and ending
+    :data:`~gyro_calib.batch.fleet.KEPT`. Returns the records and the gyros kept so.
+    """
+    entries, kept = [], []
+    for job, rec in zip(jobs, records, strict=True):
+        gid = job.gyro_id
+        done = this_run(rec, gid in skipped)
+        before = earlier.get(gid)
+        if gid in written or gid in skipped or before is None:
+            entries.append({**rec, 'this_run': done})
+            continue
+        kept.append(gid)
+        entries.append({**before, 'this_run': done + KEPT})
+    return entries, kept
 
 
 LOCAL_WORKER_CONFIG = {'distributed.worker.profile.enabled': False}
@@ -269,6 +347,19 @@ def _run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any
     digest = spec_digest(spec_path) + (spec_digest(lab.source) if lab is not None else '')
     stems = {j.gyro_id: gyro_stem(j.gyro_id) for j in jobs}
     previous = {j.gyro_id: _previous(out_dir, stems[j.gyro_id]) for j in jobs}
+    fleet_before = _earlier_fleet_rows(out_dir)
+    earlier = {j.gyro_id: _earlier(out_dir, stems[j.gyro_id], j.gyro_id, fleet_before)
+               for j in jobs}
+    written: set[str] = set()  # gyros whose folder this run wrote
+
+    def store(result: GyroResult, late: bool = True) -> dict[str, Any]:
+        """Store a gyro whole: a Ctrl-C meanwhile is raised once its record is in place."""
+        with _sigint_postponed() as arrived:
+            written.add(result.gyro_id)
+            records[result.gyro_id] = record = _store(out_dir, result, replace)
+        if arrived and late:
+            raise KeyboardInterrupt
+        return record
     records: dict[str, dict[str, Any]] = {}
     skipped: list[str] = []
     by_id = {j.gyro_id: j for j in jobs}
@@ -328,7 +419,7 @@ def _run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any
                     submitted.append(fut2)
                     queue.add(fut2)
                 else:
-                    records[gid] = _store(out_dir, result, replace)
+                    records[gid] = store(result)
                     done += 1
             if progress is not None and gid in records:
                 progress(done, len(jobs))
@@ -343,7 +434,7 @@ def _run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any
                         fut.result().certificate is None)):
                     why = '' if replace or kind == 'issue' else _refused(out_dir, fut.result())
                     records[gid] = (_failed(by_id[gid], stems[gid], why) if why else
-                                    _store(out_dir, fut.result(), replace))
+                                    store(fut.result(), late=False))
                 elif gid in reserved:
                     records[gid] = {**_not_run(by_id[gid], stems[gid]), 'reason': burned(
                         reserved[gid], 'the run was stopped before its certificate was made')}
@@ -353,9 +444,16 @@ def _run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any
     _note_sigint(arrived)
     ordered = [records[j.gyro_id] if j.gyro_id in records
                else _not_run(j, stems[j.gyro_id]) for j in jobs]
-    files = write_fleet(ordered, out_dir, spec_limits=spec.limits if spec is not None
-                        else None, interrupted=interrupted)
-    return BatchOutcome(ordered, skipped, interrupted, files)
+    entries, kept = fleet_entries(jobs, ordered, skipped, written, earlier)
+    limits = spec.limits if spec is not None else None
+    try:
+        files = write_fleet(entries, out_dir, spec_limits=limits, interrupted=interrupted)
+    except OSError as exc:
+        if not interrupted:
+            raise
+        return BatchOutcome(ordered, skipped, interrupted, [], kept=kept,
+                            fleet_not_written=f'{exc.strerror or exc}: {exc.filename}')
+    return BatchOutcome(ordered, skipped, interrupted, files, kept=kept)
 
 
 def _note_sigint(arrived: list[int]) -> None:
@@ -379,6 +477,24 @@ def sigint_noted() -> Iterator[list[int]]:
     finally:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def _sigint_postponed() -> Iterator[list[int]]:
+    """A Ctrl-C while the block runs (main thread only) is noted in the yielded list.
+
+    For a gyro's files and record, written together: the caller acts on the Ctrl-C once
+    they are all in place, so a folder never holds one run's hand-off beside another's record.
+    """
+    arrived: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield arrived
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
+    try:
+        yield arrived
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
@@ -499,8 +615,12 @@ def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
     """One line per gyro, then the totals and the fleet files (on stdout by default)."""
     stream = sys.stdout if stream is None else stream
     for rec in outcome.records:
+        kept = (f'  the fleet files keep its earlier results, as its folder {rec["stem"]}/ '
+                'does' if rec['gyro_id'] in outcome.kept else '')
         if rec.get('status') == NOT_RUN:
             print(f'{rec["gyro_id"]}: not run (interrupted)', file=stream)
+            if kept:
+                print(kept, file=stream)
             continue
         cert = rec.get('certificate') or {}
         skipped = ' (unchanged: skipped)' if rec['gyro_id'] in outcome.skipped else ''
@@ -516,6 +636,8 @@ def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
         if rec['gyro_id'] not in outcome.skipped:
             for line in rec.get('replaced', ()):  # what this run's hand-off replaced
                 print(f'  {line}', file=stream)
+        if kept:
+            print(kept, file=stream)
     n_ok = sum(r.get('status') == 'ok' for r in outcome.records)
     not_run = len(outcome.not_run)
     print(f'{len(outcome.records)} gyros: {n_ok} ok, {len(outcome.failed)} failed'
@@ -523,3 +645,6 @@ def print_summary(outcome: BatchOutcome, stream: Any = None) -> None:
           + f', {len(outcome.skipped)} skipped as unchanged', file=stream)
     for path in outcome.files:
         print(f'written: {path.resolve()}', file=stream)
+    if outcome.fleet_not_written:
+        print(f'fleet files not rewritten ({outcome.fleet_not_written}): the earlier '
+              'fleet.csv, .parquet, .jsonl and .html are left as they were', file=stream)

@@ -7,9 +7,12 @@
 Exit status: 0 every gyro calibrated; 1 some gyro failed (its row says why; the others
 are done) — a re-run gyro whose values would move more than 5 combined standard
 uncertainties from its earlier hand-off is such a row unless ``--replace``; 2 bad input
-(manifest, spec, output directory, ids whose files would collide) or another run writes
+(manifest, a bag path that does not exist — under ``--scheduler`` each worker checks its
+bags, a missing one is that gyro's row —, spec, output directory, ids whose files would
+collide) or another run writes
 the output directory (``DIR/batch.lock``), nothing written; 130 interrupted (what finished
-is kept; every other gyro is a row ``not run (interrupted)``; a Ctrl-C while the local
+is kept; every other gyro is a row ``not run (interrupted)``, or its earlier row if its
+folder holds one — the fleet files describe what the folders hold; a Ctrl-C while the local
 cluster starts: ``interrupted; nothing written.``). A Ctrl-C once the fleet files are
 written (while the cluster closes) is said in one line after the summary; the exit status
 stays the run's.
@@ -87,7 +90,7 @@ def add_commands(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, start or reach the cluster, run the fleet, write its files."""
-    from gyro_calib.batch.manifest import load_manifest
+    from gyro_calib.batch.manifest import check_local_bags, load_manifest
     from gyro_calib.batch.run import check_earlier_runs
 
     if args.workers is not None and args.workers < 1:
@@ -96,6 +99,8 @@ def run(args: argparse.Namespace) -> int:
                      'files are written inside it', 'fleet.csv')
     created = not args.out.exists()
     jobs = load_manifest(args.manifest)
+    if args.scheduler is None:  # a local cluster reads the bags from here: check them now
+        check_local_bags(jobs, args.manifest)
     spec = load_spec_arg(args.spec)
     lab, jobs = lab_and_customers(args, jobs)
     lock = batch_lock(args.out)
