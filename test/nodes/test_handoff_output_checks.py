@@ -34,7 +34,7 @@ from gyro_calib.nodes.node_state import NodeState
 from gyro_calib.nodes.ros_io import EXIT_HANDOFF_NOT_WRITTEN
 from gyro_calib.registry import handoff_schema
 
-from .dds_harness import launch
+from .dds_harness import NodeProcess, launch
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -59,8 +59,6 @@ def _wait(proc: subprocess.Popen[Any], timeout_s: float = 60.0) -> int:
     try:
         return proc.wait(timeout=timeout_s)
     except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait()
         pytest.fail('the node ran on with an output_file it cannot write')
 
 
@@ -68,12 +66,13 @@ def _wait(proc: subprocess.Popen[Any], timeout_s: float = 60.0) -> int:
     ('calibration_node', 'not a hand-off'), ('calibration_node', 'directory'),
     ('calibration_node', 'missing parent'), ('dither_calibration_node', 'not a hand-off')])
 def test_a_node_refuses_an_output_file_it_cannot_write_at_start(
-        tmp_path: Path, node: str, kind: str) -> None:
+        tmp_path: Path, node: str, kind: str, nodes: list[NodeProcess]) -> None:
     """One FATAL line naming output_file, exit 2; the file as it was, no state, no lock."""
     target = {'not a hand-off': _not_a_handoff(tmp_path), 'directory': tmp_path,
               'missing parent': tmp_path / 'absent' / 'g.yaml'}[kind]
     before = sorted(p.name for p in tmp_path.iterdir())
     proc = launch(node, {'output_file': str(target)}, expect_exit=(2,))
+    nodes.append(proc)  # stopped after the test whatever happens
     assert _wait(proc.proc) == 2, proc.log()
     time.sleep(0.2)  # the reader thread takes the last lines
     fatal = [line for line in proc.lines if '[FATAL]' in line]
@@ -167,10 +166,11 @@ def test_a_write_that_succeeds_after_a_failed_one_clears_it(tmp_path: Path) -> N
 
 
 def test_a_node_stopped_before_any_data_says_no_state_was_kept_and_leaves_no_lock(
-        tmp_path: Path) -> None:
+        tmp_path: Path, nodes: list[NodeProcess]) -> None:
     """It said 'state kept in g.yaml.state' (no such directory) and left g.yaml.state.lock."""
     out = tmp_path / 'g.yaml'
     proc = launch('calibration_node', {'output_file': str(out)})
+    nodes.append(proc)
     deadline = time.monotonic() + 60  # a loaded machine: imports take seconds
     while not any('calibrating K̃' in line for line in proc.lines):
         assert time.monotonic() < deadline and proc.proc.poll() is None, proc.log()
