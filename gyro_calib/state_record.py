@@ -24,6 +24,7 @@ Pure core: no ROS import.
 
 from __future__ import annotations
 
+import atexit
 import json
 import math
 import os
@@ -292,7 +293,8 @@ class StateLock:
 
     The kernel releases the lock when the process ends however it ends, so a killed node
     leaves no stale lock behind; the file names the holder's pid and start time for the
-    message another writer gets.
+    message another writer gets. A lock file this process created is removed when it lets
+    the lock go, and at the latest when the process exits (a killed one leaves it).
     """
 
     def __init__(self, directory: Path) -> None:
@@ -300,6 +302,8 @@ class StateLock:
         self.directory = directory
         self.path = directory.with_name(directory.name + '.lock')
         self._lock = FileLock(self.path)
+        self.created = False
+        """Whether this process created the lock file (then it removes it)."""
 
     def acquire(self) -> None:
         """Take the directory for this process.
@@ -309,9 +313,14 @@ class StateLock:
                 written.
         """
         started = time.strftime('%Y-%m-%dT%H:%M:%SZ', time.gmtime())
+        if self._lock.held:
+            return
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
+            existed = self.path.exists()
             self._lock.acquire(f'pid {os.getpid()} (started {started})')
+            self.created = not existed
+            atexit.register(self.release)  # a node that ends another way removes it too
         except LockHeldError as exc:
             raise StateDirectoryInUseError(
                 f'state directory {self.directory} is being written by {exc.holder}: give '
@@ -322,8 +331,12 @@ class StateLock:
                 'state_dir (or output_file) a writable place.') from exc
 
     def release(self, *, remove: bool = False) -> None:
-        """Let another process take the directory; ``remove`` the lock file too."""
-        self._lock.release(remove=remove)
+        """Let another process take the directory; ``remove`` the lock file too.
+
+        The lock file is removed as well when this process created it (while the lock is
+        still held: no other process holds it then).
+        """
+        self._lock.release(remove=remove or self.created)
 
 
 class StateRecord:

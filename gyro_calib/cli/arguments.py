@@ -181,25 +181,19 @@ def check_calibration_file(path: Path | None) -> None:
 
 
 def check_handoff_out(path: Path, gyro_id: str = '') -> None:
-    """An existing ``--out`` hand-off file that this run can update, checked before any work.
+    """An ``--out`` hand-off file that this run can write or update, checked before any work.
+
+    :func:`gyro_calib.handoff.load.check_handoff_output`, the check every front door that
+    writes a hand-off file makes (the nodes' ``output_file`` and ``bench_demo --out`` too).
 
     Raises:
-        ConfigError: the file is empty, not YAML, not a hand-off file, or (``gyro_id``
-            given) the hand-off file of another gyro; one line naming ``--out``.
+        ConfigError: the place cannot take a file, or the file is empty, not YAML, not a
+            hand-off file, or (``gyro_id`` given) the hand-off file of another gyro; one line
+            naming ``--out``.
     """
-    if not path.exists():
-        return
-    from gyro_calib.handoff import HandoffError, load_calibration
+    from gyro_calib.handoff.load import check_handoff_output
 
-    try:
-        held = load_calibration(path, handoff_schema()).gyro_id
-    except HandoffError as exc:
-        raise ConfigError(f'--out {path} exists and cannot be updated: {exc} Give a new path, '
-                          'or move the file away.') from None
-    if gyro_id and held and held != gyro_id:
-        raise ConfigError(f'--out {path} exists and cannot be updated: the file holds gyro '
-                          f'{held!r}, this calibration is for gyro {gyro_id!r}; not merging '
-                          'them. Give a new path, or move the file away.')
+    check_handoff_output(path, '--out', handoff_schema(), gyro_id=gyro_id)
 
 
 def method_arguments(parser: argparse.ArgumentParser) -> None:

@@ -101,11 +101,10 @@ def _refuse_a_bag_given_twice(bags: Sequence[Path]) -> None:
 
 def run_calibrate(args: argparse.Namespace) -> int:
     """Check every output and flag before any work, calibrate, write; the exit status."""
-    from gyro_calib.outputs import check_output_file, check_plot_dir
+    from gyro_calib.outputs import check_plot_dir
 
-    if args.out is not None:
-        check_output_file(args.out, '--out', follow_links=True)
-        check_handoff_out(args.out)  # a file that cannot be updated: refused before work
+    if args.out is not None:  # a place or a file that cannot be updated: refused before work
+        check_handoff_out(args.out)
     plot_dir = check_plot_dir(args.plot) if args.plot is not None else None
     if any(v is not None for v in (args.report, args.spec, args.lab, args.customer, args.pdf)):
         from gyro_calib.cli.report import check_calibrate_report

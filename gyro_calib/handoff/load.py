@@ -247,3 +247,40 @@ def load_calibration(path: str | Path,
         reason = ' '.join(str(exc).split())
         raise HandoffError(f'calibration file {path} is not valid YAML: {reason}.') from None
     return calibration_from_yaml_dict(data, source=f'calibration file {path}', schema=schema)
+
+
+def check_handoff_output(path: str | Path, what: str,
+                         schema: Mapping[str, HandoffKey] | None = None, *,
+                         gyro_id: str = '', nothing: str = 'Nothing was read.') -> Path:
+    """A hand-off file to be written or updated, checked before any work; its absolute path.
+
+    The one check of every front door that writes a hand-off file (``gyro-calib calibrate
+    --out``, ``noise --out``, ``bench_demo --out``, a calibration node's ``output_file``): a
+    file that can be written there (:func:`gyro_calib.outputs.check_output_file`: not a
+    directory, in an existing writable directory, a link's target directory too), and an
+    existing file that is a hand-off file this run can update (``gyro_id`` given: of that
+    gyro or none). ``nothing`` ends a refusal of the place ('Nothing was started.' for a
+    node).
+
+    Raises:
+        ConfigError: one line naming ``what`` (``--out``, ``output_file``) and ``path``.
+    """
+    from gyro_calib.errors import ConfigError
+    from gyro_calib.outputs import check_output_file
+
+    try:
+        checked = check_output_file(path, what, follow_links=True)
+    except ConfigError as exc:
+        raise ConfigError(str(exc).replace('Nothing was read.', nothing)) from None
+    if not checked.exists():
+        return checked
+    try:
+        held = load_calibration(checked, schema).gyro_id
+    except HandoffError as exc:
+        raise ConfigError(f'{what} {path} exists and cannot be updated: {exc} Give a new path, '
+                          'or move the file away.') from None
+    if gyro_id and held and held != gyro_id:
+        raise ConfigError(f'{what} {path} exists and cannot be updated: the file holds gyro '
+                          f'{held!r}, this calibration is for gyro {gyro_id!r}; not merging '
+                          'them. Give a new path, or move the file away.')
+    return checked

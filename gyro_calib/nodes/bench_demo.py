@@ -65,11 +65,14 @@ def refusal(opts: argparse.Namespace) -> str | None:
     """Why the options cannot run the bench, in one line (None: they can), before any work.
 
     ``--pairs`` at least 1 (the K̃ phase needs a forward/reverse pair), ``--speed`` a
-    positive finite real-time factor, ``--seed`` at least 0, ``--out`` a file that can be
-    written (not a directory, in an existing writable directory).
+    positive finite real-time factor, ``--seed`` at least 0, ``--out`` a hand-off file that
+    can be written or updated, checked as ``gyro-calib calibrate --out`` is
+    (:func:`gyro_calib.handoff.load.check_handoff_output`: not a directory, in an existing
+    writable directory, an existing file a hand-off file).
     """
     from gyro_calib.errors import ConfigError
-    from gyro_calib.outputs import check_output_file
+    from gyro_calib.handoff.load import check_handoff_output
+    from gyro_calib.registry import handoff_schema
 
     if opts.pairs < 1:
         return (f'--pairs {opts.pairs} is invalid: the K̃ phase needs at least 1 '
@@ -80,9 +83,9 @@ def refusal(opts: argparse.Namespace) -> str | None:
     if opts.seed < 0:
         return f'--seed {opts.seed} is invalid: a seed is an integer ≥ 0.'
     try:
-        check_output_file(opts.out, '--out', follow_links=True)
+        check_handoff_output(opts.out, '--out', handoff_schema(), nothing='Nothing was started.')
     except ConfigError as exc:
-        return str(exc).replace('Nothing was read.', 'Nothing was started.')
+        return str(exc)
     holder = state_lock_holder(os.path.abspath(opts.out))
     if holder is not None:
         return (f'another run ({holder}) is writing {opts.out}: wait for it or give another '
@@ -233,6 +236,14 @@ def _run(opts: argparse.Namespace, stop: threading.Event) -> int:
         print(f'bench_demo: error: {failed.name} stopped (exit {code}): {said}; the other '
               'nodes were stopped.', file=sys.stderr, flush=True)
         return 2 if code == 2 else 1
+    calibrator = nodes[0]
+    if calibrator.proc.returncode not in (0, None):  # it stopped cleanly but wrote nothing
+        code = calibrator.proc.returncode
+        said = calibrator.why() or 'see its log above'
+        print(f'bench_demo: error: calibration_node ended with exit {code}: {said}; the '
+              f'hand-off file {out} was not written (the node kept its record, see its last '
+              'line above).', file=sys.stderr, flush=True)
+        return 1
     if 'scale_factor_rad_per_pulse' not in result:
         print('bench_demo: the calibration did not complete.', file=sys.stderr)
         return 1

@@ -112,7 +112,7 @@ class CalibrationNode(CalibrationNodeBase):
             ('bench_max_rate_deg_s', math.nan, BENCH_MAX_RATE_DESCRIPTION),
             ('calibration_file', '', "Hand-off file whose K̃ gives θ and K when this run has "
              "no K̃ phase (this run's own K̃, once measured, is used instead; '' = none)."))}
-        self.output_file = str(site.pop('output_file'))
+        self.output_file = self.checked_output_file(str(site.pop('output_file')))
         self.gyro_id = str(site.pop('gyro_id'))
         calibration_file = str(site.pop('calibration_file'))
         prior, prior_source = (prior_k_tilde(Path(calibration_file)) if calibration_file
@@ -240,8 +240,8 @@ class CalibrationNode(CalibrationNodeBase):
         self._live_inputs.ended = True  # everything held, in stamp order
         self._process()
         self._publish_results()
-        self.state.finish(complete=calibration_complete(self.bench.missing(),
-                                                          self.bench.not_measurable()))
+        self.finish_state(complete=calibration_complete(self.bench.missing(),
+                                                        self.bench.not_measurable()))
 
     def _consume(self, update: CalibrationUpdate, stations: list[Station]) -> None:
         self._report(update)

@@ -35,8 +35,10 @@ from std_srvs.srv import Trigger
 from gyro_calib import topics
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.handoff import Calibration, merge_lines, update_calibration
+from gyro_calib.handoff.load import check_handoff_output
 from gyro_calib.nodes.adaptive_qos import RELIABLE, AdaptiveSubscription
-from gyro_calib.nodes.ros_io import changes_line, described_parameter
+from gyro_calib.nodes.ros_io import EXIT_HANDOFF_NOT_WRITTEN, changes_line, described_parameter
+from gyro_calib.outputs import os_error_text
 from gyro_calib.registry import handoff_schema
 
 if TYPE_CHECKING:
@@ -140,6 +142,40 @@ class CalibrationNodeBase(LifecycleNodeMixin, Node):
     """The keys the hand-off file lacked when last written (None: say its state again)."""
     _merge_told: frozenset[str] = frozenset()
     """The merge lines already logged."""
+    _handoff_failure = ''
+    """Why the last write of the hand-off file failed ('' = it did not, or none was made)."""
+    exit_status = 0
+    """The process's exit status once stopped (:func:`~gyro_calib.nodes.ros_io.run_node`):
+    :data:`~gyro_calib.nodes.ros_io.EXIT_HANDOFF_NOT_WRITTEN` when the last hand-off write
+    failed."""
+
+    def checked_output_file(self, output_file: str) -> str:
+        """The ``output_file`` parameter, checked before any work as ``calibrate --out`` is.
+
+        :func:`gyro_calib.handoff.load.check_handoff_output`: not a directory, in an existing
+        writable directory, and an existing file must be a hand-off file ('' = no file).
+
+        Raises:
+            ConfigError: one line naming ``output_file`` (the node stops: FATAL, exit 2).
+        """
+        if output_file:
+            check_handoff_output(output_file, 'output_file', handoff_schema(),
+                                 nothing='Nothing was started.')
+        return output_file
+
+    def finish_state(self, *, complete: bool) -> None:
+        """End the state record; a hand-off file not written keeps it and fails the run.
+
+        The record is removed when ``complete`` (unless ``keep_state``) only if the last
+        write of the hand-off file succeeded; otherwise it is kept, one error line says where
+        and what to do, and the node exits with :data:`EXIT_HANDOFF_NOT_WRITTEN`.
+        """
+        not_written = ''
+        if self.output_file and self._handoff_failure:
+            self.exit_status = EXIT_HANDOFF_NOT_WRITTEN
+            not_written = (f'hand-off file {self.output_file} not written '
+                           f'({self._handoff_failure.rstrip(".")})')
+        self.state.finish(complete=complete, not_written=not_written)
 
     def start_over(self) -> str:
         """A new session or calibrator; what was discarded, e.g. '3 measured quantities'."""
@@ -201,10 +237,12 @@ class CalibrationNodeBase(LifecycleNodeMixin, Node):
             report: list[str] = []
             path = update_calibration(self.output_file, record, handoff_schema(),
                                       report=report)
-        except GyroCalibError as exc:
-            self._last_line = str(exc)
-            self.get_logger().error(f'hand-off file not written: {exc}')
+        except (GyroCalibError, OSError) as exc:  # e.g. the file replaced, the disk full
+            why = os_error_text(exc) if isinstance(exc, OSError) else ' '.join(str(exc).split())
+            self._last_line = self._handoff_failure = why
+            self.get_logger().error(f'hand-off file not written: {why}')
             return
+        self._handoff_failure = ''
         change = changes_line(self._handoff_missing, missing)
         self._handoff_missing = set(missing)
         if change is not None:

@@ -63,8 +63,8 @@ class FogCalibrationNode(MethodNode):
         self.get_logger().info(f'recording ended after {self.received()} messages: last '
                                f'segment and plateau measured; {len(session.results())} '
                                'quantities final.')
-        self.state.finish(complete=calibration_complete(session.missing(),
-                                                          session.not_measurable()))
+        self.finish_state(complete=calibration_complete(session.missing(),
+                                                        session.not_measurable()))
         pubs = [*self._result_pubs.values(), self.diag_pub]
         for pub in pubs:
             pub.wait_for_all_acked(rclpy.duration.Duration(seconds=5.0))

@@ -122,7 +122,8 @@ class MethodNode(CalibrationNodeBase):
                                           fields=self.method.settings_defaults()):
                 self.get_logger().warning(line)  # NaN / inf taken as its default, said
         self.options = options
-        self.output_file, self.gyro_id = p['output_file'], p['gyro_id']
+        self.output_file = self.checked_output_file(p['output_file'])
+        self.gyro_id = p['gyro_id']
         self.state = NodeState(self, method, p['gyro_id'],
                                state_directory(p['state_dir'], p['output_file']),
                                bool(p['keep_state']), parameters={**settings, **p},
@@ -286,8 +287,8 @@ class MethodNode(CalibrationNodeBase):
         for line in self.session.process(flush=True):
             self.get_logger().info(line)
         self._write_handoff()
-        self.state.finish(complete=calibration_complete(self.session.missing(),
-                                                          self.session.not_measurable()))
+        self.finish_state(complete=calibration_complete(self.session.missing(),
+                                                        self.session.not_measurable()))
 
     def _write_handoff(self) -> None:
         def record() -> tuple[Calibration, Collection[str]] | None:

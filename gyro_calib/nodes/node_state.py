@@ -264,14 +264,35 @@ class NodeState:
             self.record.clear()
 
     def _release(self, *, remove: bool = False) -> None:
+        """Let the directory go; the lock file is removed too if this process made it."""
         if self.lock is not None:
             self.lock.release(remove=remove)
 
-    def finish(self, *, complete: bool) -> None:
-        """End of the run: remove the record when complete (unless ``keep``), else keep it."""
-        if self.record is None:
-            return
+    def finish(self, *, complete: bool, not_written: str = '') -> None:
+        """End of the run: remove the record when complete (unless ``keep``), else keep it.
+
+        ``not_written``: why the hand-off file was not written (''= it was, or none is
+        kept); then the record is kept whatever else holds, with an error line naming it
+        and what to do. A record that never got data leaves no directory, and says so.
+        """
         log = self.node.get_logger()
+        if self.record is None:
+            if not_written:
+                log.error(f'{not_written}; no state directory keeps the data (state_dir and '
+                          'output_file not given): they are lost.')
+            return
+        if not_written:
+            self.record.close()
+            self._release()
+            if self.directory is not None and self.directory.exists():
+                log.error(f'{not_written}: the data consumed are kept in {self.directory} '
+                          '(not removed). Move the file away (or free the disk), then start '
+                          'the node again with the same parameters while the bench runs: it '
+                          'resumes the record and writes the file.')
+            else:
+                log.error(f'{not_written}; no data were recorded, so no state directory '
+                          'was kept.')
+            return
         if self._pending:
             self.record.close()
             self._release()
@@ -282,9 +303,12 @@ class NodeState:
             self.record.remove()
             self._release(remove=True)
             log.info(f'calibration complete: state directory {self.directory} removed')
-        else:
-            self.record.close()
-            self._release()
-            log.info(f'state kept in {self.directory} '
-                     + ('(keep_state)' if complete else '(calibration not complete: a restart '
-                        'with the same parameters resumes it)'))
+            return
+        self.record.close()
+        self._release()
+        if self.directory is None or not self.directory.exists():
+            log.info(f'no data recorded: no state directory {self.directory} left behind')
+            return
+        log.info(f'state kept in {self.directory} '
+                 + ('(keep_state)' if complete else '(calibration not complete: a restart '
+                    'with the same parameters resumes it)'))

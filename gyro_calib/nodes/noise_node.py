@@ -224,7 +224,9 @@ class NoiseNode(MethodNode):
                                     schema=handoff_schema(), gyro_id=self.gyro_id,
                                     merge_report=merge)
         except (GyroCalibError, OSError) as exc:
-            log.error(f'noise: files not written: {" ".join(str(exc).split())}')
+            why = ' '.join(str(exc).split())
+            log.error(f'noise: files not written: {why}')
+            self.state.finish(complete=False, not_written=f'noise: files not written ({why})')
             return 1
         log.info(self._terms_line(0.0).replace('running terms', 'final terms', 1))
         for what, path in written:

@@ -230,6 +230,10 @@ EXIT_READERS_STALLED = 3
 (:class:`ReadersStalled`): the run was not delivered whole (bad input exits 2, a stop by
 signal or a finished run 0)."""
 
+EXIT_HANDOFF_NOT_WRITTEN = 1
+"""Exit status of a calibration node whose last write of its hand-off file failed (the file
+replaced by something else during the run, the disk full): its state directory is kept."""
+
 
 def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | None = None,
              *, on_stop: Callable[[NodeT, Executor], None] | None = None,
@@ -245,7 +249,9 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
     (bad parameters) is logged as fatal in one line and exits with status 2 (bad input, as
     the command line); a stop by signal exits 0. A simulator whose readers stopped
     acknowledging (:class:`ReadersStalled` from :func:`publish_paced`) logs one line saying
-    so and exits with :data:`EXIT_READERS_STALLED`, without a traceback.
+    so and exits with :data:`EXIT_READERS_STALLED`, without a traceback. A node whose
+    ``exit_status`` attribute is not 0 once stopped exits with it (a calibration node whose
+    hand-off file could not be written: :data:`EXIT_HANDOFF_NOT_WRITTEN`).
     """
     import rclpy
     from rclpy.executors import ExternalShutdownException
@@ -257,6 +263,7 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
     end_of_starting()  # loaded: from here Ctrl-C stops the node cleanly (not restored after)
     stop = threading.Event()
     stalled = False
+    status = 0
     previous = {sig: signal.signal(sig, lambda *_: stop.set())
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
@@ -284,6 +291,7 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
                 if reason:  # one line, no traceback, no wait for that reader
                     stalled = True
                     node.get_logger().error(f'{reason}; stopping before the end of the run.')
+                status = int(getattr(node, 'exit_status', 0) or 0)
                 executor.remove_node(node)
                 executor.shutdown()
                 node.destroy_node()
@@ -293,6 +301,8 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
             signal.signal(sig, handler)
     if stalled:
         raise SystemExit(EXIT_READERS_STALLED)
+    if status:
+        raise SystemExit(status)
 
 
 DRAIN_QUIET_S = 2.0

@@ -94,8 +94,8 @@ def main(args: list[str] | None = None) -> None:
         if node.unfitted:
             node.finish()
             node._write_handoff()
-        node.state.finish(complete=calibration_complete(node.session.missing(),
-                                                          node.session.not_measurable()))
+        node.finish_state(complete=calibration_complete(node.session.missing(),
+                                                        node.session.not_measurable()))
 
     run_node('thermal_calibration_node', ThermalCalibrationNode, args, on_stop=fit_what_came)
 

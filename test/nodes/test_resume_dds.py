@@ -23,6 +23,7 @@ import pytest
 from gyro_calib.bagio import SampleBatch, bag_info
 from gyro_calib.bagio.columns import iter_column_batches
 from gyro_calib.handoff import load_calibration
+from gyro_calib.nodes.ros_io import EXIT_HANDOFF_NOT_WRITTEN
 from gyro_calib.registry import METHODS
 from gyro_calib.session import CalibrationOptions
 from gyro_calib.state_record import StateRecord
@@ -193,7 +194,9 @@ def test_a_second_gyro_run_with_defaults_never_resumes_the_first_gyros_record(
                  'fix_error_angle_arcsec': 300.0, 'latitude_deg': 45.0},
         {'seed': 4, 'rate_deg_s': 120.0, 'duration_s': 85.0}, nodes)
     logs = '\n'.join(n.log() for n in nodes)
-    assert second.proc.returncode == 0, logs
+    # its hand-off file was another gyro's (refused at write time): the run fails, state kept
+    assert second.proc.returncode == EXIT_HANDOFF_NOT_WRITTEN, logs
+    assert f'the data consumed are kept in {state} (not removed)' in second.log(), logs
     assert 'resumed from' not in second.log(), logs
     said = [line for line in second.lines if 'not resumed' in line]
     assert len(said) == 1 and 'stamps go back' in said[0] and 'moved to' in said[0], logs
