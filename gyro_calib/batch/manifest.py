@@ -292,3 +292,52 @@ def _from_directory(path: Path) -> list[GyroJob]:
             raise ConfigError(f'{where} holds no bag.')
         jobs.append(_job(where, folder, folder.name, bags, methods, settings, customer))
     return jobs
+
+
+def check_repeated_bags(jobs: Sequence[GyroJob]) -> None:
+    """One line refusing a fleet where the same data is listed twice (before any work).
+
+    A bag listed for two gyros, or listed twice for one gyro under two paths (a copy, the
+    same directory spelled otherwise), would be calibrated twice: the same values under two
+    ids, or one gyro's data counted twice. Found by resolving the paths, then comparing file
+    sizes, and hashing only bags whose sizes match
+    (:func:`gyro_calib.bagio.duplicates.same_content_pairs`); one gyro's bags holding the same
+    messages (a repaired copy beside its original) are refused too. Paths that are not
+    (readable) bags are left to the gyro's own row.
+
+    Raises:
+        ConfigError: naming both gyros (or the gyro) and both paths.
+    """
+    from gyro_calib.bagio import bag_info
+    from gyro_calib.bagio.duplicates import refuse_repeated_bags, same_content_pairs
+    from gyro_calib.errors import GyroCalibError
+
+    owner: dict[Path, str] = {}
+    paths: list[Path] = []
+    for job in jobs:
+        for bag in job.bags:
+            path = Path(bag)
+            if path.exists() and path not in owner:
+                owner[path] = job.gyro_id
+                paths.append(path)
+            elif path in owner:
+                whose = (f'for gyro {job.gyro_id}' if owner[path] == job.gyro_id else
+                         f'(gyro {owner[path]} and gyro {job.gyro_id})')
+                raise ConfigError(f'manifest: bag {path} is listed twice {whose}: its data '
+                                  'would be calibrated twice; list each bag once.')
+    for first, second in same_content_pairs(paths):
+        same = 'is' if first.resolve() == second.resolve() else 'holds the same content as'
+        raise ConfigError(f'manifest: bag {second} (gyro {owner[second]}) {same} {first} '
+                          f'(gyro {owner[first]}): its data would be calibrated twice; list '
+                          'it once.')
+    for job in jobs:
+        infos = []
+        for bag in job.bags:
+            try:
+                infos.append(bag_info(bag))
+            except GyroCalibError:
+                continue  # the gyro's row says what is wrong with it
+        try:
+            refuse_repeated_bags(infos)
+        except ConfigError as exc:
+            raise ConfigError(f'manifest: gyro {job.gyro_id}: {exc}') from None
