@@ -16,6 +16,7 @@ cheap where the bags differ:
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from collections.abc import Sequence
 from pathlib import Path
@@ -116,8 +117,12 @@ class _Messages:
             from gyro_calib.bagio.recovery import intact_messages
 
             ids = {cid for cid, ch in self.survey.channels.items() if ch[0] == topic}
+            chunks = tuple(c for c in self.survey.chunks  # only those of the window read
+                           if c.first_ns < stop_ns and c.last_ns >= start_ns
+                           and any(cid in ids for cid in c.counts))
+            window = dataclasses.replace(self.survey, chunks=chunks)
             out = sorted((int(log_ns), bytes(raw)) for cid, log_ns, raw
-                         in intact_messages(self.survey)
+                         in intact_messages(window)
                          if cid in ids and start_ns <= log_ns < stop_ns)
             return out[:limit]
         cons = [c for c in self.reader.connections if c.topic == topic]
