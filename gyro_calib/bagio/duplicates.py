@@ -93,9 +93,11 @@ be equal in two runs (a table at rest at t = 0); 32 of the gyro's, noise include
 
 
 class _Messages:
-    """A bag's messages looked up by topic and log time: through rosbags' chunk index, or
-    for a damaged bag (``BagInfo.damage``) through its intact chunks
-    (:func:`gyro_calib.bagio.recovery.intact_messages`)."""
+    """A bag's messages looked up by topic and log time.
+
+    Through rosbags' chunk index, or for a damaged bag (``BagInfo.damage``) through its
+    intact chunks (:func:`gyro_calib.bagio.recovery.intact_messages`).
+    """
 
     def __init__(self, info: BagInfo) -> None:
         self.info = info
@@ -110,8 +112,10 @@ class _Messages:
 
     def window(self, topic: str, start_ns: int, stop_ns: int,
                limit: int | None = None) -> list[tuple[int, bytes]]:
-        """(log time ns, bytes) of the first ``limit`` messages of ``topic`` in
-        [start_ns, stop_ns), in log-time order (all of them for None)."""
+        """(log time ns, bytes) of ``topic``'s first ``limit`` messages in [start_ns, stop_ns).
+
+        In log-time order; all of them for ``limit`` None.
+        """
         out: list[tuple[int, bytes]] = []
         if self.survey is not None:
             from gyro_calib.bagio.recovery import intact_messages
@@ -147,8 +151,8 @@ def shared_message(a: BagInfo, b: BagInfo) -> str | None:
     the first :data:`COMPARED_MESSAGES` messages of each bag inside the overlap are looked up
     at their log times in the other bag: found there, byte for byte, on every shared topic
     (the first topic named), the bags hold one recording's messages twice; one topic
-    differing (a rerun of the bench, its noise another) clears them. A bag that cannot be read this way
-    is not refused here: its reading says what is wrong with it.
+    differing (a rerun of the bench, its noise another) clears them. A bag that cannot be
+    read this way is not refused here: its reading says what is wrong with it.
     """
     lo, hi = max(a.start_ns, b.start_ns), min(a.end_ns, b.end_ns)
     if lo > hi:
