@@ -118,8 +118,7 @@ def test_report_refuses_a_bag_and_its_repaired_copy(
 
 
 @pytest.mark.parametrize('case', ['one gyro, a copy', 'one gyro, the path twice',
-                                  'two gyros, one bag', 'two gyros, a copy',
-                                  'one gyro, a repaired copy'])
+                                  'two gyros, one bag', 'two gyros, a copy'])
 def test_batch_refuses_a_bag_listed_twice(case: str, copies: dict[str, Path], tmp_path: Path,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     gyros = {
@@ -130,8 +129,6 @@ def test_batch_refuses_a_bag_listed_twice(case: str, copies: dict[str, Path], tm
                                {'id': 'G2', 'bags': [str(THETA)]}],
         'two gyros, a copy': [{'id': 'G1', 'bags': [str(THETA)]},
                               {'id': 'G2', 'bags': [str(copies['copy'])]}],
-        'one gyro, a repaired copy': [{'id': 'G1', 'bags': [str(THETA),
-                                                            str(copies['repaired'])]}],
     }[case]
     manifest = tmp_path / 'm.yaml'
     manifest.write_text(yaml.safe_dump(gyros), encoding='utf-8')
@@ -140,6 +137,16 @@ def test_batch_refuses_a_bag_listed_twice(case: str, copies: dict[str, Path], tm
                             '--no-progress')
     assert code == 2 and stdout == '' and len(err.strip().splitlines()) == 1, err
     assert 'twice' in err and 'G1' in err and not out.exists()
+
+
+def test_a_gyro_listing_a_bag_and_its_repaired_copy_is_a_failed_row(
+        copies: dict[str, Path]) -> None:
+    from gyro_calib.batch.manifest import GyroJob
+    from gyro_calib.batch.tasks import plan_gyro
+
+    plan = plan_gyro(GyroJob('G1', (str(THETA), str(copies['repaired'])), (), {}), '', '',
+                     False)
+    assert plan.error and 'same /gyro/pulses messages' in plan.error and not plan.methods
 
 
 def test_two_recordings_of_one_bench_overlapping_in_stamps_are_taken_together() -> None:

@@ -301,16 +301,14 @@ def check_repeated_bags(jobs: Sequence[GyroJob]) -> None:
     same directory spelled otherwise), would be calibrated twice: the same values under two
     ids, or one gyro's data counted twice. Found by resolving the paths, then comparing file
     sizes, and hashing only bags whose sizes match
-    (:func:`gyro_calib.bagio.duplicates.same_content_pairs`); one gyro's bags holding the same
-    messages (a repaired copy beside its original) are refused too. Paths that are not
-    (readable) bags are left to the gyro's own row.
+    (:func:`gyro_calib.bagio.duplicates.same_content_pairs`). One gyro's bags holding the
+    same messages (a repaired copy beside its original) are that gyro's failed row
+    (:func:`gyro_calib.batch.tasks.plan_gyro`). Missing paths are left to the gyro's row.
 
     Raises:
         ConfigError: naming both gyros (or the gyro) and both paths.
     """
-    from gyro_calib.bagio import bag_info
-    from gyro_calib.bagio.duplicates import refuse_repeated_bags, same_content_pairs
-    from gyro_calib.errors import GyroCalibError
+    from gyro_calib.bagio.duplicates import same_content_pairs
 
     owner: dict[Path, str] = {}
     paths: list[Path] = []
@@ -330,14 +328,3 @@ def check_repeated_bags(jobs: Sequence[GyroJob]) -> None:
         raise ConfigError(f'manifest: bag {second} (gyro {owner[second]}) {same} {first} '
                           f'(gyro {owner[first]}): its data would be calibrated twice; list '
                           'it once.')
-    for job in jobs:
-        infos = []
-        for bag in job.bags:
-            try:
-                infos.append(bag_info(bag))
-            except GyroCalibError:
-                continue  # the gyro's row says what is wrong with it
-        try:
-            refuse_repeated_bags(infos)
-        except ConfigError as exc:
-            raise ConfigError(f'manifest: gyro {job.gyro_id}: {exc}') from None
