@@ -29,6 +29,7 @@ from gyro_calib.bagio import (
     iter_sample_batches,
     topics_present,
 )
+from gyro_calib.bagio.duplicates import refuse_repeated_bags
 from gyro_calib.config import read_method_file
 from gyro_calib.errors import ConfigError
 from gyro_calib.registry import METHODS, Method, methods_revealed
@@ -118,9 +119,11 @@ def bag_infos(paths: Sequence[str | Path], namespace: str | None = None, *,
     Raises:
         BagError (subclass): as :func:`gyro_calib.bagio.bag_info`; CorruptBagError for a
             damaged bag with ``strict``.
-        ConfigError: as :func:`resolve_namespace`.
+        ConfigError: as :func:`resolve_namespace`; two bags holding the same data
+            (:func:`gyro_calib.bagio.duplicates.refuse_repeated_bags`).
     """
     infos = [_strict_bag_info(p) if strict else bag_info(p) for p in paths]
+    refuse_repeated_bags(infos)  # the same data under two paths would count twice
     ns, note = resolve_namespace(infos, namespace)
     return [i.in_namespace(ns) for i in infos], note
 

@@ -49,7 +49,7 @@ FRONT_DOORS = ('cli', 'nodes', 'report', 'batch')
 BASE = {'gyro_calib', 'gyro_calib.errors', 'gyro_calib.units', 'gyro_calib.topics'}
 BAGIO_ORDER = ('errors', 'messages', 'metadata', 'storage', 'layouts', 'plan', 'chunks',
                'payloads', 'records', 'recovery', 'columns', 'tables', 'writer', 'repair',
-               'reader')
+               'duplicates', 'reader')
 """Inside the bag layer: each module imports only those before it (the package re-exports)."""
 
 

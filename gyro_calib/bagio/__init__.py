@@ -11,7 +11,8 @@ bag holds and the decoded batches (:mod:`~gyro_calib.bagio.records`), what is in
 bag cut off or damaged (:mod:`~gyro_calib.bagio.recovery`), CSV/text tables read
 wherever a bag is (:mod:`~gyro_calib.bagio.tables`), writing
 (:mod:`~gyro_calib.bagio.writer`), a whole bag from a damaged one
-(:mod:`~gyro_calib.bagio.repair`) and reading (:mod:`~gyro_calib.bagio.reader`). It never
+(:mod:`~gyro_calib.bagio.repair`), bags given together that hold the same data
+(:mod:`~gyro_calib.bagio.duplicates`) and reading (:mod:`~gyro_calib.bagio.reader`). It never
 imports the method registry, the sessions or the methods: the layers above hand it the
 topics they want (issue 19 §5; ``test/test_layers.py`` keeps it so).
 

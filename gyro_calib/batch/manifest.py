@@ -316,3 +316,39 @@ def _from_directory(path: Path) -> list[GyroJob]:
             raise ConfigError(f'{where} holds no bag.')
         jobs.append(_job(where, folder, folder.name, bags, methods, settings, customer))
     return jobs
+
+
+def check_repeated_bags(jobs: Sequence[GyroJob]) -> None:
+    """One line refusing a fleet where the same data is listed twice (before any work).
+
+    A bag listed for two gyros, or listed twice for one gyro under two paths (a copy, the
+    same directory spelled otherwise), would be calibrated twice: the same values under two
+    ids, or one gyro's data counted twice. Found by resolving the paths, then comparing file
+    sizes, and hashing only bags whose sizes match
+    (:func:`gyro_calib.bagio.duplicates.same_content_pairs`). One gyro's bags holding the
+    same messages (a repaired copy beside its original) are that gyro's failed row
+    (:func:`gyro_calib.batch.tasks.plan_gyro`). Missing paths are left to the gyro's row.
+
+    Raises:
+        ConfigError: naming both gyros (or the gyro) and both paths.
+    """
+    from gyro_calib.bagio.duplicates import same_content_pairs
+
+    owner: dict[Path, str] = {}
+    paths: list[Path] = []
+    for job in jobs:
+        for bag in job.bags:
+            path = Path(bag)
+            if path.exists() and path not in owner:
+                owner[path] = job.gyro_id
+                paths.append(path)
+            elif path in owner:
+                whose = (f'for gyro {job.gyro_id}' if owner[path] == job.gyro_id else
+                         f'(gyro {owner[path]} and gyro {job.gyro_id})')
+                raise ConfigError(f'manifest: bag {path} is listed twice {whose}: its data '
+                                  'would be calibrated twice; list each bag once.')
+    for first, second in same_content_pairs(paths):
+        same = 'is' if first.resolve() == second.resolve() else 'holds the same content as'
+        raise ConfigError(f'manifest: bag {second} (gyro {owner[second]}) {same} {first} '
+                          f'(gyro {owner[first]}): its data would be calibrated twice; list '
+                          'it once.')

@@ -88,8 +88,10 @@ def plan_gyro(job: GyroJob, previous_fingerprint: str, spec_digest: str, force: 
     try:
         from gyro_calib.bag_calibration import select_methods
         from gyro_calib.bagio import bag_info
+        from gyro_calib.bagio.duplicates import refuse_repeated_bags
         from gyro_calib.report.evidence import sha256_files
 
+        refuse_repeated_bags([bag_info(b) for b in job.bags])  # a repaired copy beside it
         inputs, hashed = {}, {}
         for bag in job.bags:
             info = bag_info(bag)  # checks the path is a bag

@@ -90,7 +90,7 @@ def add_commands(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Check the inputs, start or reach the cluster, run the fleet, write its files."""
-    from gyro_calib.batch.manifest import check_local_bags, load_manifest
+    from gyro_calib.batch.manifest import check_local_bags, check_repeated_bags, load_manifest
     from gyro_calib.batch.run import check_earlier_runs
 
     if args.workers is not None and args.workers < 1:
@@ -101,6 +101,7 @@ def run(args: argparse.Namespace) -> int:
     jobs = load_manifest(args.manifest)
     if args.scheduler is None:  # a local cluster reads the bags from here: check them now
         check_local_bags(jobs, args.manifest)
+    check_repeated_bags(jobs)  # the same data under two paths or two gyros: refused
     spec = load_spec_arg(args.spec)
     lab, jobs = lab_and_customers(args, jobs)
     lock = batch_lock(args.out)

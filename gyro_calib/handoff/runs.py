@@ -21,6 +21,25 @@ def _utc_now_iso() -> str:
     return datetime.datetime.now(datetime.timezone.utc).isoformat(timespec='seconds')
 
 
+def source_identity(source: str) -> tuple[str, ...]:
+    """The places a run's ``source`` names, however their paths were spelled.
+
+    Each comma-separated bag path that exists here is resolved (relative to the working
+    directory, through links); 'live' and paths not found (a record written on another
+    machine) are kept as written, so records written before stay comparable.
+    """
+    from pathlib import Path
+
+    out = []
+    for part in source.split(', '):
+        try:
+            path = Path(part)
+            out.append(str(path.resolve()) if part and path.exists() else part)
+        except (OSError, ValueError):  # an odd name: compared as written
+            out.append(part)
+    return tuple(out)
+
+
 @dataclass(frozen=True, slots=True)
 class Provenance:
     """Where one method's values came from.
@@ -58,9 +77,13 @@ class Provenance:
     settings: Mapping[str, Any] = field(default_factory=dict)
 
     def same_data(self, other: Provenance) -> bool:
-        """True when both rest on the same data (source and first stamp)."""
-        return (self.source, self.data_start_stamp_ns) == (other.source,
-                                                            other.data_start_stamp_ns)
+        """True when both rest on the same data (source and first stamp).
+
+        The sources are compared as the places they name (:func:`source_identity`): one bag
+        given once as ``bags/x`` and once as ``/abs/bags/x`` is the same data.
+        """
+        return (self.data_start_stamp_ns == other.data_start_stamp_ns
+                and source_identity(self.source) == source_identity(other.source))
 
     def same_run(self, other: Provenance) -> bool:
         """True when both describe one run (a live node rewriting its file as it goes).
