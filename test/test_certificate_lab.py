@@ -504,3 +504,29 @@ def test_a_refused_run_burns_no_number_a_failed_write_says_its_number_stays_rese
     assert f'Certificate number {number} stays reserved in {register}, unused' in captured.err
     assert sorted(p.name for p in out.iterdir()) == ['certificate_numbers.tsv', 'lab.yaml',
                                                      'mark.png']
+
+
+def test_ctrl_c_after_a_number_is_reserved_names_it_in_the_interrupt_line(
+        bench: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A number is taken for good once reserved: the interrupt line says which, and where.
+
+    (A new-user walk's Ctrl-C took numbers 4 and 5 while the line said 'nothing written'.)
+    """
+    import gyro_calib.cli.interrupt as interrupt
+
+    def interrupted(*_: Any, **__: Any) -> None:
+        raise KeyboardInterrupt
+    monkeypatch.setattr('gyro_calib.report.certificate.write_certificate', interrupted)
+    monkeypatch.setattr(interrupt, 'KEPT_AT_INTERRUPT', [])
+    lab = write_lab(tmp_path / 'lab')
+    out = tmp_path / 'certs'
+    code = main(['report', str(bench['handoff']), '--out', str(out), '--lab', str(lab),
+                 '--customer', CUSTOMER])
+    err = capsys.readouterr().err
+    register = (tmp_path / 'lab' / 'certificate_numbers.tsv').read_text(encoding='utf-8')
+    number = register.strip().splitlines()[-1].split('\t')[1]
+    assert code == 130
+    assert err.strip().splitlines() == [
+        f'gyro-calib: interrupted; nothing written; certificate number {number} stays reserved '
+        f'in {tmp_path / "lab" / "certificate_numbers.tsv"}, unused (numbers are never reused).']

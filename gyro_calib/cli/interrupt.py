@@ -34,6 +34,11 @@ class _Output:
         return self.done if self.directory else dict(_key(self.path)) != self.before
 
 
+KEPT_AT_INTERRUPT: list[str] = []
+"""What an interrupted command leaves that is not a file output (e.g. a certificate number
+reserved in a laboratory's register, unused), said in its interrupt line."""
+
+
 @dataclass
 class Ledger:
     """The outputs a command was asked for and, at an interrupt, the complete files written.
@@ -77,6 +82,12 @@ class Ledger:
 
     def interrupted(self) -> tuple[str, int]:
         """The one line for an interrupt now, and the exit status."""
+        line, status = self._interrupted()
+        if KEPT_AT_INTERRUPT:
+            line = f'{line[:-1]}; {"; ".join(KEPT_AT_INTERRUPT)}.'
+        return line, status
+
+    def _interrupted(self) -> tuple[str, int]:
         names = ', '.join(self.written())
         if self.outputs and self.complete():
             return (f'gyro-calib: interrupted after every file was written ({names}).',

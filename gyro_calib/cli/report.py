@@ -223,13 +223,21 @@ def write_report(calibration: Calibration, evidence: RunEvidence | None, spec: S
                              customer=customer, accept_handoff_values=accept_handoff_values)
     lines = replacing(out_dir, cert.file_stem, pdf=pdf, flag=flag)
     issue = None
-    if lab is not None:
-        from gyro_calib.report.lab import reserve_number
-
-        issue = reserve_number(lab, calibration.gyro_id or Path(handoff_path).stem, customer)
-        cert = with_issue(cert, issue)
     try:
+        if lab is not None:
+            from gyro_calib.report.lab import reserve_number
+
+            issue = reserve_number(lab, calibration.gyro_id or Path(handoff_path).stem,
+                                   customer)
+            cert = with_issue(cert, issue)
         paths = write_certificate(cert, out_dir, pdf=pdf)
+    except KeyboardInterrupt:  # the number is taken for good: the interrupt line names it
+        if issue is not None:
+            from gyro_calib.cli.interrupt import KEPT_AT_INTERRUPT
+
+            KEPT_AT_INTERRUPT.append(f'certificate number {issue.number} stays reserved in '
+                                     f'{issue.lab.counter}, unused (numbers are never reused)')
+        raise
     except OSError as exc:  # disk full: each document is written whole or not at all
         error = write_failed(exc, flag, out_dir)
         if issue is not None:
