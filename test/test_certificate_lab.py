@@ -335,7 +335,8 @@ def test_calibrate_report_and_batch_refuse_a_malformed_lab_file_before_any_work(
 def test_batch_under_a_lab_requires_each_gyros_customer(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     manifest = tmp_path / 'fleet.csv'
-    manifest.write_text(f'gyro_id,bags,customer\nF-1,{FOG},"{CUSTOMER}"\nF-2,{FOG},\n',
+    other = ROOT / 'bags' / 'fog_slow_loop_low_rate'  # one bag for two gyros is refused
+    manifest.write_text(f'gyro_id,bags,customer\nF-1,{FOG},"{CUSTOMER}"\nF-2,{other},\n',
                         encoding='utf-8')
     lab = write_lab(tmp_path / 'lab')
     out = tmp_path / 'out'
