@@ -7,7 +7,7 @@ included).
 Imports are read statically (``ast``), module-level and function-level alike,
 ``TYPE_CHECKING`` ones included.
 
-0 base        gyro_calib (the package), errors, units, topics (names only)
+0 base        gyro_calib (the package), errors, units, topics (names only), lazy_names
 1 bag I/O     gyro_calib.bagio.*; inside it, one direction too (:data:`BAGIO_ORDER`)
 2 core        config, estimate, outputs, streams, handoff, state_record and any other
               top-level module not named here
@@ -46,7 +46,8 @@ LAYERS = ('base', 'bag I/O', 'core', 'session', 'methods', 'registry', 'drivers'
 DRIVERS = {'gyro_calib.bag_calibration', 'gyro_calib.bag_compensation'}
 FRONT_DOORS = ('cli', 'nodes', 'report', 'batch')
 """gyro_calib's front-door packages (with sim_nodes)."""
-BASE = {'gyro_calib', 'gyro_calib.errors', 'gyro_calib.units', 'gyro_calib.topics'}
+BASE = {'gyro_calib', 'gyro_calib.errors', 'gyro_calib.units', 'gyro_calib.topics',
+        'gyro_calib.lazy_names'}
 BAGIO_ORDER = ('errors', 'messages', 'metadata', 'storage', 'layouts', 'plan', 'chunks',
                'payloads', 'records', 'recovery', 'columns', 'tables', 'writer', 'repair',
                'duplicates', 'reader')

@@ -20,7 +20,6 @@ This package re-exports the public names of its modules. (The old import paths
 ``gyro_calib.bag``, ``gyro_calib.mcap_columns`` and ``gyro_calib.table_input`` are gone.)
 """
 
-import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the names as the type checker sees them; at run time, on first use
@@ -113,17 +112,9 @@ def __getattr__(name: str) -> Any:
     rosbags, so ``gyro-calib --help`` loads none of them. A submodule's name
     (``bagio.reader``) imports that submodule.
     """
-    module = _WHERE.get(name)
-    if module is None:
-        try:
-            return importlib.import_module(f'{__name__}.{name}')
-        except ModuleNotFoundError as exc:
-            if exc.name != f'{__name__}.{name}':
-                raise
-        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+    from gyro_calib.lazy_names import resolve
+
+    return resolve(__name__, _WHERE, name, globals())
 
 
 __all__ = [

@@ -93,7 +93,6 @@ module re-exports their public names.
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # the names as the type checker sees them; at run time, on first use
@@ -179,17 +178,9 @@ def __getattr__(name: str) -> Any:
     the schema (:mod:`~gyro_calib.handoff.schema`) without NumPy or YAML, so ``gyro-calib
     --help`` loads neither. A submodule's name (``handoff.schema``) imports that submodule.
     """
-    module = _WHERE.get(name)
-    if module is None:
-        try:
-            return importlib.import_module(f'{__name__}.{name}')
-        except ModuleNotFoundError as exc:
-            if exc.name != f'{__name__}.{name}':
-                raise
-        raise AttributeError(f'module {__name__!r} has no attribute {name!r}')
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+    from gyro_calib.lazy_names import resolve
+
+    return resolve(__name__, _WHERE, name, globals())
 
 
 __all__ = [
