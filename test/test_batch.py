@@ -41,6 +41,17 @@ FLEET = {'R-1': ['k_tilde_bench'], 'R-2': ['fault_lock_in'], 'R-3': ['theta_four
 METHODS = {'N-1': ['noise']}
 
 
+def _terminal_sigint() -> None:
+    """In the child: Ctrl-C as a terminal delivers it (default action).
+
+    Whatever the test process has: a child inherits an ignored SIGINT, and Python then never
+    raises it.
+    """
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _manifest(tmp: Path, extra: dict[str, Any] | None = None) -> Path:
     broken = tmp / 'broken_bag'
     broken.mkdir(exist_ok=True)
@@ -389,7 +400,8 @@ def test_ctrl_c_stops_cleanly_keeps_what_finished_and_lists_every_gyro(
     proc = subprocess.Popen(
         [sys.executable, '-m', 'gyro_calib.cli', 'batch', str(manifest), '--out', str(out),
          '--workers', '1', '--no-pdf', '--no-progress'], env=env, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True, start_new_session=True)
+        stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=_terminal_sigint)  # noqa: PLW1509
     deadline = time.monotonic() + 120
     while not list(out.glob('*/record.json')) and time.monotonic() < deadline:
         time.sleep(0.1)
@@ -476,7 +488,8 @@ def test_ctrl_c_at_any_moment_is_exit_130_one_line_and_nothing_half_written(
     proc = subprocess.Popen(
         [sys.executable, '-m', 'gyro_calib.cli', 'batch', str(manifest), '--out', str(out),
          '--workers', '1', '--no-pdf', '--no-progress'], env=env, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True, start_new_session=True)
+        stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=_terminal_sigint)  # noqa: PLW1509
     try:
         deadline = time.monotonic() + 120
         if isinstance(moment, float):
@@ -930,7 +943,7 @@ def test_ctrl_c_once_every_file_is_written_prints_the_summary_and_exits_as_done(
         [sys.executable, '-m', 'gyro_calib.cli', 'batch', 'manifest.yaml', '--out', 'l4',
          '--workers', '1', '--no-pdf', '--spec', 'spec.yaml', '--no-progress'], env=env,
         cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-        start_new_session=True)
+        start_new_session=True, preexec_fn=_terminal_sigint)  # noqa: PLW1509
     try:
         deadline = time.monotonic() + 120
         while time.monotonic() < deadline and proc.poll() is None:

@@ -78,9 +78,21 @@ def test_each_method_takes_the_bench_settings_stored_with_its_own_bags() -> None
         assert both.options['rbrlg'].latitude == 28.2
 
 
+@pytest.fixture(scope='module')
+def second_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Another run of the FOG bench (other seeds: other data; a copy of one bag is refused
+    as the same data twice before its settings are looked at).
+    """
+    where = tmp_path_factory.mktemp('second_run') / 'fog_turntable_seed5'
+    assert gyro_calib_main(['simulate', 'fog_turntable', '--seed', '5', '--out',
+                            str(where)]) == 0
+    return where
+
+
 def test_bags_of_one_method_that_store_different_settings_are_refused(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    other = restamped_copy(BAGS / 'fog_turntable', tmp_path / 'other_site', latitude_deg=30.0)
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], second_run: Path) -> None:
+    other = restamped_copy(second_run, tmp_path / 'other_site', latitude_deg=30.0)
+    capsys.readouterr()
     code = gyro_calib_main(['calibrate', str(BAGS / 'fog_turntable'), str(other),
                             '--no-progress'])
     out, err = capsys.readouterr()
@@ -92,8 +104,9 @@ def test_bags_of_one_method_that_store_different_settings_are_refused(
         assert part in line
 
 
-def test_the_flag_decides_between_bags_that_disagree_and_says_so(tmp_path: Path) -> None:
-    other = restamped_copy(BAGS / 'fog_turntable', tmp_path / 'other_site', latitude_deg=30.0)
+def test_the_flag_decides_between_bags_that_disagree_and_says_so(tmp_path: Path,
+                                                                 second_run: Path) -> None:
+    other = restamped_copy(second_run, tmp_path / 'other_site', latitude_deg=30.0)
     outcome = calibrate_bags([BAGS / 'fog_turntable', other],
                              options=CalibrationOptions(latitude_deg=45.75))
     assert outcome.options['fog'].latitude == 45.75

@@ -147,7 +147,15 @@ class BagPlayer(Node):
     def wait_for_acknowledgements(self, timeout_s: float = 60.0) -> None:
         """Let lagging readers take the tail before the process exits."""
         for pub in self.publishers_by_topic.values():
-            if not pub.wait_for_all_acked(rclpy.duration.Duration(seconds=timeout_s)):
+            if not self.context.ok():  # Ctrl-C: rclpy shut the context down; nothing to wait for
+                return
+            try:
+                acked = pub.wait_for_all_acked(rclpy.duration.Duration(seconds=timeout_s))
+            except Exception:  # rclpy's RCLError once a Ctrl-C shut the context down meanwhile
+                if self.context.ok():
+                    raise
+                return
+            if not acked:
                 self.get_logger().warning(f'{pub.topic_name}: readers did not acknowledge '
                                           f'the last messages within {timeout_s:g} s.')
 
