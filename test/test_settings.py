@@ -80,8 +80,9 @@ def test_each_method_takes_the_bench_settings_stored_with_its_own_bags() -> None
 
 @pytest.fixture(scope='module')
 def second_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Another run of the FOG bench (other seeds: other data; a copy of one bag is refused
-    as the same data twice before its settings are looked at).
+    """Another run of the FOG bench: other seeds, other data.
+
+    A copy of one bag is refused as the same data twice before its settings are looked at.
     """
     where = tmp_path_factory.mktemp('second_run') / 'fog_turntable_seed5'
     assert gyro_calib_main(['simulate', 'fog_turntable', '--seed', '5', '--out',
