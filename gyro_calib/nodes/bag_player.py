@@ -180,6 +180,8 @@ def main(args: list[str] | None = None) -> None:
             start = time.monotonic()
             player.play()
             player.wait_for_acknowledgements()
+            if not player.context.ok():  # a Ctrl-C shut rclpy down: stopped, not played
+                return
             wall = time.monotonic() - start
             log.info(f'played {player.published} messages in {wall:.3f} s '
                      f'({player.info.duration_s / max(wall, 1e-9):.2f}× real time)')
