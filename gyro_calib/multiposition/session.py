@@ -435,8 +435,7 @@ class MultipositionSession(MethodSession):
                 elif name.startswith('scale'):
                     j = 'xyz'.index(name[-1])
                     rows.append((f'{fit.sensor} {name} ({unit} per {fit.raw_unit}) '
-                                 f'[its inverse, {fit.raw_unit} per {unit}]',
-                                 f'{v:.8g} [{inv[j]:.6g}]',
+                                 f'[1/s]', f'{v:.8g} [{inv[j]:.6g}]',
                                  f'{u:.2g} [{u_inv[j]:.2g}]', str(fit.n_used)))
                 else:
                     rows.append((f'{fit.sensor} {name} ({fit.raw_unit})', f'{v:.8g}',
