@@ -15,6 +15,8 @@ import subprocess
 import tempfile
 import threading
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -96,6 +98,59 @@ def spin_watched(executor: Any, timeout_sec: float) -> None:
     """``executor.spin_once(timeout_sec)``, then fail at once if a started node died."""
     executor.spin_once(timeout_sec=timeout_sec)
     check_no_node_died()
+
+
+DISCOVERY_SETTLE_S = 2.0
+"""How long a bench keeps spinning after its side of discovery matched (bag_player: 1 s).
+
+A bench's publisher counts the node's reader as soon as the bench has discovered it; the
+node's reader takes the bench's writer on its own discovery, later under load, and a
+volatile reader drops what reached it before (a CI run lost the first 28 of 194 samples,
+and all 40 of another test's)."""
+
+
+@contextmanager
+def bench_node(name: str) -> Iterator[tuple[Any, Any]]:
+    """A node of this test process in a context of its own, and its executor.
+
+    Destroyed on the way out whatever happened: a bench left alive after a failed assertion
+    kept a reliable reader that never read, and the next test's player stalled on it.
+    """
+    import rclpy
+
+    from gyro_calib.nodes.ros_io import make_executor
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        node = rclpy.create_node(name, context=context)
+        executor = make_executor(context)
+        executor.add_node(node)
+        try:
+            yield node, executor
+        finally:
+            executor.remove_node(node)
+            executor.shutdown()
+            node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+
+
+def wait_discovered(executor: Any, matched: Callable[[], bool], timeout_s: float = 60.0,
+                    settle_s: float = DISCOVERY_SETTLE_S) -> bool:
+    """Spin until ``matched()`` (this side of discovery), then ``settle_s`` more.
+
+    Returns whether ``matched()`` held in time; the settle lets the node's side match too.
+    """
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline and not matched():
+        spin_watched(executor, timeout_sec=0.05)
+    if not matched():
+        return False
+    settle = time.monotonic() + settle_s
+    while time.monotonic() < settle:
+        spin_watched(executor, timeout_sec=0.05)
+    return True
 
 
 def _scratch_dir() -> str:

@@ -18,17 +18,16 @@ from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.handoff import write_calibration
 from sim_nodes.multiposition.scenarios import SCENARIOS
 
-from .dds_harness import NodeProcess, launch, spin_watched
+from .dds_harness import NodeProcess, bench_node, launch, spin_watched
 
 BAG = Path(__file__).resolve().parents[2] / 'bags' / 'multiposition_hand_turned'
 
 
 def test_the_corrector_applies_the_multiposition_section_to_the_simulated_imu(
         nodes: list[NodeProcess], tmp_path: Path) -> None:
-    import rclpy
     from sensor_msgs.msg import Imu
 
-    from gyro_calib.nodes.ros_io import SENSOR_QOS, make_executor
+    from gyro_calib.nodes.ros_io import SENSOR_QOS
 
     session = calibrate_bags([BAG], methods=['multiposition']).sessions['multiposition']
     cal = session.handoff(str(BAG))
@@ -47,14 +46,9 @@ def test_the_corrector_applies_the_multiposition_section_to_the_simulated_imu(
     # started together (the simulator waits for its reader, the corrector): whatever reaches
     # this reader is compared by its stamp
     nodes.append(launch('imu_multiposition_sim', {'real_time_factor': 20.0}, namespace='/raw'))
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    try:
-        reader = rclpy.create_node('test_mp_corrector_reader', context=context)
+    with bench_node('test_mp_corrector_reader') as (reader, executor):
         got: list[Any] = []
         sub = reader.create_subscription(Imu, '/imu/data', got.append, SENSOR_QOS)
-        executor = make_executor(context)
-        executor.add_node(reader)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and not (sub.get_publisher_count() > 0
                                                    and 'K0 = 1' in corrector.log()):
@@ -73,6 +67,3 @@ def test_the_corrector_applies_the_multiposition_section_to_the_simulated_imu(
             np.testing.assert_allclose(a, a_mat @ run.acc[i] - b_a, rtol=0, atol=1e-12)
             assert np.all(np.linalg.eigvalsh(np.reshape(
                 msg.linear_acceleration_covariance, (3, 3))) > 0)
-        reader.destroy_node()
-    finally:
-        rclpy.shutdown(context=context)

@@ -27,7 +27,7 @@ from gyro_calib.thermal.compensate import CompensatedPair, offline_pairs
 from gyro_calib.thermal.session import ThermalSession
 from sim_nodes.thermal.scenarios import ChamberRunConfig, ThermalRecording
 
-from .dds_harness import NodeProcess, launch, spin_watched
+from .dds_harness import NodeProcess, bench_node, launch, spin_watched
 
 BAGS = Path(__file__).resolve().parents[2] / 'bags'
 RAMP = ChamberRunConfig(programme='continuous_ramp', gyro_id='B-1', seed=3, low_c=-10.0,
@@ -281,20 +281,14 @@ def _stamp(msg: Any) -> int:
 
 def test_thermal_chamber_sim_publishes_its_scenario(nodes: list[NodeProcess]) -> None:
     """/sim/scenario carries the run (recorders merge it into the bag's metadata)."""
-    import rclpy
     from std_msgs.msg import String
 
-    from gyro_calib.nodes.ros_io import SCENARIO_READER_QOS, make_executor
+    from gyro_calib.nodes.ros_io import SCENARIO_READER_QOS
 
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    try:
-        node = rclpy.create_node('scenario_reader', context=context)
+    with bench_node('scenario_reader') as (node, executor):
         got: list[str] = []
         node.create_subscription(String, topics.SIM_SCENARIO, lambda m: got.append(m.data),
                                  SCENARIO_READER_QOS)
-        executor = make_executor(context)
-        executor.add_node(node)
         sim = launch('thermal_chamber_sim', {'programme': 'validation', 'duration_s': 60.0,
                                              'wait_for_subscribers': False,
                                              'exit_when_done': False, 'real_time_factor': 0.0})
@@ -307,6 +301,3 @@ def test_thermal_chamber_sim_publishes_its_scenario(nodes: list[NodeProcess]) ->
         assert scenario['name'] == 'thermal_validation_A-1_1'
         assert scenario['bench']['gyro_id'] == 'A-1'
         assert math.isclose(scenario['truth']['latitude_deg'], 34.26)
-        node.destroy_node()
-    finally:
-        rclpy.shutdown(context=context)

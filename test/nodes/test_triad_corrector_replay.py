@@ -19,7 +19,7 @@ from gyro_calib.bagio import BagMessage, ContractMessages, iter_raw_messages, ty
 from gyro_calib.cli import main as gyro_calib
 from gyro_calib.nodes.imu_corrector_core import ImuCorrector
 
-from .dds_harness import NodeProcess, launch, spin_watched
+from .dds_harness import NodeProcess, bench_node, launch, spin_watched
 
 BAGS = Path(__file__).resolve().parents[2] / 'bags'
 BAG = 'triad_remount_bench_px'
@@ -28,11 +28,10 @@ SECONDS = 12.0
 
 def test_replayed_triad_bag_gives_the_cores_body_rates_on_imu_data(
         nodes: list[NodeProcess], tmp_path: Path) -> None:
-    import rclpy
     from sensor_msgs.msg import Imu
     from test_triad_corrector_on_bags import REMOUNTS
 
-    from gyro_calib.nodes.ros_io import SENSOR_QOS, make_executor
+    from gyro_calib.nodes.ros_io import SENSOR_QOS
 
     handoff = tmp_path / 'imu.yaml'
     assert gyro_calib(['calibrate', *[str(BAGS / n) for n in REMOUNTS], '--method', 'triad',
@@ -55,14 +54,9 @@ def test_replayed_triad_bag_gives_the_cores_body_rates_on_imu_data(
     assert len(expected) == len(samples) - 1
     corrector = launch('imu_corrector', {'calibration_file': str(handoff)})
     nodes.append(corrector)
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    try:
-        node = rclpy.create_node('test_triad_replay_reader', context=context)
+    with bench_node('test_triad_replay_reader') as (node, executor):
         got: list[Any] = []
         sub = node.create_subscription(Imu, '/imu/data', got.append, SENSOR_QOS)
-        executor = make_executor(context)
-        executor.add_node(node)
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and not (  # the corrector's output reaches us
                 sub.get_publisher_count() > 0 and 'publishing /imu/data' in corrector.log()):
@@ -72,9 +66,6 @@ def test_replayed_triad_bag_gives_the_cores_body_rates_on_imu_data(
         deadline = time.monotonic() + 90
         while time.monotonic() < deadline and len(got) < len(expected):
             spin_watched(executor, timeout_sec=0.05)
-        node.destroy_node()
-    finally:
-        rclpy.shutdown(context=context)
     stamps = [m.header.stamp.sec * 10**9 + m.header.stamp.nanosec for m in got]
     assert len(got) == len(expected), (len(got), len(expected), corrector.log()[-2000:])
     assert stamps == sorted(expected)
