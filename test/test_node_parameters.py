@@ -164,3 +164,35 @@ def test_the_executable_exits_2_with_one_line_on_a_wrong_type(
     assert len(lines) == 1 and f'parameter {key} :=' in lines[0], done.stderr
     assert 'Traceback' not in done.stderr and not done.stdout
     assert not (tmp_path / 'bag_exe').exists()
+
+
+USERS_VIO_CONFIG = '%YAML:1.0\n# my VINS-Fusion config, tuned by hand\nimu_topic: "/imu"\nacc_n: 0.1\n'
+
+
+@pytest.mark.parametrize('kind', ['a user config', 'a hand-off file'])
+def test_noise_node_refuses_a_kalibr_file_it_did_not_write_at_start_up(
+        kind: str, tmp_path: Path) -> None:
+    """kalibr_file replaces only a Kalibr imu.yaml of ours, as ``noise --kalibr`` does.
+
+    A user's file there stops the node before it reads anything (one line, naming the
+    parameter and the way out), and the file is left as it was.
+    """
+    target = tmp_path / 'imu.yaml'
+    text = (USERS_VIO_CONFIG if kind == 'a user config'
+            else 'format_version: 4\ngyro_id: G-1\ngyro:\n  k_tilde_rad_per_pulse: 1.0e-6\n')
+    target.write_text(text, encoding='utf-8')
+    with pytest.raises(ConfigError, match=r'^kalibr_file: .*imu\.yaml (exists and is not a '
+                                          r'Kalibr imu\.yaml gyro-calib wrote|is a gyro_calib '
+                                          r'hand-off file)'):
+        _stop(_start('noise_node', {'topic': '/imu/data', 'kalibr_file': str(target)}))
+    assert target.read_text(encoding='utf-8') == text
+
+
+def test_noise_node_takes_a_kalibr_file_of_its_own_to_replace(tmp_path: Path) -> None:
+    from gyro_calib.export.names import export_mark
+    from gyro_calib.noise.kalibr import KALIBR_MARK
+
+    for n, mark in enumerate((KALIBR_MARK, export_mark('kalibr'))):
+        target = tmp_path / f'imu{n}.yaml'
+        target.write_text(f'# {mark}\nimu0:\n  update_rate: 200.0\n', encoding='utf-8')
+        _stop(_start('noise_node', {'topic': '/imu/data', 'kalibr_file': str(target)}))

@@ -18,7 +18,9 @@ per-axis keys ``imu_gyro_x_…`` for an IMU) and in ``output_file``. On shutdown
 SIGINT, SIGTERM) it takes in what its readers already hold, ends the record and writes
 ``kalibr_file`` (Kalibr ``imu.yaml``, IMU only), ``plot_file`` (ADEV figure) and
 ``output_file`` (hand-off): each complete (written beside and renamed) or, on an error, not
-touched; the paths are logged.
+touched; the paths are logged. An existing ``kalibr_file`` is replaced only when it is a
+Kalibr imu.yaml gyro_calib wrote (``noise --kalibr``, ``export --format kalibr``): any other
+file there (a user's VIO config, a hand-off, a bag) stops the node at start-up, exit 2.
 
 Parameters: ``topic``, ``calibration_file``, ``best_effort``, ``results_period_s``,
 ``kalibr_file``, ``plot_file``; every field of :class:`~gyro_calib.noise.settings.
@@ -38,8 +40,13 @@ from pathlib import Path
 from typing import Any
 
 from gyro_calib.errors import ConfigError, GyroCalibError
+from gyro_calib.export.ownership import (
+    refuse_to_overwrite_records,
+    refuse_to_replace_a_foreign_file,
+)
 from gyro_calib.nodes.method_node import GENERIC_PARAMETERS, MethodNode
 from gyro_calib.nodes.ros_io import described_parameter, run_node, spin_until_quiet
+from gyro_calib.noise.kalibr import KALIBR_MARK
 from gyro_calib.noise.keys import METHOD
 from gyro_calib.noise.outputs import resolve_targets, write_outputs, written_line
 from gyro_calib.noise.session import IMU, NoiseSession, check_scale_factor
@@ -116,6 +123,11 @@ class NoiseNode(MethodNode):
             raise ConfigError(f"kalibr_file: Kalibr's imu.yaml describes an IMU; "
                               f"{topic or '/gyro/pulses or /fog/output'} is a single-axis "
                               'gyro (set topic to an Imu topic, or kalibr_file to "").')
+        if self.targets.kalibr is not None:  # a user's file at that path is never replaced
+            refuse_to_overwrite_records(self.targets.kalibr, 'kalibr_file:',
+                                        "Kalibr's imu.yaml")
+            refuse_to_replace_a_foreign_file(self.targets.kalibr, 'kalibr', 'kalibr_file:',
+                                             other_marks=(KALIBR_MARK,))
         session.auto_refresh = False
         self.session, self._noise_options = session, options
         self.best_effort = best_effort
