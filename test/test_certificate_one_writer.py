@@ -22,10 +22,10 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
 
 import pytest
 import yaml
+from cli_helpers import run
 from test_certificate_lab import write_lab
 
 from gyro_calib.cli import main
@@ -34,16 +34,6 @@ from gyro_calib.cli.report import certificate_lock
 ROOT = Path(__file__).resolve().parents[1]
 BAG = ROOT / 'bags' / 'k_tilde_bench'
 REGISTER = 'certificate_numbers.tsv'
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
-    """(exit status, stdout, stderr) of ``gyro-calib ARGV``; argparse exits are caught."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope='module')

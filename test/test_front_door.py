@@ -29,6 +29,8 @@ import jsonschema
 import numpy as np
 import pytest
 import yaml
+from cli_helpers import one_line as one_error_line
+from cli_helpers import run
 
 import gyro_calib
 from gyro_calib import bag_calibration
@@ -39,22 +41,6 @@ ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / 'bags'
 SCHEMA = json.loads((ROOT / 'gyro_calib' / 'schema' / 'result.schema.json').read_text())
 K_RLG = 4.0859845e-06
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
-    """(exit status, stdout, stderr) of ``gyro-calib ARGV``; argparse exits are caught."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def one_error_line(err: str) -> str:
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    return lines[0]
 
 
 @pytest.fixture(scope='module')

@@ -27,6 +27,7 @@ from typing import Any
 
 import pytest
 import yaml
+from cli_helpers import one_line, run
 from fake_node import FakeNode
 
 from gyro_calib.cli import main
@@ -36,22 +37,6 @@ ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / 'bags'
 TRIAD = BAGS / 'triad_two_axis_bench'
 ARW = 'angle_random_walk_rad_per_sqrt_s'
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
-    """(exit status, stdout, stderr) of ``gyro-calib ARGV``; argparse exits are caught."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def one_line(err: str) -> str:
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    return lines[0]
 
 
 def listing(directory: Path) -> list[str]:

@@ -16,12 +16,10 @@ from __future__ import annotations
 import html
 import re
 from pathlib import Path
-from typing import Any
 
 import pytest
 import yaml
-
-from gyro_calib.cli import main
+from cli_helpers import run
 
 ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / 'bags'
@@ -29,16 +27,6 @@ PNG = b'\x89PNG\r\n\x1a\n'
 NOTE = (r"latitude_deg: {who} gives 60\.0 ° but the bench settings stored in \S+k_tilde_bench "
         r"says 28\.2 °; using 60\.0 ° \(check which is right\)\.")
 """The note for a latitude of 60° given against the k_tilde_bench bag's stored 28.2°."""
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
-    """(exit status, stdout, stderr) of ``gyro-calib ARGV``; argparse exits are caught."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_methods_lists_a_triads_pulses_as_a_noise_input(

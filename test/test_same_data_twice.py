@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import shutil
 from pathlib import Path
-from typing import Any
 
 import pytest
 import yaml
+from cli_helpers import run
 
 from gyro_calib.bagio import bag_info
 from gyro_calib.bagio.duplicates import refuse_repeated_bags, same_content_pairs
@@ -33,16 +33,6 @@ ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / 'bags'
 THETA = BAGS / 'theta_four_position'
 NOISE = BAGS / 'noise_rlg_turning'
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
-    """(exit status, stdout, stderr) of ``gyro-calib ARGV``; argparse exits are caught."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def files_under(path: Path) -> list[Path]:

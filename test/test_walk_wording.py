@@ -17,29 +17,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from cli_helpers import one_line, run
 
 from gyro_calib.bag_calibration import calibrate_bags
-from gyro_calib.cli import main
 from gyro_calib.handoff import Calibration, Provenance
 from gyro_calib.report.certificate import build_certificate
 
 ROOT = Path(__file__).resolve().parents[1]
 BAGS = ROOT / 'bags'
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: Any) -> tuple[int, str, str]:
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def one_line(err: str) -> str:
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    return lines[0]
 
 
 # -- a file where a directory goes: the flag's own reason ---------------------------------------
