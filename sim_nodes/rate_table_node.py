@@ -154,7 +154,7 @@ class RateTableNode(PacedSimulatorNode):
         truth.position = [a for c in chunks for a in c.true_angle_rad.tolist()]
         truth.velocity = [r for c in chunks for r in c.true_rate_rad_s.tolist()]
         truth.effort = (first.t_ns - first.t_ns[0]).astype(float).tolist()
-        publish_paced(self.truth_pub, truth)
+        publish_paced(self.truth_pub, truth, graph=self)
         dec = self.config.joint_state_decimation
         start = (-self._n_published) % dec
         for chunk, (_, js_pub, index_pub, joint) in zip(chunks, self.tables):
@@ -163,11 +163,11 @@ class RateTableNode(PacedSimulatorNode):
                                  velocity=[float(chunk.encoder_rate_rad_s[i])])
                 ns_to_stamp(int(chunk.t_ns[i]), msg.header.stamp)
                 msg.header.frame_id = joint
-                publish_paced(js_pub, msg)
+                publish_paced(js_pub, msg, graph=self)
             for t_ns in chunk.zero_index_ns.tolist():
                 header = Header(frame_id=joint)
                 ns_to_stamp(t_ns, header.stamp)
-                publish_paced(index_pub, header)
+                publish_paced(index_pub, header, graph=self)
         self._n_published += len(first.t_ns)
 
 

@@ -166,7 +166,8 @@ def test_the_executable_exits_2_with_one_line_on_a_wrong_type(
     assert not (tmp_path / 'bag_exe').exists()
 
 
-USERS_VIO_CONFIG = '%YAML:1.0\n# my VINS-Fusion config, tuned by hand\nimu_topic: "/imu"\nacc_n: 0.1\n'
+USERS_VIO_CONFIG = ('%YAML:1.0\n# my VINS-Fusion config, tuned by hand\nimu_topic: "/imu"\n'
+                    'acc_n: 0.1\n')
 
 
 @pytest.mark.parametrize('kind', ['a user config', 'a hand-off file'])

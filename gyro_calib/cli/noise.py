@@ -226,10 +226,8 @@ def run_noise(args: argparse.Namespace) -> int:
     _refuse_a_taus_that_cannot_serve(args)  # before any path or bag is looked at
     targets = resolve_targets(args.kalibr, None, args.out, names=('--kalibr', '--plot', '--out'))
     if targets.kalibr is not None:
-        from gyro_calib.cli.export import (
-            refuse_to_overwrite_records,
-            refuse_to_replace_a_foreign_file,
-        )
+        from gyro_calib.cli.export import refuse_to_replace_a_foreign_file
+        from gyro_calib.export.ownership import refuse_to_overwrite_records
 
         refuse_to_overwrite_records(targets.kalibr, 'noise: --kalibr', "Kalibr's imu.yaml")
         refuse_to_replace_a_foreign_file(targets.kalibr, 'kalibr', 'noise: --kalibr')

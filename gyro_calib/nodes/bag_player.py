@@ -138,9 +138,10 @@ class BagPlayer(Node):
                 if delay > 0:
                     time.sleep(delay)
             if self.clock_pub is not None and (next_clock is None or log_ns >= next_clock):
-                publish_paced(self.clock_pub, Clock(clock=ns_to_stamp(log_ns, Clock().clock)))
+                publish_paced(self.clock_pub, Clock(clock=ns_to_stamp(log_ns, Clock().clock)),
+                              graph=self)
                 next_clock = log_ns + self.clock_period_ns
-            publish_paced(pub, raw)
+            publish_paced(pub, raw, graph=self)
             self.published += 1
             progress.update((log_ns - self.info.start_ns) / 1e9)
 

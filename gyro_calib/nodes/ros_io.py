@@ -524,13 +524,22 @@ def stops_on_stalled_readers(callback: Callable[..., None]) -> Callable[..., Non
     return guarded
 
 
-def publish_paced(publisher: Publisher[Any], msg: object, *, patience_s: float = 30.0) -> None:
+def reader_nodes(graph: Node, topic: str) -> list[str]:
+    """The nodes reading ``topic`` as ``graph`` sees them (``/ns/name``, one per reader)."""
+    return [f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+            for info in graph.get_subscriptions_info_by_topic(topic)]
+
+
+def publish_paced(publisher: Publisher[Any], msg: object, *, patience_s: float = 30.0,
+                  graph: Node | None = None) -> None:
     """Publish on a reliable topic; if the reader lags so far that DDS refuses, wait and retry.
 
     A reliable writer whose history is full of unacknowledged samples fails with
     "cannot publish data" (measured here). A simulator must not crash nor drop then:
     it waits for the readers' acknowledgements and tries again, which slows the
     whole simulated bench to the pace of its slowest reader.
+
+    ``graph``: the publishing node, if given, names the readers (their nodes) in the error.
 
     Raises:
         ReadersStalled: if the readers acknowledge nothing for ``patience_s`` (naming the
@@ -546,9 +555,12 @@ def publish_paced(publisher: Publisher[Any], msg: object, *, patience_s: float =
             return
         except RCLError:
             if time.monotonic() > deadline:
-                readers = publisher.get_subscription_count()
+                readers = f'{publisher.get_subscription_count()} connected'
+                names = [] if graph is None else reader_nodes(graph, publisher.topic_name)
+                if names:
+                    readers += ': ' + ', '.join(sorted(names))
                 raise ReadersStalled(
-                    f'the reader(s) of {publisher.topic_name} ({readers} connected) '
+                    f'the reader(s) of {publisher.topic_name} ({readers}) '
                     f'acknowledged nothing for {patience_s:g} s: a reader stopped reading '
                     'while still connected (hung, paused or ending), so the rest of the run '
                     'cannot be delivered') from None

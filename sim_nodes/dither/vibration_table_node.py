@@ -127,12 +127,12 @@ class VibrationTableNode(PacedSimulatorNode):
                                  velocity=[rate[j]])
                 ns_to_stamp(table_t[j], msg.header.stamp)
                 msg.header.frame_id = frame
-                publish_paced(self.table_pub, msg)
+                publish_paced(self.table_pub, msg, graph=self)
                 j += 1
             out = JointState(name=[topics.GYRO_JOINT], position=[count])
             ns_to_stamp(t_ns, out.header.stamp)
             out.header.frame_id = topics.GYRO_JOINT
-            publish_paced(self.pulse_pub, out)
+            publish_paced(self.pulse_pub, out, graph=self)
         self._n_published += len(chunk.pulse_t_ns)
 
 

@@ -132,7 +132,7 @@ class FogBenchNode(PacedSimulatorNode):
             msg = JointState(name=[topics.FOG_INJECTION_JOINT], position=[float(value)])
             ns_to_stamp(int(t_ns), msg.header.stamp)
             msg.header.frame_id = topics.FOG_INJECTION_JOINT
-            publish_paced(self.injection_pub, msg)
+            publish_paced(self.injection_pub, msg, graph=self)
             self._next_injection += 1
 
     def _publish(self, chunk: BenchChunk) -> None:
@@ -141,17 +141,17 @@ class FogBenchNode(PacedSimulatorNode):
             msg = JointState(name=[topics.FOG_JOINT], position=[count])
             ns_to_stamp(t_ns, msg.header.stamp)
             msg.header.frame_id = topics.FOG_JOINT
-            publish_paced(self.output_pub, msg)
+            publish_paced(self.output_pub, msg, graph=self)
         for t_ns, angle, rate in zip(chunk.table_t_ns.tolist(), chunk.table_angle_rad.tolist(),
                                      chunk.table_rate_rad_s.tolist()):
             js = JointState(name=[RATE_TABLE_JOINT], position=[angle], velocity=[rate])
             ns_to_stamp(t_ns, js.header.stamp)
             js.header.frame_id = RATE_TABLE_JOINT
-            publish_paced(self.table_pub, js)
+            publish_paced(self.table_pub, js, graph=self)
         for t_ns in chunk.zero_index_ns.tolist():
             header = Header(frame_id=RATE_TABLE_JOINT)
             ns_to_stamp(t_ns, header.stamp)
-            publish_paced(self.index_pub, header)
+            publish_paced(self.index_pub, header, graph=self)
         self._n_published += len(chunk.output_t_ns)
 
 

@@ -91,7 +91,7 @@ class ImuMultipositionNode(PacedSimulatorNode):
             msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z = w
             (msg.linear_acceleration.x, msg.linear_acceleration.y,
              msg.linear_acceleration.z) = a
-            publish_paced(self.imu_pub, msg)
+            publish_paced(self.imu_pub, msg, graph=self)
         self._n_published += len(stamps)
 
 

@@ -109,7 +109,7 @@ class RingLaserGyroNode(SimulatorNode):
             out = JointState(name=[topics.GYRO_JOINT], position=[n])
             ns_to_stamp(t, out.header.stamp)
             out.header.frame_id = topics.GYRO_JOINT
-            publish_paced(self.pub, out)
+            publish_paced(self.pub, out, graph=self)
         self._published += len(t_ns)
         if self._first_ns is not None:
             self._progress.what = f'rlg_sim: {self._published} pulse samples, bench time'

@@ -117,13 +117,13 @@ class ThermalChamberNode(PacedSimulatorNode):
                                  position=[float(chunk.pulse_counts[r])])
                 ns_to_stamp(int(chunk.pulse_t_ns[r]), msg.header.stamp)
                 msg.header.frame_id = topics.GYRO_JOINT
-                publish_paced(self.pulse_pub, msg)
+                publish_paced(self.pulse_pub, msg, graph=self)
             else:
                 temp = Temperature(temperature=float(chunk.temperature_c[r]),
                                    variance=float(chunk.temperature_variance_c2[r]))
                 ns_to_stamp(int(chunk.temperature_t_ns[r]), temp.header.stamp)
                 temp.header.frame_id = str(chunk.temperature_frame_id[r])
-                publish_paced(self.temp_pub, temp)
+                publish_paced(self.temp_pub, temp, graph=self)
             self.published += 1
 
 

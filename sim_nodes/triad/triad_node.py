@@ -101,7 +101,7 @@ class TriadBenchNode(PacedSimulatorNode):
             msg = JointState(name=self.channels, position=counts)
             ns_to_stamp(t_ns, msg.header.stamp)
             msg.header.frame_id = IMU_FRAME
-            publish_paced(self.pulse_pub, msg)
+            publish_paced(self.pulse_pub, msg, graph=self)
         self._publish_table(self.rate_pub, self.rate_index_pub, topics.RATE_TABLE_JOINT,
                             chunk.rate_table, chunk.rate_zero_index_ns.tolist())
         if self.position_pub is not None and self.position_index_pub is not None \
@@ -111,18 +111,17 @@ class TriadBenchNode(PacedSimulatorNode):
                                 chunk.position_zero_index_ns.tolist())
         self._n_published += len(chunk.pulse_t_ns)
 
-    @staticmethod
-    def _publish_table(js_pub: Any, index_pub: Any, joint: str, states: Any,
+    def _publish_table(self, js_pub: Any, index_pub: Any, joint: str, states: Any,
                        index_ns: list[int]) -> None:
         for t_ns, angle, rate in zip(*(a.tolist() for a in states)):
             js = JointState(name=[joint], position=[angle], velocity=[rate])
             ns_to_stamp(t_ns, js.header.stamp)
             js.header.frame_id = joint
-            publish_paced(js_pub, js)
+            publish_paced(js_pub, js, graph=self)
         for t_ns in index_ns:
             header = Header(frame_id=joint)
             ns_to_stamp(t_ns, header.stamp)
-            publish_paced(index_pub, header)
+            publish_paced(index_pub, header, graph=self)
 
 
 def main(args: list[str] | None = None) -> None:

@@ -74,3 +74,22 @@ def test_a_stalled_reader_ends_the_simulator_in_one_line_with_status_3() -> None
     assert ('the reader(s) of /gyro/temperature (1 connected) acknowledged nothing for 0.3 s'
             in errors[0]), err
     assert 'stopping before the end of the run' in errors[0]
+
+
+def test_a_stall_names_the_reading_nodes_where_the_publisher_can_see_them() -> None:
+    """``publish_paced(..., graph=node)`` names the readers it waits for, as their nodes.
+
+    (The players and simulators pass themselves: a stalled run says which reader stopped.)
+    """
+    from std_msgs.msg import String
+
+    from gyro_calib.nodes.ros_io import SENSOR_QOS, reader_nodes
+
+    from .dds_harness import bench_node, wait_discovered
+
+    with bench_node('test_names_player') as (player, executor), \
+            bench_node('test_names_reader') as (reader, _):
+        reader.create_subscription(String, '/harness/names', lambda _: None, SENSOR_QOS)
+        assert wait_discovered(executor, lambda: reader_nodes(player, '/harness/names')
+                               == ['/test_names_reader'], timeout_s=30.0, settle_s=0.0), \
+            reader_nodes(player, '/harness/names')
