@@ -233,7 +233,7 @@ def test_a_node_killed_before_the_theta_phase_resumes_while_the_position_table_t
     measured 19.5–19.7 s), logged 'reading reliable' on all five topics and then received
     nothing: no writer got an acknowledgement from it, and rlg_sim ended after 30 s (exit
     3). The first node had lagged 27 s of bench time behind the table at the kill. Here: 1
-    failure in 10 runs (a quiet run of this file on Jazzy; the rerun passed); the others
+    failure in 11 runs (a quiet run of this file on Jazzy; the rerun passed); the others
     passed, up to four CPU hogs, one in 221 s. Cause not found.
     """
     speed, rate = 5.0, 75.0  # as test_dds_procedure: every phase in 163 s of bench time
