@@ -26,6 +26,7 @@ from typing import Any
 
 import pytest
 import yaml
+from dask_helpers import in_process_client, lend_client_to_batch
 
 from gyro_calib.batch.manifest import load_manifest
 from gyro_calib.batch.run import print_summary, run_batch
@@ -189,19 +190,6 @@ def test_a_rerun_skips_unchanged_gyros_and_redoes_a_changed_one(
     assert forced.skipped == []
 
 
-class _SharedClient:
-    """The module's client for an in-process ``gyro-calib batch``, not closed by it."""
-
-    def __init__(self, client: Any) -> None:
-        self._client = client
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._client, name)
-
-    def close(self) -> None:
-        """Kept open for the other tests."""
-
-
 def test_a_rerun_under_other_settings_that_moves_a_value_beyond_5_sigma_is_refused(
         tmp_path: Path, client: Any, capsys: pytest.CaptureFixture[str],
         monkeypatch: pytest.MonkeyPatch) -> None:
@@ -213,10 +201,7 @@ def test_a_rerun_under_other_settings_that_moves_a_value_beyond_5_sigma_is_refus
     its folder untouched (hand-off, certificate, record); the other gyro is done.
     ``--replace`` takes the new values, each replacement said old → new.
     """
-    import gyro_calib.batch.run as batch_run
-
-    monkeypatch.setattr(batch_run, 'make_client',
-                        lambda workers, scheduler: (_SharedClient(client), None))
+    lend_client_to_batch(client, monkeypatch)
     manifest, out = tmp_path / 'm.yaml', tmp_path / 'out'
 
     def write(latitude: float | None) -> None:
@@ -778,13 +763,7 @@ LAB_FILE = {'laboratory': {'name': 'Gyro Metrology Laboratory', 'address': '1 Be
 @pytest.fixture(scope='module')
 def local_client() -> Iterator[Any]:
     """An in-process cluster: the tasks run in this process (monkeypatching reaches them)."""
-    import logging
-
-    from dask.distributed import Client, LocalCluster
-
-    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                      dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
-            Client(cluster) as c:
+    with in_process_client() as c:
         yield c
 
 

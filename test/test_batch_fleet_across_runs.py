@@ -18,6 +18,7 @@ from typing import Any
 
 import pytest
 import yaml
+from dask_helpers import in_process_client, lend_client_to_batch
 
 from gyro_calib.cli import main
 
@@ -28,37 +29,15 @@ RUN_COLUMNS = ('fleet_run', 'this_run')
 """The columns that say what a run did, not what a folder holds."""
 
 
-class _Shared:
-    """The module's in-process client for ``gyro-calib batch``, not closed by it."""
-
-    def __init__(self, client: Any) -> None:
-        self._client = client
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._client, name)
-
-    def close(self) -> None:
-        """Kept open for the other tests."""
-
-
 @pytest.fixture(scope='module')
 def local_client() -> Iterator[Any]:
-    import logging
-
-    from dask.distributed import Client, LocalCluster
-
-    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                      dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
-            Client(cluster) as c:
+    with in_process_client() as c:
         yield c
 
 
 @pytest.fixture
 def shared(local_client: Any, monkeypatch: pytest.MonkeyPatch) -> Any:
-    import gyro_calib.batch.run as batch_run
-
-    monkeypatch.setattr(batch_run, 'make_client',
-                        lambda workers, scheduler: (_Shared(local_client), None))
+    lend_client_to_batch(local_client, monkeypatch)
     return local_client
 
 

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from dask_helpers import in_process_client
 from triad_bench_physics import Bench, Recording, random_triad, record
 
 from gyro_calib import topics
@@ -119,13 +120,7 @@ def imu_bags(tmp: Path) -> dict[str, list[Path]]:
 @pytest.fixture(scope='module')
 def client() -> Iterator[Any]:
     """An in-process cluster (the tasks share this process; no worker start-up)."""
-    import logging
-
-    from dask.distributed import Client, LocalCluster
-
-    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                      dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
-            Client(cluster) as c:
+    with in_process_client() as c:
         yield c
 
 

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from dask_helpers import in_process_client
 
 from gyro_calib.bagio import TEMPERATURE, BagMessage, bag_info, typestore, write_bag
 from gyro_calib.batch.manifest import load_manifest
@@ -366,9 +367,7 @@ def test_manifest_customer_in_each_form(tmp_path: Path) -> None:
 
 def test_a_fleet_under_a_lab_gets_one_number_per_certificate_and_its_customer(
         tmp_path: Path) -> None:
-    import logging
 
-    from dask.distributed import Client, LocalCluster
 
     from gyro_calib.batch.run import run_batch
     from gyro_calib.cli.batch import lab_and_customers
@@ -387,9 +386,7 @@ def test_a_fleet_under_a_lab_gets_one_number_per_certificate_and_its_customer(
     Args.out = out  # type: ignore[attr-defined]
     lab, jobs = lab_and_customers(Args(), load_manifest(manifest))  # type: ignore[arg-type]
     assert [j.customer for j in jobs] == ['ACME Nav', 'Default Customer']
-    with LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                      dashboard_address=None, silence_logs=logging.CRITICAL) as cluster, \
-            Client(cluster) as client:
+    with in_process_client() as client:
         outcome = run_batch(jobs, out, client=client, pdf=False, lab=lab)
         assert not outcome.failed
         numbers = {}
