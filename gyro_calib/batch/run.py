@@ -354,7 +354,7 @@ def _run_batch(jobs: Sequence[GyroJob], out_dir: Path, *, client: Any, spec: Any
 
     def store(result: GyroResult, late: bool = True) -> dict[str, Any]:
         """Store a gyro whole: a Ctrl-C meanwhile is raised once its record is in place."""
-        with _sigint_postponed() as arrived:
+        with sigint_noted() as arrived:  # acted on once the gyro's files are all in place
             written.add(result.gyro_id)
             records[result.gyro_id] = record = _store(out_dir, result, replace)
         if arrived and late:
@@ -467,7 +467,9 @@ def sigint_noted() -> Iterator[list[int]]:
     """While the block runs a Ctrl-C is noted in the yielded list (non-empty: it came).
 
     For what follows the writing of every file (closing the cluster, printing the summary):
-    the run is done, and a Ctrl-C then is said, not acted on.
+    the run is done, and a Ctrl-C then is said, not acted on; and for a gyro's files and
+    record, written together (the caller acts on it once they are all in place, so a folder
+    never holds one run's hand-off beside another's record).
     """
     arrived: list[int] = []
     previous = signal.getsignal(signal.SIGINT)
@@ -477,24 +479,6 @@ def sigint_noted() -> Iterator[list[int]]:
     finally:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGINT, previous)
-
-
-@contextlib.contextmanager
-def _sigint_postponed() -> Iterator[list[int]]:
-    """A Ctrl-C while the block runs (main thread only) is noted in the yielded list.
-
-    For a gyro's files and record, written together: the caller acts on the Ctrl-C once
-    they are all in place, so a folder never holds one run's hand-off beside another's record.
-    """
-    arrived: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield arrived
-        return
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: arrived.append(signum))
-    try:
-        yield arrived
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 @contextlib.contextmanager
