@@ -539,7 +539,8 @@ def publish_paced(publisher: Publisher[Any], msg: object, *, patience_s: float =
     it waits for the readers' acknowledgements and tries again, which slows the
     whole simulated bench to the pace of its slowest reader.
 
-    ``graph``: the publishing node, if given, names the readers (their nodes) in the error.
+    ``graph``: the publishing node, if given, names the readers (their nodes) in the error,
+    and a publish refused because a Ctrl-C shut its context down just returns.
 
     Raises:
         ReadersStalled: if the readers acknowledge nothing for ``patience_s`` (naming the
@@ -554,6 +555,8 @@ def publish_paced(publisher: Publisher[Any], msg: object, *, patience_s: float =
             publisher.publish(msg)
             return
         except RCLError:
+            if graph is not None and not graph.context.ok():
+                return  # a Ctrl-C shut rclpy down: nothing more goes out, no traceback
             if time.monotonic() > deadline:
                 readers = f'{publisher.get_subscription_count()} connected'
                 names = [] if graph is None else reader_nodes(graph, publisher.topic_name)
@@ -564,4 +567,9 @@ def publish_paced(publisher: Publisher[Any], msg: object, *, patience_s: float =
                     f'acknowledged nothing for {patience_s:g} s: a reader stopped reading '
                     'while still connected (hung, paused or ending), so the rest of the run '
                     'cannot be delivered') from None
-            publisher.wait_for_all_acked(Duration(seconds=1.0))
+            try:
+                publisher.wait_for_all_acked(Duration(seconds=1.0))
+            except RCLError:
+                if graph is not None and not graph.context.ok():
+                    return
+                raise
