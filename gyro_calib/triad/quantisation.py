@@ -72,8 +72,8 @@ def fitted_count_variance(t_ns: npt.NDArray[np.int64], counts: Array, instant_ns
     small (~1/L²) when the phase runs through its cycle, up to 1/12 when ρ·period is near a
     whole number (every sample the same fractional part). ρ is ``rate_pulses_s`` or, not
     given, the same fit's slope (its own rounding error moves u²_end: averaged over the window
-    ends of the sim_nodes two-axis bench, 0.7–1.8× its value at the true rate by channel and
-    axis; docs/triad_coverage.md). NaN with fewer than order + 2 samples.
+    ends of the sim_nodes two-axis bench, 0.7–1.8× its value at the true sample phases by
+    channel and axis; docs/triad_coverage.md). NaN with fewer than order + 2 samples.
     """
     lo = int(np.searchsorted(t_ns, instant_ns - half_width_ns, 'left'))
     hi = int(np.searchsorted(t_ns, instant_ns + half_width_ns, 'right'))
