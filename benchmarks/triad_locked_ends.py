@@ -45,8 +45,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'test'))
 
-from triad_bench_physics import Recording  # noqa: E402
 from triad_coverage_helpers import run_session, scores  # noqa: E402
+from triad_start_phase import coverage_table, recording_of  # noqa: E402
 
 import gyro_calib.triad.estimator as estimator  # noqa: E402
 import gyro_calib.triad.session as triad_session  # noqa: E402
@@ -54,8 +54,6 @@ from gyro_calib.triad.quantisation import sawtooth_covariance  # noqa: E402
 from gyro_calib.triad.solve import solve_pairs  # noqa: E402
 from gyro_calib.windows import fit_half_width_ns  # noqa: E402
 
-PARAMETERS = ('K_x', 's_x·e_y', 's_x·e_z', 'K_y', 's_y·e_x', 's_y·e_z', 'K_z', 's_z·e_x',
-              's_z·e_y')
 VARIANTS = ('stated', 'exact_ends', 'exact_pairs', 'exact_all', 'measured_locked')
 K_SPREAD = 1e-3
 HARMONICS = np.arange(1, 65)
@@ -149,10 +147,7 @@ def run(seed: int) -> dict[str, list[float]]:
 
     sc, gy, ch = _bench(seed, True)
     _, _, unrounded = _bench(seed, False)
-    rec = Recording(ch.pulse_t_ns, ch.pulse_counts, ch.rate_table[0],
-                    np.column_stack(ch.rate_table[1:]), ch.rate_zero_index_ns,
-                    ch.position_table[0], np.column_stack(ch.position_table[1:]),
-                    ch.position_zero_index_ns)
+    rec = recording_of(ch)
     triad_session.pair_windows = spy  # the session's settings, as it cuts
     try:
         session = run_session(rec, sc.bench_settings())
@@ -224,14 +219,7 @@ def _across_pairs(cov: Callable[[End, End], float]) -> Callable[..., np.ndarray]
 def report(z: dict[str, np.ndarray]) -> None:
     """Per variant and parameter: within ±1σ, rms z, max |z|."""
     for name in VARIANTS:
-        v = z[name]
-        print(f'\n{name} ({len(v)} runs)')
-        print(f'  {"parameter":<10} {"within ±1σ":>10} {"rms z":>7} {"max |z|":>8}')
-        for i, par in enumerate(PARAMETERS):
-            print(f'  {par:<10} {100 * np.mean(np.abs(v[:, i]) <= 1):9.0f}% '
-                  f'{np.sqrt(np.mean(v[:, i] ** 2)):7.2f} {np.max(np.abs(v[:, i])):8.2f}')
-        print(f'  {"all nine":<10} {100 * np.mean(np.abs(v) <= 1):9.0f}% '
-              f'{np.sqrt(np.mean(v ** 2)):7.2f} {np.max(np.abs(v)):8.2f}')
+        coverage_table(f'{name} ({len(z[name])} runs)', z[name])
 
 
 def main(argv: list[str] | None = None) -> int:

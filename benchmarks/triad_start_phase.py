@@ -31,6 +31,7 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -83,19 +84,24 @@ def run(seed: int, phase: np.ndarray | None = None, k_scale: np.ndarray | None =
         gyros=gy, procedure=dataclasses.replace(sc.procedure, seed=seed))
     with start_phases(phase):
         ch = sc.bench().record()
-    assert ch.position_table is not None and ch.position_zero_index_ns is not None
-    rec = Recording(ch.pulse_t_ns, ch.pulse_counts, ch.rate_table[0],
-                    np.column_stack(ch.rate_table[1:]), ch.rate_zero_index_ns,
-                    ch.position_table[0], np.column_stack(ch.position_table[1:]),
-                    ch.position_zero_index_ns)
-    session = run_session(rec, sc.bench_settings())
+    session = run_session(recording_of(ch), sc.bench_settings())
     stated, _, _ = solve_pairs(session.pairs, session.channels, session.bench.tilt_std_rad,
                                np.zeros(3))
     assert stated is not None
     return scores(stated, gy.scale_factor_rad_per_pulse(), gy.unit_sense_axes())[0]
 
 
-def _table(title: str, z: np.ndarray) -> None:
+def recording_of(ch: Any) -> Recording:
+    """A sim_nodes two-axis TriadChunk as test/triad_bench_physics.py's Recording."""
+    assert ch.position_table is not None and ch.position_zero_index_ns is not None
+    return Recording(ch.pulse_t_ns, ch.pulse_counts, ch.rate_table[0],
+                     np.column_stack(ch.rate_table[1:]), ch.rate_zero_index_ns,
+                     ch.position_table[0], np.column_stack(ch.position_table[1:]),
+                     ch.position_zero_index_ns)
+
+
+def coverage_table(title: str, z: np.ndarray) -> None:
+    """Per parameter: within ±1σ, rms z, max |z| of the runs' z (runs × nine)."""
     print(f'\n{title}')
     print(f'  {"parameter":<10} {"within ±1σ":>10} {"rms z":>7} {"max |z|":>8}')
     for i, name in enumerate(PARAMETERS):
@@ -120,13 +126,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f'  largest difference between seeds: {np.max(np.ptp(same, axis=0)):.1e}')
     grid = np.array([run(0, np.mod((j + 0.5) / a.grid + offsets, 1.0))
                      for j in range(a.grid)])
-    _table(f'2. one noise-free bench, start phases on a grid of {a.grid}', grid)
+    coverage_table(f'2. one noise-free bench, start phases on a grid of {a.grid}', grid)
     drawn = []
     for seed in range(a.drawn):
         rng = np.random.default_rng(777 + seed)
         drawn.append(run(seed, None, 1.0 + K_SPREAD * rng.uniform(-1.0, 1.0, size=3)))
-    _table(f'3. K_i drawn within ±{K_SPREAD * 1e6:g} ppm, seeded start phases: {a.drawn} runs',
-           np.array(drawn))
+    coverage_table(f'3. K_i drawn within ±{K_SPREAD * 1e6:g} ppm, seeded start phases: '
+                   f'{a.drawn} runs', np.array(drawn))
     return 0
 
 
