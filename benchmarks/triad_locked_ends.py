@@ -46,7 +46,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'test'))
 
 from triad_coverage_helpers import run_session, scores  # noqa: E402
-from triad_start_phase import coverage_table, recording_of  # noqa: E402
+from triad_start_phase import coverage_table, recording_of, scenario  # noqa: E402
 
 import gyro_calib.triad.estimator as estimator  # noqa: E402
 import gyro_calib.triad.session as triad_session  # noqa: E402
@@ -71,18 +71,8 @@ def smeared_sawtooth_covariance(d: np.ndarray, var: float) -> np.ndarray:
 
 
 def _bench(seed: int, quantise: bool) -> tuple[Any, Any, Any]:
-    from sim_nodes.triad.scenarios import SCENARIOS
-
-    sc = SCENARIOS['triad_two_axis_bench']
     k_scale = 1.0 + K_SPREAD * np.random.default_rng(9000 + seed).uniform(-1.0, 1.0, size=3)
-    gy = dataclasses.replace(sc.gyros, seed=seed, angle_random_walk_deg_sqrt_h=(0.0,) * 3,
-                             quantise=quantise)
-    gy = dataclasses.replace(gy, scale_factor_arcsec_per_pulse=tuple(
-        float(k) for k in np.asarray(gy.scale_factor_arcsec_per_pulse) * k_scale))
-    sc = dataclasses.replace(
-        sc, table=dataclasses.replace(sc.table, seed=seed, sample_rate_hz=250.0,
-                                      joint_state_decimation=1),
-        gyros=gy, procedure=dataclasses.replace(sc.procedure, seed=seed))
+    sc, gy = scenario(seed, k_scale, quantise)
     return sc, gy, sc.bench().record()
 
 

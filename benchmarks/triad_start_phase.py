@@ -68,13 +68,14 @@ def start_phases(phase: np.ndarray | None) -> Iterator[None]:
         gyros.TriadGyroSimulator.__init__ = init  # type: ignore[method-assign]
 
 
-def run(seed: int, phase: np.ndarray | None = None, k_scale: np.ndarray | None = None
-        ) -> list[float]:
-    """The nine z of one ARW-0 run of triad_two_axis_bench (ARW stated as 0)."""
+def scenario(seed: int, k_scale: np.ndarray | None = None, quantise: bool = True
+             ) -> tuple[Any, Any]:
+    """triad_two_axis_bench, 250 Hz, ARW 0, ``seed`` everywhere, K_i × ``k_scale``: (sc, gyros)."""
     from sim_nodes.triad.scenarios import SCENARIOS
 
     sc = SCENARIOS['triad_two_axis_bench']
-    gy = dataclasses.replace(sc.gyros, seed=seed, angle_random_walk_deg_sqrt_h=(0.0,) * 3)
+    gy = dataclasses.replace(sc.gyros, seed=seed, angle_random_walk_deg_sqrt_h=(0.0,) * 3,
+                             quantise=quantise)
     if k_scale is not None:
         gy = dataclasses.replace(gy, scale_factor_arcsec_per_pulse=tuple(
             float(k) for k in np.asarray(gy.scale_factor_arcsec_per_pulse) * k_scale))
@@ -82,6 +83,13 @@ def run(seed: int, phase: np.ndarray | None = None, k_scale: np.ndarray | None =
         sc, table=dataclasses.replace(sc.table, seed=seed, sample_rate_hz=250.0,
                                       joint_state_decimation=1),
         gyros=gy, procedure=dataclasses.replace(sc.procedure, seed=seed))
+    return sc, gy
+
+
+def run(seed: int, phase: np.ndarray | None = None, k_scale: np.ndarray | None = None
+        ) -> list[float]:
+    """The nine z of one ARW-0 run of triad_two_axis_bench (ARW stated as 0)."""
+    sc, gy = scenario(seed, k_scale)
     with start_phases(phase):
         ch = sc.bench().record()
     session = run_session(recording_of(ch), sc.bench_settings())
