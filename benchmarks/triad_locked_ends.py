@@ -9,8 +9,8 @@ Run (from the repository root, niced; ~12 s a seed):
 per seed (``default_rng(9000 + seed)``: other gyros of the type, so no two runs share their
 pulse offsets), through the real session. The same bench is recorded a second time unrounded
 (``quantise=False``: the same start phases and motion, the counts before the floor), so the
-rounding error of every sample is known. The pairs of each run are then solved five times, with
-the same estimates and five covariances of the window ends' rounding (docs/methods/triad.md
+rounding error of every sample is known. The pairs of each run are then solved seven times, with
+the same estimates and seven covariances of the window ends' rounding (docs/methods/triad.md
 §F.2 eq. (6a)):
 
 - ``stated``: what the estimator states (eq. (6a) at the fit's own rate, ends independent);
@@ -24,7 +24,12 @@ the same estimates and five covariances of the window ends' rounding (docs/metho
 - ``measured_locked``: what an estimator could compute from its own data — the same locked
   covariance with the phases from the fits (the fitted count at the instant plus the fit's rate)
   and each offset smeared by the ends' own rounding variance (Fourier series of R, damped by
-  exp(−2π²n²σ²)).
+  exp(−2π²n²σ²));
+- ``rate_averaged``: ends independent, each end's (6a) averaged over the uncertainty of the
+  fit's rate (9-point Gauss–Hermite, the slope's u with the residuals read as white);
+- ``consistent_locked``: as ``measured_locked`` with each end's phase and rate the centre of
+  the set consistent with the whole-pulse counts of its fit span (count = floor(φ + ρ·τ) on every
+  sample; where no linear phase is consistent, the fit's).
 
 Printed per variant: within ±1σ, rms z and max |z| for each of the nine parameters.
 """
@@ -54,9 +59,11 @@ from gyro_calib.triad.quantisation import sawtooth_covariance  # noqa: E402
 from gyro_calib.triad.solve import solve_pairs  # noqa: E402
 from gyro_calib.windows import fit_half_width_ns  # noqa: E402
 
-VARIANTS = ('stated', 'exact_ends', 'exact_pairs', 'exact_all', 'measured_locked')
+VARIANTS = ('stated', 'exact_ends', 'exact_pairs', 'exact_all', 'measured_locked',
+            'rate_averaged', 'consistent_locked')
 K_SPREAD = 1e-3
 HARMONICS = np.arange(1, 65)
+HERMITE_X, HERMITE_W = np.polynomial.hermite.hermgauss(9)
 
 End = tuple[str, int]
 Fit = tuple[np.ndarray, np.ndarray]
@@ -74,6 +81,20 @@ def _bench(seed: int, quantise: bool) -> tuple[Any, Any, Any]:
     k_scale = 1.0 + K_SPREAD * np.random.default_rng(9000 + seed).uniform(-1.0, 1.0, size=3)
     sc, gy = scenario(seed, k_scale, quantise)
     return sc, gy, sc.bench().record()
+
+
+def _consistent_phases(x: np.ndarray, y: np.ndarray, slope: float, slope_std: float
+                       ) -> np.ndarray | None:
+    """Sample phases at the centre of the (φ, ρ) consistent with y = floor(φ + ρ·x); or None."""
+    rates = slope + np.linspace(-5.0, 5.0, 401) * slope_std
+    low = np.max(y[None, :] - rates[:, None] * x[None, :], axis=1)
+    high = np.min(y[None, :] + 1.0 - rates[:, None] * x[None, :], axis=1)
+    width = np.maximum(high - low, 0.0)
+    if width.sum() <= 0.0:
+        return None
+    rate = float(width @ rates / width.sum())
+    phase = float(width @ (0.5 * (low + high)) / width.sum())
+    return np.asarray(phase + rate * x)
 
 
 def _covariance_of(fits: dict[End, Fit], smear: bool) -> Callable[[End, End], float]:
@@ -146,6 +167,8 @@ def run(seed: int) -> dict[str, list[float]]:
     settings, t = seen[-1], ch.pulse_t_ns
     exact: dict[End, Fit] = {}
     measured: dict[End, Fit] = {}
+    consistent: dict[End, Fit] = {}
+    averaged: dict[End, float] = {}
     for p, _ in session.pairs:
         for (mount, at), _, _ in p.end_terms:
             h = fit_half_width_ns(settings, at, t)
@@ -159,8 +182,17 @@ def run(seed: int) -> dict[str, list[float]]:
                 y = ch.pulse_counts[lo:hi, c]
                 fit = solve @ (y - y[0])
                 measured[key] = (solve[0], y[0] + fit[0] + fit[1] * x)
+                slope_std = math.sqrt(float(solve[1] @ solve[1]) / 12.0)
+                averaged[key] = float(sum(
+                    q * solve[0] @ sawtooth_covariance(
+                        (fit[1] + math.sqrt(2.0) * slope_std * g) * (x[:, None] - x[None, :]))
+                    @ solve[0] for g, q in zip(HERMITE_X, HERMITE_W / HERMITE_W.sum(),
+                                               strict=True)))
+                inside = _consistent_phases(x, y - y[0], fit[1], slope_std)
+                consistent[key] = measured[key] if inside is None else (solve[0], y[0] + inside)
     exact_cov = _covariance_of(exact, smear=False)
     measured_cov = _covariance_of(measured, smear=True)
+    consistent_cov = _covariance_of(consistent, smear=True)
     cases: dict[str, tuple[list[tuple[Any, str]], Callable[[End, End], float] | None]] = {
         'stated': (session.pairs, None),
         'exact_ends': (_with_end_covariance(session.pairs, exact_cov, within=False), None),
@@ -168,6 +200,10 @@ def run(seed: int) -> dict[str, list[float]]:
         'exact_all': (_with_end_covariance(session.pairs, exact_cov, within=True), exact_cov),
         'measured_locked': (_with_end_covariance(session.pairs, measured_cov, within=True),
                             measured_cov),
+        'rate_averaged': (_with_end_covariance(
+            session.pairs, lambda e, f: averaged[e] if e == f else 0.0, within=False), None),
+        'consistent_locked': (_with_end_covariance(session.pairs, consistent_cov, within=True),
+                              consistent_cov),
     }
     shared_ends = estimator._Solver._shared_ends
     out = {}
