@@ -50,7 +50,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / 'test'))
 
-from triad_coverage_helpers import run_session, scores  # noqa: E402
+from triad_bench_physics import Bench, random_triad, record  # noqa: E402
+from triad_coverage_helpers import run_session, scores, session_of  # noqa: E402
 from triad_start_phase import coverage_table, recording_of, scenario  # noqa: E402
 
 import gyro_calib.triad.estimator as estimator  # noqa: E402
@@ -147,8 +148,9 @@ def _with_end_covariance(pairs: list[tuple[Any, str]], cov: Callable[[End, End],
     return out
 
 
-def run(seed: int) -> dict[str, list[float]]:
-    """The nine z of one run under each variant."""
+def _recorded(generator: str, seed: int) -> tuple[Any, Any, np.ndarray, np.ndarray, np.ndarray,
+                                                   np.ndarray, np.ndarray]:
+    """(session, its settings, pulse stamps, counts, unrounded counts, K true, axes true)."""
     seen: list[Any] = []
     cut = triad_session.pair_windows
 
@@ -156,15 +158,29 @@ def run(seed: int) -> dict[str, list[float]]:
         seen.append(args[0])
         return cut(*args, **kw)
 
-    sc, gy, ch = _bench(seed, True)
-    _, _, unrounded = _bench(seed, False)
-    rec = recording_of(ch)
     triad_session.pair_windows = spy  # the session's settings, as it cuts
     try:
-        session = run_session(rec, sc.bench_settings())
+        if generator == 'sim_nodes':
+            sc, gy, ch = _bench(seed, True)
+            _, _, unrounded = _bench(seed, False)
+            session = run_session(recording_of(ch), sc.bench_settings())
+            return (session, seen[-1], ch.pulse_t_ns, ch.pulse_counts, unrounded.pulse_counts,
+                    gy.scale_factor_rad_per_pulse(), gy.unit_sense_axes())
+        rng = np.random.default_rng(10_000 + seed)  # as benchmarks/triad_coverage.py
+        triad = random_triad(rng, arw_rad_sqrt_s=0.0)
+        bench = Bench(inner_pairs=2, inner_turns=5, outer_margin_turns=0.6, pulse_hz=500.0)
+        rec = record(bench, triad, rng)
+        assert rec.unrounded is not None
+        session = session_of(bench, rec)
+        return (session, seen[-1], rec.pulse_t, rec.counts, rec.unrounded,
+                triad.scale_factor_rad_per_pulse, triad.sense_axes)
     finally:
         triad_session.pair_windows = cut
-    settings, t = seen[-1], ch.pulse_t_ns
+
+
+def run(seed: int, generator: str = 'sim_nodes') -> dict[str, list[float]]:
+    """The nine z of one run under each variant."""
+    session, settings, t, counts, unrounded, k_true, s_true = _recorded(generator, seed)
     exact: dict[End, Fit] = {}
     measured: dict[End, Fit] = {}
     consistent: dict[End, Fit] = {}
@@ -178,8 +194,8 @@ def run(seed: int) -> dict[str, list[float]]:
             solve = np.linalg.pinv(np.vander(x, settings.fit_order + 1, increasing=True))
             for c in range(3):
                 key = (mount + str(c), at)
-                exact[key] = (solve[0], unrounded.pulse_counts[lo:hi, c])
-                y = ch.pulse_counts[lo:hi, c]
+                exact[key] = (solve[0], unrounded[lo:hi, c])
+                y = counts[lo:hi, c]
                 fit = solve @ (y - y[0])
                 measured[key] = (solve[0], y[0] + fit[0] + fit[1] * x)
                 slope_std = math.sqrt(float(solve[1] @ solve[1]) / 12.0)
@@ -216,7 +232,7 @@ def run(seed: int) -> dict[str, list[float]]:
         finally:
             estimator._Solver._shared_ends = shared_ends  # type: ignore[method-assign]
         assert stated is not None
-        out[name] = scores(stated, gy.scale_factor_rad_per_pulse(), gy.unit_sense_axes())[0]
+        out[name] = scores(stated, k_true, s_true)[0]
     return out
 
 
@@ -253,6 +269,9 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     p.add_argument('--seeds', type=int, default=100)
     p.add_argument('--first', type=int, default=0, help='first seed')
+    p.add_argument('--generator', choices=('sim_nodes', 'physics_paper'), default='sim_nodes',
+                   help='physics_paper: test/triad_bench_physics.py on the paper plan, a random '
+                        'triad per seed, 500 Hz (as benchmarks/triad_coverage.py)')
     p.add_argument('--save', type=Path, help='pickle the z here after every run')
     p.add_argument('--report', type=Path, nargs='+', help='report these saved runs')
     a = p.parse_args(argv)
@@ -262,7 +281,7 @@ def main(argv: list[str] | None = None) -> int:
             runs += pickle.loads(f.read_bytes())
     else:
         for seed in range(a.first, a.first + a.seeds):
-            runs.append(run(seed))
+            runs.append(run(seed, a.generator))
             if a.save:
                 a.save.write_bytes(pickle.dumps(runs))
     report({name: np.array([r[name] for r in runs]) for name in VARIANTS})
