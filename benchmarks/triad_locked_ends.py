@@ -31,6 +31,10 @@ the same estimates and seven covariances of the window ends' rounding (docs/meth
   the set consistent with the whole-pulse counts of its fit span (count = floor(φ + ρ·τ) on every
   sample; where no linear phase is consistent, the fit's).
 
+``--generator physics_paper``: the same on test/triad_bench_physics.py's paper plan (a random
+triad per seed, ``default_rng(10_000 + seed)`` as benchmarks/triad_coverage.py, pulses at
+500 Hz, its ``unrounded`` counts; ~30 s a seed).
+
 Printed per variant: within ±1σ, rms z and max |z| for each of the nine parameters.
 """
 
