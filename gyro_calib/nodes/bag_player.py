@@ -167,11 +167,11 @@ def main(args: list[str] | None = None) -> None:
         with ros_context(args):
             try:
                 player = BagPlayer()
+                report_unused_parameters(player)
             except GyroCalibError as exc:
                 print(f'bag_player: error: {exc}', file=sys.stderr)  # bad input
                 raise SystemExit(2) from None
             log = player.get_logger()
-            report_unused_parameters(player)
             if player.wait and not player.wait_for_readers():
                 log.warning('not every topic has a reader after 60 s; playing anyway.')
             log.info(f'playing {player.path} ({player.info.message_count} messages, '

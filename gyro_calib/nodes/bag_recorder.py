@@ -57,6 +57,7 @@ from gyro_calib.nodes.ros_io import (
     SENSOR_QOS,
     described_parameter,
     make_executor,
+    refuse_misspelt_parameters,
     report_unused_parameters,
     spin_until_quiet,
     stamp_to_ns,
@@ -91,6 +92,7 @@ class BagRecorder(Node):
         self.chunk_size_bytes = int(param(
             'chunk_size_bytes', MAX_CHUNK_BYTES, 'Write each chunk once it holds this many '
             f'bytes of messages (at most {MAX_CHUNK_BYTES}, rosbags\' chunk size).'))
+        refuse_misspelt_parameters(self)  # before anything is opened
         if not out:
             raise GyroCalibError('parameter out (the bag directory to create) is required.')
         if not 0 < self.flush_interval_s <= 3600:

@@ -73,7 +73,8 @@ class MethodNode(CalibrationNodeBase):
     """Feeds a method's session from the topic contract; publishes what it measures."""
 
     def __init__(self, method: str, node_name: str, result_topics: Mapping[str, str],
-                 settings_cls: type | None = None) -> None:
+                 settings_cls: type | None = None,
+                 extra_parameters: tuple[tuple[str, Any, str], ...] = ()) -> None:
         """Declare parameters, build the session, wire topics and timers.
 
         Args:
@@ -81,6 +82,9 @@ class MethodNode(CalibrationNodeBase):
             node_name: the ROS node name.
             result_topics: hand-off key → topic its value is published on (Float64).
             settings_cls: the method's settings dataclass, declared as parameters.
+            extra_parameters: a subclass's own (name, default, description), declared with
+                the others (before the state record, which refuses a misspelt parameter);
+                their values in ``self.extra_parameters``.
         """
         super().__init__(node_name)
         self.method = METHODS[method]
@@ -106,6 +110,9 @@ class MethodNode(CalibrationNodeBase):
             ('resume', True, RESUME_DESCRIPTION),
             ('resume_max_gap_s', math.nan, RESUME_MAX_GAP_DESCRIPTION),
             ('bench_max_rate_deg_s', math.nan, BENCH_MAX_RATE_DESCRIPTION))}
+        self.extra_parameters: dict[str, Any] = {
+            name: described_parameter(self, name, default, text)
+            for name, default, text in extra_parameters}
         options = CalibrationOptions(
             latitude_deg=None if math.isnan(p['latitude_deg']) else p['latitude_deg'],
             heading_deg=p['heading_deg'],

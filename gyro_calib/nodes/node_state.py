@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from gyro_calib.bagio import SampleBatch
+from gyro_calib.nodes.ros_io import refuse_misspelt_parameters
 from gyro_calib.state_record import (
     RESUME_MAX_GAP_S,
     StateLock,
@@ -145,7 +146,12 @@ class NodeState:
                  keep: bool, parameters: Mapping[str, Any] | None = None, *,
                  resume: bool = True, max_gap_s: float = RESUME_MAX_GAP_S,
                  bench_max_rate_deg_s: float = math.nan) -> None:
-        """Open (or start) the record for this gyro, method and parameters."""
+        """Open (or start) the record for this gyro, method and parameters.
+
+        A misspelt parameter stops the node here, before the lock or the record is made
+        (:func:`~gyro_calib.nodes.ros_io.refuse_misspelt_parameters`).
+        """
+        refuse_misspelt_parameters(node)
         self.node, self.keep = node, keep
         self.directory = directory
         self.max_gap_s = max_gap_s

@@ -33,7 +33,6 @@ NoiseSettings`; the common ones of :mod:`gyro_calib.nodes.method_node` (``output
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 import time
 from pathlib import Path
@@ -45,7 +44,7 @@ from gyro_calib.export.ownership import (
     refuse_to_replace_a_foreign_file,
 )
 from gyro_calib.nodes.method_node import GENERIC_PARAMETERS, MethodNode
-from gyro_calib.nodes.ros_io import described_parameter, run_node, spin_until_quiet
+from gyro_calib.nodes.ros_io import run_node, spin_until_quiet
 from gyro_calib.noise.kalibr import KALIBR_MARK
 from gyro_calib.noise.keys import METHOD
 from gyro_calib.noise.outputs import resolve_targets, write_outputs, written_line
@@ -75,26 +74,25 @@ class NoiseNode(MethodNode):
                 an output directory that does not exist, an invalid setting.
             HandoffError: the calibration file cannot be read.
         """
-        super().__init__(METHOD, NODE_NAME, {}, NoiseSettings)
-        # the generic node refuses parameter changes from now on, declarations included
-        self.remove_on_set_parameters_callback(self._refuse_runtime_change)
-        param = functools.partial(described_parameter, self)
-        topic = str(param('topic', '', 'The sensor_msgs/Imu topic to characterise (all six '
-                          "axes); '' = /gyro/pulses or /fog/output, whichever arrives."))
-        calibration = str(param('calibration_file', '', 'Hand-off file to take the scale '
-                                'factor from (scale_factor_rad_per_pulse or '
-                                'k_tilde_rad_per_pulse; fog_scale_factor_counts_per_rad).'))
-        kalibr = str(param('kalibr_file', '', "Kalibr imu.yaml written on shutdown (IMU "
-                           "only; '' = none)."))
-        plot = str(param('plot_file', '', "Allan-deviation figure (PNG) written on shutdown "
-                         "('' = none; a directory gets noise_adev.png)."))
-        best_effort = bool(param('best_effort', False, 'Subscribe the Imu topic best effort '
-                                 'whatever its publishers offer (without it the node reads '
-                                 'best effort as soon as one publisher does).'))
-        self.results_period_s = float(param(
-            'results_period_s', 5.0, 'How often the running terms are recomputed, s (a copy '
-            'and a fit per axis; the numbers do not depend on it).'))
-        self.add_on_set_parameters_callback(self._refuse_runtime_change)
+        super().__init__(METHOD, NODE_NAME, {}, NoiseSettings, (
+            ('topic', '', 'The sensor_msgs/Imu topic to characterise (all six axes); '
+             "'' = /gyro/pulses or /fog/output, whichever arrives."),
+            ('calibration_file', '', 'Hand-off file to take the scale factor from '
+             '(scale_factor_rad_per_pulse or k_tilde_rad_per_pulse; '
+             'fog_scale_factor_counts_per_rad).'),
+            ('kalibr_file', '', "Kalibr imu.yaml written on shutdown (IMU only; '' = none)."),
+            ('plot_file', '', "Allan-deviation figure (PNG) written on shutdown ('' = none; a "
+             'directory gets noise_adev.png).'),
+            ('best_effort', False, 'Subscribe the Imu topic best effort whatever its '
+             'publishers offer (without it the node reads best effort as soon as one '
+             'publisher does).'),
+            ('results_period_s', 5.0, 'How often the running terms are recomputed, s (a copy '
+             'and a fit per axis; the numbers do not depend on it).')))
+        extra = self.extra_parameters
+        topic, calibration = str(extra['topic']), str(extra['calibration_file'])
+        kalibr, plot = str(extra['kalibr_file']), str(extra['plot_file'])
+        best_effort = bool(extra['best_effort'])
+        self.results_period_s = float(extra['results_period_s'])
         if not self.results_period_s > 0:
             raise ConfigError(f'results_period_s = {self.results_period_s!r} is invalid: it '
                               'must be positive.')

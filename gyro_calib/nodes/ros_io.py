@@ -5,9 +5,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Collection, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from rcl_interfaces.msg import ParameterDescriptor
@@ -212,12 +214,120 @@ def unused_parameters(node: Node) -> list[str]:
     return sorted(given - set(getattr(node, '_parameters', {}) or {}))
 
 
+_COMMAND_LINE: list[str] | None = None
+"""The node's command line as :func:`run_node` was given it (None: ``sys.argv``)."""
+
+
+def note_command_line(args: list[str] | None) -> None:
+    """Remember the command line the node was started with (for :func:`misspelt_parameters`)."""
+    global _COMMAND_LINE  # noqa: PLW0603 - one node per process, set before it is made
+    _COMMAND_LINE = None if args is None else list(args)
+
+
+def _ros_args(args: list[str]) -> list[str]:
+    """The tokens inside ``--ros-args`` … (``--`` or the end) sections."""
+    out: list[str] = []
+    inside = False
+    for token in args:
+        if token == '--ros-args':
+            inside = True
+        elif token == '--':
+            inside = False
+        elif inside:
+            out.append(token)
+    return out
+
+
+def addressed_parameters(args: list[str], node_names: Collection[str]) -> set[str]:
+    """Parameters ``args`` give to this node by name, not to every node.
+
+    ``-p name:=value`` (``--param``), and the entries of a ``--params-file`` under the node's
+    own name (``/ns/node``, ``node``); a wildcard section (``/**``) is meant for many nodes,
+    and what a node lacks there is not a misspelling.
+    """
+    import yaml
+
+    tokens = _ros_args(args)
+    names: set[str] = set()
+    own = {n.lstrip('/') for n in node_names}
+    for flag, value in zip(tokens, tokens[1:], strict=False):
+        if flag in ('-p', '--param') and ':=' in value:
+            name = value.split(':=', 1)[0]
+            node, _, name = name.rpartition(':')  # 'node:name' addresses one node
+            if not node or node.lstrip('/') in own:
+                names.add(name)
+        elif flag == '--params-file':
+            try:
+                loaded = yaml.safe_load(Path(value).read_text(encoding='utf-8'))
+            except (OSError, UnicodeDecodeError, yaml.YAMLError):
+                continue  # rcl says what is wrong with the file
+            for key, section in (loaded.items() if isinstance(loaded, dict) else ()):
+                if (isinstance(key, str) and key.lstrip('/') in own
+                        and isinstance(section, dict)
+                        and isinstance(section.get('ros__parameters'), dict)):
+                    names.update(_flattened(section['ros__parameters']))
+    return names
+
+
+def _flattened(mapping: dict[Any, Any], prefix: str = '') -> set[str]:
+    """Dotted parameter names of a ``ros__parameters`` mapping."""
+    out: set[str] = set()
+    for key, value in mapping.items():
+        if isinstance(value, dict):
+            out |= _flattened(value, f'{prefix}{key}.')
+        else:
+            out.add(f'{prefix}{key}')
+    return out
+
+
+def misspelt_parameters(node: Node) -> list[tuple[str, str]]:
+    """(given, the declared parameter it nearly spells) for each misspelt parameter.
+
+    A parameter given to this node by name (:func:`addressed_parameters`) that it does not
+    declare, within a difflib ratio of 0.8 of one it does: a typo that ROS would ignore,
+    running on the default.
+    """
+    import difflib
+
+    unused = unused_parameters(node)
+    if not unused:
+        return []
+    args = list(sys.argv) if _COMMAND_LINE is None else _COMMAND_LINE
+    mine = addressed_parameters(args, (node.get_name(), node.get_fully_qualified_name()))
+    declared = sorted(getattr(node, '_parameters', {}) or {})
+    out = []
+    for name in unused:
+        close = difflib.get_close_matches(name, declared, n=1, cutoff=0.8)
+        if name in mine and close:
+            out.append((name, close[0]))
+    return out
+
+
+def refuse_misspelt_parameters(node: Node) -> None:
+    """Stop before any work on a misspelt parameter (bad input, exit 2 via :func:`run_node`).
+
+    Raises:
+        ConfigError: one line naming each misspelt parameter and the one it nearly spells.
+    """
+    from gyro_calib.errors import ConfigError
+
+    wrong = misspelt_parameters(node)
+    if wrong:
+        said = '; '.join(f'{given!r} (did you mean {close!r}?)' for given, close in wrong)
+        raise ConfigError(
+            f'parameter(s) {said} given to {node.get_name()}, which has no such parameter: '
+            'a misspelt parameter would be ignored and its default used. Nothing was started; '
+            'correct the name (the node\'s parameters: docs/reference (node parameters)).')
+
+
 def report_unused_parameters(node: Node) -> None:
     """One warning naming the given parameters the node lacks.
 
     One warning naming the parameters given that the node does not have (a misspelt or
-    stale ``-p name:=...`` is otherwise silently ignored by ROS).
+    stale ``-p name:=...`` is otherwise silently ignored by ROS); a misspelt one given to
+    this node by name stops it first (:func:`refuse_misspelt_parameters`).
     """
+    refuse_misspelt_parameters(node)
     unused = unused_parameters(node)
     if unused:
         node.get_logger().warning(
@@ -268,12 +378,18 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
                 for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         with ros_context(args, own_signals=True):
+            note_command_line(args)
             try:
                 node = make_node()
             except (GyroCalibError, ValueError) as exc:
                 rclpy.logging.get_logger(node_name).fatal(' '.join(str(exc).split()))
                 raise SystemExit(2) from None
-            report_unused_parameters(node)
+            try:
+                report_unused_parameters(node)
+            except GyroCalibError as exc:  # a node that makes no state checks here
+                rclpy.logging.get_logger(node_name).fatal(' '.join(str(exc).split()))
+                node.destroy_node()
+                raise SystemExit(2) from None
             executor = make_executor()
             executor.add_node(node)
             reason = ''  # why a simulator stopped before the end of its run

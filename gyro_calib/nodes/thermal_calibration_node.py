@@ -19,14 +19,11 @@ common ones of :mod:`gyro_calib.nodes.method_node` (``scale_factor_rad_per_pulse
 from __future__ import annotations
 
 import time
-from typing import Any
-
-from rcl_interfaces.msg import SetParametersResult
 
 from gyro_calib.errors import GyroCalibError
 from gyro_calib.nodes.method_node import MethodNode
 from gyro_calib.nodes.node_state import calibration_complete
-from gyro_calib.nodes.ros_io import described_parameter, run_node
+from gyro_calib.nodes.ros_io import run_node
 from gyro_calib.thermal.settings import ThermalSettings
 
 
@@ -35,18 +32,13 @@ class ThermalCalibrationNode(MethodNode):
 
     def __init__(self) -> None:
         """Declare parameters (settings, common ones, fit_after_idle_s) and wire topics."""
-        super().__init__('thermal', 'thermal_calibration_node', {}, ThermalSettings)
-        self.fit_after_idle_s = float(described_parameter(
-            self, 'fit_after_idle_s', 5.0, 'Fit the model once no message has arrived for this '
-            'long, s (the end of the recording; 0 = only at shut-down or every refit_every_s).'))
-        self._declared = True
+        super().__init__('thermal', 'thermal_calibration_node', {}, ThermalSettings, (
+            ('fit_after_idle_s', 5.0, 'Fit the model once no message has arrived for this '
+             'long, s (the end of the recording; 0 = only at shut-down or every '
+             'refit_every_s).'),))
+        self.fit_after_idle_s = float(self.extra_parameters['fit_after_idle_s'])
         self._last_data = time.monotonic()
         self.unfitted = False
-
-    def _refuse_runtime_change(self, params: list[Any]) -> SetParametersResult:
-        if not getattr(self, '_declared', False):  # still declaring fit_after_idle_s
-            return SetParametersResult(successful=True)
-        return super()._refuse_runtime_change(params)
 
     def _process(self) -> None:
         got = self._live_inputs.pending() > 0
