@@ -38,6 +38,7 @@ from gyro_calib.nodes.ros_io import (
     described_parameter,
     ns_to_stamp,
     publish_paced,
+    refuse_misspelt_parameters,
     report_unused_parameters,
 )
 from gyro_calib.topics import relative
@@ -72,6 +73,7 @@ class BagPlayer(Node):
                                'has a reader.'))
         self.start_offset_s = float(param('start_offset_s', 0.0, 'Skip the first seconds of '
                                           'the bag (log time from its start), s.'))
+        refuse_misspelt_parameters(self)  # named before what the typo may have caused
         if not math.isfinite(self.start_offset_s) or self.start_offset_s < 0:
             raise GyroCalibError(f'start_offset_s must be a finite number ≥ 0, got '
                                  f'{self.start_offset_s}.')

@@ -92,3 +92,23 @@ def test_a_parameter_near_none_of_the_nodes_still_only_warns(
     assert '[FATAL]' not in log, log
     assert 'parameter(s) use_sim_clock_of_bench given but not declared' in log, log
     assert 'fit_after_idle_s' not in log, log
+
+
+@pytest.mark.parametrize(('node', 'params', 'typo', 'meant'), [
+    ('bag_recorder', {'topcs': ['/gyro/pulses']}, 'topcs', 'topics'),
+    ('bag_player', {'bag': 'absent', 'rat': 0.0}, 'rat', 'rate'),
+])
+def test_the_bag_nodes_refuse_a_misspelt_parameter_before_opening_a_bag(
+        tmp_path: Path, node: str, params: dict[str, object], typo: str, meant: str,
+        nodes: list[NodeProcess]) -> None:
+    """The recorder creates no bag directory; the player names the typo before the bag."""
+    out = tmp_path / 'lab'
+    given = {'out': str(out), **params} if node == 'bag_recorder' else params
+    proc = launch(node, given, expect_exit=(2,))
+    nodes.append(proc)
+    assert _wait(proc) == 2, proc.log()
+    time.sleep(0.2)
+    assert proc.lines[-1:] and f"'{typo}' (did you mean '{meant}'?)" in proc.lines[-1], \
+        proc.log()
+    assert 'Traceback' not in proc.log()
+    assert list(tmp_path.iterdir()) == []
