@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from ros_in_process import init_undiscovered
 
 OPENVINS_MODELS = ('kalibr', 'calibrated', 'rpng')
 """ov_msckf/src/state/StateOptions.h:143-151: any other ``model`` is "invalid imu model",
@@ -130,7 +131,7 @@ def ros_parameters(text: str, node_name: str, declared: dict[str, Any]) -> dict[
                                      encoding='utf-8') as f:
         f.write(text)
     context = Context()
-    rclpy.init(args=['--ros-args', '--params-file', f.name], context=context)
+    init_undiscovered(args=['--ros-args', '--params-file', f.name], context=context)
     try:
         node = rclpy.create_node(node_name, context=context)
         try:

@@ -13,6 +13,7 @@ from typing import Any
 
 import pytest
 import yaml
+from ros_in_process import init_undiscovered
 
 from gyro_calib.bag_calibration import method_options
 from gyro_calib.bagio import bag_info
@@ -280,7 +281,7 @@ def test_a_live_thermal_node_reports_a_bench_conflict_and_writes_the_published_g
     scenario = bag_info(bag).scenario
     bench = scenario['bench']
     out = tmp_path / 'A-1.yaml'
-    rclpy.init(args=ros_args({'output_file': str(out), 'latitude_deg': 45.0,
+    init_undiscovered(args=ros_args({'output_file': str(out), 'latitude_deg': 45.0,
                               'scale_factor_rad_per_pulse': bench['scale_factor_rad_per_pulse'],
                               'state_dir': str(tmp_path / 'state')}))
     try:
@@ -320,7 +321,7 @@ def test_a_published_bench_never_changes_a_nodes_session_it_names_what_it_would_
     from gyro_calib.nodes.processes import ros_args
 
     scenario = bag_info(BAGS / 'fog_turntable').scenario
-    rclpy.init(args=ros_args({'output_file': str(tmp_path / 'fog.yaml')}))
+    init_undiscovered(args=ros_args({'output_file': str(tmp_path / 'fog.yaml')}))
     try:
         node = FogCalibrationNode()
         try:
@@ -403,7 +404,7 @@ def test_a_bag_replayed_twice_into_a_calibration_node_keeps_every_value_at_every
     out = tmp_path / 'gyro_calibration.yaml'
 
     def replay(n: int) -> list[dict[str, Any]]:
-        rclpy.init(args=ros_args({
+        init_undiscovered(args=ros_args({
             'output_file': str(out), 'latitude_deg': bench['latitude_deg'],
             'position_table_revolutions': bench['position_table_revolutions'],
             'state_dir': str(tmp_path / f'state{n}')}))

@@ -29,6 +29,7 @@ import pytest
 import yaml
 from cli_helpers import one_line, run
 from fake_node import FakeNode
+from ros_in_process import init_undiscovered
 
 from gyro_calib.cli import main
 from gyro_calib.imu_calibration import NOISE_TERMS
@@ -374,7 +375,7 @@ def test_a_node_reads_the_config_file_the_same_way(node: str, text: str, says: s
     module, cls = {'calibration_node': ('calibration_node', 'CalibrationNode'),
                    'fog_calibration_node': ('fog_calibration_node', 'FogCalibrationNode')}[node]
     klass = getattr(importlib.import_module(f'gyro_calib.nodes.{module}'), cls)
-    rclpy.init(args=ros_args({'output_file': '', 'config_file': str(config)}))
+    init_undiscovered(args=ros_args({'output_file': '', 'config_file': str(config)}))
     refused = ''
     try:
         try:

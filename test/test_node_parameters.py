@@ -21,6 +21,7 @@ import pytest
 import rclpy
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from ros_in_process import init_undiscovered
 
 from gyro_calib.errors import ConfigError
 from gyro_calib.nodes import ros_io
@@ -64,7 +65,7 @@ def _start(name: str, params: dict[str, Any]) -> Node:
     in a fresh working directory (a node's state record binds its directory to its settings).
     """
     os.chdir(tempfile.mkdtemp(dir=os.getcwd()))
-    rclpy.init(args=ros_args({**NEEDS.get(name, {}), **params}))
+    init_undiscovered(args=ros_args({**NEEDS.get(name, {}), **params}))
     try:
         return _node_factory(name)()
     except BaseException:

@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from ros_in_process import init_undiscovered
 
 import gyro_calib
 from gyro_calib.bag_calibration import calibrate_bags
@@ -406,7 +407,7 @@ def test_noise_node_subscribes_the_rate_table_beside_its_input(
     from gyro_calib.nodes.processes import ros_args
 
     monkeypatch.chdir(tmp_path)  # the node keeps its state record in the working directory
-    rclpy.init(args=[*ros_args({'scale_factor_rad_per_pulse': K}), '-r', '__ns:=/bench2'])
+    init_undiscovered(args=[*ros_args({'scale_factor_rad_per_pulse': K}), '-r', '__ns:=/bench2'])
     try:
         node = NoiseNode()
         try:

@@ -15,6 +15,7 @@ from typing import Any
 
 import pytest
 import yaml
+from ros_in_process import init_undiscovered
 
 from gyro_calib.bag_calibration import calibrate_bags
 from gyro_calib.cli import main as gyro_calib_main
@@ -272,7 +273,7 @@ def _declared_parameters(method: str) -> dict[str, Any]:
     from gyro_calib.nodes.processes import ros_args
 
     module, cls = NODES[method]
-    rclpy.init(args=ros_args({'output_file': '', **NEEDS.get(method, {})}))
+    init_undiscovered(args=ros_args({'output_file': '', **NEEDS.get(method, {})}))
     try:
         node = getattr(importlib.import_module(module), cls)()
         try:

@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 
 import pytest
+from ros_in_process import init_undiscovered
 
 from gyro_calib.cli import main
 from gyro_calib.handoff import load_calibration
@@ -81,7 +82,7 @@ def test_calibration_node_takes_k_tilde_for_theta_from_its_calibration_file(
     k_file = tmp_path / 'k_tilde.yaml'
     assert main(['calibrate', str(BAGS / 'k_tilde_bench'), '--out', str(k_file),
                  '--no-progress']) == 0
-    rclpy.init(args=ros_args({'calibration_file': str(k_file),
+    init_undiscovered(args=ros_args({'calibration_file': str(k_file),
                               'output_file': str(tmp_path / 'gyro.yaml')}))
     try:
         node = CalibrationNode()
