@@ -215,7 +215,7 @@ def unused_parameters(node: Node) -> list[str]:
 
 
 _COMMAND_LINE: list[str] | None = None
-"""The node's command line as :func:`run_node` was given it (None: ``sys.argv``)."""
+"""The command line :func:`run_node` was given, while it runs (None: ``sys.argv``)."""
 
 
 def note_command_line(args: list[str] | None) -> None:
@@ -413,6 +413,7 @@ def run_node(node_name: str, make_node: Callable[[], NodeT], args: list[str] | N
                 node.destroy_node()
                 del executor
     finally:
+        note_command_line(None)  # a later node in this process reads its own command line
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     if stalled:

@@ -112,3 +112,15 @@ def test_the_bag_nodes_refuse_a_misspelt_parameter_before_opening_a_bag(
         proc.log()
     assert 'Traceback' not in proc.log()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_command_line_given_to_run_node_is_not_kept_for_the_next_node() -> None:
+    """run_node notes its args for the check and forgets them when it returns."""
+    from gyro_calib.nodes import ros_io
+
+    def refused() -> None:
+        raise SystemExit(0)
+
+    with pytest.raises(SystemExit):
+        ros_io.run_node('probe', refused, ['x', '--ros-args', '-p', 'gyro_idd:=a'])
+    assert ros_io._COMMAND_LINE is None
